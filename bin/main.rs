@@ -1,0 +1,350 @@
+//! `lobefit` command line: argument parsing and output formatting only; all
+//! numerics live in the library.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::builder::PossibleValuesParser;
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use lobefit::check::{self, CheckOptions};
+use lobefit::family::Family;
+use lobefit::fits::{self, Backend, FitOptions};
+use lobefit::tables::Table;
+
+/// Default directory of the committed tables, relative to the repository root.
+const DEFAULT_TABLES: &str = "tables/data";
+/// File extension of table files.
+const EXT: &str = "lobefit";
+
+#[derive(Parser)]
+#[command(
+    name = "lobefit",
+    version,
+    about = "Fit, build, check and query lobe / SG / SH lookup tables"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum BackendArg {
+    Argmin,
+    Nlopt,
+}
+
+#[derive(clap::Args)]
+struct FitArgs {
+    /// Optimizer backend for minimised families (nlopt needs the `nlopt` cargo feature).
+    #[arg(long, value_enum, default_value = "argmin")]
+    backend: BackendArg,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build every table (or those named by --only) into --out.
+    BuildTables {
+        /// Only these families (comma-separated).
+        #[arg(long, value_delimiter = ',', value_parser = PossibleValuesParser::new(fits::names()))]
+        only: Vec<String>,
+        /// Output directory.
+        #[arg(long, default_value = DEFAULT_TABLES)]
+        out: PathBuf,
+        #[command(flatten)]
+        fit: FitArgs,
+    },
+    /// Fit one family and write its table.
+    Fit {
+        /// Family name.
+        #[arg(value_parser = PossibleValuesParser::new(fits::names()))]
+        family: String,
+        /// Output file, or directory (then FAMILY.lobefit inside it).
+        #[arg(long, default_value = DEFAULT_TABLES)]
+        out: PathBuf,
+        #[command(flatten)]
+        fit: FitArgs,
+    },
+    /// Check every table against independent quadrature / closed forms.
+    Check {
+        /// Fewer random off-grid points (CI).
+        #[arg(long)]
+        quick: bool,
+        /// Print the report as JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Directory holding the tables.
+        #[arg(long, default_value = DEFAULT_TABLES)]
+        tables: PathBuf,
+        /// Only these families (comma-separated).
+        #[arg(long, value_delimiter = ',', value_parser = PossibleValuesParser::new(fits::names()))]
+        only: Vec<String>,
+        /// Number of random off-grid points (overrides --quick).
+        #[arg(long)]
+        points: Option<usize>,
+        /// Seed of the random off-grid points.
+        #[arg(long)]
+        seed: Option<u64>,
+    },
+    /// Describe a table file: header, axes, channels, fit settings, diagnostics.
+    Inspect {
+        /// Table file.
+        file: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Evaluate a family on CSV rows from stdin (SPEC §6).
+    Eval {
+        /// Family name.
+        #[arg(value_parser = PossibleValuesParser::new(fits::names()))]
+        family: String,
+        /// Directory holding the tables.
+        #[arg(long, default_value = DEFAULT_TABLES, conflicts_with = "table")]
+        tables: PathBuf,
+        /// A specific table file.
+        #[arg(long)]
+        table: Option<PathBuf>,
+        /// Use the reference (closed form, quadrature or the optimizer at that point).
+        #[arg(long)]
+        exact: bool,
+        /// Optimizer backend used by --exact for fitted quantities.
+        #[arg(long, value_enum, default_value = "argmin")]
+        backend: BackendArg,
+    },
+}
+
+fn backend(b: BackendArg) -> Result<Backend, String> {
+    match b {
+        BackendArg::Argmin => Ok(Backend::Argmin),
+        BackendArg::Nlopt if cfg!(feature = "nlopt") => Ok(Backend::Nlopt),
+        BackendArg::Nlopt => Err("--backend nlopt needs a build with `--features nlopt`".into()),
+    }
+}
+
+fn pool(threads: Option<u16>) -> Result<rayon::ThreadPool, String> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        b = b.num_threads(n as usize);
+    }
+    b.build().map_err(|e| e.to_string())
+}
+
+fn select(only: &[String], opts: FitOptions) -> Vec<Box<dyn Family>> {
+    fits::registry(opts)
+        .into_iter()
+        .filter(|f| only.is_empty() || only.iter().any(|o| o == f.kind()))
+        .collect()
+}
+
+fn progress(len: u64, label: &str) -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new(len);
+    pb.set_style(
+        ProgressStyle::with_template("{prefix:>15} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb.set_prefix(label.to_string());
+    pb
+}
+
+/// Builds the given families into `out_path(kind)`; prints a summary.
+fn build(families: &[Box<dyn Family>], threads: Option<u16>, out_path: &dyn Fn(&str) -> PathBuf) -> Result<(), String> {
+    let pool = pool(threads)?;
+    let t_all = Instant::now();
+    let mut rows = Vec::new();
+    let mut failures = Vec::new();
+    for f in families {
+        let entries: u64 = f.axes().iter().map(|a| a.count as u64).product();
+        let pb = progress(entries, f.kind());
+        let t = Instant::now();
+        let result = pool.install(|| lobefit::build::build(f.as_ref(), &|| pb.inc(1)));
+        pb.finish_and_clear();
+        match result {
+            Ok(built) => {
+                let path = out_path(f.kind());
+                lobefit::io::write_atomic(&path, &built.bytes)
+                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                rows.push(format!(
+                    "{:<15} {:>8} {:>9.2} {:>12.3e} {:>10}  {}",
+                    f.kind(),
+                    built.meta.diagnostics.entries,
+                    t.elapsed().as_secs_f64(),
+                    built.meta.diagnostics.max_residual,
+                    built.bytes.len(),
+                    path.display()
+                ));
+            }
+            Err(e) => failures.push(e.to_string()),
+        }
+    }
+    eprintln!(
+        "{:<15} {:>8} {:>9} {:>12} {:>10}  file",
+        "family", "entries", "wall s", "worst resid", "bytes"
+    );
+    for r in &rows {
+        eprintln!("{r}");
+    }
+    eprintln!("total wall time {:.2} s", t_all.elapsed().as_secs_f64());
+    if failures.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("not written:\n  {}", failures.join("\n  ")))
+    }
+}
+
+fn table_path(dir: &Path, kind: &str) -> PathBuf {
+    dir.join(format!("{kind}.{EXT}"))
+}
+
+fn inspect(file: &Path, json: bool) -> Result<(), String> {
+    let t = Table::from_path(file).map_err(|e| e.to_string())?;
+    let (h, m) = (t.header(), t.meta());
+    if json {
+        let v = serde_json::json!({
+            "file": file.display().to_string(),
+            "format_version": format!("{}.{}", h.major, h.minor),
+            "kind": h.kind,
+            "meta_len": h.meta_len,
+            "payload_offset": h.payload_offset,
+            "payload_len": h.payload_len,
+            "meta": m,
+        });
+        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+        return Ok(());
+    }
+    println!("file        {}", file.display());
+    println!("format      {}.{} (checksums ok)", h.major, h.minor);
+    println!("kind        {} (table version {})", m.kind, m.table_version);
+    println!("generator   {}", m.generator);
+    println!("about       {}", m.description);
+    println!(
+        "layout      metadata {} B at 64, payload {} B at {} (f32 LE, C order, channels fastest)",
+        h.meta_len, h.payload_len, h.payload_offset
+    );
+    for (i, a) in m.axes.iter().enumerate() {
+        println!(
+            "axis {i}      {} [{}] in [{}, {}], {} nodes, {:?}, mapping {:?}",
+            a.name, a.unit, a.lo, a.hi, a.count, a.placement, a.mapping
+        );
+    }
+    for c in &m.channels {
+        println!(
+            "channel     {} [{}] {:?}: {}",
+            c.name, c.unit, c.encoding, c.description
+        );
+    }
+    println!(
+        "fit         {} (settings hash {:016x})",
+        m.fit.method, m.fit.settings_hash
+    );
+    for (k, v) in &m.fit.settings {
+        println!("  {k} = {v}");
+    }
+    let d = &m.diagnostics;
+    println!(
+        "diagnostics {}/{} converged; residual max {:.3e} mean {:.3e} ({}); max iterations {}",
+        d.converged, d.entries, d.max_residual, d.mean_residual, d.residual_meaning, d.max_iterations
+    );
+    for th in &m.thresholds {
+        println!("threshold   {}.{} <= {:e}", th.output, th.metric, th.limit);
+    }
+    Ok(())
+}
+
+fn run(cli: Cli) -> Result<ExitCode, String> {
+    match cli.command {
+        Command::BuildTables { only, out, fit } => {
+            let opts = FitOptions {
+                backend: backend(fit.backend)?,
+            };
+            build(&select(&only, opts), fit.threads, &|k| table_path(&out, k))?;
+        }
+        Command::Fit { family, out, fit } => {
+            let opts = FitOptions {
+                backend: backend(fit.backend)?,
+            };
+            let f = select(&[family], opts);
+            let is_file = out.extension().is_some_and(|e| e == EXT);
+            build(&f, fit.threads, &|k| {
+                if is_file {
+                    out.clone()
+                } else {
+                    table_path(&out, k)
+                }
+            })?;
+        }
+        Command::Check {
+            quick,
+            json,
+            tables,
+            only,
+            points,
+            seed,
+        } => {
+            let mut opts = if quick { CheckOptions::QUICK } else { CheckOptions::FULL };
+            if let Some(p) = points {
+                opts.offgrid = p;
+            }
+            if let Some(s) = seed {
+                opts.seed = s;
+            }
+            let reports: Vec<_> = select(&only, FitOptions::default())
+                .iter()
+                .map(|f| check::check_family(f.as_ref(), &table_path(&tables, f.kind()), opts))
+                .collect();
+            if json {
+                println!("{}", serde_json::to_string_pretty(&reports).map_err(|e| e.to_string())?);
+            } else {
+                print!("{}", check::render(&reports));
+            }
+            if reports.iter().any(|r| !r.pass) {
+                eprintln!("check FAILED");
+                return Ok(ExitCode::from(1));
+            }
+        }
+        Command::Inspect { file, json } => inspect(&file, json)?,
+        Command::Eval {
+            family,
+            tables,
+            table,
+            exact,
+            backend: b,
+        } => {
+            let opts = FitOptions { backend: backend(b)? };
+            let f = fits::by_name(&family, opts).ok_or_else(|| format!("unknown family {family}"))?;
+            let runtime = if exact {
+                None
+            } else {
+                let path = table.unwrap_or_else(|| table_path(&tables, f.kind()));
+                let t = Table::from_path(&path).map_err(|e| e.to_string())?;
+                Some(f.runtime(t).map_err(|e| format!("{}: {e}", path.display()))?)
+            };
+            let stdout = std::io::stdout();
+            lobefit::eval::eval_csv(f.as_ref(), runtime.as_deref(), std::io::stdin().lock(), stdout.lock())
+                .map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            let _ = std::io::stdout().flush();
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}

@@ -1,0 +1,311 @@
+//! The checker (SPEC §4): every table, through the runtime crate's own lookup and in
+//! its stored precision, against an independent reference — (a) at every grid node,
+//! (b) at seeded random off-grid points — with the thresholds stored in the file.
+
+use std::path::Path;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use lobefit_tables::Table;
+
+use crate::family::Family;
+use crate::rng::Rng;
+
+/// Checker settings.
+#[derive(Debug, Clone, Copy)]
+pub struct CheckOptions {
+    /// Random off-grid points per family.
+    pub offgrid: usize,
+    /// Seed of the off-grid sample (the same seed gives the same points).
+    pub seed: u64,
+}
+
+impl CheckOptions {
+    /// Full check: 10 000 off-grid points.
+    pub const FULL: CheckOptions = CheckOptions {
+        offgrid: 10_000,
+        seed: 0x010b_ef17,
+    };
+    /// CI check: 2 000 off-grid points.
+    pub const QUICK: CheckOptions = CheckOptions {
+        offgrid: 2_000,
+        seed: 0x010b_ef17,
+    };
+}
+
+/// Summary statistics of an error sample.
+#[derive(Debug, Clone, Copy, Default, Serialize, PartialEq)]
+pub struct Stats {
+    /// Sample size.
+    pub count: usize,
+    /// Mean.
+    pub mean: f64,
+    /// Median.
+    pub median: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+impl Stats {
+    /// Statistics of `v` (consumed; sorted in place).
+    pub fn of(mut v: Vec<f64>) -> Stats {
+        if v.is_empty() {
+            return Stats::default();
+        }
+        v.sort_by(f64::total_cmp);
+        let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
+        Stats {
+            count: v.len(),
+            mean: v.iter().sum::<f64>() / v.len() as f64,
+            median: q(0.5),
+            p95: q(0.95),
+            p99: q(0.99),
+            max: *v.last().expect("non-empty"),
+        }
+    }
+
+    fn metric(&self, name: &str) -> Option<f64> {
+        Some(match name {
+            "mean" => self.mean,
+            "median" => self.median,
+            "p95" => self.p95,
+            "p99" => self.p99,
+            "max" => self.max,
+            _ => return None,
+        })
+    }
+}
+
+/// Errors of one output quantity.
+#[derive(Debug, Clone, Serialize)]
+pub struct OutputReport {
+    /// Output column.
+    pub output: String,
+    /// Absolute error at the grid nodes.
+    pub grid_abs: Stats,
+    /// Relative error at the grid nodes.
+    pub grid_rel: Stats,
+    /// Absolute error at off-grid points.
+    pub offgrid_abs: Stats,
+    /// Relative error at off-grid points.
+    pub offgrid_rel: Stats,
+    /// Off-grid point with the largest relative error.
+    pub worst_offgrid_input: Vec<f64>,
+}
+
+/// One threshold and its measured value.
+#[derive(Debug, Clone, Serialize)]
+pub struct ThresholdResult {
+    /// Output column.
+    pub output: String,
+    /// Metric name, `{grid|offgrid}.{mean|median|p95|p99|max}_{abs|rel}`.
+    pub metric: String,
+    /// Limit from the file.
+    pub limit: f64,
+    /// Measured value (NaN when the metric is unknown, which fails).
+    pub value: f64,
+    /// Whether `value <= limit`.
+    pub pass: bool,
+}
+
+/// The report of one family.
+#[derive(Debug, Clone, Serialize)]
+pub struct FamilyReport {
+    /// Table kind.
+    pub kind: String,
+    /// File checked.
+    pub file: String,
+    /// Grid entries checked.
+    pub grid_points: usize,
+    /// Off-grid points checked.
+    pub offgrid_points: usize,
+    /// Per-output errors.
+    pub outputs: Vec<OutputReport>,
+    /// Threshold verdicts.
+    pub thresholds: Vec<ThresholdResult>,
+    /// Problems that fail the check outright (load error, lookup error, bad fit flags).
+    pub problems: Vec<String>,
+    /// Overall verdict.
+    pub pass: bool,
+}
+
+/// Runtime value and reference value of every output at one point, or what went wrong.
+type PointResult = Result<(Vec<f64>, Vec<f64>), String>;
+
+fn rel_err(got: f64, want: f64) -> f64 {
+    let d = (got - want).abs();
+    if d == 0.0 {
+        0.0
+    } else {
+        d / want.abs().max(f64::MIN_POSITIVE)
+    }
+}
+
+/// Checks one family's table file.
+pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> FamilyReport {
+    let mut report = FamilyReport {
+        kind: family.kind().to_string(),
+        file: path.display().to_string(),
+        grid_points: 0,
+        offgrid_points: 0,
+        outputs: Vec::new(),
+        thresholds: Vec::new(),
+        problems: Vec::new(),
+        pass: false,
+    };
+    let table = match Table::from_path(path) {
+        Ok(t) => t,
+        Err(e) => {
+            report.problems.push(e.to_string());
+            return report;
+        }
+    };
+    let meta = table.meta().clone();
+    if meta.diagnostics.converged != meta.diagnostics.entries {
+        report.problems.push(format!(
+            "{} of {} entries are flagged unconverged",
+            meta.diagnostics.entries - meta.diagnostics.converged,
+            meta.diagnostics.entries
+        ));
+    }
+    let runtime = match family.runtime(table) {
+        Ok(r) => r,
+        Err(e) => {
+            report.problems.push(e.to_string());
+            return report;
+        }
+    };
+    let grid: Vec<Vec<f64>> = crate::build::grid_nodes(&meta.axes)
+        .iter()
+        .map(|n| family.node_inputs(n))
+        .collect();
+    let mut rng = Rng::new(opts.seed);
+    let offgrid: Vec<Vec<f64>> = (0..opts.offgrid).map(|_| family.sample(&mut rng)).collect();
+    let eval = |pts: &[Vec<f64>]| -> Vec<PointResult> {
+        pts.par_iter()
+            .map(|x| {
+                let got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
+                let want = family.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
+                Ok((got, want))
+            })
+            .collect()
+    };
+    let grid_res = eval(&grid);
+    let off_res = eval(&offgrid);
+    report.grid_points = grid.len();
+    report.offgrid_points = offgrid.len();
+    for r in grid_res.iter().chain(&off_res) {
+        if let Err(e) = r {
+            if report.problems.len() < 10 {
+                report.problems.push(e.clone());
+            }
+        }
+    }
+    for (k, name) in family.outputs().iter().enumerate() {
+        let errs = |res: &[PointResult]| {
+            let (mut abs, mut rel) = (Vec::new(), Vec::new());
+            for (g, w) in res.iter().flatten() {
+                abs.push((g[k] - w[k]).abs());
+                rel.push(rel_err(g[k], w[k]));
+            }
+            (abs, rel)
+        };
+        let (ga, gr) = errs(&grid_res);
+        let (oa, or) = errs(&off_res);
+        let worst_input = off_res
+            .iter()
+            .zip(&offgrid)
+            .filter_map(|(r, x)| r.as_ref().ok().map(|(g, w)| (rel_err(g[k], w[k]), x)))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, x)| x.clone())
+            .unwrap_or_default();
+        report.outputs.push(OutputReport {
+            output: name.to_string(),
+            grid_abs: Stats::of(ga),
+            grid_rel: Stats::of(gr),
+            offgrid_abs: Stats::of(oa),
+            offgrid_rel: Stats::of(or),
+            worst_offgrid_input: worst_input,
+        });
+    }
+    for t in &meta.thresholds {
+        let value = report
+            .outputs
+            .iter()
+            .find(|o| o.output == t.output)
+            .and_then(|o| metric_value(o, &t.metric))
+            .unwrap_or(f64::NAN);
+        report.thresholds.push(ThresholdResult {
+            output: t.output.clone(),
+            metric: t.metric.clone(),
+            limit: t.limit,
+            value,
+            pass: value <= t.limit,
+        });
+    }
+    if meta.thresholds.is_empty() {
+        report.problems.push("the file states no thresholds".into());
+    }
+    report.pass = report.problems.is_empty() && report.thresholds.iter().all(|t| t.pass);
+    report
+}
+
+/// Value of a metric such as `offgrid.max_rel` in an output report.
+pub fn metric_value(o: &OutputReport, metric: &str) -> Option<f64> {
+    let (set, rest) = metric.split_once('.')?;
+    let (stat, kind) = rest.rsplit_once('_')?;
+    let stats = match (set, kind) {
+        ("grid", "abs") => &o.grid_abs,
+        ("grid", "rel") => &o.grid_rel,
+        ("offgrid", "abs") => &o.offgrid_abs,
+        ("offgrid", "rel") => &o.offgrid_rel,
+        _ => return None,
+    };
+    stats.metric(stat)
+}
+
+/// Renders reports as a fixed-width text table.
+pub fn render(reports: &[FamilyReport]) -> String {
+    let mut s = String::new();
+    s.push_str(&format!(
+        "{:<15} {:<10} {:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}\n",
+        "family", "output", "grid", "random", "grid max", "rnd mean", "rnd median", "rnd p95", "rnd max", "rnd maxabs"
+    ));
+    for r in reports {
+        for o in &r.outputs {
+            s.push_str(&format!(
+                "{:<15} {:<10} {:>6} {:>6} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e}\n",
+                r.kind,
+                o.output,
+                r.grid_points,
+                r.offgrid_points,
+                o.grid_rel.max,
+                o.offgrid_rel.mean,
+                o.offgrid_rel.median,
+                o.offgrid_rel.p95,
+                o.offgrid_rel.max,
+                o.offgrid_abs.max
+            ));
+        }
+        for t in &r.thresholds {
+            s.push_str(&format!(
+                "  {} {}.{} = {:.3e} (limit {:.1e})\n",
+                if t.pass { "ok  " } else { "FAIL" },
+                t.output,
+                t.metric,
+                t.value,
+                t.limit
+            ));
+        }
+        for p in &r.problems {
+            s.push_str(&format!("  FAIL {p}\n"));
+        }
+    }
+    s.push_str("(errors are relative unless marked abs; rnd = seeded random off-grid points through the runtime)\n");
+    s
+}

@@ -1,0 +1,70 @@
+//! The one trait every table family implements. `build-tables`, `check`, `eval`
+//! and `inspect` are written once against it; a new family is one module in
+//! `fits/` plus one line in the registry (`fits/mod.rs`).
+
+use lobefit_tables::format::Threshold;
+use lobefit_tables::{Axis, Channel, LoadError, LookupError, Table};
+
+use crate::rng::Rng;
+
+/// Fit of one grid entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fitted {
+    /// Channel values (decoded: the writer applies each channel's encoding).
+    pub values: Vec<f64>,
+    /// Family-defined residual (see [`Family::residual_meaning`]).
+    pub residual: f64,
+    /// Optimizer iterations or integrand evaluations.
+    pub iterations: u32,
+    /// Whether the fit met its tolerance; unconverged entries are never written.
+    pub converged: bool,
+}
+
+/// The runtime lookup a family is checked through: the runtime crate's own API.
+pub trait Lookup: Sync {
+    /// Output columns (see [`Family::outputs`]) at the input point `x`.
+    fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError>;
+}
+
+/// A table family: its grid, its fit, its reference, its runtime lookup.
+pub trait Family: Sync {
+    /// Table kind, file stem and CLI name, e.g. `"cap-exponent"`.
+    fn kind(&self) -> &'static str;
+    /// The family's table version (bumped when layout or meaning changes).
+    fn version(&self) -> u32;
+    /// What the table holds and how to use it (stored in the file).
+    fn description(&self) -> String;
+    /// Grid axes, slowest first.
+    fn axes(&self) -> Vec<Axis>;
+    /// Stored channels.
+    fn channels(&self) -> Vec<Channel>;
+    /// Fit method (stored and hashed with the settings).
+    fn method(&self) -> String;
+    /// Every setting that changes the payload.
+    fn settings(&self) -> Vec<(String, String)>;
+    /// What [`Fitted::residual`] measures.
+    fn residual_meaning(&self) -> &'static str;
+    /// Fits one grid node (axis coordinates `node`). Pure and deterministic.
+    fn fit(&self, node: &[f64]) -> Fitted;
+    /// Accuracy promises written into the file and enforced by the checker.
+    fn thresholds(&self) -> Vec<Threshold>;
+    /// Input columns of `lobefit eval` (and of [`Family::reference`]).
+    fn inputs(&self) -> &'static [&'static str];
+    /// Output columns of `lobefit eval`.
+    fn outputs(&self) -> &'static [&'static str];
+    /// Input point of a grid node (identity unless the axes are derived quantities).
+    fn node_inputs(&self, node: &[f64]) -> Vec<f64> {
+        node.to_vec()
+    }
+    /// Wraps a loaded table in the runtime crate's lookup for this family.
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError>;
+    /// Independent reference (closed form or adaptive quadrature, never the fit's own
+    /// numerics) of the outputs at `x`. Errors name an out-of-domain input.
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String>;
+    /// `lobefit eval --exact`: the reference, or the fit run at exactly `x`.
+    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        self.reference(x)
+    }
+    /// A random input point of the domain, for the checker's off-grid test.
+    fn sample(&self, rng: &mut Rng) -> Vec<f64>;
+}

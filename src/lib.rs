@@ -1,0 +1,23 @@
+//! # lobefit
+//!
+//! The numerical library behind the `lobefit` CLI: quadrature, the table families
+//! (`fits/`, one module each, listed in [`fits::registry`]), the build driver, the
+//! checker and the CSV evaluator. No argument parsing and no printing live here.
+//!
+//! Conventions are those of SPEC §1 and of the runtime crate [`lobefit_tables`]:
+//! unit direction vectors, solid angle in steradians, angles in radians, natural log,
+//! cosine lobe Ψ(v; a, e) = max(a·v, 0)^e.
+
+pub mod build;
+pub mod check;
+pub mod eval;
+pub mod family;
+pub mod io;
+pub mod quad;
+pub mod rng;
+
+/// The table families, one module each (kept in `fits/` at the repository root).
+#[path = "../fits/mod.rs"]
+pub mod fits;
+
+pub use lobefit_tables as tables;

@@ -1,0 +1,93 @@
+//! F2 — the spherical-cap exponent (Meunier et al. 2009, §5.2).
+//!
+//! For a cap of half-angle α around axis a, e_cap(α) minimises
+//! ∫_{S²} (f_cap − max(a·v, 0)^e)² dω. With c = cos α ≥ 0 the objective is
+//! 2π[(1 − c) − 2(1 − c^{e+1})/(e+1) + 1/(2e+1)]; for α ≥ π/2 the minimiser is e = 0.
+//!
+//! Why the odd layout: e_cap ≈ 1.9226/α² as α → 0 and e_cap ≈ c(1 − ln c)/2 as
+//! α → π/2, so neither e nor α is good to interpolate. The table stores the smooth,
+//! bounded ratio q(α) = e_cap / m(α) with m(α) = c(1 − ln c)/(1 − c) (q goes from
+//! 0.9613 at small α to 1/2 at π/2), on nodes uniform in u = ln(α/(π/2 − α)), which
+//! are dense at both ends. Renderers evaluate e = q(α)·m(α) ([`model`]).
+
+use std::f64::consts::FRAC_PI_2;
+
+use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::table::Table;
+
+/// Table kind.
+pub const KIND: &str = "cap-exponent";
+/// Family version this runtime reads.
+pub const VERSION: u32 = 1;
+/// Smallest supported cap half-angle (rad).
+pub const ALPHA_MIN: f64 = 1.0e-3;
+/// Largest tabulated half-angle (rad); between it and π/2 q is held at its end value
+/// (q varies by < 1e-5 relative there), and from π/2 on e_cap = 0.
+pub const ALPHA_TABLE_MAX: f64 = FRAC_PI_2 - 1.0e-7;
+
+/// The scale model m(α) = c(1 − ln c)/(1 − c), c = cos α, for α ∈ (0, π/2); e_cap = q·m.
+pub fn model(alpha: f64) -> f64 {
+    let s = (0.5 * alpha).sin();
+    let one_minus_c = 2.0 * s * s; // accurate for small α, unlike 1 − cos α
+    let c = alpha.cos();
+    c * (1.0 - c.ln()) / one_minus_c
+}
+
+/// The cap-exponent table.
+#[derive(Debug, Clone)]
+pub struct CapExponent {
+    table: Table,
+}
+
+impl CapExponent {
+    /// Loads and validates a cap-exponent table file held in memory.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
+        Ok(Self {
+            table: Table::from_bytes_of_kind(bytes, KIND, VERSION)?,
+        })
+    }
+
+    /// Wraps an already loaded table, checking its kind.
+    pub fn from_table(table: Table) -> Result<Self, LoadError> {
+        table.expect_kind(KIND, VERSION)?;
+        Ok(Self { table })
+    }
+
+    /// The default table compiled into this crate.
+    #[cfg(feature = "embedded")]
+    pub fn embedded() -> Result<&'static Self, LoadError> {
+        static CELL: std::sync::OnceLock<Result<CapExponent, LoadError>> = std::sync::OnceLock::new();
+        CELL.get_or_init(|| Self::from_bytes(crate::embedded::CAP_EXPONENT))
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+
+    /// The underlying table.
+    pub fn table(&self) -> &Table {
+        &self.table
+    }
+
+    /// The stored ratio q(α) = e_cap/m(α) for α ∈ [1e-3, π/2) (rad).
+    pub fn ratio(&self, alpha: f64) -> Result<f64, LookupError> {
+        let alpha = in_range("alpha", alpha, ALPHA_MIN, FRAC_PI_2)?;
+        let mut out = [0.0];
+        self.table.interpolate(&[alpha.min(ALPHA_TABLE_MAX)], &mut out)?;
+        Ok(out[0])
+    }
+
+    /// Best-fitting lobe exponent e_cap(α) (dimensionless) for a cap of half-angle
+    /// α ∈ [1e-3, π] rad; 0 for α ≥ π/2.
+    pub fn e_cap(&self, alpha: f64) -> Result<f64, LookupError> {
+        let alpha = finite("alpha", alpha)?;
+        in_range("alpha", alpha, ALPHA_MIN, std::f64::consts::PI)?;
+        if alpha >= FRAC_PI_2 {
+            return Ok(0.0);
+        }
+        Ok(self.ratio(alpha)? * model(alpha))
+    }
+
+    /// [`CapExponent::e_cap`] in single precision.
+    pub fn e_cap_f32(&self, alpha: f32) -> Result<f32, LookupError> {
+        self.e_cap(alpha as f64).map(|v| v as f32)
+    }
+}

@@ -1,0 +1,93 @@
+//! Typed errors of the runtime crate. Every way a file or a query can be wrong has
+//! its own variant, so callers (and tests) can tell them apart.
+
+use thiserror::Error;
+
+/// Why a table file was rejected by [`crate::Table::from_bytes`].
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum LoadError {
+    /// The byte string is shorter than a field the header says must be there.
+    #[error("truncated table file: need at least {needed} bytes, have {have}")]
+    Truncated { needed: u64, have: u64 },
+    /// The file is longer than header + metadata + payload.
+    #[error("table file has {extra} unexpected trailing bytes (oversized or concatenated file)")]
+    TrailingBytes { extra: u64 },
+    /// The first eight bytes are not the lobefit magic.
+    #[error("not a lobefit table (bad magic {found:02x?})")]
+    BadMagic { found: [u8; 8] },
+    /// A major format version this reader does not understand.
+    #[error("unsupported table format version {found_major}.{found_minor} (this reader reads {supported_major}.x)")]
+    UnsupportedFormat {
+        found_major: u16,
+        found_minor: u16,
+        supported_major: u16,
+    },
+    /// A checksum did not match: the named section is corrupt.
+    #[error("checksum mismatch in {section}: stored {stored:#010x}, computed {computed:#010x}")]
+    Checksum {
+        section: &'static str,
+        stored: u32,
+        computed: u32,
+    },
+    /// Offsets or lengths in the header are inconsistent.
+    #[error("bad header layout: {0}")]
+    BadLayout(String),
+    /// The metadata block does not decode.
+    #[error("metadata does not decode: {0}")]
+    BadMetadata(String),
+    /// The metadata decodes but describes an impossible table.
+    #[error("invalid table description: {0}")]
+    Invalid(String),
+    /// The payload holds a NaN or infinite value.
+    #[error("payload value #{index} is not finite ({value})")]
+    NonFinite { index: usize, value: f32 },
+    /// A family loader was handed a table of another kind.
+    #[error("wrong table kind: expected '{expected}', file holds '{found}'")]
+    WrongKind { expected: String, found: String },
+    /// The family's own table version is not one this runtime reads.
+    #[error("table '{kind}' has version {found}; this runtime reads version {supported}")]
+    UnsupportedTableVersion { kind: String, found: u32, supported: u32 },
+    /// Reading the file from disk failed (message of the I/O error).
+    #[error("cannot read table file {path}: {message}")]
+    Io { path: String, message: String },
+}
+
+/// Why a lookup was refused.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum LookupError {
+    /// The query holds a NaN or an infinity.
+    #[error("{name} is not a finite number ({value})")]
+    NotFinite { name: String, value: f64 },
+    /// The query lies outside the domain the table covers.
+    #[error("{name} = {value} is outside the domain [{lo}, {hi}]")]
+    OutOfDomain { name: String, value: f64, lo: f64, hi: f64 },
+    /// The number of coordinates does not match the number of axes.
+    #[error("query has {got} coordinates, table has {expected} axes")]
+    Arity { expected: usize, got: usize },
+}
+
+/// Rejects NaN and infinities with an error naming the quantity.
+pub(crate) fn finite(name: &str, value: f64) -> Result<f64, LookupError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(LookupError::NotFinite {
+            name: name.to_string(),
+            value,
+        })
+    }
+}
+
+/// Checks `lo <= value <= hi` (and finiteness).
+pub(crate) fn in_range(name: &str, value: f64, lo: f64, hi: f64) -> Result<f64, LookupError> {
+    let v = finite(name, value)?;
+    if v < lo || v > hi {
+        return Err(LookupError::OutOfDomain {
+            name: name.to_string(),
+            value: v,
+            lo,
+            hi,
+        });
+    }
+    Ok(v)
+}

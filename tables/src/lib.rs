@@ -1,0 +1,45 @@
+//! # lobefit-tables
+//!
+//! The runtime half of lobefit: loads, validates and interpolates the precomputed
+//! tables that `lobefit build-tables` writes, for renderers and GPU-upload code.
+//! It depends on nothing heavier than serde/postcard, glam, bytemuck and crc32fast.
+//!
+//! Conventions (SPEC §1): directions are unit vectors, integrals are over solid angle
+//! (steradians), angles are in radians, `log` is the natural logarithm. A cosine lobe
+//! is `Ψ(v; a, e) = max(a·v, 0)^e`.
+//!
+//! ```
+//! # #[cfg(feature = "embedded")] {
+//! use lobefit_tables::{CapExponent, LobeIntegral};
+//! // The default tables are compiled in; no file system needed.
+//! let lobes = LobeIntegral::embedded().expect("committed table is valid");
+//! let i = lobes.integral(10.0).unwrap(); // ∫ max(a·v,0)^10 dω in sr
+//! assert!((i - 2.0 * std::f64::consts::PI / 11.0).abs() < 1e-6 * i);
+//! let caps = CapExponent::embedded().unwrap();
+//! let e = caps.e_cap(0.1).unwrap(); // lobe exponent best matching a 0.1 rad cap
+//! assert!((e - 191.6426).abs() < 0.05);
+//! // Bad queries are errors, not NaNs.
+//! assert!(caps.e_cap(f64::NAN).is_err());
+//! # }
+//! ```
+
+pub mod cap_exponent;
+pub mod error;
+pub mod format;
+pub mod lobe_integral;
+pub mod table;
+
+pub use cap_exponent::CapExponent;
+pub use error::{LoadError, LookupError};
+pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
+pub use lobe_integral::LobeIntegral;
+pub use table::Table;
+
+/// The committed default tables (`tables/data/*.lobefit`), compiled in.
+#[cfg(feature = "embedded")]
+pub mod embedded {
+    /// `tables/data/lobe-integral.lobefit`.
+    pub static LOBE_INTEGRAL: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
+    /// `tables/data/cap-exponent.lobefit`.
+    pub static CAP_EXPONENT: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+}
