@@ -185,6 +185,7 @@ mod tests {
                 worst = worst.max(((i(a) + i(b)) / 2.0 / i(m) - 1.0).abs());
             }
         }
+        eprintln!("paper layout: worst relative error at cell midpoints = {worst:.3e}");
         assert!(worst > 1e-4, "paper layout worst relative error {worst:e}");
     }
 }

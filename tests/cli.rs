@@ -1,0 +1,353 @@
+//! End-to-end tests of the `lobefit` binary: building, determinism, checking,
+//! inspecting, evaluating, and every way an argument or an input can be wrong.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+const FAMILIES: [&str; 2] = ["lobe-integral", "cap-exponent"];
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_lobefit"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    c
+}
+
+fn run(args: &[&str], stdin: &str) -> Output {
+    let mut child = bin()
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn lobefit");
+    child
+        .stdin
+        .take()
+        .expect("stdin")
+        .write_all(stdin.as_bytes())
+        .expect("write stdin");
+    child.wait_with_output().expect("wait")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn committed(kind: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tables/data")
+        .join(format!("{kind}.lobefit"))
+}
+
+fn build_into(dir: &Path, threads: &str) {
+    let out = run(
+        &["build-tables", "--out", dir.to_str().unwrap(), "--threads", threads],
+        "",
+    );
+    assert!(out.status.success(), "build failed: {}", text(&out.stderr));
+}
+
+/// Same inputs, same bytes: two builds, 1 vs 2 threads, and the committed tables.
+#[test]
+fn builds_are_byte_identical_and_match_the_committed_tables() {
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    build_into(a.path(), "1");
+    build_into(b.path(), "2");
+    for kind in FAMILIES {
+        let fa = std::fs::read(a.path().join(format!("{kind}.lobefit"))).unwrap();
+        let fb = std::fs::read(b.path().join(format!("{kind}.lobefit"))).unwrap();
+        assert!(fa == fb, "{kind}: 1-thread and 2-thread builds differ");
+        let committed = std::fs::read(committed(kind)).unwrap();
+        assert!(
+            fa == committed,
+            "{kind}: committed table is stale; run `cargo run --release -- build-tables`"
+        );
+    }
+    // No temporary files are left behind by the atomic writes.
+    let leftovers: Vec<_> = std::fs::read_dir(a.path())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty());
+}
+
+#[test]
+fn check_passes_on_the_committed_tables_and_emits_json() {
+    let out = run(&["check", "--quick", "--json"], "");
+    assert!(out.status.success(), "{}{}", text(&out.stdout), text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("valid JSON");
+    let reports = v.as_array().unwrap();
+    assert_eq!(reports.len(), FAMILIES.len());
+    for r in reports {
+        assert_eq!(r["pass"], true, "{r}");
+        assert!(r["offgrid_points"].as_u64().unwrap() >= 2000);
+        assert!(!r["thresholds"].as_array().unwrap().is_empty());
+    }
+}
+
+/// The checker fails (non-zero exit) on a table that is valid but wrong.
+#[test]
+fn check_fails_on_a_regressed_table() {
+    use lobefit::tables::format;
+    use lobefit::tables::Table;
+    let dir = tempfile::tempdir().unwrap();
+    let t = Table::from_path(committed("cap-exponent")).unwrap();
+    let mut values = t.values().to_vec();
+    values[500] *= 1.01; // a 1 % error at one node
+    let bytes = format::encode(t.meta(), &values).unwrap();
+    std::fs::write(dir.path().join("cap-exponent.lobefit"), bytes).unwrap();
+    let out = run(
+        &[
+            "check",
+            "--quick",
+            "--only",
+            "cap-exponent",
+            "--tables",
+            dir.path().to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
+    assert!(
+        text(&out.stdout).contains("FAIL e_cap.grid.max_rel"),
+        "{}",
+        text(&out.stdout)
+    );
+}
+
+#[test]
+fn check_fails_on_a_missing_or_corrupt_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = run(&["check", "--quick", "--tables", dir.path().to_str().unwrap()], "");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stdout).contains("cannot read table file"),
+        "{}",
+        text(&out.stdout)
+    );
+    let mut bytes = std::fs::read(committed("lobe-integral")).unwrap();
+    let n = bytes.len();
+    bytes[n - 3] ^= 0x40;
+    std::fs::write(dir.path().join("lobe-integral.lobefit"), bytes).unwrap();
+    let out = run(
+        &[
+            "check",
+            "--quick",
+            "--only",
+            "lobe-integral",
+            "--tables",
+            dir.path().to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stdout).contains("checksum mismatch in payload"),
+        "{}",
+        text(&out.stdout)
+    );
+}
+
+#[test]
+fn inspect_describes_the_file() {
+    let out = run(&["inspect", committed("cap-exponent").to_str().unwrap()], "");
+    assert!(out.status.success());
+    let s = text(&out.stdout);
+    for needle in [
+        "cap-exponent",
+        "alpha [rad]",
+        "1000 nodes",
+        "Logit",
+        "settings hash",
+        "1000/1000 converged",
+    ] {
+        assert!(s.contains(needle), "missing '{needle}' in:\n{s}");
+    }
+    let out = run(&["inspect", "--json", committed("lobe-integral").to_str().unwrap()], "");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["meta"]["axes"][0]["count"], 641);
+    let out = run(&["inspect", "Cargo.toml"], "");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("not a lobefit table"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn eval_table_and_exact_agree_with_closed_forms() {
+    let out = run(&["eval", "lobe-integral"], "e\n0\n1\n99.5\n100000\n");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let s = text(&out.stdout);
+    let mut lines = s.lines();
+    assert_eq!(lines.next(), Some("e,integral"));
+    for (line, e) in lines.zip([0.0, 1.0, 99.5, 1e5]) {
+        let v: f64 = line.split(',').nth(1).unwrap().parse().unwrap();
+        let exact = 2.0 * std::f64::consts::PI / (e + 1.0);
+        assert!((v / exact - 1.0).abs() < 1e-6, "{line}");
+    }
+    let out = run(&["eval", "lobe-integral", "--exact"], "e\n3\n");
+    assert_eq!(
+        text(&out.stdout).lines().nth(1).unwrap(),
+        format!("3,{:e}", std::f64::consts::PI / 2.0)
+    );
+    // Columns are repeated as given; extra whitespace is tolerated.
+    let out = run(&["eval", "cap-exponent"], " alpha \n 0.1 \n2.0\n");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let s = text(&out.stdout);
+    let rows: Vec<&str> = s.lines().collect();
+    assert_eq!(rows[0], "alpha,e_cap");
+    let e: f64 = rows[1].split(',').nth(1).unwrap().parse().unwrap();
+    let exact = lobefit::fits::cap_exponent::reference_e_cap(0.1).unwrap();
+    assert!((e / exact - 1.0).abs() < 1e-4);
+    assert_eq!(rows[2], "2.0,0e0");
+}
+
+/// Every malformed input ends with exit 1, a message naming the line, and no output.
+#[test]
+fn eval_rejects_bad_input_naming_the_line() {
+    let cases: &[(&[&str], &str, &str)] = &[
+        (
+            &["eval", "lobe-integral"],
+            "e\n1\nabc\n",
+            "line 3: column 'e': 'abc' is not a number",
+        ),
+        (
+            &["eval", "lobe-integral"],
+            "e\n1\n-2\n",
+            "line 3: e = -2 is outside the domain",
+        ),
+        (
+            &["eval", "lobe-integral"],
+            "e\n1e6\n",
+            "line 2: e = 1000000 is outside the domain",
+        ),
+        (
+            &["eval", "lobe-integral"],
+            "e\nNaN\n",
+            "line 2: e is not a finite number",
+        ),
+        (
+            &["eval", "lobe-integral"],
+            "e\ninf\n",
+            "line 2: e is not a finite number",
+        ),
+        (&["eval", "lobe-integral"], "x\n1\n", "line 1: unknown column 'x'"),
+        (&["eval", "lobe-integral"], "e,e\n1,1\n", "line 1: duplicate column 'e'"),
+        (&["eval", "lobe-integral"], "", "line 1: empty input"),
+        (&["eval", "lobe-integral"], "e\n1,2\n", "line 2: 2 fields, header has 1"),
+        (
+            &["eval", "cap-exponent"],
+            "alpha\n0.5\n0.0001\n",
+            "line 3: alpha = 0.0001 is outside the domain",
+        ),
+        (
+            &["eval", "cap-exponent", "--exact"],
+            "alpha\n4\n",
+            "line 2: alpha = 4 is outside",
+        ),
+    ];
+    for (args, input, message) in cases {
+        let out = run(args, input);
+        assert_eq!(out.status.code(), Some(1), "{args:?} {input:?}");
+        assert!(
+            out.stdout.is_empty(),
+            "partial output for {input:?}: {}",
+            text(&out.stdout)
+        );
+        let err = text(&out.stderr);
+        assert!(err.contains(message), "{input:?}: expected '{message}', got '{err}'");
+    }
+}
+
+#[test]
+fn bad_arguments_are_refused() {
+    let cases: &[(&[&str], &str)] = &[
+        (&["eval", "no-such-family"], "invalid value 'no-such-family'"),
+        (&["build-tables", "--only", "nope"], "invalid value 'nope'"),
+        (&["build-tables", "--threads", "0"], "invalid value '0'"),
+        (&["check", "--points", "-3"], "unexpected argument '-3'"),
+        (&["frobnicate"], "unrecognized subcommand"),
+    ];
+    for (args, message) in cases {
+        let out = run(args, "");
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(text(&out.stderr).contains(message), "{args:?}: {}", text(&out.stderr));
+    }
+    let out = run(
+        &["eval", "lobe-integral", "--table", "/nonexistent/x.lobefit"],
+        "e\n1\n",
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("cannot read table file /nonexistent/x.lobefit"));
+    let out = run(
+        &[
+            "eval",
+            "cap-exponent",
+            "--table",
+            committed("lobe-integral").to_str().unwrap(),
+        ],
+        "alpha\n1\n",
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("wrong table kind: expected 'cap-exponent'"),
+        "{}",
+        text(&out.stderr)
+    );
+    if !cfg!(feature = "nlopt") {
+        let out = run(
+            &[
+                "fit",
+                "cap-exponent",
+                "--backend",
+                "nlopt",
+                "--out",
+                "/tmp/never.lobefit",
+            ],
+            "",
+        );
+        assert_eq!(out.status.code(), Some(1));
+        assert!(text(&out.stderr).contains("--features nlopt"));
+    }
+}
+
+/// `fit FAMILY --out FILE` writes exactly the file `build-tables` would.
+#[test]
+fn fit_writes_one_family() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("caps.lobefit");
+    let out = run(&["fit", "cap-exponent", "--out", file.to_str().unwrap()], "");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(
+        std::fs::read(&file).unwrap(),
+        std::fs::read(committed("cap-exponent")).unwrap()
+    );
+    assert!(text(&out.stderr).contains("cap-exponent"));
+}
+
+/// A failed write leaves an existing table untouched (atomic replace).
+#[test]
+fn unwritable_output_is_an_error_and_loses_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let blocker = dir.path().join("file");
+    std::fs::write(&blocker, b"keep me").unwrap();
+    // The output "directory" is a regular file: creating it must fail cleanly.
+    let out = run(
+        &[
+            "build-tables",
+            "--only",
+            "lobe-integral",
+            "--out",
+            blocker.to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("cannot write"), "{}", text(&out.stderr));
+    assert_eq!(std::fs::read(&blocker).unwrap(), b"keep me");
+}
