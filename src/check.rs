@@ -165,14 +165,8 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
             return report;
         }
     };
+    // The loader has already rejected files with unconverged entries.
     let meta = table.meta().clone();
-    if meta.diagnostics.converged != meta.diagnostics.entries {
-        report.problems.push(format!(
-            "{} of {} entries are flagged unconverged",
-            meta.diagnostics.entries - meta.diagnostics.converged,
-            meta.diagnostics.entries
-        ));
-    }
     let runtime = match family.runtime(table) {
         Ok(r) => r,
         Err(e) => {

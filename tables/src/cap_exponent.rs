@@ -6,8 +6,9 @@
 //!
 //! Why the odd layout: e_cap ≈ 1.9226/α² as α → 0 and e_cap ≈ c(1 − ln c)/2 as
 //! α → π/2, so neither e nor α is good to interpolate. The table stores the smooth,
-//! bounded ratio q(α) = e_cap / m(α) with m(α) = c(1 − ln c)/(1 − c) (q goes from
-//! 0.9613 at small α to 1/2 at π/2), on nodes uniform in u = ln(α/(π/2 − α)), which
+//! bounded ratio q(α) = e_cap / m(α) with m(α) = c(1 − ln c)/(1 − c) (q is 0.9613 at
+//! small α, dips to 0.472 near α ≈ 1.54 and tends to 1/2 at π/2), on nodes uniform in
+//! u = ln(α/(π/2 − α)), which
 //! are dense at both ends. Renderers evaluate e = q(α)·m(α) ([`model`]).
 
 use std::f64::consts::FRAC_PI_2;
@@ -67,7 +68,7 @@ impl CapExponent {
         &self.table
     }
 
-    /// The stored ratio q(α) = e_cap/m(α) for α ∈ [1e-3, π/2) (rad).
+    /// The stored ratio q(α) = e_cap/m(α) for α ∈ [1e-3, π/2] (rad).
     pub fn ratio(&self, alpha: f64) -> Result<f64, LookupError> {
         let alpha = in_range("alpha", alpha, ALPHA_MIN, FRAC_PI_2)?;
         let mut out = [0.0];

@@ -38,8 +38,9 @@ pub enum LoadError {
     /// The metadata decodes but describes an impossible table.
     #[error("invalid table description: {0}")]
     Invalid(String),
-    /// The payload holds a NaN or infinite value.
-    #[error("payload value #{index} is not finite ({value})")]
+    /// The payload holds a NaN or infinite value, or a log-encoded value whose
+    /// decoded value would overflow f32.
+    #[error("payload value #{index} ({value}) is not finite or decodes to infinity")]
     NonFinite { index: usize, value: f32 },
     /// A family loader was handed a table of another kind.
     #[error("wrong table kind: expected '{expected}', file holds '{found}'")]

@@ -16,7 +16,9 @@ use crate::error::LoadError;
 pub const MAGIC: [u8; 8] = *b"LBFT\r\n\x1a\n";
 /// Format major version: readers reject any other major.
 pub const FORMAT_MAJOR: u16 = 1;
-/// Format minor version: additions a version-1 reader may ignore.
+/// Format minor version: informational. Readers of major 1 accept any minor; a change
+/// that a 1.0 reader could not parse (new metadata fields, a new header layout) must
+/// bump the major instead, because the metadata block is a fixed postcard record.
 pub const FORMAT_MINOR: u16 = 0;
 /// Size of the fixed header in bytes.
 pub const HEADER_LEN: usize = 64;
@@ -152,7 +154,17 @@ impl Axis {
         }
         self.mapping
             .validate(self.lo, self.hi)
-            .map_err(|m| format!("axis '{}': {m}", self.name))
+            .map_err(|m| format!("axis '{}': {m}", self.name))?;
+        // An extreme range can round to equal or infinite mapped ends: interpolation
+        // would divide by zero.
+        let (u0, u1) = self.mapped_range();
+        if !(u0.is_finite() && u1.is_finite() && u0 < u1 && (u1 - u0).is_finite()) {
+            return Err(format!(
+                "axis '{}' maps [{}, {}] to the degenerate [{u0}, {u1}]",
+                self.name, self.lo, self.hi
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -288,10 +300,20 @@ impl Meta {
                 self.diagnostics.entries
             ));
         }
+        // Unconverged fits are never written, so a file claiming one is corrupt or forged.
+        if self.diagnostics.converged != n {
+            return Err(format!(
+                "{} of {n} entries are flagged unconverged",
+                n.saturating_sub(self.diagnostics.converged)
+            ));
+        }
         if let Some(p) = &self.diagnostics.per_entry {
             let ok = p.residual.len() as u64 == n && p.iterations.len() as u64 == n && p.converged.len() as u64 == n;
             if !ok {
                 return Err("per-entry diagnostics length differs from the grid".into());
+            }
+            if let Some(i) = p.converged.iter().position(|&c| !c) {
+                return Err(format!("entry {i} is flagged unconverged"));
             }
         }
         if settings_hash(&self.fit.method, &self.fit.settings) != self.fit.settings_hash {
@@ -304,6 +326,19 @@ impl Meta {
     pub fn payload_len(&self) -> Option<u64> {
         self.entries()?.checked_mul(self.channels.len() as u64)?.checked_mul(4)
     }
+}
+
+/// Largest stored value allowed in a [`Encoding::Log`] channel: its decoded value
+/// `exp(v)` must stay finite in f32 (no table may hand a renderer an infinity).
+pub const MAX_LOG_VALUE: f32 = 88.0;
+
+/// Index and value of the first stored value that is non-finite, or whose decoded
+/// value would overflow f32 (log channels), in payload order.
+pub fn first_unstorable(meta: &Meta, payload: &[f32]) -> Option<(usize, f32)> {
+    let nc = meta.channels.len().max(1);
+    payload.iter().copied().enumerate().find(|&(i, v)| {
+        !v.is_finite() || (meta.channels.get(i % nc).map(|c| c.encoding) == Some(Encoding::Log) && v > MAX_LOG_VALUE)
+    })
 }
 
 /// FNV-1a 64-bit hash of the postcard encoding of `(method, settings)`: a stable
@@ -369,8 +404,8 @@ pub fn encode(meta: &Meta, payload: &[f32]) -> Result<Vec<u8>, String> {
             meta.payload_len()
         ));
     }
-    if let Some((i, v)) = payload.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-        return Err(format!("payload value #{i} is not finite ({v})"));
+    if let Some((i, v)) = first_unstorable(meta, payload) {
+        return Err(format!("payload value #{i} ({v}) is not finite or decodes to infinity"));
     }
     let meta_bytes = postcard::to_allocvec(meta).map_err(|e| e.to_string())?;
     let meta_end = HEADER_LEN + meta_bytes.len();
@@ -407,6 +442,11 @@ pub fn encode(meta: &Meta, payload: &[f32]) -> Result<Vec<u8>, String> {
 /// Parses and validates the fixed header against the byte string's length.
 pub fn decode_header(bytes: &[u8]) -> Result<Header, LoadError> {
     let have = bytes.len() as u64;
+    if have > MAX_FILE_LEN {
+        return Err(LoadError::BadLayout(format!(
+            "{have} bytes exceeds the format's {MAX_FILE_LEN}-byte limit"
+        )));
+    }
     if bytes.len() < 8 {
         return Err(LoadError::Truncated {
             needed: HEADER_LEN as u64,
@@ -447,6 +487,13 @@ pub fn decode_header(bytes: &[u8]) -> Result<Header, LoadError> {
             stored,
             computed,
         });
+    }
+    // Flags and the reserved word are zero in every 1.x file; anything else is
+    // corruption that happened to keep the CRC or a writer this reader cannot honour.
+    if u32_at(bytes, 12) != 0 || u32_at(bytes, 56) != 0 {
+        return Err(LoadError::BadLayout(
+            "flags or reserved header words are not zero".into(),
+        ));
     }
     let kind_raw = &bytes[16..16 + KIND_LEN];
     let kind_len = kind_raw.iter().position(|&b| b == 0).unwrap_or(KIND_LEN);

@@ -2,7 +2,7 @@
 //!
 //! The runtime half of lobefit: loads, validates and interpolates the precomputed
 //! tables that `lobefit build-tables` writes, for renderers and GPU-upload code.
-//! It depends on nothing heavier than serde/postcard, glam, bytemuck and crc32fast.
+//! Its only dependencies are serde, postcard, crc32fast and thiserror.
 //!
 //! Conventions (SPEC §1): directions are unit vectors, integrals are over solid angle
 //! (steradians), angles are in radians, `log` is the natural logarithm. A cosine lobe

@@ -68,7 +68,7 @@ impl Table {
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
             .collect();
-        if let Some((index, &value)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        if let Some((index, value)) = crate::format::first_unstorable(&meta, &values) {
             return Err(LoadError::NonFinite { index, value });
         }
         Ok(Table {

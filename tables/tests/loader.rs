@@ -1,0 +1,1228 @@
+//! Integration tests of the table loader: the committed files load and round-trip,
+//! and every way a byte string can be wrong is reported with its own error variant
+//! (never a panic, never a silently wrong table). Lookups refuse bad queries with
+//! typed errors.
+//!
+//! Corrupt files are built by patching the committed files; where a test needs the
+//! corruption to get past the checksums, the CRCs are recomputed (CRC-32 IEEE: header
+//! CRC over bytes 0..60 stored at 60..64, metadata CRC at 48..52, payload CRC at
+//! 52..56), because `format::encode` refuses to write invalid tables.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::ops::Range;
+
+use lobefit_tables::format::{self, Mapping, HEADER_LEN, MAGIC};
+use lobefit_tables::{cap_exponent, lobe_integral, CapExponent, LoadError, LobeIntegral, LookupError, Meta, Table};
+use proptest::prelude::*;
+use proptest::sample::Index;
+
+const LOBE: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
+const CAP: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+const FILES: [(&str, &[u8]); 2] = [("lobe-integral", LOBE), ("cap-exponent", CAP)];
+
+// Header field offsets (format version 1).
+const MAJOR_AT: usize = 8;
+const MINOR_AT: usize = 10;
+const FLAGS_AT: usize = 12;
+const KIND_AT: usize = 16;
+const META_OFFSET_AT: usize = 32;
+const META_LEN_AT: usize = 36;
+const PAYLOAD_OFFSET_AT: usize = 40;
+const PAYLOAD_LEN_AT: usize = 44;
+const META_CRC_AT: usize = 48;
+const PAYLOAD_CRC_AT: usize = 52;
+const HEADER_CRC_AT: usize = 60;
+
+// ---------------------------------------------------------------------------------
+// Helpers
+// ---------------------------------------------------------------------------------
+
+fn u16_at(b: &[u8], o: usize) -> u16 {
+    u16::from_le_bytes([b[o], b[o + 1]])
+}
+
+fn u32_at(b: &[u8], o: usize) -> u32 {
+    u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+}
+
+fn put_u16(b: &mut [u8], o: usize, v: u16) {
+    b[o..o + 2].copy_from_slice(&v.to_le_bytes());
+}
+
+fn put_u32(b: &mut [u8], o: usize, v: u32) {
+    b[o..o + 4].copy_from_slice(&v.to_le_bytes());
+}
+
+/// Byte ranges of the sections of a well-formed file.
+#[derive(Debug, Clone)]
+struct Sections {
+    meta: Range<usize>,
+    padding: Range<usize>,
+    payload: Range<usize>,
+}
+
+fn sections(file: &[u8]) -> Sections {
+    let meta_end = HEADER_LEN + u32_at(file, META_LEN_AT) as usize;
+    let p0 = u32_at(file, PAYLOAD_OFFSET_AT) as usize;
+    let p1 = p0 + u32_at(file, PAYLOAD_LEN_AT) as usize;
+    assert_eq!(p1, file.len(), "helper expects a well-formed file");
+    Sections {
+        meta: HEADER_LEN..meta_end,
+        padding: meta_end..p0,
+        payload: p0..p1,
+    }
+}
+
+/// Recomputes the header CRC (bytes 0..60, stored at 60..64).
+fn fix_header_crc(b: &mut [u8]) {
+    let crc = crc32fast::hash(&b[..HEADER_CRC_AT]);
+    put_u32(b, HEADER_CRC_AT, crc);
+}
+
+/// Recomputes the metadata and payload CRCs (where the header's ranges lie inside
+/// the byte string), then the header CRC. Works on arbitrarily corrupted headers.
+fn fix_crcs(b: &mut [u8]) {
+    if b.len() < HEADER_LEN {
+        return;
+    }
+    let meta_crc = HEADER_LEN
+        .checked_add(u32_at(b, META_LEN_AT) as usize)
+        .and_then(|end| b.get(HEADER_LEN..end))
+        .map(crc32fast::hash);
+    if let Some(crc) = meta_crc {
+        put_u32(b, META_CRC_AT, crc);
+    }
+    let p0 = u32_at(b, PAYLOAD_OFFSET_AT) as usize;
+    let payload_crc = p0
+        .checked_add(u32_at(b, PAYLOAD_LEN_AT) as usize)
+        .and_then(|end| b.get(p0..end))
+        .map(crc32fast::hash);
+    if let Some(crc) = payload_crc {
+        put_u32(b, PAYLOAD_CRC_AT, crc);
+    }
+    fix_header_crc(b);
+}
+
+/// A file with `template`'s header (kind, versions, flags) around the given metadata
+/// and payload bytes, with consistent offsets, zero padding and valid CRCs. Unlike
+/// `format::encode` it validates nothing, so it can write what the loader must reject.
+fn assemble(template: &[u8], meta: &[u8], payload: &[u8]) -> Vec<u8> {
+    let mut out = template[..HEADER_LEN].to_vec();
+    let p0 = (HEADER_LEN + meta.len()).div_ceil(16) * 16;
+    put_u32(&mut out, META_LEN_AT, meta.len() as u32);
+    put_u32(&mut out, PAYLOAD_OFFSET_AT, p0 as u32);
+    put_u32(&mut out, PAYLOAD_LEN_AT, payload.len() as u32);
+    out.extend_from_slice(meta);
+    out.resize(p0, 0);
+    out.extend_from_slice(payload);
+    fix_crcs(&mut out);
+    out
+}
+
+/// `file` with its metadata replaced by the (unvalidated) postcard encoding of `meta`.
+fn with_meta(file: &[u8], meta: &Meta) -> Vec<u8> {
+    let meta_bytes = postcard::to_allocvec(meta).expect("meta serialises");
+    assemble(file, &meta_bytes, &file[sections(file).payload])
+}
+
+/// `file` with the payload value `#index` replaced by `value`, CRCs fixed.
+fn with_value(file: &[u8], index: usize, value: f32) -> Vec<u8> {
+    let mut b = file.to_vec();
+    let at = sections(file).payload.start + 4 * index;
+    b[at..at + 4].copy_from_slice(&value.to_le_bytes());
+    fix_crcs(&mut b);
+    b
+}
+
+fn table(file: &[u8]) -> Table {
+    Table::from_bytes(file).expect("committed table loads")
+}
+
+fn meta_of(file: &[u8]) -> Meta {
+    table(file).meta().clone()
+}
+
+/// The load error for `bytes`; fails the test if they load.
+#[track_caller]
+fn load_err(bytes: &[u8]) -> LoadError {
+    match Table::from_bytes(bytes) {
+        Ok(t) => panic!(
+            "{} bytes unexpectedly loaded as a '{}' table",
+            bytes.len(),
+            t.meta().kind
+        ),
+        Err(e) => e,
+    }
+}
+
+/// The lookup error of `r`; fails the test on a value.
+#[track_caller]
+fn lookup_err(r: Result<f64, LookupError>) -> LookupError {
+    match r {
+        Ok(v) => panic!("lookup unexpectedly succeeded with {v}"),
+        Err(e) => e,
+    }
+}
+
+/// Checks that `bad`, a same-length corruption of the valid file `orig`, is rejected
+/// with exactly the error of the first check it must fail (magic, major version,
+/// header CRC, metadata CRC, payload CRC, zero padding). CRC collisions are neglected
+/// (CRC-32 catches every single-byte error; random multi-byte ones escape with
+/// probability 2^-32).
+#[track_caller]
+fn assert_corruption_detected(orig: &[u8], bad: &[u8]) {
+    assert_eq!(orig.len(), bad.len());
+    let s = sections(orig);
+    let changed = |r: Range<usize>| orig[r.clone()] != bad[r];
+    let e = match Table::from_bytes(bad) {
+        Ok(_) => {
+            assert!(orig == bad, "a corrupted file loaded");
+            return;
+        }
+        Err(e) => e,
+    };
+    assert!(orig != bad, "the unmodified file was rejected: {e:?}");
+    if changed(0..MAJOR_AT) {
+        let found: [u8; 8] = bad[..8].try_into().unwrap();
+        assert_eq!(e, LoadError::BadMagic { found });
+    } else if changed(MAJOR_AT..MINOR_AT) {
+        assert_eq!(
+            e,
+            LoadError::UnsupportedFormat {
+                found_major: u16_at(bad, MAJOR_AT),
+                found_minor: u16_at(bad, MINOR_AT),
+                supported_major: format::FORMAT_MAJOR,
+            }
+        );
+    } else if changed(MINOR_AT..HEADER_LEN) {
+        assert_eq!(
+            e,
+            LoadError::Checksum {
+                section: "header",
+                stored: u32_at(bad, HEADER_CRC_AT),
+                computed: crc32fast::hash(&bad[..HEADER_CRC_AT]),
+            }
+        );
+    } else if changed(s.meta.clone()) {
+        assert_eq!(
+            e,
+            LoadError::Checksum {
+                section: "metadata",
+                stored: u32_at(bad, META_CRC_AT),
+                computed: crc32fast::hash(&bad[s.meta]),
+            }
+        );
+    } else if changed(s.payload.clone()) {
+        assert_eq!(
+            e,
+            LoadError::Checksum {
+                section: "payload",
+                stored: u32_at(bad, PAYLOAD_CRC_AT),
+                computed: crc32fast::hash(&bad[s.payload]),
+            }
+        );
+    } else {
+        assert!(changed(s.padding), "unclassified corruption");
+        assert!(matches!(e, LoadError::BadLayout(_)), "non-zero padding gave {e:?}");
+    }
+}
+
+/// Applies `(index, value)` mutations; `header_only` aims them at bytes 12..60.
+fn mutate(file: &[u8], muts: &[(Index, u8)], header_only: bool) -> Vec<u8> {
+    let mut b = file.to_vec();
+    for (i, v) in muts {
+        let at = if header_only {
+            FLAGS_AT + i.index(HEADER_CRC_AT - FLAGS_AT)
+        } else {
+            i.index(b.len())
+        };
+        b[at] = *v;
+    }
+    b
+}
+
+/// Exercises a table that loaded: it re-encodes (the writer accepts whatever the
+/// reader accepts), the re-encoding loads and is a fixed point, and lookups at the
+/// ends and the middle of the domain return (a value or a typed error) without panicking.
+fn exercise_loaded(t: &Table) {
+    let re = format::encode(t.meta(), t.values()).expect("a table the reader accepts re-encodes");
+    let t2 = Table::from_bytes(&re).expect("a re-encoded table loads");
+    assert_eq!(format::encode(t2.meta(), t2.values()).unwrap(), re);
+    let axes = &t.meta().axes;
+    let mut out = vec![0.0; t.meta().channels.len()];
+    for pick in [0.0, 0.5, 1.0] {
+        let x: Vec<f64> = axes.iter().map(|a| a.lo + pick * (a.hi - a.lo)).collect();
+        let _ = t.interpolate(&x, &mut out);
+    }
+    let _ = LobeIntegral::from_table(t.clone()).map(|l| l.integral(1.0));
+    let _ = CapExponent::from_table(t.clone()).map(|c| c.e_cap(0.5));
+}
+
+fn file_of(cap: bool) -> &'static [u8] {
+    if cap {
+        CAP
+    } else {
+        LOBE
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// 1. Valid files
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn committed_files_load_and_describe_themselves() {
+    for (kind, file) in FILES {
+        let t = table(file);
+        let h = t.header();
+        assert_eq!(h.kind, kind);
+        assert_eq!(t.meta().kind, kind);
+        assert_eq!((h.major, h.minor), (format::FORMAT_MAJOR, format::FORMAT_MINOR));
+        assert_eq!(t.meta().table_version, 1);
+        assert_eq!(h.meta_offset as usize, HEADER_LEN);
+        assert_eq!(h.payload_offset as usize % format::PAYLOAD_ALIGN, 0);
+        let s = sections(file);
+        assert_eq!(t.payload_bytes(), &file[s.payload.clone()]);
+        assert_eq!(t.values().len() * 4, s.payload.len());
+        assert_eq!(Some(s.payload.len() as u64), t.meta().payload_len());
+        assert!(t.values().iter().all(|v| v.is_finite()));
+        assert!(file[s.padding].iter().all(|&b| b == 0));
+    }
+}
+
+#[test]
+fn family_loaders_accept_their_own_files() {
+    let lobes = LobeIntegral::from_bytes(LOBE).expect("lobe-integral loads");
+    let i = lobes.integral(10.0).unwrap();
+    assert!((i - 2.0 * PI / 11.0).abs() < 1e-6 * i, "I(10) = {i}");
+    let caps = CapExponent::from_bytes(CAP).expect("cap-exponent loads");
+    let e = caps.e_cap(0.1).unwrap();
+    assert!((e - 191.6426).abs() < 0.05, "e_cap(0.1) = {e}");
+
+    assert!(LobeIntegral::from_table(table(LOBE)).is_ok());
+    assert!(CapExponent::from_table(table(CAP)).is_ok());
+}
+
+#[test]
+fn encode_reproduces_committed_files_byte_for_byte() {
+    for (kind, file) in FILES {
+        let t = table(file);
+        let re = format::encode(t.meta(), t.values()).expect("committed table re-encodes");
+        assert!(re == file, "{kind}: re-encoding differs from the committed file");
+        // The test helper that writes unvalidated files agrees with the writer.
+        assert!(
+            with_meta(file, t.meta()) == file,
+            "{kind}: helper `with_meta` is not faithful"
+        );
+    }
+}
+
+#[cfg(feature = "embedded")]
+#[test]
+fn embedded_tables_are_the_committed_files() {
+    assert!(lobefit_tables::embedded::LOBE_INTEGRAL == LOBE);
+    assert!(lobefit_tables::embedded::CAP_EXPONENT == CAP);
+}
+
+// ---------------------------------------------------------------------------------
+// 2. Truncation
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn every_prefix_is_truncated() {
+    for (kind, file) in FILES {
+        for n in 0..file.len() {
+            let e = load_err(&file[..n]);
+            // Short of the header, the header is what is missing; after it, the header's
+            // own lengths say the whole file is needed.
+            let needed = if n < HEADER_LEN { HEADER_LEN } else { file.len() } as u64;
+            assert_eq!(
+                e,
+                LoadError::Truncated { needed, have: n as u64 },
+                "{kind} cut to {n} bytes"
+            );
+        }
+    }
+}
+
+#[test]
+fn short_files_with_the_magic_are_truncated() {
+    for (_, file) in FILES {
+        for n in MAGIC.len()..HEADER_LEN {
+            let e = load_err(&file[..n]);
+            assert!(
+                matches!(e, LoadError::Truncated { needed: 64, have } if have == n as u64),
+                "{n} bytes: {e:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn cut_inside_the_payload_is_truncated() {
+    for (kind, file) in FILES {
+        let s = sections(file);
+        for n in [
+            s.payload.start,
+            s.payload.start + 1,
+            s.payload.start + 4,
+            file.len() - 1,
+        ] {
+            let e = load_err(&file[..n]);
+            assert!(
+                matches!(e, LoadError::Truncated { needed, have } if needed == file.len() as u64 && have == n as u64),
+                "{kind} cut to {n}: {e:?}"
+            );
+        }
+        // Inside the metadata too.
+        let n = s.meta.start + s.meta.len() / 2;
+        assert!(matches!(load_err(&file[..n]), LoadError::Truncated { .. }));
+    }
+    // The family loaders pass the error on unchanged.
+    let n = LOBE.len() - 3;
+    let e = LobeIntegral::from_bytes(&LOBE[..n]).unwrap_err();
+    assert!(
+        matches!(e, LoadError::Truncated { needed, .. } if needed == LOBE.len() as u64),
+        "{e:?}"
+    );
+    let e = CapExponent::from_bytes(&CAP[..10]).unwrap_err();
+    assert!(matches!(e, LoadError::Truncated { needed: 64, have: 10 }), "{e:?}");
+}
+
+#[test]
+fn header_promising_more_than_the_file_holds_is_truncated() {
+    for (_, file) in FILES {
+        let len = file.len() as u64;
+        let mut b = file.to_vec();
+        put_u32(&mut b, PAYLOAD_LEN_AT, u32_at(file, PAYLOAD_LEN_AT) + 16);
+        fix_header_crc(&mut b);
+        assert_eq!(
+            load_err(&b),
+            LoadError::Truncated {
+                needed: len + 16,
+                have: len
+            }
+        );
+
+        // Offsets near u32::MAX must not overflow anything.
+        let mut b = file.to_vec();
+        put_u32(&mut b, PAYLOAD_OFFSET_AT, 0xFFFF_FFF0);
+        put_u32(&mut b, PAYLOAD_LEN_AT, 0xFFFF_FFFC);
+        fix_header_crc(&mut b);
+        let needed = 0xFFFF_FFF0u64 + 0xFFFF_FFFC;
+        assert_eq!(load_err(&b), LoadError::Truncated { needed, have: len });
+
+        let mut b = file.to_vec();
+        put_u32(&mut b, META_LEN_AT, u32::MAX);
+        fix_header_crc(&mut b);
+        assert!(matches!(load_err(&b), LoadError::BadLayout(_)));
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// 3. Trailing bytes
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn trailing_bytes_are_rejected() {
+    for (kind, file) in FILES {
+        for (extra, fill) in [(1usize, 0u8), (3, 0xAB), (16, 0), (4096, 0x55)] {
+            let mut b = file.to_vec();
+            b.resize(file.len() + extra, fill);
+            assert_eq!(
+                load_err(&b),
+                LoadError::TrailingBytes { extra: extra as u64 },
+                "{kind} + {extra}"
+            );
+        }
+        // Two files concatenated.
+        let both = [file, file].concat();
+        assert_eq!(
+            load_err(&both),
+            LoadError::TrailingBytes {
+                extra: file.len() as u64
+            }
+        );
+    }
+    let mut b = LOBE.to_vec();
+    b.push(0);
+    assert!(matches!(
+        LobeIntegral::from_bytes(&b),
+        Err(LoadError::TrailingBytes { extra: 1 })
+    ));
+}
+
+#[test]
+fn header_promising_less_than_the_file_holds_gives_trailing_bytes() {
+    let mut b = LOBE.to_vec();
+    put_u32(&mut b, PAYLOAD_LEN_AT, u32_at(LOBE, PAYLOAD_LEN_AT) - 4);
+    fix_header_crc(&mut b);
+    assert_eq!(load_err(&b), LoadError::TrailingBytes { extra: 4 });
+}
+
+// ---------------------------------------------------------------------------------
+// 4. Magic
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn wrong_magic_is_rejected() {
+    for (_, file) in FILES {
+        for i in 0..MAGIC.len() {
+            let mut b = file.to_vec();
+            b[i] ^= 0x20;
+            let found: [u8; 8] = b[..8].try_into().unwrap();
+            assert_eq!(load_err(&b), LoadError::BadMagic { found });
+        }
+    }
+    // A text-mode transfer that turned \r\n into \n.
+    let mut b = LOBE.to_vec();
+    b.remove(4);
+    assert!(matches!(load_err(&b), LoadError::BadMagic { found } if found == *b"LBFT\n\x1a\n\x01"));
+    // Other file types.
+    let png = b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR";
+    assert!(matches!(load_err(png), LoadError::BadMagic { found } if found == png[..8]));
+    let mut zeros = vec![0u8; LOBE.len()];
+    assert!(matches!(load_err(&zeros), LoadError::BadMagic { found } if found == [0; 8]));
+    zeros[..8].copy_from_slice(b"LBFT\r\n\x1a\r");
+    assert!(matches!(load_err(&zeros), LoadError::BadMagic { .. }));
+    // Fewer than eight bytes cannot be told apart from a truncated table.
+    assert!(matches!(
+        load_err(b"PK\x03"),
+        LoadError::Truncated { needed: 64, have: 3 }
+    ));
+    assert!(matches!(CapExponent::from_bytes(png), Err(LoadError::BadMagic { .. })));
+}
+
+// ---------------------------------------------------------------------------------
+// 5. Format version
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn future_major_format_version_is_rejected() {
+    for (_, file) in FILES {
+        for major in [2u16, 0, 0xFFFF] {
+            let mut b = file.to_vec();
+            put_u16(&mut b, MAJOR_AT, major); // CRCs deliberately left stale
+            let e = load_err(&b);
+            assert!(
+                matches!(e, LoadError::UnsupportedFormat { found_major, found_minor: 0, supported_major: 1 } if found_major == major),
+                "major {major}: {e:?}"
+            );
+        }
+    }
+    let mut b = LOBE.to_vec();
+    put_u16(&mut b, MAJOR_AT, 2);
+    let e = load_err(&b);
+    assert!(
+        matches!(e, LoadError::UnsupportedFormat { found_major: 2, .. }),
+        "{e:?}"
+    );
+    // A future major may have a shorter header: the version is checked first.
+    assert!(matches!(
+        load_err(&b[..12]),
+        LoadError::UnsupportedFormat { found_major: 2, .. }
+    ));
+    put_u16(&mut b, MINOR_AT, 7);
+    assert!(matches!(
+        load_err(&b[..16]),
+        LoadError::UnsupportedFormat {
+            found_major: 2,
+            found_minor: 7,
+            supported_major: 1
+        }
+    ));
+    assert!(matches!(
+        LobeIntegral::from_bytes(&b),
+        Err(LoadError::UnsupportedFormat { found_major: 2, .. })
+    ));
+}
+
+#[test]
+fn newer_minor_format_version_loads() {
+    // The minor version is informational: any minor of major 1 loads.
+    for (_, file) in FILES {
+        let mut b = file.to_vec();
+        put_u16(&mut b, MINOR_AT, 3);
+        fix_header_crc(&mut b);
+        let t = Table::from_bytes(&b).expect("minor version 3 loads");
+        assert_eq!(t.header().minor, 3);
+        assert_eq!(t.values(), table(file).values());
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// 6. Checksums
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn flipped_header_byte_fails_the_header_checksum() {
+    for (_, file) in FILES {
+        // Minor, flags, kind, offsets, lengths, CRC fields, reserved, the CRC itself.
+        for i in MINOR_AT..HEADER_LEN {
+            let mut b = file.to_vec();
+            b[i] ^= 0x04;
+            let e = load_err(&b);
+            assert!(
+                matches!(e, LoadError::Checksum { section: "header", stored, computed } if stored != computed),
+                "byte {i}: {e:?}"
+            );
+        }
+    }
+    // Inside the kind field: "lobe-integral" -> "lobe-integrbl".
+    let mut b = LOBE.to_vec();
+    b[KIND_AT + 11] = b'b';
+    assert!(matches!(load_err(&b), LoadError::Checksum { section: "header", .. }));
+    // An offset.
+    let mut b = LOBE.to_vec();
+    b[PAYLOAD_OFFSET_AT] ^= 0x10;
+    assert!(matches!(load_err(&b), LoadError::Checksum { section: "header", .. }));
+}
+
+#[test]
+fn flipped_metadata_byte_fails_the_metadata_checksum() {
+    for (_, file) in FILES {
+        let s = sections(file);
+        for i in [
+            s.meta.start,
+            s.meta.start + 5,
+            s.meta.start + s.meta.len() / 2,
+            s.meta.end - 1,
+        ] {
+            let mut b = file.to_vec();
+            b[i] ^= 0x01;
+            let e = load_err(&b);
+            assert!(
+                matches!(e, LoadError::Checksum { section: "metadata", stored, computed }
+                    if stored == u32_at(file, META_CRC_AT) && computed == crc32fast::hash(&b[s.meta.clone()])),
+                "byte {i}: {e:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn flipped_payload_byte_fails_the_payload_checksum() {
+    for (_, file) in FILES {
+        let s = sections(file);
+        for i in [s.payload.start, s.payload.start + 7, s.payload.end - 1] {
+            let mut b = file.to_vec();
+            b[i] ^= 0x80;
+            let e = load_err(&b);
+            assert!(
+                matches!(e, LoadError::Checksum { section: "payload", stored, computed }
+                    if stored == u32_at(file, PAYLOAD_CRC_AT) && computed == crc32fast::hash(&b[s.payload.clone()])),
+                "byte {i}: {e:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_single_byte_corruption_is_caught_with_the_right_error() {
+    for (_, file) in FILES {
+        let mut b = file.to_vec();
+        for i in 0..file.len() {
+            for mask in [0x01u8, 0x80, 0xFF] {
+                b[i] ^= mask;
+                assert_corruption_detected(file, &b);
+                b[i] ^= mask;
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// 7. Non-finite payload behind valid checksums
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn non_finite_payload_with_valid_checksums_is_rejected() {
+    for (_, file) in FILES {
+        let n = table(file).values().len();
+        for index in [0, n / 2, n - 1] {
+            for value in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+                let b = with_value(file, index, value);
+                let e = load_err(&b);
+                assert!(
+                    matches!(e, LoadError::NonFinite { index: i, value: v }
+                        if i == index && (v.to_bits() == value.to_bits())),
+                    "#{index} = {value}: {e:?}"
+                );
+            }
+        }
+        // A quiet NaN with a payload, and the first bad value is the one reported.
+        let b = with_value(&with_value(file, 9, f32::from_bits(0x7FC0_1234)), 3, f32::NAN);
+        let e = load_err(&b);
+        assert!(
+            matches!(e, LoadError::NonFinite { index: 3, value } if value.is_nan()),
+            "{e:?}"
+        );
+    }
+    let b = with_value(LOBE, 0, f32::NAN);
+    assert!(matches!(
+        LobeIntegral::from_bytes(&b),
+        Err(LoadError::NonFinite { index: 0, value }) if value.is_nan()
+    ));
+}
+
+// ---------------------------------------------------------------------------------
+// 8. Kind and family version
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn wrong_kind_is_rejected() {
+    let e = CapExponent::from_bytes(LOBE).unwrap_err();
+    assert!(
+        matches!(&e, LoadError::WrongKind { expected, found } if expected == "cap-exponent" && found == "lobe-integral"),
+        "{e:?}"
+    );
+    let e = LobeIntegral::from_bytes(CAP).unwrap_err();
+    assert!(
+        matches!(&e, LoadError::WrongKind { expected, found } if expected == "lobe-integral" && found == "cap-exponent"),
+        "{e:?}"
+    );
+    let e = CapExponent::from_table(table(LOBE)).unwrap_err();
+    assert!(
+        matches!(&e, LoadError::WrongKind { expected, .. } if expected == cap_exponent::KIND),
+        "{e:?}"
+    );
+    let e = LobeIntegral::from_table(table(CAP)).unwrap_err();
+    assert!(
+        matches!(&e, LoadError::WrongKind { expected, .. } if expected == lobe_integral::KIND),
+        "{e:?}"
+    );
+    let e = Table::from_bytes_of_kind(LOBE, "sg-fit", 1).unwrap_err();
+    assert!(
+        matches!(&e, LoadError::WrongKind { found, .. } if found == "lobe-integral"),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn unsupported_table_version_is_rejected() {
+    for (kind, file) in FILES {
+        let mut meta = meta_of(file);
+        meta.table_version = 99;
+        let b = format::encode(&meta, table(file).values()).expect("version 99 encodes");
+        // The generic loader does not care about family versions...
+        assert_eq!(table(&b).meta().table_version, 99);
+        // ...the family loaders do.
+        let e = if kind == lobe_integral::KIND {
+            LobeIntegral::from_bytes(&b).unwrap_err()
+        } else {
+            CapExponent::from_bytes(&b).unwrap_err()
+        };
+        assert_eq!(
+            e,
+            LoadError::UnsupportedTableVersion {
+                kind: kind.to_string(),
+                found: 99,
+                supported: 1
+            }
+        );
+        let e = Table::from_bytes_of_kind(&b, kind, 1).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                LoadError::UnsupportedTableVersion {
+                    found: 99,
+                    supported: 1,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        // The kind is checked before the version.
+        let other = if kind == lobe_integral::KIND {
+            CapExponent::from_bytes(&b).unwrap_err()
+        } else {
+            LobeIntegral::from_bytes(&b).unwrap_err()
+        };
+        assert!(
+            matches!(&other, LoadError::WrongKind { found, .. } if found == kind),
+            "{other:?}"
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// 9. Metadata that is garbage, or decodes but is invalid
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn swapped_axis_range_patched_in_place_is_invalid() {
+    // Patch the bytes of the axis range in place (lo <-> hi), then fix the CRCs.
+    for (_, file) in FILES {
+        let axis = &meta_of(file).axes[0];
+        let needle = [axis.lo.to_le_bytes(), axis.hi.to_le_bytes()].concat();
+        let swapped = [axis.hi.to_le_bytes(), axis.lo.to_le_bytes()].concat();
+        let s = sections(file);
+        let hits: Vec<usize> = (s.meta.start..s.meta.end - 16)
+            .filter(|&i| file[i..i + 16] == needle[..])
+            .collect();
+        assert_eq!(hits.len(), 1, "axis range found {} times", hits.len());
+        let mut b = file.to_vec();
+        b[hits[0]..hits[0] + 16].copy_from_slice(&swapped);
+        fix_crcs(&mut b);
+        let e = load_err(&b);
+        assert!(matches!(e, LoadError::Invalid(_)), "{e:?}");
+    }
+}
+
+#[test]
+fn metadata_that_decodes_but_is_invalid_is_rejected() {
+    type Edit = fn(&mut Meta);
+    let edits: [(&str, Edit); 17] = [
+        ("axis count 1", |m| m.axes[0].count = 1),
+        ("axis count 0", |m| m.axes[0].count = 0),
+        ("lo > hi", |m| {
+            let a = &mut m.axes[0];
+            std::mem::swap(&mut a.lo, &mut a.hi);
+        }),
+        ("lo == hi", |m| m.axes[0].lo = m.axes[0].hi),
+        ("lo NaN", |m| m.axes[0].lo = f64::NAN),
+        ("hi infinite", |m| m.axes[0].hi = f64::INFINITY),
+        ("log mapping with lo <= 0", |m| {
+            m.axes[0].lo = 0.0;
+            m.axes[0].mapping = Mapping::Log;
+        }),
+        ("log1p scale 0", |m| m.axes[0].mapping = Mapping::Log1p { scale: 0.0 }),
+        ("log1p scale NaN", |m| {
+            m.axes[0].mapping = Mapping::Log1p { scale: f64::NAN }
+        }),
+        ("logit not containing the range", |m| {
+            let (lo, hi) = (m.axes[0].lo, m.axes[0].hi);
+            m.axes[0].mapping = Mapping::Logit { a: lo, b: hi };
+        }),
+        ("no axes", |m| m.axes.clear()),
+        ("five axes", |m| {
+            let a = m.axes[0].clone();
+            m.axes = vec![a; 5];
+        }),
+        ("no channels", |m| m.channels.clear()),
+        ("diagnostics entry count off by one", |m| m.diagnostics.entries += 1),
+        ("settings hash mismatch", |m| m.fit.settings_hash ^= 1),
+        ("metadata kind differs from header kind", |m| {
+            m.kind = if m.kind == lobe_integral::KIND {
+                cap_exponent::KIND.into()
+            } else {
+                lobe_integral::KIND.into()
+            }
+        }),
+        ("extra channel: payload too short", |m| {
+            let c = m.channels[0].clone();
+            m.channels.push(c);
+        }),
+    ];
+    for (kind, file) in FILES {
+        for (what, edit) in edits {
+            let mut meta = meta_of(file);
+            edit(&mut meta);
+            let b = with_meta(file, &meta);
+            let e = load_err(&b);
+            assert!(matches!(e, LoadError::Invalid(_)), "{kind}, {what}: {e:?}");
+        }
+        // Per-entry diagnostics shorter than the grid.
+        let mut meta = meta_of(file);
+        if let Some(p) = meta.diagnostics.per_entry.as_mut() {
+            p.residual.pop();
+            let e = load_err(&with_meta(file, &meta));
+            assert!(matches!(e, LoadError::Invalid(_)), "{kind}, per-entry: {e:?}");
+        }
+        // Payload one value short of what the axes and channels need.
+        let s = sections(file);
+        let b = assemble(file, &file[s.meta.clone()], &file[s.payload.start..s.payload.end - 4]);
+        let e = load_err(&b);
+        assert!(matches!(e, LoadError::Invalid(_)), "{kind}, short payload: {e:?}");
+    }
+}
+
+#[test]
+fn garbage_metadata_with_valid_checksums_is_rejected() {
+    for (kind, file) in FILES {
+        let s = sections(file);
+        let meta = &file[s.meta.clone()];
+        let payload = &file[s.payload.clone()];
+        let cases: [(&str, Vec<u8>); 6] = [
+            ("empty", vec![]),
+            ("0xFF bytes", vec![0xFF; 64]),
+            ("zero bytes", vec![0; 64]),
+            ("cut by one byte", meta[..meta.len() - 1].to_vec()),
+            ("one byte too many", [meta, &[0]].concat()),
+            (
+                "kind not UTF-8",
+                [&[4u8, 0xFF, 0xFE, 0xFD, 0xFC][..], &meta[1 + kind.len()..]].concat(),
+            ),
+        ];
+        for (what, m) in cases {
+            let e = load_err(&assemble(file, &m, payload));
+            assert!(matches!(e, LoadError::BadMetadata(_)), "{kind}, {what}: {e:?}");
+        }
+    }
+}
+
+#[test]
+fn inconsistent_layout_is_rejected() {
+    for (kind, file) in FILES {
+        type Patch = fn(&mut Vec<u8>);
+        let patches: [(&str, Patch); 8] = [
+            ("metadata offset 65", |b| put_u32(b, META_OFFSET_AT, 65)),
+            ("payload offset not aligned", |b| {
+                let p = u32_at(b, PAYLOAD_OFFSET_AT);
+                put_u32(b, PAYLOAD_OFFSET_AT, p - 1);
+            }),
+            ("payload offset inside the metadata", |b| {
+                put_u32(b, PAYLOAD_OFFSET_AT, 64)
+            }),
+            ("payload length not a multiple of 4", |b| {
+                let n = u32_at(b, PAYLOAD_LEN_AT);
+                put_u32(b, PAYLOAD_LEN_AT, n - 2);
+            }),
+            ("kind empty", |b| b[KIND_AT..KIND_AT + 16].fill(0)),
+            ("kind not NUL padded", |b| b[KIND_AT + 15] = b'x'),
+            ("kind not ASCII", |b| b[KIND_AT] = 0xC3),
+            ("kind without padding but bytes after a NUL", |b| {
+                b[KIND_AT..KIND_AT + 16].copy_from_slice(b"lobe\0integral\0\0x")
+            }),
+        ];
+        for (what, patch) in patches {
+            let mut b = file.to_vec();
+            patch(&mut b);
+            fix_header_crc(&mut b);
+            let e = load_err(&b);
+            assert!(matches!(e, LoadError::BadLayout(_)), "{kind}, {what}: {e:?}");
+        }
+        // Padding is not covered by a CRC but must be zero.
+        let s = sections(file);
+        assert!(!s.padding.is_empty());
+        let mut b = file.to_vec();
+        b[s.padding.end - 1] = 1;
+        let e = load_err(&b);
+        assert!(matches!(e, LoadError::BadLayout(_)), "{kind}, padding: {e:?}");
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// 10. Lookups
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn lobe_integral_refuses_bad_exponents() {
+    let lobes = LobeIntegral::from_bytes(LOBE).unwrap();
+    let e_max = lobe_integral::E_MAX;
+    for e in [-1.0, -1e-300, e_max * 1.0001, 1e300] {
+        let err = lookup_err(lobes.integral(e));
+        assert!(
+            matches!(&err, LookupError::OutOfDomain { name, value, lo, hi }
+                if name == "e" && *value == e && *lo == 0.0 && *hi == e_max),
+            "I({e}): {err:?}"
+        );
+    }
+    for e in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        let err = lookup_err(lobes.integral(e));
+        assert!(
+            matches!(&err, LookupError::NotFinite { name, value } if name == "e" && value.to_bits() == e.to_bits()),
+            "I({e}): {err:?}"
+        );
+    }
+    assert!(matches!(
+        lobes.integral_f32(f32::NAN),
+        Err(LookupError::NotFinite { .. })
+    ));
+    assert!(matches!(lobes.integral_f32(-2.0), Err(LookupError::OutOfDomain { .. })));
+    assert!(matches!(lobe_integral::exact(-1.0), Err(LookupError::OutOfDomain { ref name, .. }) if name == "e"));
+    assert!(matches!(lobe_integral::exact(f64::NAN), Err(LookupError::NotFinite { ref name, .. }) if name == "e"));
+    // The ends of the domain are fine.
+    for e in [0.0, e_max] {
+        let i = lobes.integral(e).unwrap();
+        let exact = lobe_integral::exact(e).unwrap();
+        assert!((i - exact).abs() <= 1e-6 * exact, "I({e}) = {i}, exact {exact}");
+    }
+}
+
+#[test]
+fn cap_exponent_refuses_bad_angles() {
+    let caps = CapExponent::from_bytes(CAP).unwrap();
+    for a in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        let err = lookup_err(caps.e_cap(a));
+        assert!(
+            matches!(&err, LookupError::NotFinite { name, value } if name == "alpha" && value.to_bits() == a.to_bits()),
+            "e_cap({a}): {err:?}"
+        );
+    }
+    for a in [1e-4, 0.0, -0.5, 4.0, PI * (1.0 + 1e-12)] {
+        let err = lookup_err(caps.e_cap(a));
+        assert!(
+            matches!(&err, LookupError::OutOfDomain { name, value, lo, hi }
+                if name == "alpha" && *value == a && *lo == cap_exponent::ALPHA_MIN && *hi == PI),
+            "e_cap({a}): {err:?}"
+        );
+    }
+    assert!(matches!(caps.e_cap_f32(f32::NAN), Err(LookupError::NotFinite { .. })));
+    // The ratio's domain ends at π/2.
+    let err = lookup_err(caps.ratio(FRAC_PI_2 + 0.01));
+    assert!(
+        matches!(&err, LookupError::OutOfDomain { name, hi, .. } if name == "alpha" && *hi == FRAC_PI_2),
+        "{err:?}"
+    );
+    assert!(matches!(caps.ratio(f64::NAN), Err(LookupError::NotFinite { .. })));
+}
+
+#[test]
+fn cap_exponent_is_zero_from_half_pi_to_pi() {
+    let caps = CapExponent::from_bytes(CAP).unwrap();
+    for k in 0..=100 {
+        let a = FRAC_PI_2 + (PI - FRAC_PI_2) * k as f64 / 100.0;
+        assert_eq!(caps.e_cap(a), Ok(0.0), "e_cap({a})");
+    }
+    assert_eq!(caps.e_cap(FRAC_PI_2), Ok(0.0));
+    assert_eq!(caps.e_cap(PI), Ok(0.0));
+    assert_eq!(caps.e_cap_f32(2.0), Ok(0.0));
+    // Just inside the domain the exponent is finite and positive (large near ALPHA_MIN).
+    for a in [cap_exponent::ALPHA_MIN, 0.5, FRAC_PI_2 - 1e-9] {
+        let e = caps.e_cap(a).unwrap();
+        assert!(e.is_finite() && e >= 0.0, "e_cap({a}) = {e}");
+    }
+    assert!(caps.e_cap(cap_exponent::ALPHA_MIN).unwrap() > 1e6);
+}
+
+// ---------------------------------------------------------------------------------
+// 12. Table::interpolate arity
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn interpolate_checks_arity() {
+    for (_, file) in FILES {
+        let t = table(file);
+        let a = &t.meta().axes[0];
+        let mid = 0.5 * (a.lo + a.hi);
+        let mut one = [0.0];
+        assert_eq!(
+            t.interpolate(&[], &mut one),
+            Err(LookupError::Arity { expected: 1, got: 0 })
+        );
+        assert_eq!(
+            t.interpolate(&[mid, mid], &mut one),
+            Err(LookupError::Arity { expected: 1, got: 2 })
+        );
+        assert_eq!(
+            t.interpolate(&[mid], &mut []),
+            Err(LookupError::Arity { expected: 1, got: 0 })
+        );
+        assert_eq!(
+            t.interpolate(&[mid], &mut [0.0; 2]),
+            Err(LookupError::Arity { expected: 1, got: 2 })
+        );
+        // Arity is checked before the coordinates.
+        assert!(matches!(
+            t.interpolate(&[f64::NAN, f64::NAN], &mut one),
+            Err(LookupError::Arity { expected: 1, got: 2 })
+        ));
+        // And the coordinates are checked against the axis, by name.
+        let err = t.interpolate(&[f64::NAN], &mut one).unwrap_err();
+        assert!(
+            matches!(&err, LookupError::NotFinite { name, .. } if *name == a.name),
+            "{err:?}"
+        );
+        let err = t.interpolate(&[a.lo - 1.0], &mut one).unwrap_err();
+        assert!(
+            matches!(&err, LookupError::OutOfDomain { name, .. } if *name == a.name),
+            "{err:?}"
+        );
+        t.interpolate(&[mid], &mut one).unwrap();
+        assert!(one[0].is_finite());
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Validation gaps these tests found (fixed in the loader since)
+// ---------------------------------------------------------------------------------
+
+#[test]
+fn axis_with_non_finite_mapped_range_is_invalid() {
+    // lo, hi finite and lo < hi, but hi - lo overflows: node_coordinate(hi) = inf/inf.
+    let mut meta = meta_of(LOBE);
+    meta.axes[0].lo = -1e308;
+    meta.axes[0].hi = 1e308;
+    meta.axes[0].mapping = Mapping::Linear;
+    let b = with_meta(LOBE, &meta);
+    match Table::from_bytes(&b) {
+        Err(LoadError::Invalid(_)) => {}
+        Err(e) => panic!("expected Invalid, got {e:?}"),
+        Ok(t) => {
+            let mut out = [0.0];
+            let r = t.interpolate(&[1e308], &mut out);
+            panic!("table loaded; interpolate(1e308) = {r:?}, value {}", out[0]);
+        }
+    }
+}
+
+#[test]
+fn log_channel_that_decodes_to_infinity_is_rejected() {
+    // Every stored ln I = 1000 (finite f32), but exp(1000) = inf.
+    let n = table(LOBE).values().len();
+    let mut b = LOBE.to_vec();
+    for i in 0..n {
+        let at = sections(LOBE).payload.start + 4 * i;
+        b[at..at + 4].copy_from_slice(&1000.0f32.to_le_bytes());
+    }
+    fix_crcs(&mut b);
+    match LobeIntegral::from_bytes(&b) {
+        Err(LoadError::Invalid(_) | LoadError::NonFinite { .. }) => {}
+        Err(e) => panic!("expected Invalid or NonFinite, got {e:?}"),
+        Ok(l) => panic!("table loaded; integral(1) = {:?}", l.integral(1.0)),
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// 11. Property tests: no input panics the loader
+// ---------------------------------------------------------------------------------
+
+fn config() -> ProptestConfig {
+    ProptestConfig {
+        cases: 256,
+        // Do not write regression files into the source tree.
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
+}
+
+proptest! {
+    #![proptest_config(config())]
+
+    /// (a) Arbitrary bytes: never a panic; short ones are truncated, the rest lack the magic.
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..2048)) {
+        match Table::from_bytes(&bytes) {
+            Err(LoadError::Truncated { needed: 64, have }) if bytes.len() < 8 => {
+                prop_assert_eq!(have, bytes.len() as u64)
+            }
+            Err(LoadError::BadMagic { found }) => prop_assert_eq!(&found[..], &bytes[..8]),
+            other => prop_assert!(false, "{:?}", other.map(|_| ())),
+        }
+    }
+
+    /// (a') Arbitrary bytes after the magic (and after magic + version 1): never a panic.
+    #[test]
+    fn arbitrary_bytes_after_the_magic_never_panic(
+        with_version in any::<bool>(),
+        tail in prop::collection::vec(any::<u8>(), 0..2048),
+    ) {
+        let mut bytes = MAGIC.to_vec();
+        if with_version {
+            bytes.extend_from_slice(&[1, 0]);
+        }
+        bytes.extend_from_slice(&tail);
+        let r = Table::from_bytes(&bytes);
+        prop_assert!(
+            matches!(
+                r,
+                Err(LoadError::Truncated { .. }
+                    | LoadError::UnsupportedFormat { .. }
+                    | LoadError::Checksum { section: "header", .. })
+            ),
+            "{:?}",
+            r.map(|_| ())
+        );
+    }
+
+    /// (b) Arbitrary bytes behind the valid header of a real file: never a panic, and
+    /// since the header's lengths cannot match, always `Truncated`.
+    #[test]
+    fn arbitrary_bytes_behind_a_real_header_never_panic(
+        cap in any::<bool>(),
+        tail in prop::collection::vec(any::<u8>(), 0..2048),
+    ) {
+        let file = file_of(cap);
+        let bytes = [&file[..HEADER_LEN], &tail[..]].concat();
+        let r = Table::from_bytes(&bytes);
+        prop_assert_eq!(
+            r.map(|_| ()),
+            Err(LoadError::Truncated { needed: file.len() as u64, have: bytes.len() as u64 })
+        );
+    }
+
+    /// (b') Random metadata (a random cut of the real one plus random bytes) behind a
+    /// consistent header with valid CRCs: postcard decoding and validation never panic.
+    #[test]
+    fn random_metadata_with_valid_checksums_never_panics(
+        cap in any::<bool>(),
+        cut in any::<Index>(),
+        tail in prop::collection::vec(any::<u8>(), 0..512),
+        payload_words in prop::collection::vec(any::<u32>(), 0..64),
+        real_payload in any::<bool>(),
+    ) {
+        let file = file_of(cap);
+        let s = sections(file);
+        let meta = [&file[s.meta.start..s.meta.start + cut.index(s.meta.len() + 1)], &tail[..]].concat();
+        let random_payload: Vec<u8> = payload_words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let payload = if real_payload { &file[s.payload.clone()] } else { &random_payload[..] };
+        match Table::from_bytes(&assemble(file, &meta, payload)) {
+            Ok(t) => exercise_loaded(&t),
+            Err(LoadError::BadMetadata(_) | LoadError::Invalid(_) | LoadError::NonFinite { .. }) => {}
+            Err(e) => prop_assert!(false, "{:?}", e),
+        }
+    }
+
+    /// (c) A valid file with 1..8 random byte mutations: never a panic; loads only if
+    /// the bytes are unchanged, otherwise fails the first check it must fail.
+    #[test]
+    fn mutated_files_never_panic(
+        cap in any::<bool>(),
+        muts in prop::collection::vec((any::<Index>(), any::<u8>()), 1..=8),
+    ) {
+        let file = file_of(cap);
+        let bad = mutate(file, &muts, false);
+        assert_corruption_detected(file, &bad);
+    }
+
+    /// (d) Random mutations with all three CRCs recomputed, so layout checks, postcard
+    /// decoding and validation are exercised: never a panic, never a checksum error,
+    /// and whatever loads re-encodes and can be looked up without panicking.
+    #[test]
+    fn mutated_files_with_valid_checksums_never_panic(
+        cap in any::<bool>(),
+        header_only in prop::bool::weighted(0.25),
+        muts in prop::collection::vec((any::<Index>(), any::<u8>()), 1..=8),
+    ) {
+        let file = file_of(cap);
+        let mut bad = mutate(file, &muts, header_only);
+        fix_crcs(&mut bad);
+        match Table::from_bytes(&bad) {
+            Ok(t) => exercise_loaded(&t),
+            Err(e @ (LoadError::Checksum { .. } | LoadError::Io { .. })) => prop_assert!(false, "{:?}", e),
+            Err(_) => {}
+        }
+    }
+}
+
+#[test]
+fn non_zero_flags_or_reserved_words_are_rejected() {
+    for (_, file) in FILES {
+        for at in [12usize, 56] {
+            let mut b = file.to_vec();
+            b[at] = 7;
+            fix_header_crc(&mut b);
+            match load_err(&b) {
+                LoadError::BadLayout(m) => assert!(m.contains("flags or reserved"), "{m}"),
+                e => panic!("expected BadLayout, got {e:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn unconverged_entries_are_rejected() {
+    let mut meta = meta_of(LOBE);
+    meta.diagnostics.converged -= 1;
+    match load_err(&with_meta(LOBE, &meta)) {
+        LoadError::Invalid(m) => assert!(m.contains("unconverged"), "{m}"),
+        e => panic!("expected Invalid, got {e:?}"),
+    }
+    let mut meta = meta_of(LOBE);
+    meta.diagnostics.per_entry.as_mut().unwrap().converged[17] = false;
+    match load_err(&with_meta(LOBE, &meta)) {
+        LoadError::Invalid(m) => assert!(m.contains("entry 17 is flagged unconverged"), "{m}"),
+        e => panic!("expected Invalid, got {e:?}"),
+    }
+}
