@@ -12,7 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use lobefit::check::{self, CheckOptions};
 use lobefit::family::Family;
-use lobefit::fits::{self, Backend, FitOptions};
+use lobefit::fits::{self, Backend, FitOptions, Method};
 use lobefit::tables::Table;
 
 /// Default directory of the committed tables, relative to the repository root.
@@ -37,8 +37,17 @@ enum BackendArg {
     Nlopt,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum MethodArg {
+    Fast,
+    Paper,
+}
+
 #[derive(clap::Args)]
 struct FitArgs {
+    /// Fitting method: the product's (fast) or the paper-faithful baseline (paper).
+    #[arg(long, value_enum, default_value = "fast")]
+    method: MethodArg,
     /// Optimizer backend for minimised families (nlopt needs the `nlopt` cargo feature).
     #[arg(long, value_enum, default_value = "argmin")]
     backend: BackendArg,
@@ -126,6 +135,16 @@ fn backend(b: BackendArg) -> Result<Backend, String> {
         BackendArg::Nlopt if cfg!(feature = "nlopt") => Ok(Backend::Nlopt),
         BackendArg::Nlopt => Err("--backend nlopt needs a build with `--features nlopt`".into()),
     }
+}
+
+fn fit_options(fit: &FitArgs) -> Result<FitOptions, String> {
+    Ok(FitOptions {
+        backend: backend(fit.backend)?,
+        method: match fit.method {
+            MethodArg::Fast => Method::Fast,
+            MethodArg::Paper => Method::Paper,
+        },
+    })
 }
 
 fn pool(threads: Option<u16>) -> Result<rayon::ThreadPool, String> {
@@ -264,15 +283,11 @@ fn inspect(file: &Path, json: bool) -> Result<(), String> {
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
         Command::BuildTables { only, out, fit } => {
-            let opts = FitOptions {
-                backend: backend(fit.backend)?,
-            };
+            let opts = fit_options(&fit)?;
             build(&select(&only, opts), fit.threads, &|k| table_path(&out, k))?;
         }
         Command::Fit { family, out, fit } => {
-            let opts = FitOptions {
-                backend: backend(fit.backend)?,
-            };
+            let opts = fit_options(&fit)?;
             let f = select(&[family], opts);
             let is_file = out.extension().is_some_and(|e| e == EXT);
             build(&f, fit.threads, &|k| {
@@ -320,7 +335,10 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             exact,
             backend: b,
         } => {
-            let opts = FitOptions { backend: backend(b)? };
+            let opts = FitOptions {
+                backend: backend(b)?,
+                ..FitOptions::default()
+            };
             let f = fits::by_name(&family, opts).ok_or_else(|| format!("unknown family {family}"))?;
             let runtime = if exact {
                 None

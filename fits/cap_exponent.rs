@@ -19,14 +19,15 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 use argmin::core::{CostFunction, Error, Executor, State, TerminationReason, TerminationStatus};
 use argmin::solver::brent::{BrentOpt, BrentRoot};
+use argmin::solver::neldermead::NelderMead;
 
 use lobefit_tables::cap_exponent::{self as rt, model, CapExponent, ALPHA_MIN, ALPHA_TABLE_MAX};
 use lobefit_tables::format::Threshold;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Mapping, Placement, Table};
 
 use crate::family::{Family, Fitted, Lookup};
-use crate::fits::Backend;
-use crate::quad::{gauss_kronrod, illinois};
+use crate::fits::{Backend, Method};
+use crate::quad::{adaptive_simpson, gauss_kronrod, illinois};
 use crate::rng::Rng;
 
 /// Grid nodes (the paper's 1000).
@@ -53,8 +54,64 @@ const REF_ROOT_TOL: f64 = 1e-13;
 /// The cap-exponent family.
 #[derive(Debug, Clone, Copy)]
 pub struct CapExponentFamily {
-    /// Optimizer backend.
+    /// Optimizer backend (fast method).
     pub backend: Backend,
+    /// Fast (closed form + polish) or the paper-faithful baseline.
+    pub method: Method,
+}
+
+/// Relative tolerance of the baseline's quadrature objective.
+const PAPER_QUAD_TOL: f64 = 1e-10;
+/// Simplex standard-deviation tolerance of the baseline's Nelder–Mead (in ln e).
+const PAPER_SD_TOL: f64 = 1e-10;
+
+/// The L2 objective F(e)/(2π t_c) by adaptive Simpson quadrature in θ — how the
+/// paper had to evaluate it without the closed form.
+pub fn objective_by_quadrature(alpha: f64, e: f64) -> f64 {
+    let (tc, _) = cap_terms(alpha);
+    let w = 1.0 / (e + 1.0).sqrt();
+    let mut breaks: Vec<f64> = [1.0, 2.0, 4.0, 8.0, 16.0].iter().map(|k| k * w).collect();
+    breaks.push(alpha);
+    let f = |t: f64| {
+        let lobe = t.cos().max(0.0).powf(e);
+        let cap = if t <= alpha { 1.0 } else { 0.0 };
+        (cap - lobe).powi(2) * t.sin()
+    };
+    adaptive_simpson(f, 0.0, FRAC_PI_2, &breaks, PAPER_QUAD_TOL * tc, 50).value / tc
+}
+
+struct QuadratureObjective {
+    alpha: f64,
+}
+
+impl CostFunction for QuadratureObjective {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Vec<f64>) -> Result<f64, Error> {
+        Ok(objective_by_quadrature(self.alpha, p[0].exp()))
+    }
+}
+
+/// The paper-faithful baseline: Nelder–Mead (argmin) over ln e on the quadrature
+/// objective, started from the small-cap asymptote. Returns (q, iterations, converged).
+pub fn fit_paper(alpha: f64) -> (f64, u32, bool) {
+    let e0 = (1.9226 / (alpha * alpha)).max(1e-3);
+    let simplex = vec![vec![e0.ln()], vec![(0.5 * e0).ln()]];
+    let solver = match NelderMead::new(simplex).with_sd_tolerance(PAPER_SD_TOL) {
+        Ok(s) => s,
+        Err(_) => return (f64::NAN, 0, false),
+    };
+    match Executor::new(QuadratureObjective { alpha }, solver)
+        .configure(|s| s.max_iters(1000))
+        .run()
+    {
+        Ok(res) => {
+            let st = res.state();
+            let e = st.get_best_param().map(|p| p[0].exp()).unwrap_or(f64::NAN);
+            (e / model(alpha), st.get_iter() as u32, converged(st))
+        }
+        Err(_) => (f64::NAN, 1000, false),
+    }
 }
 
 /// t_c = 1 − cos α and ln cos α, both without cancellation.
@@ -283,6 +340,9 @@ impl Lookup for CapExponent {
 impl CapExponentFamily {
     /// Minimise with the backend, then polish: (q, iterations, converged).
     fn solve(&self, alpha: f64) -> (f64, u32, bool) {
+        if self.method == Method::Paper {
+            return fit_paper(alpha);
+        }
         let (q0, it0, ok0) = minimise(alpha, self.backend);
         if !ok0 || !q0.is_finite() {
             return (q0, it0, false);
@@ -326,6 +386,9 @@ impl Family for CapExponentFamily {
         }]
     }
     fn method(&self) -> String {
+        if self.method == Method::Paper {
+            return "paper baseline: Nelder-Mead (argmin) over ln e on the L2 objective by adaptive Simpson".into();
+        }
         match self.backend {
             Backend::Argmin => {
                 "Brent minimisation (argmin) of the closed-form L2 objective over q, polished on dF/de = 0".into()
@@ -336,6 +399,13 @@ impl Family for CapExponentFamily {
         }
     }
     fn settings(&self) -> Vec<(String, String)> {
+        if self.method == Method::Paper {
+            return vec![
+                ("method".into(), "paper".into()),
+                ("quad_rel_tol".into(), format!("{PAPER_QUAD_TOL:e}")),
+                ("simplex_sd_tol".into(), format!("{PAPER_SD_TOL:e}")),
+            ];
+        }
         let mut s = vec![
             ("backend".to_string(), self.backend.name().to_string()),
             ("q_bracket".into(), format!("[{Q_LO}, {Q_HI}]")),
@@ -502,6 +572,7 @@ mod tests {
         for &alpha in &[1e-3, 0.01, 0.3, 1.0, 1.5, 1.57, FRAC_PI_2 - 1e-6] {
             let f = CapExponentFamily {
                 backend: Backend::Argmin,
+                method: Method::Fast,
             }
             .fit(&[alpha]);
             assert!(f.converged, "{alpha}: {f:?}");

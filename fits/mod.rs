@@ -26,18 +26,44 @@ impl Backend {
     }
 }
 
+/// Fitting method for families that have a paper-faithful baseline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// The product's method (closed forms, variable projection, polishing).
+    #[default]
+    Fast,
+    /// The paper's way: a simplex optimizer on an objective evaluated by adaptive
+    /// quadrature. Kept as the baseline that speed and accuracy are compared with.
+    Paper,
+}
+
+impl Method {
+    /// Name used on the command line and in the stored settings.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Fast => "fast",
+            Method::Paper => "paper",
+        }
+    }
+}
+
 /// Options that select how families are fitted.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct FitOptions {
     /// Optimizer backend.
     pub backend: Backend,
+    /// Fitting method.
+    pub method: Method,
 }
 
 /// Every family, in build order.
 pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
     vec![
         Box::new(lobe_integral::LobeIntegralFamily),
-        Box::new(cap_exponent::CapExponentFamily { backend: opts.backend }),
+        Box::new(cap_exponent::CapExponentFamily {
+            backend: opts.backend,
+            method: opts.method,
+        }),
     ]
 }
 

@@ -4,7 +4,7 @@
 
 use lobefit::build::build;
 use lobefit::fits::cap_exponent::CapExponentFamily;
-use lobefit::fits::Backend;
+use lobefit::fits::{Backend, Method};
 use lobefit::tables::Table;
 
 /// Agreement required between the two backends' stored q (relative). Both are
