@@ -198,3 +198,219 @@ impl Table {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::format::{self, Axis, Channel, Diagnostics, FitInfo, Mapping, Placement, Storage};
+
+    fn axis(name: &str, lo: f64, hi: f64, mapping: Mapping, count: u32, placement: Placement) -> Axis {
+        Axis {
+            name: name.into(),
+            unit: "1".into(),
+            lo,
+            hi,
+            mapping,
+            count,
+            placement,
+        }
+    }
+
+    /// A table whose channels are `f(u-coordinates)` at the nodes, encoded and reloaded.
+    fn synthetic(axes: Vec<Axis>, encodings: &[Encoding], f: impl Fn(&[f64], usize) -> f64) -> Table {
+        let channels: Vec<Channel> = encodings
+            .iter()
+            .enumerate()
+            .map(|(i, &encoding)| Channel {
+                name: format!("c{i}"),
+                unit: "1".into(),
+                encoding,
+                description: String::new(),
+            })
+            .collect();
+        let n: usize = axes.iter().map(|a| a.count as usize).product();
+        let mut payload = Vec::new();
+        for flat in 0..n {
+            let mut rem = flat;
+            let mut u = vec![0.0; axes.len()];
+            for d in (0..axes.len()).rev() {
+                let i = (rem % axes[d].count as usize) as u32;
+                rem /= axes[d].count as usize;
+                u[d] = axes[d].mapping.forward(axes[d].node(i));
+            }
+            for (c, enc) in encodings.iter().enumerate() {
+                let v = f(&u, c);
+                payload.push(if *enc == Encoding::Log { v.ln() as f32 } else { v as f32 });
+            }
+        }
+        let settings = vec![];
+        let meta = format::Meta {
+            kind: "synthetic".into(),
+            table_version: 1,
+            generator: "test".into(),
+            description: String::new(),
+            axes,
+            channels,
+            storage: Storage::F32,
+            fit: FitInfo {
+                method: "none".into(),
+                settings_hash: format::settings_hash("none", &settings),
+                settings,
+            },
+            diagnostics: Diagnostics {
+                residual_meaning: String::new(),
+                entries: n as u64,
+                converged: n as u64,
+                max_residual: 0.0,
+                mean_residual: 0.0,
+                max_iterations: 0,
+                per_entry: None,
+            },
+            thresholds: vec![],
+        };
+        Table::from_bytes(&format::encode(&meta, &payload).unwrap()).unwrap()
+    }
+
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Multilinear interpolation reproduces any function that is affine in each mapped
+    /// coordinate separately (here u0 + 2u1 − u2 + u0·u1·u2), in 1, 2 and 3 dimensions,
+    /// on every mapping, to f32 precision.
+    #[test]
+    fn multilinear_is_exact_for_multiaffine_functions() {
+        let all = vec![
+            axis("a", 0.5, 3.0, Mapping::Linear, 5, Placement::Endpoints),
+            axis("b", 0.01, 100.0, Mapping::Log, 7, Placement::Endpoints),
+            axis("c", 0.0, 1e4, Mapping::Log1p { scale: 2.0 }, 4, Placement::Endpoints),
+        ];
+        for dims in 1..=3 {
+            let axes: Vec<Axis> = all[..dims].to_vec();
+            let f = |u: &[f64]| {
+                let g = |k: usize| u.get(k).copied().unwrap_or(0.0);
+                g(0) + 2.0 * g(1) - g(2) + g(0) * g(1) * g(2)
+            };
+            let t = synthetic(axes.clone(), &[Encoding::Linear], |u, _| f(u));
+            let mut s = 7u64;
+            for _ in 0..500 {
+                let x: Vec<f64> = axes.iter().map(|a| a.lo + (a.hi - a.lo) * lcg(&mut s)).collect();
+                let u: Vec<f64> = axes.iter().zip(&x).map(|(a, &x)| a.mapping.forward(x)).collect();
+                let mut out = [0.0];
+                t.interpolate(&x, &mut out).unwrap();
+                assert!((out[0] - f(&u)).abs() < 1e-5 * (1.0 + f(&u).abs()), "{dims}D at {x:?}");
+            }
+        }
+    }
+
+    /// Log-encoded channels interpolate ln(value): exp of an affine function is exact.
+    #[test]
+    fn log_channels_interpolate_in_log_space() {
+        let axes = vec![axis(
+            "x",
+            0.0,
+            1e5,
+            Mapping::Log1p { scale: 1.0 },
+            9,
+            Placement::Endpoints,
+        )];
+        let t = synthetic(axes, &[Encoding::Log, Encoding::Linear], |u, c| {
+            if c == 0 {
+                (3.0 - u[0]).exp()
+            } else {
+                u[0]
+            }
+        });
+        let mut out = [0.0; 2];
+        for x in [0.0, 0.37, 12.0, 999.0, 1e5] {
+            t.interpolate(&[x], &mut out).unwrap();
+            let u = x.ln_1p();
+            assert!((out[0] / (3.0 - u).exp() - 1.0).abs() < 1e-6, "{x}");
+            assert!((out[1] - u).abs() < 1e-5, "{x}");
+        }
+    }
+
+    /// Cell-centred nodes: exact between the first and last centre, held constant
+    /// (clamp-to-edge, the GPU convention) between a centre and the range end.
+    #[test]
+    fn centred_nodes_clamp_to_edge() {
+        let axes = vec![axis("x", 0.0, 1.0, Mapping::Linear, 4, Placement::Centres)];
+        let t = synthetic(axes.clone(), &[Encoding::Linear], |u, _| 10.0 * u[0]);
+        let mut out = [0.0];
+        for (x, want) in [
+            (0.0, 1.25),
+            (0.1, 1.25),
+            (0.125, 1.25),
+            (0.5, 5.0),
+            (0.8, 8.0),
+            (1.0, 8.75),
+        ] {
+            t.interpolate(&[x], &mut out).unwrap();
+            assert!((out[0] - want).abs() < 1e-6, "x={x}: {}", out[0]);
+        }
+        assert!((axes[0].node(0) - 0.125).abs() < 1e-15 && (axes[0].node(3) - 0.875).abs() < 1e-15);
+    }
+
+    /// Axis mapping round trips: node i sits at node coordinate i, and forward/inverse agree.
+    #[test]
+    fn axis_mappings_round_trip() {
+        let axes = [
+            axis("lin", -2.0, 5.0, Mapping::Linear, 11, Placement::Endpoints),
+            axis("log", 1e-3, 1e3, Mapping::Log, 13, Placement::Centres),
+            axis(
+                "l1p",
+                0.0,
+                1e5,
+                Mapping::Log1p { scale: 1.0 },
+                641,
+                Placement::Endpoints,
+            ),
+            axis(
+                "logit",
+                1e-3,
+                std::f64::consts::FRAC_PI_2 - 1e-7,
+                Mapping::Logit {
+                    a: 0.0,
+                    b: std::f64::consts::FRAC_PI_2,
+                },
+                1000,
+                Placement::Endpoints,
+            ),
+        ];
+        for a in &axes {
+            for i in 0..a.count {
+                let x = a.node(i);
+                assert!(x >= a.lo && x <= a.hi, "{} node {i} = {x} outside", a.name);
+                let s = a.node_coordinate(x);
+                assert!((s - i as f64).abs() < 1e-6, "{} node {i}: coordinate {s}", a.name);
+                let back = a.mapping.inverse(a.mapping.forward(x));
+                assert!(
+                    (back - x).abs() <= 1e-12 * x.abs().max(1e-300) + 1e-300,
+                    "{}: {x} -> {back}",
+                    a.name
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn out_of_range_coordinates_are_refused_per_axis() {
+        let axes = vec![
+            axis("x", 0.0, 1.0, Mapping::Linear, 3, Placement::Endpoints),
+            axis("y", 1.0, 2.0, Mapping::Log, 3, Placement::Endpoints),
+        ];
+        let t = synthetic(axes, &[Encoding::Linear], |u, _| u[0] + u[1]);
+        let mut out = [0.0];
+        match t.interpolate(&[0.5, 2.5], &mut out) {
+            Err(LookupError::OutOfDomain { name, .. }) => assert_eq!(name, "y"),
+            r => panic!("{r:?}"),
+        }
+        match t.interpolate(&[f64::NAN, 1.5], &mut out) {
+            Err(LookupError::NotFinite { name, .. }) => assert_eq!(name, "x"),
+            r => panic!("{r:?}"),
+        }
+    }
+}
