@@ -519,13 +519,13 @@ pub fn decode_header(bytes: &[u8]) -> Result<Header, LoadError> {
         )));
     }
     let meta_end = h.meta_offset as u64 + h.meta_len as u64;
-    if h.payload_offset as u64 % PAYLOAD_ALIGN as u64 != 0 || (h.payload_offset as u64) < meta_end {
+    if !(h.payload_offset as u64).is_multiple_of(PAYLOAD_ALIGN as u64) || (h.payload_offset as u64) < meta_end {
         return Err(LoadError::BadLayout(format!(
             "payload offset {} (must be 16-aligned and after the metadata ending at {meta_end})",
             h.payload_offset
         )));
     }
-    if h.payload_len % 4 != 0 {
+    if !h.payload_len.is_multiple_of(4) {
         return Err(LoadError::BadLayout(format!(
             "payload length {} is not a multiple of 4",
             h.payload_len
