@@ -283,7 +283,7 @@ mod tests {
     /// on every mapping, to f32 precision.
     #[test]
     fn multilinear_is_exact_for_multiaffine_functions() {
-        let all = vec![
+        let all = [
             axis("a", 0.5, 3.0, Mapping::Linear, 5, Placement::Endpoints),
             axis("b", 0.01, 100.0, Mapping::Log, 7, Placement::Endpoints),
             axis("c", 0.0, 1e4, Mapping::Log1p { scale: 2.0 }, 4, Placement::Endpoints),
