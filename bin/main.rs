@@ -95,8 +95,8 @@ enum Command {
         #[arg(long, value_delimiter = ',', value_parser = PossibleValuesParser::new(fits::names()))]
         only: Vec<String>,
         /// Number of random off-grid points (overrides --quick).
-        #[arg(long)]
-        points: Option<usize>,
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
+        points: Option<u32>,
         /// Seed of the random off-grid points.
         #[arg(long)]
         seed: Option<u64>,
@@ -308,7 +308,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         } => {
             let mut opts = if quick { CheckOptions::QUICK } else { CheckOptions::FULL };
             if let Some(p) = points {
-                opts.offgrid = p;
+                opts.offgrid = p as usize;
             }
             if let Some(s) = seed {
                 opts.seed = s;

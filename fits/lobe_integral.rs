@@ -10,7 +10,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 use lobefit_tables::format::Threshold;
 use lobefit_tables::lobe_integral::{self as rt, LobeIntegral, E_MAX};
-use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Mapping, Placement, Table};
+use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use crate::family::{Family, Fitted, Lookup};
 use crate::quad::adaptive_simpson;
@@ -67,19 +67,11 @@ impl Family for LobeIntegralFamily {
             .into()
     }
     fn axes(&self) -> Vec<Axis> {
-        vec![Axis {
-            name: "e".into(),
-            unit: "1".into(),
-            lo: 0.0,
-            hi: E_MAX,
-            mapping: Mapping::Log1p { scale: 1.0 },
-            count: NODES,
-            placement: Placement::Endpoints,
-        }]
+        vec![rt::axis(NODES)]
     }
     fn channels(&self) -> Vec<Channel> {
         vec![Channel {
-            name: "integral".into(),
+            name: rt::CHANNEL.into(),
             unit: "sr".into(),
             encoding: Encoding::Log,
             description: "∫_{S²} max(a·v,0)^e dω".into(),

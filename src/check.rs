@@ -35,7 +35,7 @@ impl CheckOptions {
 }
 
 /// Summary statistics of an error sample.
-#[derive(Debug, Clone, Copy, Default, Serialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
 pub struct Stats {
     /// Sample size.
     pub count: usize,
@@ -55,7 +55,15 @@ impl Stats {
     /// Statistics of `v` (consumed; sorted in place).
     pub fn of(mut v: Vec<f64>) -> Stats {
         if v.is_empty() {
-            return Stats::default();
+            // NaN statistics fail every threshold: an empty sample proves nothing.
+            return Stats {
+                count: 0,
+                mean: f64::NAN,
+                median: f64::NAN,
+                p95: f64::NAN,
+                p99: f64::NAN,
+                max: f64::NAN,
+            };
         }
         v.sort_by(f64::total_cmp);
         let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
@@ -242,8 +250,20 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
             pass: value <= t.limit,
         });
     }
-    if meta.thresholds.is_empty() {
-        report.problems.push("the file states no thresholds".into());
+    // The file's thresholds are what the file promises; the family's are what this
+    // code promises. A file must not weaken or drop any of the latter (a regressed or
+    // forged table could otherwise switch off its own check).
+    for want in family.thresholds() {
+        let covered = meta
+            .thresholds
+            .iter()
+            .any(|t| t.output == want.output && t.metric == want.metric && t.limit <= want.limit);
+        if !covered {
+            report.problems.push(format!(
+                "the file lacks or loosens the threshold {}.{} <= {:e}",
+                want.output, want.metric, want.limit
+            ));
+        }
     }
     report.pass = report.problems.is_empty() && report.thresholds.iter().all(|t| t.pass);
     report
@@ -284,6 +304,13 @@ pub fn render(reports: &[FamilyReport]) -> String {
                 o.offgrid_rel.p95,
                 o.offgrid_rel.max,
                 o.offgrid_abs.max
+            ));
+        }
+        for o in &r.outputs {
+            let a = &o.offgrid_abs;
+            s.push_str(&format!(
+                "  {} absolute: grid max {:.3e}; random mean {:.3e} median {:.3e} p95 {:.3e} max {:.3e}\n",
+                o.output, o.grid_abs.max, a.mean, a.median, a.p95, a.max
             ));
         }
         for t in &r.thresholds {

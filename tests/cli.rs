@@ -204,6 +204,13 @@ fn eval_table_and_exact_agree_with_closed_forms() {
     let exact = lobefit::fits::cap_exponent::reference_e_cap(0.1).unwrap();
     assert!((e / exact - 1.0).abs() < 1e-4);
     assert_eq!(rows[2], "2.0,0e0");
+    // A UTF-8 byte-order mark, CRLF line ends and -0 are accepted.
+    let out = run(&["eval", "lobe-integral", "--exact"], "\u{feff}e\r\n-0\r\n");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(
+        text(&out.stdout),
+        format!("e,integral\n-0,{:e}\n", 2.0 * std::f64::consts::PI)
+    );
 }
 
 /// Every malformed input ends with exit 1, a message naming the line, and no output.
@@ -248,6 +255,51 @@ fn eval_rejects_bad_input_naming_the_line() {
             &["eval", "cap-exponent", "--exact"],
             "alpha\n4\n",
             "line 2: alpha = 4 is outside",
+        ),
+        // Physical line numbers with CRLF and blank lines.
+        (
+            &["eval", "lobe-integral"],
+            "e\r\n1\r\nabc\r\n",
+            "line 3: column 'e': 'abc' is not a number",
+        ),
+        (
+            &["eval", "lobe-integral"],
+            "e\n1\n\nabc\n",
+            "line 4: column 'e': 'abc' is not a number",
+        ),
+        (&["eval", "lobe-integral"], "\n\nx\n1\n", "line 3: unknown column 'x'"),
+        // Quoting is not part of the format; empty fields are errors.
+        (
+            &["eval", "lobe-integral"],
+            "e\n\"2\n",
+            "line 2: quoted fields are not supported",
+        ),
+        (
+            &["eval", "lobe-integral"],
+            "e\n\"\"\n",
+            "line 2: quoted fields are not supported",
+        ),
+        (&["eval", "cap-exponent"], "alpha, x\n", "line 1: unknown column 'x'"),
+        (
+            &["eval", "lobe-integral"],
+            "e\n1\n \t,\n",
+            "line 3: 2 fields, header has 1",
+        ),
+        (
+            &["eval", "lobe-integral"],
+            "e\n1\n,\n",
+            "line 3: 2 fields, header has 1",
+        ),
+        // Overflow and underflow are named, not passed on as inf or 0.
+        (
+            &["eval", "lobe-integral"],
+            "e\n1e400\n",
+            "line 2: column 'e': '1e400' overflows f64",
+        ),
+        (
+            &["eval", "cap-exponent"],
+            "alpha\n1e-400\n",
+            "line 2: column 'alpha': '1e-400' underflows f64 to 0",
         ),
     ];
     for (args, input, message) in cases {

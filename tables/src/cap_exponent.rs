@@ -13,7 +13,8 @@
 
 use std::f64::consts::FRAC_PI_2;
 
-use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::error::{in_range, LoadError, LookupError};
+use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 
 /// Table kind.
@@ -23,8 +24,25 @@ pub const VERSION: u32 = 1;
 /// Smallest supported cap half-angle (rad).
 pub const ALPHA_MIN: f64 = 1.0e-3;
 /// Largest tabulated half-angle (rad); between it and π/2 q is held at its end value
-/// (q varies by < 1e-5 relative there), and from π/2 on e_cap = 0.
+/// (0.4999945, 1.1e-5 from its limit 1/2), and from π/2 on e_cap = 0.
 pub const ALPHA_TABLE_MAX: f64 = FRAC_PI_2 - 1.0e-7;
+
+/// Name of the one stored channel (q, [`Encoding::Linear`]).
+pub const CHANNEL: &str = "q";
+
+/// The axis this runtime interprets: `alpha` on [1e-3, π/2 − 1e-7], nodes uniform in
+/// ln(α/(π/2 − α)).
+pub fn axis(count: u32) -> Axis {
+    Axis {
+        name: "alpha".into(),
+        unit: "rad".into(),
+        lo: ALPHA_MIN,
+        hi: ALPHA_TABLE_MAX,
+        mapping: Mapping::Logit { a: 0.0, b: FRAC_PI_2 },
+        count,
+        placement: Placement::Endpoints,
+    }
+}
 
 /// The scale model m(α) = c(1 − ln c)/(1 − c), c = cos α, for α ∈ (0, π/2); e_cap = q·m.
 pub fn model(alpha: f64) -> f64 {
@@ -43,14 +61,16 @@ pub struct CapExponent {
 impl CapExponent {
     /// Loads and validates a cap-exponent table file held in memory.
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Ok(Self {
-            table: Table::from_bytes_of_kind(bytes, KIND, VERSION)?,
-        })
+        Self::from_table(Table::from_bytes(bytes)?)
     }
 
-    /// Wraps an already loaded table, checking its kind.
+    /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
+        table.expect_layout_1d(
+            &axis(table.meta().axes.first().map_or(0, |a| a.count)),
+            &[(CHANNEL, Encoding::Linear)],
+        )?;
         Ok(Self { table })
     }
 
@@ -79,8 +99,7 @@ impl CapExponent {
     /// Best-fitting lobe exponent e_cap(α) (dimensionless) for a cap of half-angle
     /// α ∈ [1e-3, π] rad; 0 for α ≥ π/2.
     pub fn e_cap(&self, alpha: f64) -> Result<f64, LookupError> {
-        let alpha = finite("alpha", alpha)?;
-        in_range("alpha", alpha, ALPHA_MIN, std::f64::consts::PI)?;
+        let alpha = in_range("alpha", alpha, ALPHA_MIN, std::f64::consts::PI)?;
         if alpha >= FRAC_PI_2 {
             return Ok(0.0);
         }

@@ -48,6 +48,10 @@ pub enum LoadError {
     /// The family's own table version is not one this runtime reads.
     #[error("table '{kind}' has version {found}; this runtime reads version {supported}")]
     UnsupportedTableVersion { kind: String, found: u32, supported: u32 },
+    /// The file is of the right kind and version but its axes or channels are not the
+    /// layout this runtime interprets (mapping, range, encoding, channel count).
+    #[error("table '{kind}' has an unexpected layout: {detail}")]
+    LayoutMismatch { kind: String, detail: String },
     /// Reading the file from disk failed (message of the I/O error).
     #[error("cannot read table file {path}: {message}")]
     Io { path: String, message: String },
@@ -65,6 +69,9 @@ pub enum LookupError {
     /// The number of coordinates does not match the number of axes.
     #[error("query has {got} coordinates, table has {expected} axes")]
     Arity { expected: usize, got: usize },
+    /// The output buffer does not match the number of channels.
+    #[error("output buffer has {got} slots, table has {expected} channels")]
+    Channels { expected: usize, got: usize },
 }
 
 /// Rejects NaN and infinities with an error naming the quantity.

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use crate::error::{in_range, LoadError, LookupError};
-use crate::format::{decode_header, Encoding, Header, Meta, HEADER_LEN};
+use crate::format::{decode_header, Axis, Encoding, Header, Meta, HEADER_LEN};
 
 /// A validated table: header, metadata and the decoded payload.
 #[derive(Debug, Clone, PartialEq)]
@@ -115,6 +115,33 @@ impl Table {
         Ok(())
     }
 
+    /// Fails unless the table has exactly one axis equal to `axis` (any node count of
+    /// at least 2) and exactly the channels `channels` (name, encoding), in order.
+    pub fn expect_layout_1d(&self, axis: &Axis, channels: &[(&str, Encoding)]) -> Result<(), LoadError> {
+        let m = &self.meta;
+        let mismatch = |detail: String| LoadError::LayoutMismatch {
+            kind: m.kind.clone(),
+            detail,
+        };
+        let [a] = m.axes.as_slice() else {
+            return Err(mismatch(format!("{} axes, expected 1", m.axes.len())));
+        };
+        let same = a.name == axis.name
+            && a.unit == axis.unit
+            && a.lo == axis.lo
+            && a.hi == axis.hi
+            && a.mapping == axis.mapping
+            && a.placement == axis.placement;
+        if !same {
+            return Err(mismatch(format!("axis {a:?}, expected {axis:?} (any count)")));
+        }
+        let found: Vec<(&str, Encoding)> = m.channels.iter().map(|c| (c.name.as_str(), c.encoding)).collect();
+        if found != channels {
+            return Err(mismatch(format!("channels {found:?}, expected {channels:?}")));
+        }
+        Ok(())
+    }
+
     /// The decoded fixed header.
     pub fn header(&self) -> &Header {
         &self.header
@@ -159,7 +186,7 @@ impl Table {
             });
         }
         if out.len() != nc {
-            return Err(LookupError::Arity {
+            return Err(LookupError::Channels {
                 expected: nc,
                 got: out.len(),
             });

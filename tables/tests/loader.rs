@@ -1007,11 +1007,11 @@ fn interpolate_checks_arity() {
         );
         assert_eq!(
             t.interpolate(&[mid], &mut []),
-            Err(LookupError::Arity { expected: 1, got: 0 })
+            Err(LookupError::Channels { expected: 1, got: 0 })
         );
         assert_eq!(
             t.interpolate(&[mid], &mut [0.0; 2]),
-            Err(LookupError::Arity { expected: 1, got: 2 })
+            Err(LookupError::Channels { expected: 1, got: 2 })
         );
         // Arity is checked before the coordinates.
         assert!(matches!(
@@ -1225,4 +1225,50 @@ fn unconverged_entries_are_rejected() {
         LoadError::Invalid(m) => assert!(m.contains("entry 17 is flagged unconverged"), "{m}"),
         e => panic!("expected Invalid, got {e:?}"),
     }
+}
+
+/// Right kind and version but a layout the runtime would misread: refused at load.
+#[test]
+fn family_loaders_reject_foreign_layouts() {
+    let expect_mismatch = |bytes: &[u8], what: &str| {
+        let r = if what.starts_with("cap") {
+            CapExponent::from_bytes(bytes).map(|_| ())
+        } else {
+            LobeIntegral::from_bytes(bytes).map(|_| ())
+        };
+        match r {
+            Err(LoadError::LayoutMismatch { detail, .. }) => detail,
+            other => panic!("{what}: expected LayoutMismatch, got {other:?}"),
+        }
+    };
+    // Channel encoding flipped (ln I read as I).
+    let mut meta = meta_of(LOBE);
+    meta.channels[0].encoding = lobefit_tables::Encoding::Linear;
+    assert!(expect_mismatch(&with_meta(LOBE, &meta), "lobe encoding").contains("channels"));
+    // Axis mapping changed (values at logit nodes read on a linear axis).
+    let mut meta = meta_of(CAP);
+    meta.axes[0].mapping = Mapping::Linear;
+    assert!(expect_mismatch(&with_meta(CAP, &meta), "cap mapping").contains("axis"));
+    // Axis range changed.
+    let mut meta = meta_of(CAP);
+    meta.axes[0].lo = 0.01;
+    expect_mismatch(&with_meta(CAP, &meta), "cap range");
+    // A second channel.
+    let t = table(CAP);
+    let mut meta = t.meta().clone();
+    let mut extra = meta.channels[0].clone();
+    extra.name = "extra".into();
+    meta.channels.push(extra);
+    let values: Vec<f32> = t.values().iter().flat_map(|&v| [v, v]).collect();
+    let bytes = lobefit_tables::format::encode(&meta, &values).unwrap();
+    assert!(expect_mismatch(&bytes, "cap channels").contains("channels"));
+    // A finer grid of the same layout is accepted (node count is free).
+    let t = table(CAP);
+    let mut meta = t.meta().clone();
+    meta.axes[0].count = 2;
+    meta.diagnostics.entries = 2;
+    meta.diagnostics.converged = 2;
+    meta.diagnostics.per_entry = None;
+    let bytes = lobefit_tables::format::encode(&meta, &t.values()[..2]).unwrap();
+    assert!(CapExponent::from_bytes(&bytes).is_ok());
 }
