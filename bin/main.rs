@@ -74,7 +74,8 @@ enum Command {
         /// Family name.
         #[arg(value_parser = PossibleValuesParser::new(fits::names()))]
         family: String,
-        /// Output file, or directory (then FAMILY.lobefit inside it).
+        /// Output file; or an existing directory (or a path ending in '/'), then
+        /// FAMILY.lobefit inside it.
         #[arg(long, default_value = DEFAULT_TABLES)]
         out: PathBuf,
         #[command(flatten)]
@@ -114,18 +115,15 @@ enum Command {
         /// Family name.
         #[arg(value_parser = PossibleValuesParser::new(fits::names()))]
         family: String,
-        /// Directory holding the tables.
-        #[arg(long, default_value = DEFAULT_TABLES, conflicts_with = "table")]
-        tables: PathBuf,
+        /// Directory holding the tables (default: the tables compiled into this binary).
+        #[arg(long, conflicts_with = "table")]
+        tables: Option<PathBuf>,
         /// A specific table file.
         #[arg(long)]
         table: Option<PathBuf>,
         /// Use the reference (closed form, quadrature or the optimizer at that point).
-        #[arg(long)]
+        #[arg(long, conflicts_with_all = ["table", "tables"])]
         exact: bool,
-        /// Optimizer backend used by --exact for fitted quantities.
-        #[arg(long, value_enum, default_value = "argmin")]
-        backend: BackendArg,
     },
 }
 
@@ -289,7 +287,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         Command::Fit { family, out, fit } => {
             let opts = fit_options(&fit)?;
             let f = select(&[family], opts);
-            let is_file = out.extension().is_some_and(|e| e == EXT);
+            let is_file = !(out.is_dir() || out.as_os_str().to_string_lossy().ends_with('/'));
             build(&f, fit.threads, &|k| {
                 if is_file {
                     out.clone()
@@ -333,19 +331,24 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             tables,
             table,
             exact,
-            backend: b,
         } => {
-            let opts = FitOptions {
-                backend: backend(b)?,
-                ..FitOptions::default()
-            };
-            let f = fits::by_name(&family, opts).ok_or_else(|| format!("unknown family {family}"))?;
+            let f = fits::by_name(&family, FitOptions::default()).ok_or_else(|| format!("unknown family {family}"))?;
             let runtime = if exact {
                 None
             } else {
-                let path = table.unwrap_or_else(|| table_path(&tables, f.kind()));
-                let t = Table::from_path(&path).map_err(|e| e.to_string())?;
-                Some(f.runtime(t).map_err(|e| format!("{}: {e}", path.display()))?)
+                let (t, source) = match (table, tables) {
+                    (Some(p), _) => (Table::from_path(&p), p.display().to_string()),
+                    (None, Some(dir)) => {
+                        let p = table_path(&dir, f.kind());
+                        (Table::from_path(&p), p.display().to_string())
+                    }
+                    (None, None) => (
+                        Table::from_bytes(f.embedded()),
+                        "the embedded default table".to_string(),
+                    ),
+                };
+                let t = t.map_err(|e| e.to_string())?;
+                Some(f.runtime(t).map_err(|e| format!("{source}: {e}"))?)
             };
             let stdout = std::io::stdout();
             lobefit::eval::eval_csv(f.as_ref(), runtime.as_deref(), std::io::stdin().lock(), stdout.lock())

@@ -461,6 +461,9 @@ impl Family for CapExponentFamily {
     fn outputs(&self) -> &'static [&'static str] {
         &["e_cap"]
     }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::CAP_EXPONENT
+    }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
         Ok(Box::new(CapExponent::from_table(table)?))
     }

@@ -116,6 +116,9 @@ impl Family for LobeIntegralFamily {
     fn outputs(&self) -> &'static [&'static str] {
         &["integral"]
     }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::LOBE_INTEGRAL
+    }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
         Ok(Box::new(LobeIntegral::from_table(table)?))
     }

@@ -330,3 +330,37 @@ pub fn render(reports: &[FamilyReport]) -> String {
     s.push_str("(errors are relative unless marked abs; rnd = seeded random off-grid points through the runtime)\n");
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_samples_fail_every_threshold() {
+        let s = Stats::of(Vec::new());
+        assert_eq!(s.count, 0);
+        assert!(s.max.is_nan() && s.median.is_nan());
+        assert!(
+            s.max.partial_cmp(&1e9).is_none(),
+            "NaN is unordered, so `value <= limit` fails"
+        );
+    }
+
+    #[test]
+    fn stats_and_metric_names() {
+        let s = Stats::of((1..=100).map(f64::from).collect());
+        assert_eq!((s.median, s.p95, s.max, s.mean), (51.0, 95.0, 100.0, 50.5));
+        let o = OutputReport {
+            output: "x".into(),
+            grid_abs: s,
+            grid_rel: s,
+            offgrid_abs: s,
+            offgrid_rel: Stats::of(vec![0.5]),
+            worst_offgrid_input: vec![],
+        };
+        assert_eq!(metric_value(&o, "offgrid.max_rel"), Some(0.5));
+        assert_eq!(metric_value(&o, "grid.p95_abs"), Some(95.0));
+        assert_eq!(metric_value(&o, "offgrid.max"), None);
+        assert_eq!(metric_value(&o, "nonsense"), None);
+    }
+}

@@ -56,6 +56,8 @@ pub trait Family: Sync {
     fn node_inputs(&self, node: &[f64]) -> Vec<f64> {
         node.to_vec()
     }
+    /// The committed default table compiled into the runtime crate.
+    fn embedded(&self) -> &'static [u8];
     /// Wraps a loaded table in the runtime crate's lookup for this family.
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError>;
     /// Independent reference (closed form or adaptive quadrature, never the fit's own

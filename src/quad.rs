@@ -83,6 +83,10 @@ pub fn gauss_kronrod<F: FnMut(f64) -> f64>(
     rel_tol: f64,
     max_intervals: usize,
 ) -> Quad {
+    if b < a {
+        let q = gauss_kronrod(f, b, a, breaks, abs_tol, rel_tol, max_intervals);
+        return Quad { value: -q.value, ..q };
+    }
     let mut pts: Vec<f64> = Vec::with_capacity(breaks.len() + 2);
     pts.push(a);
     pts.extend(breaks.iter().copied().filter(|&x| x > a && x < b));
@@ -189,6 +193,10 @@ pub fn adaptive_simpson<F: FnMut(f64) -> f64>(
     tol: f64,
     max_depth: u32,
 ) -> Quad {
+    if b < a {
+        let q = adaptive_simpson(f, b, a, breaks, tol, max_depth);
+        return Quad { value: -q.value, ..q };
+    }
     let mut pts: Vec<f64> = Vec::with_capacity(breaks.len() + 2);
     pts.push(a);
     pts.extend(breaks.iter().copied().filter(|&x| x > a && x < b));
@@ -329,6 +337,16 @@ mod tests {
         // 1/x on (0,1] diverges: the error estimate cannot be met.
         let q = gauss_kronrod(|x: f64| 1.0 / x, 0.0, 1.0, &[], 0.0, 1e-12, 50);
         assert!(!q.converged);
+    }
+
+    #[test]
+    fn reversed_limits_change_the_sign() {
+        let gk = gauss_kronrod(|x: f64| x, 1.0, 0.0, &[], 0.0, 1e-13, 100);
+        let si = adaptive_simpson(|x: f64| x, 1.0, 0.0, &[0.5], 1e-13, 40);
+        assert!(
+            (gk.value + 0.5).abs() < 1e-15 && (si.value + 0.5).abs() < 1e-15,
+            "{gk:?} {si:?}"
+        );
     }
 
     #[test]

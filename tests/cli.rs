@@ -434,3 +434,95 @@ fn unconverged_fits_are_reported_and_not_written() {
         "no temporary left behind"
     );
 }
+
+/// `eval` works from any directory: without --tables/--table it uses the tables
+/// compiled into the binary, which equal the committed files.
+#[test]
+fn eval_uses_embedded_tables_anywhere() {
+    let elsewhere = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lobefit"))
+        .current_dir(elsewhere.path())
+        .args(["eval", "cap-exponent"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(b"alpha\n0.1\n").unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let embedded = text(&out.stdout);
+    let from_file = run(
+        &[
+            "eval",
+            "cap-exponent",
+            "--table",
+            committed("cap-exponent").to_str().unwrap(),
+        ],
+        "alpha\n0.1\n",
+    );
+    assert_eq!(embedded, text(&from_file.stdout));
+    // --exact takes no table.
+    let out = run(
+        &["eval", "cap-exponent", "--exact", "--tables", "tables/data"],
+        "alpha\n1\n",
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("cannot be used with"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+/// `fit --out` names a file unless it is an existing directory or ends in '/'.
+#[test]
+fn fit_out_is_a_file_unless_a_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("x.bin");
+    let out = run(&["fit", "lobe-integral", "--out", file.to_str().unwrap()], "");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(file.is_file());
+    let sub = format!("{}/new/", dir.path().display());
+    let out = run(&["fit", "lobe-integral", "--out", &sub], "");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(dir.path().join("new/lobe-integral.lobefit").is_file());
+}
+
+/// The checker rejects a file that loosens its own thresholds, and an empty sample.
+#[test]
+fn check_cannot_be_switched_off_by_the_file_or_an_empty_sample() {
+    use lobefit::tables::format;
+    use lobefit::tables::Table;
+    let dir = tempfile::tempdir().unwrap();
+    let t = Table::from_path(committed("cap-exponent")).unwrap();
+    let mut meta = t.meta().clone();
+    for th in &mut meta.thresholds {
+        th.limit = 1e9;
+    }
+    let values: Vec<f32> = t.values().iter().map(|v| v * 1.5).collect();
+    std::fs::write(
+        dir.path().join("cap-exponent.lobefit"),
+        format::encode(&meta, &values).unwrap(),
+    )
+    .unwrap();
+    let out = run(
+        &[
+            "check",
+            "--quick",
+            "--only",
+            "cap-exponent",
+            "--tables",
+            dir.path().to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stdout).contains("lacks or loosens the threshold e_cap.grid.max_rel"),
+        "{}",
+        text(&out.stdout)
+    );
+    let out = run(&["check", "--points", "0"], "");
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+}

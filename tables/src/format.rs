@@ -518,10 +518,12 @@ pub fn decode_header(bytes: &[u8]) -> Result<Header, LoadError> {
             h.meta_offset
         )));
     }
+    // One valid place for the payload: the first 16-byte boundary after the metadata.
     let meta_end = h.meta_offset as u64 + h.meta_len as u64;
-    if !(h.payload_offset as u64).is_multiple_of(PAYLOAD_ALIGN as u64) || (h.payload_offset as u64) < meta_end {
+    let aligned = meta_end.div_ceil(PAYLOAD_ALIGN as u64) * PAYLOAD_ALIGN as u64;
+    if h.payload_offset as u64 != aligned {
         return Err(LoadError::BadLayout(format!(
-            "payload offset {} (must be 16-aligned and after the metadata ending at {meta_end})",
+            "payload offset {} (must be {aligned}: the metadata ends at {meta_end}, payload is 16-aligned)",
             h.payload_offset
         )));
     }

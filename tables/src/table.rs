@@ -11,8 +11,7 @@ pub struct Table {
     header: Header,
     meta: Meta,
     values: Vec<f32>,
-    payload_offset: usize,
-    bytes: Vec<u8>,
+    payload: Vec<u8>,
 }
 
 impl Table {
@@ -75,8 +74,7 @@ impl Table {
             header,
             meta,
             values,
-            payload_offset: p0,
-            bytes: bytes.to_vec(),
+            payload: payload.to_vec(),
         })
     }
 
@@ -159,7 +157,7 @@ impl Table {
 
     /// The raw little-endian payload bytes, ready for a texture upload.
     pub fn payload_bytes(&self) -> &[u8] {
-        &self.bytes[self.payload_offset..]
+        &self.payload
     }
 
     /// Stored (encoded) values of the node with multi-index `idx`.

@@ -404,12 +404,20 @@ fn header_promising_more_than_the_file_holds_is_truncated() {
             }
         );
 
-        // Offsets near u32::MAX must not overflow anything.
+        // Offsets near u32::MAX must not overflow anything; the payload has exactly one
+        // valid offset (the first 16-byte boundary after the metadata).
         let mut b = file.to_vec();
         put_u32(&mut b, PAYLOAD_OFFSET_AT, 0xFFFF_FFF0);
         put_u32(&mut b, PAYLOAD_LEN_AT, 0xFFFF_FFFC);
         fix_header_crc(&mut b);
-        let needed = 0xFFFF_FFF0u64 + 0xFFFF_FFFC;
+        match load_err(&b) {
+            LoadError::BadLayout(m) => assert!(m.contains("payload offset 4294967280"), "{m}"),
+            e => panic!("expected BadLayout, got {e:?}"),
+        }
+        let mut b = file.to_vec();
+        put_u32(&mut b, PAYLOAD_LEN_AT, 0xFFFF_FFFC);
+        fix_header_crc(&mut b);
+        let needed = u32_at(file, PAYLOAD_OFFSET_AT) as u64 + 0xFFFF_FFFC;
         assert_eq!(load_err(&b), LoadError::Truncated { needed, have: len });
 
         let mut b = file.to_vec();
