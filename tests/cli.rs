@@ -39,6 +39,20 @@ fn committed(kind: &str) -> PathBuf {
         .join(format!("{kind}.lobefit"))
 }
 
+/// Runs `check --quick` on one family in `dir`; asserts exit 1 and `needle` in the report.
+fn assert_check_fails(kind: &str, dir: &Path, needle: &str) {
+    let out = run(
+        &["check", "--quick", "--only", kind, "--tables", dir.to_str().unwrap()],
+        "",
+    );
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
+    assert!(
+        text(&out.stdout).contains(needle),
+        "expected '{needle}' in:\n{}",
+        text(&out.stdout)
+    );
+}
+
 fn build_into(dir: &Path, threads: &str) {
     let out = run(
         &["build-tables", "--out", dir.to_str().unwrap(), "--threads", threads],
@@ -98,23 +112,7 @@ fn check_fails_on_a_regressed_table() {
     values[500] *= 1.01; // a 1 % error at one node
     let bytes = format::encode(t.meta(), &values).unwrap();
     std::fs::write(dir.path().join("cap-exponent.lobefit"), bytes).unwrap();
-    let out = run(
-        &[
-            "check",
-            "--quick",
-            "--only",
-            "cap-exponent",
-            "--tables",
-            dir.path().to_str().unwrap(),
-        ],
-        "",
-    );
-    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
-    assert!(
-        text(&out.stdout).contains("FAIL e_cap.grid.max_rel"),
-        "{}",
-        text(&out.stdout)
-    );
+    assert_check_fails("cap-exponent", dir.path(), "FAIL e_cap.grid.max_rel");
 }
 
 #[test]
@@ -131,23 +129,7 @@ fn check_fails_on_a_missing_or_corrupt_table() {
     let n = bytes.len();
     bytes[n - 3] ^= 0x40;
     std::fs::write(dir.path().join("lobe-integral.lobefit"), bytes).unwrap();
-    let out = run(
-        &[
-            "check",
-            "--quick",
-            "--only",
-            "lobe-integral",
-            "--tables",
-            dir.path().to_str().unwrap(),
-        ],
-        "",
-    );
-    assert_eq!(out.status.code(), Some(1));
-    assert!(
-        text(&out.stdout).contains("checksum mismatch in payload"),
-        "{}",
-        text(&out.stdout)
-    );
+    assert_check_fails("lobe-integral", dir.path(), "checksum mismatch in payload");
 }
 
 #[test]
@@ -506,22 +488,10 @@ fn check_cannot_be_switched_off_by_the_file_or_an_empty_sample() {
         format::encode(&meta, &values).unwrap(),
     )
     .unwrap();
-    let out = run(
-        &[
-            "check",
-            "--quick",
-            "--only",
-            "cap-exponent",
-            "--tables",
-            dir.path().to_str().unwrap(),
-        ],
-        "",
-    );
-    assert_eq!(out.status.code(), Some(1));
-    assert!(
-        text(&out.stdout).contains("lacks or loosens the threshold e_cap.grid.max_rel"),
-        "{}",
-        text(&out.stdout)
+    assert_check_fails(
+        "cap-exponent",
+        dir.path(),
+        "lacks or loosens the threshold e_cap.grid.max_rel",
     );
     let out = run(&["check", "--points", "0"], "");
     assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
