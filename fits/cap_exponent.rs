@@ -187,7 +187,7 @@ fn converged<S: State>(st: &S) -> bool {
 
 /// Polishes a minimiser's q on the stationarity condition ∂F/∂e = 0 with argmin's
 /// Brent root finder in a small bracket around it. A minimiser resolves q only to
-/// about √ε of the objective (0.5 % relative near π/2, measured); the root is
+/// about √ε of the objective, far too coarse for the tiny e near π/2; the root is
 /// resolved to ~1e-14. Returns (q, iterations, converged); fails when the minimiser's
 /// q and the root disagree by more than `POLISH_WINDOW` (then the minimiser is wrong).
 fn polish(alpha: f64, q0: f64) -> (f64, u32, bool) {

@@ -50,6 +50,18 @@ const WG: [f64; 4] = [
     0.417_959_183_673_469_387_755_102_040_816_327,
 ];
 
+/// `a`, the break points strictly inside `(a, b)`, and `b`, sorted and deduplicated:
+/// the segments both rules integrate separately (only the splitting is shared).
+fn segment_points(a: f64, b: f64, breaks: &[f64]) -> Vec<f64> {
+    let mut pts: Vec<f64> = Vec::with_capacity(breaks.len() + 2);
+    pts.push(a);
+    pts.extend(breaks.iter().copied().filter(|&x| x > a && x < b));
+    pts.push(b);
+    pts.sort_by(f64::total_cmp);
+    pts.dedup();
+    pts
+}
+
 fn gk15<F: FnMut(f64) -> f64>(f: &mut F, a: f64, b: f64) -> (f64, f64) {
     let c = 0.5 * (a + b);
     let h = 0.5 * (b - a);
@@ -87,12 +99,7 @@ pub fn gauss_kronrod<F: FnMut(f64) -> f64>(
         let q = gauss_kronrod(f, b, a, breaks, abs_tol, rel_tol, max_intervals);
         return Quad { value: -q.value, ..q };
     }
-    let mut pts: Vec<f64> = Vec::with_capacity(breaks.len() + 2);
-    pts.push(a);
-    pts.extend(breaks.iter().copied().filter(|&x| x > a && x < b));
-    pts.push(b);
-    pts.sort_by(f64::total_cmp);
-    pts.dedup();
+    let pts = segment_points(a, b, breaks);
     let mut heap: BinaryHeap<Interval> = BinaryHeap::new();
     let mut evals = 0u32;
     let (mut total, mut err) = (0.0, 0.0);
@@ -197,12 +204,7 @@ pub fn adaptive_simpson<F: FnMut(f64) -> f64>(
         let q = adaptive_simpson(f, b, a, breaks, tol, max_depth);
         return Quad { value: -q.value, ..q };
     }
-    let mut pts: Vec<f64> = Vec::with_capacity(breaks.len() + 2);
-    pts.push(a);
-    pts.extend(breaks.iter().copied().filter(|&x| x > a && x < b));
-    pts.push(b);
-    pts.sort_by(f64::total_cmp);
-    pts.dedup();
+    let pts = segment_points(a, b, breaks);
     let mut out = Quad {
         value: 0.0,
         error: 0.0,

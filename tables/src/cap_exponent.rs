@@ -91,6 +91,11 @@ impl CapExponent {
     /// The stored ratio q(α) = e_cap/m(α) for α ∈ [1e-3, π/2] (rad).
     pub fn ratio(&self, alpha: f64) -> Result<f64, LookupError> {
         let alpha = in_range("alpha", alpha, ALPHA_MIN, FRAC_PI_2)?;
+        self.table_ratio(alpha)
+    }
+
+    /// q at an α already checked to lie in [1e-3, π/2]; past the last node q is held.
+    fn table_ratio(&self, alpha: f64) -> Result<f64, LookupError> {
         let mut out = [0.0];
         self.table.interpolate(&[alpha.min(ALPHA_TABLE_MAX)], &mut out)?;
         Ok(out[0])
@@ -103,7 +108,7 @@ impl CapExponent {
         if alpha >= FRAC_PI_2 {
             return Ok(0.0);
         }
-        Ok(self.ratio(alpha)? * model(alpha))
+        Ok(self.table_ratio(alpha)? * model(alpha))
     }
 
     /// [`CapExponent::e_cap`] in single precision.
