@@ -3,6 +3,7 @@
 
 pub mod cap_exponent;
 pub mod lobe_integral;
+pub mod lobe_product;
 
 use std::path::{Path, PathBuf};
 
@@ -66,6 +67,12 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
             backend: opts.backend,
             method: opts.method,
         }),
+        Box::new(lobe_product::LobeProductFamily {
+            variant: lobefit_tables::Variant::Energy,
+        }),
+        Box::new(lobe_product::LobeProductFamily {
+            variant: lobefit_tables::Variant::L2,
+        }),
     ]
 }
 
@@ -88,8 +95,15 @@ pub fn eval_names() -> Vec<&'static str> {
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
 /// Errors name the flag a family does not take or the value it does not know.
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
-    #[allow(clippy::match_single_binding)] // one arm per family with flags goes here
     match name {
+        "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
+            let variant = match flags.variant.as_deref() {
+                None | Some("energy") => lobefit_tables::Variant::Energy,
+                Some("l2") => lobefit_tables::Variant::L2,
+                Some(v) => return Err(format!("--variant {v}: expected energy or l2")),
+            };
+            Ok(Box::new(lobe_product::LobeProductFamily { variant }))
+        }
         _ => {
             let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
             if let Some(flag) = flags.given().first() {

@@ -28,6 +28,7 @@ pub mod cap_exponent;
 pub mod error;
 pub mod format;
 pub mod lobe_integral;
+pub mod lobe_product;
 pub mod table;
 
 pub use glam;
@@ -36,6 +37,7 @@ pub use cap_exponent::CapExponent;
 pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
 pub use lobe_integral::LobeIntegral;
+pub use lobe_product::{Lobe, LobeF32, LobeProduct, ProductParams, Variant};
 pub use table::Table;
 
 /// The committed default tables (`tables/data/*.lobefit`), compiled in.
@@ -45,4 +47,8 @@ pub mod embedded {
     pub static LOBE_INTEGRAL: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
     /// `tables/data/cap-exponent.lobefit`.
     pub static CAP_EXPONENT: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+    /// `tables/data/lobe-product.lobefit` (the `energy` variant).
+    pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
+    /// `tables/data/lobe-product-l2.lobefit`.
+    pub static LOBE_PRODUCT_L2: &[u8] = include_bytes!("../data/lobe-product-l2.lobefit");
 }
