@@ -120,5 +120,5 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![]
+    vec![("lobe-product", lobe_product::plot)]
 }
