@@ -4,6 +4,7 @@
 pub mod cap_exponent;
 pub mod lobe_integral;
 pub mod lobe_product;
+pub mod lobe_product_paper;
 
 use std::path::{Path, PathBuf};
 
