@@ -69,6 +69,8 @@ pub struct PaperFit {
     pub e_r: f64,
     /// Relative L2 residual ‖Ψ1Ψ2 − p_rΨ_r‖/‖Ψ1Ψ2‖ as the fit's own quadrature measures it.
     pub residual: f64,
+    /// ∫Ψ1Ψ2 dω (sr) by the fit's own quadrature (what a table stores beside p_r, e_r).
+    pub integral: f64,
     /// Nelder–Mead iterations plus Levenberg–Marquardt iterations.
     pub iterations: u32,
     /// Both steps converged and every quadrature met its tolerance.
@@ -82,6 +84,7 @@ impl PaperFit {
             t: f64::NAN,
             e_r: f64::NAN,
             residual: f64::NAN,
+            integral: f64::NAN,
             iterations,
             converged: false,
         }
@@ -264,14 +267,11 @@ fn psi2_scale(e: f64) -> f64 {
 }
 
 /// Step 2 on the normalised product: Levenberg–Marquardt over the free parameters
-/// (p̂, e) (`l2`) or e (`energy`). Returns (p̂, e, F/‖P̂‖², iterations, converged).
-fn fit_scale_exponent(variant: Variant, sph: &Sphere, e_start: f64) -> (f64, f64, f64, u32, bool) {
+/// (p̂, e) (`l2`) or e (`energy`). Returns (p̂, e, F/‖P̂‖², ∫P̂, iterations, converged).
+fn fit_scale_exponent(variant: Variant, sph: &Sphere, e_start: f64) -> (f64, f64, f64, f64, u32, bool) {
     let e_sum = sph.e1 + sph.e2;
     let norm2 = sph.integrate(|_, p| p * p, PAPER_QUAD_TOL * psi2_scale(e_sum));
-    let integral = match variant {
-        Variant::Energy => sph.integrate(|_, p| p, PAPER_QUAD_TOL * TAU / (e_sum + 1.0)),
-        Variant::L2 => 0.0,
-    };
+    let integral = sph.integrate(|_, p| p, PAPER_QUAD_TOL * TAU / (e_sum + 1.0));
     // p̂ as a function of the parameters: free for `l2`, the integral constraint for `energy`.
     let scale = |x: [f64; 2]| match variant {
         Variant::L2 => x[0],
@@ -397,7 +397,7 @@ fn fit_scale_exponent(variant: Variant, sph: &Sphere, e_start: f64) -> (f64, f64
             }
         }
     }
-    (scale(x), x[1], f / norm2, iters, converged)
+    (scale(x), x[1], f / norm2, integral, iters, converged)
 }
 
 /// The paper-faithful two-step fit of Ψ(·; a1, e1)·Ψ(·; a2, e2) ≈ p_r·Ψ(·; a_r, e_r)
@@ -416,7 +416,7 @@ pub fn fit_paper(variant: Variant, e1: f64, e2: f64, alpha: f64) -> PaperFit {
     if !sph.ln_peak.is_finite() {
         return PaperFit::failed(nm_iters);
     }
-    let (p_hat, e_r, f_rel, lm_iters, lm_ok) = fit_scale_exponent(variant, &sph, e1 + e2);
+    let (p_hat, e_r, f_rel, integral, lm_iters, lm_ok) = fit_scale_exponent(variant, &sph, e1 + e2);
     let t = if alpha > 0.0 {
         u / alpha
     } else if e1 + e2 > 0.0 {
@@ -429,6 +429,7 @@ pub fn fit_paper(variant: Variant, e1: f64, e2: f64, alpha: f64) -> PaperFit {
         t,
         e_r,
         residual: f_rel.max(0.0).sqrt(),
+        integral: integral * sph.ln_peak.exp(),
         iterations: nm_iters + lm_iters,
         converged: nm_ok && lm_ok && sph.ok.get() && e_r.is_finite(),
     }
@@ -437,8 +438,12 @@ pub fn fit_paper(variant: Variant, e1: f64, e2: f64, alpha: f64) -> PaperFit {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fits::lobe_product::{fit_fast, reference_residual};
+    use crate::fits::lobe_product::{fit_fast, reference_integral, reference_residual};
     use lobefit_tables::lobe_product::{ln_model, peak_angle};
+
+    /// The paper's quadrature resolves ∫Ψ1Ψ2 to its 1e-7 tolerance (with margin for
+    /// the peak normalisation's rounding).
+    const INTEGRAL_REL: f64 = 1e-6;
 
     /// Both fits' relative L2 residuals, measured by the checker's Gauss–Kronrod
     /// reference at each fit's own (p, axis, e): the paper's two-step fit must land on
@@ -468,6 +473,12 @@ mod tests {
                 // The NM axis is the closed-form peak.
                 let beta = peak_angle(e1, e2, alpha);
                 assert!((paper.t * alpha - beta).abs() < 1e-4, "{paper:?} vs β = {beta}");
+                let integral = reference_integral(e1, e2, alpha).unwrap();
+                assert!(
+                    (paper.integral - integral).abs() <= INTEGRAL_REL * integral,
+                    "∫ {} vs {integral}",
+                    paper.integral
+                );
                 let got = reference_residual(e1, e2, alpha, paper.p, paper.t * alpha, paper.e_r).unwrap();
                 let fast = fit_fast(variant, e1, e2, alpha);
                 assert!(fast.converged);
