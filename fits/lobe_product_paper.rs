@@ -95,7 +95,15 @@ impl PaperFit {
 /// in well under a second per fit: [e1, e2, α (rad)]. Shared by the bench and timing
 /// script so both methods are timed on the same points.
 pub fn speed_sample() -> Vec<[f64; 3]> {
-    vec![
+    // Moderate products (the baseline takes up to seconds on wide, clipped ones),
+    // snapped to the nearest nodes of the table grid so both methods fit grid points.
+    let axes = lobefit_tables::lobe_product::axes(crate::fits::lobe_product::N_E, crate::fits::lobe_product::N_ALPHA);
+    let snap = |k: usize, x: f64| {
+        let a = &axes[k];
+        let i = a.node_coordinate(x).round().clamp(0.0, (a.count - 1) as f64) as u32;
+        a.node(i)
+    };
+    [
         [1.0, 1.0, 0.3],
         [1.0, 10.0, 1.0],
         [10.0, 10.0, 0.3],
@@ -105,6 +113,9 @@ pub fn speed_sample() -> Vec<[f64; 3]> {
         [10.0, 100.0, 0.5],
         [50.0, 5.0, 1.5],
     ]
+    .iter()
+    .map(|&[e1, e2, a]| [snap(0, e1), snap(1, e2), snap(2, a)])
+    .collect()
 }
 
 fn e_ln(e: f64, c: f64) -> f64 {

@@ -70,9 +70,11 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         }),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::Energy,
+            method: opts.method,
         }),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::L2,
+            method: opts.method,
         }),
     ]
 }
@@ -103,7 +105,10 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
                 Some("l2") => lobefit_tables::Variant::L2,
                 Some(v) => return Err(format!("--variant {v}: expected energy or l2")),
             };
-            Ok(Box::new(lobe_product::LobeProductFamily { variant }))
+            Ok(Box::new(lobe_product::LobeProductFamily {
+                variant,
+                method: opts.method,
+            }))
         }
         _ => {
             let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
