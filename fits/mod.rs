@@ -2,6 +2,7 @@
 //! the registry that lists them. Adding a family = one module + one line below.
 
 pub mod cap_exponent;
+pub mod isg;
 pub mod lobe_integral;
 
 use crate::family::Family;
@@ -63,6 +64,12 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         Box::new(cap_exponent::CapExponentFamily {
             backend: opts.backend,
             method: opts.method,
+        }),
+        Box::new(isg::IsgFamily {
+            model: isg::IsgModelKind::Refit,
+        }),
+        Box::new(isg::IsgFamily {
+            model: isg::IsgModelKind::Best,
         }),
     ]
 }

@@ -26,12 +26,14 @@
 pub mod cap_exponent;
 pub mod error;
 pub mod format;
+pub mod isg;
 pub mod lobe_integral;
 pub mod table;
 
 pub use cap_exponent::CapExponent;
 pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
+pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
 pub use lobe_integral::LobeIntegral;
 pub use table::Table;
 
@@ -42,4 +44,8 @@ pub mod embedded {
     pub static LOBE_INTEGRAL: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
     /// `tables/data/cap-exponent.lobefit`.
     pub static CAP_EXPONENT: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+    /// `tables/data/isg-refit.lobefit`.
+    pub static ISG_REFIT: &[u8] = include_bytes!("../data/isg-refit.lobefit");
+    /// `tables/data/isg-best.lobefit`.
+    pub static ISG_BEST: &[u8] = include_bytes!("../data/isg-best.lobefit");
 }
