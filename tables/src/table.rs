@@ -113,25 +113,33 @@ impl Table {
         Ok(())
     }
 
-    /// Fails unless the table has exactly one axis equal to `axis` (any node count of
-    /// at least 2) and exactly the channels `channels` (name, encoding), in order.
+    /// Checks a one-axis layout: see [`Table::expect_layout`].
     pub fn expect_layout_1d(&self, axis: &Axis, channels: &[(&str, Encoding)]) -> Result<(), LoadError> {
+        self.expect_layout(std::slice::from_ref(axis), channels)
+    }
+
+    /// Checks that the file has exactly these axes (name, unit, range, mapping and
+    /// placement; any node count), slowest first, and these channels in this order,
+    /// so a family's runtime never misreads a file laid out differently.
+    pub fn expect_layout(&self, axes: &[Axis], channels: &[(&str, Encoding)]) -> Result<(), LoadError> {
         let m = &self.meta;
         let mismatch = |detail: String| LoadError::LayoutMismatch {
             kind: m.kind.clone(),
             detail,
         };
-        let [a] = m.axes.as_slice() else {
-            return Err(mismatch(format!("{} axes, expected 1", m.axes.len())));
-        };
-        let same = a.name == axis.name
-            && a.unit == axis.unit
-            && a.lo == axis.lo
-            && a.hi == axis.hi
-            && a.mapping == axis.mapping
-            && a.placement == axis.placement;
-        if !same {
-            return Err(mismatch(format!("axis {a:?}, expected {axis:?} (any count)")));
+        if m.axes.len() != axes.len() {
+            return Err(mismatch(format!("{} axes, expected {}", m.axes.len(), axes.len())));
+        }
+        for (a, axis) in m.axes.iter().zip(axes) {
+            let same = a.name == axis.name
+                && a.unit == axis.unit
+                && a.lo == axis.lo
+                && a.hi == axis.hi
+                && a.mapping == axis.mapping
+                && a.placement == axis.placement;
+            if !same {
+                return Err(mismatch(format!("axis {a:?}, expected {axis:?} (any count)")));
+            }
         }
         let found: Vec<(&str, Encoding)> = m.channels.iter().map(|c| (c.name.as_str(), c.encoding)).collect();
         if found != channels {
