@@ -587,6 +587,133 @@ impl Family for IsgFamily {
 /// good to ~1e-9, so a larger defect is a failed evaluation.
 const SYMMETRY_TOL: f64 = 1e-8;
 
+/// The family `lobefit eval isg --model paper|refit|best` queries (default `best`, the
+/// most accurate); other flags are refused.
+pub fn for_eval(flags: &crate::family::EvalFlags) -> Result<Box<dyn Family>, String> {
+    if let Some(flag) = flags.given().into_iter().find(|f| *f != "--model") {
+        return Err(format!("isg takes no {flag} flag"));
+    }
+    let model = IsgModelKind::parse(flags.model.as_deref().unwrap_or("best"))?;
+    Ok(Box::new(IsgFamily { model }))
+}
+
+/// A model Ŝ(θ, φ, γ) with its name.
+type NamedModel = (&'static str, Box<dyn Fn(f64, f64, f64) -> f64>);
+
+/// The three models as functions of (θ, φ) at γ, through the runtime (embedded tables).
+fn runtime_models() -> Result<[NamedModel; 3], String> {
+    let refit = RefitIsg::embedded().map_err(|e| e.to_string())?;
+    let best = BestIsg::embedded().map_err(|e| e.to_string())?;
+    Ok([
+        ("paper", Box::new(|t, p, g| PaperIsg.s_hat_unchecked(t, p, g))),
+        ("refit", Box::new(move |t, p, g| refit.s_hat_unchecked(t, p, g))),
+        ("best", Box::new(move |t, p, g| best.s_hat_unchecked(t, p, g))),
+    ])
+}
+
+/// Max |model − Ŝ| of each runtime model (paper, refit, best) at γ over the
+/// width-adapted grid ([`fit_axis`]), Ŝ by the fast evaluation.
+pub fn model_errors(gamma: f64) -> Result<[f64; 3], String> {
+    let models = runtime_models()?;
+    let ax = fit_axis(gamma);
+    let s = s_hat_grid(&ax, gamma);
+    let mut out = [0.0f64; 3];
+    for (k, (_, m)) in models.iter().enumerate() {
+        for (i, &t) in ax.iter().enumerate() {
+            for (j, &p) in ax.iter().enumerate() {
+                out[k] = out[k].max((m(t, p, gamma) - s[i * ax.len() + j]).abs());
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// `lobefit plot isg`: the paper's Figure 3 (Ŝ, the model, their difference) at
+/// γ = 100 and 1000 for the published model, with the refit and best differences
+/// beside it, and max |f − Ŝ| against γ for the three models.
+pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
+    use crate::plot::{heatmaps, line_chart, Heatmap, LineChart, Series};
+    const N: usize = 121;
+    let models = runtime_models()?;
+    let mut files = Vec::new();
+    for gamma in [100.0f64, 1000.0] {
+        // ±6 SG widths around the axis: outside, Ŝ is flat (0, 1 or a marginal).
+        let half = (GRID_WIDTHS / gamma.sqrt()).min(FRAC_PI_2);
+        let (lo, hi) = (FRAC_PI_2 - half, FRAC_PI_2 + half);
+        let at = |k: usize| lo + (hi - lo) * (k as f64 + 0.5) / N as f64;
+        let mut exact = Vec::with_capacity(N * N);
+        for iy in 0..N {
+            for ix in 0..N {
+                exact.push(s_hat_fast(at(iy), at(ix), gamma));
+            }
+        }
+        let eval = |m: &dyn Fn(f64, f64, f64) -> f64| -> Vec<f64> {
+            let mut v = Vec::with_capacity(N * N);
+            for iy in 0..N {
+                for ix in 0..N {
+                    v.push(m(at(iy), at(ix), gamma));
+                }
+            }
+            v
+        };
+        let panel = |title: String, values: Vec<f64>, colour_label: &str, log: bool| Heatmap {
+            title,
+            x_label: "φ (rad)".into(),
+            y_label: "θ (rad)".into(),
+            x_range: (lo, hi),
+            y_range: (lo, hi),
+            nx: N,
+            ny: N,
+            values,
+            colour_label: colour_label.into(),
+            log_colour: log,
+        };
+        let mut panels = vec![panel(format!("Ŝ, γ = {gamma}"), exact.clone(), "Ŝ", false)];
+        let paper = eval(&*models[0].1);
+        panels.push(panel(format!("paper model f, γ = {gamma}"), paper, "f", false));
+        for (name, m) in &models {
+            let diff: Vec<f64> = eval(&**m).iter().zip(&exact).map(|(f, e)| (f - e).abs()).collect();
+            let max = diff.iter().copied().fold(0.0, f64::max);
+            panels.push(panel(format!("|{name} − Ŝ|, max {max:.4}"), diff, "|f − Ŝ|", false));
+        }
+        files.push(heatmaps(&dir.join(format!("isg-fig3-gamma{gamma}.png")), &panels, 3)?);
+    }
+    let gammas: Vec<f64> = (0..=48)
+        .map(|i| (GAMMA_MIN.ln() + (GAMMA_MAX / GAMMA_MIN).ln() * i as f64 / 48.0).exp())
+        .collect();
+    let errs: Vec<[f64; 3]> = gammas.iter().map(|&g| model_errors(g)).collect::<Result<_, _>>()?;
+    let series = models
+        .iter()
+        .enumerate()
+        .map(|(k, (name, _))| Series {
+            name: format!("{name} (max {:.4})", errs.iter().map(|e| e[k]).fold(0.0, f64::max)),
+            points: gammas.iter().zip(&errs).map(|(&g, e)| (g, e[k])).collect(),
+        })
+        .chain([
+            Series {
+                name: "SPEC refit target 0.02 (γ ≥ 3)".into(),
+                points: vec![(REFIT_TARGET_GAMMA_MIN, REFIT_TARGET), (GAMMA_MAX, REFIT_TARGET)],
+            },
+            Series {
+                name: "SPEC best target 0.005".into(),
+                points: vec![(GAMMA_MIN, BEST_TARGET), (GAMMA_MAX, BEST_TARGET)],
+            },
+        ])
+        .collect();
+    files.push(line_chart(
+        &dir.join("isg-max-error.png"),
+        &LineChart {
+            title: "ISG models: max |f − Ŝ| over (θ, φ) vs γ".into(),
+            x_label: "γ".into(),
+            y_label: "max |f − Ŝ|".into(),
+            log_x: true,
+            log_y: true,
+            series,
+        },
+    )?);
+    Ok(files)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -89,7 +89,9 @@ pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Family>> {
 /// Names `lobefit eval` accepts (SPEC §6). A name may select among several tables
 /// through its flags (e.g. `lobe-product --variant l2`).
 pub fn eval_names() -> Vec<&'static str> {
-    names()
+    let mut v = names();
+    v.push("isg");
+    v
 }
 
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
@@ -97,6 +99,7 @@ pub fn eval_names() -> Vec<&'static str> {
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
     #[allow(clippy::match_single_binding)] // one arm per family with flags goes here
     match name {
+        "isg" => isg::for_eval(flags),
         _ => {
             let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
             if let Some(flag) = flags.given().first() {
@@ -113,5 +116,5 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![]
+    vec![("isg", isg::plot)]
 }

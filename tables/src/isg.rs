@@ -216,34 +216,6 @@ impl IsgModel for PaperIsg {
     }
 }
 
-/// Checks a table's axes and channels against the expected ones (any node counts ≥ 2).
-fn expect_layout(table: &Table, axes: &[Axis], channels: &[(&str, Encoding)]) -> Result<(), LoadError> {
-    let m = table.meta();
-    let mismatch = |detail: String| LoadError::LayoutMismatch {
-        kind: m.kind.clone(),
-        detail,
-    };
-    if m.axes.len() != axes.len() {
-        return Err(mismatch(format!("{} axes, expected {}", m.axes.len(), axes.len())));
-    }
-    for (a, want) in m.axes.iter().zip(axes) {
-        let same = a.name == want.name
-            && a.unit == want.unit
-            && a.lo == want.lo
-            && a.hi == want.hi
-            && a.mapping == want.mapping
-            && a.placement == want.placement;
-        if !same {
-            return Err(mismatch(format!("axis {a:?}, expected {want:?} (any count)")));
-        }
-    }
-    let found: Vec<(&str, Encoding)> = m.channels.iter().map(|c| (c.name.as_str(), c.encoding)).collect();
-    if found != channels {
-        return Err(mismatch(format!("channels {found:?}, expected {channels:?}")));
-    }
-    Ok(())
-}
-
 /// The refitted logistic model: g(γ), h(γ) interpolated linearly in ln γ (stored as
 /// ln g, ln h).
 #[derive(Debug, Clone)]
@@ -261,8 +233,7 @@ impl RefitIsg {
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND_REFIT, VERSION)?;
         let n = table.meta().axes.first().map_or(0, |a| a.count);
-        expect_layout(
-            &table,
+        table.expect_layout(
             &[gamma_axis(n)],
             &[(REFIT_CHANNELS[0], Encoding::Log), (REFIT_CHANNELS[1], Encoding::Log)],
         )?;
@@ -327,8 +298,7 @@ impl BestIsg {
             m.axes.first().map_or(0, |a| a.count),
             m.axes.get(1).map_or(0, |a| a.count),
         );
-        expect_layout(
-            &table,
+        table.expect_layout(
             &[gamma_axis(n0), warp_axis(n1)],
             &[
                 (BEST_CHANNELS[0], Encoding::Linear),
