@@ -4,6 +4,7 @@
 pub mod cap_exponent;
 pub mod isg;
 pub mod lobe_integral;
+pub mod sg_fit;
 
 use std::path::{Path, PathBuf};
 
@@ -73,6 +74,7 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         Box::new(isg::IsgFamily {
             model: isg::IsgModelKind::Best,
         }),
+        Box::new(sg_fit::SgFitFamily),
     ]
 }
 

@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-const FAMILIES: [&str; 4] = ["lobe-integral", "cap-exponent", "isg-refit", "isg-best"];
+const FAMILIES: [&str; 5] = ["lobe-integral", "cap-exponent", "isg-refit", "isg-best", "sg-fit"];
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_lobefit"));

@@ -29,6 +29,7 @@ pub mod error;
 pub mod format;
 pub mod isg;
 pub mod lobe_integral;
+pub mod sg_fit;
 pub mod table;
 
 pub use glam;
@@ -38,6 +39,7 @@ pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
 pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
 pub use lobe_integral::LobeIntegral;
+pub use sg_fit::SgFit;
 pub use table::Table;
 
 /// The committed default tables (`tables/data/*.lobefit`), compiled in.
@@ -51,4 +53,6 @@ pub mod embedded {
     pub static ISG_REFIT: &[u8] = include_bytes!("../data/isg-refit.lobefit");
     /// `tables/data/isg-best.lobefit`.
     pub static ISG_BEST: &[u8] = include_bytes!("../data/isg-best.lobefit");
+    /// `tables/data/sg-fit.lobefit`.
+    pub static SG_FIT: &[u8] = include_bytes!("../data/sg-fit.lobefit");
 }
