@@ -87,6 +87,19 @@ pub fn s_hat_reference(theta: f64, phi: f64, gamma: f64) -> Result<f64, String> 
 
 /// [`s_hat_reference`] without the domain check (any γ > 0; the tests use γ → 0).
 fn reference_unchecked(theta: f64, phi: f64, gamma: f64) -> Result<f64, String> {
+    Ok(rectangle_reference(0.0, theta, 0.0, phi, gamma)? / normaliser(gamma))
+}
+
+/// ∫_{θ1}^{θ2} ∫_{φ1}^{φ2} exp(γ (Ω·z − 1)) sinθ dφ dθ (sr) by nested adaptive
+/// Gauss–Kronrod straight over the rectangle (no four-corner combination): the
+/// checker's reference for patch integrals. Absolute accuracy ~[`REFERENCE_TOL`]·S(π, π).
+pub fn patch_reference(theta1: f64, theta2: f64, phi1: f64, phi2: f64, gamma: f64) -> Result<f64, String> {
+    check_domain(theta1, phi1, gamma)?;
+    check_domain(theta2, phi2, gamma)?;
+    rectangle_reference(theta1, theta2, phi1, phi2, gamma)
+}
+
+fn rectangle_reference(theta1: f64, theta2: f64, phi1: f64, phi2: f64, gamma: f64) -> Result<f64, String> {
     // Integrand divided by S(π, π), so tolerances are absolute in Ŝ.
     let n = normaliser(gamma);
     let ok = Cell::new(true);
@@ -99,8 +112,8 @@ fn reference_unchecked(theta: f64, phi: f64, gamma: f64) -> Result<f64, String> 
         // Inner width 1/√(γ sinθ'); its error, integrated over ≤ π in θ', stays ≤ REFERENCE_TOL.
         let q = gauss_kronrod(
             |p: f64| (-gamma * one_minus_dot(t, p)).exp() / n,
-            0.0,
-            phi,
+            phi1,
+            phi2,
             &width_breaks(gamma * s),
             REFERENCE_TOL / PI,
             0.0,
@@ -111,13 +124,21 @@ fn reference_unchecked(theta: f64, phi: f64, gamma: f64) -> Result<f64, String> 
         }
         q.value * s
     };
-    let q = gauss_kronrod(inner, 0.0, theta, &outer_breaks, REFERENCE_TOL, 0.0, REF_MAX_INTERVALS);
+    let q = gauss_kronrod(
+        inner,
+        theta1,
+        theta2,
+        &outer_breaks,
+        REFERENCE_TOL,
+        0.0,
+        REF_MAX_INTERVALS,
+    );
     if !q.converged || !ok.get() {
         return Err(format!(
-            "reference quadrature did not converge at theta = {theta}, phi = {phi}, gamma = {gamma}"
+            "reference quadrature did not converge on [{theta1}, {theta2}] x [{phi1}, {phi2}], gamma = {gamma}"
         ));
     }
-    Ok(q.value)
+    Ok(q.value * n)
 }
 
 /// Break points π/2 ± k/√κ (k = 1/2 … 16) and π/2, where a Gaussian of sharpness κ
