@@ -136,6 +136,28 @@ fn limiting_angles() {
     assert!(best.limiting_angle(1e4, 0.01).unwrap() < best.limiting_angle(100.0, 0.01).unwrap());
 }
 
+/// The separable model's direct bilinear path equals the generic table interpolation.
+#[test]
+fn best_fast_path_matches_table_interpolation() {
+    let (_, best) = models();
+    let mut rng = Rng::new(21);
+    for _ in 0..2000 {
+        let gamma = log_uniform(&mut rng, GAMMA_MIN, GAMMA_MAX);
+        let (t, p) = (rng.range(0.0, PI), rng.range(0.0, PI));
+        let (a, b) = best.marginals(t, p, gamma).unwrap();
+        assert!(
+            (best.s_hat(t, p, gamma).unwrap() - a * b).abs() < 1e-12,
+            "{gamma} {t} {p}"
+        );
+    }
+    for gamma in [GAMMA_MIN, GAMMA_MAX] {
+        for (t, p) in [(0.0, 0.0), (PI, PI), (0.0, PI), (FRAC_PI_2, FRAC_PI_2)] {
+            let (a, b) = best.marginals(t, p, gamma).unwrap();
+            assert!((best.s_hat(t, p, gamma).unwrap() - a * b).abs() < 1e-12);
+        }
+    }
+}
+
 #[test]
 fn f32_twins_agree() {
     let (refit, best) = models();
