@@ -733,6 +733,14 @@ mod tests {
             assert!((e_ref - e).abs() < 1e-8);
             assert!((e / quoted - 1.0).abs() < 0.10, "{e} vs {quoted}");
         }
+        // SPEC E3: far worse outside ≈ [100, 1000] — ≈ 0.59 at γ = 1, ≈ 0.17 at 10^4;
+        // the worst γ of the range is its lower end, 0.5.
+        for (gamma, spec) in [(0.5, 0.60), (1.0, 0.59), (1e4, 0.17)] {
+            let m = |t, p| PaperIsg.s_hat(t, p, gamma).unwrap();
+            let (e, _, _) = max_error_on_grid(&m, gamma);
+            eprintln!("paper model at γ = {gamma}: max |f − Ŝ| = {e:.4}");
+            assert!((e - spec).abs() < 0.01, "{gamma}: {e}");
+        }
     }
 
     /// The symmetry-filled grid equals direct evaluation everywhere.

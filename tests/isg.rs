@@ -259,3 +259,69 @@ fn committed_sg_fit_against_reference() {
     assert!(matches!(t.fit(f64::NAN), Err(LookupError::NotFinite { .. })));
     assert!(matches!(t.fit(2e5), Err(LookupError::OutOfDomain { .. })));
 }
+
+fn eval(args: &[&str], input: &str) -> std::process::Output {
+    use std::io::Write;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_lobefit"))
+        .arg("eval")
+        .args(args)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // A refused command may exit before reading its input: a broken pipe is fine.
+    let _ = child.stdin.take().unwrap().write_all(input.as_bytes());
+    child.wait_with_output().unwrap()
+}
+
+/// `lobefit eval isg --model paper|refit|best` and `eval sg-fit` (SPEC §6): columns,
+/// values against the runtime, bad model names and flags refused with a message.
+#[test]
+fn cli_eval_isg_and_sg_fit() {
+    let input = "gamma,theta,phi\n100,1.6,1.5\n0.5,0.3,3.0\n";
+    let (refit, best) = models();
+    let m: [(&str, &dyn IsgModel); 3] = [("paper", &PaperIsg), ("refit", &refit), ("best", &best)];
+    for (name, model) in m {
+        let out = eval(&["isg", "--model", name], input);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8(out.stdout).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "gamma,theta,phi,s_hat,s");
+        let v: Vec<f64> = lines[1].split(',').map(|x| x.parse().unwrap()).collect();
+        assert!((v[3] - model.s_hat(1.6, 1.5, 100.0).unwrap()).abs() < 1e-12, "{name}");
+        assert!((v[4] - model.s(1.6, 1.5, 100.0).unwrap()).abs() < 1e-12, "{name}");
+    }
+    let out = eval(&["isg", "--exact"], input);
+    let text = String::from_utf8(out.stdout).unwrap();
+    let v: Vec<f64> = text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert!((v[3] - s_hat_reference(1.6, 1.5, 100.0).unwrap()).abs() < 1e-9);
+    for (args, msg) in [
+        (vec!["isg", "--model", "logistic"], "unknown isg model"),
+        (vec!["isg", "--order", "2"], "takes no --order"),
+    ] {
+        let out = eval(&args, input);
+        assert!(!out.status.success());
+        assert!(String::from_utf8_lossy(&out.stderr).contains(msg), "{args:?}");
+    }
+    let out = eval(&["isg"], "gamma,theta,phi\n100,1.0,1.0\n20000,1.0,1.0\n");
+    assert!(!out.status.success() && out.stdout.is_empty());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("line 3"));
+    let out = eval(&["sg-fit"], "e\n0\n1\n");
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(text.lines().next().unwrap(), "e,lambda,mu");
+    let v: Vec<f64> = text
+        .lines()
+        .nth(2)
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert!((v[1] - 2.1438).abs() < 1e-3 && (v[2] - 1.1766).abs() < 1e-3);
+}
