@@ -11,6 +11,10 @@ use lobefit::tables::{BestIsg, IsgModel, PaperIsg, RefitIsg, SgFit, Table};
 /// Largest query angle: π − 1e-5, so the f32 casts stay inside [0, π].
 const ANGLE_MAX: f64 = std::f64::consts::PI - 1e-5;
 
+/// Iterations per sample of the per-model benches: fixed, so the three models are
+/// timed alike (divan's automatic choice fell to 1 for one of them, timer-noise bound).
+const SAMPLE_SIZE: u32 = 1000;
+
 fn main() {
     divan::main();
 }
@@ -43,25 +47,25 @@ fn bench_model(bencher: divan::Bencher, m: &dyn IsgModel) {
     });
 }
 
-#[divan::bench]
+#[divan::bench(sample_size = SAMPLE_SIZE)]
 fn s_hat_paper(bencher: divan::Bencher) {
     bench_model(bencher, &PaperIsg);
 }
 
-#[divan::bench]
+#[divan::bench(sample_size = SAMPLE_SIZE)]
 fn s_hat_refit(bencher: divan::Bencher) {
     let m = RefitIsg::from_table(table("isg-refit")).unwrap();
     bench_model(bencher, &m);
 }
 
-#[divan::bench]
+#[divan::bench(sample_size = SAMPLE_SIZE)]
 fn s_hat_best(bencher: divan::Bencher) {
     let m = BestIsg::from_table(table("isg-best")).unwrap();
     bench_model(bencher, &m);
 }
 
 /// The f32 entry point of the separable model (what a shader-side port mirrors).
-#[divan::bench]
+#[divan::bench(sample_size = SAMPLE_SIZE)]
 fn s_hat_best_f32(bencher: divan::Bencher) {
     let m = BestIsg::from_table(table("isg-best")).unwrap();
     let pts: Vec<(f32, f32, f32)> = points()
@@ -100,7 +104,7 @@ fn s_hat_exact_reference(bencher: divan::Bencher) {
     });
 }
 
-#[divan::bench]
+#[divan::bench(sample_size = SAMPLE_SIZE)]
 fn sg_fit_lookup(bencher: divan::Bencher) {
     let t = SgFit::from_table(table("sg-fit")).unwrap();
     let mut e = 0.0;
