@@ -20,11 +20,12 @@
 //!   σ(x) = 1/(1 + e^{−x}), g and h quartics in γ/100 (appendix of the paper). No table.
 //! - [`RefitIsg`]: the same logistic model with g(γ), h(γ) refitted and tabulated
 //!   over ln γ (table kind `isg-refit`).
-//! - [`BestIsg`]: the separable model Ŝ ≈ A(θ; γ) · B(φ; γ) with the exact marginals
-//!   A(θ) = Ŝ(θ, π), B(φ) = Ŝ(π, φ) (table kind `isg-best`). Exact whenever θ or φ is
-//!   0 or π; A(π − θ) = 1 − A(θ) and B(π − φ) = 1 − B(φ), so only θ, φ ≤ π/2 are
-//!   stored, on a warped coordinate u (see [`warp`]) that maps [0, π/2] to [1, 0]
-//!   for every γ and is proportional to |θ − π/2|·√γ near the axis.
+//! - [`BestIsg`]: the rank-2 separable model Ŝ ≈ A(θ; γ) B(φ; γ) + C(θ; γ) D(φ; γ)
+//!   with the exact marginals A(θ) = Ŝ(θ, π), B(φ) = Ŝ(π, φ) and C D the leading
+//!   singular pair of Ŝ − A B (table kind `isg-best`). Exact whenever θ or φ is 0 or π
+//!   (C and D vanish there). A(π − θ) = 1 − A(θ), C(π − θ) = −C(θ), B and D likewise,
+//!   so only θ, φ ≤ π/2 are stored, on a warped coordinate u (see [`warp`]) that maps
+//!   [0, π/2] to [1, 0] for every γ and is proportional to |θ − π/2|·√γ near the axis.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -44,8 +45,9 @@ pub const GAMMA_MIN: f64 = 0.5;
 pub const GAMMA_MAX: f64 = 1.0e4;
 /// Channels of the refit table (both log-encoded: slopes are positive).
 pub const REFIT_CHANNELS: [&str; 2] = ["g", "h"];
-/// Channels of the separable table: A(θ) and B(φ) for θ, φ ≤ π/2.
-pub const BEST_CHANNELS: [&str; 2] = ["a", "b"];
+/// Channels of the separable table, for θ, φ ≤ π/2: the marginals A(θ), B(φ) and the
+/// correction factors C(θ), D(φ).
+pub const BEST_CHANNELS: [&str; 4] = ["a", "b", "c", "d"];
 
 /// Published coefficients (g4, g3, g2, g1, g0) of g(x), x = γ/100 (paper appendix).
 pub const PAPER_G: [f64; 5] = [-2.6856e-6, 7e-4, -0.0571, 3.9529, 17.6028];
@@ -278,7 +280,8 @@ impl IsgModel for RefitIsg {
     }
 }
 
-/// The separable model Ŝ ≈ A(θ; γ) B(φ; γ) (exact marginals, bilinear in (ln γ, u)).
+/// The rank-2 separable model Ŝ ≈ A(θ; γ) B(φ; γ) + C(θ; γ) D(φ; γ) (exact marginals
+/// A, B; bilinear in (ln γ, u)).
 #[derive(Debug, Clone)]
 pub struct BestIsg {
     table: Table,
@@ -305,6 +308,8 @@ impl BestIsg {
             &[
                 (BEST_CHANNELS[0], Encoding::Linear),
                 (BEST_CHANNELS[1], Encoding::Linear),
+                (BEST_CHANNELS[2], Encoding::Linear),
+                (BEST_CHANNELS[3], Encoding::Linear),
             ],
         )?;
         Ok(Self {
@@ -327,32 +332,40 @@ impl BestIsg {
         &self.table
     }
 
-    /// Marginal factor of channel `c` (0: A in θ, 1: B in φ) at an angle x ∈ [0, π].
-    fn factor(&self, c: usize, x: f64, gamma: f64) -> f64 {
-        let mut out = [0.0; 2];
+    /// Factors (marginal, correction) of axis `k` (0: (A, C) in θ, 1: (B, D) in φ) at
+    /// an angle x ∈ [0, π], by the generic table interpolation.
+    fn factor(&self, k: usize, x: f64, gamma: f64) -> (f64, f64) {
+        let mut out = [0.0; 4];
         let (mirrored, y) = if x > FRAC_PI_2 { (true, PI - x) } else { (false, x) };
         // Inputs were validated, so the coordinates are in range.
         if self.table.interpolate(&[gamma, warp(y, gamma)], &mut out).is_err() {
-            return f64::NAN;
+            return (f64::NAN, f64::NAN);
         }
         if mirrored {
-            1.0 - out[c]
+            (1.0 - out[k], -out[k + 2])
         } else {
-            out[c]
+            (out[k], out[k + 2])
         }
     }
 
     /// The marginals (A(θ), B(φ)) = (Ŝ(θ, π), Ŝ(π, φ)).
     pub fn marginals(&self, theta: f64, phi: f64, gamma: f64) -> Result<(f64, f64), LookupError> {
         check(theta, phi, gamma)?;
-        Ok((self.factor(0, theta, gamma), self.factor(1, phi, gamma)))
+        Ok((self.factor(0, theta, gamma).0, self.factor(1, phi, gamma).0))
+    }
+
+    /// All four factors ((A(θ), C(θ)), (B(φ), D(φ))) by the generic table interpolation;
+    /// Ŝ ≈ A B + C D.
+    pub fn factors(&self, theta: f64, phi: f64, gamma: f64) -> Result<[(f64, f64); 2], LookupError> {
+        check(theta, phi, gamma)?;
+        Ok([self.factor(0, theta, gamma), self.factor(1, phi, gamma)])
     }
 }
 
 impl BestIsg {
     /// Direct bilinear path of [`IsgModel::s_hat`]: the same interpolation as
     /// [`Table::interpolate`] (linear in ln γ and u, Endpoints nodes), with ln γ and
-    /// 1 − e^{−γ} shared by both factors (test `best_fast_path_matches_table_interpolation`).
+    /// 1 − e^{−γ} shared by all factors (test `best_fast_path_matches_table_interpolation`).
     fn product(&self, theta: f64, phi: f64, gamma: f64) -> f64 {
         let (n0, n1) = self.n;
         let v = self.table.values();
@@ -361,24 +374,29 @@ impl BestIsg {
         let i0 = (s0 as usize).min(n0 - 2);
         let f0 = s0 - i0 as f64;
         let em = (-gamma).exp_m1();
-        let factor = |c: usize, x: f64| {
+        // (marginal, correction) of axis k: channels k and k + 2.
+        let factor = |k: usize, x: f64| {
             let (mirrored, y) = if x > FRAC_PI_2 { (true, PI - x) } else { (false, x) };
             let h = (0.5 * (y - FRAC_PI_2)).sin();
             let u = ((-gamma * 2.0 * h * h).exp_m1() / em).sqrt().min(1.0);
             let s1 = u * (n1 - 1) as f64;
             let i1 = (s1 as usize).min(n1 - 2);
             let f1 = s1 - i1 as f64;
-            let at = |a: usize, b: usize| v[(a * n1 + b) * 2 + c] as f64;
-            let lo = at(i0, i1) + f1 * (at(i0, i1 + 1) - at(i0, i1));
-            let hi = at(i0 + 1, i1) + f1 * (at(i0 + 1, i1 + 1) - at(i0 + 1, i1));
-            let a = lo + f0 * (hi - lo);
+            let bilinear = |c: usize| {
+                let at = |a: usize, b: usize| v[(a * n1 + b) * 4 + c] as f64;
+                let lo = at(i0, i1) + f1 * (at(i0, i1 + 1) - at(i0, i1));
+                let hi = at(i0 + 1, i1) + f1 * (at(i0 + 1, i1 + 1) - at(i0 + 1, i1));
+                lo + f0 * (hi - lo)
+            };
+            let (m, c) = (bilinear(k), bilinear(k + 2));
             if mirrored {
-                1.0 - a
+                (1.0 - m, -c)
             } else {
-                a
+                (m, c)
             }
         };
-        factor(0, theta) * factor(1, phi)
+        let ((a, c), (b, d)) = (factor(0, theta), factor(1, phi));
+        a * b + c * d
     }
 }
 
@@ -390,12 +408,12 @@ impl IsgModel for BestIsg {
         // Bisection on each monotone marginal: A(π/2 − Γ) = ε.
         let root = |c: usize| {
             let (mut lo, mut hi) = (0.0, FRAC_PI_2); // Γ
-            if self.factor(c, 0.0, gamma) >= eps {
+            if self.factor(c, 0.0, gamma).0 >= eps {
                 return FRAC_PI_2;
             }
             for _ in 0..60 {
                 let mid = 0.5 * (lo + hi);
-                if self.factor(c, FRAC_PI_2 - mid, gamma) > eps {
+                if self.factor(c, FRAC_PI_2 - mid, gamma).0 > eps {
                     lo = mid;
                 } else {
                     hi = mid;
