@@ -823,7 +823,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         for (name, m) in &models {
             let diff: Vec<f64> = eval(&**m).iter().zip(&exact).map(|(f, e)| (f - e).abs()).collect();
             let max = diff.iter().copied().fold(0.0, f64::max);
-            panels.push(panel(format!("|{name} − Ŝ|, max {max:.4}"), diff, "|f − Ŝ|", false));
+            panels.push(panel(format!("|{name} − Ŝ|, max {max:.2e}"), diff, "|f − Ŝ|", false));
         }
         files.push(heatmaps(&dir.join(format!("isg-fig3-gamma{gamma}.png")), &panels, 3)?);
     }
@@ -835,7 +835,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         .iter()
         .enumerate()
         .map(|(k, (name, _))| Series {
-            name: format!("{name} (max {:.4})", errs.iter().map(|e| e[k]).fold(0.0, f64::max)),
+            name: format!("{name} (max {:.2e})", errs.iter().map(|e| e[k]).fold(0.0, f64::max)),
             points: gammas.iter().zip(&errs).map(|(&g, e)| (g, e[k])).collect(),
         })
         .chain([
