@@ -4,6 +4,7 @@
 pub mod cap_exponent;
 pub mod isg;
 pub mod lobe_integral;
+pub mod lobe_product;
 pub mod sg_fit;
 
 use std::path::{Path, PathBuf};
@@ -75,6 +76,12 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
             model: isg::IsgModelKind::Best,
         }),
         Box::new(sg_fit::SgFitFamily),
+        Box::new(lobe_product::LobeProductFamily {
+            variant: lobefit_tables::Variant::Energy,
+        }),
+        Box::new(lobe_product::LobeProductFamily {
+            variant: lobefit_tables::Variant::L2,
+        }),
     ]
 }
 
@@ -99,9 +106,16 @@ pub fn eval_names() -> Vec<&'static str> {
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
 /// Errors name the flag a family does not take or the value it does not know.
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
-    #[allow(clippy::match_single_binding)] // one arm per family with flags goes here
     match name {
         "isg" => isg::for_eval(flags),
+        "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
+            let variant = match flags.variant.as_deref() {
+                None | Some("energy") => lobefit_tables::Variant::Energy,
+                Some("l2") => lobefit_tables::Variant::L2,
+                Some(v) => return Err(format!("--variant {v}: expected energy or l2")),
+            };
+            Ok(Box::new(lobe_product::LobeProductFamily { variant }))
+        }
         _ => {
             let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
             if let Some(flag) = flags.given().first() {
@@ -118,5 +132,5 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![("isg", isg::plot)]
+    vec![("isg", isg::plot), ("lobe-product", lobe_product::plot)]
 }

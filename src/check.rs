@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use lobefit_tables::Table;
 
-use crate::family::Family;
+use crate::family::{Extra, Family};
 use crate::rng::Rng;
 
 /// Checker settings.
@@ -19,6 +19,8 @@ pub struct CheckOptions {
     pub offgrid: usize,
     /// Seed of the off-grid sample (the same seed gives the same points).
     pub seed: u64,
+    /// Most grid nodes checked per family (an evenly strided subset beyond it).
+    pub grid_limit: usize,
 }
 
 impl CheckOptions {
@@ -26,11 +28,13 @@ impl CheckOptions {
     pub const FULL: CheckOptions = CheckOptions {
         offgrid: 10_000,
         seed: 0x010b_ef17,
+        grid_limit: 20_000,
     };
     /// CI check: 2 000 off-grid points.
     pub const QUICK: CheckOptions = CheckOptions {
         offgrid: 2_000,
         seed: 0x010b_ef17,
+        grid_limit: 2_000,
     };
 }
 
@@ -41,6 +45,8 @@ pub struct Stats {
     pub count: usize,
     /// Mean.
     pub mean: f64,
+    /// Variance (population).
+    pub variance: f64,
     /// Median.
     pub median: f64,
     /// 95th percentile.
@@ -59,6 +65,7 @@ impl Stats {
             return Stats {
                 count: 0,
                 mean: f64::NAN,
+                variance: f64::NAN,
                 median: f64::NAN,
                 p95: f64::NAN,
                 p99: f64::NAN,
@@ -67,9 +74,11 @@ impl Stats {
         }
         v.sort_by(f64::total_cmp);
         let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
         Stats {
             count: v.len(),
-            mean: v.iter().sum::<f64>() / v.len() as f64,
+            mean,
+            variance: v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64,
             median: q(0.5),
             p95: q(0.95),
             p99: q(0.99),
@@ -106,6 +115,15 @@ pub struct OutputReport {
     pub worst_offgrid_input: Vec<f64>,
 }
 
+/// A measured distribution (see [`Extra::Values`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct ValueReport {
+    /// What was measured.
+    pub name: String,
+    /// Its statistics.
+    pub stats: Stats,
+}
+
 /// One threshold and its measured value.
 #[derive(Debug, Clone, Serialize)]
 pub struct ThresholdResult {
@@ -136,14 +154,17 @@ pub struct FamilyReport {
     pub outputs: Vec<OutputReport>,
     /// Threshold verdicts.
     pub thresholds: Vec<ThresholdResult>,
+    /// Measured distributions reported without a threshold.
+    pub values: Vec<ValueReport>,
     /// Problems that fail the check outright (load error, lookup error, bad fit flags).
     pub problems: Vec<String>,
     /// Overall verdict.
     pub pass: bool,
 }
 
-/// Runtime value and reference value of every output at one point, or what went wrong.
-type PointResult = Result<(Vec<f64>, Vec<f64>), String>;
+/// Runtime value and reference value of every checked quantity at one point (`None`
+/// where the family promises nothing), or what went wrong.
+type PointResult = Result<Option<(Vec<f64>, Vec<f64>)>, String>;
 
 fn rel_err(got: f64, want: f64) -> f64 {
     let d = (got - want).abs();
@@ -163,6 +184,7 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
         offgrid_points: 0,
         outputs: Vec::new(),
         thresholds: Vec::new(),
+        values: Vec::new(),
         problems: Vec::new(),
         pass: false,
     };
@@ -175,6 +197,7 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
     };
     // The loader has already rejected files with unconverged entries.
     let meta = table.meta().clone();
+    let table_copy = table.clone();
     let runtime = match family.runtime(table) {
         Ok(r) => r,
         Err(e) => {
@@ -182,25 +205,26 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
             return report;
         }
     };
-    let grid: Vec<Vec<f64>> = crate::build::grid_nodes(&meta.axes)
+    let all_nodes = crate::build::grid_nodes(&meta.axes);
+    // Large grids are checked on an evenly strided subset (every node of small ones).
+    let stride = all_nodes.len().div_ceil(opts.grid_limit.max(1)).max(1);
+    let grid: Vec<Vec<f64>> = all_nodes
         .iter()
+        .step_by(stride)
         .map(|n| family.node_inputs(n))
         .collect();
     let mut rng = Rng::new(opts.seed);
     let offgrid: Vec<Vec<f64>> = (0..opts.offgrid).map(|_| family.sample(&mut rng)).collect();
     let eval = |pts: &[Vec<f64>]| -> Vec<PointResult> {
         pts.par_iter()
-            .map(|x| {
-                let got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
-                let want = family.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
-                Ok((got, want))
-            })
+            .map(|x| family.check_point(runtime.as_ref(), x))
             .collect()
     };
     let grid_res = eval(&grid);
     let off_res = eval(&offgrid);
-    report.grid_points = grid.len();
-    report.offgrid_points = offgrid.len();
+    let promised = |res: &[PointResult]| res.iter().filter(|r| matches!(r, Ok(Some(_)))).count();
+    report.grid_points = promised(&grid_res);
+    report.offgrid_points = promised(&off_res);
     for r in grid_res.iter().chain(&off_res) {
         if let Err(e) = r {
             if report.problems.len() < 10 {
@@ -208,10 +232,10 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
             }
         }
     }
-    for (k, name) in family.outputs().iter().enumerate() {
+    for (k, name) in family.checked().iter().enumerate() {
         let errs = |res: &[PointResult]| {
             let (mut abs, mut rel) = (Vec::new(), Vec::new());
-            for (g, w) in res.iter().flatten() {
+            for (g, w) in res.iter().flatten().flatten() {
                 abs.push((g[k] - w[k]).abs());
                 rel.push(rel_err(g[k], w[k]));
             }
@@ -222,7 +246,10 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
         let worst_input = off_res
             .iter()
             .zip(&offgrid)
-            .filter_map(|(r, x)| r.as_ref().ok().map(|(g, w)| (rel_err(g[k], w[k]), x)))
+            .filter_map(|(r, x)| match r {
+                Ok(Some((g, w))) => Some((rel_err(g[k], w[k]), x)),
+                _ => None,
+            })
             .max_by(|a, b| a.0.total_cmp(&b.0))
             .map(|(_, x)| x.clone())
             .unwrap_or_default();
@@ -234,6 +261,29 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
             offgrid_rel: Stats::of(or),
             worst_offgrid_input: worst_input,
         });
+    }
+    // Whole-scene sections: a handful of cases each (they are expensive to reference).
+    let cases = (opts.offgrid / 100).max(10);
+    for (name, res) in family.extra_checks(&table_copy, cases, opts.seed) {
+        match res {
+            Ok(Extra::Values(v)) => report.values.push(ValueReport {
+                name,
+                stats: Stats::of(v),
+            }),
+            Ok(Extra::Pairs(pairs)) => {
+                let abs = pairs.iter().map(|&(g, w)| (g - w).abs()).collect();
+                let rel: Vec<f64> = pairs.iter().map(|&(g, w)| rel_err(g, w)).collect();
+                report.outputs.push(OutputReport {
+                    output: name,
+                    grid_abs: Stats::of(Vec::new()),
+                    grid_rel: Stats::of(Vec::new()),
+                    offgrid_abs: Stats::of(abs),
+                    offgrid_rel: Stats::of(rel),
+                    worst_offgrid_input: Vec::new(),
+                });
+            }
+            Err(e) => report.problems.push(format!("{name}: {e}")),
+        }
     }
     for t in &meta.thresholds {
         let value = report
@@ -311,6 +361,13 @@ pub fn render(reports: &[FamilyReport]) -> String {
             s.push_str(&format!(
                 "  {} absolute: grid max {:.3e}; random mean {:.3e} median {:.3e} p95 {:.3e} max {:.3e}\n",
                 o.output, o.grid_abs.max, a.mean, a.median, a.p95, a.max
+            ));
+        }
+        for v in &r.values {
+            let st = &v.stats;
+            s.push_str(&format!(
+                "  {} (n = {}): mean {:.3e} var {:.3e} median {:.3e} p95 {:.3e} max {:.3e}\n",
+                v.name, st.count, st.mean, st.variance, st.median, st.p95, st.max
             ));
         }
         for t in &r.thresholds {

@@ -29,6 +29,7 @@ pub mod error;
 pub mod format;
 pub mod isg;
 pub mod lobe_integral;
+pub mod lobe_product;
 pub mod sg_fit;
 pub mod table;
 
@@ -39,6 +40,7 @@ pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
 pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
 pub use lobe_integral::LobeIntegral;
+pub use lobe_product::{Lobe, LobeF32, LobeProduct, ProductParams, Variant};
 pub use sg_fit::SgFit;
 pub use table::Table;
 
@@ -55,4 +57,8 @@ pub mod embedded {
     pub static ISG_BEST: &[u8] = include_bytes!("../data/isg-best.lobefit");
     /// `tables/data/sg-fit.lobefit`.
     pub static SG_FIT: &[u8] = include_bytes!("../data/sg-fit.lobefit");
+    /// `tables/data/lobe-product.lobefit` (the `energy` variant).
+    pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
+    /// `tables/data/lobe-product-l2.lobefit`.
+    pub static LOBE_PRODUCT_L2: &[u8] = include_bytes!("../data/lobe-product-l2.lobefit");
 }
