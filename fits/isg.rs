@@ -2,10 +2,12 @@
 //!
 //! Two tables, one family object per model:
 //! - `isg-refit`: the paper's logistic model σ(g(θ − π/2)) σ(h(φ − π/2)) refitted per γ
-//!   node by Levenberg–Marquardt on a (θ, φ) grid adapted to the SG width, then
-//!   g(γ), h(γ) tabulated over ln γ (interpolated linearly in ln γ as ln g, ln h).
-//! - `isg-best`: the separable model A(θ; γ) B(φ; γ) with the exact marginals
-//!   A = Ŝ(·, π), B = Ŝ(π, ·) on a (ln γ, u) grid (u: `lobefit_tables::isg::warp`).
+//!   node by Levenberg–Marquardt least squares and a minimax polish on a (θ, φ) grid
+//!   adapted to the SG width, then g(γ), h(γ) tabulated over ln γ (interpolated
+//!   linearly in ln γ as ln g, ln h).
+//! - `isg-best`: the rank-2 separable model A(θ)B(φ) + C(θ)D(φ) with the exact
+//!   marginals A = Ŝ(·, π), B = Ŝ(π, ·) and C D the leading singular pair of Ŝ − A B,
+//!   on a (ln γ, u) grid (u: `lobefit_tables::isg::warp`).
 //!
 //! The published model (`--model paper`) needs no table; its errors are measured in
 //! the tests and by `lobefit plot isg`.
@@ -67,8 +69,9 @@ const LM_COST_TOL: f64 = 1e-12;
 /// LM iteration limit per stage.
 const LM_MAX_ITERS: u32 = 200;
 
-/// One axis (θ or φ) of the fitting grid at γ: 41 points uniform on [0, π] and 41
-/// within ±6 SG widths of π/2, merged; exactly symmetric about π/2 (see [`s_hat_grid`]).
+/// One axis (θ or φ) of the fitting grid at γ: 21 points uniform on [0, π/2] and 21
+/// within 6 SG widths below π/2, merged, then mirrored about π/2 (so exactly symmetric,
+/// see [`s_hat_grid`]): about 41 + 41 points over [0, π].
 pub fn fit_axis(gamma: f64) -> Vec<f64> {
     let n = (GRID_HALF / 2) as f64;
     let w = 1.0 / gamma.sqrt();
