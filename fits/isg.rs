@@ -931,7 +931,7 @@ mod tests {
                     t.slopes(g).unwrap().1
                 };
                 let x = g / 1e4;
-                let p: Vec<f64> = (0..5).map(|j| x.powi(j as i32)).collect();
+                let p: Vec<f64> = (0..5).map(|j| x.powi(j)).collect();
                 for r in 0..5 {
                     atb[r] += p[r] * y;
                     for c in 0..5 {
@@ -946,10 +946,11 @@ mod tests {
                     .unwrap();
                 ata.swap(col, piv);
                 atb.swap(col, piv);
+                let pivot = ata[col];
                 for r in col + 1..5 {
-                    let f = ata[r][col] / ata[col][col];
-                    for c in col..5 {
-                        ata[r][c] -= f * ata[col][c];
+                    let f = ata[r][col] / pivot[col];
+                    for (c, v) in ata[r].iter_mut().enumerate().skip(col) {
+                        *v -= f * pivot[c];
                     }
                     atb[r] -= f * atb[col];
                 }
