@@ -5,6 +5,7 @@ pub mod cap_exponent;
 pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
+pub mod lobe_product_paper;
 pub mod sg_fit;
 
 use std::path::{Path, PathBuf};
