@@ -2,9 +2,11 @@
 //! the registry that lists them. Adding a family = one module + one line below.
 
 pub mod cap_exponent;
+pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
 pub mod lobe_product_paper;
+pub mod sg_fit;
 
 use std::path::{Path, PathBuf};
 
@@ -68,6 +70,13 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
             backend: opts.backend,
             method: opts.method,
         }),
+        Box::new(isg::IsgFamily {
+            model: isg::IsgModelKind::Refit,
+        }),
+        Box::new(isg::IsgFamily {
+            model: isg::IsgModelKind::Best,
+        }),
+        Box::new(sg_fit::SgFitFamily),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::Energy,
             method: opts.method,
@@ -92,13 +101,16 @@ pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Family>> {
 /// Names `lobefit eval` accepts (SPEC §6). A name may select among several tables
 /// through its flags (e.g. `lobe-product --variant l2`).
 pub fn eval_names() -> Vec<&'static str> {
-    names()
+    let mut v = names();
+    v.push("isg");
+    v
 }
 
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
 /// Errors name the flag a family does not take or the value it does not know.
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
     match name {
+        "isg" => isg::for_eval(flags),
         "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
             let variant = match flags.variant.as_deref() {
                 None | Some("energy") => lobefit_tables::Variant::Energy,
@@ -126,5 +138,5 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![("lobe-product", lobe_product::plot)]
+    vec![("isg", isg::plot), ("lobe-product", lobe_product::plot)]
 }

@@ -27,8 +27,10 @@
 pub mod cap_exponent;
 pub mod error;
 pub mod format;
+pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
+pub mod sg_fit;
 pub mod table;
 
 pub use glam;
@@ -36,8 +38,10 @@ pub use glam;
 pub use cap_exponent::CapExponent;
 pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
+pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
 pub use lobe_integral::LobeIntegral;
 pub use lobe_product::{Lobe, LobeF32, LobeProduct, ProductParams, Variant};
+pub use sg_fit::SgFit;
 pub use table::Table;
 
 /// The committed default tables (`tables/data/*.lobefit`), compiled in.
@@ -47,6 +51,12 @@ pub mod embedded {
     pub static LOBE_INTEGRAL: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
     /// `tables/data/cap-exponent.lobefit`.
     pub static CAP_EXPONENT: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+    /// `tables/data/isg-refit.lobefit`.
+    pub static ISG_REFIT: &[u8] = include_bytes!("../data/isg-refit.lobefit");
+    /// `tables/data/isg-best.lobefit`.
+    pub static ISG_BEST: &[u8] = include_bytes!("../data/isg-best.lobefit");
+    /// `tables/data/sg-fit.lobefit`.
+    pub static SG_FIT: &[u8] = include_bytes!("../data/sg-fit.lobefit");
     /// `tables/data/lobe-product.lobefit` (the `energy` variant).
     pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
     /// `tables/data/lobe-product-l2.lobefit`.
