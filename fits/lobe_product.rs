@@ -773,6 +773,8 @@ impl Family for LobeProductFamily {
             ("tanh_sinh_t".into(), TS_T.to_string()),
             ("truncation_k".into(), TRUNC_K.to_string()),
             ("brent_tol".into(), BRENT_TOL.to_string()),
+            ("e_r_search".into(), "[0, 64(e1+e2)+1000]".into()),
+            ("bound_allowed_below".into(), NEGLIGIBLE.to_string()),
         ]
     }
     fn residual_meaning(&self) -> &'static str {
