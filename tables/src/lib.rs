@@ -27,6 +27,7 @@ pub mod cap_exponent;
 pub mod error;
 pub mod format;
 pub mod lobe_integral;
+pub mod sh;
 pub mod table;
 
 pub use cap_exponent::CapExponent;
