@@ -15,6 +15,7 @@ pub mod family;
 pub mod io;
 pub mod quad;
 pub mod rng;
+pub mod sh;
 
 /// The table families, one module each (kept in `fits/` at the repository root).
 #[path = "../fits/mod.rs"]
