@@ -11,7 +11,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use lobefit::check::{self, CheckOptions};
-use lobefit::family::Family;
+use lobefit::family::{EvalFlags, Family};
 use lobefit::fits::{self, Backend, FitOptions, Method};
 use lobefit::tables::Table;
 
@@ -113,8 +113,10 @@ enum Command {
     /// Evaluate a family on CSV rows from stdin (SPEC §6).
     Eval {
         /// Family name.
-        #[arg(value_parser = PossibleValuesParser::new(fits::names()))]
+        #[arg(value_parser = PossibleValuesParser::new(fits::eval_names()))]
         family: String,
+        #[command(flatten)]
+        flags: EvalFlagArgs,
         /// Directory holding the tables (default: the tables compiled into this binary).
         #[arg(long, conflicts_with = "table")]
         tables: Option<PathBuf>,
@@ -125,6 +127,35 @@ enum Command {
         #[arg(long, conflicts_with_all = ["table", "tables"])]
         exact: bool,
     },
+    /// Write a family's figures (PNG) into a directory.
+    Plot {
+        /// Figure set.
+        #[arg(value_parser = PossibleValuesParser::new(fits::plots().into_iter().map(|(n, _)| n)))]
+        name: String,
+        /// Output directory.
+        #[arg(long, default_value = "plots")]
+        out: PathBuf,
+    },
+}
+
+/// Family-specific flags of `eval` (SPEC §6); each family says which it takes.
+#[derive(clap::Args)]
+struct EvalFlagArgs {
+    /// lobe-product: energy | l2.
+    #[arg(long)]
+    variant: Option<String>,
+    /// isg: paper | refit | best.
+    #[arg(long)]
+    model: Option<String>,
+    /// log-zh: diffuse | phong | blocker.
+    #[arg(long)]
+    kind: Option<String>,
+    /// SH families: order N (bands 0..N-1), 1..=8.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=8))]
+    order: Option<u8>,
+    /// shexp: ren | naive.
+    #[arg(long)]
+    log: Option<String>,
 }
 
 fn backend(b: BackendArg) -> Result<Backend, String> {
@@ -328,11 +359,19 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         Command::Inspect { file, json } => inspect(&file, json)?,
         Command::Eval {
             family,
+            flags,
             tables,
             table,
             exact,
         } => {
-            let f = fits::by_name(&family, FitOptions::default()).ok_or_else(|| format!("unknown family {family}"))?;
+            let flags = EvalFlags {
+                variant: flags.variant,
+                model: flags.model,
+                kind: flags.kind,
+                order: flags.order.map(usize::from),
+                log: flags.log,
+            };
+            let f = fits::for_eval(&family, &flags, FitOptions::default())?;
             let runtime = if exact {
                 None
             } else {
@@ -353,6 +392,15 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let stdout = std::io::stdout();
             lobefit::eval::eval_csv(f.as_ref(), runtime.as_deref(), std::io::stdin().lock(), stdout.lock())
                 .map_err(|e| e.to_string())?;
+        }
+        Command::Plot { name, out } => {
+            let (_, plot) = fits::plots()
+                .into_iter()
+                .find(|(n, _)| *n == name)
+                .ok_or_else(|| format!("no figures named {name}"))?;
+            for p in plot(&out)? {
+                println!("{}", p.display());
+            }
         }
     }
     Ok(ExitCode::SUCCESS)

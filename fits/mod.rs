@@ -4,7 +4,9 @@
 pub mod cap_exponent;
 pub mod lobe_integral;
 
-use crate::family::Family;
+use std::path::{Path, PathBuf};
+
+use crate::family::{EvalFlags, Family};
 
 /// Optimizer backend for families fitted by a 1-D minimiser.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -75,4 +77,34 @@ pub fn names() -> Vec<&'static str> {
 /// The family called `name`, if any.
 pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Family>> {
     registry(opts).into_iter().find(|f| f.kind() == name)
+}
+
+/// Names `lobefit eval` accepts (SPEC §6). A name may select among several tables
+/// through its flags (e.g. `lobe-product --variant l2`).
+pub fn eval_names() -> Vec<&'static str> {
+    names()
+}
+
+/// The family `lobefit eval NAME [flags]` queries, configured by its flags.
+/// Errors name the flag a family does not take or the value it does not know.
+pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
+    #[allow(clippy::match_single_binding)] // one arm per family with flags goes here
+    match name {
+        _ => {
+            let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
+            if let Some(flag) = flags.given().first() {
+                return Err(format!("{name} takes no {flag} flag"));
+            }
+            Ok(f)
+        }
+    }
+}
+
+/// A figure generator of `lobefit plot NAME`: writes its PNGs into the directory it is
+/// given and returns their paths.
+pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
+
+/// Every `lobefit plot` name with its generator.
+pub fn plots() -> Vec<(&'static str, PlotFn)> {
+    vec![]
 }

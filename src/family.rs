@@ -7,6 +7,45 @@ use lobefit_tables::{Axis, Channel, LoadError, LookupError, Table};
 
 use crate::rng::Rng;
 
+/// Family-specific flags of `lobefit eval` (SPEC §6). Each family reads the ones it
+/// documents; [`crate::fits::for_eval`] rejects a flag the family does not take.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct EvalFlags {
+    /// `--variant` (lobe-product: `energy` | `l2`).
+    pub variant: Option<String>,
+    /// `--model` (isg: `paper` | `refit` | `best`).
+    pub model: Option<String>,
+    /// `--kind` (log-zh: `diffuse` | `phong` | `blocker`).
+    pub kind: Option<String>,
+    /// `--order` (SH families: 1..=8).
+    pub order: Option<usize>,
+    /// `--log` (shexp: `ren` | `naive`).
+    pub log: Option<String>,
+}
+
+impl EvalFlags {
+    /// The names of the flags that are set, as typed on the command line.
+    pub fn given(&self) -> Vec<&'static str> {
+        let mut v = Vec::new();
+        if self.variant.is_some() {
+            v.push("--variant");
+        }
+        if self.model.is_some() {
+            v.push("--model");
+        }
+        if self.kind.is_some() {
+            v.push("--kind");
+        }
+        if self.order.is_some() {
+            v.push("--order");
+        }
+        if self.log.is_some() {
+            v.push("--log");
+        }
+        v
+    }
+}
+
 /// Fit of one grid entry.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fitted {

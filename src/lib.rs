@@ -13,6 +13,7 @@ pub mod check;
 pub mod eval;
 pub mod family;
 pub mod io;
+pub mod plot;
 pub mod quad;
 pub mod rng;
 pub mod sh;

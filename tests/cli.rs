@@ -305,6 +305,9 @@ fn bad_arguments_are_refused() {
         (&["build-tables", "--threads", "0"], "invalid value '0'"),
         (&["check", "--points", "-3"], "unexpected argument '-3'"),
         (&["frobnicate"], "unrecognized subcommand"),
+        (&["eval", "lobe-integral", "--order", "9"], "invalid value '9'"),
+        (&["eval", "lobe-integral", "--order", "0"], "invalid value '0'"),
+        (&["plot", "no-such-figure"], "invalid value 'no-such-figure'"),
     ];
     for (args, message) in cases {
         let out = run(args, "");
@@ -317,6 +320,15 @@ fn bad_arguments_are_refused() {
     );
     assert_eq!(out.status.code(), Some(1));
     assert!(text(&out.stderr).contains("cannot read table file /nonexistent/x.lobefit"));
+    // A flag the family does not take is an error, not silently ignored.
+    let out = run(&["eval", "lobe-integral", "--variant", "l2"], "e\n1\n");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("lobe-integral takes no --variant flag"),
+        "{}",
+        text(&out.stderr)
+    );
+    assert!(out.stdout.is_empty());
     let out = run(
         &[
             "eval",

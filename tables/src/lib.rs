@@ -2,7 +2,8 @@
 //!
 //! The runtime half of lobefit: loads, validates and interpolates the precomputed
 //! tables that `lobefit build-tables` writes, for renderers and GPU-upload code.
-//! Its only dependencies are serde, postcard, crc32fast and thiserror.
+//! Its only dependencies are serde, postcard, crc32fast, thiserror and glam (whose
+//! `Vec3`/`DVec3` the vector APIs take, re-exported as [`glam`]).
 //!
 //! Conventions (SPEC §1): directions are unit vectors, integrals are over solid angle
 //! (steradians), angles are in radians, `log` is the natural logarithm. A cosine lobe
@@ -29,6 +30,8 @@ pub mod format;
 pub mod lobe_integral;
 pub mod sh;
 pub mod table;
+
+pub use glam;
 
 pub use cap_exponent::CapExponent;
 pub use error::{LoadError, LookupError};
