@@ -508,11 +508,11 @@ mod tests {
         // f of order 4 and h of order 5: f·h has degree ≤ 7, exactly representable at order 8.
         let mut f = vec![0.0; 64];
         let mut h = vec![0.0; 64];
-        for i in 0..16 {
-            f[i] = ((i * 13 % 7) as f64 - 3.0) / 5.0;
+        for (i, v) in f.iter_mut().take(16).enumerate() {
+            *v = ((i * 13 % 7) as f64 - 3.0) / 5.0;
         }
-        for i in 0..25 {
-            h[i] = ((i * 5 % 9) as f64 - 4.0) / 3.0;
+        for (i, v) in h.iter_mut().take(25).enumerate() {
+            *v = ((i * 5 % 9) as f64 - 4.0) / 3.0;
         }
         let eval = |c: &[f64], d: [f64; 3]| {
             let mut y = [0.0; 64];
