@@ -3,6 +3,7 @@
 
 pub mod cap_exponent;
 pub mod lobe_integral;
+pub mod log_zh;
 
 use std::path::{Path, PathBuf};
 
@@ -66,6 +67,7 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
             backend: opts.backend,
             method: opts.method,
         }),
+        Box::new(log_zh::LogZhFamily::default()),
     ]
 }
 
@@ -90,6 +92,15 @@ pub fn eval_names() -> Vec<&'static str> {
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
     #[allow(clippy::match_single_binding)] // one arm per family with flags goes here
     match name {
+        "log-zh" => {
+            if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {
+                return Err("log-zh takes only --kind and --order".into());
+            }
+            Ok(Box::new(log_zh::LogZhFamily::from_flags(
+                flags.kind.as_deref(),
+                flags.order,
+            )?))
+        }
         _ => {
             let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
             if let Some(flag) = flags.given().first() {

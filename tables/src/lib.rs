@@ -28,6 +28,7 @@ pub mod cap_exponent;
 pub mod error;
 pub mod format;
 pub mod lobe_integral;
+pub mod log_zh;
 pub mod sh;
 pub mod table;
 
@@ -46,4 +47,6 @@ pub mod embedded {
     pub static LOBE_INTEGRAL: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
     /// `tables/data/cap-exponent.lobefit`.
     pub static CAP_EXPONENT: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+    /// `tables/data/log-zh.lobefit`.
+    pub static LOG_ZH: &[u8] = include_bytes!("../data/log-zh.lobefit");
 }
