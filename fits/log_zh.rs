@@ -27,6 +27,9 @@ pub const REFERENCE_TOL: f64 = 1e-13;
 /// the absolute reading SPEC allows where values are ~0).
 pub const ACCURACY_ABS: f64 = 1e-9;
 
+/// Default SH order of `lobefit eval` (SPEC §1).
+pub const DEFAULT_ORDER: usize = 4;
+
 /// The log-ZH family: `kind` and `order` select the `lobefit eval` view; the
 /// registry's instance (Phong, order 8) builds and checks the table.
 #[derive(Debug, Clone, Copy)]
@@ -47,7 +50,7 @@ impl Default for LogZhFamily {
 }
 
 impl LogZhFamily {
-    /// The eval view for `--kind` (default phong) and `--order` (default 8).
+    /// The eval view for `--kind` (default phong) and `--order` (default 4, SPEC §1).
     pub fn from_flags(kind: Option<&str>, order: Option<usize>) -> Result<Self, String> {
         let kind = match kind.unwrap_or("phong") {
             "diffuse" => Kind::Diffuse,
@@ -55,7 +58,7 @@ impl LogZhFamily {
             "blocker" => Kind::Blocker,
             other => return Err(format!("log-zh: unknown --kind {other} (diffuse|phong|blocker)")),
         };
-        let order = order.unwrap_or(MAX_ORDER);
+        let order = order.unwrap_or(DEFAULT_ORDER);
         if !(1..=MAX_ORDER).contains(&order) {
             return Err(format!("log-zh: --order {order} is outside 1..=8"));
         }

@@ -4,6 +4,7 @@
 pub mod cap_exponent;
 pub mod lobe_integral;
 pub mod log_zh;
+pub mod wedge;
 
 use std::path::{Path, PathBuf};
 
@@ -68,6 +69,7 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
             method: opts.method,
         }),
         Box::new(log_zh::LogZhFamily::default()),
+        Box::new(wedge::WedgeFamily),
     ]
 }
 
@@ -100,6 +102,16 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
                 flags.kind.as_deref(),
                 flags.order,
             )?))
+        }
+        "wedge" => {
+            if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() || flags.kind.is_some() {
+                return Err("wedge takes only --order".into());
+            }
+            let order = flags.order.unwrap_or(log_zh::DEFAULT_ORDER);
+            if !(1..=8).contains(&order) {
+                return Err(format!("wedge: --order {order} is outside 1..=8"));
+            }
+            Ok(Box::new(wedge::WedgeSliceView { order }))
         }
         _ => {
             let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;

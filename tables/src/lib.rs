@@ -31,6 +31,7 @@ pub mod lobe_integral;
 pub mod log_zh;
 pub mod sh;
 pub mod table;
+pub mod wedge;
 
 pub use glam;
 
@@ -49,4 +50,6 @@ pub mod embedded {
     pub static CAP_EXPONENT: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
     /// `tables/data/log-zh.lobefit`.
     pub static LOG_ZH: &[u8] = include_bytes!("../data/log-zh.lobefit");
+    /// `tables/data/wedge.lobefit`.
+    pub static WEDGE: &[u8] = include_bytes!("../data/wedge.lobefit");
 }
