@@ -129,5 +129,5 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![]
+    vec![("log-zh", crate::eps_study::plot)]
 }

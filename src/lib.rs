@@ -10,6 +10,7 @@
 
 pub mod build;
 pub mod check;
+pub mod eps_study;
 pub mod eval;
 pub mod family;
 pub mod io;
