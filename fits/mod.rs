@@ -3,6 +3,7 @@
 
 pub mod cap_exponent;
 pub mod lobe_integral;
+pub mod lobe_product;
 pub mod log_zh;
 pub mod wedge;
 
@@ -70,6 +71,12 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         }),
         Box::new(log_zh::LogZhFamily::default()),
         Box::new(wedge::WedgeFamily),
+        Box::new(lobe_product::LobeProductFamily {
+            variant: lobefit_tables::Variant::Energy,
+        }),
+        Box::new(lobe_product::LobeProductFamily {
+            variant: lobefit_tables::Variant::L2,
+        }),
     ]
 }
 
@@ -92,7 +99,6 @@ pub fn eval_names() -> Vec<&'static str> {
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
 /// Errors name the flag a family does not take or the value it does not know.
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
-    #[allow(clippy::match_single_binding)] // one arm per family with flags goes here
     match name {
         "log-zh" => {
             if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {
@@ -112,6 +118,14 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
                 return Err(format!("wedge: --order {order} is outside 1..=8"));
             }
             Ok(Box::new(wedge::WedgeSliceView { order }))
+        }
+        "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
+            let variant = match flags.variant.as_deref() {
+                None | Some("energy") => lobefit_tables::Variant::Energy,
+                Some("l2") => lobefit_tables::Variant::L2,
+                Some(v) => return Err(format!("--variant {v}: expected energy or l2")),
+            };
+            Ok(Box::new(lobe_product::LobeProductFamily { variant }))
         }
         _ => {
             let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;

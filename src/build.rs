@@ -70,12 +70,35 @@ pub fn build(family: &dyn Family, tick: &(dyn Fn() + Sync)) -> Result<Built, Bui
     let axes = family.axes();
     let channels = family.channels();
     let nodes = grid_nodes(&axes);
-    let fits: Vec<Fitted> = nodes
+    // Nodes with a mirror reuse its fit (bit for bit: the fit is deterministic).
+    let source: Vec<Option<usize>> = {
+        let index: std::collections::HashMap<Vec<u64>, usize> = nodes
+            .iter()
+            .enumerate()
+            .map(|(i, x)| (x.iter().map(|v| v.to_bits()).collect(), i))
+            .collect();
+        nodes
+            .iter()
+            .map(|x| {
+                let m = family.mirror(x)?;
+                index.get(&m.iter().map(|v| v.to_bits()).collect::<Vec<_>>()).copied()
+            })
+            .collect()
+    };
+    let own: Vec<Option<Fitted>> = nodes
         .par_iter()
-        .map(|x| {
-            let f = family.fit(x);
+        .zip(&source)
+        .map(|(x, src)| {
+            let f = src.is_none().then(|| family.fit(x));
             tick();
             f
+        })
+        .collect();
+    let fits: Vec<Fitted> = (0..nodes.len())
+        .map(|i| match (&own[i], source[i]) {
+            (Some(f), _) => f.clone(),
+            (None, Some(j)) => own[j].clone().unwrap_or_else(|| family.fit(&nodes[i])),
+            (None, None) => unreachable!("a node without a mirror is fitted"),
         })
         .collect();
     let bad: Vec<usize> = (0..fits.len()).filter(|&i| !fits[i].converged).collect();

@@ -108,4 +108,22 @@ pub trait Family: Sync {
     }
     /// A random input point of the domain, for the checker's off-grid test.
     fn sample(&self, rng: &mut Rng) -> Vec<f64>;
+    /// Names of the quantities the checker compares (default: the eval outputs).
+    fn checked(&self) -> &'static [&'static str] {
+        self.outputs()
+    }
+    /// The checker's comparison at `x`: (runtime values, reference values) of
+    /// [`Family::checked`], or `None` where the family promises nothing (e.g. a
+    /// product too small to matter). Default: the lookup against [`Family::reference`].
+    #[allow(clippy::type_complexity)]
+    fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {
+        let got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
+        let want = self.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
+        Ok(Some((got, want)))
+    }
+    /// Equivalent grid node whose fit this node reuses (e.g. a symmetry), or `None`.
+    /// The fit at the returned node must give exactly this node's values.
+    fn mirror(&self, _node: &[f64]) -> Option<Vec<f64>> {
+        None
+    }
 }

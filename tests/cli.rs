@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-/// Every registered family (the registry is the one list; tests follow it).
+/// Every registered family (each has a committed table).
 fn families() -> Vec<&'static str> {
     lobefit::fits::names()
 }
@@ -99,7 +99,8 @@ fn check_passes_on_the_committed_tables_and_emits_json() {
     assert_eq!(reports.len(), families().len());
     for r in reports {
         assert_eq!(r["pass"], true, "{r}");
-        assert!(r["offgrid_points"].as_u64().unwrap() >= 2000);
+        // Families may skip points where they promise nothing (negligible products).
+        assert!(r["offgrid_points"].as_u64().unwrap() >= 1000, "{r}");
         assert!(!r["thresholds"].as_array().unwrap().is_empty());
     }
 }

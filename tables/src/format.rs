@@ -41,6 +41,10 @@ pub enum Mapping {
     Log1p { scale: f64 },
     /// `u = ln((x - a) / (b - x))`: dense nodes near both ends (requires `a < lo`, `hi < b`).
     Logit { a: f64, b: f64 },
+    /// `u = asinh((x - centre) / width)`: nodes dense (spacing ∝ `width`) around
+    /// `centre`, relatively even (spacing ∝ distance) away from it (requires
+    /// `width > 0`, both finite).
+    Asinh { centre: f64, width: f64 },
 }
 
 impl Mapping {
@@ -51,6 +55,7 @@ impl Mapping {
             Mapping::Log => x.ln(),
             Mapping::Log1p { scale } => (x / scale).ln_1p(),
             Mapping::Logit { a, b } => ((x - a) / (b - x)).ln(),
+            Mapping::Asinh { centre, width } => ((x - centre) / width).asinh(),
         }
     }
 
@@ -68,6 +73,7 @@ impl Mapping {
                     a + (b - a) / (1.0 + (-u).exp())
                 }
             }
+            Mapping::Asinh { centre, width } => centre + width * u.sinh(),
         }
     }
 
@@ -80,6 +86,8 @@ impl Mapping {
             Mapping::Log1p { scale } => Err(format!("log1p mapping with scale {scale} on lo {lo}")),
             Mapping::Logit { a, b } if a.is_finite() && b.is_finite() && a < lo && hi < b => Ok(()),
             Mapping::Logit { a, b } => Err(format!("logit mapping ({a}, {b}) must strictly contain [{lo}, {hi}]")),
+            Mapping::Asinh { centre, width } if centre.is_finite() && width.is_finite() && width > 0.0 => Ok(()),
+            Mapping::Asinh { centre, width } => Err(format!("asinh mapping with centre {centre}, width {width}")),
         }
     }
 }

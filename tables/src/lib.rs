@@ -28,6 +28,7 @@ pub mod cap_exponent;
 pub mod error;
 pub mod format;
 pub mod lobe_integral;
+pub mod lobe_product;
 pub mod log_zh;
 pub mod sh;
 pub mod table;
@@ -39,6 +40,7 @@ pub use cap_exponent::CapExponent;
 pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
 pub use lobe_integral::LobeIntegral;
+pub use lobe_product::{Lobe, LobeF32, LobeProduct, ProductParams, Variant};
 pub use table::Table;
 
 /// The committed default tables (`tables/data/*.lobefit`), compiled in.
@@ -52,4 +54,8 @@ pub mod embedded {
     pub static LOG_ZH: &[u8] = include_bytes!("../data/log-zh.lobefit");
     /// `tables/data/wedge.lobefit`.
     pub static WEDGE: &[u8] = include_bytes!("../data/wedge.lobefit");
+    /// `tables/data/lobe-product.lobefit` (the `energy` variant).
+    pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
+    /// `tables/data/lobe-product-l2.lobefit`.
+    pub static LOBE_PRODUCT_L2: &[u8] = include_bytes!("../data/lobe-product-l2.lobefit");
 }
