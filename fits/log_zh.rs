@@ -11,7 +11,7 @@
 use std::f64::consts::PI;
 
 use lobefit_tables::format::Threshold;
-use lobefit_tables::log_zh::{self as rt, Kind, LogZh, CHANNELS, EPS_MAX, EPS_MIN, R_TABLE_MAX};
+use lobefit_tables::log_zh::{self as rt, Kind, LogZh, CHANNELS, EPS_MAX, EPS_MIN, R_TABLE_MAX, STORED_CHANNELS};
 use lobefit_tables::sh::MAX_ORDER;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
@@ -26,6 +26,19 @@ pub const REFERENCE_TOL: f64 = 1e-13;
 /// Checked accuracy (absolute; |z| ≤ 17 so this is ≤ 1e-9 relative for |z| ≥ 1, and
 /// the absolute reading SPEC allows where values are ~0).
 pub const ACCURACY_ABS: f64 = 1e-9;
+
+/// Checked quantities: the closed-form outputs z*, and t* = the stored table at the
+/// nearest integer r (its rows), interpolated in ln ε.
+const CHECKED: [&str; 2 * MAX_ORDER] = [
+    "z0", "z1", "z2", "z3", "z4", "z5", "z6", "z7", "t0", "t1", "t2", "t3", "t4", "t5", "t6", "t7",
+];
+const TABLE_CHECKED: [&str; MAX_ORDER] = ["t0", "t1", "t2", "t3", "t4", "t5", "t6", "t7"];
+/// Third lookup coordinate selecting the stored table instead of the closed form
+/// (only the checker passes it; eval rows have two coordinates).
+const TABLE_MODE: f64 = 1.0;
+/// What interpolation of the stored grid in ln ε may cost between nodes, at integer r
+/// (absolute; measured ≤ 3.5e-4, see tests/log_zh.rs and the checker).
+pub const TABLE_INTERP_ABS: f64 = 1e-3;
 
 /// Default SH order of `lobefit eval` (SPEC §1).
 pub const DEFAULT_ORDER: usize = 4;
@@ -182,6 +195,11 @@ struct LogZhLookup {
 impl Lookup for LogZhLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         let mut out = [0.0; MAX_ORDER];
+        if self.kind == Kind::Phong && x.len() == 3 && x[2] == TABLE_MODE {
+            // The checker's view of the stored table (see `check_point`).
+            self.rt.table_lookup(x[0], x[1], self.order, &mut out)?;
+            return Ok(out[..self.order].to_vec());
+        }
         let param = if self.kind == Kind::Diffuse { 1.0 } else { x[1] };
         self.rt.lookup(self.kind, x[0], param, self.order, &mut out)?;
         Ok(out[..self.order].to_vec())
@@ -207,14 +225,18 @@ impl Family for LogZhFamily {
         rt::axes()
     }
     fn channels(&self) -> Vec<Channel> {
-        CHANNELS
+        STORED_CHANNELS
             .iter()
             .enumerate()
-            .map(|(l, n)| Channel {
+            .map(|(k, n)| Channel {
                 name: n.to_string(),
                 unit: "1".into(),
                 encoding: Encoding::Linear,
-                description: format!("z_{l} = ∫ ln(max(f, eps)) y_{l}^0 dω"),
+                description: if k % 2 == 0 {
+                    format!("f32 rounding of z_{} = ∫ ln(max(f, eps)) y_{}^0 dω", k / 2, k / 2)
+                } else {
+                    format!("z_{} − z{}_hi, rounded to f32", k / 2, k / 2)
+                },
             })
             .collect()
     }
@@ -236,8 +258,15 @@ impl Family for LogZhFamily {
         let exact = rt::phong(eps, r, MAX_ORDER, &mut z);
         let (q, evals) = gl_log_zh(eps, r, MAX_ORDER);
         let residual = z.iter().zip(&q).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let values = z
+            .iter()
+            .flat_map(|&v| {
+                let hi = v as f32;
+                [hi as f64, (v - hi as f64) as f32 as f64]
+            })
+            .collect();
         Fitted {
-            values: z.to_vec(),
+            values,
             residual,
             iterations: evals,
             converged: exact.is_ok() && residual <= MAX_RESIDUAL,
@@ -245,16 +274,38 @@ impl Family for LogZhFamily {
     }
     fn thresholds(&self) -> Vec<Threshold> {
         let mut t = Vec::new();
-        for c in CHANNELS {
-            for m in ["grid.max_abs", "offgrid.max_abs"] {
-                t.push(Threshold {
-                    output: c.into(),
-                    metric: m.into(),
-                    limit: ACCURACY_ABS,
-                });
-            }
+        let mut add = |output: &str, metric: &str, limit: f64| {
+            t.push(Threshold {
+                output: output.into(),
+                metric: metric.into(),
+                limit,
+            })
+        };
+        for (z, s) in CHANNELS.iter().zip(TABLE_CHECKED) {
+            add(z, "grid.max_abs", ACCURACY_ABS);
+            add(z, "offgrid.max_abs", ACCURACY_ABS);
+            add(s, "grid.max_abs", ACCURACY_ABS);
+            add(s, "offgrid.max_abs", TABLE_INTERP_ABS);
         }
         t
+    }
+    fn checked(&self) -> &'static [&'static str] {
+        &CHECKED
+    }
+    /// z*: the runtime's closed form; t*: the stored table, bilinearly interpolated
+    /// (exactly the stored pair at grid nodes), both against the GK reference.
+    fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {
+        let mut got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
+        let mut want = self.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
+        // The table's rows are integer exponents: check it there (the node itself on
+        // the grid), interpolated in ln ε only.
+        let xi = [x[0], x[1].round()];
+        let stored = runtime
+            .lookup(&[xi[0], xi[1], TABLE_MODE])
+            .map_err(|e| format!("table lookup at {xi:?}: {e}"))?;
+        got.extend(stored);
+        want.extend(self.reference(&xi).map_err(|e| format!("reference at {xi:?}: {e}"))?);
+        Ok(Some((got, want)))
     }
     fn inputs(&self) -> &'static [&'static str] {
         match self.kind {

@@ -19,6 +19,8 @@
 //! ε on 128 nodes uniform in ln ε) for renderers that upload a texture; [`LogZh::table_lookup`]
 //! interpolates it bilinearly. Use the closed forms ([`phong`], [`diffuse`],
 //! [`blocker`]) when accuracy matters: they are what [`LogZh::lookup`] returns.
+//! Each value is stored as an f32 pair (hi + lo), so stored nodes carry the f64
+//! closed form to ~1e-15 relative.
 //! [`to_world`] turns a ZH vector to any axis (f_l^m = √(4π/(2l+1)) z_l y_l^m(d)).
 
 use std::f64::consts::PI;
@@ -46,8 +48,13 @@ pub const R_MAX: f64 = 4096.0;
 /// ε nodes of the table, uniform in ln ε (z is smooth in ln ε: it is
 /// C_l[2δ_l0 ln ε + r G_l(t_ε)] with ln t_ε linear in ln ε).
 pub const EPS_NODES: u32 = 128;
-/// Channel names z0..z7.
+/// Output names z0..z7.
 pub const CHANNELS: [&str; MAX_ORDER] = ["z0", "z1", "z2", "z3", "z4", "z5", "z6", "z7"];
+/// Stored channels: each z_l as an f32 pair, z_l = hi + lo (~1e-15 relative).
+pub const STORED_CHANNELS: [&str; 2 * MAX_ORDER] = [
+    "z0_hi", "z0_lo", "z1_hi", "z1_lo", "z2_hi", "z2_lo", "z3_hi", "z3_lo", "z4_hi", "z4_lo", "z5_hi", "z5_lo",
+    "z6_hi", "z6_lo", "z7_hi", "z7_lo",
+];
 
 /// Which zonal function is log-projected.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -268,18 +275,12 @@ impl LogZh {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
-        let meta = table.meta();
-        let chans_ok = meta.channels.len() == MAX_ORDER
-            && meta
-                .channels
-                .iter()
-                .zip(CHANNELS)
-                .all(|(c, n)| c.name == n && c.encoding == Encoding::Linear);
-        if meta.axes != axes() || !chans_ok {
+        let chans: Vec<(&str, Encoding)> = STORED_CHANNELS.iter().map(|&c| (c, Encoding::Linear)).collect();
+        table.expect_layout(&axes(), &chans)?;
+        if table.meta().axes != axes() {
             return Err(LoadError::LayoutMismatch {
                 kind: KIND.into(),
-                detail: "expected axes (r 1..128 linear × 128, eps 0.01..0.99 log × 128) and linear channels z0..z7"
-                    .into(),
+                detail: "expected 128 r nodes × 128 eps nodes".into(),
             });
         }
         Ok(Self { table })
@@ -294,7 +295,8 @@ impl LogZh {
             .map_err(Clone::clone)
     }
 
-    /// The underlying table (row-major [r][eps][z0..z7], f32), e.g. for GPU upload.
+    /// The underlying table (row-major [r][eps][z0_hi, z0_lo, …, z7_lo], f32), e.g. for
+    /// GPU upload (a shader that is happy with f32 precision reads the hi channels only).
     pub fn table(&self) -> &Table {
         &self.table
     }
@@ -313,9 +315,11 @@ impl LogZh {
                 got: out.len(),
             });
         }
-        let mut all = [0.0; MAX_ORDER];
+        let mut all = [0.0; 2 * MAX_ORDER];
         self.table.interpolate(&[r, eps], &mut all)?;
-        out[..n].copy_from_slice(&all[..n]);
+        for (l, o) in out.iter_mut().take(n).enumerate() {
+            *o = all[2 * l] + all[2 * l + 1];
+        }
         Ok(())
     }
 
