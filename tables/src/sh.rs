@@ -113,6 +113,20 @@ pub fn k_lm(l: usize, m: usize) -> f64 {
     ((2 * l + 1) as f64 / (4.0 * PI) * ratio).sqrt()
 }
 
+/// K_l^m for l, m < 8, computed once.
+fn k_table() -> &'static [[f64; MAX_ORDER]; MAX_ORDER] {
+    static K: std::sync::OnceLock<[[f64; MAX_ORDER]; MAX_ORDER]> = std::sync::OnceLock::new();
+    K.get_or_init(|| {
+        let mut k = [[0.0; MAX_ORDER]; MAX_ORDER];
+        for (l, row) in k.iter_mut().enumerate() {
+            for (m, v) in row.iter_mut().enumerate().take(l + 1) {
+                *v = k_lm(l, m);
+            }
+        }
+        k
+    })
+}
+
 /// Basis values y_0 … y_{n²−1} at direction `d` (normalised here; need not be unit)
 /// into `out[..n²]`. Uses the hard-coded path for n ≤ 4, the recurrence above.
 pub fn eval_basis(order: usize, d: [f64; 3], out: &mut [f64]) -> Result<(), LookupError> {
@@ -159,7 +173,7 @@ pub fn eval_basis_recurrence(order: usize, d: [f64; 3], out: &mut [f64]) -> Resu
                 q_prev = q;
                 q = q_next;
             }
-            let k = k_lm(l, m);
+            let k = k_table()[l][m];
             if m == 0 {
                 out[index(l, 0)] = k * q;
             } else {
