@@ -233,6 +233,27 @@ impl Gaunt {
     }
 }
 
+impl Gaunt {
+    /// The product matrix M_g (n² × n², row-major, symmetric): M_g x = g ∗ x, i.e.
+    /// [M_g]_{ik} = Σ_j Γ_ijk g_j. Ren et al.'s SH log is log(M_g)·1 (SPEC F9).
+    pub fn product_matrix(&self, g: &[f64]) -> Vec<f64> {
+        let nc = self.order * self.order;
+        assert!(g.len() == nc, "operand must have n² = {nc} coefficients");
+        let mut m = vec![0.0; nc * nc];
+        for e in &self.entries {
+            let [i, j, k] = e.ijk.map(usize::from);
+            // Each distinct ordering (a, b, c): M[a][c] += Γ g[b].
+            let mut perms = vec![(i, j, k), (i, k, j), (j, i, k), (j, k, i), (k, i, j), (k, j, i)];
+            perms.sort_unstable();
+            perms.dedup();
+            for (a, b, c) in perms {
+                m[a * nc + c] += e.value * g[b];
+            }
+        }
+        m
+    }
+}
+
 /// The SH vector of the constant 1: (√(4π), 0, …).
 pub fn one(order: usize) -> Vec<f64> {
     let mut v = vec![0.0; coeff_count(order)];
@@ -597,6 +618,22 @@ mod tests {
         let want = rule.project(8, |v| h(v[0] * d[0] + v[1] * d[1] + v[2] * d[2]));
         for i in 0..64 {
             assert!((got[i] - want[i]).abs() < 1e-12, "{i}");
+        }
+    }
+
+    #[test]
+    fn product_matrix_matches_product() {
+        let g = Gaunt::new(5);
+        let a: Vec<f64> = (0..25).map(|i| ((i * 7 % 11) as f64 - 5.0) / 4.0).collect();
+        let x: Vec<f64> = (0..25).map(|i| ((i * 3 % 5) as f64 - 2.0) / 3.0).collect();
+        let m = g.product_matrix(&a);
+        let p = g.product(&a, &x);
+        for i in 0..25 {
+            let mx: f64 = (0..25).map(|k| m[i * 25 + k] * x[k]).sum();
+            assert!((mx - p[i]).abs() < 1e-14);
+            for k in 0..25 {
+                assert!((m[i * 25 + k] - m[k * 25 + i]).abs() < 1e-15);
+            }
         }
     }
 }
