@@ -131,3 +131,49 @@ fn to_world_round_trip() {
         assert!((back[i] - up[i]).abs() < 1e-12, "{i}");
     }
 }
+
+fn eval(args: &[&str], stdin: &str) -> std::process::Output {
+    use std::io::Write;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_lobefit"))
+        .args(args)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The CLI may exit before reading (bad flags): a broken pipe is expected then.
+    let _ = child.stdin.take().unwrap().write_all(stdin.as_bytes());
+    child.wait_with_output().unwrap()
+}
+
+/// `lobefit eval log-zh` (SPEC §6): columns, values, flags and errors.
+#[test]
+fn cli_eval_log_zh() {
+    let out = eval(&["eval", "log-zh", "--kind", "diffuse", "--order", "3"], "eps\n0.05\n");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next().unwrap(), "eps,z0,z1,z2");
+    let vals: Vec<f64> = lines.next().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
+    let want = reference_log_zh(Kind::Diffuse, 0.05, 1.0, 3).unwrap();
+    for l in 0..3 {
+        assert!((vals[l + 1] - want[l]).abs() < 1e-12);
+    }
+    let out = eval(&["eval", "log-zh", "--kind", "blocker"], "eps,theta_b\n0.1,0.4\n");
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.starts_with("eps,theta_b,z0,z1,z2,z3\n"), "{text}");
+    // Bad kind, a foreign flag, out-of-domain input: non-zero exit, no output.
+    for (args, input) in [
+        (vec!["eval", "log-zh", "--kind", "lambert"], "eps\n0.1\n"),
+        (vec!["eval", "log-zh", "--variant", "l2"], "eps,r\n0.1,2\n"),
+        (vec!["eval", "log-zh", "--kind", "phong"], "eps,r\n0.1,0.5\n"),
+        (vec!["eval", "wedge", "--kind", "phong"], "sigma,eps\n0.1,0.1\n"),
+        (vec!["eval", "wedge"], "sigma,eps\n2.0,0.1\n"),
+    ] {
+        let out = eval(&args, input);
+        assert!(!out.status.success() && out.stdout.is_empty(), "{args:?}");
+    }
+    let out = eval(&["eval", "wedge", "--order", "2"], "sigma,eps\n0.3,0.1\n");
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.starts_with("sigma,eps,v0,v1\n"), "{text}");
+}
