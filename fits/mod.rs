@@ -143,5 +143,5 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![("log-zh", crate::eps_study::plot)]
+    vec![("lobe-product", lobe_product::plot), ("log-zh", crate::eps_study::plot)]
 }

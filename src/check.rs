@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use lobefit_tables::Table;
 
-use crate::family::Family;
+use crate::family::{Extra, Family};
 use crate::rng::Rng;
 
 /// Checker settings.
@@ -45,6 +45,8 @@ pub struct Stats {
     pub count: usize,
     /// Mean.
     pub mean: f64,
+    /// Variance (population).
+    pub variance: f64,
     /// Median.
     pub median: f64,
     /// 95th percentile.
@@ -63,6 +65,7 @@ impl Stats {
             return Stats {
                 count: 0,
                 mean: f64::NAN,
+                variance: f64::NAN,
                 median: f64::NAN,
                 p95: f64::NAN,
                 p99: f64::NAN,
@@ -71,9 +74,11 @@ impl Stats {
         }
         v.sort_by(f64::total_cmp);
         let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
         Stats {
             count: v.len(),
-            mean: v.iter().sum::<f64>() / v.len() as f64,
+            mean,
+            variance: v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64,
             median: q(0.5),
             p95: q(0.95),
             p99: q(0.99),
@@ -110,6 +115,15 @@ pub struct OutputReport {
     pub worst_offgrid_input: Vec<f64>,
 }
 
+/// A measured distribution (see [`Extra::Values`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct ValueReport {
+    /// What was measured.
+    pub name: String,
+    /// Its statistics.
+    pub stats: Stats,
+}
+
 /// One threshold and its measured value.
 #[derive(Debug, Clone, Serialize)]
 pub struct ThresholdResult {
@@ -140,6 +154,8 @@ pub struct FamilyReport {
     pub outputs: Vec<OutputReport>,
     /// Threshold verdicts.
     pub thresholds: Vec<ThresholdResult>,
+    /// Measured distributions reported without a threshold.
+    pub values: Vec<ValueReport>,
     /// Problems that fail the check outright (load error, lookup error, bad fit flags).
     pub problems: Vec<String>,
     /// Overall verdict.
@@ -168,6 +184,7 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
         offgrid_points: 0,
         outputs: Vec::new(),
         thresholds: Vec::new(),
+        values: Vec::new(),
         problems: Vec::new(),
         pass: false,
     };
@@ -180,6 +197,7 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
     };
     // The loader has already rejected files with unconverged entries.
     let meta = table.meta().clone();
+    let table_copy = table.clone();
     let runtime = match family.runtime(table) {
         Ok(r) => r,
         Err(e) => {
@@ -243,6 +261,29 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
             offgrid_rel: Stats::of(or),
             worst_offgrid_input: worst_input,
         });
+    }
+    // Whole-scene sections: a handful of cases each (they are expensive to reference).
+    let cases = (opts.offgrid / 100).max(10);
+    for (name, res) in family.extra_checks(&table_copy, cases, opts.seed) {
+        match res {
+            Ok(Extra::Values(v)) => report.values.push(ValueReport {
+                name,
+                stats: Stats::of(v),
+            }),
+            Ok(Extra::Pairs(pairs)) => {
+                let abs = pairs.iter().map(|&(g, w)| (g - w).abs()).collect();
+                let rel: Vec<f64> = pairs.iter().map(|&(g, w)| rel_err(g, w)).collect();
+                report.outputs.push(OutputReport {
+                    output: name,
+                    grid_abs: Stats::of(Vec::new()),
+                    grid_rel: Stats::of(Vec::new()),
+                    offgrid_abs: Stats::of(abs),
+                    offgrid_rel: Stats::of(rel),
+                    worst_offgrid_input: Vec::new(),
+                });
+            }
+            Err(e) => report.problems.push(format!("{name}: {e}")),
+        }
     }
     for t in &meta.thresholds {
         let value = report
@@ -320,6 +361,13 @@ pub fn render(reports: &[FamilyReport]) -> String {
             s.push_str(&format!(
                 "  {} absolute: grid max {:.3e}; random mean {:.3e} median {:.3e} p95 {:.3e} max {:.3e}\n",
                 o.output, o.grid_abs.max, a.mean, a.median, a.p95, a.max
+            ));
+        }
+        for v in &r.values {
+            let st = &v.stats;
+            s.push_str(&format!(
+                "  {} (n = {}): mean {:.3e} var {:.3e} median {:.3e} p95 {:.3e} max {:.3e}\n",
+                v.name, st.count, st.mean, st.variance, st.median, st.p95, st.max
             ));
         }
         for t in &r.thresholds {

@@ -46,6 +46,16 @@ impl EvalFlags {
     }
 }
 
+/// One extra checker section (see [`Family::extra_checks`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Extra {
+    /// (runtime value, reference value) pairs: reported as absolute and relative errors.
+    Pairs(Vec<(f64, f64)>),
+    /// A measured distribution (e.g. each fit's own residual, the floor no table can
+    /// beat), reported as is.
+    Values(Vec<f64>),
+}
+
 /// Fit of one grid entry.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fitted {
@@ -120,6 +130,12 @@ pub trait Family: Sync {
         let got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
         let want = self.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
         Ok(Some((got, want)))
+    }
+    /// Extra checker sections beyond pointwise lookups (e.g. whole-scene sums built
+    /// from the table, or the paper's own grid metric), from `count` seeded random
+    /// cases. Default: none.
+    fn extra_checks(&self, _table: &Table, _count: usize, _seed: u64) -> Vec<(String, Result<Extra, String>)> {
+        Vec::new()
     }
     /// Equivalent grid node whose fit this node reuses (e.g. a symmetry), or `None`.
     /// The fit at the returned node must give exactly this node's values.

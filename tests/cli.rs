@@ -199,6 +199,41 @@ fn eval_table_and_exact_agree_with_closed_forms() {
     );
 }
 
+#[test]
+fn eval_lobe_product_variants() {
+    use lobefit::fits::lobe_product::reference_integral;
+    let input = "e1,e2,alpha\n1,2,0.5\n300,40,0.1\n";
+    let rows = |args: &[&str]| -> Vec<Vec<f64>> {
+        let out = run(args, input);
+        assert!(out.status.success(), "{args:?}: {}", text(&out.stderr));
+        let s = text(&out.stdout);
+        let mut lines = s.lines();
+        assert_eq!(lines.next(), Some("e1,e2,alpha,p,t,e_r"));
+        lines
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect()
+    };
+    let energy = rows(&["eval", "lobe-product"]);
+    assert_eq!(energy, rows(&["eval", "lobe-product", "--variant", "energy"]));
+    let l2 = rows(&["eval", "lobe-product", "--variant", "l2"]);
+    let exact = rows(&["eval", "lobe-product", "--exact"]);
+    for ((en, l), ex) in energy.iter().zip(&l2).zip(&exact) {
+        let integral = |r: &[f64]| r[3] * std::f64::consts::TAU / (r[5] + 1.0);
+        let want = reference_integral(en[0], en[1], en[2]).unwrap();
+        // energy: the integral is kept (to interpolation); l2: it need not be.
+        assert!((integral(en) / want - 1.0).abs() < 1e-3, "{en:?}");
+        assert!((integral(ex) / want - 1.0).abs() < 1e-6, "{ex:?}");
+        assert!((l[5] / en[5] - 1.0).abs() < 0.05 && l[4] == en[4], "{l:?} {en:?}");
+    }
+    let out = run(&["eval", "lobe-product", "--variant", "l3"], input);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("--variant l3: expected energy or l2"));
+    let out = run(&["eval", "lobe-product"], "e1,e2,alpha\n1,2,3.5\n");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("line 2"), "{}", text(&out.stderr));
+    assert!(out.stdout.is_empty());
+}
+
 /// Every malformed input ends with exit 1, a message naming the line, and no output.
 #[test]
 fn eval_rejects_bad_input_naming_the_line() {

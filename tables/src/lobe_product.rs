@@ -87,6 +87,11 @@ impl Variant {
     }
 }
 
+/// Scale of the exponent axes, u = ln(1 + e/E_SCALE): below ~1 the product changes
+/// fast with e (an exponent-0 lobe is a hemisphere with a hard edge), so the nodes
+/// are dense there.
+pub const E_SCALE: f64 = 0.1;
+
 /// Resolution of the α axis at π/2 (rad): where a sharp lobe crosses the horizon of a
 /// wide one the product changes over ~1/√e ≥ 3e-3 rad.
 pub const ALPHA_WIDTH: f64 = 2e-3;
@@ -100,7 +105,7 @@ pub fn axes(n_e: u32, n_alpha: u32) -> [Axis; 3] {
         unit: "1".into(),
         lo: 0.0,
         hi: E_MAX,
-        mapping: Mapping::Log1p { scale: 1.0 },
+        mapping: Mapping::Log1p { scale: E_SCALE },
         count: n_e,
         placement: Placement::Endpoints,
     };

@@ -1,0 +1,202 @@
+//! The committed lobe-product tables through the runtime API a renderer calls,
+//! against the checker's independent Gauss–Kronrod reference.
+
+use std::f64::consts::{PI, TAU};
+
+use lobefit::fits::lobe_product::{reference_integral, reference_scene, Scene};
+use lobefit::rng::Rng;
+use lobefit::tables::glam::{DVec3, Vec3};
+use lobefit::tables::lobe_product::{lobe_sum_integral, peak_angle, LobeProduct, Variant, KIND_L2};
+use lobefit::tables::{format, LoadError, Lobe, LobeF32, LookupError};
+
+fn energy() -> &'static LobeProduct {
+    LobeProduct::embedded().expect("committed energy table")
+}
+
+fn l2() -> &'static LobeProduct {
+    LobeProduct::embedded_l2().expect("committed l2 table")
+}
+
+fn unit(theta: f64, phi: f64) -> DVec3 {
+    DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+}
+
+fn lobe(scale: f64, axis: DVec3, exponent: f64) -> Lobe {
+    Lobe { scale, axis, exponent }
+}
+
+#[test]
+fn variants_load_as_themselves_only() {
+    assert_eq!(energy().variant(), Variant::Energy);
+    assert_eq!(l2().variant(), Variant::L2);
+    let t = energy().table().clone();
+    assert!(matches!(
+        LobeProduct::from_table_as(t, Variant::L2),
+        Err(LoadError::WrongKind { .. })
+    ));
+    // A file of the right kind but another layout (the e2 axis dropped) is refused.
+    let src = l2().table();
+    let mut meta = src.meta().clone();
+    assert_eq!(meta.kind, KIND_L2);
+    let n_e = meta.axes[0].count as usize;
+    meta.axes.remove(1);
+    meta.diagnostics.entries = (n_e * meta.axes[1].count as usize) as u64;
+    meta.diagnostics.converged = meta.diagnostics.entries;
+    let per = meta.channels.len() * meta.axes[1].count as usize;
+    let values: Vec<f32> = src.values()[..n_e * per].to_vec();
+    let bytes = format::encode(&meta, &values).unwrap();
+    assert!(matches!(
+        LobeProduct::from_bytes(&bytes),
+        Err(LoadError::LayoutMismatch { .. })
+    ));
+}
+
+#[test]
+fn bad_queries_name_the_input() {
+    let t = energy();
+    fn name<T: std::fmt::Debug>(r: Result<T, LookupError>) -> String {
+        match r {
+            Err(LookupError::NotFinite { name, .. }) | Err(LookupError::OutOfDomain { name, .. }) => name,
+            other => panic!("expected an error, got {other:?}"),
+        }
+    }
+    assert_eq!(name(t.params(f64::NAN, 1.0, 0.5)), "e1");
+    assert_eq!(name(t.params(1.0, -1e-9, 0.5)), "e2");
+    assert_eq!(name(t.params(1.0, 2e5, 0.5)), "e2");
+    assert_eq!(name(t.params(1.0, 1.0, 3.2)), "alpha");
+    assert_eq!(name(t.params(1.0, 1.0, f64::INFINITY)), "alpha");
+    let good = lobe(1.0, DVec3::Z, 3.0);
+    assert_eq!(
+        name(t.product(&lobe(1.0, DVec3::new(0.0, 0.0, 2.0), 1.0), &good)),
+        "|a1|"
+    );
+    assert_eq!(
+        name(t.product(&good, &lobe(1.0, DVec3::new(f64::NAN, 0.0, 1.0), 1.0))),
+        "a2"
+    );
+    assert_eq!(name(t.product(&lobe(f64::NAN, DVec3::Z, 1.0), &good)), "s1");
+    assert_eq!(name(t.product(&good, &lobe(1.0, DVec3::X, -2.0))), "e2");
+    assert_eq!(name(t.product_sums(&[good], &[good], f64::NAN)), "threshold");
+}
+
+#[test]
+fn products_of_random_lobes_keep_their_integral() {
+    // Random axes in 3-D (not the table's canonical frame), through `product`.
+    let mut rng = Rng::new(7);
+    let mut worst: f64 = 0.0;
+    let mut checked = 0;
+    for _ in 0..300 {
+        let e1 = rng.range(0.0, 1e5f64.ln_1p()).exp_m1();
+        let e2 = rng.range(0.0, 1e5f64.ln_1p()).exp_m1();
+        let a1 = unit(rng.range(0.0, PI), rng.range(0.0, TAU));
+        // Angles up to a few product widths, so most products matter.
+        let width = (1.0 / (e1 + 1.0) + 1.0 / (e2 + 1.0)).sqrt();
+        let alpha = (rng.range(0.0, 4.0) * width).min(PI);
+        let perp = a1.any_orthonormal_vector();
+        let a2 = a1 * alpha.cos() + perp * alpha.sin();
+        let (s1, s2) = (rng.range(0.5, 2.0), rng.range(0.5, 2.0));
+        let r = energy().product(&lobe(s1, a1, e1), &lobe(s2, a2, e2)).unwrap();
+        let want = s1 * s2 * reference_integral(e1, e2, alpha).unwrap();
+        if want < 1e-6 * s1 * s2 * TAU / (1.0 + e1.max(e2)) {
+            continue;
+        }
+        checked += 1;
+        worst = worst.max((r.integral() - want).abs() / want);
+        // The axis is the product's peak: in the plane of a1, a2 at angle β from a1.
+        let beta = peak_angle(e1, e2, alpha);
+        assert!((r.axis.length() - 1.0).abs() < 1e-12);
+        assert!(
+            (r.axis.dot(a1).clamp(-1.0, 1.0).acos() - beta).abs() < 1e-6,
+            "{e1} {e2} {alpha}"
+        );
+        assert!(r.axis.dot(a1.cross(a2)).abs() < 1e-9);
+        assert!(
+            r.exponent >= e1.max(e2) * (1.0 - 1e-3),
+            "e_r grows: {} vs {e1}, {e2}",
+            r.exponent
+        );
+    }
+    assert!(checked > 150, "{checked}");
+    // SPEC F3: p99 ≤ 1e-2 over random points; every one of these is within 2 %.
+    assert!(worst < 2e-2, "worst relative integral error {worst:e}");
+}
+
+#[test]
+fn exact_cases() {
+    let t = energy();
+    // α = 0: the product of lobes on one axis is the lobe e1 + e2 with p = 1.
+    for &(e1, e2) in &[(0.0, 0.0), (1.0, 2.5), (300.0, 1e5)] {
+        let q = t.params(e1, e2, 0.0).unwrap();
+        assert!((q.e_r - (e1 + e2)).abs() <= 1e-5 * (1.0 + e1 + e2), "{q:?}");
+        // (e1, e2) off the nodes: p carries the table's interpolation error.
+        assert!((q.p - 1.0).abs() < 1e-4, "{q:?}");
+    }
+    // Antipodal lobes, and sharp lobes far apart, give exact zeros (not noise).
+    for &(e1, e2, alpha) in &[(1.0, 1.0, PI), (0.0, 0.0, PI), (1e5, 1e5, 1.0), (1e4, 50.0, 2.0)] {
+        let q = t.params(e1, e2, alpha).unwrap();
+        assert_eq!(q.p, 0.0, "{e1} {e2} {alpha}: {q:?}");
+        assert!(q.e_r.is_finite() && q.t.is_finite());
+    }
+    // Symmetry: swapping the lobes gives the same lobe.
+    let (a, b) = (lobe(0.7, unit(0.3, 0.2), 12.0), lobe(1.3, unit(1.1, 2.0), 3.5));
+    let (ab, ba) = (t.product(&a, &b).unwrap(), t.product(&b, &a).unwrap());
+    assert!((ab.scale - ba.scale).abs() < 1e-6 * ab.scale);
+    assert!((ab.exponent - ba.exponent).abs() < 1e-6 * ab.exponent);
+    assert!((ab.axis - ba.axis).length() < 1e-9);
+}
+
+#[test]
+fn single_precision_agrees() {
+    let t = energy();
+    let (a, b) = (lobe(0.7, unit(0.3, 0.2), 12.0), lobe(1.3, unit(0.9, 2.0), 3.5));
+    let narrow = |l: &Lobe| LobeF32 {
+        scale: l.scale as f32,
+        axis: Vec3::new(l.axis.x as f32, l.axis.y as f32, l.axis.z as f32),
+        exponent: l.exponent as f32,
+    };
+    let r = t.product(&a, &b).unwrap();
+    let r32 = t.product_f32(&narrow(&a), &narrow(&b)).unwrap();
+    assert!((r32.scale as f64 - r.scale).abs() < 1e-4 * r.scale);
+    assert!((r32.exponent as f64 - r.exponent).abs() < 1e-4 * r.exponent);
+    assert!((r32.axis.as_dvec3() - r.axis).length() < 1e-5);
+}
+
+#[test]
+fn lobe_sums_and_the_threshold() {
+    let t = energy();
+    let a = [lobe(1.0, DVec3::Z, 10.0), lobe(0.5, unit(0.4, 0.0), 2.0)];
+    let b = [lobe(2.0, unit(0.2, 1.0), 30.0), lobe(1.0, -DVec3::Z, 100.0)];
+    let all = t.product_sums(&a, &b, 0.0).unwrap();
+    // The antipodal pair (e 10 at +z, e 100 at −z) vanishes and is dropped.
+    assert_eq!(all.len(), 3);
+    let direct: f64 = a
+        .iter()
+        .flat_map(|x| b.iter().map(move |y| (x, y)))
+        .map(|(x, y)| t.product(x, y).unwrap().integral())
+        .sum();
+    assert!((lobe_sum_integral(&all) - direct).abs() < 1e-12 * direct);
+    // A threshold above the smallest product's integral drops it.
+    let smallest = all.iter().map(|l| l.integral()).fold(f64::INFINITY, f64::min);
+    assert_eq!(t.product_sums(&a, &b, smallest * 1.0001).unwrap().len(), 2);
+    assert_eq!(lobe_sum_integral(&[lobe(3.0, DVec3::X, 2.0)]), 3.0 * TAU / 3.0);
+}
+
+#[test]
+fn a_triple_product_matches_quadrature() {
+    // BRDF lobe around the mirror direction, one light, a visibility lobe: eq. 22.
+    let scene = Scene {
+        brdf: vec![lobe(1.0, unit(0.35, 0.0), 40.0), lobe(0.3, DVec3::Z, 1.0)],
+        lighting: vec![lobe(2.0, unit(0.5, 0.3), 60.0)],
+        visibility: vec![lobe(1.0, DVec3::Z, 0.5), lobe(0.4, unit(0.6, 0.2), 8.0)],
+        normal: DVec3::Z,
+    };
+    let want = reference_scene(&scene).unwrap();
+    for t in [energy(), l2()] {
+        let got = t
+            .triple_product(&scene.brdf, &scene.lighting, &scene.visibility, scene.normal, 0.0)
+            .unwrap();
+        // Composing three approximate products: a few percent (see the checker's
+        // triple_product section for the distribution over random scenes).
+        assert!((got - want).abs() < 0.05 * want, "{:?}: {got} vs {want}", t.variant());
+    }
+}
