@@ -4,6 +4,7 @@
 pub mod cap_exponent;
 pub mod lobe_integral;
 pub mod lobe_product;
+pub mod lobe_product_paper;
 pub mod log_zh;
 pub mod wedge;
 
@@ -73,9 +74,11 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         Box::new(wedge::WedgeFamily),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::Energy,
+            method: opts.method,
         }),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::L2,
+            method: opts.method,
         }),
     ]
 }
@@ -125,7 +128,10 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
                 Some("l2") => lobefit_tables::Variant::L2,
                 Some(v) => return Err(format!("--variant {v}: expected energy or l2")),
             };
-            Ok(Box::new(lobe_product::LobeProductFamily { variant }))
+            Ok(Box::new(lobe_product::LobeProductFamily {
+                variant,
+                method: opts.method,
+            }))
         }
         _ => {
             let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;

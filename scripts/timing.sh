@@ -26,8 +26,12 @@ all=$(t "build-tables (all families)" $bin build-tables --out "$tmp")
 fast=$(t "fit cap-exponent --method fast" $bin fit cap-exponent --out "$tmp/fast.lobefit")
 paper=$(t "fit cap-exponent --method paper (baseline)" $bin fit cap-exponent --method paper --out "$tmp/paper.lobefit")
 grep -o '[0-9]* of [0-9]* fits did not converge' "$tmp/err" >&2 || echo "baseline: all fits converged" >&2
+lp=$(t "build-tables lobe-product (both variants)" $bin build-tables --only lobe-product --only lobe-product-l2 --out "$tmp")
 one=$(t "build-tables --threads 1" $bin build-tables --threads 1 --out "$tmp")
 quick=$(t "check --quick" $bin check --quick)
 full=$(t "check (10 000 points per family)" $bin check)
 printf 'ratio paper/fast (cap-exponent, same 1000 nodes): %.0fx\n' "$(awk -v a="$paper" -v b="$fast" 'BEGIN{print a/b}')" >&2
 printf 'ratio 1 thread / all threads (build-tables):      %.2fx\n' "$(awk -v a="$one" -v b="$all" 'BEGIN{print a/b}')" >&2
+printf 'lobe-product tables (target <= 10 s):            %.2f s\n' "$lp" >&2
+# Per-fit fast vs paper on the same grid points, and runtime lookups, side by side:
+echo "lobe-product fast vs paper per fit: cargo bench --bench lobe_product" >&2
