@@ -2,10 +2,12 @@
 //! the registry that lists them. Adding a family = one module + one line below.
 
 pub mod cap_exponent;
+pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
 pub mod lobe_product_paper;
 pub mod log_zh;
+pub mod sg_fit;
 pub mod wedge;
 
 use std::path::{Path, PathBuf};
@@ -70,6 +72,13 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
             backend: opts.backend,
             method: opts.method,
         }),
+        Box::new(isg::IsgFamily {
+            model: isg::IsgModelKind::Refit,
+        }),
+        Box::new(isg::IsgFamily {
+            model: isg::IsgModelKind::Best,
+        }),
+        Box::new(sg_fit::SgFitFamily),
         Box::new(log_zh::LogZhFamily::default()),
         Box::new(wedge::WedgeFamily),
         Box::new(lobe_product::LobeProductFamily {
@@ -96,13 +105,16 @@ pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Family>> {
 /// Names `lobefit eval` accepts (SPEC §6). A name may select among several tables
 /// through its flags (e.g. `lobe-product --variant l2`).
 pub fn eval_names() -> Vec<&'static str> {
-    names()
+    let mut v = names();
+    v.push("isg");
+    v
 }
 
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
 /// Errors name the flag a family does not take or the value it does not know.
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
     match name {
+        "isg" => isg::for_eval(flags),
         "log-zh" => {
             if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {
                 return Err("log-zh takes only --kind and --order".into());
@@ -149,5 +161,9 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![("lobe-product", lobe_product::plot), ("log-zh", crate::eps_study::plot)]
+    vec![
+        ("isg", isg::plot),
+        ("lobe-product", lobe_product::plot),
+        ("log-zh", crate::eps_study::plot),
+    ]
 }

@@ -14,6 +14,7 @@ pub mod eps_study;
 pub mod eval;
 pub mod family;
 pub mod io;
+pub mod isg;
 pub mod plot;
 pub mod quad;
 pub mod rng;

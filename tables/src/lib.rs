@@ -27,9 +27,11 @@
 pub mod cap_exponent;
 pub mod error;
 pub mod format;
+pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
 pub mod log_zh;
+pub mod sg_fit;
 pub mod sh;
 pub mod table;
 pub mod wedge;
@@ -39,8 +41,10 @@ pub use glam;
 pub use cap_exponent::CapExponent;
 pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
+pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
 pub use lobe_integral::LobeIntegral;
 pub use lobe_product::{Lobe, LobeF32, LobeProduct, ProductParams, Variant};
+pub use sg_fit::SgFit;
 pub use table::Table;
 
 /// The committed default tables (`tables/data/*.lobefit`), compiled in.
@@ -50,6 +54,12 @@ pub mod embedded {
     pub static LOBE_INTEGRAL: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
     /// `tables/data/cap-exponent.lobefit`.
     pub static CAP_EXPONENT: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+    /// `tables/data/isg-refit.lobefit`.
+    pub static ISG_REFIT: &[u8] = include_bytes!("../data/isg-refit.lobefit");
+    /// `tables/data/isg-best.lobefit`.
+    pub static ISG_BEST: &[u8] = include_bytes!("../data/isg-best.lobefit");
+    /// `tables/data/sg-fit.lobefit`.
+    pub static SG_FIT: &[u8] = include_bytes!("../data/sg-fit.lobefit");
     /// `tables/data/log-zh.lobefit`.
     pub static LOG_ZH: &[u8] = include_bytes!("../data/log-zh.lobefit");
     /// `tables/data/wedge.lobefit`.

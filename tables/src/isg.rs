@@ -1,0 +1,616 @@
+//! F4 — the integral spherical Gaussian (Iwasaki et al. 2012, §4; SPEC F4, errata
+//! E1–E3), three models of it, and the SG algebra of SPEC §1.
+//!
+//! # Parameterisation
+//!
+//! In the SG's local frame (SG axis = +z):
+//! Ω(θ, φ) = (sinθ cosφ, cosθ, sinθ sinφ), with **θ ∈ [0, π] measured from +y** and
+//! **φ ∈ [0, π] the azimuth about +y measured from +x towards +z**. The square [0, π]²
+//! covers the hemisphere z ≥ 0 and the SG axis sits at (θ, φ) = (π/2, π/2).
+//!
+//!   S(θ, φ; γ) = ∫_0^θ ∫_0^φ exp(γ (Ω(θ',φ')·z − 1)) sinθ' dφ' dθ'   [sr],
+//!   Ŝ(θ, φ; γ) = S / S(π, π),   S(π, π) = 2π/γ (1 − e^{−γ})   ([`normaliser`]).
+//!
+//! A unit-amplitude SG of sharpness γ integrates over the patch
+//! [θ1, θ2] × [φ1, φ2] to S(θ2,φ2) − S(θ1,φ2) − S(θ2,φ1) + S(θ1,φ1) ([`IsgModel::patch`]).
+//!
+//! # Models (all implement [`IsgModel`], γ ∈ [0.5, 10^4])
+//!
+//! - [`PaperIsg`]: the published fit, f = σ(g(γ)(θ − π/2)) · σ(h(γ)(φ − π/2)),
+//!   σ(x) = 1/(1 + e^{−x}), g and h quartics in γ/100 (appendix of the paper). No table.
+//! - [`RefitIsg`]: the same logistic model with g(γ), h(γ) refitted and tabulated
+//!   over ln γ (table kind `isg-refit`).
+//! - [`BestIsg`]: the rank-2 separable model Ŝ ≈ A(θ; γ) B(φ; γ) + C(θ; γ) D(φ; γ)
+//!   with the exact marginals A(θ) = Ŝ(θ, π), B(φ) = Ŝ(π, φ) and C D the leading
+//!   singular pair of Ŝ − A B (table kind `isg-best`). Exact whenever θ or φ is 0 or π
+//!   (C and D vanish there). A(π − θ) = 1 − A(θ), C(π − θ) = −C(θ), B and D likewise,
+//!   so only θ, φ ≤ π/2 are stored, on a warped coordinate u (see [`warp`]) that maps
+//!   [0, π/2] to [1, 0] for every γ and is proportional to |θ − π/2|·√γ near the axis.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+
+use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::format::{Axis, Encoding, Mapping, Placement};
+use crate::table::Table;
+
+/// Table kind of the refitted logistic model.
+pub const KIND_REFIT: &str = "isg-refit";
+/// Table kind of the separable model.
+pub const KIND_BEST: &str = "isg-best";
+/// Family version of both tables.
+pub const VERSION: u32 = 1;
+/// Smallest SG sharpness covered.
+pub const GAMMA_MIN: f64 = 0.5;
+/// Largest SG sharpness covered.
+pub const GAMMA_MAX: f64 = 1.0e4;
+/// Channels of the refit table (both log-encoded: slopes are positive).
+pub const REFIT_CHANNELS: [&str; 2] = ["g", "h"];
+/// Channels of the separable table, for θ, φ ≤ π/2: the marginals A(θ), B(φ) and the
+/// correction factors C(θ), D(φ).
+pub const BEST_CHANNELS: [&str; 4] = ["a", "b", "c", "d"];
+
+/// Published coefficients (g4, g3, g2, g1, g0) of g(x), x = γ/100 (paper appendix).
+pub const PAPER_G: [f64; 5] = [-2.6856e-6, 7e-4, -0.0571, 3.9529, 17.6028];
+/// Published coefficients (h4, h3, h2, h1, h0) of h(x), x = γ/100 (paper appendix).
+pub const PAPER_H: [f64; 5] = [-2.6875e-6, 7e-4, -0.0592, 3.9900, 17.5003];
+
+/// S(π, π; γ) = 2π/γ (1 − e^{−γ}) sr: the integral of exp(γ(v·z − 1)) over z ≥ 0.
+pub fn normaliser(gamma: f64) -> f64 {
+    2.0 * PI / gamma * -(-gamma).exp_m1()
+}
+
+/// The logistic function σ(x) = 1/(1 + e^{−x}), without overflow for large |x|.
+pub fn sigmoid(x: f64) -> f64 {
+    if x >= 0.0 {
+        1.0 / (1.0 + (-x).exp())
+    } else {
+        let e = x.exp();
+        e / (1.0 + e)
+    }
+}
+
+/// The published quartic in x = γ/100, evaluated as printed (Horner).
+pub fn paper_poly(c: &[f64; 5], gamma: f64) -> f64 {
+    let x = gamma / 100.0;
+    (((c[0] * x + c[1]) * x + c[2]) * x + c[3]) * x + c[4]
+}
+
+/// The warped coordinate of the separable table: for an angle x ∈ [0, π/2] (θ or φ),
+/// with q = 1 − sin x = 2 sin²((x − π/2)/2),
+///   u = √((1 − e^{−γq}) / (1 − e^{−γ})) ∈ [0, 1],
+/// so u = 1 at x = 0 for every γ, and u ≈ |x − π/2|·√(γ/2)/√(1 − e^{−γ}) near the axis
+/// (linear in the SG's natural width, where the marginals vary).
+pub fn warp(x: f64, gamma: f64) -> f64 {
+    let s = (0.5 * (x - FRAC_PI_2)).sin();
+    let q = 2.0 * s * s;
+    ((-gamma * q).exp_m1() / (-gamma).exp_m1()).sqrt().min(1.0)
+}
+
+/// Inverse of [`warp`]: the angle x ∈ [0, π/2] of a coordinate u ∈ [0, 1].
+pub fn unwarp(u: f64, gamma: f64) -> f64 {
+    let q = (-(u * u * (-gamma).exp_m1()).ln_1p() / gamma).clamp(0.0, 1.0);
+    (FRAC_PI_2 - 2.0 * (0.5 * q).sqrt().asin()).clamp(0.0, FRAC_PI_2)
+}
+
+/// The γ axis of both tables: ln γ uniform on [0.5, 10^4].
+pub fn gamma_axis(count: u32) -> Axis {
+    Axis {
+        name: "gamma".into(),
+        unit: "1".into(),
+        lo: GAMMA_MIN,
+        hi: GAMMA_MAX,
+        mapping: Mapping::Log,
+        count,
+        placement: Placement::Endpoints,
+    }
+}
+
+/// The warped-angle axis of the separable table (see [`warp`]).
+pub fn warp_axis(count: u32) -> Axis {
+    Axis {
+        name: "u".into(),
+        unit: "1".into(),
+        lo: 0.0,
+        hi: 1.0,
+        mapping: Mapping::Linear,
+        count,
+        placement: Placement::Endpoints,
+    }
+}
+
+/// A model of the normalised ISG. Every method validates its inputs: angles in
+/// [0, π] rad, γ ∈ [0.5, 10^4], ε ∈ (0, 1/2); NaN, infinities and out-of-domain values
+/// are [`LookupError`]s naming the input.
+pub trait IsgModel {
+    /// Ŝ(θ, φ; γ) ∈ [0, 1] without input checks (inputs already validated).
+    fn s_hat_unchecked(&self, theta: f64, phi: f64, gamma: f64) -> f64;
+
+    /// Limiting angle Γ (rad) for threshold ε, without input checks.
+    fn limiting_angle_unchecked(&self, gamma: f64, eps: f64) -> f64;
+
+    /// Normalised ISG Ŝ(θ, φ; γ) (dimensionless, in [0, 1]).
+    fn s_hat(&self, theta: f64, phi: f64, gamma: f64) -> Result<f64, LookupError> {
+        check(theta, phi, gamma)?;
+        Ok(self.s_hat_unchecked(theta, phi, gamma))
+    }
+
+    /// ISG S(θ, φ; γ) = Ŝ · 2π/γ (1 − e^{−γ}) in steradians (unit-amplitude SG).
+    fn s(&self, theta: f64, phi: f64, gamma: f64) -> Result<f64, LookupError> {
+        Ok(self.s_hat(theta, phi, gamma)? * normaliser(gamma))
+    }
+
+    /// Integral (sr) of the unit-amplitude SG of sharpness γ over the spherical
+    /// rectangle θ ∈ [θ1, θ2], φ ∈ [φ1, φ2], from the four corners:
+    /// S(θ2,φ2) − S(θ1,φ2) − S(θ2,φ1) + S(θ1,φ1). Reversed bounds flip the sign.
+    fn patch(&self, theta1: f64, theta2: f64, phi1: f64, phi2: f64, gamma: f64) -> Result<f64, LookupError> {
+        check(theta1, phi1, gamma)?;
+        check(theta2, phi2, gamma)?;
+        let s = |t, p| self.s_hat_unchecked(t, p, gamma);
+        Ok((s(theta2, phi2) - s(theta1, phi2) - s(theta2, phi1) + s(theta1, phi1)) * normaliser(gamma))
+    }
+
+    /// Limiting angle Γ ∈ [0, π/2] (rad) for the threshold ε ∈ (0, 1/2) (paper §4.1,
+    /// ε = 0.01 there): the model's marginal in θ and in φ is below ε at an angular
+    /// distance Γ from the SG axis (θ or φ = π/2 − Γ), so patches beyond the cone of
+    /// half-angle Γ about the axis can be skipped. Logistic models:
+    /// Γ = ln(1/ε − 1)/min(g, h); separable model: the larger root of A(π/2 − Γ) = ε,
+    /// B(π/2 − Γ) = ε. Capped at π/2.
+    fn limiting_angle(&self, gamma: f64, eps: f64) -> Result<f64, LookupError> {
+        in_range("gamma", gamma, GAMMA_MIN, GAMMA_MAX)?;
+        let e = finite("eps", eps)?;
+        if !(e > 0.0 && e < 0.5) {
+            return Err(LookupError::OutOfDomain {
+                name: "eps".into(),
+                value: e,
+                lo: 0.0,
+                hi: 0.5,
+            });
+        }
+        Ok(self.limiting_angle_unchecked(gamma, e).min(FRAC_PI_2))
+    }
+
+    /// [`IsgModel::s_hat`] in single precision.
+    fn s_hat_f32(&self, theta: f32, phi: f32, gamma: f32) -> Result<f32, LookupError> {
+        self.s_hat(theta as f64, phi as f64, gamma as f64).map(|v| v as f32)
+    }
+
+    /// [`IsgModel::s`] in single precision.
+    fn s_f32(&self, theta: f32, phi: f32, gamma: f32) -> Result<f32, LookupError> {
+        self.s(theta as f64, phi as f64, gamma as f64).map(|v| v as f32)
+    }
+
+    /// [`IsgModel::patch`] in single precision.
+    fn patch_f32(&self, theta1: f32, theta2: f32, phi1: f32, phi2: f32, gamma: f32) -> Result<f32, LookupError> {
+        self.patch(theta1 as f64, theta2 as f64, phi1 as f64, phi2 as f64, gamma as f64)
+            .map(|v| v as f32)
+    }
+
+    /// [`IsgModel::limiting_angle`] in single precision.
+    fn limiting_angle_f32(&self, gamma: f32, eps: f32) -> Result<f32, LookupError> {
+        self.limiting_angle(gamma as f64, eps as f64).map(|v| v as f32)
+    }
+}
+
+/// Validates (θ, φ, γ).
+fn check(theta: f64, phi: f64, gamma: f64) -> Result<(), LookupError> {
+    in_range("theta", theta, 0.0, PI)?;
+    in_range("phi", phi, 0.0, PI)?;
+    in_range("gamma", gamma, GAMMA_MIN, GAMMA_MAX)?;
+    Ok(())
+}
+
+/// Logistic product σ(g(θ − π/2)) σ(h(φ − π/2)).
+fn logistic(theta: f64, phi: f64, g: f64, h: f64) -> f64 {
+    sigmoid(g * (theta - FRAC_PI_2)) * sigmoid(h * (phi - FRAC_PI_2))
+}
+
+/// The paper's published model (no table). Valid only near γ ∈ [100, 1000] (SPEC E3).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PaperIsg;
+
+impl IsgModel for PaperIsg {
+    fn s_hat_unchecked(&self, theta: f64, phi: f64, gamma: f64) -> f64 {
+        logistic(theta, phi, paper_poly(&PAPER_G, gamma), paper_poly(&PAPER_H, gamma))
+    }
+    fn limiting_angle_unchecked(&self, gamma: f64, eps: f64) -> f64 {
+        let s = paper_poly(&PAPER_G, gamma).min(paper_poly(&PAPER_H, gamma));
+        (1.0 / eps - 1.0).ln() / s
+    }
+}
+
+/// The refitted logistic model: g(γ), h(γ) interpolated linearly in ln γ (stored as
+/// ln g, ln h).
+#[derive(Debug, Clone)]
+pub struct RefitIsg {
+    table: Table,
+}
+
+impl RefitIsg {
+    /// Loads and validates an `isg-refit` table held in memory.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
+        Self::from_table(Table::from_bytes(bytes)?)
+    }
+
+    /// Wraps a loaded table, checking kind, version and layout.
+    pub fn from_table(table: Table) -> Result<Self, LoadError> {
+        table.expect_kind(KIND_REFIT, VERSION)?;
+        let n = table.meta().axes.first().map_or(0, |a| a.count);
+        table.expect_layout(
+            &[gamma_axis(n)],
+            &[(REFIT_CHANNELS[0], Encoding::Log), (REFIT_CHANNELS[1], Encoding::Log)],
+        )?;
+        Ok(Self { table })
+    }
+
+    /// The default table compiled into this crate.
+    #[cfg(feature = "embedded")]
+    pub fn embedded() -> Result<&'static Self, LoadError> {
+        static CELL: std::sync::OnceLock<Result<RefitIsg, LoadError>> = std::sync::OnceLock::new();
+        CELL.get_or_init(|| Self::from_bytes(crate::embedded::ISG_REFIT))
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+
+    /// The underlying table.
+    pub fn table(&self) -> &Table {
+        &self.table
+    }
+
+    /// The slopes (g, h) (1/rad) at γ ∈ [0.5, 10^4].
+    pub fn slopes(&self, gamma: f64) -> Result<(f64, f64), LookupError> {
+        let mut out = [0.0; 2];
+        self.table.interpolate(&[gamma], &mut out)?;
+        Ok((out[0], out[1]))
+    }
+
+    fn slopes_unchecked(&self, gamma: f64) -> (f64, f64) {
+        // γ was validated: interpolation cannot fail.
+        self.slopes(gamma).unwrap_or((f64::NAN, f64::NAN))
+    }
+}
+
+impl IsgModel for RefitIsg {
+    fn s_hat_unchecked(&self, theta: f64, phi: f64, gamma: f64) -> f64 {
+        let (g, h) = self.slopes_unchecked(gamma);
+        logistic(theta, phi, g, h)
+    }
+    fn limiting_angle_unchecked(&self, gamma: f64, eps: f64) -> f64 {
+        let (g, h) = self.slopes_unchecked(gamma);
+        (1.0 / eps - 1.0).ln() / g.min(h)
+    }
+}
+
+/// The rank-2 separable model Ŝ ≈ A(θ; γ) B(φ; γ) + C(θ; γ) D(φ; γ) (exact marginals
+/// A, B; bilinear in (ln γ, u)).
+#[derive(Debug, Clone)]
+pub struct BestIsg {
+    table: Table,
+    /// Node counts (γ, u), cached for the direct bilinear path.
+    n: (usize, usize),
+}
+
+impl BestIsg {
+    /// Loads and validates an `isg-best` table held in memory.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
+        Self::from_table(Table::from_bytes(bytes)?)
+    }
+
+    /// Wraps a loaded table, checking kind, version and layout.
+    pub fn from_table(table: Table) -> Result<Self, LoadError> {
+        table.expect_kind(KIND_BEST, VERSION)?;
+        let m = table.meta();
+        let (n0, n1) = (
+            m.axes.first().map_or(0, |a| a.count),
+            m.axes.get(1).map_or(0, |a| a.count),
+        );
+        table.expect_layout(
+            &[gamma_axis(n0), warp_axis(n1)],
+            &[
+                (BEST_CHANNELS[0], Encoding::Linear),
+                (BEST_CHANNELS[1], Encoding::Linear),
+                (BEST_CHANNELS[2], Encoding::Linear),
+                (BEST_CHANNELS[3], Encoding::Linear),
+            ],
+        )?;
+        Ok(Self {
+            table,
+            n: (n0 as usize, n1 as usize),
+        })
+    }
+
+    /// The default table compiled into this crate.
+    #[cfg(feature = "embedded")]
+    pub fn embedded() -> Result<&'static Self, LoadError> {
+        static CELL: std::sync::OnceLock<Result<BestIsg, LoadError>> = std::sync::OnceLock::new();
+        CELL.get_or_init(|| Self::from_bytes(crate::embedded::ISG_BEST))
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+
+    /// The underlying table.
+    pub fn table(&self) -> &Table {
+        &self.table
+    }
+
+    /// Factors (marginal, correction) of axis `k` (0: (A, C) in θ, 1: (B, D) in φ) at
+    /// an angle x ∈ [0, π], by the generic table interpolation.
+    fn factor(&self, k: usize, x: f64, gamma: f64) -> (f64, f64) {
+        let mut out = [0.0; 4];
+        let (mirrored, y) = if x > FRAC_PI_2 { (true, PI - x) } else { (false, x) };
+        // Inputs were validated, so the coordinates are in range.
+        if self.table.interpolate(&[gamma, warp(y, gamma)], &mut out).is_err() {
+            return (f64::NAN, f64::NAN);
+        }
+        if mirrored {
+            (1.0 - out[k], -out[k + 2])
+        } else {
+            (out[k], out[k + 2])
+        }
+    }
+
+    /// The marginals (A(θ), B(φ)) = (Ŝ(θ, π), Ŝ(π, φ)).
+    pub fn marginals(&self, theta: f64, phi: f64, gamma: f64) -> Result<(f64, f64), LookupError> {
+        check(theta, phi, gamma)?;
+        Ok((self.factor(0, theta, gamma).0, self.factor(1, phi, gamma).0))
+    }
+
+    /// All four factors ((A(θ), C(θ)), (B(φ), D(φ))) by the generic table interpolation;
+    /// Ŝ ≈ A B + C D.
+    pub fn factors(&self, theta: f64, phi: f64, gamma: f64) -> Result<[(f64, f64); 2], LookupError> {
+        check(theta, phi, gamma)?;
+        Ok([self.factor(0, theta, gamma), self.factor(1, phi, gamma)])
+    }
+}
+
+impl BestIsg {
+    /// Direct bilinear path of [`IsgModel::s_hat`]: the same interpolation as
+    /// [`Table::interpolate`] (linear in ln γ and u, Endpoints nodes), with ln γ and
+    /// 1 − e^{−γ} shared by all factors (test `best_fast_path_matches_table_interpolation`).
+    fn product(&self, theta: f64, phi: f64, gamma: f64) -> f64 {
+        let (n0, n1) = self.n;
+        let v = self.table.values();
+        let s0 = (gamma.ln() - GAMMA_MIN.ln()) / (GAMMA_MAX.ln() - GAMMA_MIN.ln()) * (n0 - 1) as f64;
+        let s0 = s0.clamp(0.0, (n0 - 1) as f64);
+        let i0 = (s0 as usize).min(n0 - 2);
+        let f0 = s0 - i0 as f64;
+        let em = (-gamma).exp_m1();
+        // (marginal, correction) of axis k: channels k and k + 2.
+        let factor = |k: usize, x: f64| {
+            let (mirrored, y) = if x > FRAC_PI_2 { (true, PI - x) } else { (false, x) };
+            let h = (0.5 * (y - FRAC_PI_2)).sin();
+            let u = ((-gamma * 2.0 * h * h).exp_m1() / em).sqrt().min(1.0);
+            let s1 = u * (n1 - 1) as f64;
+            let i1 = (s1 as usize).min(n1 - 2);
+            let f1 = s1 - i1 as f64;
+            let bilinear = |c: usize| {
+                let at = |a: usize, b: usize| v[(a * n1 + b) * 4 + c] as f64;
+                let lo = at(i0, i1) + f1 * (at(i0, i1 + 1) - at(i0, i1));
+                let hi = at(i0 + 1, i1) + f1 * (at(i0 + 1, i1 + 1) - at(i0 + 1, i1));
+                lo + f0 * (hi - lo)
+            };
+            let (m, c) = (bilinear(k), bilinear(k + 2));
+            if mirrored {
+                (1.0 - m, -c)
+            } else {
+                (m, c)
+            }
+        };
+        let ((a, c), (b, d)) = (factor(0, theta), factor(1, phi));
+        a * b + c * d
+    }
+}
+
+impl IsgModel for BestIsg {
+    fn s_hat_unchecked(&self, theta: f64, phi: f64, gamma: f64) -> f64 {
+        self.product(theta, phi, gamma)
+    }
+    fn limiting_angle_unchecked(&self, gamma: f64, eps: f64) -> f64 {
+        // Bisection on each monotone marginal: A(π/2 − Γ) = ε.
+        let root = |c: usize| {
+            let (mut lo, mut hi) = (0.0, FRAC_PI_2); // Γ
+            if self.factor(c, 0.0, gamma).0 >= eps {
+                return FRAC_PI_2;
+            }
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if self.factor(c, FRAC_PI_2 - mid, gamma).0 > eps {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            0.5 * (lo + hi)
+        };
+        root(0).max(root(1))
+    }
+}
+
+/// A spherical Gaussian G(v) = μ exp(λ (a·v − 1)) (SPEC §1): unit axis `axis`,
+/// sharpness λ > 0, amplitude μ.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sg {
+    /// Unit lobe axis.
+    pub axis: [f64; 3],
+    /// Sharpness λ (> 0).
+    pub sharpness: f64,
+    /// Amplitude μ (value at the axis).
+    pub amplitude: f64,
+}
+
+impl Sg {
+    /// G(v) for a unit direction v.
+    pub fn eval(&self, v: [f64; 3]) -> f64 {
+        let d = self.axis[0] * v[0] + self.axis[1] * v[1] + self.axis[2] * v[2];
+        self.amplitude * (self.sharpness * (d - 1.0)).exp()
+    }
+
+    /// The product of two SGs, itself an SG: λ_m = ‖λ1 a1 + λ2 a2‖,
+    /// a_m = (λ1 a1 + λ2 a2)/λ_m, μ_m = μ1 μ2 exp(λ_m − λ1 − λ2). When the lobes are
+    /// exactly opposite with equal sharpness (λ_m = 0) the product is the constant
+    /// μ1 μ2 e^{−2λ}; it is returned with axis `self.axis` and sharpness 0.
+    pub fn product(&self, other: &Sg) -> Sg {
+        let m = [
+            self.sharpness * self.axis[0] + other.sharpness * other.axis[0],
+            self.sharpness * self.axis[1] + other.sharpness * other.axis[1],
+            self.sharpness * self.axis[2] + other.sharpness * other.axis[2],
+        ];
+        let lm = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+        let axis = if lm > 0.0 {
+            [m[0] / lm, m[1] / lm, m[2] / lm]
+        } else {
+            self.axis
+        };
+        Sg {
+            axis,
+            sharpness: lm,
+            amplitude: self.amplitude * other.amplitude * (lm - self.sharpness - other.sharpness).exp(),
+        }
+    }
+
+    /// ∫_{S²} G dω = μ 2π/λ (1 − e^{−2λ}) sr (4πμ in the limit λ → 0).
+    pub fn integral(&self) -> f64 {
+        self.amplitude * sphere_factor(self.sharpness, 2.0)
+    }
+
+    /// Integral over the hemisphere centred on the axis: μ 2π/λ (1 − e^{−λ}) sr.
+    pub fn hemisphere_integral(&self) -> f64 {
+        self.amplitude * sphere_factor(self.sharpness, 1.0)
+    }
+}
+
+/// 2π (1 − e^{−kλ})/λ, with its limit 2πk at λ = 0.
+fn sphere_factor(lambda: f64, k: f64) -> f64 {
+    if lambda == 0.0 {
+        2.0 * PI * k
+    } else {
+        2.0 * PI * -(-k * lambda).exp_m1() / lambda
+    }
+}
+
+/// [`Sg`] in single precision (computed in f64, rounded once).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sg32 {
+    /// Unit lobe axis.
+    pub axis: [f32; 3],
+    /// Sharpness λ (> 0).
+    pub sharpness: f32,
+    /// Amplitude μ.
+    pub amplitude: f32,
+}
+
+impl Sg32 {
+    fn wide(&self) -> Sg {
+        Sg {
+            axis: self.axis.map(f64::from),
+            sharpness: self.sharpness as f64,
+            amplitude: self.amplitude as f64,
+        }
+    }
+    fn narrow(s: Sg) -> Sg32 {
+        Sg32 {
+            axis: s.axis.map(|x| x as f32),
+            sharpness: s.sharpness as f32,
+            amplitude: s.amplitude as f32,
+        }
+    }
+    /// [`Sg::eval`].
+    pub fn eval(&self, v: [f32; 3]) -> f32 {
+        self.wide().eval(v.map(f64::from)) as f32
+    }
+    /// [`Sg::product`].
+    pub fn product(&self, other: &Sg32) -> Sg32 {
+        Self::narrow(self.wide().product(&other.wide()))
+    }
+    /// [`Sg::integral`].
+    pub fn integral(&self) -> f32 {
+        self.wide().integral() as f32
+    }
+    /// [`Sg::hemisphere_integral`].
+    pub fn hemisphere_integral(&self) -> f32 {
+        self.wide().hemisphere_integral() as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warp_round_trips_and_ends() {
+        for &g in &[0.5, 3.0, 100.0, 1e4] {
+            assert!((warp(0.0, g) - 1.0).abs() < 1e-15);
+            assert_eq!(warp(FRAC_PI_2, g), 0.0);
+            for i in 0..=50 {
+                let x = FRAC_PI_2 * i as f64 / 50.0;
+                let u = warp(x, g);
+                if u > 1.0 - 1e-6 {
+                    // Saturated (x → 0, or the SG below ~e^{-13} of its peak): u does not
+                    // resolve x there, and need not.
+                    continue;
+                }
+                let back = unwarp(u, g);
+                assert!((back - x).abs() < 1e-7, "{g} {x} -> {back}");
+            }
+        }
+    }
+
+    #[test]
+    fn sg_product_and_integrals() {
+        let a = Sg {
+            axis: [0.0, 0.0, 1.0],
+            sharpness: 3.0,
+            amplitude: 2.0,
+        };
+        let s = 0.6f64;
+        let b = Sg {
+            axis: [s.sin(), 0.0, s.cos()],
+            sharpness: 5.0,
+            amplitude: 0.5,
+        };
+        let p = a.product(&b);
+        for v in [[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, -1.0, 0.0], [-0.48, 0.6, 0.64]] {
+            assert!((p.eval(v) - a.eval(v) * b.eval(v)).abs() < 1e-14, "{v:?}");
+        }
+        // ∫ over the sphere of exp(λ(cosθ − 1)) = 2π ∫_{-1}^{1} e^{λ(t−1)} dt.
+        assert!((a.integral() - 2.0 * 2.0 * PI * (1.0 - (-6.0f64).exp()) / 3.0).abs() < 1e-13);
+        assert!((a.hemisphere_integral() - 2.0 * 2.0 * PI * (1.0 - (-3.0f64).exp()) / 3.0).abs() < 1e-13);
+        let z = Sg {
+            axis: [1.0, 0.0, 0.0],
+            sharpness: 0.0,
+            amplitude: 1.0,
+        };
+        assert!((z.integral() - 4.0 * PI).abs() < 1e-15);
+    }
+
+    #[test]
+    fn paper_polynomials_as_printed() {
+        // g(1) = g4 + g3 + g2 + g1 + g0 at γ = 100 (SPEC E3: g(γ=1) ≈ 17.6).
+        let sum: f64 = PAPER_G.iter().sum();
+        assert!((paper_poly(&PAPER_G, 100.0) - sum).abs() < 1e-12);
+        assert!((paper_poly(&PAPER_G, 1.0) - 17.6).abs() < 0.05);
+        assert_eq!(sigmoid(0.0), 0.5);
+        assert!(sigmoid(-800.0) == 0.0 && sigmoid(800.0) == 1.0);
+    }
+
+    #[test]
+    fn paper_model_rejects_bad_input() {
+        let m = PaperIsg;
+        assert!(matches!(
+            m.s_hat(f64::NAN, 1.0, 10.0),
+            Err(LookupError::NotFinite { .. })
+        ));
+        assert!(matches!(m.s_hat(1.0, 4.0, 10.0), Err(LookupError::OutOfDomain { .. })));
+        assert!(matches!(m.s_hat(1.0, 1.0, 0.1), Err(LookupError::OutOfDomain { .. })));
+        assert!(matches!(
+            m.limiting_angle(10.0, 0.7),
+            Err(LookupError::OutOfDomain { .. })
+        ));
+        assert!(matches!(
+            m.limiting_angle(10.0, f64::INFINITY),
+            Err(LookupError::NotFinite { .. })
+        ));
+        // Γ: σ(−gΓ) = ε.
+        let gam = m.limiting_angle(300.0, 0.01).unwrap();
+        assert!((sigmoid(-paper_poly(&PAPER_G, 300.0).min(paper_poly(&PAPER_H, 300.0)) * gam) - 0.01).abs() < 1e-12);
+    }
+}
