@@ -6,7 +6,9 @@ pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
 pub mod lobe_product_paper;
+pub mod log_zh;
 pub mod sg_fit;
+pub mod wedge;
 
 use std::path::{Path, PathBuf};
 
@@ -77,6 +79,8 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
             model: isg::IsgModelKind::Best,
         }),
         Box::new(sg_fit::SgFitFamily),
+        Box::new(log_zh::LogZhFamily::default()),
+        Box::new(wedge::WedgeFamily),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::Energy,
             method: opts.method,
@@ -111,6 +115,25 @@ pub fn eval_names() -> Vec<&'static str> {
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
     match name {
         "isg" => isg::for_eval(flags),
+        "log-zh" => {
+            if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {
+                return Err("log-zh takes only --kind and --order".into());
+            }
+            Ok(Box::new(log_zh::LogZhFamily::from_flags(
+                flags.kind.as_deref(),
+                flags.order,
+            )?))
+        }
+        "wedge" => {
+            if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() || flags.kind.is_some() {
+                return Err("wedge takes only --order".into());
+            }
+            let order = flags.order.unwrap_or(log_zh::DEFAULT_ORDER);
+            if !(1..=8).contains(&order) {
+                return Err(format!("wedge: --order {order} is outside 1..=8"));
+            }
+            Ok(Box::new(wedge::WedgeSliceView { order }))
+        }
         "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
             let variant = match flags.variant.as_deref() {
                 None | Some("energy") => lobefit_tables::Variant::Energy,
@@ -138,5 +161,9 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![("isg", isg::plot), ("lobe-product", lobe_product::plot)]
+    vec![
+        ("isg", isg::plot),
+        ("lobe-product", lobe_product::plot),
+        ("log-zh", crate::eps_study::plot),
+    ]
 }

@@ -10,6 +10,7 @@
 
 pub mod build;
 pub mod check;
+pub mod eps_study;
 pub mod eval;
 pub mod family;
 pub mod io;
@@ -17,6 +18,7 @@ pub mod isg;
 pub mod plot;
 pub mod quad;
 pub mod rng;
+pub mod sh;
 
 /// The table families, one module each (kept in `fits/` at the repository root).
 #[path = "../fits/mod.rs"]

@@ -30,8 +30,11 @@ pub mod format;
 pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
+pub mod log_zh;
 pub mod sg_fit;
+pub mod sh;
 pub mod table;
+pub mod wedge;
 
 pub use glam;
 
@@ -57,6 +60,10 @@ pub mod embedded {
     pub static ISG_BEST: &[u8] = include_bytes!("../data/isg-best.lobefit");
     /// `tables/data/sg-fit.lobefit`.
     pub static SG_FIT: &[u8] = include_bytes!("../data/sg-fit.lobefit");
+    /// `tables/data/log-zh.lobefit`.
+    pub static LOG_ZH: &[u8] = include_bytes!("../data/log-zh.lobefit");
+    /// `tables/data/wedge.lobefit`.
+    pub static WEDGE: &[u8] = include_bytes!("../data/wedge.lobefit");
     /// `tables/data/lobe-product.lobefit` (the `energy` variant).
     pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
     /// `tables/data/lobe-product-l2.lobefit`.

@@ -1,0 +1,639 @@
+//! F6 (library half) — SH projection, the Gaunt triple-product tensor, the
+//! truncated SH product and SH exponentiation by Taylor series.
+//!
+//! Conventions are those of [`lobefit_tables::sh`] (SPEC §1): real orthonormal SH
+//! with the Condon–Shortley phase, index i = l(l+1)+m, order n = bands 0..n−1.
+//! Renderer-side operations (basis, ZH→SH, rotations) live in the runtime crate and
+//! are re-exported here as [`rt`].
+//!
+//! Exactness: [`SphereRule`] is Gauss–Legendre in z = cosθ times the trapezoid rule
+//! in φ. It integrates x^a y^b z^c exactly (to rounding) when the φ frequency
+//! a+b < `n_phi` and the z-degree < 2 `n_z` (the φ-free factor (1−z²)^{(a+b)/2} is a
+//! polynomial whenever the φ integral is non-zero). Products of three order-8 basis
+//! functions have total degree ≤ 21, so [`SphereRule::exact_for_degree`]`(21)` gives
+//! the Gaunt coefficients to rounding; the tests check them against the checker's
+//! adaptive Gauss–Kronrod (`crate::quad::gauss_kronrod`), a different rule.
+
+use std::f64::consts::PI;
+
+pub use lobefit_tables::sh as rt;
+use lobefit_tables::sh::{coeff_count, eval_basis, MAX_COEFFS, MAX_ORDER};
+
+/// Gaunt entries below this magnitude are structural zeros: the smallest true non-zero
+/// entry at order 8 is ~1e-3 (see tests), rounding noise of the exact rule is ~1e-17.
+pub const GAUNT_ZERO: f64 = 1e-10;
+
+/// Relative size of a Taylor term (max-norm vs the running sum) at which [`exp_taylor`]
+/// stops: below f64 resolution of the sum.
+pub const TAYLOR_STOP: f64 = 1e-17;
+/// Taylor terms allowed before [`exp_taylor`] reports non-convergence (enough for
+/// ‖f‖ up to ≈ 100: the k-th term is ≤ ‖f‖^k/k! · C^k with C the product norm bound).
+pub const TAYLOR_MAX_TERMS: usize = 2000;
+
+/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n, Golub-free and exact
+/// to rounding for n ≤ a few hundred).
+pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut x = vec![0.0; n];
+    let mut w = vec![0.0; n];
+    for i in 0..n.div_ceil(2) {
+        // Tricomi's initial guess, then Newton.
+        let mut t = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, t);
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as f64 * t * p1 - (k - 1) as f64 * p0) / k as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            let p = if n == 0 { 1.0 } else { p1 };
+            let pm1 = if n == 1 { 1.0 } else { p0 };
+            dp = n as f64 * (t * p - pm1) / (t * t - 1.0);
+            let dt = p / dp;
+            t -= dt;
+            if dt.abs() < 1e-16 {
+                break;
+            }
+        }
+        x[i] = t;
+        x[n - 1 - i] = -t;
+        w[i] = 2.0 / ((1.0 - t * t) * dp * dp);
+        w[n - 1 - i] = w[i];
+    }
+    if n % 2 == 1 {
+        x[n / 2] = 0.0;
+    }
+    (x, w)
+}
+
+/// A product quadrature rule on the sphere (weights sum to 4π).
+#[derive(Debug, Clone)]
+pub struct SphereRule {
+    /// Unit directions.
+    pub points: Vec<[f64; 3]>,
+    /// Solid-angle weights (sr).
+    pub weights: Vec<f64>,
+}
+
+impl SphereRule {
+    /// Gauss–Legendre (`n_z` nodes in cosθ) × trapezoid (`n_phi` nodes in φ).
+    pub fn new(n_z: usize, n_phi: usize) -> SphereRule {
+        let (zs, ws) = gauss_legendre(n_z);
+        let mut points = Vec::with_capacity(n_z * n_phi);
+        let mut weights = Vec::with_capacity(n_z * n_phi);
+        for (&z, &w) in zs.iter().zip(&ws) {
+            let s = (1.0 - z * z).sqrt();
+            for k in 0..n_phi {
+                let phi = 2.0 * PI * (k as f64 + 0.5) / n_phi as f64;
+                points.push([s * phi.cos(), s * phi.sin(), z]);
+                weights.push(w * 2.0 * PI / n_phi as f64);
+            }
+        }
+        SphereRule { points, weights }
+    }
+
+    /// The smallest rule exact for polynomials in (x, y, z) of total degree ≤ `deg`.
+    pub fn exact_for_degree(deg: usize) -> SphereRule {
+        SphereRule::new(deg / 2 + 1, deg + 1)
+    }
+
+    /// ∫ f dω by the rule.
+    pub fn integrate(&self, mut f: impl FnMut([f64; 3]) -> f64) -> f64 {
+        self.points.iter().zip(&self.weights).map(|(&p, &w)| w * f(p)).sum()
+    }
+
+    /// SH projection ∫ f y_i dω, i < n², of `f` by the rule (exact when f is a
+    /// polynomial of degree ≤ the rule's degree − (n−1)).
+    pub fn project(&self, order: usize, mut f: impl FnMut([f64; 3]) -> f64) -> Vec<f64> {
+        let nc = coeff_count(order);
+        let mut out = vec![0.0; nc];
+        let mut y = [0.0; MAX_COEFFS];
+        for (&p, &w) in self.points.iter().zip(&self.weights) {
+            eval_basis(order, p, &mut y).expect("rule points are unit vectors, order checked by caller");
+            let fw = f(p) * w;
+            for (o, yi) in out.iter_mut().zip(&y[..nc]) {
+                *o += fw * yi;
+            }
+        }
+        out
+    }
+}
+
+/// One non-zero Gaunt coefficient Γ_ijk = ∫ y_i y_j y_k dω with i ≤ j ≤ k.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GauntEntry {
+    /// Indices, i ≤ j ≤ k.
+    pub ijk: [u16; 3],
+    /// Value.
+    pub value: f64,
+}
+
+/// The sparse, symmetric SH triple-product tensor of one order (all of i, j, k < n²).
+#[derive(Debug, Clone)]
+pub struct Gaunt {
+    order: usize,
+    /// Unique entries (i ≤ j ≤ k), sorted by (i, j, k).
+    entries: Vec<GauntEntry>,
+}
+
+impl Gaunt {
+    /// Γ of order `order` (1..=8), exact to rounding (see the module note).
+    pub fn new(order: usize) -> Gaunt {
+        let n = rt::check_order(order).expect("Gaunt order must be 1..=8");
+        let nc = n * n;
+        let rule = SphereRule::exact_for_degree(3 * (n - 1));
+        let ys: Vec<[f64; MAX_COEFFS]> = rule
+            .points
+            .iter()
+            .map(|&p| {
+                let mut y = [0.0; MAX_COEFFS];
+                eval_basis(n, p, &mut y).expect("unit rule point");
+                y
+            })
+            .collect();
+        let lm: Vec<(usize, i32)> = (0..nc).map(rt::band_of).collect();
+        let mut entries = Vec::new();
+        for i in 0..nc {
+            for j in i..nc {
+                for k in j..nc {
+                    let (l1, l2, l3) = (lm[i].0, lm[j].0, lm[k].0);
+                    // Selection rules (parity and triangle) only skip work; the
+                    // threshold below decides what is non-zero.
+                    if (l1 + l2 + l3) % 2 == 1 || l3 > l1 + l2 || l1 + l3 < l2 || l2 + l3 < l1 {
+                        continue;
+                    }
+                    let v: f64 = ys.iter().zip(&rule.weights).map(|(y, w)| w * y[i] * y[j] * y[k]).sum();
+                    if v.abs() > GAUNT_ZERO {
+                        entries.push(GauntEntry {
+                            ijk: [i as u16, j as u16, k as u16],
+                            value: v,
+                        });
+                    }
+                }
+            }
+        }
+        Gaunt { order: n, entries }
+    }
+
+    /// The order n.
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// Unique non-zero entries (i ≤ j ≤ k).
+    pub fn entries(&self) -> &[GauntEntry] {
+        &self.entries
+    }
+
+    /// Number of non-zero entries of the full tensor (all orderings of i, j, k).
+    pub fn nonzero_full(&self) -> usize {
+        self.entries
+            .iter()
+            .map(|e| {
+                let [i, j, k] = e.ijk;
+                if i == j && j == k {
+                    1
+                } else if i == j || j == k {
+                    3
+                } else {
+                    6
+                }
+            })
+            .sum()
+    }
+
+    /// Truncated SH product (f ∗ g)_i = Σ_jk Γ_ijk f_j g_k, i < n², for f, g of
+    /// length n² (this tensor's order).
+    pub fn product(&self, f: &[f64], g: &[f64]) -> Vec<f64> {
+        let nc = self.order * self.order;
+        assert!(
+            f.len() == nc && g.len() == nc,
+            "product operands must have n² = {nc} coefficients"
+        );
+        let mut out = vec![0.0; nc];
+        for e in &self.entries {
+            let [i, j, k] = e.ijk.map(usize::from);
+            let v = e.value;
+            // Every distinct ordering (a, b, c) of the triple contributes out[a] += v f[b] g[c].
+            if i == j && j == k {
+                out[i] += v * f[i] * g[i];
+            } else if i == j {
+                out[i] += v * (f[i] * g[k] + f[k] * g[i]);
+                out[k] += v * f[i] * g[i];
+            } else if j == k {
+                out[i] += v * f[j] * g[j];
+                out[j] += v * (f[i] * g[j] + f[j] * g[i]);
+            } else {
+                out[i] += v * (f[j] * g[k] + f[k] * g[j]);
+                out[j] += v * (f[i] * g[k] + f[k] * g[i]);
+                out[k] += v * (f[i] * g[j] + f[j] * g[i]);
+            }
+        }
+        out
+    }
+}
+
+impl Gaunt {
+    /// The product matrix M_g (n² × n², row-major, symmetric): M_g x = g ∗ x, i.e.
+    /// [M_g]_{ik} = Σ_j Γ_ijk g_j. Ren et al.'s SH log is log(M_g)·1 (SPEC F9).
+    pub fn product_matrix(&self, g: &[f64]) -> Vec<f64> {
+        let nc = self.order * self.order;
+        assert!(g.len() == nc, "operand must have n² = {nc} coefficients");
+        let mut m = vec![0.0; nc * nc];
+        for e in &self.entries {
+            let [i, j, k] = e.ijk.map(usize::from);
+            // Each distinct ordering (a, b, c): M[a][c] += Γ g[b].
+            let mut perms = vec![(i, j, k), (i, k, j), (j, i, k), (j, k, i), (k, i, j), (k, j, i)];
+            perms.sort_unstable();
+            perms.dedup();
+            for (a, b, c) in perms {
+                m[a * nc + c] += e.value * g[b];
+            }
+        }
+        m
+    }
+}
+
+/// The SH vector of the constant 1: (√(4π), 0, …).
+pub fn one(order: usize) -> Vec<f64> {
+    let mut v = vec![0.0; coeff_count(order)];
+    v[0] = (4.0 * PI).sqrt();
+    v
+}
+
+/// Result of [`exp_taylor`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExpResult {
+    /// exp*(f), n² coefficients.
+    pub value: Vec<f64>,
+    /// Taylor terms summed.
+    pub terms: usize,
+    /// Whether the last term fell below [`TAYLOR_STOP`] of the sum.
+    pub converged: bool,
+}
+
+/// SH exponentiation by the Taylor series, run to convergence (SPEC F9's reference):
+/// exp*(f) = 1 + f + f^{2∗}/2! + …, each product truncated to the tensor's order.
+///
+/// Terms are summed as they come; for large DC terms the series cancels badly
+/// (it computes e^{−16} as a sum of terms of size e^{16}): use [`exp_star`], which
+/// factors the DC term out exactly, when accuracy matters.
+pub fn exp_taylor(gaunt: &Gaunt, f: &[f64]) -> ExpResult {
+    let mut sum = one(gaunt.order());
+    let mut term = sum.clone();
+    let norm = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for k in 1..=TAYLOR_MAX_TERMS {
+        term = gaunt.product(&term, f);
+        term.iter_mut().for_each(|t| *t /= k as f64);
+        sum.iter_mut().zip(&term).for_each(|(s, t)| *s += t);
+        if norm(&term) <= TAYLOR_STOP * norm(&sum) && k > 2 {
+            return ExpResult {
+                value: sum,
+                terms: k + 1,
+                converged: true,
+            };
+        }
+    }
+    ExpResult {
+        value: sum,
+        terms: TAYLOR_MAX_TERMS + 1,
+        converged: false,
+    }
+}
+
+/// exp*(f) = exp(f_0/√(4π)) · exp*(f̂), f̂ = f without its DC term. Identical to
+/// [`exp_taylor`] in exact arithmetic (the DC term is a multiple of the product's
+/// identity, so it commutes and factors out), and free of its cancellation.
+pub fn exp_star(gaunt: &Gaunt, f: &[f64]) -> ExpResult {
+    let mut hat = f.to_vec();
+    let dc = hat[0] / (4.0 * PI).sqrt();
+    hat[0] = 0.0;
+    let mut r = exp_taylor(gaunt, &hat);
+    let s = dc.exp();
+    r.value.iter_mut().for_each(|v| *v *= s);
+    r
+}
+
+/// ZH vector of a zonal function g(cosθ) up to order n, z_l = 2π ∫_{−1}^{1} g(t) y_l^0(t) dt,
+/// by the checker's adaptive Gauss–Kronrod with break points `breaks` (where g kinks).
+pub fn zh_project_gk(order: usize, g: impl Fn(f64) -> f64, breaks: &[f64], tol: f64) -> (Vec<f64>, bool) {
+    let mut ok = true;
+    let z = (0..order)
+        .map(|l| {
+            let q = crate::quad::gauss_kronrod(
+                |t| {
+                    let mut y = [0.0; MAX_ORDER];
+                    rt::eval_zonal(l + 1, t, &mut y).expect("t in [-1, 1]");
+                    g(t) * y[l]
+                },
+                -1.0,
+                1.0,
+                breaks,
+                tol,
+                0.0,
+                10_000,
+            );
+            ok &= q.converged;
+            2.0 * PI * q.value
+        })
+        .collect();
+    (z, ok)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::quad::gauss_kronrod;
+    use lobefit_tables::sh::index;
+
+    /// Acceptance (issue 4): orthonormality and Gaunt entries vs quadrature ≤ 1e-12.
+    const ACCEPT: f64 = 1e-12;
+    /// Checker quadrature tolerance, well below ACCEPT.
+    const GK_TOL: f64 = 1e-15;
+
+    /// θ and φ factors of y_i: y_l^m(θ, φ) = Θ(θ) Φ(φ), Θ from the runtime's basis at φ = 0.
+    fn theta_part(i: usize, theta: f64) -> f64 {
+        let (l, m) = rt::band_of(i);
+        let mut y = [0.0; MAX_COEFFS];
+        eval_basis(l + 1, [theta.sin(), 0.0, theta.cos()], &mut y).unwrap();
+        y[index(l, m.abs())]
+    }
+    fn phi_part(i: usize, phi: f64) -> f64 {
+        let (_, m) = rt::band_of(i);
+        match m.cmp(&0) {
+            std::cmp::Ordering::Equal => 1.0,
+            std::cmp::Ordering::Greater => (m as f64 * phi).cos(),
+            std::cmp::Ordering::Less => (-m as f64 * phi).sin(),
+        }
+    }
+    /// ∫ Π y dω by separable adaptive Gauss–Kronrod (θ ∈ [0, π], φ ∈ [0, 2π]).
+    fn gk_integral(idx: &[usize]) -> f64 {
+        let qt = gauss_kronrod(
+            |t| idx.iter().map(|&i| theta_part(i, t)).product::<f64>() * t.sin(),
+            0.0,
+            PI,
+            &[PI / 2.0],
+            GK_TOL,
+            0.0,
+            1000,
+        );
+        let qp = gauss_kronrod(
+            |p| idx.iter().map(|&i| phi_part(i, p)).product::<f64>(),
+            0.0,
+            2.0 * PI,
+            &[PI / 2.0, PI, 1.5 * PI],
+            GK_TOL,
+            0.0,
+            1000,
+        );
+        assert!(qt.converged && qp.converged);
+        qt.value * qp.value
+    }
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials() {
+        let (x, w) = gauss_legendre(11);
+        for k in 0..22 {
+            let got: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(k)).sum();
+            let want = if k % 2 == 1 { 0.0 } else { 2.0 / (k + 1) as f64 };
+            assert!((got - want).abs() < 1e-14, "k={k}: {got}");
+        }
+    }
+
+    /// Orthonormality of the order-8 basis by the checker's quadrature, every pair.
+    #[test]
+    fn basis_orthonormal_by_adaptive_quadrature() {
+        let mut worst: f64 = 0.0;
+        for i in 0..64 {
+            for j in i..64 {
+                let (_, mi) = rt::band_of(i);
+                let (_, mj) = rt::band_of(j);
+                if mi != mj && mi.abs() != mj.abs() {
+                    // Φ integral is 0 by symmetry; still checked on a sample below.
+                    if (i + j) % 7 != 0 {
+                        continue;
+                    }
+                }
+                let v = gk_integral(&[i, j]);
+                let want = if i == j { 1.0 } else { 0.0 };
+                worst = worst.max((v - want).abs());
+            }
+        }
+        eprintln!("orthonormality (adaptive GK), max |∫y_i y_j − δ_ij| = {worst:.2e}");
+        assert!(worst < ACCEPT);
+    }
+
+    /// The exact product rule is exact for the order-8 Gram matrix too (all pairs).
+    #[test]
+    fn basis_orthonormal_by_exact_rule() {
+        let rule = SphereRule::exact_for_degree(14);
+        let mut worst: f64 = 0.0;
+        for i in 0..64 {
+            let p = rule.project(8, |d| {
+                let mut y = [0.0; 64];
+                eval_basis(8, d, &mut y).unwrap();
+                y[i]
+            });
+            for (j, v) in p.iter().enumerate() {
+                worst = worst.max((v - if i == j { 1.0 } else { 0.0 }).abs());
+            }
+        }
+        assert!(worst < ACCEPT, "{worst:e}");
+    }
+
+    /// Every non-zero Gaunt entry of order 8, and a sample of the skipped zeros,
+    /// against the separable adaptive Gauss–Kronrod.
+    #[test]
+    fn gaunt_matches_adaptive_quadrature() {
+        let g = Gaunt::new(8);
+        let mut worst: f64 = 0.0;
+        let mut smallest = f64::INFINITY;
+        for e in g.entries() {
+            let [i, j, k] = e.ijk.map(usize::from);
+            worst = worst.max((gk_integral(&[i, j, k]) - e.value).abs());
+            smallest = smallest.min(e.value.abs());
+        }
+        // Zeros: triples not in the list, deterministic sample.
+        let set: std::collections::HashSet<[u16; 3]> = g.entries().iter().map(|e| e.ijk).collect();
+        let mut zeros = 0;
+        for i in 0..64u16 {
+            for j in (i..64).step_by(5) {
+                for k in (j..64).step_by(7) {
+                    if !set.contains(&[i, j, k]) {
+                        worst = worst.max(gk_integral(&[i as usize, j as usize, k as usize]).abs());
+                        zeros += 1;
+                    }
+                }
+            }
+        }
+        eprintln!(
+            "Gaunt order 8: {} unique non-zero, worst |Γ − GK| = {worst:.2e} (incl. {zeros} zeros), smallest |Γ| = {smallest:.3e}",
+            g.entries().len()
+        );
+        assert!(worst < ACCEPT);
+        assert!(smallest > 1e3 * GAUNT_ZERO);
+    }
+
+    /// Zonal entries against the exact Wigner-3j closed form
+    /// Γ = √((2l1+1)(2l2+1)(2l3+1)/4π) (l1 l2 l3; 0 0 0)².
+    #[test]
+    fn gaunt_zonal_entries_match_wigner_3j() {
+        let g = Gaunt::new(8);
+        let f = |n: usize| (1..=n).map(|k| k as f64).product::<f64>();
+        // (l1 l2 l3; 0 0 0)² = Δ² (g!/((g−l1)!(g−l2)!(g−l3)!))² with 2g = L, Δ² = Π(L−2l_i)!/(L+1)!.
+        let w3j2 = |l1: usize, l2: usize, l3: usize| {
+            let big = l1 + l2 + l3;
+            let gg = big / 2;
+            let delta2 = f(big - 2 * l1) * f(big - 2 * l2) * f(big - 2 * l3) / f(big + 1);
+            let r = f(gg) / (f(gg - l1) * f(gg - l2) * f(gg - l3));
+            delta2 * r * r
+        };
+        let mut checked = 0;
+        for e in g.entries() {
+            let [i, j, k] = e.ijk.map(usize::from);
+            let (a, b, c) = (rt::band_of(i), rt::band_of(j), rt::band_of(k));
+            if a.1 == 0 && b.1 == 0 && c.1 == 0 {
+                let (l1, l2, l3) = (a.0, b.0, c.0);
+                let want = (((2 * l1 + 1) * (2 * l2 + 1) * (2 * l3 + 1)) as f64 / (4.0 * PI)).sqrt() * w3j2(l1, l2, l3);
+                assert!(
+                    (e.value.abs() - want).abs() < ACCEPT,
+                    "{l1} {l2} {l3}: {} vs {want}",
+                    e.value
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 20);
+    }
+
+    #[test]
+    fn nonzero_counts_per_order() {
+        let counts: Vec<(usize, usize)> = (1..=8)
+            .map(|n| {
+                let g = Gaunt::new(n);
+                (g.entries().len(), g.nonzero_full())
+            })
+            .collect();
+        eprintln!("Gaunt non-zeros per order (unique i≤j≤k, full): {counts:?}");
+        assert_eq!(counts[0], (1, 1));
+        // Order 2: Γ_000 and Γ_0ii (i = 1..3): 4 unique, 1 + 3·3 = 10 full.
+        assert_eq!(counts[1], (4, 10));
+    }
+
+    /// Product of two functions vs the projection of their pointwise product: equal
+    /// when both are band-limited and their product fits in the order.
+    #[test]
+    fn product_is_projection_of_pointwise_product() {
+        let g = Gaunt::new(8);
+        let rule = SphereRule::exact_for_degree(24);
+        // f of order 4 and h of order 5: f·h has degree ≤ 7, exactly representable at order 8.
+        let mut f = vec![0.0; 64];
+        let mut h = vec![0.0; 64];
+        for (i, v) in f.iter_mut().take(16).enumerate() {
+            *v = ((i * 13 % 7) as f64 - 3.0) / 5.0;
+        }
+        for (i, v) in h.iter_mut().take(25).enumerate() {
+            *v = ((i * 5 % 9) as f64 - 4.0) / 3.0;
+        }
+        let eval = |c: &[f64], d: [f64; 3]| {
+            let mut y = [0.0; 64];
+            eval_basis(8, d, &mut y).unwrap();
+            c.iter().zip(&y).map(|(a, b)| a * b).sum::<f64>()
+        };
+        let want = rule.project(8, |d| eval(&f, d) * eval(&h, d));
+        let got = g.product(&f, &h);
+        for i in 0..64 {
+            assert!((got[i] - want[i]).abs() < 1e-12, "{i}: {} vs {}", got[i], want[i]);
+        }
+    }
+
+    /// exp* of a constant is the constant's exponential; of a ZH of small norm it
+    /// approaches the projection of the pointwise exponential as the order grows.
+    #[test]
+    fn exp_star_constant_and_consistency() {
+        let g = Gaunt::new(4);
+        let mut f = vec![0.0; 16];
+        f[0] = -2.0 * (4.0 * PI).sqrt();
+        let r = exp_taylor(&g, &f);
+        assert!(r.converged);
+        assert!((r.value[0] / (4.0 * PI).sqrt() - (-2.0f64).exp()).abs() < 1e-14);
+        f[2] = 0.3;
+        f[7] = -0.2;
+        let a = exp_taylor(&g, &f);
+        let b = exp_star(&g, &f);
+        for i in 0..16 {
+            assert!((a.value[i] - b.value[i]).abs() < 1e-13);
+        }
+    }
+
+    /// Acceptance: rotation vs re-projection and round trips ≤ 1e-10. g is a polynomial
+    /// of degree 12 (not band-limited to order 8), so the rule of degree 12 + 7 projects
+    /// it exactly and the two sides differ only by rounding.
+    #[test]
+    fn rotation_vs_reprojection_and_round_trip() {
+        let rule = SphereRule::exact_for_degree(19);
+        let a = rt::normalize([0.3, -0.7, 0.5]).unwrap();
+        let b = rt::normalize([-0.9, 0.1, 0.4]).unwrap();
+        let g = |d: [f64; 3]| {
+            let u = a[0] * d[0] + a[1] * d[1] + a[2] * d[2];
+            let v = b[0] * d[0] + b[1] * d[1] + b[2] * d[2];
+            u.powi(12) + 0.5 * v.powi(7) * u - 0.3 * d[0] * d[1]
+        };
+        let (mut worst_re, mut worst_rt): (f64, f64) = (0.0, 0.0);
+        for (axis, angle) in [([1.0, 2.0, 3.0], 0.9), ([0.0, 1.0, 0.0], 2.5), ([-1.0, 0.2, 0.1], -1.3)] {
+            let r = rt::rotation_axis_angle(axis, angle).unwrap();
+            let rt_ = [0, 1, 2].map(|i| [0, 1, 2].map(|j| r[j][i]));
+            for n in [1usize, 2, 4, 8] {
+                let f = rule.project(n, g);
+                let rot = rt::Rotation::new(n, r).unwrap();
+                let mut fr = vec![0.0; n * n];
+                rot.apply(&f, &mut fr).unwrap();
+                // f'(v) = f(rᵀ v).
+                let want = rule.project(n, |d| {
+                    g([0, 1, 2].map(|i| (0..3).map(|j| rt_[i][j] * d[j]).sum::<f64>()))
+                });
+                let inv = rt::Rotation::new(n, rt_).unwrap();
+                let mut back = vec![0.0; n * n];
+                inv.apply(&fr, &mut back).unwrap();
+                for i in 0..n * n {
+                    worst_re = worst_re.max((fr[i] - want[i]).abs());
+                    worst_rt = worst_rt.max((back[i] - f[i]).abs());
+                }
+            }
+        }
+        eprintln!("rotation vs re-projection max abs {worst_re:.2e}; round trip max abs {worst_rt:.2e}");
+        assert!(worst_re < 1e-10 && worst_rt < 1e-10);
+    }
+
+    /// ZH→SH (Funk–Hecke) vs the projection of the turned zonal function.
+    #[test]
+    fn zh_to_sh_matches_projection() {
+        let rule = SphereRule::exact_for_degree(17);
+        let d = rt::normalize([0.2, 0.5, -0.6]).unwrap();
+        let h = |t: f64| t.powi(10) - 0.5 * t.powi(3) + 0.1;
+        let (zh, ok) = zh_project_gk(8, h, &[], 1e-15);
+        assert!(ok);
+        let mut got = vec![0.0; 64];
+        rt::zh_to_sh(&zh, d, &mut got).unwrap();
+        let want = rule.project(8, |v| h(v[0] * d[0] + v[1] * d[1] + v[2] * d[2]));
+        for i in 0..64 {
+            assert!((got[i] - want[i]).abs() < 1e-12, "{i}");
+        }
+    }
+
+    #[test]
+    fn product_matrix_matches_product() {
+        let g = Gaunt::new(5);
+        let a: Vec<f64> = (0..25).map(|i| ((i * 7 % 11) as f64 - 5.0) / 4.0).collect();
+        let x: Vec<f64> = (0..25).map(|i| ((i * 3 % 5) as f64 - 2.0) / 3.0).collect();
+        let m = g.product_matrix(&a);
+        let p = g.product(&a, &x);
+        for i in 0..25 {
+            let mx: f64 = (0..25).map(|k| m[i * 25 + k] * x[k]).sum();
+            assert!((mx - p[i]).abs() < 1e-14);
+            for k in 0..25 {
+                assert!((m[i * 25 + k] - m[k * 25 + i]).abs() < 1e-15);
+            }
+        }
+    }
+}

@@ -1,0 +1,322 @@
+//! F8 — height-field wedge visibility in log-SH space (Giraud & Nowrouzezahrai 2015 §4.5.1).
+//!
+//! **Slice.** In azimuth φ a height field hides everything below its horizon
+//! elevation σ (rad; σ = 0 is the tangent plane, σ > 0 above it, σ ∈ [−π/2, π/2]):
+//! directions with θ > π/2 − σ are blocked. The slice's log-visibility in the
+//! normalised-Legendre (NLP) basis P̂_l = √((2l+1)/2) P_l is
+//! v^log_l(σ) = ∫_{π/2−σ}^{π} ln ε P̂_l(cosθ) sinθ dθ = ln ε ∫_{−1}^{sin σ} P̂_l(t) dt
+//! = ln ε √((2l+1)/2) (P_{l+1} − P_{l−1})(sin σ)/(2l+1) (l ≥ 1), ln ε (sin σ + 1)/√2 (l = 0)
+//! ([`slice_log`], closed form, any order ≤ 8; at order 4 it is the thesis's eq. 4.15 form).
+//!
+//! **Wedge.** W slices at φ_k = kΔφ, Δφ = 2π/W. Between two slices the slice
+//! functions are interpolated linearly in φ, α = (φ − φ_k)/Δφ, and the log-visibility is
+//! 0 (visibility 1) outside the wedge. Its SH projection is V_k = M_lin [v_k; v_{k+1}]
+//! with the n² × 2n operator
+//! [M_lin]_{i,j} = ∫_0^{Δφ} ∫_0^π [I_lin]_j P̂_{j mod n}(cosθ) y_i(θ, φ) sinθ dθ dφ,
+//! I_lin = (1−α, …, 1−α, α, …, α) (n entries each), for the canonical wedge [0, Δφ].
+//! The table stores M_lin of order 8 for W ∈ {4, 8, 16, 32, 64}; the order-n operator
+//! is its sub-block (rows i < n², columns j mod 8 < n of each half), since entries do
+//! not depend on n. Values are stored as f32 pairs (hi + lo) so the sum carries
+//! ~1e-15 relative precision.
+//!
+//! **Composition** ([`Wedges::compose`]): V = Σ_k Rot_z(V_k, φ_k), the log-SH
+//! visibility of the whole height field at a point, from its W horizon angles.
+//! All SH conventions are those of [`crate::sh`].
+
+use std::f64::consts::PI;
+
+use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::format::{Axis, Encoding, Mapping, Placement};
+use crate::sh::{self, MAX_ORDER};
+use crate::table::Table;
+
+/// Table kind.
+pub const KIND: &str = "wedge";
+/// Family version this runtime reads.
+pub const VERSION: u32 = 1;
+/// Tabulated wedge counts.
+pub const WEDGE_COUNTS: [u32; 5] = [4, 8, 16, 32, 64];
+/// Rows of the stored operator (order-8 SH coefficients).
+pub const ROWS: u32 = 64;
+/// Columns of the stored operator (2 × 8 NLP coefficients).
+pub const COLS: u32 = 16;
+/// Smallest ε accepted by [`slice_log`] (as for the log-ZH vectors).
+pub const EPS_MIN: f64 = 0.01;
+/// Largest ε accepted.
+pub const EPS_MAX: f64 = 0.99;
+/// Channels: the operator entry as an f32 pair, value = hi + lo.
+pub const CHANNELS: [&str; 2] = ["m_hi", "m_lo"];
+
+/// Axes, slowest first: `W` (5 nodes 4..64 uniform in ln W), `row` (0..63), `col` (0..15).
+pub fn axes() -> Vec<Axis> {
+    vec![
+        Axis {
+            name: "W".into(),
+            unit: "1".into(),
+            lo: 4.0,
+            hi: 64.0,
+            mapping: Mapping::Log,
+            count: WEDGE_COUNTS.len() as u32,
+            placement: Placement::Endpoints,
+        },
+        Axis {
+            name: "row".into(),
+            unit: "1".into(),
+            lo: 0.0,
+            hi: (ROWS - 1) as f64,
+            mapping: Mapping::Linear,
+            count: ROWS,
+            placement: Placement::Endpoints,
+        },
+        Axis {
+            name: "col".into(),
+            unit: "1".into(),
+            lo: 0.0,
+            hi: (COLS - 1) as f64,
+            mapping: Mapping::Linear,
+            count: COLS,
+            placement: Placement::Endpoints,
+        },
+    ]
+}
+
+/// Log-visibility slice vector v^log(σ) in the NLP basis, l < n, into `out[..n]`
+/// (closed form; `sigma` ∈ [−π/2, π/2] rad, `eps` ∈ [0.01, 0.99]).
+pub fn slice_log(sigma: f64, eps: f64, order: usize, out: &mut [f64]) -> Result<(), LookupError> {
+    let n = sh::check_order(order)?;
+    let sigma = in_range("sigma", sigma, -PI / 2.0, PI / 2.0)?;
+    let eps = in_range("eps", eps, EPS_MIN, EPS_MAX)?;
+    if out.len() < n {
+        return Err(LookupError::Channels {
+            expected: n,
+            got: out.len(),
+        });
+    }
+    let x = sigma.sin();
+    let mut p = [0.0; MAX_ORDER + 1];
+    p[0] = 1.0;
+    p[1] = x;
+    for l in 2..=MAX_ORDER {
+        p[l] = ((2 * l - 1) as f64 * x * p[l - 1] - (l - 1) as f64 * p[l - 2]) / l as f64;
+    }
+    let le = eps.ln();
+    // 1 + sin σ = 2 cos²(π/4 − σ/2), accurate near σ = −π/2.
+    let c = (PI / 4.0 - sigma / 2.0).cos();
+    out[0] = le * 2.0 * c * c / std::f64::consts::SQRT_2;
+    for l in 1..n {
+        out[l] = le * ((2 * l + 1) as f64 / 2.0).sqrt() * (p[l + 1] - p[l - 1]) / (2 * l + 1) as f64;
+    }
+    Ok(())
+}
+
+/// [`slice_log`] in single precision.
+pub fn slice_log_f32(sigma: f32, eps: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
+    let mut tmp = [0.0; MAX_ORDER];
+    slice_log(sigma as f64, eps as f64, order, &mut tmp)?;
+    if out.len() < order {
+        return Err(LookupError::Channels {
+            expected: order,
+            got: out.len(),
+        });
+    }
+    for (o, t) in out.iter_mut().zip(&tmp[..order]) {
+        *o = *t as f32;
+    }
+    Ok(())
+}
+
+/// The wedge operators M_lin (order 8) for W ∈ {4, 8, 16, 32, 64}.
+#[derive(Debug, Clone)]
+pub struct Wedges {
+    table: Table,
+    /// Decoded operators, [w][row][col] flattened, f64.
+    m: Vec<f64>,
+}
+
+impl Wedges {
+    /// Loads and validates a wedge table file held in memory.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
+        Self::from_table(Table::from_bytes(bytes)?)
+    }
+
+    /// Wraps an already loaded table, checking its kind, version and layout.
+    pub fn from_table(table: Table) -> Result<Self, LoadError> {
+        table.expect_kind(KIND, VERSION)?;
+        let meta = table.meta();
+        let chans_ok = meta.channels.len() == 2
+            && meta
+                .channels
+                .iter()
+                .zip(CHANNELS)
+                .all(|(c, n)| c.name == n && c.encoding == Encoding::Linear);
+        if meta.axes != axes() || !chans_ok {
+            return Err(LoadError::LayoutMismatch {
+                kind: KIND.into(),
+                detail: "expected axes W (4..64, ln, 5) × row (0..63) × col (0..15) and channels m_hi, m_lo".into(),
+            });
+        }
+        let m = table
+            .values()
+            .chunks_exact(2)
+            .map(|c| c[0] as f64 + c[1] as f64)
+            .collect();
+        Ok(Self { table, m })
+    }
+
+    /// The default table compiled into this crate.
+    #[cfg(feature = "embedded")]
+    pub fn embedded() -> Result<&'static Self, LoadError> {
+        static CELL: std::sync::OnceLock<Result<Wedges, LoadError>> = std::sync::OnceLock::new();
+        CELL.get_or_init(|| Self::from_bytes(crate::embedded::WEDGE))
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+
+    /// The underlying table.
+    pub fn table(&self) -> &Table {
+        &self.table
+    }
+
+    fn w_index(w: u32) -> Result<usize, LookupError> {
+        WEDGE_COUNTS
+            .iter()
+            .position(|&c| c == w)
+            .ok_or(LookupError::OutOfDomain {
+                name: "wedge count W (one of 4, 8, 16, 32, 64)".into(),
+                value: w as f64,
+                lo: 4.0,
+                hi: 64.0,
+            })
+    }
+
+    /// [M_lin]_{row, col} of order n for W wedges: row < n², col < 2n (col < n weighs
+    /// the wedge's first slice by 1−α, col ≥ n the second by α).
+    pub fn m_lin(&self, w: u32, order: usize, row: usize, col: usize) -> Result<f64, LookupError> {
+        let n = sh::check_order(order)?;
+        let wi = Self::w_index(w)?;
+        if row >= n * n || col >= 2 * n {
+            return Err(LookupError::OutOfDomain {
+                name: "M_lin index (row < n², col < 2n)".into(),
+                value: (row.max(col)) as f64,
+                lo: 0.0,
+                hi: (n * n - 1) as f64,
+            });
+        }
+        let stored_col = (col / n) * MAX_ORDER + col % n;
+        Ok(self.m[(wi * ROWS as usize + row) * COLS as usize + stored_col])
+    }
+
+    /// V = M_lin [v_a; v_b] for one canonical wedge [0, Δφ] (n² outputs into `out`).
+    pub fn wedge(&self, w: u32, v_a: &[f64], v_b: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
+        let n = sh::check_order(v_a.len())?;
+        if v_b.len() != n {
+            return Err(LookupError::Arity {
+                expected: n,
+                got: v_b.len(),
+            });
+        }
+        if out.len() < n * n {
+            return Err(LookupError::Channels {
+                expected: n * n,
+                got: out.len(),
+            });
+        }
+        let wi = Self::w_index(w)?;
+        for (row, o) in out.iter_mut().take(n * n).enumerate() {
+            let base = (wi * ROWS as usize + row) * COLS as usize;
+            let mut s = 0.0;
+            for j in 0..n {
+                s += self.m[base + j] * v_a[j] + self.m[base + MAX_ORDER + j] * v_b[j];
+            }
+            *o = s;
+        }
+        Ok(())
+    }
+
+    /// Log-SH visibility (order n, n² values into `out`) of a height-field point from
+    /// its horizon elevations `sigma[k]` (rad) in the W = `sigma.len()` azimuths
+    /// φ_k = 2πk/W (from +x towards +y, about the surface normal +z): wedge k between
+    /// slices k and k+1 (mod W) by M_lin, turned to φ_k about z, summed.
+    pub fn compose(&self, sigma: &[f64], eps: f64, order: usize, out: &mut [f64]) -> Result<(), LookupError> {
+        let n = sh::check_order(order)?;
+        let w = sigma.len() as u32;
+        Self::w_index(w)?;
+        if out.len() < n * n {
+            return Err(LookupError::Channels {
+                expected: n * n,
+                got: out.len(),
+            });
+        }
+        let mut slices = Vec::with_capacity(sigma.len());
+        for &s in sigma {
+            finite("sigma", s)?;
+            let mut v = [0.0; MAX_ORDER];
+            slice_log(s, eps, n, &mut v)?;
+            slices.push(v);
+        }
+        out[..n * n].iter_mut().for_each(|o| *o = 0.0);
+        let dphi = 2.0 * PI / w as f64;
+        let mut canon = [0.0; sh::MAX_COEFFS];
+        let mut turned = [0.0; sh::MAX_COEFFS];
+        for k in 0..sigma.len() {
+            let next = (k + 1) % sigma.len();
+            self.wedge(w, &slices[k][..n], &slices[next][..n], &mut canon[..n * n])?;
+            sh::rotate_z(&canon[..n * n], k as f64 * dphi, &mut turned[..n * n])?;
+            for (o, t) in out.iter_mut().zip(&turned[..n * n]) {
+                *o += t;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The thesis's order-4 closed form (eq. 4.15, with ln ε factored out).
+    #[test]
+    fn matches_thesis_order_4() {
+        for &s in &[-1.2, -0.3, 0.0, 0.4, 1.1, PI / 2.0] {
+            let mut v = [0.0; 4];
+            slice_log(s, 0.1, 4, &mut v).unwrap();
+            let (sn, c2) = (f64::sin(s), f64::cos(s).powi(2));
+            let le = 0.1f64.ln();
+            let thesis = [
+                le * (sn + 1.0) / 2f64.sqrt(),
+                le * -3.0 * c2 / (2.0 * 6f64.sqrt()),
+                le * -5.0 * sn * c2 / (2.0 * 10f64.sqrt()),
+                le * 7.0 * c2 * (-4.0 + 5.0 * c2) / (8.0 * 14f64.sqrt()),
+            ];
+            for l in 0..4 {
+                assert!(
+                    (v[l] - thesis[l]).abs() < 1e-14,
+                    "σ={s} l={l}: {} vs {}",
+                    v[l],
+                    thesis[l]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn bad_inputs() {
+        let mut v = [0.0; 8];
+        assert!(matches!(
+            slice_log(2.0, 0.1, 4, &mut v),
+            Err(LookupError::OutOfDomain { .. })
+        ));
+        assert!(matches!(
+            slice_log(f64::NAN, 0.1, 4, &mut v),
+            Err(LookupError::NotFinite { .. })
+        ));
+        assert!(matches!(
+            slice_log(0.1, 0.0, 4, &mut v),
+            Err(LookupError::OutOfDomain { .. })
+        ));
+        assert!(matches!(
+            slice_log(0.1, 0.1, 0, &mut v),
+            Err(LookupError::OutOfDomain { .. })
+        ));
+    }
+}
