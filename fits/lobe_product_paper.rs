@@ -31,7 +31,7 @@ use argmin::core::{CostFunction, Error, Executor, State, TerminationReason, Term
 use argmin::solver::neldermead::NelderMead;
 
 use lobefit_tables::glam::DVec3;
-use lobefit_tables::lobe_product::Variant;
+use lobefit_tables::lobe_product::{lobe_ln, Variant};
 
 use crate::quad::adaptive_simpson;
 
@@ -118,14 +118,6 @@ pub fn speed_sample() -> Vec<[f64; 3]> {
     .collect()
 }
 
-fn e_ln(e: f64, c: f64) -> f64 {
-    if e == 0.0 {
-        0.0
-    } else {
-        e * c.ln()
-    }
-}
-
 /// The lobes a1 = (1, 0, 0) and a2 = (cos α, sin α, 0), in the xy-plane.
 fn lobe_axes(alpha: f64) -> (DVec3, DVec3) {
     (DVec3::X, DVec3::new(alpha.cos(), alpha.sin(), 0.0))
@@ -153,7 +145,7 @@ impl CostFunction for AxisCost {
         if c1 <= 0.0 || c2 <= 0.0 {
             return Ok(f64::INFINITY);
         }
-        Ok(-(e_ln(self.e1, c1) + e_ln(self.e2, c2)))
+        Ok(-(lobe_ln(self.e1, c1) + lobe_ln(self.e2, c2)))
     }
 }
 
@@ -217,7 +209,7 @@ impl Sphere {
             e2,
             d1: d(a1),
             d2: d(a2),
-            ln_peak: e_ln(e1, a1.dot(r)) + e_ln(e2, a2.dot(r)),
+            ln_peak: lobe_ln(e1, a1.dot(r)) + lobe_ln(e2, a2.dot(r)),
             theta_breaks,
             phi_breaks,
             ok: std::cell::Cell::new(true),
@@ -235,7 +227,7 @@ impl Sphere {
                     let c1 = self.d1[0] * ct + st * (self.d1[1] * cp + self.d1[2] * sp);
                     let c2 = self.d2[0] * ct + st * (self.d2[1] * cp + self.d2[2] * sp);
                     let p = if c1 > 0.0 && c2 > 0.0 {
-                        (e_ln(self.e1, c1) + e_ln(self.e2, c2) - self.ln_peak).exp()
+                        (lobe_ln(self.e1, c1) + lobe_ln(self.e2, c2) - self.ln_peak).exp()
                     } else {
                         0.0
                     };

@@ -175,6 +175,13 @@ fn rel_err(got: f64, want: f64) -> f64 {
     }
 }
 
+fn gcd(mut a: usize, mut b: usize) -> usize {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
 /// Checks one family's table file.
 pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> FamilyReport {
     let mut report = FamilyReport {
@@ -207,7 +214,13 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
     };
     let all_nodes = crate::build::grid_nodes(&meta.axes);
     // Large grids are checked on an evenly strided subset (every node of small ones).
-    let stride = all_nodes.len().div_ceil(opts.grid_limit.max(1)).max(1);
+    // The stride is coprime to the fastest axis's count, so every node of that axis
+    // is visited (a stride of 12 on 96 α nodes would only ever see 8 of them).
+    let fastest = meta.axes.last().map_or(1, |a| a.count as usize);
+    let mut stride = all_nodes.len().div_ceil(opts.grid_limit.max(1)).max(1);
+    while stride > 1 && gcd(stride, fastest) != 1 {
+        stride += 1;
+    }
     let grid: Vec<Vec<f64>> = all_nodes
         .iter()
         .step_by(stride)

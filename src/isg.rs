@@ -30,10 +30,8 @@ use std::sync::OnceLock;
 
 use crate::quad::gauss_kronrod;
 
-/// Smallest SG sharpness of the ISG tables (SPEC F4).
-pub const GAMMA_MIN: f64 = 0.5;
-/// Largest SG sharpness of the ISG tables (SPEC F4).
-pub const GAMMA_MAX: f64 = 1.0e4;
+/// The ISG domain and normaliser, defined once in the runtime crate.
+pub use lobefit_tables::isg::{normaliser, GAMMA_MAX, GAMMA_MIN};
 /// Absolute tolerance on Ŝ of the reference quadrature: far below any model error
 /// (≥ 1e-3) and above the f64 rounding of the nested sums.
 pub const REFERENCE_TOL: f64 = 1.0e-11;
@@ -46,11 +44,6 @@ const SG_TAIL: f64 = 45.0;
 const KINK_RATIO: f64 = 2.0;
 /// Gauss–Legendre points per panel of the fast evaluation.
 const GL_POINTS: usize = 16;
-
-/// S(π, π; γ) = 2π/γ (1 − e^{−γ}): the SG integral over the hemisphere z ≥ 0.
-pub fn normaliser(gamma: f64) -> f64 {
-    2.0 * PI / gamma * -(-gamma).exp_m1()
-}
 
 /// 1 − sinθ sinφ = 1 − cos a cos b (a = θ − π/2, b = φ − π/2) without cancellation:
 /// 2 sin²(a/2) + cos a · 2 sin²(b/2).

@@ -327,3 +327,30 @@ fn cli_eval_isg_and_sg_fit() {
         .collect();
     assert!((v[1] - 2.1438).abs() < 1e-3 && (v[2] - 1.1766).abs() < 1e-3);
 }
+
+#[test]
+fn f32_ends_and_invalid_sgs() {
+    // The nearest f32 to π (π + 8.7e-8) is the domain's end, not outside it.
+    let (refit, best) = models();
+    let pi = std::f32::consts::PI;
+    let full = best.s_hat_f32(pi, pi, 100.0).unwrap();
+    assert!((full - 1.0).abs() < 1e-5, "{full}");
+    assert!(refit.patch_f32(0.0, pi, 0.0, pi, 100.0).is_ok());
+    assert!(PaperIsg.patch_f32(0.0, pi, 0.0, pi, 100.0).is_ok());
+    assert!(best.s_hat_f32(pi + 1e-3, 1.0, 100.0).is_err());
+    // ε below the supported range is refused rather than answered wrongly.
+    assert!(matches!(
+        best.limiting_angle(1e4, 1e-300),
+        Err(LookupError::OutOfDomain { name, .. }) if name == "eps"
+    ));
+    assert!(best.limiting_angle(1e4, 1e-8).is_ok());
+    // SGs are validated where they are built.
+    assert!(Sg::new([0.0, 0.0, 1.0], -1.0, 1.0).is_err());
+    assert!(Sg::new([0.0, 0.0, 2.0], 1.0, 1.0).is_err());
+    assert!(Sg::new([0.0, 0.0, 1.0], 1e308, 1.0).is_err());
+    assert!(Sg::new([0.0, 0.0, 1.0], 3.0, f64::NAN).is_err());
+    let fit = SgFit::from_table(load("sg-fit")).unwrap();
+    assert!(fit.lobe_to_sg([f64::NAN, 0.0, 1.0], 2.0, 1.0).is_err());
+    assert!(fit.lobe_to_sg([0.0, 0.0, 1.0], 2.0, f64::INFINITY).is_err());
+    assert!(fit.lobe_to_sg([0.0, 0.0, 1.0], 2.0, 1.0).is_ok());
+}

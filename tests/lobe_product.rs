@@ -263,3 +263,53 @@ fn axis_refinement_gains_little() {
     eprintln!("axis refinement, {n} points: relative residual gain median {median:.3e}, p95 {p95:.3e}");
     assert!(median < 1e-3, "{median}");
 }
+
+#[test]
+fn lobe_sums_go_beyond_the_table_exponent_range() {
+    // Products of sharp lobes exceed e = 1e5; the sum algebra continues with the
+    // closed-form models (corrections held at their e = 1e5 values, ~1e-6).
+    let t = energy();
+    let a = lobe(1.0, DVec3::Z, 6e4);
+    let b = lobe(1.0, unit(0.002, 0.0), 6e4);
+    assert!(t.product(&a, &b).is_ok());
+    let ab = t.product_sums(&[a], &[b], 0.0).unwrap();
+    assert!(ab[0].exponent > 1.1e5, "{:?}", ab[0]);
+    let want = reference_integral(6e4, 6e4, 0.002).unwrap();
+    assert!(
+        (ab[0].integral() / want - 1.0).abs() < 1e-3,
+        "{} vs {want}",
+        ab[0].integral()
+    );
+    // A second stage with a lobe on the product axis: exponents 1.2e5 and 1e5.
+    let c = lobe(1.0, ab[0].axis, 1e5);
+    let abc = t.product_sums(&ab, &[c], 0.0).unwrap();
+    let want = ab[0].scale * reference_integral(ab[0].exponent, 1e5, 0.0).unwrap();
+    assert!(
+        (abc[0].integral() / want - 1.0).abs() < 1e-3,
+        "{} vs {want}",
+        abc[0].integral()
+    );
+    // The strict per-product API still refuses exponents beyond the table.
+    assert!(matches!(
+        t.product(&ab[0], &c),
+        Err(LookupError::OutOfDomain { name, .. }) if name == "e1"
+    ));
+}
+
+#[test]
+fn overflowing_scales_and_bad_normals_are_errors() {
+    let t = energy();
+    let big = lobe(1e200, DVec3::Z, 2.0);
+    assert!(matches!(
+        t.product(&big, &big),
+        Err(LookupError::NotFinite { name, .. }) if name == "scale"
+    ));
+    // A vanishing product stays an exact 0 whatever the scales.
+    let far = lobe(1e200, -DVec3::Z, 1e4);
+    assert_eq!(t.product(&lobe(1e200, DVec3::Z, 1e4), &far).unwrap().scale, 0.0);
+    let l = [lobe(1.0, DVec3::Z, 3.0)];
+    assert!(matches!(
+        t.triple_product(&l, &l, &[], DVec3::new(f64::NAN, 0.0, 1.0), 0.0),
+        Err(LookupError::NotFinite { name, .. }) if name == "normal"
+    ));
+}

@@ -149,7 +149,7 @@ pub trait IsgModel {
         Ok((s(theta2, phi2) - s(theta1, phi2) - s(theta2, phi1) + s(theta1, phi1)) * normaliser(gamma))
     }
 
-    /// Limiting angle Γ ∈ [0, π/2] (rad) for the threshold ε ∈ (0, 1/2) (paper §4.1,
+    /// Limiting angle Γ ∈ [0, π/2] (rad) for the threshold ε ∈ [1e-8, 1/2) (paper §4.1,
     /// ε = 0.01 there): the model's marginal in θ and in φ is below ε at an angular
     /// distance Γ from the SG axis (θ or φ = π/2 − Γ), so patches beyond the cone of
     /// half-angle Γ about the axis can be skipped. Logistic models:
@@ -158,11 +158,11 @@ pub trait IsgModel {
     fn limiting_angle(&self, gamma: f64, eps: f64) -> Result<f64, LookupError> {
         in_range("gamma", gamma, GAMMA_MIN, GAMMA_MAX)?;
         let e = finite("eps", eps)?;
-        if !(e > 0.0 && e < 0.5) {
+        if !(EPS_MIN..0.5).contains(&e) {
             return Err(LookupError::OutOfDomain {
                 name: "eps".into(),
                 value: e,
-                lo: 0.0,
+                lo: EPS_MIN,
                 hi: 0.5,
             });
         }
@@ -171,17 +171,19 @@ pub trait IsgModel {
 
     /// [`IsgModel::s_hat`] in single precision.
     fn s_hat_f32(&self, theta: f32, phi: f32, gamma: f32) -> Result<f32, LookupError> {
-        self.s_hat(theta as f64, phi as f64, gamma as f64).map(|v| v as f32)
+        self.s_hat(angle_f32(theta), angle_f32(phi), gamma as f64)
+            .map(|v| v as f32)
     }
 
     /// [`IsgModel::s`] in single precision.
     fn s_f32(&self, theta: f32, phi: f32, gamma: f32) -> Result<f32, LookupError> {
-        self.s(theta as f64, phi as f64, gamma as f64).map(|v| v as f32)
+        self.s(angle_f32(theta), angle_f32(phi), gamma as f64).map(|v| v as f32)
     }
 
     /// [`IsgModel::patch`] in single precision.
     fn patch_f32(&self, theta1: f32, theta2: f32, phi1: f32, phi2: f32, gamma: f32) -> Result<f32, LookupError> {
-        self.patch(theta1 as f64, theta2 as f64, phi1 as f64, phi2 as f64, gamma as f64)
+        let a = angle_f32;
+        self.patch(a(theta1), a(theta2), a(phi1), a(phi2), gamma as f64)
             .map(|v| v as f32)
     }
 
@@ -190,6 +192,23 @@ pub trait IsgModel {
         self.limiting_angle(gamma as f64, eps as f64).map(|v| v as f32)
     }
 }
+
+/// An f32 angle as f64, with `std::f32::consts::PI` (π + 8.7e-8) taken as π: the
+/// nearest float to π must be a valid end of the [0, π] domain.
+fn angle_f32(x: f32) -> f64 {
+    let v = x as f64;
+    if v > PI && v <= PI_F32_AS_F64 {
+        PI
+    } else {
+        v
+    }
+}
+
+const PI_F32_AS_F64: f64 = std::f32::consts::PI as f64;
+
+/// Smallest threshold ε of [`IsgModel::limiting_angle`]: below ~1e-10 the best
+/// model's warped marginals saturate and the root would be too small.
+pub const EPS_MIN: f64 = 1e-8;
 
 /// Validates (θ, φ, γ).
 fn check(theta: f64, phi: f64, gamma: f64) -> Result<(), LookupError> {
@@ -438,6 +457,19 @@ pub struct Sg {
 }
 
 impl Sg {
+    /// A validated SG: `axis` of unit length (within 1e-3; normalised), sharpness
+    /// λ ∈ (0, 1e6], finite amplitude.
+    pub fn new(axis: [f64; 3], sharpness: f64, amplitude: f64) -> Result<Sg, LookupError> {
+        let n = unit_axis(axis)?;
+        let sharpness = in_range("sharpness", sharpness, f64::MIN_POSITIVE, 1e6)?;
+        let amplitude = finite("amplitude", amplitude)?;
+        Ok(Sg {
+            axis: n,
+            sharpness,
+            amplitude,
+        })
+    }
+
     /// G(v) for a unit direction v.
     pub fn eval(&self, v: [f64; 3]) -> f64 {
         let d = self.axis[0] * v[0] + self.axis[1] * v[1] + self.axis[2] * v[2];
@@ -476,6 +508,16 @@ impl Sg {
     pub fn hemisphere_integral(&self) -> f64 {
         self.amplitude * sphere_factor(self.sharpness, 1.0)
     }
+}
+
+/// A finite axis of unit length within 1e-3, normalised.
+pub(crate) fn unit_axis(a: [f64; 3]) -> Result<[f64; 3], LookupError> {
+    for x in a {
+        finite("axis", x)?;
+    }
+    let len = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    in_range("|axis|", len, 1.0 - 1e-3, 1.0 + 1e-3)?;
+    Ok(a.map(|x| x / len))
 }
 
 /// 2π (1 − e^{−kλ})/λ, with its limit 2πk at λ = 0.

@@ -182,12 +182,13 @@ pub fn peak_fraction(e1: f64, e2: f64, alpha: f64) -> f64 {
     }
 }
 
-/// `e·ln x` with the lobe convention 0·ln 0 = 0 (an exponent-0 lobe is an indicator).
-fn e_ln(e: f64, x: f64) -> f64 {
+/// ln max(c, 0)^e for a lobe with exponent e at cosine c, with the lobe convention
+/// 0·ln 0 = 0 (an exponent-0 lobe is the open hemisphere's indicator); −∞ outside.
+pub fn lobe_ln(e: f64, c: f64) -> f64 {
     if e == 0.0 {
         0.0
     } else {
-        e * x.ln()
+        e * c.max(0.0).ln()
     }
 }
 
@@ -199,7 +200,7 @@ pub fn ln_model(e1: f64, e2: f64, alpha: f64) -> f64 {
     // and still the true peak for sharp lobes.
     let beta = peak_angle(e1 + 1.0, e2 + 1.0, alpha);
     let lune = PI - alpha;
-    let ln_peak = e_ln(e1, beta.cos().max(0.0)) + e_ln(e2, (alpha - beta).cos().max(0.0));
+    let ln_peak = lobe_ln(e1, beta.cos().max(0.0)) + lobe_ln(e2, (alpha - beta).cos().max(0.0));
     ln_w(e1 + e2) + ln_peak - 0.5 * (curvature(e1, e2, alpha) / TAU + 1.0 / (lune * lune)).ln()
 }
 
@@ -350,9 +351,18 @@ impl LobeProduct {
         let e1 = in_range("e1", e1, 0.0, E_MAX)?;
         let e2 = in_range("e2", e2, 0.0, E_MAX)?;
         let alpha = in_range("alpha", alpha, 0.0, PI)?;
+        self.params_checked(e1, e2, alpha)
+    }
+
+    /// [`LobeProduct::params`] for validated inputs; exponents above 10⁵ (products of
+    /// products in lobe sums) look the table up at 10⁵, where the stored corrections
+    /// are ~1e-6, and let the closed-form models — exact in the sharp-lobe limit —
+    /// carry the true exponents.
+    fn params_checked(&self, e1: f64, e2: f64, alpha: f64) -> Result<ProductParams, LookupError> {
         let mut ch = [0.0; 3];
         let n = self.variant.channels().len();
-        self.table.interpolate(&[e1, e2, alpha], &mut ch[..n])?;
+        self.table
+            .interpolate(&[e1.min(E_MAX), e2.min(E_MAX), alpha], &mut ch[..n])?;
         let e_r = (1.0 + exponent_model(e1, e2, alpha)) * ch[1].exp() - 1.0;
         let e_r = e_r.max(0.0);
         // exp of a very negative ln underflows to an exact 0: vanishing products are
@@ -369,17 +379,30 @@ impl LobeProduct {
 
     /// The product of the lobes (s1, a1, e1) and (s2, a2, e2) as one lobe: scale
     /// s1·s2·p_r, axis a_r (slerp from a1 to a2 at t), exponent e_r. Axes must be unit
-    /// vectors (within 1e-3); exponents in [0, 10⁵].
+    /// vectors (within 1e-3); exponents in [0, 10⁵]; a scale that overflows is an
+    /// error.
     pub fn product(&self, l1: &Lobe, l2: &Lobe) -> Result<Lobe, LookupError> {
+        in_range("e1", l1.exponent, 0.0, E_MAX)?;
+        in_range("e2", l2.exponent, 0.0, E_MAX)?;
+        self.product_any(l1, l2)
+    }
+
+    /// [`LobeProduct::product`] for any finite exponents ≥ 0 (see
+    /// [`LobeProduct::params_checked`]): the lobe-sum algebra multiplies products.
+    fn product_any(&self, l1: &Lobe, l2: &Lobe) -> Result<Lobe, LookupError> {
         let (a1, a2) = (unit("a1", l1.axis)?, unit("a2", l2.axis)?);
         finite("s1", l1.scale)?;
         finite("s2", l2.scale)?;
+        let e1 = in_range("e1", l1.exponent, 0.0, f64::MAX)?;
+        let e2 = in_range("e2", l2.exponent, 0.0, f64::MAX)?;
         let cos = a1.dot(a2).clamp(-1.0, 1.0);
         // atan2 of |a1×a2| and a1·a2 is accurate at both ends, unlike acos.
         let alpha = a1.cross(a2).length().atan2(cos);
-        let q = self.params(l1.exponent, l2.exponent, alpha)?;
+        let q = self.params_checked(e1, e2, alpha)?;
+        // p first: a vanishing product stays 0 whatever the scales.
+        let scale = finite("scale", l1.scale * q.p * l2.scale)?;
         Ok(Lobe {
-            scale: l1.scale * l2.scale * q.p,
+            scale,
             axis: slerp(a1, a2, alpha, q.t),
             exponent: q.e_r,
         })
@@ -402,12 +425,14 @@ impl LobeProduct {
 
     /// Product of two lobe sums (§4.3): every pairwise product whose integral is at
     /// least `threshold` (sr; the paper's t_i, 0 keeps all non-zero products).
+    /// Exponents may exceed 10⁵ here (products of products; see
+    /// [`LobeProduct::product`] for the rest of the contract).
     pub fn product_sums(&self, a: &[Lobe], b: &[Lobe], threshold: f64) -> Result<Vec<Lobe>, LookupError> {
         finite("threshold", threshold)?;
         let mut out = Vec::with_capacity(a.len() * b.len());
         for la in a {
             for lb in b {
-                let r = self.product(la, lb)?;
+                let r = self.product_any(la, lb)?;
                 if r.scale != 0.0 && r.integral().abs() >= threshold {
                     out.push(r);
                 }
@@ -428,6 +453,7 @@ impl LobeProduct {
         normal: DVec3,
         threshold: f64,
     ) -> Result<f64, LookupError> {
+        let normal = unit("normal", normal)?;
         let bl = self.product_sums(brdf, lighting, threshold)?;
         let blv = self.product_sums(&bl, visibility, threshold)?;
         let cosine = [Lobe {
@@ -500,7 +526,7 @@ mod tests {
                 let alpha = k as f64 * PI / 40.0;
                 let b = peak_angle(e1, e2, alpha);
                 assert!((0.0..=alpha).contains(&b));
-                let g = |s: f64| e_ln(e1, s.cos()) + e_ln(e2, (alpha - s).cos());
+                let g = |s: f64| lobe_ln(e1, s.cos()) + lobe_ln(e2, (alpha - s).cos());
                 // β maximises the in-plane product on the open lune.
                 let lo = (alpha - PI / 2.0).max(0.0);
                 let hi = alpha.min(PI / 2.0);

@@ -86,13 +86,11 @@ impl SgFit {
         self.fit(e as f64).map(|(l, m)| (l as f32, m as f32))
     }
 
-    /// The SG approximating the lobe s·max(a·v, 0)^e: axis a (unit), λ(e), s·μ(e).
+    /// The SG approximating the lobe s·max(a·v, 0)^e: axis a (unit within 1e-3), λ(e),
+    /// s·μ(e) (s finite).
     pub fn lobe_to_sg(&self, axis: [f64; 3], e: f64, scale: f64) -> Result<Sg, LookupError> {
         let (lambda, mu) = self.fit(e)?;
-        Ok(Sg {
-            axis,
-            sharpness: lambda,
-            amplitude: scale * mu,
-        })
+        let scale = crate::error::finite("scale", scale)?;
+        Sg::new(axis, lambda, scale * mu)
     }
 }
