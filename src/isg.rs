@@ -188,7 +188,7 @@ fn arc_overlap(a: f64, b: f64) -> f64 {
 
 /// Ŝ(θ, φ; γ) by the 1-D arc reduction (see the module docs). Accurate to ~1e-10
 /// absolute against [`s_hat_reference`] (test `fast_matches_reference`: worst 4e-10
-/// over 3000 random points); 200–600 integrand evaluations. Inputs are not checked (callers do).
+/// over 400 random points); 200–600 integrand evaluations. Inputs are not checked (callers do).
 pub fn s_hat_fast(theta: f64, phi: f64, gamma: f64) -> f64 {
     if theta <= 0.0 || phi <= 0.0 {
         return 0.0;

@@ -20,7 +20,8 @@
 //! tables store it relative to the closed-form model
 //! M = W(E)·P*·(G/2π + 1/(π − α)²)^{−1/2}, P* = cos^{e1}β′ cos^{e2}(α − β′), β′ the peak
 //! for exponents e1 + 1, e2 + 1 (never pinned to a hemisphere's edge) ([`ln_model`]):
-//! c = ln(∫Ψ1Ψ2 / M) is smooth and O(1) on the whole domain, including α = π, where
+//! c = ln(∫Ψ1Ψ2 / M) is smooth and O(1) wherever products matter (it reaches −10 only
+//! where they are negligible), and finite up to α = π, where
 //! both vanish like (π − α)^{E+1}; G is the in-plane curvature of the log-product
 //! ([`exponent_model`]). The exponent is stored as ln((1 + e_r)/(1 + e_m)) with the
 //! model e_m = √(E·G): zero at α = 0, where e_r = e1 + e2 exactly, and O(α⁴) for
