@@ -354,3 +354,64 @@ fn f32_ends_and_invalid_sgs() {
     assert!(fit.lobe_to_sg([0.0, 0.0, 1.0], 2.0, f64::INFINITY).is_err());
     assert!(fit.lobe_to_sg([0.0, 0.0, 1.0], 2.0, 1.0).is_ok());
 }
+
+/// The refit target (≤ 0.02) cannot be met at γ = 3 by any logistic pair (g, h), checked
+/// independently of the fit's Nelder–Mead minimax: a brute-force scan of (g, h) against
+/// Ŝ by Gauss–Kronrod at a fixed set of (θ, φ). The max over a finite point set is a
+/// lower bound of each (g, h)'s true max error, so the scan's best value bounds the
+/// minimax from below up to the scan's step in (g, h).
+#[test]
+fn no_logistic_meets_the_refit_target_at_gamma_three() {
+    const GAMMA: f64 = 3.0;
+    // 37 angles per axis: both ends, π/2, and the flanks where the sigmoid bends.
+    let angles: Vec<f64> = (0..37).map(|i| PI * i as f64 / 36.0).collect();
+    let s: Vec<f64> = angles
+        .iter()
+        .flat_map(|&t| angles.iter().map(move |&p| s_hat_reference(t, p, GAMMA).unwrap()))
+        .collect();
+    let n = angles.len();
+    let max_err = |g: f64, h: f64| {
+        let st: Vec<f64> = angles
+            .iter()
+            .map(|&t| 1.0 / (1.0 + (-g * (t - FRAC_PI_2)).exp()))
+            .collect();
+        let sp: Vec<f64> = angles
+            .iter()
+            .map(|&p| 1.0 / (1.0 + (-h * (p - FRAC_PI_2)).exp()))
+            .collect();
+        let mut m: f64 = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                m = m.max((st[i] * sp[j] - s[i * n + j]).abs());
+            }
+        }
+        m
+    };
+    // Coarse scan of g, h ∈ [0.2, 12] (step 0.04), then a fine one (step 0.001) around
+    // the best coarse point.
+    let mut best = (f64::INFINITY, 0.0, 0.0);
+    for i in 0..=295 {
+        for j in 0..=295 {
+            let (g, h) = (0.2 + 0.04 * i as f64, 0.2 + 0.04 * j as f64);
+            let e = max_err(g, h);
+            if e < best.0 {
+                best = (e, g, h);
+            }
+        }
+    }
+    let (g0, h0) = (best.1, best.2);
+    for i in -60..=60 {
+        for j in -60..=60 {
+            let (g, h) = (g0 + 0.001 * i as f64, h0 + 0.001 * j as f64);
+            let e = max_err(g, h);
+            if e < best.0 {
+                best = (e, g, h);
+            }
+        }
+    }
+    eprintln!(
+        "γ = 3: best logistic on the scan g = {:.3}, h = {:.3}, max error ≥ {:.4}",
+        best.1, best.2, best.0
+    );
+    assert!(best.0 > 0.0205, "a logistic meets the target at γ = 3: {best:?}");
+}
