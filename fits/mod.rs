@@ -9,6 +9,7 @@ pub mod lobe_product_paper;
 pub mod log_zh;
 pub mod sg_fit;
 pub mod wedge;
+pub mod wrap;
 
 use std::path::{Path, PathBuf};
 
@@ -81,6 +82,7 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         Box::new(sg_fit::SgFitFamily),
         Box::new(log_zh::LogZhFamily::default()),
         Box::new(wedge::WedgeFamily),
+        Box::new(wrap::WrapFamily::default()),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::Energy,
             method: opts.method,
@@ -133,6 +135,16 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
                 return Err(format!("wedge: --order {order} is outside 1..=8"));
             }
             Ok(Box::new(wedge::WedgeSliceView { order }))
+        }
+        "wrap" => {
+            if flags.given().iter().any(|f| *f != "--order") {
+                return Err("wrap takes only --order".into());
+            }
+            let order = flags.order.unwrap_or(wrap::DEFAULT_ORDER);
+            if !(1..=8).contains(&order) {
+                return Err(format!("wrap: --order {order} is outside 1..=8"));
+            }
+            Ok(Box::new(wrap::WrapFamily { order }))
         }
         "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
             let variant = match flags.variant.as_deref() {

@@ -35,6 +35,7 @@ pub mod sg_fit;
 pub mod sh;
 pub mod table;
 pub mod wedge;
+pub mod wrap;
 
 pub use glam;
 
@@ -68,4 +69,6 @@ pub mod embedded {
     pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
     /// `tables/data/lobe-product-l2.lobefit`.
     pub static LOBE_PRODUCT_L2: &[u8] = include_bytes!("../data/lobe-product-l2.lobefit");
+    /// `tables/data/wrap.lobefit`.
+    pub static WRAP: &[u8] = include_bytes!("../data/wrap.lobefit");
 }
