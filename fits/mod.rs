@@ -2,6 +2,7 @@
 //! the registry that lists them. Adding a family = one module + one line below.
 
 pub mod cap_exponent;
+pub mod disk_light;
 pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
@@ -83,6 +84,7 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         Box::new(log_zh::LogZhFamily::default()),
         Box::new(wedge::WedgeFamily),
         Box::new(wrap::WrapFamily::default()),
+        Box::new(disk_light::DiskLightFamily),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::Energy,
             method: opts.method,
@@ -174,6 +176,7 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
     vec![
+        ("disk-light", disk_light::plot),
         ("isg", isg::plot),
         ("lobe-product", lobe_product::plot),
         ("log-zh", crate::eps_study::plot),

@@ -1,0 +1,291 @@
+//! F11 disk light: the committed table through the runtime against closed forms and
+//! the checker's independent quadrature, the world-space SH against a direct
+//! projection of a world-space disk, the form-factor comparison, bad inputs, eval.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::process::{Command, Stdio};
+
+use lobefit::fits::disk_light::{reference_canonical, reference_irradiance, rel_l2, DC_MEDIAN_REL, L2_MAX};
+use lobefit::quad::gauss_kronrod;
+use lobefit::rng::Rng;
+use lobefit::tables::disk_light::{form_factor_irradiance, DiskLight, R_MAX, R_MIN, TAU_MAX};
+use lobefit::tables::glam::{DVec3, Vec3};
+use lobefit::tables::sh::eval_basis;
+use lobefit::tables::LookupError;
+
+fn table() -> &'static DiskLight {
+    DiskLight::embedded().unwrap()
+}
+
+/// τ = 0: the solid angle of a disk seen on its axis is 2π(1 − 1/√(1 + (R/d)²)), and
+/// the SH vector is zonal: c_lm = 2π √((2l+1)/4π) ∫_{cos θ_0}^1 P_l (closed form).
+#[test]
+fn on_axis_closed_form() {
+    let mut worst: f64 = 0.0;
+    for k in 0..=60 {
+        let r = (R_MIN.ln() + (R_MAX / R_MIN).ln() * (k as f64 + 0.37) / 61.0).exp();
+        let t0 = 1.0 / (1.0 + r * r).sqrt();
+        // ∫_{t0}^1 P_0 = 1 − t0; P_1: (1 − t0²)/2; P_2: (t0 − t0³)/2.
+        let want = [
+            2.0 * PI * (1.0 / (4.0 * PI)).sqrt() * (1.0 - t0),
+            2.0 * PI * (3.0 / (4.0 * PI)).sqrt() * (1.0 - t0 * t0) / 2.0,
+            0.0,
+            2.0 * PI * (5.0 / (4.0 * PI)).sqrt() * (t0 - t0 * t0 * t0) / 2.0,
+            0.0,
+            0.0,
+        ];
+        let got = table().canonical(r, 0.0).unwrap();
+        worst = worst.max(rel_l2(&got, &want));
+        assert!(
+            (got[0] / want[0] - 1.0).abs() < 1e-3,
+            "r={r}: {} vs {}",
+            got[0],
+            want[0]
+        );
+    }
+    eprintln!("disk on axis vs closed form: max rel L2 {worst:.2e}");
+    assert!(worst < L2_MAX);
+}
+
+/// Acceptance at seeded off-grid points (the checker does 10 000): DC median and 9-vector
+/// relative L2 against the nested-GK reference over the disk.
+#[test]
+fn off_grid_against_quadrature() {
+    let mut rng = Rng::new(61);
+    let (mut dc, mut l2) = (Vec::new(), Vec::<f64>::new());
+    for _ in 0..200 {
+        let r = rng.range(R_MIN.ln(), R_MAX.ln()).exp();
+        let tau = rng.range(0.0, 0.98 * FRAC_PI_2);
+        let want = reference_canonical(r, tau).unwrap();
+        let got = table().canonical(r, tau).unwrap();
+        dc.push((got[0] / want[0] - 1.0).abs());
+        l2.push(rel_l2(&got, &want));
+    }
+    dc.sort_by(f64::total_cmp);
+    let l2max = l2.iter().copied().fold(0.0, f64::max);
+    eprintln!(
+        "disk off-grid (200): DC rel median {:.2e} max {:.2e}; L2 max {l2max:.2e}",
+        dc[100], dc[199]
+    );
+    assert!(dc[100] <= DC_MEDIAN_REL && l2max <= L2_MAX);
+}
+
+/// World space: a tilted, off-axis disk's SH radiance vector (all 9 coefficients, so
+/// the frame and the rotation are exercised) against a direct GK projection over the
+/// disk in world coordinates.
+#[test]
+fn world_space_against_direct_projection() {
+    let cases = [
+        (
+            DVec3::new(0.3, -0.2, 0.1),
+            DVec3::new(1.2, 0.7, 2.0),
+            DVec3::new(-0.5, 0.1, -1.0),
+            0.8,
+        ),
+        (
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(-3.0, 1.0, 0.5),
+            DVec3::new(1.0, -0.6, 0.9),
+            2.5,
+        ),
+        (
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::new(1.0, 4.0, 1.2),
+            DVec3::new(0.0, -1.0, 0.05),
+            0.2,
+        ),
+    ];
+    for (p, c, n, radius) in cases {
+        let n = n.normalize();
+        let got = table().radiance_sh(p, c, n, radius, 2.0).unwrap();
+        // Disk basis: u, w ⊥ n.
+        let u = n.any_orthonormal_vector();
+        let w = n.cross(u);
+        let mut want = [0.0; 9];
+        for (i, wi) in want.iter_mut().enumerate() {
+            let q = gauss_kronrod(
+                |psi| {
+                    gauss_kronrod(
+                        |rho| {
+                            let x = c + rho * (psi.cos() * u + psi.sin() * w) - p;
+                            let l = x.length();
+                            let mut y = [0.0; 9];
+                            eval_basis(3, x.to_array(), &mut y).unwrap();
+                            // dω = |n·x̂| dA / l²; emitting side: n·(p − x) > 0.
+                            let cosv = (-n.dot(x) / l).max(0.0);
+                            y[i] * cosv * rho / (l * l)
+                        },
+                        0.0,
+                        radius,
+                        &[],
+                        1e-12,
+                        0.0,
+                        500,
+                    )
+                    .value
+                },
+                0.0,
+                2.0 * PI,
+                &[],
+                1e-11,
+                0.0,
+                500,
+            );
+            *wi = 2.0 * q.value;
+        }
+        let e = rel_l2(&got, &want);
+        eprintln!("world-space disk vs direct projection: rel L2 {e:.2e}");
+        assert!(e < 2e-3, "{got:?} vs {want:?}");
+        // f32 twin agrees to f32 rounding.
+        let g32 = table()
+            .radiance_sh_f32(p.as_vec3(), c.as_vec3(), n.as_vec3(), radius as f32, 2.0)
+            .unwrap();
+        for i in 0..9 {
+            assert!((g32[i] as f64 - got[i]).abs() < 1e-5 * got[0].abs());
+        }
+    }
+}
+
+/// Back side and edge-on: zero; irradiance through the SH vector vs the exact one for a
+/// modest disk (order-3 truncation of the clamped cosine only).
+#[test]
+fn back_side_and_irradiance() {
+    let d = table();
+    let p = DVec3::ZERO;
+    let c = DVec3::new(0.0, 0.0, 2.0);
+    let back = d.radiance_sh(p, c, DVec3::new(0.0, 0.0, 1.0), 0.5, 1.0).unwrap();
+    assert!(back.iter().all(|&v| v == 0.0));
+    assert_eq!(d.canonical(0.5, FRAC_PI_2).unwrap(), [0.0; 6]);
+    assert_eq!(d.canonical(0.5, 3.0).unwrap(), [0.0; 6]);
+    let tau: f64 = 0.6;
+    let n = DVec3::new(tau.sin(), 0.0, -tau.cos());
+    let e = d.irradiance(p, DVec3::new(0.0, 0.0, 1.0), c, n, 0.5, 1.0).unwrap();
+    // Against the exact order-3 SH irradiance (reference coefficients, same truncation):
+    // the table's error only.
+    let want = reference_canonical(0.25, tau).unwrap();
+    let k = [
+        0.282_094_791_773_878_14,
+        0.488_602_511_902_919_9,
+        0.315_391_565_252_520_05,
+    ];
+    let sh_exact = PI * want[0] * k[0] + 2.0 * PI / 3.0 * want[1] * k[1] + PI / 4.0 * want[3] * 2.0 * k[2];
+    assert!((e / sh_exact - 1.0).abs() < 1e-3, "{e} vs {sh_exact}");
+    // Against the exact irradiance: the order-3 truncation of the clamped cosine (for a
+    // point light straight above, 1.0625× the truth) dominates.
+    let exact = reference_irradiance(0.25, tau, [0.0, 0.0, 1.0]).unwrap();
+    eprintln!("SH irradiance / exact at R/d = 0.25, τ = 0.6, facing: {:.4}", e / exact);
+    assert!((e / exact - 1.0).abs() < 0.07, "{e} vs {exact}");
+    let e32 = d
+        .irradiance_sh_f32(Vec3::ZERO, c.as_vec3(), n.as_vec3(), 0.5, 1.0)
+        .unwrap();
+    let e64 = d.irradiance_sh(p, c, n, 0.5, 1.0).unwrap();
+    assert!((e32[0] as f64 / e64[0] - 1.0).abs() < 1e-6);
+}
+
+/// Wallace et al. (1989): good for small, distant disks, wrong near the light.
+#[test]
+fn form_factor_approximation() {
+    let z = DVec3::new(0.0, 0.0, 1.0);
+    let far = form_factor_irradiance(DVec3::ZERO, z, z, -z, 0.02, 1.0).unwrap();
+    let exact_far = reference_irradiance(0.02, 0.0, [0.0, 0.0, 1.0]).unwrap();
+    assert!((far / exact_far - 1.0).abs() < 1e-3);
+    // On axis, facing: exact E = π sin²θ0 = π r²/(1 + r²) — Wallace gives exactly that
+    // (its one exact case); tilted and near it is not.
+    let tau: f64 = 1.2;
+    let n = DVec3::new(tau.sin(), 0.0, -tau.cos());
+    let near = form_factor_irradiance(DVec3::ZERO, z, z, n, 2.0, 1.0).unwrap();
+    let exact_near = reference_irradiance(2.0, tau, [0.0, 0.0, 1.0]).unwrap();
+    eprintln!("Wallace at R/d = 2, τ = 1.2: {near:.4} vs exact {exact_near:.4}");
+    assert!((near / exact_near - 1.0).abs() > 0.1);
+}
+
+/// Small-disk limit below R/d = 0.01 against the reference.
+#[test]
+fn small_disk_limit() {
+    for &(r, tau) in &[(0.005, 0.3), (0.001, 1.2)] {
+        let got = table().canonical(r, tau).unwrap();
+        let want = reference_canonical(r, tau).unwrap();
+        assert!(rel_l2(&got, &want) < 1e-3, "r={r}");
+    }
+}
+
+#[test]
+fn bad_inputs() {
+    let d = table();
+    assert!(matches!(d.canonical(f64::NAN, 0.1), Err(LookupError::NotFinite { .. })));
+    assert!(matches!(d.canonical(11.0, 0.1), Err(LookupError::OutOfDomain { .. })));
+    assert!(matches!(d.canonical(0.0, 0.1), Err(LookupError::OutOfDomain { .. })));
+    assert!(matches!(d.canonical(1.0, -0.1), Err(LookupError::OutOfDomain { .. })));
+    let err = d.canonical(1.0, 0.5 * (TAU_MAX + FRAC_PI_2)).unwrap_err();
+    assert!(err.to_string().contains("grazing"), "{err}");
+    let z = DVec3::new(0.0, 0.0, 1.0);
+    assert!(matches!(
+        d.radiance_sh(DVec3::ZERO, z, DVec3::ZERO, 1.0, 1.0),
+        Err(LookupError::OutOfDomain { .. })
+    ));
+    assert!(matches!(
+        d.radiance_sh(z, z, -z, 1.0, 1.0),
+        Err(LookupError::OutOfDomain { .. })
+    ));
+    assert!(matches!(
+        d.radiance_sh(DVec3::ZERO, z, -z, -1.0, 1.0),
+        Err(LookupError::OutOfDomain { .. })
+    ));
+    assert!(matches!(
+        d.radiance_sh(DVec3::ZERO, z, -z, 1.0, f64::INFINITY),
+        Err(LookupError::NotFinite { .. })
+    ));
+    assert!(matches!(
+        d.irradiance(DVec3::ZERO, DVec3::ZERO, z, -z, 1.0, 1.0),
+        Err(LookupError::OutOfDomain { .. })
+    ));
+    assert!(matches!(
+        form_factor_irradiance(DVec3::ZERO, z, z, -z, f64::NAN, 1.0),
+        Err(LookupError::NotFinite { .. })
+    ));
+}
+
+fn eval(args: &[&str], input: &str) -> (Option<i32>, String, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lobefit"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    use std::io::Write;
+    let _ = child.stdin.take().unwrap().write_all(input.as_bytes());
+    let out = child.wait_with_output().unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn eval_disk_light() {
+    let (code, out, err) = eval(&["eval", "disk-light"], "r_over_d,tau\n0.5,0.3\n");
+    assert_eq!(code, Some(0), "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines[0], "r_over_d,tau,y00,y10,y11,y20,y21,y22");
+    let v: Vec<f64> = lines[1].split(',').map(|s| s.parse().unwrap()).collect();
+    let want = reference_canonical(0.5, 0.3).unwrap();
+    assert!(rel_l2(&v[2..], &want) < 1e-3);
+    let (code, exact, _) = eval(&["eval", "disk-light", "--exact"], "r_over_d,tau\n0.5,0.3\n");
+    assert_eq!(code, Some(0));
+    let v: Vec<f64> = exact
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    assert!(rel_l2(&v[2..], &want) < 1e-12);
+    let (code, out, err) = eval(&["eval", "disk-light"], "r_over_d,tau\n0.5,0.3\n20,0.1\n");
+    assert_eq!(code, Some(1));
+    assert!(out.is_empty() && err.contains("line 3") && err.contains("R/d"), "{err}");
+    let (code, _, err) = eval(&["eval", "disk-light", "--order", "3"], "r_over_d,tau\n0.5,0.3\n");
+    assert_eq!(code, Some(1));
+    assert!(err.contains("disk-light takes no --order"), "{err}");
+}
