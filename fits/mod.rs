@@ -180,5 +180,6 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
         ("isg", isg::plot),
         ("lobe-product", lobe_product::plot),
         ("log-zh", crate::eps_study::plot),
+        ("rigs", crate::rigs::plot),
     ]
 }

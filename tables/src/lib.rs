@@ -32,6 +32,7 @@ pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
 pub mod log_zh;
+pub mod rigs;
 pub mod sg_fit;
 pub mod sh;
 pub mod table;
