@@ -352,7 +352,8 @@ impl Family for DiskLightFamily {
                 description: if k == 0 {
                     "c_00 = Ω/(2√π), Ω the disk's solid angle (sr)".into()
                 } else {
-                    format!("c_{0} / c_00 (canonical (l,m) of {0})", &OUTPUTS[k][1..])
+                    let (l, m) = (&OUTPUTS[k][1..2], &OUTPUTS[k][2..3]);
+                    format!("c_{l}{m} / c_00, canonical coefficient (l, m) = ({l}, {m}) over c_00")
                 },
             })
             .collect()

@@ -211,6 +211,15 @@ fn small_disk_limit() {
 
 #[test]
 fn bad_inputs() {
+    // A file of another kind is refused by each loader.
+    assert!(matches!(
+        DiskLight::from_bytes(lobefit::tables::embedded::WRAP),
+        Err(lobefit::tables::LoadError::WrongKind { .. })
+    ));
+    assert!(matches!(
+        lobefit::tables::wrap::WrapTable::from_bytes(lobefit::tables::embedded::DISK_LIGHT),
+        Err(lobefit::tables::LoadError::WrongKind { .. })
+    ));
     let d = table();
     assert!(matches!(d.canonical(f64::NAN, 0.1), Err(LookupError::NotFinite { .. })));
     assert!(matches!(d.canonical(11.0, 0.1), Err(LookupError::OutOfDomain { .. })));

@@ -182,8 +182,7 @@ impl Geometry {
             finite(&format!("{name}.z"), v.z)?;
         }
         let n = unit("disk normal", normal)?;
-        let radius = in_range("disk radius", radius, f64::MIN_POSITIVE, f64::MAX)?;
-        let _ = radius;
+        in_range("disk radius", radius, f64::MIN_POSITIVE, f64::MAX)?;
         let to = centre - receiver;
         let d = to.length();
         if !(d > 0.0 && d.is_finite()) {
