@@ -431,10 +431,9 @@ impl Family for DiskLightFamily {
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
         Ok(Box::new(DiskLookup(DiskLight::from_table(table)?)))
     }
+    /// Any R/d ∈ (0, 10] (the runtime's small-disk limit below 0.01 is checked
+    /// against this) and τ ∈ [0, π].
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        if !(R_MIN..=R_MAX).contains(&x[0]) {
-            return Err(format!("r_over_d = {} is outside [{R_MIN}, {R_MAX}]", x[0]));
-        }
         Ok(reference_canonical(x[0], x[1])?.to_vec())
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {

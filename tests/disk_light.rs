@@ -291,6 +291,19 @@ fn eval_disk_light() {
         .map(|s| s.parse().unwrap())
         .collect();
     assert!(rel_l2(&v[2..], &want) < 1e-12);
+    // The small-disk limit, runtime and exact path alike.
+    let (code, out, _) = eval(&["eval", "disk-light"], "r_over_d,tau\n0.005,0.3\n");
+    let (code2, exact, _) = eval(&["eval", "disk-light", "--exact"], "r_over_d,tau\n0.005,0.3\n");
+    assert_eq!((code, code2), (Some(0), Some(0)));
+    let row = |s: &str| -> Vec<f64> {
+        s.lines()
+            .nth(1)
+            .unwrap()
+            .split(',')
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    assert!(rel_l2(&row(&out)[2..], &row(&exact)[2..]) < 1e-3);
     let (code, out, err) = eval(&["eval", "disk-light"], "r_over_d,tau\n0.5,0.3\n20,0.1\n");
     assert_eq!(code, Some(1));
     assert!(out.is_empty() && err.contains("line 3") && err.contains("R/d"), "{err}");
