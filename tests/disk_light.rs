@@ -311,3 +311,108 @@ fn eval_disk_light() {
     assert_eq!(code, Some(1));
     assert!(err.contains("disk-light takes no --order"), "{err}");
 }
+
+/// Why the shipped layout: the same 192 × 128 node budget with simpler axis mappings or
+/// stored quantities, interpolated bilinearly (in f64), against the GK reference at
+/// 400 seeded points of the acceptance domain. Prints (DC median, 9-vector L2 max).
+#[test]
+fn layout_choices() {
+    use lobefit::fits::disk_light::fit_canonical;
+    use lobefit::tables::disk_light::{r_from_rim_coordinate, rim_coordinate, TAU_NODES, V_NODES};
+    let (nr, nt) = (V_NODES as usize, TAU_NODES as usize);
+    let logit = |t: f64| ((t + FRAC_PI_2) / (FRAC_PI_2 - t)).ln();
+    let logit_inv = |u: f64| FRAC_PI_2 * (u.exp() - 1.0) / (u.exp() + 1.0);
+    let mut rng = Rng::new(7);
+    let pts: Vec<(f64, f64, [f64; 6])> = (0..400)
+        .map(|_| {
+            let r = rng.range(R_MIN.ln(), R_MAX.ln()).exp();
+            let t = rng.range(0.0, 0.98 * FRAC_PI_2);
+            (r, t, reference_canonical(r, t).unwrap())
+        })
+        .collect();
+    let mut results = Vec::new();
+    for (name, rim, tau_logit, normalised) in [
+        ("shipped: rim coordinate × logit τ, ln c00 + ratios", true, true, true),
+        ("ln R/d × logit τ, ln c00 + ratios", false, true, true),
+        ("rim coordinate × linear τ, ln c00 + ratios", true, false, true),
+        ("ln R/d × linear τ, ln c00 + ratios", false, false, true),
+        ("ln R/d × linear τ, raw coefficients", false, false, false),
+    ] {
+        let tau_of = |j: usize| {
+            let s = j as f64 / (nt - 1) as f64;
+            if tau_logit {
+                logit_inv(s * logit(TAU_MAX))
+            } else {
+                s * TAU_MAX
+            }
+        };
+        let r_of = |i: usize, tau: f64| {
+            let s = i as f64 / (nr - 1) as f64;
+            if rim {
+                r_from_rim_coordinate(s, tau)
+            } else {
+                (R_MIN.ln() + s * (R_MAX / R_MIN).ln()).exp()
+            }
+        };
+        let store = |c: [f64; 6]| -> [f64; 6] {
+            if normalised {
+                [
+                    c[0].ln(),
+                    c[1] / c[0],
+                    c[2] / c[0],
+                    c[3] / c[0],
+                    c[4] / c[0],
+                    c[5] / c[0],
+                ]
+            } else {
+                c
+            }
+        };
+        let grid: Vec<[f64; 6]> = (0..nr * nt)
+            .map(|k| {
+                let (i, j) = (k / nt, k % nt);
+                let tau = tau_of(j);
+                store(fit_canonical(r_of(i, tau), tau).0)
+            })
+            .collect();
+        let (mut dc, mut l2max) = (Vec::new(), 0.0f64);
+        for &(r, t, want) in &pts {
+            let su = if rim {
+                rim_coordinate(r, t)
+            } else {
+                (r / R_MIN).ln() / (R_MAX / R_MIN).ln()
+            } * (nr - 1) as f64;
+            let st = if tau_logit {
+                logit(t) / logit(TAU_MAX)
+            } else {
+                t / TAU_MAX
+            } * (nt - 1) as f64;
+            let (i, j) = ((su.floor() as usize).min(nr - 2), (st.floor() as usize).min(nt - 2));
+            let (fu, ft) = (su - i as f64, st - j as f64);
+            let mut v = [0.0; 6];
+            for (di, wu) in [(0, 1.0 - fu), (1, fu)] {
+                for (dj, wt) in [(0, 1.0 - ft), (1, ft)] {
+                    for c in 0..6 {
+                        v[c] += wu * wt * grid[(i + di) * nt + j + dj][c];
+                    }
+                }
+            }
+            let got = if normalised {
+                let c0 = v[0].exp();
+                [c0, v[1] * c0, v[2] * c0, v[3] * c0, v[4] * c0, v[5] * c0]
+            } else {
+                v
+            };
+            dc.push((got[0] / want[0] - 1.0).abs());
+            l2max = l2max.max(rel_l2(&got, &want));
+        }
+        dc.sort_by(f64::total_cmp);
+        eprintln!("disk layout {name}: DC median {:.2e}, L2 max {l2max:.2e}", dc[200]);
+        results.push((dc[200], l2max));
+    }
+    assert!(results[0].0 <= DC_MEDIAN_REL && results[0].1 <= L2_MAX);
+    // Each simplification costs accuracy at the same budget.
+    for r in &results[1..] {
+        assert!(r.1 > results[0].1, "{results:?}");
+    }
+}
