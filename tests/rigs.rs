@@ -122,3 +122,54 @@ fn car_comparison() {
     assert!(c.light_errors[0].0.contains("headlight") && c.light_errors[0].2);
     assert_eq!(c.light_errors.iter().filter(|l| l.2).count(), 1);
 }
+
+/// Bad light parameters and a bad tolerance: their specific errors.
+#[test]
+fn bad_light_inputs() {
+    use lobefit::rigs::car_box;
+    use lobefit::tables::rigs::{select_direct, RigError, RigModel};
+    let disks = DiskLight::embedded().unwrap();
+    let p = DVec3::ZERO;
+    let nan_point = Light::Point {
+        position: DVec3::new(0.0, 0.0, 3.0),
+        intensity: f64::NAN,
+    };
+    assert!(matches!(
+        nan_point.irradiance_sh(p, disks),
+        Err(LookupError::NotFinite { .. })
+    ));
+    let neg_sphere = Light::Sphere {
+        centre: DVec3::new(0.0, 0.0, 3.0),
+        radius: -0.5,
+        radiance: 1.0,
+    };
+    assert!(matches!(
+        neg_sphere.irradiance_sh(p, disks),
+        Err(LookupError::OutOfDomain { .. })
+    ));
+    let disk = Light::Disk {
+        centre: DVec3::new(0.0, 0.0, 3.0),
+        normal: DVec3::ZERO,
+        radius: 0.5,
+        radiance: 1.0,
+    };
+    assert!(matches!(
+        disk.irradiance_sh(p, disks),
+        Err(LookupError::OutOfDomain { .. })
+    ));
+    let lights = [Light::Point {
+        position: DVec3::new(0.0, 0.0, 3.0),
+        intensity: 1.0,
+    }];
+    let pts = [DVec3::ZERO, DVec3::X, DVec3::Y];
+    assert!(matches!(
+        select_direct(RigModel::CONSTANT, car_box(), &lights, disks, &pts, &pts, f64::NAN, 0.0),
+        Err(RigError::Lookup(LookupError::NotFinite { .. }))
+    ));
+    // A test point outside the rig's box.
+    let far = [DVec3::new(10.0, 0.0, 0.0)];
+    assert!(matches!(
+        select_direct(RigModel::CONSTANT, car_box(), &lights, disks, &pts, &far, 0.1, 0.0),
+        Err(RigError::Lookup(LookupError::OutOfDomain { .. }))
+    ));
+}

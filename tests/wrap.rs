@@ -173,3 +173,27 @@ fn eval_wrap() {
     assert_eq!(code, Some(1));
     assert!(err.contains("wrap takes only --order"), "{err}");
 }
+
+/// The f32 twins agree with f64 to f32 rounding and report the same errors.
+#[test]
+fn f32_twins() {
+    let mut l = [0.0f64; 8];
+    let mut l32 = [0.0f32; 8];
+    lambda_hat(8, 0.3, &mut l).unwrap();
+    wrap::lambda_hat_f32(8, 0.3, &mut l32).unwrap();
+    for k in 0..8 {
+        assert!((l32[k] as f64 - l[k]).abs() < 1e-7);
+    }
+    let c = [1.0f32, 0.5, -0.25, 0.125];
+    let mut o = [0.0f32; 4];
+    wrap::convolve_f32(&c, 0.0, &mut o).unwrap();
+    assert!((o[0] - std::f32::consts::PI).abs() < 1e-6 && (o[1] - std::f32::consts::PI / 3.0).abs() < 1e-6);
+    assert!(matches!(
+        wrap::lambda_hat_f32(8, 1.5, &mut l32),
+        Err(LookupError::OutOfDomain { .. })
+    ));
+    assert!(matches!(
+        wrap::convolve_f32(&c, 0.0, &mut o[..2]),
+        Err(LookupError::Channels { .. })
+    ));
+}
