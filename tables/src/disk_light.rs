@@ -164,6 +164,20 @@ fn unit(name: &str, v: DVec3) -> Result<DVec3, LookupError> {
     Ok(DVec3::from_array(d))
 }
 
+/// The canonical coefficients in the limit τ → π/2⁻ (receiver approaching the disk's
+/// plane from the front, d fixed): 0 when R/d < 1 (the disk is seen edge-on), the
+/// hemisphere about −n = (−1, 0, 0) when R/d > 1 (c_00 = √π, c_11 = √(3π)/2, others 0:
+/// the receiver is at the disk's surface), and half of that at R/d = 1.
+pub fn grazing_limit(r_over_d: f64) -> [f64; 6] {
+    let hemi = [PI.sqrt(), 0.0, (3.0 * PI).sqrt() / 2.0, 0.0, 0.0, 0.0];
+    let f = match r_over_d.partial_cmp(&1.0) {
+        Some(std::cmp::Ordering::Less) => 0.0,
+        Some(std::cmp::Ordering::Equal) => 0.5,
+        _ => 1.0,
+    };
+    hemi.map(|v| f * v)
+}
+
 /// A disk seen from a receiver: distance, τ and the canonical frame (world axes).
 #[derive(Debug, Clone, Copy)]
 struct Geometry {
@@ -266,14 +280,26 @@ impl DiskLight {
     /// dimensionless) for a disk of radius ratio `r_over_d` = R/d and tilt `tau` (rad).
     /// R/d ∈ (0, 10]: below 0.01 the small-disk limit is used (c_00 scaled by
     /// (R/d / 0.01)², ratios of R/d = 0.01; relative error O((R/d)²) ≤ 1e-4).
-    /// τ ∈ [0, π]: zero from π/2 on (back side); τ ∈ (0.999·π/2, π/2) is refused.
+    /// τ ∈ [0, π]: zero from π/2 on (back side). Beyond the table, τ ∈ (0.999·π/2, π/2)
+    /// (receiver within 0.0016·d of the disk's plane), the value is interpolated
+    /// linearly in cos τ between the table's last row and the limit at the plane
+    /// ([`grazing_limit`]); see docs/rigs.md for its measured error.
     pub fn canonical(&self, r_over_d: f64, tau: f64) -> Result<[f64; 6], LookupError> {
         let r = in_range("R/d", r_over_d, f64::MIN_POSITIVE, R_MAX)?;
         let tau = in_range("tau", tau, 0.0, PI)?;
         if tau >= FRAC_PI_2 {
             return Ok([0.0; 6]);
         }
-        in_range("tau (grazing limit of the disk-light table)", tau, 0.0, TAU_MAX)?;
+        if tau > TAU_MAX {
+            let edge = self.canonical(r, TAU_MAX)?;
+            let lim = grazing_limit(r);
+            let w = tau.cos() / TAU_MAX.cos();
+            let mut c = [0.0; 6];
+            for k in 0..6 {
+                c[k] = lim[k] + w * (edge[k] - lim[k]);
+            }
+            return Ok(c);
+        }
         let rt = r.max(R_MIN);
         let mut c = [0.0; 6];
         self.table.interpolate(&[rim_coordinate(rt, tau), tau], &mut c)?;
