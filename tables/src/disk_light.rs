@@ -46,7 +46,8 @@ pub const R_MIN: f64 = 0.01;
 /// Largest R/d.
 pub const R_MAX: f64 = 10.0;
 /// Largest tabulated τ (rad), 0.999·π/2 (cos τ ≈ 1.6e-3). Between it and π/2 the
-/// receiver is within 0.16 % of d from the disk's plane and lookups are refused.
+/// receiver is within 0.16 % of d from the disk's plane and [`DiskLight::canonical`]
+/// interpolates towards the plane limit ([`grazing_limit`]).
 pub const TAU_MAX: f64 = 0.999 * FRAC_PI_2;
 /// Nodes along `v`.
 pub const V_NODES: u32 = 192;
