@@ -222,7 +222,8 @@ fn bad_inputs() {
     ));
     let d = table();
     assert!(matches!(d.canonical(f64::NAN, 0.1), Err(LookupError::NotFinite { .. })));
-    assert!(matches!(d.canonical(11.0, 0.1), Err(LookupError::OutOfDomain { .. })));
+    assert!(matches!(d.canonical(f64::INFINITY, 0.1), Err(LookupError::NotFinite { .. })));
+    assert!(matches!(d.canonical(-1.0, 0.1), Err(LookupError::OutOfDomain { .. })));
     assert!(matches!(d.canonical(0.0, 0.1), Err(LookupError::OutOfDomain { .. })));
     assert!(matches!(d.canonical(1.0, -0.1), Err(LookupError::OutOfDomain { .. })));
     assert!(matches!(d.canonical(1.0, f64::NAN), Err(LookupError::NotFinite { .. })));
@@ -303,7 +304,7 @@ fn eval_disk_light() {
             .collect()
     };
     assert!(rel_l2(&row(&out)[2..], &row(&exact)[2..]) < 1e-3);
-    let (code, out, err) = eval(&["eval", "disk-light"], "r_over_d,tau\n0.5,0.3\n20,0.1\n");
+    let (code, out, err) = eval(&["eval", "disk-light"], "r_over_d,tau\n0.5,0.3\n-2,0.1\n");
     assert_eq!(code, Some(1));
     assert!(out.is_empty() && err.contains("line 3") && err.contains("R/d"), "{err}");
     let (code, _, err) = eval(&["eval", "disk-light", "--order", "3"], "r_over_d,tau\n0.5,0.3\n");
@@ -441,4 +442,24 @@ fn grazing_sliver() {
     assert!(rel_l2(&near, &grazing_limit(5.0)) < 1e-4, "{near:?}");
     let small = reference_canonical(0.5, FRAC_PI_2 - 1e-5).unwrap();
     assert!(small[0] < 1e-4);
+}
+
+/// Beyond R/d = 10: interpolation in d/R towards the infinite plane, against the GK
+/// reference.
+#[test]
+fn large_disks() {
+    use lobefit::tables::disk_light::plane_limit;
+    let mut worst: f64 = 0.0;
+    for &r in &[12.0, 20.0, 50.0, 200.0] {
+        for &tau in &[0.0, 0.4, 1.0, 1.4] {
+            let got = table().canonical(r, tau).unwrap();
+            let want = reference_canonical(r, tau).unwrap();
+            worst = worst.max(rel_l2(&got, &want));
+        }
+    }
+    eprintln!("disk R/d in [12, 200]: max rel L2 {worst:.2e}");
+    assert!(worst < 1e-2);
+    // The plane limit: the hemisphere about −n, here by quadrature over a huge disk.
+    let want = reference_canonical(1e5, 0.5).unwrap();
+    assert!(rel_l2(&plane_limit(0.5), &want) < 1e-4);
 }

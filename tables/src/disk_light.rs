@@ -179,6 +179,14 @@ pub fn grazing_limit(r_over_d: f64) -> [f64; 6] {
     hemi.map(|v| f * v)
 }
 
+/// The canonical coefficients of an infinite emitting plane (R/d → ∞): the hemisphere
+/// about −n = (−sin τ, 0, cos τ), τ < π/2 (c_00 = √π, (c_10, c_11) = √(3π)/2 (cos τ, sin τ),
+/// band 2 zero).
+pub fn plane_limit(tau: f64) -> [f64; 6] {
+    let z1 = (3.0 * PI).sqrt() / 2.0;
+    [PI.sqrt(), z1 * tau.cos(), z1 * tau.sin(), 0.0, 0.0, 0.0]
+}
+
 /// A disk seen from a receiver: distance, τ and the canonical frame (world axes).
 #[derive(Debug, Clone, Copy)]
 struct Geometry {
@@ -279,17 +287,29 @@ impl DiskLight {
 
     /// The six canonical coefficients (c_00, c_10, c_11, c_20, c_21, c_22) (sr-weighted,
     /// dimensionless) for a disk of radius ratio `r_over_d` = R/d and tilt `tau` (rad).
-    /// R/d ∈ (0, 10]: below 0.01 the small-disk limit is used (c_00 scaled by
-    /// (R/d / 0.01)², ratios of R/d = 0.01; relative error O((R/d)²) ≤ 1e-4).
+    /// R/d > 0: below 0.01 the small-disk limit is used (c_00 scaled by
+    /// (R/d / 0.01)², ratios of R/d = 0.01; relative error O((R/d)²) ≤ 1e-4); above 10
+    /// the value is interpolated linearly in d/R between R/d = 10 and the infinite
+    /// plane ([`plane_limit`]); see docs/rigs.md for its measured error.
     /// τ ∈ [0, π]: zero from π/2 on (back side). Beyond the table, τ ∈ (0.999·π/2, π/2)
     /// (receiver within 0.0016·d of the disk's plane), the value is interpolated
     /// linearly in cos τ between the table's last row and the limit at the plane
     /// ([`grazing_limit`]); see docs/rigs.md for its measured error.
     pub fn canonical(&self, r_over_d: f64, tau: f64) -> Result<[f64; 6], LookupError> {
-        let r = in_range("R/d", r_over_d, f64::MIN_POSITIVE, R_MAX)?;
+        let r = in_range("R/d", r_over_d, f64::MIN_POSITIVE, f64::MAX)?;
         let tau = in_range("tau", tau, 0.0, PI)?;
         if tau >= FRAC_PI_2 {
             return Ok([0.0; 6]);
+        }
+        if r > R_MAX {
+            let edge = self.canonical(R_MAX, tau)?;
+            let lim = plane_limit(tau);
+            let w = R_MAX / r;
+            let mut c = [0.0; 6];
+            for k in 0..6 {
+                c[k] = lim[k] + w * (edge[k] - lim[k]);
+            }
+            return Ok(c);
         }
         if tau > TAU_MAX {
             let edge = self.canonical(r, TAU_MAX)?;
