@@ -49,6 +49,12 @@ const FIT_TOL: f64 = 1e-11;
 const MAX_RESIDUAL: f64 = 1e-9;
 /// Checker reference tolerance relative to c_00 (SPEC §4: 1e-7 or tighter).
 pub const REFERENCE_REL_TOL: f64 = 1e-9;
+/// Tolerance (relative to a scale estimate) of the reference's first pass for the solid
+/// angle, which only sets the absolute tolerance of the coefficients' integrals.
+const SCALE_REL_TOL: f64 = 1e-6;
+/// Tolerance (relative to the small-disk solid angle) of the exact-irradiance
+/// reference of the error maps: far below the errors they show (≥ 1e-5).
+const IRRADIANCE_REL_TOL: f64 = 1e-9;
 /// Relative accuracy floor of each nested GK level: next to the plane (cos τ ~ 1e-4)
 /// the inner integrals reach ~1/cos τ, where an absolute 1e-10 is below f64 rounding.
 const GK_REL_FLOOR: f64 = 1e-12;
@@ -280,7 +286,7 @@ pub fn reference_canonical(r: f64, tau: f64) -> Result<[f64; 6], String> {
     // Solid angle first, loosely (it only sets the others' absolute tolerance), from a
     // scale estimate (the small-disk solid angle, which never overestimates much).
     let est = (PI * r * r * tau.cos() / (1.0 + r * r)).min(2.0 * PI);
-    let omega = disk_integral(r, tau, 1e-6 * est, &|_| 1.0)?;
+    let omega = disk_integral(r, tau, SCALE_REL_TOL * est, &|_| 1.0)?;
     let tol = REFERENCE_REL_TOL * omega * K00;
     let mut out = [0.0; 6];
     for (k, &i) in CANONICAL_INDEX.iter().enumerate() {
@@ -300,7 +306,7 @@ pub fn reference_irradiance(r: f64, tau: f64, n: [f64; 3]) -> Result<f64, String
     if n[1] != 0.0 {
         return Err("reference_irradiance takes normals in the xz-plane".into());
     }
-    disk_integral(r, tau, 1e-9 * est, &|x| {
+    disk_integral(r, tau, IRRADIANCE_REL_TOL * est, &|x| {
         let l = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
         ((n[0] * x[0] + n[2] * x[2]) / l).max(0.0)
     })

@@ -516,7 +516,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         let rel: Vec<f64> = e
             .iter()
             .zip(&exact)
-            .map(|(a, b)| (a - b).abs() / b.abs().max(1e-12))
+            .map(|(a, b)| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE))
             .collect();
         let (rms, _) = errors(&e, &exact);
         irr.push(panel(name.to_string(), e, "E", false));
@@ -565,7 +565,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         let rel: Vec<f64> = e
             .iter()
             .zip(&exact)
-            .map(|(a, b)| (a - b).abs() / b.abs().max(1e-12))
+            .map(|(a, b)| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE))
             .collect();
         let (rms, _) = errors(&e, &exact);
         split_err.push(panel(

@@ -222,7 +222,10 @@ fn bad_inputs() {
     ));
     let d = table();
     assert!(matches!(d.canonical(f64::NAN, 0.1), Err(LookupError::NotFinite { .. })));
-    assert!(matches!(d.canonical(f64::INFINITY, 0.1), Err(LookupError::NotFinite { .. })));
+    assert!(matches!(
+        d.canonical(f64::INFINITY, 0.1),
+        Err(LookupError::NotFinite { .. })
+    ));
     assert!(matches!(d.canonical(-1.0, 0.1), Err(LookupError::OutOfDomain { .. })));
     assert!(matches!(d.canonical(0.0, 0.1), Err(LookupError::OutOfDomain { .. })));
     assert!(matches!(d.canonical(1.0, -0.1), Err(LookupError::OutOfDomain { .. })));

@@ -187,6 +187,10 @@ pub fn plane_limit(tau: f64) -> [f64; 6] {
     [PI.sqrt(), z1 * tau.cos(), z1 * tau.sin(), 0.0, 0.0, 0.0]
 }
 
+/// Below this sin τ the disk faces the receiver head-on and the canonical x' axis is
+/// arbitrary (the coefficients are then rotation-invariant about z' to ~1e-12).
+const AXIS_DEGENERATE_SIN: f64 = 1e-12;
+
 /// A disk seen from a receiver: distance, τ and the canonical frame (world axes).
 #[derive(Debug, Clone, Copy)]
 struct Geometry {
@@ -221,7 +225,7 @@ impl Geometry {
         // n = sin τ x' − cos τ z'  ⇒  x' = (n + cos τ z') / sin τ.
         let perp = n + cos_tau * z;
         let sin_tau = perp.length();
-        let x = if sin_tau > 1e-12 {
+        let x = if sin_tau > AXIS_DEGENERATE_SIN {
             perp / sin_tau
         } else {
             z.any_orthonormal_vector()
