@@ -466,3 +466,18 @@ fn large_disks() {
     let want = reference_canonical(1e5, 0.5).unwrap();
     assert!(rel_l2(&plane_limit(0.5), &want) < 1e-4);
 }
+
+/// Nearly head-on disks (sin τ from 1e-13 to 1e-6): a valid frame, and continuity with
+/// τ = 0.
+#[test]
+fn nearly_head_on() {
+    let z = DVec3::new(0.0, 0.0, 2.0);
+    let head_on = table()
+        .radiance_sh(DVec3::ZERO, z, DVec3::new(0.0, 0.0, -1.0), 1.0, 1.0)
+        .unwrap();
+    for eps in [1e-13, 1e-11, 1e-9, 1e-7, 1e-6] {
+        let n = DVec3::new(eps, 0.3 * eps, -1.0);
+        let v = table().radiance_sh(DVec3::ZERO, z, n, 1.0, 1.0).unwrap();
+        assert!(rel_l2(&v, &head_on) < 1e-5, "eps {eps}: {v:?}");
+    }
+}

@@ -187,9 +187,9 @@ pub fn plane_limit(tau: f64) -> [f64; 6] {
     [PI.sqrt(), z1 * tau.cos(), z1 * tau.sin(), 0.0, 0.0, 0.0]
 }
 
-/// Below this sin τ the disk faces the receiver head-on and the canonical x' axis is
-/// arbitrary (the coefficients are then rotation-invariant about z' to ~1e-12).
-const AXIS_DEGENERATE_SIN: f64 = 1e-12;
+/// Below this sin τ the disk counts as facing the receiver head-on and the canonical x'
+/// axis is arbitrary (the coefficients are rotation-invariant about z' to ~1e-8 there).
+const AXIS_DEGENERATE_SIN: f64 = 1e-8;
 
 /// A disk seen from a receiver: distance, τ and the canonical frame (world axes).
 #[derive(Debug, Clone, Copy)]
@@ -226,7 +226,9 @@ impl Geometry {
         let perp = n + cos_tau * z;
         let sin_tau = perp.length();
         let x = if sin_tau > AXIS_DEGENERATE_SIN {
-            perp / sin_tau
+            // Re-orthogonalised: for small sin τ, n + cos τ z' carries rounding along z'.
+            let x = perp / sin_tau;
+            (x - x.dot(z) * z).normalize()
         } else {
             z.any_orthonormal_vector()
         };
