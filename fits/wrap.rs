@@ -266,6 +266,11 @@ impl Family for WrapFamily {
         }
         reference_lambda(x[0], self.order)
     }
+    /// `eval wrap --exact`: the quadrature for any a ≥ 0 — for a > 1 the correct value
+    /// (support cut at t = −1) that the closed forms refuse (E5).
+    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        reference_lambda(x[0], self.order)
+    }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         vec![rng.range(A_MIN, A_MAX)]
     }

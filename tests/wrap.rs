@@ -166,6 +166,17 @@ fn eval_wrap() {
     let (code, out, err) = eval(&["eval", "wrap"], "a\n0.5\n1.5\n");
     assert_eq!(code, Some(1));
     assert!(out.is_empty() && err.contains("line 3") && err.contains("E5"), "{err}");
+    // --exact gives the true value there (E5: 0.1185 at a = 2, l = 2).
+    let (code, out, _) = eval(&["eval", "wrap", "--order", "3", "--exact"], "a\n2\n");
+    assert_eq!(code, Some(0));
+    let v: Vec<f64> = out
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    assert!((v[3] - 0.1185).abs() < 5e-5, "{v:?}");
     let (code, _, err) = eval(&["eval", "wrap", "--order", "9"], "a\n0.5\n");
     assert_eq!(code, Some(2)); // refused by the argument parser
     assert!(err.contains("9 is not in 1..=8"), "{err}");
