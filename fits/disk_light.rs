@@ -473,7 +473,7 @@ impl Family for DiskLightFamily {
         let sliver: Vec<(f64, f64)> = (0..count)
             .map(|_| {
                 let r = rng.range(R_MIN.ln(), R_MAX.ln()).exp();
-                (r, FRAC_PI_2 - rng.range(0.01, 1.0) * (FRAC_PI_2 - TAU_MAX))
+                (r, FRAC_PI_2 - rng.range(0.1, 1.0) * (FRAC_PI_2 - TAU_MAX))
             })
             .collect();
         let beyond = sliver

@@ -429,7 +429,7 @@ fn grazing_sliver() {
     let mut l2 = Vec::new();
     for _ in 0..60 {
         let r = rng.range(R_MIN.ln(), R_MAX.ln()).exp();
-        let tau = FRAC_PI_2 - rng.range(0.01, 1.0) * (FRAC_PI_2 - TAU_MAX);
+        let tau = FRAC_PI_2 - rng.range(0.1, 1.0) * (FRAC_PI_2 - TAU_MAX);
         let got = table().canonical(r, tau).unwrap();
         let want = reference_canonical(r, tau).unwrap();
         l2.push(rel_l2(&got, &want));
@@ -480,4 +480,27 @@ fn nearly_head_on() {
         let v = table().radiance_sh(DVec3::ZERO, z, n, 1.0, 1.0).unwrap();
         assert!(rel_l2(&v, &head_on) < 1e-5, "eps {eps}: {v:?}");
     }
+}
+
+/// The checker fails on a disk-light table that is valid but wrong at one node.
+#[test]
+fn check_fails_on_a_regressed_table() {
+    use lobefit::tables::{format, Table};
+    let dir = tempfile::tempdir().unwrap();
+    let t = Table::from_path(format!("{}/tables/data/disk-light.lobefit", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let mut values = t.values().to_vec();
+    values[1] *= 1.1; // node 0 (R/d = 0.01, τ = 0), channel r10: a 10 % error
+    std::fs::write(
+        dir.path().join("disk-light.lobefit"),
+        format::encode(t.meta(), &values).unwrap(),
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lobefit"))
+        .args(["check", "--quick", "--only", "disk-light", "--tables"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{report}");
+    assert!(report.contains("FAIL l2.grid.max_abs"), "{report}");
 }
