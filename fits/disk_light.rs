@@ -67,8 +67,8 @@ pub const L2_GRID_MAX: f64 = 1e-5;
 /// Largest τ of the acceptance domain (and of the checker's off-grid sample).
 pub const TAU_ACCEPT: f64 = 0.98 * FRAC_PI_2;
 
-/// Checked quantities: the six coefficients and the 9-vector relative L2 error
-/// (reported as the runtime value against a reference of 0).
+/// Checked quantities: the six coefficients and the 9-vector relative L2 error e
+/// (reported as 1 + e against 1, so both error columns of the report read e).
 const CHECKED: [&str; 7] = ["y00", "y10", "y11", "y20", "y21", "y22", "l2"];
 
 /// SH normalisation constants (real SH with the Condon–Shortley phase).
@@ -427,8 +427,9 @@ impl Family for DiskLightFamily {
     fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {
         let mut got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
         let mut want = self.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
-        got.push(rel_l2(&got, &want));
-        want.push(0.0);
+        // As 1 + e against 1: the checker's absolute and relative columns both read e.
+        got.push(1.0 + rel_l2(&got, &want));
+        want.push(1.0);
         Ok(Some((got, want)))
     }
     fn node_inputs(&self, node: &[f64]) -> Vec<f64> {
