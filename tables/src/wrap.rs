@@ -183,6 +183,38 @@ pub fn convolve_f32(coeffs: &[f32], a: f32, out: &mut [f32]) -> Result<(), Looku
     Ok(())
 }
 
+/// Re-wraps an order-n ≤ 3 *irradiance* vector (radiance already convolved with the
+/// clamped cosine, e.g. a rig's output or `DiskLight::irradiance_sh`): out_lm =
+/// irr_lm λ̂_l(a)/λ̂_l(0), i.e. the wrap convolution of the underlying radiance. Orders
+/// above 3 are refused (λ̂_3(0) = 0: band 3 of an irradiance vector carries nothing to
+/// rescale).
+pub fn rewrap_irradiance(irr: &[f64], a: f64, out: &mut [f64]) -> Result<(), LookupError> {
+    let n = sh::order_of_len(irr.len())?;
+    if n > 3 {
+        return Err(LookupError::OutOfDomain {
+            name: "SH order of an irradiance vector to re-wrap".into(),
+            value: n as f64,
+            lo: 1.0,
+            hi: 3.0,
+        });
+    }
+    if out.len() < n * n {
+        return Err(LookupError::Channels {
+            expected: n * n,
+            got: out.len(),
+        });
+    }
+    let mut lam = [0.0; 3];
+    lambda_hat(n, a, &mut lam)?;
+    let lam0 = [1.0, 2.0 / 3.0, 0.25];
+    for l in 0..n {
+        for i in l * l..(l + 1) * (l + 1) {
+            out[i] = crate::error::finite("SH coefficient", irr[i])? * lam[l] / lam0[l];
+        }
+    }
+    Ok(())
+}
+
 /// The wrap table: λ̂_0 … λ̂_7 against a ∈ [0, 1] (for texture upload).
 #[derive(Debug, Clone)]
 pub struct WrapTable {
@@ -268,6 +300,20 @@ mod tests {
         }
     }
 
+    /// Re-wrapping the Lambertian irradiance of a radiance vector equals convolving the
+    /// radiance with the wrap kernel.
+    #[test]
+    fn rewrap_matches_convolve() {
+        let rad = [0.9, -0.2, 0.4, 0.1, 0.3, -0.1, 0.2, 0.05, -0.15];
+        let (mut irr, mut wrapped, mut direct) = ([0.0; 9], [0.0; 9], [0.0; 9]);
+        convolve(&rad, 0.0, &mut irr).unwrap();
+        rewrap_irradiance(&irr, 0.7, &mut wrapped).unwrap();
+        convolve(&rad, 0.7, &mut direct).unwrap();
+        for i in 0..9 {
+            assert!((wrapped[i] - direct[i]).abs() < 1e-14);
+        }
+    }
+
     #[test]
     fn bad_inputs() {
         let mut l = [0.0; 8];
@@ -308,6 +354,15 @@ mod tests {
         assert!(matches!(
             convolve(&[f64::NAN; 9], 0.5, &mut o),
             Err(LookupError::NotFinite { .. })
+        ));
+        let mut o16 = [0.0; 16];
+        assert!(matches!(
+            rewrap_irradiance(&[1.0; 16], 0.5, &mut o16),
+            Err(LookupError::OutOfDomain { .. })
+        ));
+        assert!(matches!(
+            rewrap_irradiance(&[1.0; 9], 1.5, &mut o),
+            Err(LookupError::OutOfDomain { .. })
         ));
     }
 }
