@@ -2,6 +2,7 @@
 //! the registry that lists them. Adding a family = one module + one line below.
 
 pub mod cap_exponent;
+pub mod disk_light;
 pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
@@ -9,6 +10,7 @@ pub mod lobe_product_paper;
 pub mod log_zh;
 pub mod sg_fit;
 pub mod wedge;
+pub mod wrap;
 
 use std::path::{Path, PathBuf};
 
@@ -81,6 +83,8 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         Box::new(sg_fit::SgFitFamily),
         Box::new(log_zh::LogZhFamily::default()),
         Box::new(wedge::WedgeFamily),
+        Box::new(wrap::WrapFamily::default()),
+        Box::new(disk_light::DiskLightFamily),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::Energy,
             method: opts.method,
@@ -134,6 +138,16 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
             }
             Ok(Box::new(wedge::WedgeSliceView { order }))
         }
+        "wrap" => {
+            if flags.given().iter().any(|f| *f != "--order") {
+                return Err("wrap takes only --order".into());
+            }
+            let order = flags.order.unwrap_or(wrap::DEFAULT_ORDER);
+            if !(1..=8).contains(&order) {
+                return Err(format!("wrap: --order {order} is outside 1..=8"));
+            }
+            Ok(Box::new(wrap::WrapFamily { order }))
+        }
         "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
             let variant = match flags.variant.as_deref() {
                 None | Some("energy") => lobefit_tables::Variant::Energy,
@@ -162,8 +176,10 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 /// Every `lobefit plot` name with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
     vec![
+        ("disk-light", disk_light::plot),
         ("isg", isg::plot),
         ("lobe-product", lobe_product::plot),
         ("log-zh", crate::eps_study::plot),
+        ("rigs", crate::rigs::plot),
     ]
 }

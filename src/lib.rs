@@ -17,6 +17,7 @@ pub mod io;
 pub mod isg;
 pub mod plot;
 pub mod quad;
+pub mod rigs;
 pub mod rng;
 pub mod sh;
 

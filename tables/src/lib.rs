@@ -25,20 +25,24 @@
 //! ```
 
 pub mod cap_exponent;
+pub mod disk_light;
 pub mod error;
 pub mod format;
 pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
 pub mod log_zh;
+pub mod rigs;
 pub mod sg_fit;
 pub mod sh;
 pub mod table;
 pub mod wedge;
+pub mod wrap;
 
 pub use glam;
 
 pub use cap_exponent::CapExponent;
+pub use disk_light::DiskLight;
 pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
 pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
@@ -68,4 +72,8 @@ pub mod embedded {
     pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
     /// `tables/data/lobe-product-l2.lobefit`.
     pub static LOBE_PRODUCT_L2: &[u8] = include_bytes!("../data/lobe-product-l2.lobefit");
+    /// `tables/data/disk-light.lobefit`.
+    pub static DISK_LIGHT: &[u8] = include_bytes!("../data/disk-light.lobefit");
+    /// `tables/data/wrap.lobefit`.
+    pub static WRAP: &[u8] = include_bytes!("../data/wrap.lobefit");
 }
