@@ -27,6 +27,7 @@
 pub mod cap_exponent;
 pub mod error;
 pub mod format;
+pub mod gaunt;
 pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
