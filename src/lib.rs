@@ -10,6 +10,7 @@
 
 pub mod build;
 pub mod check;
+pub mod eigen;
 pub mod eps_study;
 pub mod eval;
 pub mod family;
@@ -19,6 +20,7 @@ pub mod plot;
 pub mod quad;
 pub mod rng;
 pub mod sh;
+pub mod shexp;
 
 /// The table families, one module each (kept in `fits/` at the repository root).
 #[path = "../fits/mod.rs"]

@@ -34,6 +34,7 @@ pub mod lobe_product;
 pub mod log_zh;
 pub mod sg_fit;
 pub mod sh;
+pub mod shexp;
 pub mod table;
 pub mod wedge;
 
@@ -65,6 +66,8 @@ pub mod embedded {
     pub static LOG_ZH: &[u8] = include_bytes!("../data/log-zh.lobefit");
     /// `tables/data/wedge.lobefit`.
     pub static WEDGE: &[u8] = include_bytes!("../data/wedge.lobefit");
+    /// `tables/data/shexp.lobefit`.
+    pub static SHEXP: &[u8] = include_bytes!("../data/shexp.lobefit");
     /// `tables/data/lobe-product.lobefit` (the `energy` variant).
     pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
     /// `tables/data/lobe-product-l2.lobefit`.

@@ -1,0 +1,399 @@
+//! F9 (library half) — SH exponentiation and the two SH logarithms (Ren et al. 2006 as
+//! used in the thesis §3.7; SPEC F9).
+//!
+//! exp* variants: [`exp_taylor`](crate::sh::exp_taylor) (the reference, run to
+//! convergence), DC isolation ([`exp_star`]), scaling and squaring
+//! ([`exp_scaling_squaring`]), OL and HYB (in the runtime crate,
+//! [`lobefit_tables::shexp::ol`] / [`lobefit_tables::shexp::hyb_with`], re-exported here,
+//! because renderers run them per pixel).
+//!
+//! Logs of a visibility vector g: naive ε-clamped projection (F7,
+//! [`lobefit_tables::log_zh::blocker`] for caps) and Ren's [`ren_log`]: f = log(M_g)·1
+//! with M_g the SH product matrix (M_g x = g ∗ x), from its symmetric
+//! eigen-decomposition with eigenvalues clamped below at [`REN_CLAMP`] × the largest.
+//! Written as f = R q(D) Rᵀ (g − 1), q(x) = ln(x)/(x − 1), so that small blockers
+//! (g ≈ 1) keep full relative accuracy: M_g = I + M_{g−1}, and the eigenvalues are
+//! λ = 1 + μ with μ those of M_{g−1} (computed directly, no 1 + tiny rounding).
+
+use std::f64::consts::PI;
+
+use lobefit_tables::sh::{self as rt, index};
+
+use crate::eigen::{sym_eigen, SymEigen};
+use crate::sh::{exp_star, exp_taylor, ExpResult, Gaunt, SphereRule};
+
+pub use lobefit_tables::shexp::{hyb_with, ol};
+
+/// Ren's eigenvalue clamp: eigenvalues of M_g below this fraction of the largest are
+/// raised to it (thesis §3.7.1; SPEC F9).
+pub const REN_CLAMP: f64 = 0.02;
+
+/// q(1 + μ) = ln(1 + μ)/μ, with q = 1 at μ = 0 (series for |μ| < [`Q_SERIES`]:
+/// no 0/0, no NaN for any μ > −1).
+pub fn q_log(mu: f64) -> f64 {
+    if mu.abs() < Q_SERIES {
+        // 1 − μ/2 + μ²/3 − μ³/4 + μ⁴/5: the next term is < 1e-3⁵/6 ≈ 2e-16.
+        1.0 - mu * (0.5 - mu * (1.0 / 3.0 - mu * (0.25 - mu * 0.2)))
+    } else {
+        mu.ln_1p() / mu
+    }
+}
+
+/// |μ| below which [`q_log`] uses its series (the series' truncation error there is
+/// below f64 rounding; ln_1p(μ)/μ loses nothing above it).
+pub const Q_SERIES: f64 = 1e-3;
+
+/// A Ren log: the log vector and what the clamp did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenLog {
+    /// f = log(M_g)·1, same length as g.
+    pub f: Vec<f64>,
+    /// Eigenvalues raised by the clamp.
+    pub clamped: usize,
+    /// Smallest and largest eigenvalue of M_g (before clamping).
+    pub lambda: (f64, f64),
+}
+
+/// Coefficients c_k of f = Σ_k c_k r_k in the eigenbasis {r_k} of M_{g−1}: q(λ_k)(r_k·h)
+/// for unclamped λ_k = 1 + μ_k, ln(λ_c)(r_k·1) for clamped ones (h = g − 1, 1 = the
+/// constant function; both equal ln(λ)(r_k·1) in exact arithmetic when unclamped).
+fn log_coefficients(e: &SymEigen, h: &[f64], one0: &[f64], lambda_max: f64) -> (Vec<f64>, usize) {
+    let n = e.n;
+    let floor = REN_CLAMP * lambda_max;
+    let mut clamped = 0;
+    let c = (0..n)
+        .map(|k| {
+            let mu = e.values[k];
+            let lambda = 1.0 + mu;
+            if lambda < floor {
+                clamped += 1;
+                floor.ln() * (0..n).map(|i| e.vector(k, i) * one0[i]).sum::<f64>()
+            } else {
+                q_log(mu) * (0..n).map(|i| e.vector(k, i) * h[i]).sum::<f64>()
+            }
+        })
+        .collect();
+    (c, clamped)
+}
+
+/// Ren's SH log of the SH vector `g` (n² coefficients, order n ≤ 8) through the
+/// full n² × n² product matrix. Errors: wrong length, non-finite input, no positive
+/// eigenvalue (g is nowhere positive: no log).
+pub fn ren_log(gaunt: &Gaunt, g: &[f64]) -> Result<RenLog, String> {
+    let nc = gaunt.order() * gaunt.order();
+    if g.len() != nc {
+        return Err(format!(
+            "g has {} coefficients, order {} needs {nc}",
+            g.len(),
+            gaunt.order()
+        ));
+    }
+    if g.iter().any(|v| !v.is_finite()) {
+        return Err("g has a non-finite coefficient".into());
+    }
+    let mut h = g.to_vec();
+    h[0] -= (4.0 * PI).sqrt();
+    let e = sym_eigen(&gaunt.product_matrix(&h), nc)?;
+    let lambda = (1.0 + e.values[0], 1.0 + e.values[nc - 1]);
+    if lambda.1 <= 0.0 {
+        return Err(format!("M_g has no positive eigenvalue (largest {:e})", lambda.1));
+    }
+    let one0 = crate::sh::one(gaunt.order());
+    let (c, clamped) = log_coefficients(&e, &h, &one0, lambda.1);
+    let f = (0..nc).map(|i| (0..nc).map(|k| e.vector(k, i) * c[k]).sum()).collect();
+    Ok(RenLog { f, clamped, lambda })
+}
+
+/// The m-blocks of the product matrix of a zonal function (ZH vector `h`, about +z):
+/// block m (0 ≤ m < n) couples (l, m) with (l', m), l, l' ≥ m; the −m block is equal.
+/// Built from the Gaunt tensor.
+pub fn zonal_blocks_gaunt(gaunt: &Gaunt, h: &[f64]) -> Vec<Vec<f64>> {
+    let n = gaunt.order();
+    let mut sh = vec![0.0; n * n];
+    for (l, z) in h.iter().enumerate() {
+        sh[index(l, 0)] = *z;
+    }
+    let m_full = gaunt.product_matrix(&sh);
+    (0..n)
+        .map(|m| {
+            let d = n - m;
+            let mut b = vec![0.0; d * d];
+            for a in 0..d {
+                for c in 0..d {
+                    b[a * d + c] = m_full[index(a + m, m as i32) * n * n + index(c + m, m as i32)];
+                }
+            }
+            b
+        })
+        .collect()
+}
+
+/// Ren's log of a zonal g given as the m-blocks of M_{g−1} and h = g − 1 (ZH): the
+/// log is zonal and lives in block 0; the clamp uses the largest eigenvalue of all
+/// blocks (= of the whole M_g).
+pub fn ren_log_zonal_blocks(blocks: &[Vec<f64>], h: &[f64]) -> Result<RenLog, String> {
+    let n = h.len();
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    let mut e0 = None;
+    for (m, b) in blocks.iter().enumerate() {
+        let e = sym_eigen(b, n - m)?;
+        lo = lo.min(1.0 + e.values[0]);
+        hi = hi.max(1.0 + e.values[n - m - 1]);
+        if m == 0 {
+            e0 = Some(e);
+        }
+    }
+    let e = e0.ok_or("no blocks")?;
+    if hi <= 0.0 {
+        return Err(format!("M_g has no positive eigenvalue (largest {hi:e})"));
+    }
+    let mut one0 = vec![0.0; n];
+    one0[0] = (4.0 * PI).sqrt();
+    let (c, clamped) = log_coefficients(&e, h, &one0, hi);
+    let f = (0..n).map(|i| (0..n).map(|k| e.vector(k, i) * c[k]).sum()).collect();
+    Ok(RenLog {
+        f,
+        clamped,
+        lambda: (lo, hi),
+    })
+}
+
+/// Ren's log of a zonal g (ZH vector, order n = `g.len()` ≤ 8), through the Gaunt
+/// tensor's m-blocks (what the table build uses).
+pub fn ren_log_zonal(gaunt: &Gaunt, g: &[f64]) -> Result<RenLog, String> {
+    let mut h = g.to_vec();
+    h[0] -= (4.0 * PI).sqrt();
+    ren_log_zonal_blocks(&zonal_blocks_gaunt(gaunt, &h), &h)
+}
+
+/// ZH of the visibility of a spherical-cap blocker of angular radius `theta_b` (rad)
+/// about +z: g = ZH(1 − cap), closed form (SPEC F9), l < `order`. The cap term is
+/// [`lobefit_tables::log_zh::cap_zh`].
+pub fn cap_visibility_zh(theta_b: f64, order: usize) -> Vec<f64> {
+    let cap = lobefit_tables::log_zh::cap_zh(theta_b, order);
+    let mut g: Vec<f64> = cap[..order].iter().map(|c| -c).collect();
+    g[0] += (4.0 * PI).sqrt();
+    g
+}
+
+/// (a, b, ‖f̂‖) of a training pair (g, f) (SPEC F9, thesis eq. 3.44–3.47):
+/// ĝ = e^{−f_0/√(4π)} g, a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂) (b = 1, the limit, when f̂ = 0).
+pub fn ab_of_pair(g: &[f64], f: &[f64]) -> (f64, f64, f64) {
+    let s = (4.0 * PI).sqrt();
+    let scale = (-f[0] / s).exp();
+    let a = scale * g[0] / s;
+    let ff: f64 = f[1..].iter().map(|v| v * v).sum();
+    let gf: f64 = f[1..].iter().zip(&g[1..]).map(|(a, b)| a * b).sum();
+    let b = if ff > 0.0 { scale * gf / ff } else { 1.0 };
+    (a, b, ff.sqrt())
+}
+
+/// Scaling and squaring: exp*(f) = exp*(f/2^k)^{2^k ∗} (Taylor on f/2^k with the DC
+/// term factored out, then k truncated squarings).
+pub fn exp_scaling_squaring(gaunt: &Gaunt, f: &[f64], k: u32) -> ExpResult {
+    let scaled: Vec<f64> = f.iter().map(|v| v / 2f64.powi(k as i32)).collect();
+    let mut r = exp_star(gaunt, &scaled);
+    for _ in 0..k {
+        r.value = gaunt.product(&r.value, &r.value);
+    }
+    r
+}
+
+/// exp* by plain Taylor (re-exported for symmetry with the other variants).
+pub fn exp_reference(gaunt: &Gaunt, f: &[f64]) -> ExpResult {
+    exp_taylor(gaunt, f)
+}
+
+/// Gauss–Legendre points of the reference's m-block quadrature: the integrand
+/// h(θ) P_l^m P_l'^m is a polynomial of degree ≤ 3(n − 1) ≤ 21 in cosθ (times
+/// sin^{2m}θ, also polynomial), exact with 11 points; 16 leave a margin.
+const REF_GL_POINTS: usize = 16;
+
+/// Independent reference of the m-blocks of M_{g−1} for a zonal h = g − 1: by
+/// quadrature of h(θ) y_l^m y_l'^m (Gauss–Legendre in cosθ, the φ integral done
+/// analytically: 2π for m = 0, π otherwise), not from the Gaunt tensor.
+pub fn zonal_blocks_quadrature(h: &[f64]) -> Vec<Vec<f64>> {
+    let n = h.len();
+    let (xs, ws) = crate::sh::gauss_legendre(REF_GL_POINTS);
+    let mut blocks: Vec<Vec<f64>> = (0..n).map(|m| vec![0.0; (n - m) * (n - m)]).collect();
+    let mut y = [0.0; rt::MAX_COEFFS];
+    for (&t, &w) in xs.iter().zip(&ws) {
+        let s = (1.0 - t * t).sqrt();
+        rt::eval_basis(n, [s, 0.0, t], &mut y).expect("unit vector");
+        // h at this θ: Σ z_l y_l^0.
+        let hv: f64 = (0..n).map(|l| h[l] * y[index(l, 0)]).sum();
+        for (m, b) in blocks.iter_mut().enumerate() {
+            let d = n - m;
+            // At φ = 0 the m > 0 real SH is √2 K P cos(0) = its θ part; ∫cos² mφ dφ = π.
+            let phi = if m == 0 { 2.0 * PI } else { PI };
+            for a in 0..d {
+                for c in 0..d {
+                    b[a * d + c] += w * phi * hv * y[index(a + m, m as i32)] * y[index(c + m, m as i32)];
+                }
+            }
+        }
+    }
+    blocks
+}
+
+/// A Ren log computed independently of [`ren_log_zonal`]'s numerics: product-matrix
+/// blocks by quadrature ([`zonal_blocks_quadrature`]) and the log applied directly,
+/// f = R ln(1 + max(μ, ·)) Rᵀ 1 (not the q-form).
+pub fn ren_log_zonal_reference(g: &[f64]) -> Result<RenLog, String> {
+    let n = g.len();
+    let mut h = g.to_vec();
+    h[0] -= (4.0 * PI).sqrt();
+    let blocks = zonal_blocks_quadrature(&h);
+    let eig: Vec<SymEigen> = blocks
+        .iter()
+        .enumerate()
+        .map(|(m, b)| sym_eigen(b, n - m))
+        .collect::<Result<_, _>>()?;
+    let hi = eig
+        .iter()
+        .map(|e| 1.0 + e.values[e.n - 1])
+        .fold(f64::NEG_INFINITY, f64::max);
+    let lo = eig.iter().map(|e| 1.0 + e.values[0]).fold(f64::INFINITY, f64::min);
+    if hi <= 0.0 {
+        return Err(format!("M_g has no positive eigenvalue (largest {hi:e})"));
+    }
+    let floor = REN_CLAMP * hi;
+    let e = &eig[0];
+    let s = (4.0 * PI).sqrt();
+    let mut f = vec![0.0; n];
+    let mut clamped = 0;
+    for k in 0..n {
+        let mu = e.values[k];
+        let ln = if 1.0 + mu < floor {
+            clamped += 1;
+            floor.ln()
+        } else {
+            mu.ln_1p()
+        };
+        // (Rᵀ 1)_k = r_k[0] √(4π).
+        let w = ln * e.vector(k, 0) * s;
+        for (i, fi) in f.iter_mut().enumerate() {
+            *fi += w * e.vector(k, i);
+        }
+    }
+    Ok(RenLog {
+        f,
+        clamped,
+        lambda: (lo, hi),
+    })
+}
+
+/// Expands a ZH vector (about +z) to a full SH vector of the same order.
+pub fn zh_to_sh_z(zh: &[f64]) -> Vec<f64> {
+    let n = zh.len();
+    let mut v = vec![0.0; n * n];
+    for (l, z) in zh.iter().enumerate() {
+        v[index(l, 0)] = *z;
+    }
+    v
+}
+
+/// SH projection of the exact visibility of a set of caps (axes `dirs`, unit, and
+/// angular radii `radii`): ∫ Π_k (1 − cap_k) y_i dω by the product rule `rule`
+/// (the visibility is discontinuous, so this is an approximation converging with
+/// the rule's size; see the evaluation for the rule used).
+pub fn exact_visibility_sh(rule: &SphereRule, order: usize, dirs: &[[f64; 3]], radii: &[f64]) -> Vec<f64> {
+    let cos: Vec<f64> = radii.iter().map(|r| r.cos()).collect();
+    rule.project(order, |p| {
+        let blocked = dirs
+            .iter()
+            .zip(&cos)
+            .any(|(d, c)| d[0] * p[0] + d[1] * p[1] + d[2] * p[2] > *c);
+        if blocked {
+            0.0
+        } else {
+            1.0
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cap-visibility closed form against the checker's adaptive quadrature.
+    #[test]
+    fn cap_visibility_matches_quadrature() {
+        for &tb in &[1e-3, 0.3, 1.0, PI / 2.0, 2.5] {
+            let c = f64::cos(tb);
+            let (want, ok) = crate::sh::zh_project_gk(8, |t| if t > c { 0.0 } else { 1.0 }, &[c], 1e-14);
+            assert!(ok);
+            let got = cap_visibility_zh(tb, 8);
+            for l in 0..8 {
+                assert!(
+                    (got[l] - want[l]).abs() < 1e-12,
+                    "θ_b={tb} l={l}: {} vs {}",
+                    got[l],
+                    want[l]
+                );
+            }
+        }
+    }
+
+    /// Gaunt-built blocks equal the quadrature-built ones.
+    #[test]
+    fn zonal_blocks_agree() {
+        for n in [3usize, 8] {
+            let g = Gaunt::new(n);
+            let h: Vec<f64> = cap_visibility_zh(0.9, n);
+            let a = zonal_blocks_gaunt(&g, &h);
+            let b = zonal_blocks_quadrature(&h);
+            for (x, y) in a.iter().zip(&b) {
+                for (u, v) in x.iter().zip(y) {
+                    assert!((u - v).abs() < 1e-13, "{u} vs {v}");
+                }
+            }
+        }
+    }
+
+    /// Ren's log of a constant is the constant's log; of g = exp*(f0) it returns f0
+    /// up to the truncation's non-commutativity (M_{exp*(f)} ≠ exp(M_f) once products
+    /// are truncated: second order in f0, ≤ 3e-7 for this f0); the full-matrix, block
+    /// and quadrature-reference versions agree to rounding.
+    #[test]
+    fn ren_log_inverts_exp() {
+        let gaunt = Gaunt::new(4);
+        let mut c = vec![0.0; 16];
+        c[0] = 0.3 * (4.0 * PI).sqrt();
+        let r = ren_log(&gaunt, &c).unwrap();
+        assert!((r.f[0] - 0.3f64.ln() * (4.0 * PI).sqrt()).abs() < 1e-14);
+        assert!(r.f[1..].iter().all(|v| v.abs() < 1e-14));
+        let f0 = [
+            0.1, -0.2, 0.3, 0.05, 0.02, -0.01, 0.04, 0.0, 0.1, 0.0, 0.0, 0.03, -0.05, 0.0, 0.0, 0.01,
+        ];
+        let g = exp_taylor(&gaunt, &f0).value;
+        let r = ren_log(&gaunt, &g).unwrap();
+        assert_eq!(r.clamped, 0);
+        for i in 0..16 {
+            assert!((r.f[i] - f0[i]).abs() < 1e-5, "{i}: {} vs {}", r.f[i], f0[i]);
+        }
+        let gz = cap_visibility_zh(0.4, 4);
+        let full = ren_log(&gaunt, &zh_to_sh_z(&gz)).unwrap();
+        let zonal = ren_log_zonal(&gaunt, &gz).unwrap();
+        let refr = ren_log_zonal_reference(&gz).unwrap();
+        for l in 0..4 {
+            assert!((full.f[index(l, 0)] - zonal.f[l]).abs() < 1e-13);
+            assert!((refr.f[l] - zonal.f[l]).abs() < 1e-13);
+        }
+        assert_eq!(full.lambda.1.to_bits() > 0, zonal.lambda.1 > 0.0);
+        assert!((full.lambda.1 - zonal.lambda.1).abs() < 1e-13);
+    }
+
+    #[test]
+    fn ren_log_bad_input() {
+        let gaunt = Gaunt::new(2);
+        assert!(ren_log(&gaunt, &[1.0; 3]).unwrap_err().contains("coefficients"));
+        assert!(ren_log(&gaunt, &[f64::NAN, 0.0, 0.0, 0.0])
+            .unwrap_err()
+            .contains("non-finite"));
+        assert!(ren_log(&gaunt, &[-1.0, 0.0, 0.0, 0.0])
+            .unwrap_err()
+            .contains("positive"));
+    }
+}
