@@ -8,6 +8,7 @@ pub mod lobe_product;
 pub mod lobe_product_paper;
 pub mod log_zh;
 pub mod sg_fit;
+pub mod shexp;
 pub mod wedge;
 
 use std::path::{Path, PathBuf};
@@ -81,6 +82,7 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         Box::new(sg_fit::SgFitFamily),
         Box::new(log_zh::LogZhFamily::default()),
         Box::new(wedge::WedgeFamily),
+        Box::new(shexp::ShExpFamily::default()),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::Energy,
             method: opts.method,
@@ -133,6 +135,15 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
                 return Err(format!("wedge: --order {order} is outside 1..=8"));
             }
             Ok(Box::new(wedge::WedgeSliceView { order }))
+        }
+        "shexp" => {
+            if flags.variant.is_some() || flags.model.is_some() || flags.kind.is_some() {
+                return Err("shexp takes only --order and --log".into());
+            }
+            Ok(Box::new(shexp::ShExpFamily::from_flags(
+                flags.order,
+                flags.log.as_deref(),
+            )?))
         }
         "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
             let variant = match flags.variant.as_deref() {

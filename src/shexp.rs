@@ -22,7 +22,7 @@ use lobefit_tables::sh::{self as rt, index};
 use crate::eigen::{sym_eigen, SymEigen};
 use crate::sh::{exp_star, exp_taylor, ExpResult, Gaunt, SphereRule};
 
-pub use lobefit_tables::shexp::{hyb_with, ol};
+pub use lobefit_tables::shexp::{ab_of_pair, hyb_with, ol};
 
 /// Ren's eigenvalue clamp: eigenvalues of M_g below this fraction of the largest are
 /// raised to it (thesis §3.7.1; SPEC F9).
@@ -48,8 +48,11 @@ pub const Q_SERIES: f64 = 1e-3;
 pub struct RenLog {
     /// f = log(M_g)·1, same length as g.
     pub f: Vec<f64>,
-    /// Eigenvalues raised by the clamp.
+    /// Eigenvalues raised by the clamp (of block 0 for the zonal versions: the only
+    /// block the log of a zonal g depends on).
     pub clamped: usize,
+    /// The m-block holding the largest eigenvalue (zonal versions; 0 otherwise).
+    pub max_block: usize,
     /// Smallest and largest eigenvalue of M_g (before clamping).
     pub lambda: (f64, f64),
 }
@@ -101,7 +104,12 @@ pub fn ren_log(gaunt: &Gaunt, g: &[f64]) -> Result<RenLog, String> {
     let one0 = crate::sh::one(gaunt.order());
     let (c, clamped) = log_coefficients(&e, &h, &one0, lambda.1);
     let f = (0..nc).map(|i| (0..nc).map(|k| e.vector(k, i) * c[k]).sum()).collect();
-    Ok(RenLog { f, clamped, lambda })
+    Ok(RenLog {
+        f,
+        clamped,
+        lambda,
+        max_block: 0,
+    })
 }
 
 /// The m-blocks of the product matrix of a zonal function (ZH vector `h`, about +z):
@@ -136,10 +144,14 @@ pub fn ren_log_zonal_blocks(blocks: &[Vec<f64>], h: &[f64]) -> Result<RenLog, St
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
     let mut e0 = None;
+    let mut max_block = 0;
     for (m, b) in blocks.iter().enumerate() {
         let e = sym_eigen(b, n - m)?;
         lo = lo.min(1.0 + e.values[0]);
-        hi = hi.max(1.0 + e.values[n - m - 1]);
+        if 1.0 + e.values[n - m - 1] > hi {
+            hi = 1.0 + e.values[n - m - 1];
+            max_block = m;
+        }
         if m == 0 {
             e0 = Some(e);
         }
@@ -156,6 +168,7 @@ pub fn ren_log_zonal_blocks(blocks: &[Vec<f64>], h: &[f64]) -> Result<RenLog, St
         f,
         clamped,
         lambda: (lo, hi),
+        max_block,
     })
 }
 
@@ -168,25 +181,9 @@ pub fn ren_log_zonal(gaunt: &Gaunt, g: &[f64]) -> Result<RenLog, String> {
 }
 
 /// ZH of the visibility of a spherical-cap blocker of angular radius `theta_b` (rad)
-/// about +z: g = ZH(1 − cap), closed form (SPEC F9), l < `order`. The cap term is
-/// [`lobefit_tables::log_zh::cap_zh`].
+/// about +z, l < `order` (the runtime's closed form as a vector).
 pub fn cap_visibility_zh(theta_b: f64, order: usize) -> Vec<f64> {
-    let cap = lobefit_tables::log_zh::cap_zh(theta_b, order);
-    let mut g: Vec<f64> = cap[..order].iter().map(|c| -c).collect();
-    g[0] += (4.0 * PI).sqrt();
-    g
-}
-
-/// (a, b, ‖f̂‖) of a training pair (g, f) (SPEC F9, thesis eq. 3.44–3.47):
-/// ĝ = e^{−f_0/√(4π)} g, a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂) (b = 1, the limit, when f̂ = 0).
-pub fn ab_of_pair(g: &[f64], f: &[f64]) -> (f64, f64, f64) {
-    let s = (4.0 * PI).sqrt();
-    let scale = (-f[0] / s).exp();
-    let a = scale * g[0] / s;
-    let ff: f64 = f[1..].iter().map(|v| v * v).sum();
-    let gf: f64 = f[1..].iter().zip(&g[1..]).map(|(a, b)| a * b).sum();
-    let b = if ff > 0.0 { scale * gf / ff } else { 1.0 };
-    (a, b, ff.sqrt())
+    lobefit_tables::shexp::cap_visibility_zh(theta_b, order)[..order].to_vec()
 }
 
 /// Scaling and squaring: exp*(f) = exp*(f/2^k)^{2^k ∗} (Taylor on f/2^k with the DC
@@ -250,10 +247,11 @@ pub fn ren_log_zonal_reference(g: &[f64]) -> Result<RenLog, String> {
         .enumerate()
         .map(|(m, b)| sym_eigen(b, n - m))
         .collect::<Result<_, _>>()?;
-    let hi = eig
+    let (max_block, hi) = eig
         .iter()
         .map(|e| 1.0 + e.values[e.n - 1])
-        .fold(f64::NEG_INFINITY, f64::max);
+        .enumerate()
+        .fold((0, f64::NEG_INFINITY), |b, (m, v)| if v > b.1 { (m, v) } else { b });
     let lo = eig.iter().map(|e| 1.0 + e.values[0]).fold(f64::INFINITY, f64::min);
     if hi <= 0.0 {
         return Err(format!("M_g has no positive eigenvalue (largest {hi:e})"));
@@ -281,6 +279,7 @@ pub fn ren_log_zonal_reference(g: &[f64]) -> Result<RenLog, String> {
         f,
         clamped,
         lambda: (lo, hi),
+        max_block,
     })
 }
 

@@ -52,45 +52,53 @@ pub const MAX_SQUARINGS: u32 = 64;
 /// order's [`ShExp::norm_max`].
 pub const OL_THRESHOLD: [f64; ORDER_MAX - ORDER_MIN + 1] = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
 
-/// Stored quantities per order, in channel order: f_0..f_{n−1} scaled, ‖f̂‖ scaled,
-/// a, b (each as an f32 hi/lo pair).
-fn per_order(n: usize) -> usize {
-    n + 3
-}
+/// Decoded channels (hi/lo pairs) per node: f_0..f_7 (f_l for l ≥ n is stored as 0),
+/// ‖f̂‖, a, b, kink.
+pub const PAIRS: usize = 12;
+/// Pair index of ‖f̂‖ (scaled); a and b follow.
+const NORM: usize = 8;
+/// Pair index of `kink`: the θ_b (rad) in [θ_i, θ_{i+1}) where the eigenvalue clamp
+/// switches (an eigenvalue of M_g's m = 0 block crosses 0.02 λ_max, or λ_max moves to
+/// another block while the clamp is active): f, ‖f̂‖, a, b have a kink there. −1 when
+/// the interval has none. Interpolation does not straddle a kink: it extrapolates
+/// linearly from the two nodes on the query's side.
+const KINK: usize = 11;
 
-/// First channel (of the decoded hi/lo pairs, i.e. pair index) of order `n`.
-fn pair_offset(n: usize) -> usize {
-    (ORDER_MIN..n).map(per_order).sum()
-}
-
-/// Pairs per node (all orders).
-pub const PAIRS: usize = 51;
-
-/// Names of the stored channels: `n{order}_{f0..|norm|a|b}_{hi|lo}`.
+/// Names of the stored channels: `{f0..f7|norm|a|b}_{hi|lo}`.
 pub fn channel_names() -> Vec<String> {
-    let mut v = Vec::new();
-    for n in ORDER_MIN..=ORDER_MAX {
-        let mut q: Vec<String> = (0..n).map(|l| format!("f{l}")).collect();
-        q.extend(["norm".to_string(), "a".into(), "b".into()]);
-        for name in q {
-            v.push(format!("n{n}_{name}_hi"));
-            v.push(format!("n{n}_{name}_lo"));
-        }
-    }
-    v
+    let mut q: Vec<String> = (0..8).map(|l| format!("f{l}")).collect();
+    q.extend(["norm".to_string(), "a".into(), "b".into(), "kink".into()]);
+    q.iter().flat_map(|n| [format!("{n}_hi"), format!("{n}_lo")]).collect()
 }
 
-/// The table's single axis: θ_b ∈ [0, π/2] rad, uniform, end-points.
-pub fn axis() -> Axis {
-    Axis {
-        name: "theta_b".into(),
-        unit: "rad".into(),
-        lo: 0.0,
-        hi: THETA_MAX,
-        mapping: Mapping::Linear,
-        count: THETA_NODES,
-        placement: Placement::Endpoints,
-    }
+/// The table's axes, slowest first: `order` (3..8, one node each) and θ_b ∈ [0, π/2]
+/// rad (uniform, end-points).
+pub fn axes() -> Vec<Axis> {
+    vec![
+        Axis {
+            name: "order".into(),
+            unit: "1".into(),
+            lo: ORDER_MIN as f64,
+            hi: ORDER_MAX as f64,
+            mapping: Mapping::Linear,
+            count: (ORDER_MAX - ORDER_MIN + 1) as u32,
+            placement: Placement::Endpoints,
+        },
+        Axis {
+            name: "theta_b".into(),
+            unit: "rad".into(),
+            lo: 0.0,
+            hi: THETA_MAX,
+            mapping: Mapping::Linear,
+            count: THETA_NODES,
+            placement: Placement::Endpoints,
+        },
+    ]
+}
+
+/// θ_b of node `i` (rad).
+pub fn node_theta(i: usize) -> f64 {
+    THETA_MAX * i as f64 / (THETA_NODES - 1) as f64
 }
 
 /// 1 − cosθ, accurate for small θ.
@@ -114,6 +122,33 @@ fn check_order(order: usize) -> Result<usize, LookupError> {
 /// The OL threshold of [`OL_THRESHOLD`] for `order` (3..=8).
 pub fn ol_threshold(order: usize) -> Result<f64, LookupError> {
     Ok(OL_THRESHOLD[check_order(order)? - ORDER_MIN])
+}
+
+/// ZH of the visibility g = 1 − cap of a cap of angular radius `theta_b` (rad) about
+/// +z, l < `order` ≤ 8 (closed form of SPEC F9: the cap term is
+/// [`crate::log_zh::cap_zh`]); entries ≥ `order` are 0.
+pub fn cap_visibility_zh(theta_b: f64, order: usize) -> [f64; sh::MAX_ORDER] {
+    let cap = crate::log_zh::cap_zh(theta_b, order);
+    let mut g = [0.0; sh::MAX_ORDER];
+    for (gl, c) in g.iter_mut().zip(&cap).take(order) {
+        *gl = -c;
+    }
+    g[0] += (4.0 * PI).sqrt();
+    g
+}
+
+/// (a, b, ‖f̂‖) of a pair (g, f) of a visibility and its log (ZH or SH vectors of the
+/// same length; SPEC F9, thesis eq. 3.44–3.47): ĝ = e^{−f_0/√(4π)} g,
+/// a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂) — the least-squares OL fit of ĝ on {1, f̂}.
+/// b = 1 (its limit) when f̂ = 0.
+pub fn ab_of_pair(g: &[f64], f: &[f64]) -> (f64, f64, f64) {
+    let s = (4.0 * PI).sqrt();
+    let scale = (-f[0] / s).exp();
+    let a = scale * g[0] / s;
+    let ff: f64 = f[1..].iter().map(|v| v * v).sum();
+    let gf: f64 = f[1..].iter().zip(&g[1..]).map(|(a, b)| a * b).sum();
+    let b = if ff > 0.0 { scale * gf / ff } else { 1.0 };
+    (a, b, ff.sqrt())
 }
 
 /// OL: exp*(f̂) ≈ a 1 + b f̂ for a DC-free `fhat` (n² coefficients; `fhat[0]` is
@@ -207,7 +242,7 @@ struct Branch {
     b: Vec<f64>,
 }
 
-/// The shexp table: per order 3..8, f, ‖f̂‖, a, b of cap blockers vs θ_b, and the a/b
+/// The shexp table (axes `order` × `theta_b`, [`PAIRS`] f32 pairs per node): per order 3..8, f, ‖f̂‖, a, b of cap blockers vs θ_b, and the a/b
 /// lookup vs ‖f̂‖ that HYB uses.
 #[derive(Debug, Clone)]
 pub struct ShExp {
@@ -226,8 +261,8 @@ impl ShExp {
         table.expect_kind(KIND, VERSION)?;
         let names = channel_names();
         let chans: Vec<(&str, Encoding)> = names.iter().map(|c| (c.as_str(), Encoding::Linear)).collect();
-        table.expect_layout_1d(&axis(), &chans)?;
-        if table.meta().axes[0].count != THETA_NODES {
+        table.expect_layout(&axes(), &chans)?;
+        if table.meta().axes != axes() {
             return Err(LoadError::LayoutMismatch {
                 kind: KIND.into(),
                 detail: format!("expected {THETA_NODES} theta_b nodes"),
@@ -240,17 +275,17 @@ impl ShExp {
         for n in ORDER_MIN..=ORDER_MAX {
             let mut br = Branch {
                 norm: vec![0.0],
-                a: vec![t.pair(0, n, n + 1)],
-                b: vec![t.pair(0, n, n + 2)],
+                a: vec![t.pair(0, n, NORM + 1)],
+                b: vec![t.pair(0, n, NORM + 2)],
             };
             for i in 1..THETA_NODES as usize {
-                let norm = t.pair(i, n, n) * one_minus_cos(t.node_theta(i));
+                let norm = t.pair(i, n, NORM) * one_minus_cos(t.node_theta(i));
                 if norm <= *br.norm.last().expect("non-empty") {
                     break;
                 }
                 br.norm.push(norm);
-                br.a.push(t.pair(i, n, n + 1));
-                br.b.push(t.pair(i, n, n + 2));
+                br.a.push(t.pair(i, n, NORM + 1));
+                br.b.push(t.pair(i, n, NORM + 2));
             }
             if br.norm.len() < 2 || *br.norm.last().expect("non-empty") < OL_THRESHOLD[n - ORDER_MIN] {
                 return Err(LoadError::Invalid(format!(
@@ -271,30 +306,77 @@ impl ShExp {
             .map_err(Clone::clone)
     }
 
-    /// The underlying table (one row per θ_b node; channels of [`channel_names`]).
+    /// The underlying table (row-major [order][θ_b], channels of [`channel_names`]), e.g.
+    /// for GPU upload.
     pub fn table(&self) -> &Table {
         &self.table
     }
 
     fn node_theta(&self, i: usize) -> f64 {
-        THETA_MAX * i as f64 / (THETA_NODES - 1) as f64
+        node_theta(i)
     }
 
-    /// Decoded pair `q` (0-based within order `n`) at node `i`.
+    /// Decoded pair `q` of order `n` at θ_b node `i`.
     fn pair(&self, i: usize, n: usize, q: usize) -> f64 {
-        let c = 2 * (pair_offset(n) + q);
-        let row = &self.table.values()[i * 2 * PAIRS..];
+        let c = 2 * q;
+        let row = &self.table.values()[((n - ORDER_MIN) * THETA_NODES as usize + i) * 2 * PAIRS..];
         row[c] as f64 + row[c + 1] as f64
     }
 
-    /// Linear interpolation of the pairs q ∈ `qs` of order n at θ_b.
+    /// Whether the interval [θ_j, θ_{j+1}) of order n holds a kink.
+    fn has_kink(&self, j: usize, n: usize) -> bool {
+        self.pair(j, n, KINK) >= 0.0
+    }
+
+    /// Cubic (4-point Lagrange) interpolation of the pairs q ∈ `qs` of order n at θ_b,
+    /// on a stencil that never straddles a clamp kink (see [`KINK`]): nodes i−1..i+2
+    /// around the interval [θ_i, θ_{i+1}] holding θ_b, cut at kinks, extended on the
+    /// query's side to at least 3 nodes (extrapolating up to the kink), linear when
+    /// kinks leave only 2.
     fn interp<const K: usize>(&self, theta_b: f64, n: usize, qs: [usize; K]) -> Result<[f64; K], LookupError> {
         let theta = in_range("theta_b", theta_b, 0.0, THETA_MAX)?;
         let last = THETA_NODES as usize - 1;
         let s = (theta / THETA_MAX * last as f64).clamp(0.0, last as f64);
         let i = (s.floor() as usize).min(last - 1);
-        let w = s - i as f64;
-        Ok(qs.map(|q| (1.0 - w) * self.pair(i, n, q) + w * self.pair(i + 1, n, q)))
+        // The kink-free piece [lo, hi] of node indices on θ_b's side.
+        let (mut lo, mut hi) = (i, i + 1);
+        if self.has_kink(i, n) {
+            if theta <= self.pair(i, n, KINK) {
+                hi = i;
+            } else {
+                lo = i + 1;
+            }
+        }
+        // Grow towards the centred stencil i−1..i+2, then to 3 nodes if needed.
+        let (want_lo, want_hi) = (i.saturating_sub(1), (i + 2).min(last));
+        while lo > want_lo && !self.has_kink(lo - 1, n) {
+            lo -= 1;
+        }
+        while hi < want_hi && !self.has_kink(hi, n) {
+            hi += 1;
+        }
+        while hi - lo < 2 {
+            if lo > 0 && !self.has_kink(lo - 1, n) && (hi >= last || self.has_kink(hi, n) || theta < node_theta(lo)) {
+                lo -= 1;
+            } else if hi < last && !self.has_kink(hi, n) {
+                hi += 1;
+            } else {
+                break;
+            }
+        }
+        let x = s;
+        let mut out = [0.0; K];
+        for j in lo..=hi {
+            // Lagrange basis in node-index units.
+            let w: f64 = (lo..=hi)
+                .filter(|&m| m != j)
+                .map(|m| (x - m as f64) / (j as f64 - m as f64))
+                .product();
+            for (o, &q) in out.iter_mut().zip(&qs) {
+                *o += w * self.pair(j, n, q);
+            }
+        }
+        Ok(out)
     }
 
     /// Ren's log-ZH f_0..f_{n−1} of the visibility of a cap blocker of angular radius
@@ -330,7 +412,7 @@ impl ShExp {
     /// (a, b) of the cap of radius `theta_b` ∈ [0, π/2] at order 3..=8.
     pub fn norm_ab(&self, theta_b: f64, order: usize) -> Result<(f64, f64, f64), LookupError> {
         let n = check_order(order)?;
-        let [t, a, b] = self.interp(theta_b, n, [n, n + 1, n + 2])?;
+        let [t, a, b] = self.interp(theta_b, n, [NORM, NORM + 1, NORM + 2])?;
         Ok((t * one_minus_cos(theta_b), a, b))
     }
 
@@ -412,9 +494,9 @@ mod tests {
 
     #[test]
     fn layout_constants() {
-        assert_eq!(PAIRS, (ORDER_MIN..=ORDER_MAX).map(per_order).sum::<usize>());
         assert_eq!(channel_names().len(), 2 * PAIRS);
-        assert_eq!(pair_offset(4), 6);
+        assert_eq!(channel_names()[2 * NORM], "norm_hi");
+        assert_eq!(channel_names()[2 * KINK + 1], "kink_lo");
     }
 
     /// OL with (a, b) = (1, 1) is the first-order Taylor polynomial; HYB of a pure DC
