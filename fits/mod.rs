@@ -176,5 +176,6 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
         ("isg", isg::plot),
         ("lobe-product", lobe_product::plot),
         ("log-zh", crate::eps_study::plot),
+        ("shexp", crate::shexp_study::plot),
     ]
 }

@@ -21,6 +21,7 @@ pub mod quad;
 pub mod rng;
 pub mod sh;
 pub mod shexp;
+pub mod shexp_study;
 
 /// The table families, one module each (kept in `fits/` at the repository root).
 #[path = "../fits/mod.rs"]

@@ -369,8 +369,8 @@ mod tests {
         let g = exp_taylor(&gaunt, &f0).value;
         let r = ren_log(&gaunt, &g).unwrap();
         assert_eq!(r.clamped, 0);
-        for i in 0..16 {
-            assert!((r.f[i] - f0[i]).abs() < 1e-5, "{i}: {} vs {}", r.f[i], f0[i]);
+        for (i, (a, b)) in r.f.iter().zip(&f0).enumerate() {
+            assert!((a - b).abs() < 1e-5, "{i}: {a} vs {b}");
         }
         let gz = cap_visibility_zh(0.4, 4);
         let full = ren_log(&gaunt, &zh_to_sh_z(&gz)).unwrap();
