@@ -20,7 +20,7 @@ use lobefit_tables::log_zh::{EPS_MAX, EPS_MIN};
 use lobefit_tables::shexp::{self as rt, ab_of_pair, cap_visibility_zh, one_minus_cos, ShExp, ORDER_MAX, ORDER_MIN};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Family, Fitted, Lookup};
+use crate::family::{Extra, Family, Fitted, Lookup};
 use crate::rng::Rng;
 use crate::sh::Gaunt;
 use crate::shexp::{ren_log_zonal, ren_log_zonal_reference};
@@ -332,6 +332,45 @@ impl Family for ShExpFamily {
             Some((_, LogKind::Naive)) => vec![t, rng.range(EPS_MIN, EPS_MAX)],
             _ => vec![t],
         }
+    }
+    /// Measured distributions (no threshold), whole-table view only, per order:
+    /// HYB (default threshold) vs Taylor exp* on `count` random 2–400-blocker scenes
+    /// accumulated from this table, and Ren's round trip ‖exp*(log g) − g‖/‖g‖ on
+    /// `count` caps.
+    fn extra_checks(&self, table: &Table, count: usize, seed: u64) -> Vec<(String, Result<Extra, String>)> {
+        if self.view.is_some() {
+            return Vec::new();
+        }
+        let rt = match ShExp::from_table(table.clone()) {
+            Ok(t) => t,
+            Err(e) => return vec![("hyb".into(), Err(e.to_string()))],
+        };
+        let scenes = crate::shexp_study::scene_geometry(count, seed);
+        let mut out = Vec::new();
+        for n in ORDER_MIN..=ORDER_MAX {
+            let gaunt = Gaunt::cached(n).expect("order in 3..=8");
+            let hyb = scenes
+                .iter()
+                .map(|s| {
+                    let f = crate::shexp_study::scene_log(&rt, s, n)?;
+                    let mut h = vec![0.0; n * n];
+                    rt.hyb(&f, &mut h).map_err(|e| e.to_string())?;
+                    Ok(crate::shexp_study::rel_l2(&h, &crate::sh::exp_star(gaunt, &f).value))
+                })
+                .collect::<Result<Vec<f64>, String>>();
+            out.push((format!("n{n}_hyb_vs_taylor_scenes"), hyb.map(Extra::Values)));
+            let trip = (1..=count)
+                .map(|i| {
+                    let theta = rt::THETA_MAX * i as f64 / count as f64;
+                    let g = cap_visibility_zh(theta, n)[..n].to_vec();
+                    let f = ren_log_zonal(gaunt, &g)?.f;
+                    let back = crate::sh::exp_star(gaunt, &crate::shexp::zh_to_sh_z(&f)).value;
+                    Ok(crate::shexp_study::rel_l2(&back, &crate::shexp::zh_to_sh_z(&g)))
+                })
+                .collect::<Result<Vec<f64>, String>>();
+            out.push((format!("n{n}_ren_round_trip_caps"), trip.map(Extra::Values)));
+        }
+        out
     }
     /// f in units of the reference's ‖f‖ (per order); ‖f̂‖, a, b as they are.
     fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {

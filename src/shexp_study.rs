@@ -70,9 +70,19 @@ pub struct Scene {
 }
 
 /// `count` seeded random scenes (blocker count log-uniform in [`SCENE_BLOCKERS`],
-/// directions uniform, radii log-uniform in [`SCENE_RADIUS_MIN`], min(π/2, 1.5/√K)]).
+/// directions uniform, radii log-uniform in [`SCENE_RADIUS_MIN`], min(π/2, 1.5/√K)]),
+/// with the exact visibility projected by [`EXACT_RULE`].
 pub fn scenes(count: usize, seed: u64) -> Vec<Scene> {
     let rule = SphereRule::new(EXACT_RULE.0, EXACT_RULE.1);
+    let mut v = scene_geometry(count, seed);
+    for s in &mut v {
+        s.exact = exact_visibility_sh(&rule, ORDER_MAX, &s.dirs, &s.radii);
+    }
+    v
+}
+
+/// The scenes of [`scenes`] without the (expensive) exact projection: `exact` is empty.
+pub fn scene_geometry(count: usize, seed: u64) -> Vec<Scene> {
     let mut rng = Rng::new(seed);
     (0..count)
         .map(|_| {
@@ -88,8 +98,11 @@ pub fn scenes(count: usize, seed: u64) -> Vec<Scene> {
                 dirs.push([s * phi.cos(), s * phi.sin(), z]);
                 radii.push(rng.range(SCENE_RADIUS_MIN.ln(), rmax.ln()).exp());
             }
-            let exact = exact_visibility_sh(&rule, ORDER_MAX, &dirs, &radii);
-            Scene { dirs, radii, exact }
+            Scene {
+                dirs,
+                radii,
+                exact: Vec::new(),
+            }
         })
         .collect()
 }
