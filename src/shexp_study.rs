@@ -177,28 +177,59 @@ pub fn scene_samples(rt: &ShExp, scenes: &[Scene], order: usize, t: f64) -> Resu
         .collect()
 }
 
-/// Round trip of Ren's log per order: ‖exp*(log g) − g‖/‖g‖ over `count` caps
-/// θ_b ∈ (0, π/2], split at the clamp onset: (max without clamp, max with clamp, θ_b
-/// of the onset).
-pub fn round_trip(order: usize, count: usize) -> Result<(f64, f64, f64), String> {
+/// Round trips per order, max of ‖exp*(log g) − g‖/‖g‖ over `count` caps θ_b ∈ (0, π/2].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoundTrip {
+    /// Ren's log, caps without clamping.
+    pub ren_free: f64,
+    /// Ren's log, caps with clamping.
+    pub ren_clamped: f64,
+    /// θ_b of the clamp onset (first clamped cap).
+    pub onset: f64,
+    /// The LM "inverse exp*" log (from Ren's), caps without clamping.
+    pub lm_free: f64,
+    /// The LM log, caps with clamping.
+    pub lm_clamped: f64,
+}
+
+/// The LM log's round trip is measured on every 4th cap of [`round_trip`].
+pub const LM_EVERY: usize = 4;
+
+/// Round trip of Ren's log (every cap) and of the LM log (every [`LM_EVERY`]-th) per
+/// order over `count` caps.
+pub fn round_trip(order: usize, count: usize) -> Result<RoundTrip, String> {
     let gaunt = Gaunt::cached(order).map_err(|e| e.to_string())?;
-    let (mut free, mut clamped, mut onset) = (0.0f64, 0.0f64, f64::NAN);
+    let mut rtp = RoundTrip {
+        ren_free: 0.0,
+        ren_clamped: 0.0,
+        onset: f64::NAN,
+        lm_free: 0.0,
+        lm_clamped: 0.0,
+    };
     for i in 1..=count {
         let theta = PI / 2.0 * i as f64 / count as f64;
         let g = cap_visibility_zh(theta, order)[..order].to_vec();
         let r = ren_log_zonal(gaunt, &g)?;
         let back = exp_star(gaunt, &zh_to_sh_z(&r.f)).value;
         let e = rel_l2(&back, &zh_to_sh_z(&g));
-        if r.clamped == 0 {
-            free = free.max(e);
+        // LM (slow where it ends in a local minimum) on every LM_EVERY-th cap.
+        let lm = if i % LM_EVERY == 0 {
+            crate::shexp::lm_log_zonal(gaunt, &g)?.residual
         } else {
-            if onset.is_nan() {
-                onset = theta;
+            0.0
+        };
+        if r.clamped == 0 {
+            rtp.ren_free = rtp.ren_free.max(e);
+            rtp.lm_free = rtp.lm_free.max(lm);
+        } else {
+            if rtp.onset.is_nan() {
+                rtp.onset = theta;
             }
-            clamped = clamped.max(e);
+            rtp.ren_clamped = rtp.ren_clamped.max(e);
+            rtp.lm_clamped = rtp.lm_clamped.max(lm);
         }
     }
-    Ok((free, clamped, onset))
+    Ok(rtp)
 }
 
 /// Median and max of a sample (NaN when empty).
@@ -307,8 +338,8 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     let mut out = Vec::new();
     let mut csv = String::from("order,kind,blockers,norm,hyb_taylor,taylor_exact,hyb_exact,ss_taylor,squarings\n");
     let mut md = String::from(
-        "| order | T (chosen; meets the criterion) | norm max (branch end θ_b) | round trip max: no clamp / clamp (onset θ_b) | caps ‖f̂‖≤T HYB–Taylor median / max | scenes HYB–Taylor median / max | scenes ‖f̂‖≤T HYB–Taylor median / max (count) | scenes Taylor–exact median / max | scenes HYB–exact median / max | caps at T=4.8: HYB–Taylor median / max | scenes at T=4.8: HYB–exact median / max |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| order | T (chosen; meets the criterion) | norm max (branch end θ_b) | round trip max: no clamp / clamp (onset θ_b) | LM log round trip max: no clamp / clamp | caps ‖f̂‖≤T HYB–Taylor median / max | scenes HYB–Taylor median / max | scenes ‖f̂‖≤T HYB–Taylor median / max (count) | scenes Taylor–exact median / max | scenes HYB–exact median / max | caps at T=4.8: HYB–Taylor median / max | scenes at T=4.8: HYB–exact median / max |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mm = |v: Vec<f64>| {
         let (m, x) = median_max(v);
@@ -321,7 +352,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         let ren = 4.8f64.min(rt.norm_max(n).map_err(|e| e.to_string())?);
         let caps48 = single_caps(rt, n, ren, STUDY_CAPS)?;
         let scn48 = scene_samples(rt, &sc, n, ren)?;
-        let (free, clamped, onset) = round_trip(n, STUDY_CAPS)?;
+        let trip = round_trip(n, STUDY_CAPS)?;
         for (kind, v) in [("cap", &caps), ("scene", &scn)] {
             for x in v.iter() {
                 csv.push_str(&format!(
@@ -333,10 +364,15 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         let below: Vec<f64> = scn.iter().filter(|x| x.norm <= t).map(|x| x.hyb_taylor).collect();
         let nb = below.len();
         md.push_str(&format!(
-            "| {n} | {t} ({}) | {:.3} ({:.3}) | {free:.2e} / {clamped:.2e} ({onset:.3}) | {} | {} | {} ({nb}) | {} | {} | {} | {} |\n",
+            "| {n} | {t} ({}) | {:.3} ({:.3}) | {:.2e} / {:.2e} ({:.3}) | {:.2e} / {:.2e} | {} | {} | {} ({nb}) | {} | {} | {} | {} |\n",
             if acceptable { "yes" } else { "no: smallest candidate" },
             rt.norm_max(n).map_err(|e| e.to_string())?,
             rt.branch_end_theta(n).map_err(|e| e.to_string())?,
+            trip.ren_free,
+            trip.ren_clamped,
+            trip.onset,
+            trip.lm_free,
+            trip.lm_clamped,
             mm(caps.iter().filter(|x| x.norm <= t).map(|x| x.hyb_taylor).collect()),
             mm(scn.iter().map(|x| x.hyb_taylor).collect()),
             mm(below),
