@@ -118,6 +118,15 @@ fn hyb_against_taylor() {
         // Scaling and squaring with the same k is what HYB approximates.
         let ss = exp_scaling_squaring(&gaunt, &f, k).value;
         assert!(rel_l2(&got, &ss) < 1e-2);
+        let (nn, aa, bb) = t.norm_ab(0.6, n).unwrap();
+        let (n32, a32, b32) = t.norm_ab_f32(0.6, n).unwrap();
+        assert!((n32 as f64 / nn - 1.0).abs() < 1e-6 && (a32 as f64 / aa - 1.0).abs() < 1e-6);
+        assert!((b32 as f64 / bb - 1.0).abs() < 1e-6);
+        let (a2, _) = t.ab_for_norm_f32(nn as f32, n).unwrap();
+        assert!((a2 as f64 / aa - 1.0).abs() < 1e-4);
+        let mut z32 = [0.0f32; 8];
+        t.log_zh_f32(0.6, n, &mut z32).unwrap();
+        assert!((z32[0] as f64 - zh[0]).abs() < 1e-6 * zh[0].abs());
         let f32v: Vec<f32> = f.iter().map(|v| *v as f32).collect();
         let mut o32 = vec![0.0f32; n * n];
         t.hyb_f32(&f32v, &mut o32).unwrap();

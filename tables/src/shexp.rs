@@ -393,7 +393,8 @@ impl ShExp {
                 got: out.len(),
             });
         }
-        let v = self.interp(theta_b, n, [0, 1, 2, 3, 4, 5, 6, 7].map(|q| q.min(n - 1)))?;
+        // Slots l ≥ n are stored as 0: interpolating all eight is harmless.
+        let v = self.interp(theta_b, n, [0, 1, 2, 3, 4, 5, 6, 7])?;
         let s = one_minus_cos(theta_b);
         for (o, x) in out.iter_mut().zip(&v[..n]) {
             *o = x * s;
@@ -405,10 +406,28 @@ impl ShExp {
     pub fn log_zh_f32(&self, theta_b: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
         let mut tmp = [0.0; 8];
         self.log_zh(theta_b as f64, order, &mut tmp)?;
+        if out.len() < order {
+            return Err(LookupError::Channels {
+                expected: order,
+                got: out.len(),
+            });
+        }
         for (o, t) in out.iter_mut().zip(&tmp[..order]) {
             *o = *t as f32;
         }
         Ok(())
+    }
+
+    /// [`ShExp::norm_ab`] in single precision (computed in f64).
+    pub fn norm_ab_f32(&self, theta_b: f32, order: usize) -> Result<(f32, f32, f32), LookupError> {
+        let (n, a, b) = self.norm_ab(theta_b as f64, order)?;
+        Ok((n as f32, a as f32, b as f32))
+    }
+
+    /// [`ShExp::ab_for_norm`] in single precision (computed in f64).
+    pub fn ab_for_norm_f32(&self, norm: f32, order: usize) -> Result<(f32, f32), LookupError> {
+        let (a, b) = self.ab_for_norm(norm as f64, order)?;
+        Ok((a as f32, b as f32))
     }
 
     /// ‖f̂‖ (the norm of the log-ZH without its DC term) and the OL coefficients
