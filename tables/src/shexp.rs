@@ -245,8 +245,8 @@ struct Branch {
     b: Vec<f64>,
 }
 
-/// The shexp table (axes `order` × `theta_b`, [`PAIRS`] f32 pairs per node): per order 3..8, f, ‖f̂‖, a, b of cap blockers vs θ_b, and the a/b
-/// lookup vs ‖f̂‖ that HYB uses.
+/// The shexp table (axes `order` × `theta_b`, [`PAIRS`] f32 pairs per node): per order
+/// 3..8, f, ‖f̂‖, a, b of cap blockers vs θ_b, and the a/b lookup vs ‖f̂‖ that HYB uses.
 #[derive(Debug, Clone)]
 pub struct ShExp {
     table: Table,
