@@ -2,7 +2,7 @@
 //! halving, OL from the `shexp` table, truncated squarings) beside the Taylor
 //! reference exp* (DC factored out, run to convergence), at orders 3, 4, 5 on an
 //! accumulated vector of three blockers (‖f̂‖ = 0.84, 1.11, 1.51 at orders 3, 4, 5:
-//! 1, 4, 4 squarings at the default thresholds, none at Ren's 4.8).
+//! 1, 4, 5 squarings at the default thresholds, none at Ren's 4.8).
 //! `cargo bench --bench shexp`.
 
 use divan::black_box;

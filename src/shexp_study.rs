@@ -241,11 +241,12 @@ pub fn median_max(mut v: Vec<f64>) -> (f64, f64) {
     (v[v.len() / 2], v[v.len() - 1])
 }
 
-/// Candidate OL thresholds at `order`: 0.125, 0.25, 0.5, 0.75, … up to the table's monotone-branch
+/// Candidate OL thresholds at `order`: 1/64, 1/32, 1/16, 1/8, then 0.25, 0.5, 0.75, … up to the table's monotone-branch
 /// end, and Ren et al.'s 4.8 when it fits.
 pub fn candidates(rt: &ShExp, order: usize) -> Result<Vec<f64>, String> {
     let top = rt.norm_max(order).map_err(|e| e.to_string())?;
-    let mut v: Vec<f64> = std::iter::once(0.125)
+    let mut v: Vec<f64> = [1.0 / 64.0, 1.0 / 32.0, 1.0 / 16.0, 0.125]
+        .into_iter()
         .chain((1..).map(|k| 0.25 * k as f64).take_while(|&t| t <= top))
         .collect();
     if 4.8 <= top && !v.contains(&4.8) {

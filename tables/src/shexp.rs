@@ -49,11 +49,10 @@ pub const MAX_SQUARINGS: u32 = 64;
 
 /// OL threshold per order 3..8 (largest ‖f̂‖ handed to OL before halving), chosen
 /// from the evaluation in docs/shexp.md (`lobefit plot shexp`; Ren et al.: 4.8): the
-/// largest candidate (0.125, 0.25, 0.5, …) whose HYB error vs the exact visibility
-/// stays within 25 % of exact exp*'s on random multi-blocker scenes and single caps.
-/// Orders ≥ 5 meet that at no candidate; they use the smallest, 0.125. Each is
-/// below the order's [`ShExp::norm_max`].
-pub const OL_THRESHOLD: [f64; ORDER_MAX - ORDER_MIN + 1] = [0.5, 0.125, 0.125, 0.125, 0.125, 0.125];
+/// largest candidate (1/64, 1/32, 1/16, 1/8, 0.25, 0.5, …) whose HYB error vs the
+/// exact visibility stays within 25 % of exact exp*'s on random multi-blocker scenes
+/// and single caps. Each is below the order's [`ShExp::norm_max`].
+pub const OL_THRESHOLD: [f64; ORDER_MAX - ORDER_MIN + 1] = [0.5, 0.125, 0.0625, 0.0625, 0.03125, 0.03125];
 
 /// Decoded channels (hi/lo pairs) per node: f_0..f_7 (f_l for l ≥ n is stored as 0),
 /// ‖f̂‖, a, b, kink.
