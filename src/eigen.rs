@@ -8,7 +8,8 @@
 /// Off-diagonal Frobenius norm, relative to the whole matrix's, at which the sweeps
 /// stop: at rounding level for f64.
 pub const JACOBI_TOL: f64 = 1e-16;
-/// Sweeps allowed (Jacobi converges quadratically; ~6–10 sweeps suffice for n ≤ 64).
+/// Sweeps allowed before giving up (Jacobi converges quadratically once the
+/// off-diagonal is small, so this is a safety net, not a tuning knob).
 pub const JACOBI_MAX_SWEEPS: usize = 60;
 
 /// Eigenvalues and orthonormal eigenvectors of a symmetric matrix.

@@ -289,7 +289,7 @@ pub const LM_MAX_ITER: usize = 200;
 /// the Taylor exp* it inverts.
 pub const LM_TOL: f64 = 1e-13;
 /// Central-difference step of the Jacobian, relative to max(1, |f_j|): balances the
-/// O(h²) truncation and the O(ε/h) rounding of exp* (both ≈ 1e-11 here).
+/// O(h²) truncation and the O(ε/h) rounding of exp* (ε ≈ 1e-16: h ≈ ε^{1/3}).
 const LM_FD_STEP: f64 = 1e-5;
 
 /// Result of [`lm_log`].

@@ -134,7 +134,7 @@ impl Gaunt {
         Self::try_new(order).expect("Gaunt order must be 1..=8")
     }
 
-    /// The shared tensor of `order`, built once per process (order 8 takes ~10 ms).
+    /// The shared tensor of `order`, built once per process on first use.
     pub fn cached(order: usize) -> Result<&'static Gaunt, LookupError> {
         static CELLS: [std::sync::OnceLock<Gaunt>; MAX_ORDER] = [const { std::sync::OnceLock::new() }; MAX_ORDER];
         let n = rt::check_order(order)?;
