@@ -9,6 +9,7 @@ pub mod lobe_product;
 pub mod lobe_product_paper;
 pub mod log_zh;
 pub mod sg_fit;
+pub mod shexp;
 pub mod wedge;
 pub mod wrap;
 
@@ -85,6 +86,7 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
         Box::new(wedge::WedgeFamily),
         Box::new(wrap::WrapFamily::default()),
         Box::new(disk_light::DiskLightFamily),
+        Box::new(shexp::ShExpFamily::default()),
         Box::new(lobe_product::LobeProductFamily {
             variant: lobefit_tables::Variant::Energy,
             method: opts.method,
@@ -148,6 +150,15 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
             }
             Ok(Box::new(wrap::WrapFamily { order }))
         }
+        "shexp" => {
+            if flags.variant.is_some() || flags.model.is_some() || flags.kind.is_some() {
+                return Err("shexp takes only --order and --log".into());
+            }
+            Ok(Box::new(shexp::ShExpFamily::from_flags(
+                flags.order,
+                flags.log.as_deref(),
+            )?))
+        }
         "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
             let variant = match flags.variant.as_deref() {
                 None | Some("energy") => lobefit_tables::Variant::Energy,
@@ -181,5 +192,6 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
         ("lobe-product", lobe_product::plot),
         ("log-zh", crate::eps_study::plot),
         ("rigs", crate::rigs::plot),
+        ("shexp", crate::shexp_study::plot),
     ]
 }

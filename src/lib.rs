@@ -10,6 +10,7 @@
 
 pub mod build;
 pub mod check;
+pub mod eigen;
 pub mod eps_study;
 pub mod eval;
 pub mod family;
@@ -20,6 +21,8 @@ pub mod quad;
 pub mod rigs;
 pub mod rng;
 pub mod sh;
+pub mod shexp;
+pub mod shexp_study;
 
 /// The table families, one module each (kept in `fits/` at the repository root).
 #[path = "../fits/mod.rs"]

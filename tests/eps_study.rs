@@ -43,7 +43,8 @@ fn zonal_gaunt(n: usize) -> Vec<f64> {
 
 /// exp*(f) = Σ_k f^{k∗}/k! = expm(M_f) 1 with M_f x = x ∗ f (the Taylor series'
 /// definition: f^{k∗} = M_f f^{(k−1)∗}). M_f is symmetric (Γ is), so
-/// expm(M_f) = Q e^Λ Qᵀ from a cyclic Jacobi eigen-decomposition. Note: scaling and
+/// expm(M_f) = Q e^Λ Qᵀ from the library's cyclic Jacobi eigen-decomposition
+/// (`lobefit::eigen`, tested against closed forms there). Note: scaling and
 /// squaring is NOT an independent path for this, the truncated product being
 /// non-associative (it is one of SPEC F9's approximations).
 fn exp_by_eigen(g: &[f64], n: usize, f: &[f64]) -> Vec<f64> {
@@ -53,52 +54,15 @@ fn exp_by_eigen(g: &[f64], n: usize, f: &[f64]) -> Vec<f64> {
             a[i * n + k] = (0..n).map(|j| g[(i * n + j) * n + k] * f[j]).sum();
         }
     }
-    let mut q = vec![0.0; n * n];
-    for i in 0..n {
-        q[i * n + i] = 1.0;
-    }
-    for _sweep in 0..100 {
-        let off: f64 = (0..n)
-            .flat_map(|i| (0..n).map(move |j| (i, j)))
-            .filter(|(i, j)| i != j)
-            .map(|(i, j)| a[i * n + j].powi(2))
-            .sum();
-        if off < 1e-30 {
-            break;
-        }
-        for p in 0..n {
-            for r in p + 1..n {
-                let apr = a[p * n + r];
-                if apr.abs() < 1e-300 {
-                    continue;
-                }
-                let theta = (a[r * n + r] - a[p * n + p]) / (2.0 * apr);
-                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-                let t = if theta == 0.0 { 1.0 } else { t };
-                let c = 1.0 / (t * t + 1.0).sqrt();
-                let s = t * c;
-                for k in 0..n {
-                    let (akp, akr) = (a[k * n + p], a[k * n + r]);
-                    a[k * n + p] = c * akp - s * akr;
-                    a[k * n + r] = s * akp + c * akr;
-                }
-                for k in 0..n {
-                    let (apk, ark) = (a[p * n + k], a[r * n + k]);
-                    a[p * n + k] = c * apk - s * ark;
-                    a[r * n + k] = s * apk + c * ark;
-                }
-                for k in 0..n {
-                    let (qkp, qkr) = (q[k * n + p], q[k * n + r]);
-                    q[k * n + p] = c * qkp - s * qkr;
-                    q[k * n + r] = s * qkp + c * qkr;
-                }
-            }
-        }
-    }
+    let e = lobefit::eigen::sym_eigen(&a, n).expect("finite symmetric matrix");
     // expm(M) 1 = Q e^Λ Qᵀ 1, 1 = (√(4π), 0, …).
     let one0 = (4.0 * PI).sqrt();
     (0..n)
-        .map(|i| (0..n).map(|k| q[i * n + k] * a[k * n + k].exp() * q[k] * one0).sum())
+        .map(|i| {
+            (0..n)
+                .map(|k| e.vector(k, i) * e.values[k].exp() * e.vector(k, 0) * one0)
+                .sum()
+        })
         .collect()
 }
 

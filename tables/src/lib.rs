@@ -28,6 +28,7 @@ pub mod cap_exponent;
 pub mod disk_light;
 pub mod error;
 pub mod format;
+pub mod gaunt;
 pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
@@ -35,6 +36,7 @@ pub mod log_zh;
 pub mod rigs;
 pub mod sg_fit;
 pub mod sh;
+pub mod shexp;
 pub mod table;
 pub mod wedge;
 pub mod wrap;
@@ -68,6 +70,8 @@ pub mod embedded {
     pub static LOG_ZH: &[u8] = include_bytes!("../data/log-zh.lobefit");
     /// `tables/data/wedge.lobefit`.
     pub static WEDGE: &[u8] = include_bytes!("../data/wedge.lobefit");
+    /// `tables/data/shexp.lobefit`.
+    pub static SHEXP: &[u8] = include_bytes!("../data/shexp.lobefit");
     /// `tables/data/lobe-product.lobefit` (the `energy` variant).
     pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
     /// `tables/data/lobe-product-l2.lobefit`.

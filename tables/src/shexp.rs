@@ -1,0 +1,565 @@
+//! F9 — SH exponentiation (Ren et al. 2006, thesis §3.7): the `shexp` table of
+//! spherical-cap blockers and the per-pixel exp* that renderers run (OL and HYB).
+//!
+//! exp*(f) = 1 + f + f^{2∗}/2! + … with every product truncated to order n
+//! (1 = (√(4π), 0, …)). Renderers accumulate log-space visibility f = Σ_k f_k
+//! (each blocker's log-ZH rotated into place with [`crate::sh::zh_to_sh`]) and then
+//! evaluate exp*(f) once:
+//!
+//! - **OL** ([`ol`]): exp*(f̂) ≈ a(‖f̂‖) 1 + b(‖f̂‖) f̂, f̂ = f without its DC term;
+//! - **HYB** ([`ShExp::hyb`], [`hyb_with`]): exp*(f) = e^{f_0/√(4π)} exp*(f̂) (DC
+//!   isolation), f̂ halved k times until ‖f̂‖/2^k ≤ the OL threshold, OL, then k
+//!   truncated squarings.
+//!
+//! The table (`tables/data/shexp.lobefit`, one axis θ_b ∈ [0, π/2] rad, uniform) holds
+//! per order n = 3..8, for the visibility g = 1 − cap of a cap of angular radius θ_b
+//! about +z: the log-ZH f (Ren's log: eigenvalue-clamped logarithm of the SH product
+//! matrix), ‖f̂‖ and the OL coefficients a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂),
+//! ĝ = e^{−f_0/√(4π)} g. f and ‖f̂‖ are stored divided by 1 − cosθ_b (the cap's solid
+//! angle over 2π), which tends to a finite limit at θ_b = 0 and keeps small blockers
+//! accurate under linear interpolation. Every value is an f32 pair (hi + lo).
+//!
+//! ‖f̂‖ is not monotonic in θ_b at some orders. [`ShExp::ab_for_norm`] (what HYB looks
+//! up) uses the **monotone branch**: θ_b from 0 up to the first node where ‖f̂‖ stops
+//! increasing; [`ShExp::norm_max`] is the largest ‖f̂‖ on it, and the OL threshold
+//! must not exceed it.
+
+use std::f64::consts::PI;
+
+use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::format::{Axis, Encoding, Mapping, Placement};
+use crate::gaunt::Gaunt;
+use crate::sh::{self, MAX_COEFFS};
+use crate::table::Table;
+
+/// Table kind.
+pub const KIND: &str = "shexp";
+/// Family version this runtime reads.
+pub const VERSION: u32 = 1;
+/// Smallest tabulated order.
+pub const ORDER_MIN: usize = 3;
+/// Largest tabulated order.
+pub const ORDER_MAX: usize = 8;
+/// Largest blocker radius θ_b (rad): a hemisphere.
+pub const THETA_MAX: f64 = PI / 2.0;
+/// Nodes of the θ_b axis (uniform on [0, π/2]).
+pub const THETA_NODES: u32 = 2049;
+/// Squarings HYB allows before it calls ‖f̂‖ unreasonable (2^64 × the threshold).
+pub const MAX_SQUARINGS: u32 = 64;
+
+/// OL threshold per order 3..8 (largest ‖f̂‖ handed to OL before halving), chosen
+/// from the evaluation in docs/shexp.md (`lobefit plot shexp`; Ren et al.: 4.8): the
+/// largest candidate (1/64, 1/32, 1/16, 1/8, 0.25, 0.5, …) whose HYB error vs the
+/// exact visibility stays within 25 % of exact exp*'s on random multi-blocker scenes
+/// and single caps. Each is below the order's [`ShExp::norm_max`].
+pub const OL_THRESHOLD: [f64; ORDER_MAX - ORDER_MIN + 1] = [0.5, 0.125, 0.0625, 0.0625, 0.03125, 0.03125];
+
+/// Decoded channels (hi/lo pairs) per node: f_0..f_7 (f_l for l ≥ n is stored as 0),
+/// ‖f̂‖, a, b, kink.
+pub const PAIRS: usize = 12;
+/// Pair index of ‖f̂‖ (scaled); a and b follow.
+const NORM: usize = 8;
+/// Pair index of `kink`: the θ_b (rad) in [θ_i, θ_{i+1}) where the eigenvalue clamp
+/// switches (an eigenvalue of M_g's m = 0 block crosses 0.02 λ_max, or λ_max moves to
+/// another block while the clamp is active): f, ‖f̂‖, a, b have a kink there. −1 when
+/// the interval has none. Interpolation does not straddle a kink: it extrapolates
+/// linearly from the two nodes on the query's side.
+const KINK: usize = 11;
+
+/// Names of the stored channels: `{f0..f7|norm|a|b}_{hi|lo}`.
+pub fn channel_names() -> Vec<String> {
+    let mut q: Vec<String> = (0..8).map(|l| format!("f{l}")).collect();
+    q.extend(["norm".to_string(), "a".into(), "b".into(), "kink".into()]);
+    q.iter().flat_map(|n| [format!("{n}_hi"), format!("{n}_lo")]).collect()
+}
+
+/// The table's axes, slowest first: `order` (3..8, one node each) and θ_b ∈ [0, π/2]
+/// rad (uniform, end-points).
+pub fn axes() -> Vec<Axis> {
+    vec![
+        Axis {
+            name: "order".into(),
+            unit: "1".into(),
+            lo: ORDER_MIN as f64,
+            hi: ORDER_MAX as f64,
+            mapping: Mapping::Linear,
+            count: (ORDER_MAX - ORDER_MIN + 1) as u32,
+            placement: Placement::Endpoints,
+        },
+        Axis {
+            name: "theta_b".into(),
+            unit: "rad".into(),
+            lo: 0.0,
+            hi: THETA_MAX,
+            mapping: Mapping::Linear,
+            count: THETA_NODES,
+            placement: Placement::Endpoints,
+        },
+    ]
+}
+
+/// θ_b of node `i` (rad).
+pub fn node_theta(i: usize) -> f64 {
+    THETA_MAX * i as f64 / (THETA_NODES - 1) as f64
+}
+
+/// 1 − cosθ, accurate for small θ.
+pub fn one_minus_cos(theta: f64) -> f64 {
+    let s = (0.5 * theta).sin();
+    2.0 * s * s
+}
+
+fn check_order(order: usize) -> Result<usize, LookupError> {
+    if !(ORDER_MIN..=ORDER_MAX).contains(&order) {
+        return Err(LookupError::OutOfDomain {
+            name: "order".into(),
+            value: order as f64,
+            lo: ORDER_MIN as f64,
+            hi: ORDER_MAX as f64,
+        });
+    }
+    Ok(order)
+}
+
+/// The OL threshold of [`OL_THRESHOLD`] for `order` (3..=8).
+pub fn ol_threshold(order: usize) -> Result<f64, LookupError> {
+    Ok(OL_THRESHOLD[check_order(order)? - ORDER_MIN])
+}
+
+/// ZH of the visibility g = 1 − cap of a cap of angular radius `theta_b` (rad) about
+/// +z, l < `order` ≤ 8 (closed form of SPEC F9: the cap term is
+/// [`crate::log_zh::cap_zh`]); entries ≥ `order` are 0.
+pub fn cap_visibility_zh(theta_b: f64, order: usize) -> [f64; sh::MAX_ORDER] {
+    let cap = crate::log_zh::cap_zh(theta_b, order);
+    let mut g = [0.0; sh::MAX_ORDER];
+    for (gl, c) in g.iter_mut().zip(&cap).take(order) {
+        *gl = -c;
+    }
+    g[0] += (4.0 * PI).sqrt();
+    g
+}
+
+/// (a, b, ‖f̂‖) of a pair (g, f) of a visibility and its log (ZH or SH vectors of the
+/// same length; SPEC F9, thesis eq. 3.44–3.47): ĝ = e^{−f_0/√(4π)} g,
+/// a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂) — the least-squares OL fit of ĝ on {1, f̂}.
+/// b = 1 (its limit) when f̂ = 0.
+pub fn ab_of_pair(g: &[f64], f: &[f64]) -> (f64, f64, f64) {
+    let s = (4.0 * PI).sqrt();
+    let scale = (-f[0] / s).exp();
+    let a = scale * g[0] / s;
+    let ff: f64 = f[1..].iter().map(|v| v * v).sum();
+    let gf: f64 = f[1..].iter().zip(&g[1..]).map(|(a, b)| a * b).sum();
+    let b = if ff > 0.0 { scale * gf / ff } else { 1.0 };
+    (a, b, ff.sqrt())
+}
+
+/// OL: exp*(f̂) ≈ a 1 + b f̂ for a DC-free `fhat` (n² coefficients; `fhat[0]` is
+/// ignored and treated as 0), into `out[..n²]`.
+pub fn ol(a: f64, b: f64, fhat: &[f64], out: &mut [f64]) {
+    for (o, v) in out.iter_mut().zip(fhat) {
+        *o = b * v;
+    }
+    out[0] = a * (4.0 * PI).sqrt();
+}
+
+/// HYB exp* of `f` (n² SH coefficients, the tensor's order) into `out[..n²]`, with
+/// the OL coefficients from `ab(‖f̂‖/2^k)` and OL used once ‖f̂‖/2^k ≤ `threshold`.
+/// Returns the number k of squarings. Errors: wrong lengths, non-finite input, a
+/// threshold ≤ 0, more than [`MAX_SQUARINGS`] halvings, or an error of `ab`.
+pub fn hyb_with(
+    gaunt: &Gaunt,
+    f: &[f64],
+    threshold: f64,
+    ab: impl Fn(f64) -> Result<(f64, f64), LookupError>,
+    out: &mut [f64],
+) -> Result<u32, LookupError> {
+    let nc = gaunt.order() * gaunt.order();
+    if f.len() != nc {
+        return Err(LookupError::Arity {
+            expected: nc,
+            got: f.len(),
+        });
+    }
+    if out.len() < nc {
+        return Err(LookupError::Channels {
+            expected: nc,
+            got: out.len(),
+        });
+    }
+    let t = finite("threshold", threshold)?;
+    if t <= 0.0 {
+        return Err(LookupError::OutOfDomain {
+            name: "threshold".into(),
+            value: t,
+            lo: f64::MIN_POSITIVE,
+            hi: f64::INFINITY,
+        });
+    }
+    for v in f {
+        finite("f", *v)?;
+    }
+    let sqrt4pi = (4.0 * PI).sqrt();
+    let dc = f[0] / sqrt4pi;
+    let norm = f[1..].iter().map(|v| v * v).sum::<f64>().sqrt();
+    finite("|f_hat|", norm)?;
+    let mut k = 0u32;
+    let mut s = norm;
+    while s > t {
+        if k == MAX_SQUARINGS {
+            return Err(LookupError::OutOfDomain {
+                name: "|f_hat|".into(),
+                value: norm,
+                lo: 0.0,
+                hi: t * 2f64.powi(MAX_SQUARINGS as i32),
+            });
+        }
+        s *= 0.5;
+        k += 1;
+    }
+    let (a, b) = ab(s)?;
+    let scale = b / 2f64.powi(k as i32);
+    let out = &mut out[..nc];
+    for (o, v) in out.iter_mut().zip(f) {
+        *o = scale * v;
+    }
+    out[0] = a * sqrt4pi;
+    let mut tmp = [0.0; MAX_COEFFS];
+    for _ in 0..k {
+        tmp[..nc].copy_from_slice(out);
+        gaunt.product_into(&tmp[..nc], &tmp[..nc], out);
+    }
+    let e = dc.exp();
+    out.iter_mut().for_each(|o| *o *= e);
+    Ok(k)
+}
+
+/// The monotone branch of ‖f̂‖(θ_b) of one order, decoded at the nodes.
+#[derive(Debug, Clone)]
+struct Branch {
+    /// ‖f̂‖ at nodes 0..=last (strictly increasing).
+    norm: Vec<f64>,
+    /// a at those nodes.
+    a: Vec<f64>,
+    /// b at those nodes.
+    b: Vec<f64>,
+}
+
+/// The shexp table (axes `order` × `theta_b`, [`PAIRS`] f32 pairs per node): per order
+/// 3..8, f, ‖f̂‖, a, b of cap blockers vs θ_b, and the a/b lookup vs ‖f̂‖ that HYB uses.
+#[derive(Debug, Clone)]
+pub struct ShExp {
+    table: Table,
+    branches: Vec<Branch>,
+}
+
+impl ShExp {
+    /// Loads and validates a shexp table file held in memory.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
+        Self::from_table(Table::from_bytes(bytes)?)
+    }
+
+    /// Wraps an already loaded table, checking its kind, version and layout.
+    pub fn from_table(table: Table) -> Result<Self, LoadError> {
+        table.expect_kind(KIND, VERSION)?;
+        let names = channel_names();
+        let chans: Vec<(&str, Encoding)> = names.iter().map(|c| (c.as_str(), Encoding::Linear)).collect();
+        table.expect_layout(&axes(), &chans)?;
+        if table.meta().axes != axes() {
+            return Err(LoadError::LayoutMismatch {
+                kind: KIND.into(),
+                detail: format!("expected {THETA_NODES} theta_b nodes"),
+            });
+        }
+        let mut t = ShExp {
+            table,
+            branches: Vec::new(),
+        };
+        for n in ORDER_MIN..=ORDER_MAX {
+            let mut br = Branch {
+                norm: vec![0.0],
+                a: vec![t.pair(0, n, NORM + 1)],
+                b: vec![t.pair(0, n, NORM + 2)],
+            };
+            for i in 1..THETA_NODES as usize {
+                let norm = t.pair(i, n, NORM) * one_minus_cos(t.node_theta(i));
+                if norm <= *br.norm.last().expect("non-empty") {
+                    break;
+                }
+                br.norm.push(norm);
+                br.a.push(t.pair(i, n, NORM + 1));
+                br.b.push(t.pair(i, n, NORM + 2));
+            }
+            if br.norm.len() < 2 || *br.norm.last().expect("non-empty") < OL_THRESHOLD[n - ORDER_MIN] {
+                return Err(LoadError::Invalid(format!(
+                    "shexp order {n}: the monotone branch of |f_hat| ends below the OL threshold"
+                )));
+            }
+            t.branches.push(br);
+        }
+        Ok(t)
+    }
+
+    /// The default table compiled into this crate.
+    #[cfg(feature = "embedded")]
+    pub fn embedded() -> Result<&'static Self, LoadError> {
+        static CELL: std::sync::OnceLock<Result<ShExp, LoadError>> = std::sync::OnceLock::new();
+        CELL.get_or_init(|| Self::from_bytes(crate::embedded::SHEXP))
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+
+    /// The underlying table (row-major [order][θ_b], channels of [`channel_names`]), e.g.
+    /// for GPU upload.
+    pub fn table(&self) -> &Table {
+        &self.table
+    }
+
+    fn node_theta(&self, i: usize) -> f64 {
+        node_theta(i)
+    }
+
+    /// Decoded pair `q` of order `n` at θ_b node `i`.
+    fn pair(&self, i: usize, n: usize, q: usize) -> f64 {
+        let c = 2 * q;
+        let row = &self.table.values()[((n - ORDER_MIN) * THETA_NODES as usize + i) * 2 * PAIRS..];
+        row[c] as f64 + row[c + 1] as f64
+    }
+
+    /// Whether the interval [θ_j, θ_{j+1}) of order n holds a kink.
+    fn has_kink(&self, j: usize, n: usize) -> bool {
+        self.pair(j, n, KINK) >= 0.0
+    }
+
+    /// Cubic (4-point Lagrange) interpolation of the pairs q ∈ `qs` of order n at θ_b,
+    /// on a stencil that never straddles a clamp kink (see [`KINK`]): nodes i−1..i+2
+    /// around the interval [θ_i, θ_{i+1}] holding θ_b, cut at kinks, extended on the
+    /// query's side to at least 3 nodes (extrapolating up to the kink), linear when
+    /// kinks leave only 2.
+    fn interp<const K: usize>(&self, theta_b: f64, n: usize, qs: [usize; K]) -> Result<[f64; K], LookupError> {
+        let theta = in_range("theta_b", theta_b, 0.0, THETA_MAX)?;
+        let last = THETA_NODES as usize - 1;
+        let s = (theta / THETA_MAX * last as f64).clamp(0.0, last as f64);
+        let i = (s.floor() as usize).min(last - 1);
+        // The kink-free piece [lo, hi] of node indices on θ_b's side.
+        let (mut lo, mut hi) = (i, i + 1);
+        if self.has_kink(i, n) {
+            if theta <= self.pair(i, n, KINK) {
+                hi = i;
+            } else {
+                lo = i + 1;
+            }
+        }
+        // Grow towards the centred stencil i−1..i+2, then to 3 nodes if needed.
+        let (want_lo, want_hi) = (i.saturating_sub(1), (i + 2).min(last));
+        while lo > want_lo && !self.has_kink(lo - 1, n) {
+            lo -= 1;
+        }
+        while hi < want_hi && !self.has_kink(hi, n) {
+            hi += 1;
+        }
+        while hi - lo < 2 {
+            if lo > 0 && !self.has_kink(lo - 1, n) && (hi >= last || self.has_kink(hi, n) || theta < node_theta(lo)) {
+                lo -= 1;
+            } else if hi < last && !self.has_kink(hi, n) {
+                hi += 1;
+            } else {
+                break;
+            }
+        }
+        let x = s;
+        let mut out = [0.0; K];
+        for j in lo..=hi {
+            // Lagrange basis in node-index units.
+            let w: f64 = (lo..=hi)
+                .filter(|&m| m != j)
+                .map(|m| (x - m as f64) / (j as f64 - m as f64))
+                .product();
+            for (o, &q) in out.iter_mut().zip(&qs) {
+                *o += w * self.pair(j, n, q);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Ren's log-ZH f_0..f_{n−1} of the visibility of a cap blocker of angular radius
+    /// `theta_b` ∈ [0, π/2] (rad) about +z, order n ∈ 3..=8, into `out[..n]`. Turn it
+    /// to the blocker's direction with [`crate::sh::zh_to_sh`] and sum over blockers.
+    pub fn log_zh(&self, theta_b: f64, order: usize, out: &mut [f64]) -> Result<(), LookupError> {
+        let n = check_order(order)?;
+        if out.len() < n {
+            return Err(LookupError::Channels {
+                expected: n,
+                got: out.len(),
+            });
+        }
+        // Slots l ≥ n are stored as 0: interpolating all eight is harmless.
+        let v = self.interp(theta_b, n, [0, 1, 2, 3, 4, 5, 6, 7])?;
+        let s = one_minus_cos(theta_b);
+        for (o, x) in out.iter_mut().zip(&v[..n]) {
+            *o = x * s;
+        }
+        Ok(())
+    }
+
+    /// [`ShExp::log_zh`] in single precision (computed in f64).
+    pub fn log_zh_f32(&self, theta_b: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
+        let mut tmp = [0.0; 8];
+        self.log_zh(theta_b as f64, order, &mut tmp)?;
+        if out.len() < order {
+            return Err(LookupError::Channels {
+                expected: order,
+                got: out.len(),
+            });
+        }
+        for (o, t) in out.iter_mut().zip(&tmp[..order]) {
+            *o = *t as f32;
+        }
+        Ok(())
+    }
+
+    /// [`ShExp::norm_ab`] in single precision (computed in f64).
+    pub fn norm_ab_f32(&self, theta_b: f32, order: usize) -> Result<(f32, f32, f32), LookupError> {
+        let (n, a, b) = self.norm_ab(theta_b as f64, order)?;
+        Ok((n as f32, a as f32, b as f32))
+    }
+
+    /// [`ShExp::ab_for_norm`] in single precision (computed in f64).
+    pub fn ab_for_norm_f32(&self, norm: f32, order: usize) -> Result<(f32, f32), LookupError> {
+        let (a, b) = self.ab_for_norm(norm as f64, order)?;
+        Ok((a as f32, b as f32))
+    }
+
+    /// ‖f̂‖ (the norm of the log-ZH without its DC term) and the OL coefficients
+    /// (a, b) of the cap of radius `theta_b` ∈ [0, π/2] at order 3..=8.
+    pub fn norm_ab(&self, theta_b: f64, order: usize) -> Result<(f64, f64, f64), LookupError> {
+        let n = check_order(order)?;
+        let [t, a, b] = self.interp(theta_b, n, [NORM, NORM + 1, NORM + 2])?;
+        Ok((t * one_minus_cos(theta_b), a, b))
+    }
+
+    /// The largest ‖f̂‖ of the monotone branch of `order` (upper end of
+    /// [`ShExp::ab_for_norm`]'s domain).
+    pub fn norm_max(&self, order: usize) -> Result<f64, LookupError> {
+        let br = &self.branches[check_order(order)? - ORDER_MIN];
+        Ok(*br.norm.last().expect("validated on load"))
+    }
+
+    /// θ_b at the end of the monotone branch of `order` (rad).
+    pub fn branch_end_theta(&self, order: usize) -> Result<f64, LookupError> {
+        let br = &self.branches[check_order(order)? - ORDER_MIN];
+        Ok(self.node_theta(br.norm.len() - 1))
+    }
+
+    /// OL coefficients (a, b) for ‖f̂‖ = `norm` ∈ [0, [`ShExp::norm_max`]] at order
+    /// 3..=8: the cap on the monotone branch with that ‖f̂‖ (binary search, then linear
+    /// in ‖f̂‖). (1, 1) at 0, the exact limit.
+    pub fn ab_for_norm(&self, norm: f64, order: usize) -> Result<(f64, f64), LookupError> {
+        let br = &self.branches[check_order(order)? - ORDER_MIN];
+        let top = *br.norm.last().expect("validated on load");
+        let x = in_range("|f_hat|", norm, 0.0, top)?;
+        let j = br.norm.partition_point(|&v| v <= x).clamp(1, br.norm.len() - 1);
+        let (x0, x1) = (br.norm[j - 1], br.norm[j]);
+        let w = ((x - x0) / (x1 - x0)).clamp(0.0, 1.0);
+        Ok((
+            (1.0 - w) * br.a[j - 1] + w * br.a[j],
+            (1.0 - w) * br.b[j - 1] + w * br.b[j],
+        ))
+    }
+
+    /// HYB exp* of the SH vector `f` (n² coefficients, n ∈ 3..=8) into `out[..n²]`,
+    /// with the order's default [`OL_THRESHOLD`]. Returns the number of squarings.
+    pub fn hyb(&self, f: &[f64], out: &mut [f64]) -> Result<u32, LookupError> {
+        let n = check_order(sh::order_of_len(f.len())?)?;
+        self.hyb_threshold(f, OL_THRESHOLD[n - ORDER_MIN], out)
+    }
+
+    /// [`ShExp::hyb`] with an explicit OL threshold ∈ (0, [`ShExp::norm_max`]].
+    pub fn hyb_threshold(&self, f: &[f64], threshold: f64, out: &mut [f64]) -> Result<u32, LookupError> {
+        let n = check_order(sh::order_of_len(f.len())?)?;
+        let top = self.norm_max(n)?;
+        in_range("threshold", threshold, f64::MIN_POSITIVE, top)?;
+        hyb_with(Gaunt::cached(n)?, f, threshold, |x| self.ab_for_norm(x, n), out)
+    }
+
+    /// [`ShExp::hyb`] in single precision (computed in f64).
+    pub fn hyb_f32(&self, f: &[f32], out: &mut [f32]) -> Result<u32, LookupError> {
+        let nc = f.len();
+        if nc > MAX_COEFFS {
+            return Err(LookupError::Arity {
+                expected: MAX_COEFFS,
+                got: nc,
+            });
+        }
+        if out.len() < nc {
+            return Err(LookupError::Channels {
+                expected: nc,
+                got: out.len(),
+            });
+        }
+        let mut a = [0.0; MAX_COEFFS];
+        let mut b = [0.0; MAX_COEFFS];
+        for (x, v) in a.iter_mut().zip(f) {
+            *x = *v as f64;
+        }
+        let k = self.hyb(&a[..nc], &mut b)?;
+        for (o, v) in out.iter_mut().zip(&b[..nc]) {
+            *o = *v as f32;
+        }
+        Ok(k)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layout_constants() {
+        assert_eq!(channel_names().len(), 2 * PAIRS);
+        assert_eq!(channel_names()[2 * NORM], "norm_hi");
+        assert_eq!(channel_names()[2 * KINK + 1], "kink_lo");
+    }
+
+    /// OL with (a, b) = (1, 1) is the first-order Taylor polynomial; HYB of a pure DC
+    /// term is its exponential.
+    #[test]
+    fn hyb_of_constant_and_small_vector() {
+        let g = Gaunt::new(3);
+        let mut f = [0.0; 9];
+        f[0] = -1.5 * (4.0 * PI).sqrt();
+        let mut out = [0.0; 9];
+        let k = hyb_with(&g, &f, 1.0, |_| Ok((1.0, 1.0)), &mut out).unwrap();
+        assert_eq!(k, 0);
+        assert!((out[0] / (4.0 * PI).sqrt() - (-1.5f64).exp()).abs() < 1e-15);
+        assert!(out[1..].iter().all(|v| *v == 0.0));
+    }
+
+    #[test]
+    fn hyb_bad_inputs() {
+        let g = Gaunt::new(3);
+        let mut out = [0.0; 9];
+        let ok = |_| Ok((1.0, 1.0));
+        assert!(matches!(
+            hyb_with(&g, &[0.0; 4], 1.0, ok, &mut out),
+            Err(LookupError::Arity { .. })
+        ));
+        assert!(matches!(
+            hyb_with(&g, &[0.0; 9], 1.0, ok, &mut out[..4]),
+            Err(LookupError::Channels { .. })
+        ));
+        assert!(matches!(
+            hyb_with(&g, &[f64::NAN; 9], 1.0, ok, &mut out),
+            Err(LookupError::NotFinite { .. })
+        ));
+        assert!(matches!(
+            hyb_with(&g, &[0.0; 9], 0.0, ok, &mut out),
+            Err(LookupError::OutOfDomain { .. })
+        ));
+        let mut big = [0.0; 9];
+        big[3] = 1e100;
+        assert!(matches!(
+            hyb_with(&g, &big, 1.0, ok, &mut out),
+            Err(LookupError::OutOfDomain { .. })
+        ));
+    }
+}
