@@ -9,7 +9,8 @@
 //!
 //! Reference (checker): product-matrix blocks by Gauss–Legendre quadrature of
 //! h(θ) y_l^m y_l'^m (not the Gaunt tensor) and the log applied directly to the
-//! clamped eigenvalues ([`crate::shexp::ren_log_zonal_reference`]); a, b and ‖f̂‖ from
+//! eigenvalues, clamped ones as the q-form has them
+//! ([`crate::shexp::ren_log_zonal_reference`]); a, b and ‖f̂‖ from
 //! their definitions. f is compared in units of ‖f‖ (its components cross zero as
 //! θ_b grows, where a per-component relative error says nothing).
 
@@ -168,8 +169,9 @@ impl Family for ShExpFamily {
     fn description(&self) -> String {
         format!(
             "SH exponentiation tables (Ren et al. 2006; SPEC F9) for a spherical-cap blocker of angular \
-             radius theta_b about +z, orders {ORDER_MIN}..{ORDER_MAX}: Ren's log-ZH f (eigenvalue-clamped \
-             log of the SH product matrix, clamp {} x the largest eigenvalue), |f_hat| (f without DC) and \
+             radius theta_b about +z, orders {ORDER_MIN}..{ORDER_MAX}: Ren's log-ZH f (log of the SH product \
+             matrix in the form f = R q(D) R^T (g - 1), q(x) = ln(x)/(x - 1), eigenvalues in q clamped below at \
+             {} x the largest), |f_hat| (f without DC) and \
              the OL coefficients a, b of exp*(f_hat) ~ a 1 + b f_hat. f and |f_hat| are stored divided by \
              1 - cos(theta_b). Each value is an f32 hi/lo pair. HYB looks a, b up vs |f_hat| on the \
              monotone branch of |f_hat|(theta_b) (up to its first maximum).",
@@ -202,6 +204,10 @@ impl Family for ShExpFamily {
     fn settings(&self) -> Vec<(String, String)> {
         vec![
             ("ren_clamp".into(), crate::shexp::REN_CLAMP.to_string()),
+            (
+                "ren_clamp_form".into(),
+                "inside q: q(max(lambda, clamp)) (g - 1)".into(),
+            ),
             ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
             ("jacobi_tol".into(), format!("{:e}", crate::eigen::JACOBI_TOL)),
         ]

@@ -10,7 +10,8 @@
 //! Logs of a visibility vector g: naive ε-clamped projection (F7,
 //! [`lobefit_tables::log_zh::blocker`] for caps) and Ren's [`ren_log`]: f = log(M_g)·1
 //! with M_g the SH product matrix (M_g x = g ∗ x), from its symmetric
-//! eigen-decomposition with eigenvalues clamped below at [`REN_CLAMP`] × the largest.
+//! eigen-decomposition with eigenvalues clamped below at [`REN_CLAMP`] × the largest
+//! *inside q* (see `log_coefficients` for what that means where the clamp acts).
 //! Written as f = R q(D) Rᵀ (g − 1), q(x) = ln(x)/(x − 1), so that small blockers
 //! (g ≈ 1) keep full relative accuracy: M_g = I + M_{g−1}, and the eigenvalues are
 //! λ = 1 + μ with μ those of M_{g−1} (computed directly, no 1 + tiny rounding).
@@ -57,23 +58,30 @@ pub struct RenLog {
     pub lambda: (f64, f64),
 }
 
-/// Coefficients c_k of f = Σ_k c_k r_k in the eigenbasis {r_k} of M_{g−1}: q(λ_k)(r_k·h)
-/// for unclamped λ_k = 1 + μ_k, ln(λ_c)(r_k·1) for clamped ones (h = g − 1, 1 = the
-/// constant function; both equal ln(λ)(r_k·1) in exact arithmetic when unclamped).
-fn log_coefficients(e: &SymEigen, h: &[f64], one0: &[f64], lambda_max: f64) -> (Vec<f64>, usize) {
+/// Coefficients c_k of f = Σ_k c_k r_k in the eigenbasis {r_k} of M_{g−1}:
+/// q(max(λ_k, λ_c))(r_k·h), h = g − 1, λ_k = 1 + μ_k, λ_c = [`REN_CLAMP`] λ_max.
+///
+/// The clamp sits inside q and (r_k·h) = μ_k (r_k·1) keeps the unclamped eigenvalue: the
+/// q-form f = R q(D) Rᵀ (g − 1) of SPEC F9 read literally, which is what public
+/// implementations of Ren's log compute (`docs/shexp.md` compares one). Unclamped it is
+/// ln(λ_k)(r_k·1), the log of M_g applied to 1; for a clamped λ_k it is
+/// ln(λ_c) μ_k/(λ_c − 1) (r_k·1), not ln(λ_c)(r_k·1) (the log of the *clamped* matrix):
+/// the two conventions differ only where the clamp acts, and this one round-trips
+/// through exp* slightly better there (`docs/shexp.md`).
+fn log_coefficients(e: &SymEigen, h: &[f64], lambda_max: f64) -> (Vec<f64>, usize) {
     let n = e.n;
     let floor = REN_CLAMP * lambda_max;
     let mut clamped = 0;
     let c = (0..n)
         .map(|k| {
             let mu = e.values[k];
-            let lambda = 1.0 + mu;
-            if lambda < floor {
+            let q = if 1.0 + mu < floor {
                 clamped += 1;
-                floor.ln() * (0..n).map(|i| e.vector(k, i) * one0[i]).sum::<f64>()
+                q_log(floor - 1.0)
             } else {
-                q_log(mu) * (0..n).map(|i| e.vector(k, i) * h[i]).sum::<f64>()
-            }
+                q_log(mu)
+            };
+            q * (0..n).map(|i| e.vector(k, i) * h[i]).sum::<f64>()
         })
         .collect();
     (c, clamped)
@@ -101,8 +109,7 @@ pub fn ren_log(gaunt: &Gaunt, g: &[f64]) -> Result<RenLog, String> {
     if lambda.1 <= 0.0 {
         return Err(format!("M_g has no positive eigenvalue (largest {:e})", lambda.1));
     }
-    let one0 = crate::sh::one(gaunt.order());
-    let (c, clamped) = log_coefficients(&e, &h, &one0, lambda.1);
+    let (c, clamped) = log_coefficients(&e, &h, lambda.1);
     let f = (0..nc).map(|i| (0..nc).map(|k| e.vector(k, i) * c[k]).sum()).collect();
     Ok(RenLog {
         f,
@@ -160,9 +167,7 @@ pub fn ren_log_zonal_blocks(blocks: &[Vec<f64>], h: &[f64]) -> Result<RenLog, St
     if hi <= 0.0 {
         return Err(format!("M_g has no positive eigenvalue (largest {hi:e})"));
     }
-    let mut one0 = vec![0.0; n];
-    one0[0] = (4.0 * PI).sqrt();
-    let (c, clamped) = log_coefficients(&e, h, &one0, hi);
+    let (c, clamped) = log_coefficients(&e, h, hi);
     let f = (0..n).map(|i| (0..n).map(|k| e.vector(k, i) * c[k]).sum()).collect();
     Ok(RenLog {
         f,
@@ -235,8 +240,9 @@ pub fn zonal_blocks_quadrature(h: &[f64]) -> Vec<Vec<f64>> {
 }
 
 /// A Ren log computed independently of [`ren_log_zonal`]'s numerics: product-matrix
-/// blocks by quadrature ([`zonal_blocks_quadrature`]) and the log applied directly,
-/// f = R ln(1 + max(μ, ·)) Rᵀ 1 (not the q-form).
+/// blocks by quadrature ([`zonal_blocks_quadrature`]) and the log applied directly to
+/// the eigenvalues, f = Σ_k ln(λ_k) r_k (r_k·1), with ln(λ_c) μ_k/(λ_c − 1) for a
+/// clamped λ_k (the same convention as [`ren_log`], see `log_coefficients`).
 pub fn ren_log_zonal_reference(g: &[f64]) -> Result<RenLog, String> {
     let n = g.len();
     let mut h = g.to_vec();
@@ -263,9 +269,10 @@ pub fn ren_log_zonal_reference(g: &[f64]) -> Result<RenLog, String> {
     let mut clamped = 0;
     for k in 0..n {
         let mu = e.values[k];
+        // (Rᵀ(g − 1))_k = μ_k (Rᵀ1)_k, so the q-form's clamped term is ln(λ_c) μ_k/(λ_c − 1).
         let ln = if 1.0 + mu < floor {
             clamped += 1;
-            floor.ln()
+            floor.ln() * mu / (floor - 1.0)
         } else {
             mu.ln_1p()
         };

@@ -92,7 +92,9 @@ fn ab_vs_norm_on_the_monotone_branch() {
         assert_eq!(t.ab_for_norm(0.0, n).unwrap(), (1.0, 1.0));
     }
     // Orders 3 and 5..8 have an interior maximum; order 4 rises to π/2.
-    assert!(t.branch_end_theta(3).unwrap() < 1.2);
+    for n in [3, 5, 6, 7, 8] {
+        assert!(t.branch_end_theta(n).unwrap() < 1.5, "order {n}");
+    }
     assert_eq!(t.branch_end_theta(4).unwrap(), PI / 2.0);
 }
 

@@ -13,8 +13,8 @@
 //!
 //! The table (`tables/data/shexp.lobefit`, one axis θ_b ∈ [0, π/2] rad, uniform) holds
 //! per order n = 3..8, for the visibility g = 1 − cap of a cap of angular radius θ_b
-//! about +z: the log-ZH f (Ren's log: eigenvalue-clamped logarithm of the SH product
-//! matrix), ‖f̂‖ and the OL coefficients a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂),
+//! about +z: the log-ZH f (Ren's log of the SH product matrix, f = R q(D) Rᵀ (g − 1),
+//! q(x) = ln(x)/(x − 1), eigenvalues in q clamped below at 0.02 × the largest), ‖f̂‖ and the OL coefficients a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂),
 //! ĝ = e^{−f_0/√(4π)} g. f and ‖f̂‖ are stored divided by 1 − cosθ_b (the cap's solid
 //! angle over 2π), which tends to a finite limit at θ_b = 0 and keeps small blockers
 //! accurate under linear interpolation. Every value is an f32 pair (hi + lo).
@@ -52,7 +52,7 @@ pub const MAX_SQUARINGS: u32 = 64;
 /// largest candidate (1/64, 1/32, 1/16, 1/8, 0.25, 0.5, …) whose HYB error vs the
 /// exact visibility stays within 25 % of exact exp*'s on random multi-blocker scenes
 /// and single caps. Each is below the order's [`ShExp::norm_max`].
-pub const OL_THRESHOLD: [f64; ORDER_MAX - ORDER_MIN + 1] = [0.5, 0.125, 0.0625, 0.0625, 0.03125, 0.03125];
+pub const OL_THRESHOLD: [f64; ORDER_MAX - ORDER_MIN + 1] = [0.75, 0.125, 0.0625, 0.0625, 0.03125, 0.015625];
 
 /// Decoded channels (hi/lo pairs) per node: f_0..f_7 (f_l for l ≥ n is stored as 0),
 /// ‖f̂‖, a, b, kink.
