@@ -104,9 +104,9 @@ pub fn reference_point(theta_b: f64, order: usize) -> Result<(Vec<f64>, f64, f64
     if !(0.0..=rt::THETA_MAX).contains(&theta_b) {
         return Err(format!("theta_b = {theta_b} is outside [0, π/2]"));
     }
-    let g = cap_visibility_zh(theta_b, order)[..order].to_vec();
+    let g = cap_visibility_zh(theta_b, order).map_err(|e| e.to_string())?[..order].to_vec();
     let f = ren_log_zonal_reference(&g)?.f;
-    let (a, b, norm) = ab_of_pair(&g, &f);
+    let (a, b, norm) = ab_of_pair(&g, &f).map_err(|e| e.to_string())?;
     Ok((f, norm, a, b))
 }
 
@@ -122,8 +122,8 @@ fn naive_point(theta_b: f64, eps: f64, order: usize) -> Result<Vec<f64>, LookupE
             hi: rt::THETA_MAX,
         });
     }
-    let g = cap_visibility_zh(theta_b, order);
-    let (a, b, norm) = ab_of_pair(&g[..order], &f[..order]);
+    let g = cap_visibility_zh(theta_b, order)?;
+    let (a, b, norm) = ab_of_pair(&g[..order], &f[..order])?;
     let mut v = f[..order].to_vec();
     v.extend([norm, a, b]);
     Ok(v)
@@ -237,14 +237,18 @@ impl Family for ShExpFamily {
             stored[10] = 1.0;
         } else {
             let gaunt = Gaunt::cached(n).expect("order in 3..=8");
-            let g = cap_visibility_zh(theta, n)[..n].to_vec();
+            let g = cap_visibility_zh(theta, n).expect("θ_b on the axis, order 3..=8")[..n].to_vec();
             match (ren_log_zonal(gaunt, &g), ren_log_zonal_reference(&g)) {
                 (Ok(fit), Ok(reference)) => {
                     let scale = fit.f.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0);
                     for (a, b) in fit.f.iter().zip(&reference.f) {
                         residual = residual.max((a - b).abs() / scale);
                     }
-                    let (a, b, norm) = ab_of_pair(&g, &fit.f);
+                    // A non-finite log marks the node unconverged (never written).
+                    let (a, b, norm) = ab_of_pair(&g, &fit.f).unwrap_or_else(|_| {
+                        ok = false;
+                        (f64::NAN, f64::NAN, f64::NAN)
+                    });
                     for (v, f) in stored.iter_mut().zip(&fit.f) {
                         *v = f / s;
                     }
@@ -368,7 +372,7 @@ impl Family for ShExpFamily {
             let trip = (1..=count)
                 .map(|i| {
                     let theta = rt::THETA_MAX * i as f64 / count as f64;
-                    let g = cap_visibility_zh(theta, n)[..n].to_vec();
+                    let g = cap_visibility_zh(theta, n).map_err(|e| e.to_string())?[..n].to_vec();
                     let f = ren_log_zonal(gaunt, &g)?.f;
                     let back = crate::sh::exp_star(gaunt, &crate::shexp::zh_to_sh_z(&f)).value;
                     Ok(crate::shexp_study::rel_l2(&back, &crate::shexp::zh_to_sh_z(&g)))
@@ -408,7 +412,7 @@ const KINK_BISECTIONS: usize = 60;
 /// The clamp state of Ren's log at θ_b: (clamped eigenvalues of block 0, block of
 /// λ_max while any is clamped).
 fn clamp_state(gaunt: &Gaunt, n: usize, theta: f64) -> Result<(usize, usize), String> {
-    let g = cap_visibility_zh(theta, n)[..n].to_vec();
+    let g = cap_visibility_zh(theta, n).map_err(|e| e.to_string())?[..n].to_vec();
     let r = ren_log_zonal(gaunt, &g)?;
     Ok((r.clamped, if r.clamped > 0 { r.max_block } else { usize::MAX }))
 }
@@ -447,7 +451,7 @@ fn naive_reference(theta_b: f64, eps: f64, order: usize) -> Result<Vec<f64>, Str
     if !ok {
         return Err(format!("visibility quadrature did not converge at theta_b = {theta_b}"));
     }
-    let (a, b, norm) = ab_of_pair(&g, &f);
+    let (a, b, norm) = ab_of_pair(&g, &f).map_err(|e| e.to_string())?;
     let mut v = f;
     v.extend([norm, a, b]);
     Ok(v)

@@ -440,7 +440,7 @@ const FIGURE_RIGS: [(usize, &str); 6] = [
     (7, "lattice 8×4×2 (64)"),
 ];
 
-/// `lobefit plot rigs`: irradiance on the car's +y side and the roof, exact vs rigs
+/// `lobefit plot rigs`: irradiance on the car's +y side, exact vs rigs
 /// (least squares), and the error maps; prints the comparison table (Markdown).
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     use crate::plot::{heatmaps, Heatmap};

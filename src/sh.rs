@@ -50,6 +50,10 @@ pub fn exp_taylor(gaunt: &Gaunt, f: &[f64]) -> ExpResult {
         term = gaunt.product(&term, f);
         term.iter_mut().for_each(|t| *t /= k as f64);
         sum.iter_mut().zip(&term).for_each(|(s, t)| *s += t);
+        // A sum that overflowed (inf, or NaN, which `fold(max)` would skip) has not converged.
+        if sum.iter().any(|v| !v.is_finite()) {
+            break;
+        }
         if norm(&term) <= TAYLOR_STOP * norm(&sum) && k > 2 {
             return ExpResult {
                 value: sum,
@@ -75,6 +79,7 @@ pub fn exp_star(gaunt: &Gaunt, f: &[f64]) -> ExpResult {
     let mut r = exp_taylor(gaunt, &hat);
     let s = dc.exp();
     r.value.iter_mut().for_each(|v| *v *= s);
+    r.converged &= r.value.iter().all(|v| v.is_finite());
     r
 }
 

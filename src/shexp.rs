@@ -186,9 +186,11 @@ pub fn ren_log_zonal(gaunt: &Gaunt, g: &[f64]) -> Result<RenLog, String> {
 }
 
 /// ZH of the visibility of a spherical-cap blocker of angular radius `theta_b` (rad)
-/// about +z, l < `order` (the runtime's closed form as a vector).
-pub fn cap_visibility_zh(theta_b: f64, order: usize) -> Vec<f64> {
-    lobefit_tables::shexp::cap_visibility_zh(theta_b, order)[..order].to_vec()
+/// about +z, l < `order` (the runtime's closed form as a vector). Errors as the
+/// runtime's (θ_b outside [0, π], order outside 1..=8).
+pub fn cap_visibility_zh(theta_b: f64, order: usize) -> Result<Vec<f64>, String> {
+    let g = lobefit_tables::shexp::cap_visibility_zh(theta_b, order).map_err(|e| e.to_string())?;
+    Ok(g[..order].to_vec())
 }
 
 /// Scaling and squaring: exp*(f) = exp*(f/2^k)^{2^k ∗} (Taylor on f/2^k with the DC
@@ -466,7 +468,7 @@ mod tests {
             let c = f64::cos(tb);
             let (want, ok) = crate::sh::zh_project_gk(8, |t| if t > c { 0.0 } else { 1.0 }, &[c], 1e-14);
             assert!(ok);
-            let got = cap_visibility_zh(tb, 8);
+            let got = cap_visibility_zh(tb, 8).unwrap();
             for l in 0..8 {
                 assert!(
                     (got[l] - want[l]).abs() < 1e-12,
@@ -483,7 +485,7 @@ mod tests {
     fn zonal_blocks_agree() {
         for n in [3usize, 8] {
             let g = Gaunt::new(n);
-            let h: Vec<f64> = cap_visibility_zh(0.9, n);
+            let h: Vec<f64> = cap_visibility_zh(0.9, n).unwrap();
             let a = zonal_blocks_gaunt(&g, &h);
             let b = zonal_blocks_quadrature(&h);
             for (x, y) in a.iter().zip(&b) {
@@ -515,7 +517,7 @@ mod tests {
         for (i, (a, b)) in r.f.iter().zip(&f0).enumerate() {
             assert!((a - b).abs() < 1e-5, "{i}: {a} vs {b}");
         }
-        let gz = cap_visibility_zh(0.4, 4);
+        let gz = cap_visibility_zh(0.4, 4).unwrap();
         let full = ren_log(&gaunt, &zh_to_sh_z(&gz)).unwrap();
         let zonal = ren_log_zonal(&gaunt, &gz).unwrap();
         let refr = ren_log_zonal_reference(&gz).unwrap();
@@ -541,7 +543,7 @@ mod tests {
         for (a, b) in r.f.iter().zip(&f0) {
             assert!((a - b).abs() < 1e-9, "{a} vs {b}");
         }
-        let gz = cap_visibility_zh(0.6, 4);
+        let gz = cap_visibility_zh(0.6, 4).unwrap();
         let g4 = Gaunt::new(4);
         let ren = ren_log_zonal(&g4, &gz).unwrap();
         let ren_err = {

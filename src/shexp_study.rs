@@ -159,7 +159,7 @@ pub fn single_caps(rt: &ShExp, order: usize, t: f64, count: usize) -> Result<Vec
             let mut zh = [0.0; 8];
             rt.log_zh(theta, order, &mut zh).map_err(|e| e.to_string())?;
             let f = zh_to_sh_z(&zh[..order]);
-            let g = zh_to_sh_z(&cap_visibility_zh(theta, order)[..order]);
+            let g = zh_to_sh_z(&cap_visibility_zh(theta, order).map_err(|e| e.to_string())?[..order]);
             evaluate(rt, gaunt, &f, &g, t, 1)
         })
         .collect()
@@ -208,7 +208,7 @@ pub fn round_trip(order: usize, count: usize) -> Result<RoundTrip, String> {
     };
     for i in 1..=count {
         let theta = PI / 2.0 * i as f64 / count as f64;
-        let g = cap_visibility_zh(theta, order)[..order].to_vec();
+        let g = cap_visibility_zh(theta, order).map_err(|e| e.to_string())?[..order].to_vec();
         let r = ren_log_zonal(gaunt, &g)?;
         let back = exp_star(gaunt, &zh_to_sh_z(&r.f)).value;
         let e = rel_l2(&back, &zh_to_sh_z(&g));

@@ -172,4 +172,19 @@ fn bad_light_inputs() {
         select_direct(RigModel::CONSTANT, car_box(), &lights, disks, &pts, &far, 0.1, 0.0),
         Err(RigError::Lookup(LookupError::OutOfDomain { .. }))
     ));
+    // A flat box built without `RigBox::new` (public fields) is refused, not NaN.
+    let flat = lobefit::tables::rigs::RigBox {
+        centre: DVec3::ZERO,
+        half: DVec3::new(1.0, 1.0, 0.0),
+    };
+    assert!(matches!(flat.normalised(DVec3::ZERO), Err(RigError::BadBox(_))));
+    // A point light whose 1/r² overflows: an error, not Ok(inf).
+    let hot = Light::Point {
+        position: DVec3::new(0.0, 0.0, 1e-160),
+        intensity: 1e10,
+    };
+    assert!(matches!(
+        hot.irradiance_sh(p, disks),
+        Err(LookupError::NotFinite { .. })
+    ));
 }

@@ -148,7 +148,7 @@ fn ren_log_round_trip() {
         let mut worst = (0.0f64, 0.0f64);
         for k in 1..=40 {
             let theta = PI / 2.0 * k as f64 / 40.0;
-            let g = cap_visibility_zh(theta, n)[..n].to_vec();
+            let g = cap_visibility_zh(theta, n).unwrap()[..n].to_vec();
             let r = ren_log_zonal(&gaunt, &g).unwrap();
             let e = rel_l2(&exp_star(&gaunt, &zh_to_sh_z(&r.f)).value, &zh_to_sh_z(&g));
             if r.clamped == 0 {
@@ -207,6 +207,43 @@ fn bad_inputs_have_their_own_errors() {
         Err(LookupError::Arity { .. })
     ));
     assert!(od(rt::ol_threshold(2).map(|_| ()), "order"));
+    // Overflow: exp* of a huge DC term, or of a large f̂, is an error, never Ok(inf/NaN).
+    let mut hot = [0.0; 16];
+    hot[0] = 3000.0;
+    assert!(matches!(t.hyb(&hot, &mut out), Err(LookupError::NotFinite { .. })));
+    let mut wide = [0.0; 16];
+    wide[2] = 5e3;
+    assert!(matches!(t.hyb(&wide, &mut out), Err(LookupError::NotFinite { .. })));
+    let mut warm = [0.0; 16];
+    warm[0] = 330.0; // e^{330/√(4π)} ≈ 1e40: finite in f64, not in f32
+    let warm32 = warm.map(|v| v as f32);
+    assert!(t.hyb(&warm, &mut out).is_ok());
+    assert!(matches!(
+        t.hyb_f32(&warm32, &mut [0.0f32; 16]),
+        Err(LookupError::NotFinite { .. })
+    ));
+    f[3] = f64::INFINITY;
+    assert!(nf(t.hyb(&f, &mut out).map(|_| ())));
+    // The free helpers validate too.
+    assert!(nf(rt::ol(f64::NAN, 1.0, &[0.0; 16], &mut out)));
+    assert!(matches!(
+        rt::ol(1.0, 1.0, &[], &mut out),
+        Err(LookupError::Arity { .. })
+    ));
+    assert!(matches!(
+        rt::ol(1.0, 1.0, &[0.0; 16], &mut out[..4]),
+        Err(LookupError::Channels { .. })
+    ));
+    assert!(matches!(rt::ab_of_pair(&[], &[]), Err(LookupError::Arity { .. })));
+    assert!(matches!(
+        rt::ab_of_pair(&[1.0; 3], &[1.0; 4]),
+        Err(LookupError::Arity { .. })
+    ));
+    assert!(nf(rt::ab_of_pair(&[1.0, f64::NAN], &[1.0, 2.0]).map(|_| ())));
+    assert!(nf(cap_visibility_zh(f64::NAN, 4).map(|_| ())));
+    assert!(od(cap_visibility_zh(4.0, 4).map(|_| ()), "theta_b"));
+    assert!(od(cap_visibility_zh(0.5, 9).map(|_| ()), "SH order"));
+    assert!(od(cap_visibility_zh(0.5, 0).map(|_| ()), "SH order"));
     // Loading another family's file is refused by kind.
     assert!(matches!(
         ShExp::from_bytes(lobefit::tables::embedded::LOG_ZH),
@@ -265,4 +302,80 @@ fn eval_shexp() {
     assert!(!ok && err.contains("only --order and --log"), "{err}");
     let (ok, _, err) = eval(&["eval", "shexp"], "theta_b\n1.7\n");
     assert!(!ok && err.contains("theta_b"), "{err}");
+}
+
+/// a and b are the least-squares OL fit of ĝ = e^{−f_0/√(4π)} g on {1, f̂} (SPEC F9):
+/// checked by the normal equations — the residual ĝ − a·1 − b·f̂ is orthogonal to 1 and
+/// to f̂ — on random vectors, not against the formula `ab_of_pair` implements.
+#[test]
+fn ab_is_the_least_squares_ol_fit() {
+    let mut rng = lobefit::rng::Rng::new(11);
+    let s = (4.0 * PI).sqrt();
+    for n in [4usize, 9, 16, 64] {
+        let f: Vec<f64> = (0..n).map(|_| rng.range(-1.0, 1.0)).collect();
+        let g: Vec<f64> = (0..n).map(|_| rng.range(-1.0, 1.0)).collect();
+        let (a, b, norm) = rt::ab_of_pair(&g, &f).unwrap();
+        let e = (-f[0] / s).exp();
+        let resid: Vec<f64> = (0..n)
+            .map(|i| e * g[i] - if i == 0 { a * s } else { b * f[i] })
+            .collect();
+        let along_one = resid[0] * s;
+        let along_fhat: f64 = (1..n).map(|i| resid[i] * f[i]).sum();
+        assert!(
+            along_one.abs() < 1e-12 && along_fhat.abs() < 1e-12,
+            "n={n}: {along_one} {along_fhat}"
+        );
+        let want_norm = f[1..].iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!((norm - want_norm).abs() < 1e-14);
+        // OL reproduces a·1 + b·f̂.
+        let mut out = vec![0.0; n];
+        rt::ol(a, b, &f, &mut out).unwrap();
+        assert!((out[0] - a * s).abs() < 1e-15 && (1..n).all(|i| out[i] == b * f[i]));
+    }
+}
+
+/// The two readings of Ren's clamp (docs/shexp.md): the q-form with the clamp inside q
+/// (the table's) and the log of the clamped matrix applied to 1. Prints the max round
+/// trip exp*(log g) vs g over clamped caps for both; the q-form's must not be worse.
+/// `cargo test --test shexp clamp_conventions -- --nocapture`.
+#[test]
+fn clamp_conventions_round_trip() {
+    use lobefit::eigen::sym_eigen;
+    use lobefit::sh::exp_taylor;
+    for order in ORDER_MIN..=ORDER_MAX {
+        let gaunt = Gaunt::new(order);
+        let nc = order * order;
+        let one = lobefit::sh::one(order);
+        let (mut worst_q, mut worst_m) = (0.0f64, 0.0f64);
+        for i in 1..=200 {
+            let g = zh_to_sh_z(&cap_visibility_zh(PI / 2.0 * i as f64 / 200.0, order).unwrap()[..order]);
+            let mut h = g.clone();
+            h[0] -= (4.0 * PI).sqrt();
+            let e = sym_eigen(&gaunt.product_matrix(&h), nc).unwrap();
+            let floor = 0.02 * (1.0 + e.values[nc - 1]);
+            if 1.0 + e.values[0] >= floor {
+                continue;
+            }
+            let (mut fq, mut fm) = (vec![0.0; nc], vec![0.0; nc]);
+            for k in 0..nc {
+                let lam = 1.0 + e.values[k];
+                let ph: f64 = (0..nc).map(|j| e.vector(k, j) * h[j]).sum();
+                let p1: f64 = (0..nc).map(|j| e.vector(k, j) * one[j]).sum();
+                let (cq, cm) = if lam < floor {
+                    (floor.ln() / (floor - 1.0) * ph, floor.ln() * p1)
+                } else {
+                    let c = lam.ln() / (lam - 1.0) * ph;
+                    (c, c)
+                };
+                for j in 0..nc {
+                    fq[j] += e.vector(k, j) * cq;
+                    fm[j] += e.vector(k, j) * cm;
+                }
+            }
+            worst_q = worst_q.max(rel_l2(&exp_taylor(&gaunt, &fq).value, &g));
+            worst_m = worst_m.max(rel_l2(&exp_taylor(&gaunt, &fm).value, &g));
+        }
+        println!("order {order}: clamped round trip max, clamp inside q {worst_q:.2e}, clamped matrix {worst_m:.2e}");
+        assert!(worst_q <= worst_m, "order {order}");
+    }
 }

@@ -60,7 +60,7 @@ pub const OUTPUTS: [&str; 6] = ["y00", "y10", "y11", "y20", "y21", "y22"];
 /// Single SH index l(l+1)+m of each canonical coefficient.
 pub const CANONICAL_INDEX: [usize; 6] = [0, 2, 3, 6, 7, 8];
 /// Lambertian irradiance convolution weights per band (clamped cosine).
-pub const CLAMPED_COSINE: [f64; 3] = [PI, 2.0 * PI / 3.0, PI / 4.0];
+pub use crate::sh::CLAMPED_COSINE;
 
 /// The `tau` axis mapping: logit on (−π/2, π/2), symmetric about τ = 0 (where the
 /// coefficients are even or odd in τ) and dense towards grazing.

@@ -104,7 +104,7 @@ pub fn axes() -> Vec<Axis> {
 }
 
 /// Monomial coefficients of P_l, l < 8 (a[l][k] multiplies s^k).
-fn legendre_coeffs() -> [[f64; MAX_ORDER]; MAX_ORDER] {
+pub(crate) fn legendre_coeffs() -> [[f64; MAX_ORDER]; MAX_ORDER] {
     let mut a = [[0.0; MAX_ORDER]; MAX_ORDER];
     a[0][0] = 1.0;
     a[1][1] = 1.0;

@@ -25,8 +25,6 @@
 //! irradiance ([`Light::irradiance_sh`]); [`select_direct`] is the error-driven choice of
 //! which lights a renderer should evaluate per point rather than through the rig.
 
-use std::f64::consts::PI;
-
 use glam::DVec3;
 
 use crate::disk_light::DiskLight;
@@ -199,6 +197,10 @@ impl RigBox {
 
     /// Normalised coordinates t = (p − centre)/half of a point in the box.
     pub fn normalised(&self, p: DVec3) -> Result<[f64; 3], RigError> {
+        // The fields are public: a box built without `new` is checked here too.
+        if !(self.centre.is_finite() && self.half.is_finite() && self.half.min_element() > 0.0) {
+            return Err(RigError::BadBox(self.half.to_array()));
+        }
         let names = ["point.x", "point.y", "point.z"];
         let mut t = [0.0; 3];
         for k in 0..3 {
@@ -455,7 +457,7 @@ pub enum Light {
 }
 
 /// Clamped-cosine band weights (π, 2π/3, π/4).
-const A: [f64; 3] = [PI, 2.0 * PI / 3.0, PI / 4.0];
+const A: [f64; 3] = sh::CLAMPED_COSINE;
 
 impl Light {
     /// The exact order-3 SH irradiance vector (clamped-cosine convolved) of the light at
@@ -497,19 +499,9 @@ impl Light {
                         hi: f64::MAX,
                     });
                 }
-                // Cap of half-angle θ_b, sin θ_b = radius / r; ZH of its indicator:
-                // √π (1 − c) (l = 0), √(π/(2l+1)) (P_{l−1}(c) − P_{l+1}(c)) (l ≥ 1).
-                let s = radius / r;
-                let c = (1.0 - s * s).sqrt();
-                let one_minus_c = s * s / (1.0 + c);
-                let p2 = 0.5 * (3.0 * c * c - 1.0);
-                let p3 = 0.5 * c * (5.0 * c * c - 3.0);
-                let zh = [
-                    PI.sqrt() * one_minus_c,
-                    (PI / 3.0).sqrt() * (1.0 - p2),
-                    (PI / 5.0).sqrt() * (c - p3),
-                ];
-                sh::zh_to_sh(&zh, d.to_array(), &mut out)?;
+                // Cap of half-angle θ_b, sin θ_b = radius / r: its indicator's ZH.
+                let zh = crate::log_zh::cap_zh((radius / r).asin(), 3);
+                sh::zh_to_sh(&zh[..3], d.to_array(), &mut out)?;
                 let l = finite("sphere light radiance", radiance)?;
                 for (i, o) in out.iter_mut().enumerate() {
                     *o *= l * A[sh::band_of(i).0];
@@ -521,6 +513,10 @@ impl Light {
                 radius,
                 radiance,
             } => out = disks.irradiance_sh(p, centre, normal, radius, radiance)?,
+        }
+        // A near point light or a huge intensity can overflow: an error, not Ok(inf).
+        for o in &out {
+            finite("light SH irradiance (overflow)", *o)?;
         }
         Ok(out)
     }

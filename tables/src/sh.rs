@@ -38,6 +38,9 @@ use crate::error::{finite, LookupError};
 pub const MAX_ORDER: usize = 8;
 /// Coefficients of an order-[`MAX_ORDER`] vector.
 pub const MAX_COEFFS: usize = MAX_ORDER * MAX_ORDER;
+/// Clamped-cosine (Lambertian irradiance) convolution weights per band, l ≤ 2:
+/// π·(1, 2/3, 1/4), the Funk–Hecke eigenvalues of max(cos θ, 0).
+pub const CLAMPED_COSINE: [f64; 3] = [PI, 2.0 * PI / 3.0, PI / 4.0];
 /// Largest order evaluated by the hard-coded polynomials.
 pub const HARDCODED_MAX_ORDER: usize = 4;
 /// How far rᵀr may be from the identity (max entry) for `r` to count as a rotation:

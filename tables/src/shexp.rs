@@ -128,38 +128,66 @@ pub fn ol_threshold(order: usize) -> Result<f64, LookupError> {
 
 /// ZH of the visibility g = 1 − cap of a cap of angular radius `theta_b` (rad) about
 /// +z, l < `order` ≤ 8 (closed form of SPEC F9: the cap term is
-/// [`crate::log_zh::cap_zh`]); entries ≥ `order` are 0.
-pub fn cap_visibility_zh(theta_b: f64, order: usize) -> [f64; sh::MAX_ORDER] {
+/// [`crate::log_zh::cap_zh`]); entries ≥ `order` are 0. Errors: θ_b not finite or
+/// outside [0, π], order outside 1..=8.
+pub fn cap_visibility_zh(theta_b: f64, order: usize) -> Result<[f64; sh::MAX_ORDER], LookupError> {
+    in_range("theta_b", theta_b, 0.0, PI)?;
+    sh::check_order(order)?;
     let cap = crate::log_zh::cap_zh(theta_b, order);
     let mut g = [0.0; sh::MAX_ORDER];
     for (gl, c) in g.iter_mut().zip(&cap).take(order) {
         *gl = -c;
     }
     g[0] += (4.0 * PI).sqrt();
-    g
+    Ok(g)
 }
 
 /// (a, b, ‖f̂‖) of a pair (g, f) of a visibility and its log (ZH or SH vectors of the
 /// same length; SPEC F9, thesis eq. 3.44–3.47): ĝ = e^{−f_0/√(4π)} g,
 /// a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂) — the least-squares OL fit of ĝ on {1, f̂}.
-/// b = 1 (its limit) when f̂ = 0.
-pub fn ab_of_pair(g: &[f64], f: &[f64]) -> (f64, f64, f64) {
+/// b = 1 (its limit) when f̂ = 0. Errors: empty or unequal lengths, non-finite entries.
+pub fn ab_of_pair(g: &[f64], f: &[f64]) -> Result<(f64, f64, f64), LookupError> {
+    if f.is_empty() || g.len() != f.len() {
+        return Err(LookupError::Arity {
+            expected: f.len().max(1),
+            got: g.len(),
+        });
+    }
+    for v in g {
+        finite("g", *v)?;
+    }
+    for v in f {
+        finite("f", *v)?;
+    }
     let s = (4.0 * PI).sqrt();
     let scale = (-f[0] / s).exp();
     let a = scale * g[0] / s;
     let ff: f64 = f[1..].iter().map(|v| v * v).sum();
     let gf: f64 = f[1..].iter().zip(&g[1..]).map(|(a, b)| a * b).sum();
     let b = if ff > 0.0 { scale * gf / ff } else { 1.0 };
-    (a, b, ff.sqrt())
+    Ok((a, b, ff.sqrt()))
 }
 
 /// OL: exp*(f̂) ≈ a 1 + b f̂ for a DC-free `fhat` (n² coefficients; `fhat[0]` is
-/// ignored and treated as 0), into `out[..n²]`.
-pub fn ol(a: f64, b: f64, fhat: &[f64], out: &mut [f64]) {
+/// ignored and treated as 0), into `out[..n²]`. Errors: empty `fhat`, `out` shorter
+/// than `fhat`, non-finite a or b.
+pub fn ol(a: f64, b: f64, fhat: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
+    finite("a", a)?;
+    finite("b", b)?;
+    if fhat.is_empty() {
+        return Err(LookupError::Arity { expected: 1, got: 0 });
+    }
+    if out.len() < fhat.len() {
+        return Err(LookupError::Channels {
+            expected: fhat.len(),
+            got: out.len(),
+        });
+    }
     for (o, v) in out.iter_mut().zip(fhat) {
         *o = b * v;
     }
     out[0] = a * (4.0 * PI).sqrt();
+    Ok(())
 }
 
 /// HYB exp* of `f` (n² SH coefficients, the tensor's order) into `out[..n²]`, with
@@ -230,6 +258,14 @@ pub fn hyb_with(
     }
     let e = dc.exp();
     out.iter_mut().for_each(|o| *o *= e);
+    // exp* of a large f_0 or ‖f̂‖ leaves f64 (e^{f_0/√(4π)} alone overflows above
+    // f_0 ≈ 2.5e3): an error, never an Ok(inf/NaN).
+    if let Some(v) = out.iter().find(|v| !v.is_finite()) {
+        return Err(LookupError::NotFinite {
+            name: "exp*(f) (overflow: f_0 or |f_hat| too large)".into(),
+            value: *v,
+        });
+    }
     Ok(k)
 }
 
@@ -504,6 +540,12 @@ impl ShExp {
         let k = self.hyb(&a[..nc], &mut b)?;
         for (o, v) in out.iter_mut().zip(&b[..nc]) {
             *o = *v as f32;
+            if !o.is_finite() {
+                return Err(LookupError::NotFinite {
+                    name: "exp*(f) in f32 (overflow)".into(),
+                    value: *v,
+                });
+            }
         }
         Ok(k)
     }

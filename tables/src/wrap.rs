@@ -45,7 +45,7 @@ pub const A_NODES: u32 = 129;
 /// Stored channels λ̂_0 … λ̂_7.
 pub const CHANNELS: [&str; MAX_ORDER] = ["l0", "l1", "l2", "l3", "l4", "l5", "l6", "l7"];
 /// Lambertian (clamped-cosine) irradiance convolution weights π λ̂_l(0), l ≤ 2.
-pub const CLAMPED_COSINE: [f64; 3] = [PI, 2.0 * PI / 3.0, PI / 4.0];
+pub use crate::sh::CLAMPED_COSINE;
 
 /// Name used in the out-of-domain error of the closed forms.
 const A_NAME: &str = "wrap parameter a (closed forms exact only on [0, 1], SPEC E5)";
@@ -64,22 +64,10 @@ pub fn axis(count: u32) -> Axis {
 }
 
 /// Monomial coefficients of the Legendre polynomials P_0 … P_7 (`[l][k]` is the
-/// coefficient of t^k), from the three-term recurrence, computed once.
+/// coefficient of t^k; the log-ZH closed forms' table), computed once.
 fn legendre_monomials() -> &'static [[f64; MAX_ORDER]; MAX_ORDER] {
     static P: std::sync::OnceLock<[[f64; MAX_ORDER]; MAX_ORDER]> = std::sync::OnceLock::new();
-    P.get_or_init(|| {
-        let mut p = [[0.0; MAX_ORDER]; MAX_ORDER];
-        p[0][0] = 1.0;
-        p[1][1] = 1.0;
-        for l in 1..MAX_ORDER - 1 {
-            // (l+1) P_{l+1} = (2l+1) t P_l − l P_{l−1}
-            for k in 0..MAX_ORDER {
-                let tp = if k > 0 { p[l][k - 1] } else { 0.0 };
-                p[l + 1][k] = ((2 * l + 1) as f64 * tp - l as f64 * p[l - 1][k]) / (l + 1) as f64;
-            }
-        }
-        p
-    })
+    P.get_or_init(crate::log_zh::legendre_coeffs)
 }
 
 /// The published closed form (λ̂_0, λ̂_1, λ̂_2)(a), a ∈ [0, 1] (errors above 1, E5).
