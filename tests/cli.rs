@@ -1,39 +1,18 @@
 //! End-to-end tests of the `lobefit` binary: building, determinism, checking,
 //! inspecting, evaluating, and every way an argument or an input can be wrong.
 
-use std::io::Write;
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+
+use std::io::Write;
+use std::process::Stdio;
+
+use common::{bin, run, text};
 
 /// Every registered family (each has a committed table).
 fn families() -> Vec<&'static str> {
     lobefit::fits::names()
-}
-
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_lobefit"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR"));
-    c
-}
-
-fn run(args: &[&str], stdin: &str) -> Output {
-    let mut child = bin()
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn lobefit");
-    let mut pipe = child.stdin.take().expect("stdin");
-    // A process that refuses its arguments exits without reading: a broken pipe here
-    // is expected, and what it printed is what the test checks.
-    let _ = pipe.write_all(stdin.as_bytes());
-    drop(pipe);
-    child.wait_with_output().expect("wait")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
 }
 
 fn committed(kind: &str) -> PathBuf {
@@ -473,7 +452,7 @@ fn unconverged_fits_are_reported_and_not_written() {
 #[test]
 fn eval_uses_embedded_tables_anywhere() {
     let elsewhere = tempfile::tempdir().unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lobefit"))
+    let mut child = bin()
         .current_dir(elsewhere.path())
         .args(["eval", "cap-exponent"])
         .stdin(Stdio::piped())

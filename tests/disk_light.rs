@@ -2,8 +2,9 @@
 //! the checker's independent quadrature, the world-space SH against a direct
 //! projection of a world-space disk, the form-factor comparison, bad inputs, eval.
 
+mod common;
+
 use std::f64::consts::{FRAC_PI_2, PI};
-use std::process::{Command, Stdio};
 
 use lobefit::fits::disk_light::{reference_canonical, reference_irradiance, rel_l2, DC_MEDIAN_REL, L2_MAX};
 use lobefit::quad::gauss_kronrod;
@@ -257,34 +258,16 @@ fn bad_inputs() {
     ));
 }
 
-fn eval(args: &[&str], input: &str) -> (Option<i32>, String, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lobefit"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    use std::io::Write;
-    let _ = child.stdin.take().unwrap().write_all(input.as_bytes());
-    let out = child.wait_with_output().unwrap();
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn eval_disk_light() {
-    let (code, out, err) = eval(&["eval", "disk-light"], "r_over_d,tau\n0.5,0.3\n");
+    let (code, out, err) = common::run_text(&["eval", "disk-light"], "r_over_d,tau\n0.5,0.3\n");
     assert_eq!(code, Some(0), "{err}");
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines[0], "r_over_d,tau,y00,y10,y11,y20,y21,y22");
     let v: Vec<f64> = lines[1].split(',').map(|s| s.parse().unwrap()).collect();
     let want = reference_canonical(0.5, 0.3).unwrap();
     assert!(rel_l2(&v[2..], &want) < 1e-3);
-    let (code, exact, _) = eval(&["eval", "disk-light", "--exact"], "r_over_d,tau\n0.5,0.3\n");
+    let (code, exact, _) = common::run_text(&["eval", "disk-light", "--exact"], "r_over_d,tau\n0.5,0.3\n");
     assert_eq!(code, Some(0));
     let v: Vec<f64> = exact
         .lines()
@@ -295,8 +278,8 @@ fn eval_disk_light() {
         .collect();
     assert!(rel_l2(&v[2..], &want) < 1e-12);
     // The small-disk limit, runtime and exact path alike.
-    let (code, out, _) = eval(&["eval", "disk-light"], "r_over_d,tau\n0.005,0.3\n");
-    let (code2, exact, _) = eval(&["eval", "disk-light", "--exact"], "r_over_d,tau\n0.005,0.3\n");
+    let (code, out, _) = common::run_text(&["eval", "disk-light"], "r_over_d,tau\n0.005,0.3\n");
+    let (code2, exact, _) = common::run_text(&["eval", "disk-light", "--exact"], "r_over_d,tau\n0.005,0.3\n");
     assert_eq!((code, code2), (Some(0), Some(0)));
     let row = |s: &str| -> Vec<f64> {
         s.lines()
@@ -307,10 +290,10 @@ fn eval_disk_light() {
             .collect()
     };
     assert!(rel_l2(&row(&out)[2..], &row(&exact)[2..]) < 1e-3);
-    let (code, out, err) = eval(&["eval", "disk-light"], "r_over_d,tau\n0.5,0.3\n-2,0.1\n");
+    let (code, out, err) = common::run_text(&["eval", "disk-light"], "r_over_d,tau\n0.5,0.3\n-2,0.1\n");
     assert_eq!(code, Some(1));
     assert!(out.is_empty() && err.contains("line 3") && err.contains("R/d"), "{err}");
-    let (code, _, err) = eval(&["eval", "disk-light", "--order", "3"], "r_over_d,tau\n0.5,0.3\n");
+    let (code, _, err) = common::run_text(&["eval", "disk-light", "--order", "3"], "r_over_d,tau\n0.5,0.3\n");
     assert_eq!(code, Some(1));
     assert!(err.contains("disk-light takes no --order"), "{err}");
 }
@@ -495,7 +478,7 @@ fn check_fails_on_a_regressed_table() {
         format::encode(t.meta(), &values).unwrap(),
     )
     .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_lobefit"))
+    let out = common::bin()
         .args(["check", "--quick", "--only", "disk-light", "--tables"])
         .arg(dir.path())
         .output()

@@ -1,6 +1,8 @@
 //! ISG (F4) and lobe→SG (F5) through the runtime crate and the committed tables,
 //! against the checker's Gauss–Kronrod references (no fitting code involved).
 
+mod common;
+
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use lobefit::isg::{patch_reference, s_hat_reference};
@@ -263,18 +265,7 @@ fn committed_sg_fit_against_reference() {
 }
 
 fn eval(args: &[&str], input: &str) -> std::process::Output {
-    use std::io::Write;
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_lobefit"))
-        .arg("eval")
-        .args(args)
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // A refused command may exit before reading its input: a broken pipe is fine.
-    let _ = child.stdin.take().unwrap().write_all(input.as_bytes());
-    child.wait_with_output().unwrap()
+    common::run(&[&["eval"], args].concat(), input)
 }
 
 /// `lobefit eval isg --model paper|refit|best` and `eval sg-fit` (SPEC §6): columns,

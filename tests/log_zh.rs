@@ -1,6 +1,8 @@
 //! F7 log-ZH: the committed table's stored entries and the runtime's closed forms
 //! against the checker's adaptive Gauss–Kronrod reference (independent of both).
 
+mod common;
+
 use std::f64::consts::PI;
 
 use lobefit::fits::log_zh::reference_log_zh;
@@ -132,24 +134,10 @@ fn to_world_round_trip() {
     }
 }
 
-fn eval(args: &[&str], stdin: &str) -> std::process::Output {
-    use std::io::Write;
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_lobefit"))
-        .args(args)
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // The CLI may exit before reading (bad flags): a broken pipe is expected then.
-    let _ = child.stdin.take().unwrap().write_all(stdin.as_bytes());
-    child.wait_with_output().unwrap()
-}
-
 /// `lobefit eval log-zh` (SPEC §6): columns, values, flags and errors.
 #[test]
 fn cli_eval_log_zh() {
-    let out = eval(&["eval", "log-zh", "--kind", "diffuse", "--order", "3"], "eps\n0.05\n");
+    let out = common::run(&["eval", "log-zh", "--kind", "diffuse", "--order", "3"], "eps\n0.05\n");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     let mut lines = text.lines();
@@ -159,7 +147,7 @@ fn cli_eval_log_zh() {
     for l in 0..3 {
         assert!((vals[l + 1] - want[l]).abs() < 1e-12);
     }
-    let out = eval(&["eval", "log-zh", "--kind", "blocker"], "eps,theta_b\n0.1,0.4\n");
+    let out = common::run(&["eval", "log-zh", "--kind", "blocker"], "eps,theta_b\n0.1,0.4\n");
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.starts_with("eps,theta_b,z0,z1,z2,z3\n"), "{text}");
     // Bad kind, a foreign flag, out-of-domain input: non-zero exit, no output.
@@ -170,10 +158,10 @@ fn cli_eval_log_zh() {
         (vec!["eval", "wedge", "--kind", "phong"], "sigma,eps\n0.1,0.1\n"),
         (vec!["eval", "wedge"], "sigma,eps\n2.0,0.1\n"),
     ] {
-        let out = eval(&args, input);
+        let out = common::run(&args, input);
         assert!(!out.status.success() && out.stdout.is_empty(), "{args:?}");
     }
-    let out = eval(&["eval", "wedge", "--order", "2"], "sigma,eps\n0.3,0.1\n");
+    let out = common::run(&["eval", "wedge", "--order", "2"], "sigma,eps\n0.3,0.1\n");
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.starts_with("sigma,eps,v0,v1\n"), "{text}");
 }

@@ -2,8 +2,9 @@
 //! independent reference (quadrature-built product matrices, direct log), HYB against
 //! the Taylor reference, Ren's log round trip, `eval shexp`, and every bad input.
 
+mod common;
+
 use std::f64::consts::PI;
-use std::process::{Command, Stdio};
 
 use lobefit::fits::shexp::reference_point;
 use lobefit::sh::{exp_star, Gaunt};
@@ -251,22 +252,10 @@ fn bad_inputs_have_their_own_errors() {
     ));
 }
 
+/// `lobefit ARGS` as (success, stdout, stderr).
 fn eval(args: &[&str], stdin: &str) -> (bool, String, String) {
-    use std::io::Write;
-    let mut c = Command::new(env!("CARGO_BIN_EXE_lobefit"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let _ = c.stdin.take().unwrap().write_all(stdin.as_bytes());
-    let o = c.wait_with_output().unwrap();
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
+    let (code, out, err) = common::run_text(args, stdin);
+    (code == Some(0), out, err)
 }
 
 #[test]

@@ -1,8 +1,9 @@
 //! F10 wrap lighting: closed forms against the checker's independent quadrature,
 //! erratum E5, the convolution, the committed table, and `lobefit eval wrap`.
 
+mod common;
+
 use std::f64::consts::PI;
-use std::process::{Command, Stdio};
 
 use lobefit::fits::wrap::{reference_lambda, CLOSED_HIGH_ABS, CLOSED_LOW_ABS};
 use lobefit::quad::gauss_kronrod;
@@ -133,41 +134,23 @@ fn committed_table() {
     ));
 }
 
-fn eval(args: &[&str], input: &str) -> (Option<i32>, String, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lobefit"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    use std::io::Write;
-    let _ = child.stdin.take().unwrap().write_all(input.as_bytes());
-    let out = child.wait_with_output().unwrap();
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn eval_wrap() {
-    let (code, out, err) = eval(&["eval", "wrap", "--order", "3"], "a\n0\n1\n");
+    let (code, out, err) = common::run_text(&["eval", "wrap", "--order", "3"], "a\n0\n1\n");
     assert_eq!(code, Some(0), "{err}");
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines[0], "a,l0,l1,l2");
     let v: Vec<f64> = lines[1].split(',').map(|s| s.parse().unwrap()).collect();
     assert!((v[1] - 1.0).abs() < 1e-15 && (v[2] - 2.0 / 3.0).abs() < 1e-15 && (v[3] - 0.25).abs() < 1e-15);
-    let (code, exact, _) = eval(&["eval", "wrap", "--order", "3", "--exact"], "a\n0\n1\n");
+    let (code, exact, _) = common::run_text(&["eval", "wrap", "--order", "3", "--exact"], "a\n0\n1\n");
     assert_eq!(code, Some(0));
     assert_eq!(exact.lines().count(), 3);
     // Out of the closed form's domain, wrong order, foreign flag: errors naming them.
-    let (code, out, err) = eval(&["eval", "wrap"], "a\n0.5\n1.5\n");
+    let (code, out, err) = common::run_text(&["eval", "wrap"], "a\n0.5\n1.5\n");
     assert_eq!(code, Some(1));
     assert!(out.is_empty() && err.contains("line 3") && err.contains("E5"), "{err}");
     // --exact gives the true value there (E5: 0.1185 at a = 2, l = 2).
-    let (code, out, _) = eval(&["eval", "wrap", "--order", "3", "--exact"], "a\n2\n");
+    let (code, out, _) = common::run_text(&["eval", "wrap", "--order", "3", "--exact"], "a\n2\n");
     assert_eq!(code, Some(0));
     let v: Vec<f64> = out
         .lines()
@@ -177,10 +160,10 @@ fn eval_wrap() {
         .map(|s| s.parse().unwrap())
         .collect();
     assert!((v[3] - 0.1185).abs() < 5e-5, "{v:?}");
-    let (code, _, err) = eval(&["eval", "wrap", "--order", "9"], "a\n0.5\n");
+    let (code, _, err) = common::run_text(&["eval", "wrap", "--order", "9"], "a\n0.5\n");
     assert_eq!(code, Some(2)); // refused by the argument parser
     assert!(err.contains("9 is not in 1..=8"), "{err}");
-    let (code, _, err) = eval(&["eval", "wrap", "--kind", "phong"], "a\n0.5\n");
+    let (code, _, err) = common::run_text(&["eval", "wrap", "--kind", "phong"], "a\n0.5\n");
     assert_eq!(code, Some(1));
     assert!(err.contains("wrap takes only --order"), "{err}");
 }
