@@ -312,13 +312,8 @@ pub fn reference_irradiance(r: f64, tau: f64, n: [f64; 3]) -> Result<f64, String
     })
 }
 
-/// Relative L2 distance of two 9-coefficient vectors given by their six canonical
-/// entries (the three m < 0 entries are zero in both).
-pub fn rel_l2(got: &[f64], want: &[f64]) -> f64 {
-    let num: f64 = got.iter().zip(want).map(|(a, b)| (a - b) * (a - b)).sum();
-    let den: f64 = want.iter().map(|b| b * b).sum();
-    (num / den).sqrt()
-}
+/// Relative L2 distance ‖got − want‖/‖want‖ (shared with the SHExp study).
+pub use crate::shexp_study::rel_l2;
 
 struct DiskLookup(DiskLight);
 
@@ -462,30 +457,25 @@ impl Family for DiskLightFamily {
             .map(|_| (rng.range(R_MIN.ln(), R_MAX.ln()).exp(), rng.range(TAU_ACCEPT, TAU_MAX)))
             .collect();
         use rayon::prelude::*;
-        let grazing = pts
-            .par_iter()
-            .map(|&(r, tau)| {
-                let got = rt.canonical(r, tau).map_err(|e| e.to_string())?;
-                let want = reference_canonical(r, tau)?;
-                Ok(rel_l2(&got, &want))
-            })
-            .collect::<Result<Vec<f64>, String>>()
-            .map(Extra::Values);
+        // Relative L2 error of the runtime against the reference at each point.
+        let errors = |pts: &[(f64, f64)]| {
+            pts.par_iter()
+                .map(|&(r, tau)| {
+                    let got = rt.canonical(r, tau).map_err(|e| e.to_string())?;
+                    let want = reference_canonical(r, tau)?;
+                    Ok(rel_l2(&got, &want))
+                })
+                .collect::<Result<Vec<f64>, String>>()
+                .map(Extra::Values)
+        };
+        let grazing = errors(&pts);
         let sliver: Vec<(f64, f64)> = (0..count)
             .map(|_| {
                 let r = rng.range(R_MIN.ln(), R_MAX.ln()).exp();
                 (r, FRAC_PI_2 - rng.range(0.1, 1.0) * (FRAC_PI_2 - TAU_MAX))
             })
             .collect();
-        let beyond = sliver
-            .par_iter()
-            .map(|&(r, tau)| {
-                let got = rt.canonical(r, tau).map_err(|e| e.to_string())?;
-                let want = reference_canonical(r, tau)?;
-                Ok(rel_l2(&got, &want))
-            })
-            .collect::<Result<Vec<f64>, String>>()
-            .map(Extra::Values);
+        let beyond = errors(&sliver);
         vec![
             ("l2 error, tau in [0.98, 0.999]·π/2".into(), grazing),
             (

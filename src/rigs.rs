@@ -177,6 +177,19 @@ pub fn field(lights: &[Light], disks: &DiskLight, p: DVec3) -> Result<[f64; COEF
     Ok(v)
 }
 
+/// The exact irradiance of all `lights` at each receiver (sum of [`exact_irradiance`]).
+fn exact_field(lights: &[Light], receivers: &[Receiver]) -> Result<Vec<f64>, String> {
+    receivers
+        .par_iter()
+        .map(|r| {
+            lights
+                .iter()
+                .map(|l| exact_irradiance(l, r))
+                .sum::<Result<f64, String>>()
+        })
+        .collect()
+}
+
 /// Exact irradiance ∫ L max(N·ω, 0) dω of one light at receiver r.
 pub fn exact_irradiance(light: &Light, r: &Receiver) -> Result<f64, String> {
     match *light {
@@ -332,15 +345,7 @@ pub fn compare(tolerance: f64) -> Result<Comparison, String> {
         .iter()
         .map(|r| field(&direct_lights, disks, r.p))
         .collect::<Result<_, String>>()?;
-    let exact: Vec<f64> = test
-        .par_iter()
-        .map(|r| {
-            lights
-                .iter()
-                .map(|l| exact_irradiance(l, r))
-                .sum::<Result<f64, String>>()
-        })
-        .collect::<Result<_, String>>()?;
+    let exact = exact_field(&lights, &test)?;
     let norm = {
         let s: f64 = test_p
             .iter()
@@ -480,15 +485,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
             })
         })
         .collect();
-    let exact: Vec<f64> = side
-        .par_iter()
-        .map(|r| {
-            lights
-                .iter()
-                .map(|l| exact_irradiance(l, r))
-                .sum::<Result<f64, String>>()
-        })
-        .collect::<Result<_, String>>()?;
+    let exact = exact_field(&lights, &side)?;
     let panel = |title: String, values: Vec<f64>, label: &str, log: bool| Heatmap {
         title,
         x_label: "x along the car (m)".into(),

@@ -86,6 +86,21 @@ pub(crate) fn finite(name: &str, value: f64) -> Result<f64, LookupError> {
     }
 }
 
+/// Writes an f64 result into an f32 output buffer (the f32 twins: computed in f64,
+/// rounded once). Errors when `out` is shorter than `src`.
+pub(crate) fn copy_f32(src: &[f64], out: &mut [f32]) -> Result<(), LookupError> {
+    if out.len() < src.len() {
+        return Err(LookupError::Channels {
+            expected: src.len(),
+            got: out.len(),
+        });
+    }
+    for (o, s) in out.iter_mut().zip(src) {
+        *o = *s as f32;
+    }
+    Ok(())
+}
+
 /// Checks `lo <= value <= hi` (and finiteness).
 pub(crate) fn in_range(name: &str, value: f64, lo: f64, hi: f64) -> Result<f64, LookupError> {
     let v = finite(name, value)?;

@@ -25,7 +25,7 @@
 
 use std::f64::consts::PI;
 
-use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::error::{copy_f32, finite, in_range, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::sh::{self, MAX_ORDER};
 use crate::table::Table;
@@ -239,19 +239,6 @@ pub fn blocker_f32(eps: f32, theta_b: f32, order: usize, out: &mut [f32]) -> Res
     let mut tmp = [0.0; MAX_ORDER];
     blocker(eps as f64, theta_b as f64, order, &mut tmp)?;
     copy_f32(&tmp[..order], out)
-}
-
-fn copy_f32(src: &[f64], out: &mut [f32]) -> Result<(), LookupError> {
-    if out.len() < src.len() {
-        return Err(LookupError::Channels {
-            expected: src.len(),
-            got: out.len(),
-        });
-    }
-    for (o, s) in out.iter_mut().zip(src) {
-        *o = *s as f32;
-    }
-    Ok(())
 }
 
 /// Turns a log-ZH vector (about +z) to the world axis `d` (need not be unit):

@@ -26,7 +26,7 @@
 
 use std::f64::consts::PI;
 
-use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::error::{copy_f32, finite, in_range, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::gaunt::Gaunt;
 use crate::sh::{self, MAX_COEFFS};
@@ -441,16 +441,7 @@ impl ShExp {
     pub fn log_zh_f32(&self, theta_b: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
         let mut tmp = [0.0; 8];
         self.log_zh(theta_b as f64, order, &mut tmp)?;
-        if out.len() < order {
-            return Err(LookupError::Channels {
-                expected: order,
-                got: out.len(),
-            });
-        }
-        for (o, t) in out.iter_mut().zip(&tmp[..order]) {
-            *o = *t as f32;
-        }
-        Ok(())
+        copy_f32(&tmp[..order], out)
     }
 
     /// [`ShExp::norm_ab`] in single precision (computed in f64).

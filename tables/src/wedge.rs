@@ -113,16 +113,7 @@ pub fn slice_log(sigma: f64, eps: f64, order: usize, out: &mut [f64]) -> Result<
 pub fn slice_log_f32(sigma: f32, eps: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
     slice_log(sigma as f64, eps as f64, order, &mut tmp)?;
-    if out.len() < order {
-        return Err(LookupError::Channels {
-            expected: order,
-            got: out.len(),
-        });
-    }
-    for (o, t) in out.iter_mut().zip(&tmp[..order]) {
-        *o = *t as f32;
-    }
-    Ok(())
+    crate::error::copy_f32(&tmp[..order], out)
 }
 
 /// The wedge operators M_lin (order 8) for W ∈ {4, 8, 16, 32, 64}.

@@ -119,16 +119,7 @@ pub fn lambda_hat(order: usize, a: f64, out: &mut [f64]) -> Result<(), LookupErr
 pub fn lambda_hat_f32(order: usize, a: f32, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
     lambda_hat(order, a as f64, &mut tmp)?;
-    if out.len() < order {
-        return Err(LookupError::Channels {
-            expected: order,
-            got: out.len(),
-        });
-    }
-    for (o, t) in out.iter_mut().zip(&tmp[..order]) {
-        *o = *t as f32;
-    }
-    Ok(())
+    crate::error::copy_f32(&tmp[..order], out)
 }
 
 /// Wrap-lighting convolution of an SH vector (n² coefficients, n ≤ 8, conventions of
@@ -159,16 +150,7 @@ pub fn convolve_f32(coeffs: &[f32], a: f32, out: &mut [f32]) -> Result<(), Looku
     let n = sh::order_of_len(c.len())?;
     let mut tmp = [0.0; sh::MAX_COEFFS];
     convolve(&c, a as f64, &mut tmp[..n * n])?;
-    if out.len() < n * n {
-        return Err(LookupError::Channels {
-            expected: n * n,
-            got: out.len(),
-        });
-    }
-    for (o, t) in out.iter_mut().zip(&tmp[..n * n]) {
-        *o = *t as f32;
-    }
-    Ok(())
+    crate::error::copy_f32(&tmp[..n * n], out)
 }
 
 /// Re-wraps an order-n ≤ 3 *irradiance* vector (radiance already convolved with the
