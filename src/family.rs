@@ -52,8 +52,12 @@ pub enum Extra {
     /// (runtime value, reference value) pairs: reported as absolute and relative errors.
     Pairs(Vec<(f64, f64)>),
     /// A measured distribution (e.g. each fit's own residual, the floor no table can
-    /// beat), reported as is.
+    /// beat), reported as is; a threshold may bound it (metric `max`, `p99`, …).
     Values(Vec<f64>),
+    /// (runtime value, reference value) pairs at grid nodes: reported as the grid
+    /// errors of an output of this name (the per-node sections of
+    /// [`Family::nodes_in_extras`]).
+    Nodes(Vec<(f64, f64)>),
 }
 
 /// Fit of one grid entry.
@@ -124,7 +128,9 @@ pub trait Family: Sync {
     }
     /// The checker's comparison at `x`: (runtime values, reference values) of
     /// [`Family::checked`], or `None` where the family promises nothing (e.g. a
-    /// product too small to matter). Default: the lookup against [`Family::reference`].
+    /// product too small to matter); a quantity whose runtime and reference values
+    /// are both NaN is promised nothing at `x` alone (a NaN on one side only is an
+    /// error). Default: the lookup against [`Family::reference`].
     #[allow(clippy::type_complexity)]
     fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {
         let got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
@@ -136,6 +142,12 @@ pub trait Family: Sync {
     /// cases. Default: none.
     fn extra_checks(&self, _table: &Table, _count: usize, _seed: u64) -> Vec<(String, Result<Extra, String>)> {
         Vec::new()
+    }
+    /// Whether [`Family::extra_checks`] verifies every grid node with sections
+    /// cheaper than [`Family::check_point`] (which then runs on an evenly strided
+    /// subset of nodes). Default `false`: `check_point` at every node.
+    fn nodes_in_extras(&self) -> bool {
+        false
     }
     /// Equivalent grid node whose fit this node reuses (e.g. a symmetry), or `None`.
     /// The fit at the returned node must give exactly this node's values.

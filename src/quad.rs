@@ -62,21 +62,29 @@ fn segment_points(a: f64, b: f64, breaks: &[f64]) -> Vec<f64> {
     pts
 }
 
-fn gk15<F: FnMut(f64) -> f64>(f: &mut F, a: f64, b: f64) -> (f64, f64) {
+fn gk15<const N: usize, F: FnMut(f64) -> [f64; N]>(f: &mut F, a: f64, b: f64) -> ([f64; N], f64) {
     let c = 0.5 * (a + b);
     let h = 0.5 * (b - a);
     let fc = f(c);
-    let mut k = WGK[7] * fc;
-    let mut g = WG[3] * fc;
+    let mut k = fc.map(|v| WGK[7] * v);
+    let mut g = fc.map(|v| WG[3] * v);
     for j in 0..7 {
         let x = h * XGK[j];
-        let s = f(c - x) + f(c + x);
-        k += WGK[j] * s;
-        if j % 2 == 1 {
-            g += WG[j / 2] * s;
+        let (lo, hi) = (f(c - x), f(c + x));
+        for i in 0..N {
+            let s = lo[i] + hi[i];
+            k[i] += WGK[j] * s;
+            if j % 2 == 1 {
+                g[i] += WG[j / 2] * s;
+            }
         }
     }
-    (k * h, ((k - g) * h).abs())
+    // The error of a vector is its largest component's (max norm); a NaN stays NaN
+    // so that the caller stops on it.
+    let err = (0..N)
+        .map(|i| ((k[i] - g[i]) * h).abs())
+        .fold(0.0, |m: f64, e| if e.is_nan() || e > m { e } else { m });
+    (k.map(|v| v * h), err)
 }
 
 /// Globally adaptive Gauss–Kronrod (7/15) integration of `f` over `[a, b]`.
@@ -95,18 +103,36 @@ pub fn gauss_kronrod<F: FnMut(f64) -> f64>(
     rel_tol: f64,
     max_intervals: usize,
 ) -> Quad {
+    let (q, [value]) = gauss_kronrod_vec(|x| [f(x)], a, b, breaks, abs_tol, rel_tol, max_intervals);
+    Quad { value, ..q }
+}
+
+/// [`gauss_kronrod`] of a vector-valued integrand: every component on one shared
+/// subdivision, refined where the largest component error is (max norm), so `N`
+/// integrals of related integrands cost about one. The tolerance test uses the
+/// largest component; `Quad::value` is the first component.
+pub fn gauss_kronrod_vec<const N: usize, F: FnMut(f64) -> [f64; N]>(
+    mut f: F,
+    a: f64,
+    b: f64,
+    breaks: &[f64],
+    abs_tol: f64,
+    rel_tol: f64,
+    max_intervals: usize,
+) -> (Quad, [f64; N]) {
     if b < a {
-        let q = gauss_kronrod(f, b, a, breaks, abs_tol, rel_tol, max_intervals);
-        return Quad { value: -q.value, ..q };
+        let (q, v) = gauss_kronrod_vec(f, b, a, breaks, abs_tol, rel_tol, max_intervals);
+        return (Quad { value: -q.value, ..q }, v.map(|x| -x));
     }
+    let norm = |v: &[f64; N]| v.iter().fold(0.0, |m: f64, x| m.max(x.abs()));
     let pts = segment_points(a, b, breaks);
-    let mut heap: BinaryHeap<Interval> = BinaryHeap::new();
+    let mut heap: BinaryHeap<Interval<N>> = BinaryHeap::new();
     let mut evals = 0u32;
-    let (mut total, mut err) = (0.0, 0.0);
+    let (mut total, mut err) = ([0.0; N], 0.0);
     for w in pts.windows(2) {
         let (v, e) = gk15(&mut f, w[0], w[1]);
         evals += 15;
-        total += v;
+        (0..N).for_each(|i| total[i] += v[i]);
         err += e;
         heap.push(Interval {
             err: e,
@@ -115,38 +141,38 @@ pub fn gauss_kronrod<F: FnMut(f64) -> f64>(
             value: v,
         });
     }
+    // Re-sum from the pieces: the running sums drift by rounding.
+    let finish = |heap: &BinaryHeap<Interval<N>>, evals: u32, converged: bool| {
+        let mut value = [0.0; N];
+        for iv in heap.iter() {
+            (0..N).for_each(|i| value[i] += iv.value[i]);
+        }
+        let error = heap.iter().map(|i| i.err).sum();
+        let q = Quad {
+            value: value.first().copied().unwrap_or(0.0),
+            error,
+            evals,
+            converged,
+        };
+        (q, value)
+    };
     loop {
-        let target = abs_tol.max(rel_tol * total.abs());
+        let target = abs_tol.max(rel_tol * norm(&total));
         let done = err <= target;
         if done || !err.is_finite() || heap.len() >= max_intervals {
-            // Re-sum from the pieces: the running sums drift by rounding.
-            let value = heap.iter().map(|i| i.value).sum();
-            let error = heap.iter().map(|i| i.err).sum();
-            return Quad {
-                value,
-                error,
-                evals,
-                converged: done,
-            };
+            return finish(&heap, evals, done);
         }
         let worst = heap.pop().expect("non-empty");
         let mid = 0.5 * (worst.a + worst.b);
         if mid <= worst.a || mid >= worst.b {
             // The interval cannot be split further in f64.
             heap.push(worst);
-            let value = heap.iter().map(|i| i.value).sum();
-            let error = heap.iter().map(|i| i.err).sum();
-            return Quad {
-                value,
-                error,
-                evals,
-                converged: false,
-            };
+            return finish(&heap, evals, false);
         }
         let (v1, e1) = gk15(&mut f, worst.a, mid);
         let (v2, e2) = gk15(&mut f, mid, worst.b);
         evals += 30;
-        total += v1 + v2 - worst.value;
+        (0..N).for_each(|i| total[i] += v1[i] + v2[i] - worst.value[i]);
         err += e1 + e2 - worst.err;
         heap.push(Interval {
             err: e1,
@@ -165,25 +191,25 @@ pub fn gauss_kronrod<F: FnMut(f64) -> f64>(
 
 /// A subinterval, ordered by its error estimate (the heap pops the worst first).
 #[derive(Debug, Clone, Copy)]
-struct Interval {
+struct Interval<const N: usize> {
     err: f64,
     a: f64,
     b: f64,
-    value: f64,
+    value: [f64; N],
 }
 
-impl PartialEq for Interval {
+impl<const N: usize> PartialEq for Interval<N> {
     fn eq(&self, other: &Self) -> bool {
         self.err.total_cmp(&other.err).is_eq()
     }
 }
-impl Eq for Interval {}
-impl PartialOrd for Interval {
+impl<const N: usize> Eq for Interval<N> {}
+impl<const N: usize> PartialOrd for Interval<N> {
     fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
         Some(self.cmp(other))
     }
 }
-impl Ord for Interval {
+impl<const N: usize> Ord for Interval<N> {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
         self.err.total_cmp(&other.err)
     }
