@@ -566,8 +566,8 @@ impl Family for DiskLightFamily {
         want.push(1.0);
         Ok(Some((got, want)))
     }
-    fn node_inputs(&self, node: &[f64]) -> Vec<f64> {
-        vec![r_from_rim_coordinate(node[0], node[1]), node[1]]
+    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
+        vec![vec![r_from_rim_coordinate(node[0], node[1]), node[1]]]
     }
     fn nodes_in_extras(&self) -> bool {
         // The area reference costs ~1.5 ms a point; `l2_nodes` checks all 24 576 nodes
@@ -602,7 +602,7 @@ impl Family for DiskLightFamily {
         let l2_nodes: Result<Vec<(f64, f64)>, String> = nodes
             .par_iter()
             .map(|n| {
-                let x = self.node_inputs(n);
+                let x = [r_from_rim_coordinate(n[0], n[1]), n[1]];
                 let got = rt.canonical(x[0], x[1]).map_err(|e| format!("lookup at {x:?}: {e}"))?;
                 let want = reference_canonical_directions(x[0], x[1])?;
                 Ok((1.0 + rel_l2(&got, &want), 1.0))

@@ -317,9 +317,9 @@ impl Family for LogZhFamily {
     fn outputs(&self) -> &'static [&'static str] {
         &CHANNELS[..self.order]
     }
-    fn node_inputs(&self, node: &[f64]) -> Vec<f64> {
+    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
         // Axes are (r, eps); inputs are (eps, r).
-        vec![node[1], node[0]]
+        vec![vec![node[1], node[0]]]
     }
     fn embedded(&self) -> &'static [u8] {
         lobefit_tables::embedded::LOG_ZH

@@ -300,8 +300,8 @@ impl Family for ShExpFamily {
     }
     /// Grid nodes are (order, θ_b); the whole-table view takes θ_b only and returns
     /// every order, so a node maps to its θ_b.
-    fn node_inputs(&self, node: &[f64]) -> Vec<f64> {
-        vec![node[1]]
+    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
+        vec![vec![node[1]]]
     }
     fn embedded(&self) -> &'static [u8] {
         lobefit_tables::embedded::SHEXP

@@ -276,8 +276,8 @@ impl Family for WedgeFamily {
     fn outputs(&self) -> &'static [&'static str] {
         &["m"]
     }
-    fn node_inputs(&self, node: &[f64]) -> Vec<f64> {
-        vec![node_w(node[0]) as f64, node[1].round(), node[2].round()]
+    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
+        vec![vec![node_w(node[0]) as f64, node[1].round(), node[2].round()]]
     }
     fn embedded(&self) -> &'static [u8] {
         lobefit_tables::embedded::WEDGE

@@ -244,7 +244,7 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
     let grid: Vec<Vec<f64>> = all_nodes
         .iter()
         .step_by(stride)
-        .map(|n| family.node_inputs(n))
+        .flat_map(|n| family.node_inputs(n))
         .collect();
     let mut rng = Rng::new(opts.seed);
     let offgrid: Vec<Vec<f64>> = (0..opts.offgrid).map(|_| family.sample(&mut rng)).collect();

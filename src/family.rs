@@ -105,9 +105,11 @@ pub trait Family: Sync {
     fn inputs(&self) -> &'static [&'static str];
     /// Output columns of `lobefit eval`.
     fn outputs(&self) -> &'static [&'static str];
-    /// Input point of a grid node (identity unless the axes are derived quantities).
-    fn node_inputs(&self, node: &[f64]) -> Vec<f64> {
-        node.to_vec()
+    /// Input points the checker evaluates at a grid node (default: the node itself;
+    /// several where the axes are derived quantities or where a node's values reach
+    /// lookups along axes the grid does not have).
+    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
+        vec![node.to_vec()]
     }
     /// The committed default table compiled into the runtime crate.
     fn embedded(&self) -> &'static [u8];
