@@ -715,8 +715,17 @@ impl Family for IsgFamily {
                     .collect()
             }
             IsgModelKind::Best => {
-                let x = unwarp(node[1], node[0]);
-                vec![vec![node[0], x, PI - x], vec![node[0], x, x]]
+                // A(x), B(x) where the node's two angles meet (and the mirror), and the
+                // rank-1 term C(x)·D(φ) (and D(x)·C(θ)) at three angles of the other
+                // axis: D is odd about π/2, so at φ = x alone it may be near zero.
+                let (g, x) = (node[0], unwarp(node[1], node[0]));
+                let mut pts = vec![vec![g, x, PI - x], vec![g, x, x]];
+                for u in [0.3, 0.6, 0.9] {
+                    let y = unwarp(u, g);
+                    pts.push(vec![g, x, y]);
+                    pts.push(vec![g, y, x]);
+                }
+                pts
             }
         }
     }

@@ -284,6 +284,11 @@ impl Family for ShExpFamily {
                     limit: l,
                 })
             })
+            .chain((self.view.is_none()).then(|| Threshold {
+                output: "intervals".into(),
+                metric: "offgrid.max_abs".into(),
+                limit: OFFGRID_REL,
+            }))
             .collect()
     }
     fn inputs(&self) -> &'static [&'static str] {
@@ -356,7 +361,7 @@ impl Family for ShExpFamily {
             Err(e) => return vec![("hyb".into(), Err(e.to_string()))],
         };
         let scenes = crate::shexp_study::scene_geometry(count, seed);
-        let mut out = Vec::new();
+        let mut out = vec![("intervals".to_string(), self.interval_check(table))];
         for n in ORDER_MIN..=ORDER_MAX {
             let gaunt = Gaunt::cached(n).expect("order in 3..=8");
             let hyb = scenes
@@ -402,6 +407,57 @@ impl Family for ShExpFamily {
             off += n + 3;
         }
         Ok(Some((got, want)))
+    }
+}
+
+impl ShExpFamily {
+    /// Every node interval, checked between its nodes: the lookup against the
+    /// reference at each interval's midpoint and, where the table marks a clamp kink,
+    /// just either side of the stored kink (1e-3 of an interval) and at every eighth
+    /// of the interval. A kink flag or
+    /// position that is wrong sends queries there to a stencil across the true kink,
+    /// which the nodes alone never show. Reported as 1 + e against 1, e the largest
+    /// error over all orders' quantities in their units (f in units of ‖f‖, the
+    /// others relative).
+    fn interval_check(&self, table: &Table) -> Result<Extra, String> {
+        use rayon::prelude::*;
+        let nodes = rt::THETA_NODES as usize;
+        let nc = table.meta().channels.len();
+        let h = rt::node_theta(1);
+        let mut pts: Vec<f64> = (0..nodes - 1).map(|i| rt::node_theta(i) + 0.5 * h).collect();
+        for row in 0..(ORDER_MAX - ORDER_MIN + 1) * nodes {
+            let (hi, lo) = (table.values()[row * nc + nc - 2], table.values()[row * nc + nc - 1]);
+            let kink = f64::from(hi) + f64::from(lo);
+            if kink >= 0.0 {
+                pts.extend([kink - 1e-3 * h, kink + 1e-3 * h].map(|t| t.clamp(0.0, rt::THETA_MAX)));
+                // And every eighth of the interval: a kink stored h/8 or more from
+                // the true one leaves one of these on the wrong stencil.
+                let t0 = rt::node_theta(row % nodes);
+                pts.extend((1..8).map(|k| (t0 + h * k as f64 / 8.0).min(rt::THETA_MAX)));
+            }
+        }
+        let runtime = self.runtime(table.clone()).map_err(|e| e.to_string())?;
+        let names = self.checked();
+        let pairs: Result<Vec<(f64, f64)>, String> = pts
+            .par_iter()
+            .map(|&t| {
+                let (got, want) = self.check_point(runtime.as_ref(), &[t])?.ok_or("no promise")?;
+                let e = names
+                    .iter()
+                    .zip(got.iter().zip(&want))
+                    .map(|(n, (g, w))| {
+                        let d = (g - w).abs();
+                        if n.contains("_f") {
+                            d
+                        } else {
+                            d / w.abs().max(f64::MIN_POSITIVE)
+                        }
+                    })
+                    .fold(0.0, f64::max);
+                Ok((1.0 + e, 1.0))
+            })
+            .collect();
+        pairs.map(Extra::Pairs)
     }
 }
 

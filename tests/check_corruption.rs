@@ -1,0 +1,179 @@
+//! The checker catches any single corrupted node: for every committed table and every
+//! stored channel, seeded random nodes are changed by a few times the family's
+//! promised accuracy (CRCs recomputed, so the loader accepts the file), and the check
+//! must fail on a threshold at the grid nodes, naming the family and the quantity.
+//!
+//! The checks run with `CheckOptions::QUICK`'s node pass (every node is verified in
+//! `--quick`) and fewer random off-grid points, to keep the test short: the failing
+//! threshold asserted is always a node-level one (`grid.*`, or a per-node section),
+//! which does not depend on the off-grid sample. A control run on the unchanged table
+//! must pass with the same options.
+
+use std::f64::consts::TAU;
+use std::path::Path;
+
+use lobefit::check::{check_family, CheckOptions, FamilyReport};
+use lobefit::family::Family;
+use lobefit::fits::lobe_product::{reference_integral, RELEVANCE};
+use lobefit::fits::{registry, FitOptions};
+use lobefit::rng::Rng;
+use lobefit_tables::{format, Table};
+
+const OPTS: CheckOptions = CheckOptions {
+    offgrid: 200,
+    ..CheckOptions::QUICK
+};
+
+/// Size of the change to one stored value: a few times (2–5×) the family's promised
+/// accuracy at the nodes, in the channel's stored units (a log-encoded channel's unit
+/// is relative), and at least two f32 steps so the stored value changes.
+fn delta(kind: &str, channel: &str, v: f32) -> f64 {
+    let d = match kind {
+        "lobe-integral" => 3e-6,                // ln I; 1e-6 relative
+        "cap-exponent" => 3e-4 * f64::from(v),  // q; 1e-4 relative on e_cap
+        "isg-refit" => 0.15,                    // ln g, ln h; 0.0225 abs on Ŝ
+        // A, B; 5e-4 abs on Ŝ (C and D: `rank_one_delta`).
+        "isg-best" => 1.5e-3,
+        "sg-fit" => 1e-4,                       // ln λ, ln μ; 3e-5 relative
+        "log-zh" => 3e-9,                       // z hi/lo; 1e-9 abs
+        "wedge" => 3e-12,                       // M hi/lo; 1e-12 abs
+        "wrap" => 6e-7,                         // λ̂_l; table lookups 2e-7 abs at nodes
+        "disk-light" => 5e-5,                   // ln c00, ratios; 1e-5 rel L2
+        "lobe-product" | "lobe-product-l2" => match channel {
+            "ln_integral_over_model" => 3e-4, // integral 1e-4 relative at nodes
+            _ => 0.03,                        // e_r, p_r: residual 1e-3 relative at nodes
+        },
+        other => panic!("no corruption size for {other}"),
+    };
+    d.max(two_steps(v))
+}
+
+/// Two f32 steps at `v`: the smallest change certain to alter the stored value.
+fn two_steps(v: f32) -> f64 {
+    2.0 * f64::from(f32::from_bits(v.abs().to_bits() + 1) - v.abs())
+}
+
+/// isg-best's C and D enter lookups as C(θ)·D(φ): a change δ of C at a node moves Ŝ
+/// by up to δ·max|D| at that γ (and likewise for D). The change that moves it by three
+/// times the promise (5e-4), or `None` where the partner is too small for any
+/// plausible change (|C|, |D| ≤ 0.5) to do so.
+fn rank_one_delta(table: &Table, node: usize, channel: usize) -> Option<f64> {
+    let nc = table.meta().channels.len();
+    let nu = table.meta().axes[1].count as usize;
+    let partner = if channel == 2 { 3 } else { 2 };
+    let row = node / nu * nu;
+    let max = (row..row + nu)
+        .map(|n| f64::from(table.values()[n * nc + partner]).abs())
+        .fold(0.0, f64::max);
+    let d = 1.5e-3 / max;
+    (d < 0.2).then_some(d)
+}
+
+/// shexp stores (hi, lo) pairs of f_0..f_7, ‖f̂‖, a, b (divided by 1 − cos θ_b) and
+/// the kink position per (order, θ_b) node; the promise at nodes is 1e-9 relative (f
+/// in units of ‖f‖). `None` where no change of that channel at that node can move a
+/// lookup beyond the promise: f_l with l ≥ the node's order (stored as 0, never read),
+/// an interval without a kink (−1 is a flag), and `kink_lo` (at most 1e-7 rad).
+fn shexp_delta(table: &Table, node: usize, channel: usize) -> Option<f64> {
+    let nc = table.meta().channels.len();
+    let row = &table.values()[node * nc..(node + 1) * nc];
+    let (pair, lo) = (channel / 2, channel % 2 == 1);
+    let order = 3 + node / lobefit_tables::shexp::THETA_NODES as usize;
+    let d = match pair {
+        l @ 0..=7 if l < order => 5e-9 * f64::from(row[16]),
+        0..=7 => return None,
+        8..=10 => 5e-9 * f64::from(row[2 * pair]).abs(),
+        _ if lo || row[22] < 0.0 => return None,
+        // A kink moved by a quarter interval: queries between sit on the wrong stencil.
+        _ => 0.25 * lobefit_tables::shexp::node_theta(1),
+    };
+    Some(d)
+}
+
+/// The file with value `index` of the payload moved by `d`, CRCs valid.
+fn corrupted(table: &Table, index: usize, d: f64) -> Vec<u8> {
+    let mut values = table.values().to_vec();
+    values[index] = (f64::from(values[index]) + d) as f32;
+    format::encode(table.meta(), &values).expect("re-encode")
+}
+
+/// Node-level thresholds that failed.
+fn node_failures(r: &FamilyReport) -> Vec<String> {
+    r.thresholds
+        .iter()
+        .filter(|t| !t.pass && (t.metric.starts_with("grid.") || !t.metric.contains('.')))
+        .map(|t| format!("{}.{} = {:.3e} (limit {:.1e})", t.output, t.metric, t.value, t.limit))
+        .collect()
+}
+
+/// A diagonal node (e1 = e2) of a lobe-product table where the product is relevant
+/// (such nodes have no mirror, so their own check must catch them).
+fn relevant_diagonal_node(table: &Table, rng: &mut Rng) -> usize {
+    let axes = &table.meta().axes;
+    let (n_e, n_a) = (axes[0].count, axes[2].count);
+    loop {
+        let (i, k) = ((rng.next_u64() % n_e as u64) as u32, (rng.next_u64() % n_a as u64) as u32);
+        let (e, alpha) = (axes[0].node(i), axes[2].node(k));
+        if reference_integral(e, e, alpha).unwrap() >= RELEVANCE * TAU / (1.0 + e) {
+            return ((i * n_e + i) * n_a + k) as usize;
+        }
+    }
+}
+
+fn check_bytes(family: &dyn Family, dir: &Path, bytes: &[u8]) -> FamilyReport {
+    let path = dir.join(format!("{}.lobefit", family.kind()));
+    std::fs::write(&path, bytes).unwrap();
+    check_family(family, &path, OPTS)
+}
+
+#[test]
+fn any_single_corrupted_node_fails_the_quick_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut tried = 0;
+    let mut rng = Rng::new(0xc0_44_u64);
+    for family in registry(FitOptions::default()) {
+        let kind = family.kind();
+        let bytes = std::fs::read(format!("tables/data/{kind}.lobefit")).unwrap();
+        let table = Table::from_bytes(&bytes).unwrap();
+        let control = check_bytes(family.as_ref(), dir.path(), &bytes);
+        assert!(control.pass, "{kind}: the unchanged table fails: {:?}", control.problems);
+        let nc = table.meta().channels.len();
+        let nodes = table.values().len() / nc;
+        for (c, channel) in table.meta().channels.iter().enumerate() {
+            let mut picks = vec![(rng.next_u64() % nodes as u64) as usize];
+            let special = |node: usize| match kind {
+                "isg-best" if c >= 2 => Some(rank_one_delta(&table, node, c)),
+                "shexp" => Some(shexp_delta(&table, node, c)),
+                _ => None,
+            };
+            if kind == "shexp" && channel.name == "kink_lo" {
+                continue; // see `shexp_delta`
+            }
+            while special(picks[0]) == Some(None) {
+                picks[0] = (rng.next_u64() % nodes as u64) as usize;
+            }
+            if kind.starts_with("lobe-product") {
+                picks.push(relevant_diagonal_node(&table, &mut rng));
+            }
+            for node in picks {
+                let index = node * nc + c;
+                let v = table.values()[index];
+                let d = match special(node) {
+                    Some(d) => d.expect("picked").max(two_steps(v)),
+                    None => delta(kind, &channel.name, v),
+                };
+                let report = check_bytes(family.as_ref(), dir.path(), &corrupted(&table, index, d));
+                let failed = node_failures(&report);
+                println!("{kind:<16} {:<24} node {node:>6} {d:+.2e}: {}", channel.name, failed.join("; "));
+                assert_eq!(report.kind, kind);
+                assert!(
+                    !report.pass && !failed.is_empty(),
+                    "{kind}: node {node} channel {} moved by {d:e} passes the node checks",
+                    channel.name
+                );
+                tried += 1;
+            }
+        }
+    }
+    println!("{tried} single-node corruptions, all caught");
+}
