@@ -1691,3 +1691,104 @@ proptest! {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------
+// 13. API misuse: overflow after narrowing, node indices, gaunt::one
+// ---------------------------------------------------------------------------------
+
+#[track_caller]
+fn assert_overflow<T: std::fmt::Debug>(r: Result<T, LookupError>, what: &str) {
+    match r {
+        Err(LookupError::Overflow { name, value }) => {
+            assert!(
+                !name.is_empty() && !(value as f32).is_finite(),
+                "{what}: {name} {value}"
+            )
+        }
+        other => panic!("{what}: expected Overflow, got {other:?}"),
+    }
+}
+
+/// Finite inputs whose result overflows (in f64, or only once narrowed to f32) are
+/// errors, never Ok(inf) or Ok(NaN).
+#[test]
+fn overflowing_results_are_errors_in_f64_and_after_narrowing_to_f32() {
+    let lp = LobeProduct::embedded().unwrap();
+    let l = LobeF32 {
+        scale: 1e20,
+        axis: Vec3::Z,
+        exponent: 2.0,
+    };
+    assert_overflow(lp.product_f32(&l, &l), "product_f32 1e20 × 1e20");
+    let dl = DiskLight::embedded().unwrap();
+    let (c, n) = (Vec3::new(0.0, 0.0, 2.0), Vec3::new(0.0, 0.0, -1.0));
+    assert_overflow(
+        dl.irradiance_sh_f32(Vec3::ZERO, c, n, 100.0, f32::MAX),
+        "irradiance_sh_f32",
+    );
+    assert_overflow(dl.radiance_sh_f32(Vec3::ZERO, c, n, 100.0, f32::MAX), "radiance_sh_f32");
+    let (c, n) = (c.as_dvec3(), n.as_dvec3());
+    assert_overflow(dl.radiance_sh(DVec3::ZERO, c, n, 100.0, f64::MAX), "radiance_sh");
+    assert_overflow(
+        dl.irradiance(DVec3::ZERO, DVec3::Z, c, n, 100.0, f64::MAX),
+        "irradiance",
+    );
+    let mut o = [0.0; 9];
+    assert_overflow(wrap::convolve(&[f64::MAX; 9], 0.5, &mut o), "wrap::convolve");
+    assert_overflow(
+        wrap::rewrap_irradiance(&[f64::MAX; 9], 0.5, &mut o),
+        "rewrap_irradiance",
+    );
+    let mut o32 = [0.0f32; 9];
+    assert_overflow(wrap::convolve_f32(&[f32::MAX; 9], 0.5, &mut o32), "convolve_f32");
+    use lobefit_tables::sh;
+    assert_overflow(sh::rotate_z_f32(&[f32::MAX; 9], 0.7, &mut o32), "rotate_z_f32");
+    assert_overflow(sh::rotate_z(&[f64::MAX; 9], 0.7, &mut o), "rotate_z");
+    // Moderate inputs still give values.
+    assert!(lp.product_f32(&LobeF32 { scale: 2.0, ..l }, &l).is_ok());
+    assert!(wrap::convolve_f32(&[1e30; 9], 0.5, &mut o32).is_ok());
+}
+
+/// `Table::node` checks the number of indices and each index against its axis.
+#[test]
+fn table_node_refuses_bad_indices_with_specific_errors() {
+    let cap = table(CAP);
+    assert_eq!(cap.node(&[999]).unwrap(), &cap.values()[999..1000]);
+    for i in [1000, u32::MAX] {
+        assert_eq!(
+            cap.node(&[i]),
+            Err(LookupError::NodeIndex {
+                axis: "alpha".into(),
+                index: i,
+                count: 1000
+            })
+        );
+    }
+    assert_eq!(cap.node(&[]), Err(LookupError::Arity { expected: 1, got: 0 }));
+    assert_eq!(cap.node(&[0, 5]), Err(LookupError::Arity { expected: 1, got: 2 }));
+    let lp = table(embedded::LOBE_PRODUCT);
+    assert_eq!(
+        lp.node(&[0, 0, 96]),
+        Err(LookupError::NodeIndex {
+            axis: "alpha".into(),
+            index: 96,
+            count: 96
+        })
+    );
+    assert_eq!(lp.node(&[47, 47, 95]).unwrap().len(), 2);
+}
+
+/// `gaunt::one` accepts the supported orders 1..=8 only.
+#[test]
+fn gaunt_one_refuses_unsupported_orders() {
+    use lobefit_tables::gaunt;
+    for order in [0, 9, usize::MAX] {
+        match gaunt::one(order) {
+            Err(LookupError::OutOfDomain { name, .. }) => assert!(name.contains("order"), "{name}"),
+            other => panic!("order {order}: {other:?}"),
+        }
+    }
+    let v = gaunt::one(3).unwrap();
+    assert_eq!(v.len(), 9);
+    assert_eq!(v[0], (4.0 * PI).sqrt());
+}
