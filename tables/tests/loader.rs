@@ -1291,8 +1291,11 @@ use lobefit_tables::{
     LobeF32, LobeProduct, RefitIsg, SgFit,
 };
 
+/// A family's declared channel ranges: (channel, lo, hi).
+type Ranges = &'static [(&'static str, f64, f64)];
+
 /// Every committed table with its family's declared channel ranges.
-fn ranged_tables() -> Vec<(&'static str, &'static [u8], &'static [(&'static str, f64, f64)])> {
+fn ranged_tables() -> Vec<(&'static str, &'static [u8], Ranges)> {
     vec![
         ("lobe-integral", embedded::LOBE_INTEGRAL, lobe_integral::CHANNEL_RANGES),
         ("cap-exponent", embedded::CAP_EXPONENT, cap_exponent::CHANNEL_RANGES),
