@@ -43,7 +43,7 @@ pub struct ExpResult {
 /// (it computes e^{−16} as a sum of terms of size e^{16}): use [`exp_star`], which
 /// factors the DC term out exactly, when accuracy matters.
 pub fn exp_taylor(gaunt: &Gaunt, f: &[f64]) -> ExpResult {
-    let mut sum = one(gaunt.order());
+    let mut sum = one(gaunt.order()).expect("a Gaunt tensor's order is in 1..=8");
     let mut term = sum.clone();
     let norm = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     for k in 1..=TAYLOR_MAX_TERMS {

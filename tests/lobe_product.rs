@@ -302,7 +302,7 @@ fn overflowing_scales_and_bad_normals_are_errors() {
     let big = lobe(1e200, DVec3::Z, 2.0);
     assert!(matches!(
         t.product(&big, &big),
-        Err(LookupError::NotFinite { name, .. }) if name == "scale"
+        Err(LookupError::Overflow { name, .. }) if name == "scale"
     ));
     // A vanishing product stays an exact 0 whatever the scales.
     let far = lobe(1e200, -DVec3::Z, 1e4);

@@ -35,7 +35,7 @@ fn stored_entries_match_quadrature() {
         for ie in (ir % 5..axes[1].count).step_by(5) {
             let (r, eps) = (axes[0].node(ir), axes[1].node(ie));
             let want = reference_log_zh(Kind::Phong, eps, r, 8).unwrap();
-            let got = t.table().node(&[ir, ie]);
+            let got = t.table().node(&[ir, ie]).unwrap();
             for l in 0..8 {
                 let v = got[2 * l] as f64 + got[2 * l + 1] as f64;
                 let err = (v - want[l]).abs() / want[l].abs().max(NEAR_ZERO);

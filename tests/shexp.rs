@@ -334,7 +334,7 @@ fn clamp_conventions_round_trip() {
     for order in ORDER_MIN..=ORDER_MAX {
         let gaunt = Gaunt::new(order);
         let nc = order * order;
-        let one = lobefit::sh::one(order);
+        let one = lobefit::sh::one(order).unwrap();
         let (mut worst_q, mut worst_m) = (0.0f64, 0.0f64);
         for i in 1..=200 {
             let g = zh_to_sh_z(&cap_visibility_zh(PI / 2.0 * i as f64 / 200.0, order).unwrap()[..order]);

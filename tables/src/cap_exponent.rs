@@ -13,7 +13,7 @@
 
 use std::f64::consts::FRAC_PI_2;
 
-use crate::error::{in_range, LoadError, LookupError};
+use crate::error::{in_range, narrow, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 
@@ -29,6 +29,12 @@ pub const ALPHA_TABLE_MAX: f64 = FRAC_PI_2 - 1.0e-7;
 
 /// Name of the one stored channel (q, [`Encoding::Linear`]).
 pub const CHANNEL: &str = "q";
+
+/// Plausible range of each stored channel (name, lo, hi), dimensionless: the true
+/// q(α) lies in [0.4718, 0.9613] (0.9613 as α → 0, minimum near α ≈ 1.54, 1/2 at
+/// π/2); the range is the fit's search bracket [0.25, 1.25], so a fitted file can never
+/// leave it and a value outside it is corrupt.
+pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNEL, 0.25, 1.25)];
 
 /// The axis this runtime interprets: `alpha` on [1e-3, π/2 − 1e-7], nodes uniform in
 /// ln(α/(π/2 − α)).
@@ -71,6 +77,7 @@ impl CapExponent {
             &axis(table.meta().axes.first().map_or(0, |a| a.count)),
             &[(CHANNEL, Encoding::Linear)],
         )?;
+        table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
     }
 
@@ -113,6 +120,6 @@ impl CapExponent {
 
     /// [`CapExponent::e_cap`] in single precision.
     pub fn e_cap_f32(&self, alpha: f32) -> Result<f32, LookupError> {
-        self.e_cap(alpha as f64).map(|v| v as f32)
+        narrow("e_cap", self.e_cap(alpha as f64)?)
     }
 }

@@ -31,7 +31,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 use glam::{DVec3, Vec3};
 
-use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::error::{finite, finite_result, finite_results, in_range, narrow_all, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::sh::{self, Rotation};
 use crate::table::Table;
@@ -55,6 +55,22 @@ pub const V_NODES: u32 = 192;
 pub const TAU_NODES: u32 = 128;
 /// Stored channels: c_00 (log-encoded) and c_lm / c_00 for the other five.
 pub const CHANNELS: [&str; 6] = ["y00", "r10", "r11", "r20", "r21", "r22"];
+/// Plausible range of each stored channel (name, lo, hi), dimensionless.
+/// `y00` stores ln c_00, c_00 = Ω/(2√π) with Ω ∈ (0, 2π] the disk's solid angle: at most
+/// ln √π = 0.572 (a hemisphere), at least ln(√π/2·(R/d)²·cos τ) = −15.79 (R/d = 0.01,
+/// τ = 0.999·π/2); range [−18, 1]. The ratios obey |c_lm| ≤ Ω·max|y_lm|, so
+/// |c_lm/c_00| ≤ 2√π max|y_lm|: √3 = 1.732 for l = 1, √5 = 2.236 for (2, 0), √15/2 =
+/// 1.936 for (2, 1) and (2, 2); the committed table reaches the first two to 1e-5, so
+/// the ranges add 1 %.
+pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+    ("y00", -18.0, 1.0),
+    ("r10", -1.75, 1.75),
+    ("r11", -1.75, 1.75),
+    ("r20", -2.26, 2.26),
+    ("r21", -1.96, 1.96),
+    ("r22", -1.96, 1.96),
+];
+
 /// Output names of the six canonical coefficients (`y21` = l 2, m 1).
 pub const OUTPUTS: [&str; 6] = ["y00", "y10", "y11", "y20", "y21", "y22"];
 /// Single SH index l(l+1)+m of each canonical coefficient.
@@ -145,7 +161,11 @@ pub fn form_factor_irradiance(
         return Ok(0.0);
     }
     let area = PI * radius * radius;
-    Ok(PI * radiance * area * g.cos_tau * cos_r / (PI * g.d * g.d + area))
+    // Huge radii, distances or radiances overflow (inf, or inf/inf).
+    finite_result(
+        "form-factor irradiance",
+        PI * radiance * area * g.cos_tau * cos_r / (PI * g.d * g.d + area),
+    )
 }
 
 fn unit(name: &str, v: DVec3) -> Result<DVec3, LookupError> {
@@ -274,6 +294,7 @@ impl DiskLight {
             .map(|(k, &c)| (c, if k == 0 { Encoding::Log } else { Encoding::Linear }))
             .collect();
         table.expect_layout(&axes(counts.0, counts.1), &chans)?;
+        table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
     }
 
@@ -373,6 +394,8 @@ impl DiskLight {
         let mut out = [0.0; 9];
         rot.apply(&canon, &mut out)?;
         out.iter_mut().for_each(|v| *v *= radiance);
+        // A huge finite radiance overflows the scaled coefficients.
+        finite_results("radiance SH", &out)?;
         Ok(out)
     }
 
@@ -390,6 +413,7 @@ impl DiskLight {
         for (i, v) in e.iter_mut().enumerate() {
             *v *= CLAMPED_COSINE[sh::band_of(i).0];
         }
+        finite_results("irradiance SH", &e)?;
         Ok(e)
     }
 
@@ -408,7 +432,7 @@ impl DiskLight {
         let nr = unit("receiver normal", receiver_normal)?;
         let mut y = [0.0; 9];
         sh::eval_basis(3, nr.to_array(), &mut y)?;
-        Ok(e.iter().zip(&y).map(|(a, b)| a * b).sum())
+        finite_result("irradiance", e.iter().zip(&y).map(|(a, b)| a * b).sum())
     }
 
     /// [`DiskLight::radiance_sh`] in single precision (computed in f64, rounded once).
@@ -427,7 +451,9 @@ impl DiskLight {
             radius as f64,
             radiance as f64,
         )?;
-        Ok(v.map(|x| x as f32))
+        let mut out = [0.0f32; 9];
+        narrow_all("radiance SH", &v, &mut out)?;
+        Ok(out)
     }
 
     /// [`DiskLight::irradiance_sh`] in single precision.
@@ -446,7 +472,9 @@ impl DiskLight {
             radius as f64,
             radiance as f64,
         )?;
-        Ok(v.map(|x| x as f32))
+        let mut out = [0.0f32; 9];
+        narrow_all("irradiance SH", &v, &mut out)?;
+        Ok(out)
     }
 }
 

@@ -55,6 +55,21 @@ pub enum LoadError {
     /// Reading the file from disk failed (message of the I/O error).
     #[error("cannot read table file {path}: {message}")]
     Io { path: String, message: String },
+    /// A finite stored value lies outside the plausible range its family declares for
+    /// the channel (the stored, encoded value: ln of the quantity for a log-encoded
+    /// channel), so the file cannot hold what its kind says.
+    #[error(
+        "table '{kind}': channel {channel} at node {node:?} holds {value}, outside its plausible range [{lo}, {hi}]"
+    )]
+    ImplausibleValue {
+        kind: String,
+        channel: String,
+        /// Multi-index of the node, slowest axis first.
+        node: Vec<u32>,
+        value: f32,
+        lo: f64,
+        hi: f64,
+    },
 }
 
 /// Why a lookup was refused.
@@ -72,6 +87,13 @@ pub enum LookupError {
     /// The output buffer does not match the number of channels.
     #[error("output buffer has {got} slots, table has {expected} channels")]
     Channels { expected: usize, got: usize },
+    /// A node index is past the end of its axis.
+    #[error("node index {index} of axis {axis} is out of range (the axis has {count} nodes)")]
+    NodeIndex { axis: String, index: u32, count: u32 },
+    /// Finite inputs whose result is not finite (too large for f64, or for f32 in a
+    /// single-precision twin): an error, never an `Ok(inf)` or `Ok(NaN)`.
+    #[error("{name} overflows ({value}): the inputs are too large for a finite result")]
+    Overflow { name: String, value: f64 },
 }
 
 /// Rejects NaN and infinities with an error naming the quantity.
@@ -113,4 +135,46 @@ pub(crate) fn in_range(name: &str, value: f64, lo: f64, hi: f64) -> Result<f64, 
         });
     }
     Ok(v)
+}
+
+/// Fails with [`LookupError::Overflow`] unless the computed `value` is finite.
+pub(crate) fn finite_result(name: &str, value: f64) -> Result<f64, LookupError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(LookupError::Overflow {
+            name: name.to_string(),
+            value,
+        })
+    }
+}
+
+/// Rounds an f64 result to f32 (the f32 twins), refusing a value that is not finite
+/// in f32: narrowing can overflow where the f64 result did not.
+pub(crate) fn narrow(name: &str, value: f64) -> Result<f32, LookupError> {
+    let v = value as f32;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(LookupError::Overflow {
+            name: format!("{name} (f32)"),
+            value,
+        })
+    }
+}
+
+/// [`copy_f32`] that also refuses any value that is not finite in f32 (see [`narrow`]).
+pub(crate) fn narrow_all(name: &str, src: &[f64], out: &mut [f32]) -> Result<(), LookupError> {
+    for (i, s) in src.iter().enumerate() {
+        narrow(&format!("{name}[{i}]"), *s)?;
+    }
+    copy_f32(src, out)
+}
+
+/// Refuses a non-finite entry of a computed vector (see [`finite_result`]).
+pub(crate) fn finite_results(name: &str, values: &[f64]) -> Result<(), LookupError> {
+    for (i, v) in values.iter().enumerate() {
+        finite_result(&format!("{name}[{i}]"), *v)?;
+    }
+    Ok(())
 }

@@ -274,9 +274,11 @@ impl Gaunt {
     }
 }
 
-/// The SH vector of the constant 1: (√(4π), 0, …).
-pub fn one(order: usize) -> Vec<f64> {
-    let mut v = vec![0.0; coeff_count(order)];
+/// The SH vector of the constant 1, (√(4π), 0, …), with n² coefficients for an order
+/// n in 1..=8 (an order outside it is an error naming the order).
+pub fn one(order: usize) -> Result<Vec<f64>, LookupError> {
+    let n = rt::check_order(order)?;
+    let mut v = vec![0.0; coeff_count(n)];
     v[0] = (4.0 * PI).sqrt();
-    v
+    Ok(v)
 }

@@ -29,7 +29,7 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::error::{finite, finite_result, in_range, narrow, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 
@@ -48,6 +48,26 @@ pub const REFIT_CHANNELS: [&str; 2] = ["g", "h"];
 /// Channels of the separable table, for θ, φ ≤ π/2: the marginals A(θ), B(φ) and the
 /// correction factors C(θ), D(φ).
 pub const BEST_CHANNELS: [&str; 4] = ["a", "b", "c", "d"];
+
+/// Plausible range of each stored channel of `isg-refit` (name, lo, hi), on the
+/// stored ln g, ln h (g, h in 1/rad): the logistic slope follows the SG's angular
+/// width 1/√γ, g ≈ k√γ with k between 1.7 (γ = 10⁴) and 3.5 (γ = 0.5), so g, h lie in
+/// [1.2, 170] (ln in [0.7, 5.2]) over γ ∈ [0.5, 10⁴]. Range: ln g, ln h ∈ [−1.5, 7]
+/// (slopes 0.22 to 1100 1/rad).
+pub const REFIT_CHANNEL_RANGES: &[(&str, f64, f64)] = &[(REFIT_CHANNELS[0], -1.5, 7.0), (REFIT_CHANNELS[1], -1.5, 7.0)];
+
+/// Plausible range of each stored channel of `isg-best` (name, lo, hi),
+/// dimensionless: the marginals A(θ), B(φ) are fractions of the SG's integral, in
+/// [0, 1/2] for the stored θ, φ ≤ π/2 (1/2 at the axis by symmetry); range
+/// [−0.05, 0.55]. C·D approximates Ŝ − A·B, which lies in [−1/4, 1/4] there, and the
+/// fit splits it evenly between the factors (C ≈ D, at most 0.0625 in the committed
+/// table), so |C|, |D| ≤ 1/2.
+pub const BEST_CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+    (BEST_CHANNELS[0], -0.05, 0.55),
+    (BEST_CHANNELS[1], -0.05, 0.55),
+    (BEST_CHANNELS[2], -0.5, 0.5),
+    (BEST_CHANNELS[3], -0.5, 0.5),
+];
 
 /// Published coefficients (g4, g3, g2, g1, g0) of g(x), x = γ/100 (paper appendix).
 pub const PAPER_G: [f64; 5] = [-2.6856e-6, 7e-4, -0.0571, 3.9529, 17.6028];
@@ -131,7 +151,9 @@ pub trait IsgModel {
     /// Normalised ISG Ŝ(θ, φ; γ) (dimensionless, in [0, 1]).
     fn s_hat(&self, theta: f64, phi: f64, gamma: f64) -> Result<f64, LookupError> {
         check(theta, phi, gamma)?;
-        Ok(self.s_hat_unchecked(theta, phi, gamma))
+        // The models are bounded for every table the loaders accept; the check keeps
+        // that a guarantee (never Ok(NaN)) rather than an assumption.
+        finite_result("S_hat", self.s_hat_unchecked(theta, phi, gamma))
     }
 
     /// ISG S(θ, φ; γ) = Ŝ · 2π/γ (1 − e^{−γ}) in steradians (unit-amplitude SG).
@@ -146,7 +168,10 @@ pub trait IsgModel {
         check(theta1, phi1, gamma)?;
         check(theta2, phi2, gamma)?;
         let s = |t, p| self.s_hat_unchecked(t, p, gamma);
-        Ok((s(theta2, phi2) - s(theta1, phi2) - s(theta2, phi1) + s(theta1, phi1)) * normaliser(gamma))
+        finite_result(
+            "patch integral",
+            (s(theta2, phi2) - s(theta1, phi2) - s(theta2, phi1) + s(theta1, phi1)) * normaliser(gamma),
+        )
     }
 
     /// Limiting angle Γ ∈ [0, π/2] (rad) for the threshold ε ∈ [1e-8, 1/2) (paper §4.1,
@@ -166,30 +191,31 @@ pub trait IsgModel {
                 hi: 0.5,
             });
         }
-        Ok(self.limiting_angle_unchecked(gamma, e).min(FRAC_PI_2))
+        finite_result("limiting angle", self.limiting_angle_unchecked(gamma, e).min(FRAC_PI_2))
     }
 
     /// [`IsgModel::s_hat`] in single precision.
     fn s_hat_f32(&self, theta: f32, phi: f32, gamma: f32) -> Result<f32, LookupError> {
-        self.s_hat(angle_f32(theta), angle_f32(phi), gamma as f64)
-            .map(|v| v as f32)
+        narrow("S_hat", self.s_hat(angle_f32(theta), angle_f32(phi), gamma as f64)?)
     }
 
     /// [`IsgModel::s`] in single precision.
     fn s_f32(&self, theta: f32, phi: f32, gamma: f32) -> Result<f32, LookupError> {
-        self.s(angle_f32(theta), angle_f32(phi), gamma as f64).map(|v| v as f32)
+        narrow("S", self.s(angle_f32(theta), angle_f32(phi), gamma as f64)?)
     }
 
     /// [`IsgModel::patch`] in single precision.
     fn patch_f32(&self, theta1: f32, theta2: f32, phi1: f32, phi2: f32, gamma: f32) -> Result<f32, LookupError> {
         let a = angle_f32;
-        self.patch(a(theta1), a(theta2), a(phi1), a(phi2), gamma as f64)
-            .map(|v| v as f32)
+        narrow(
+            "patch integral",
+            self.patch(a(theta1), a(theta2), a(phi1), a(phi2), gamma as f64)?,
+        )
     }
 
     /// [`IsgModel::limiting_angle`] in single precision.
     fn limiting_angle_f32(&self, gamma: f32, eps: f32) -> Result<f32, LookupError> {
-        self.limiting_angle(gamma as f64, eps as f64).map(|v| v as f32)
+        narrow("limiting angle", self.limiting_angle(gamma as f64, eps as f64)?)
     }
 }
 
@@ -258,6 +284,7 @@ impl RefitIsg {
             &[gamma_axis(n)],
             &[(REFIT_CHANNELS[0], Encoding::Log), (REFIT_CHANNELS[1], Encoding::Log)],
         )?;
+        table.expect_channel_ranges(REFIT_CHANNEL_RANGES)?;
         Ok(Self { table })
     }
 
@@ -331,6 +358,7 @@ impl BestIsg {
                 (BEST_CHANNELS[3], Encoding::Linear),
             ],
         )?;
+        table.expect_channel_ranges(BEST_CHANNEL_RANGES)?;
         Ok(Self {
             table,
             n: (n0 as usize, n1 as usize),

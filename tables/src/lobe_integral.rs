@@ -12,7 +12,7 @@
 
 use std::f64::consts::PI;
 
-use crate::error::{in_range, LoadError, LookupError};
+use crate::error::{in_range, narrow, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 
@@ -25,6 +25,11 @@ pub const E_MAX: f64 = 1.0e5;
 
 /// Name of the one stored channel (ln I, [`Encoding::Log`]).
 pub const CHANNEL: &str = "integral";
+
+/// Plausible range of each stored channel (name, lo, hi), on the stored value ln I
+/// (ln sr): I = 2π/(e + 1) runs from 2π (ln 1.838) at e = 0 down to ln 2π − ln(10⁵ + 1)
+/// = −9.675 at e = 10⁵; the range adds a margin of about 0.3 on each side.
+pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNEL, -10.0, 2.0)];
 
 /// The axis this runtime interprets: `e` on [0, 1e5], nodes uniform in ln(1 + e).
 pub fn axis(count: u32) -> Axis {
@@ -64,6 +69,7 @@ impl LobeIntegral {
             &axis(table.meta().axes.first().map_or(0, |a| a.count)),
             &[(CHANNEL, Encoding::Log)],
         )?;
+        table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
     }
 
@@ -90,6 +96,6 @@ impl LobeIntegral {
 
     /// [`LobeIntegral::integral`] in single precision.
     pub fn integral_f32(&self, e: f32) -> Result<f32, LookupError> {
-        self.integral(e as f64).map(|v| v as f32)
+        narrow("I", self.integral(e as f64)?)
     }
 }

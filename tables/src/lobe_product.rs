@@ -38,7 +38,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use glam::{DVec3, Vec3};
 
-use crate::error::{finite, in_range, LoadError, LookupError};
+use crate::error::{finite, finite_result, in_range, narrow, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 
@@ -56,6 +56,22 @@ pub const CHANNEL_C: &str = "ln_integral_over_model";
 pub const CHANNEL_E: &str = "ln_exponent_ratio";
 /// Channel (l2 only): ln(∫p_rΨ_r / ∫Ψ1Ψ2).
 pub const CHANNEL_K: &str = "ln_integral_ratio";
+
+/// Plausible range of each stored channel (name, lo, hi), dimensionless (all are
+/// logs of ratios), for both variants:
+/// - c = ln(∫Ψ1Ψ2 / M): O(0.1) wherever products matter, down to −10.5 in the corner
+///   where they are negligible (α → π with wide lobes); range [−30, 5], so
+///   ∫Ψ1Ψ2 = M·e^c stays below e^5 times the model, itself at most 2π.
+/// - q = ln((1 + e_r)/(1 + e_m)): the fit searches e_r ∈ [0, 64E + 1000] (E = e1 + e2),
+///   and e_m = √(E·G) lies in [E, √2·E] (G ∈ [E, 2E]), so q ∈ [−ln(1 + √2·2·10⁵),
+///   ln 1001] = [−12.55, 6.91]; range [−13, 7].
+/// - k = ln(∫p_rΨ_r / ∫Ψ1Ψ2) (l2 only): the L2 fit trades integral for shape,
+///   measured −2.54 to 0.019; range [−10, 2].
+pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+    (CHANNEL_C, -30.0, 5.0),
+    (CHANNEL_E, -13.0, 7.0),
+    (CHANNEL_K, -10.0, 2.0),
+];
 
 /// Product variant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -309,6 +325,7 @@ impl LobeProduct {
                 detail: "e1 and e2 axes differ in node count".into(),
             });
         }
+        table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table, variant })
     }
 
@@ -370,8 +387,12 @@ impl LobeProduct {
         // exact zeros, never noise.
         let integral = (ln_model(e1, e2, alpha) + ch[0]).exp();
         let k = if self.variant == Variant::L2 { ch[2].exp() } else { 1.0 };
+        // Exponents beyond 10⁵ (lobe sums) can push e_r and p_r past f64.
+        let e_r = finite_result("e_r", e_r)?;
+        let integral = finite_result("product integral", integral)?;
+        let p = finite_result("p_r", k * integral * (e_r + 1.0) / TAU)?;
         Ok(ProductParams {
-            p: k * integral * (e_r + 1.0) / TAU,
+            p,
             t: peak_fraction(e1, e2, alpha),
             e_r,
             integral,
@@ -401,7 +422,7 @@ impl LobeProduct {
         let alpha = a1.cross(a2).length().atan2(cos);
         let q = self.params_checked(e1, e2, alpha)?;
         // p first: a vanishing product stays 0 whatever the scales.
-        let scale = finite("scale", l1.scale * q.p * l2.scale)?;
+        let scale = finite_result("scale", l1.scale * q.p * l2.scale)?;
         Ok(Lobe {
             scale,
             axis: slerp(a1, a2, alpha, q.t),
@@ -417,10 +438,11 @@ impl LobeProduct {
             exponent: l.exponent as f64,
         };
         let r = self.product(&wide(l1), &wide(l2))?;
+        // A scale or exponent finite in f64 can overflow f32.
         Ok(LobeF32 {
-            scale: r.scale as f32,
+            scale: narrow("scale", r.scale)?,
             axis: r.axis.as_vec3(),
-            exponent: r.exponent as f32,
+            exponent: narrow("exponent", r.exponent)?,
         })
     }
 
@@ -463,7 +485,7 @@ impl LobeProduct {
             exponent: 1.0,
         }];
         let all = self.product_sums(&blv, &cosine, threshold)?;
-        Ok(lobe_sum_integral(&all))
+        finite_result("triple-product integral", lobe_sum_integral(&all))
     }
 }
 

@@ -25,7 +25,7 @@
 
 use std::f64::consts::PI;
 
-use crate::error::{copy_f32, finite, in_range, LoadError, LookupError};
+use crate::error::{finite, in_range, narrow_all, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::sh::{self, MAX_ORDER};
 use crate::table::Table;
@@ -54,6 +54,36 @@ pub const CHANNELS: [&str; MAX_ORDER] = ["z0", "z1", "z2", "z3", "z4", "z5", "z6
 pub const STORED_CHANNELS: [&str; 2 * MAX_ORDER] = [
     "z0_hi", "z0_lo", "z1_hi", "z1_lo", "z2_hi", "z2_lo", "z3_hi", "z3_lo", "z4_hi", "z4_lo", "z5_hi", "z5_lo",
     "z6_hi", "z6_lo", "z7_hi", "z7_lo",
+];
+
+/// Bound on |z_l| (hi channels): |ln max(f, ε)| ≤ max(|ln ε|, ln max f) ≤ ln 100 = 4.61
+/// (ε ≥ 0.01; max f = (r+1)/(2π) ≤ 20.5 for r ≤ 128, ln 3.02), and ∫|y_l^0| dω ≤ √(4π)
+/// (Cauchy–Schwarz), so |z_l| ≤ 4.61·√(4π) = 16.3; with margin, 20.
+const Z_BOUND: f64 = 20.0;
+/// Bound on the lo half of a pair: half an f32 ulp of a hi value below [`Z_BOUND`]
+/// (2⁻²⁰ ≈ 9.5e-7 for |hi| < 32).
+const Z_LO_BOUND: f64 = 1e-6;
+
+/// Plausible range of each stored channel (name, lo, hi), in the unit of z_l (that of
+/// the log of the BRDF value): ±[`Z_BOUND`] for the hi halves, ±[`Z_LO_BOUND`] for
+/// the lo halves.
+pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+    ("z0_hi", -Z_BOUND, Z_BOUND),
+    ("z0_lo", -Z_LO_BOUND, Z_LO_BOUND),
+    ("z1_hi", -Z_BOUND, Z_BOUND),
+    ("z1_lo", -Z_LO_BOUND, Z_LO_BOUND),
+    ("z2_hi", -Z_BOUND, Z_BOUND),
+    ("z2_lo", -Z_LO_BOUND, Z_LO_BOUND),
+    ("z3_hi", -Z_BOUND, Z_BOUND),
+    ("z3_lo", -Z_LO_BOUND, Z_LO_BOUND),
+    ("z4_hi", -Z_BOUND, Z_BOUND),
+    ("z4_lo", -Z_LO_BOUND, Z_LO_BOUND),
+    ("z5_hi", -Z_BOUND, Z_BOUND),
+    ("z5_lo", -Z_LO_BOUND, Z_LO_BOUND),
+    ("z6_hi", -Z_BOUND, Z_BOUND),
+    ("z6_lo", -Z_LO_BOUND, Z_LO_BOUND),
+    ("z7_hi", -Z_BOUND, Z_BOUND),
+    ("z7_lo", -Z_LO_BOUND, Z_LO_BOUND),
 ];
 
 /// Which zonal function is log-projected.
@@ -231,14 +261,14 @@ pub fn cap_zh(theta_b: f64, order: usize) -> [f64; MAX_ORDER] {
 pub fn phong_f32(eps: f32, r: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
     phong(eps as f64, r as f64, order, &mut tmp)?;
-    copy_f32(&tmp[..order], out)
+    narrow_all("z", &tmp[..order], out)
 }
 
 /// [`blocker`] in single precision (computed in f64).
 pub fn blocker_f32(eps: f32, theta_b: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
     blocker(eps as f64, theta_b as f64, order, &mut tmp)?;
-    copy_f32(&tmp[..order], out)
+    narrow_all("z", &tmp[..order], out)
 }
 
 /// Turns a log-ZH vector (about +z) to the world axis `d` (need not be unit):
@@ -270,6 +300,7 @@ impl LogZh {
                 detail: "expected 128 r nodes × 128 eps nodes".into(),
             });
         }
+        table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
     }
 

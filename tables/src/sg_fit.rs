@@ -9,7 +9,7 @@
 //! in that coordinate (λ ~ e for large e), so linear interpolation of the logs is
 //! accurate to a few 1e-6 (measured by `lobefit check`).
 
-use crate::error::{in_range, LoadError, LookupError};
+use crate::error::{in_range, narrow, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::isg::Sg;
 use crate::table::Table;
@@ -22,6 +22,13 @@ pub const VERSION: u32 = 1;
 pub const E_MAX: f64 = 1.0e5;
 /// Channels: λ and μ, both log-encoded.
 pub const CHANNELS: [&str; 2] = ["lambda", "mu"];
+
+/// Plausible range of each stored channel (name, lo, hi), on the stored logs:
+/// ln λ: λ(0) ≈ 1.19 and λ/e → 1 as e → ∞, so λ ∈ [1, 1.1·10⁵] over e ∈ [0, 10⁵]
+/// (ln λ ∈ [0.17, 11.51]); range [−1, 13] (λ up to 4.4·10⁵, inside the 10⁶ that
+/// [`Sg::new`] accepts). ln μ: μ falls from 1.40 at e = 0 to 1 as e → ∞
+/// (ln μ ∈ [0, 0.34]); range [−0.5, 1].
+pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNELS[0], -1.0, 13.0), (CHANNELS[1], -0.5, 1.0)];
 
 /// The axis this runtime interprets: `e` on [0, 10^5], nodes uniform in ln(1 + e).
 pub fn axis(count: u32) -> Axis {
@@ -55,6 +62,7 @@ impl SgFit {
             &axis(table.meta().axes.first().map_or(0, |a| a.count)),
             &[(CHANNELS[0], Encoding::Log), (CHANNELS[1], Encoding::Log)],
         )?;
+        table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
     }
 
@@ -83,7 +91,8 @@ impl SgFit {
 
     /// [`SgFit::fit`] in single precision.
     pub fn fit_f32(&self, e: f32) -> Result<(f32, f32), LookupError> {
-        self.fit(e as f64).map(|(l, m)| (l as f32, m as f32))
+        let (l, m) = self.fit(e as f64)?;
+        Ok((narrow("lambda", l)?, narrow("mu", m)?))
     }
 
     /// The SG approximating the lobe s·max(a·v, 0)^e: axis a (unit within 1e-3), λ(e),
@@ -91,6 +100,7 @@ impl SgFit {
     pub fn lobe_to_sg(&self, axis: [f64; 3], e: f64, scale: f64) -> Result<Sg, LookupError> {
         let (lambda, mu) = self.fit(e)?;
         let scale = crate::error::finite("scale", scale)?;
-        Sg::new(axis, lambda, scale * mu)
+        let amplitude = crate::error::finite_result("SG amplitude s·mu", scale * mu)?;
+        Sg::new(axis, lambda, amplitude)
     }
 }

@@ -32,7 +32,7 @@
 
 use std::f64::consts::PI;
 
-use crate::error::{finite, LookupError};
+use crate::error::{finite, finite_results, narrow_all, LookupError};
 
 /// Largest supported order (bands l = 0..7).
 pub const MAX_ORDER: usize = 8;
@@ -272,6 +272,7 @@ pub fn zh_to_sh(zh: &[f64], d: [f64; 3], out: &mut [f64]) -> Result<(), LookupEr
             out[index(l, m)] *= s;
         }
     }
+    // No overflow check: |out_lm| ≤ |z_l| since |y_l^m| ≤ √((2l+1)/(4π)).
     Ok(())
 }
 
@@ -282,10 +283,7 @@ pub fn zh_to_sh_f32(zh: &[f32], d: [f32; 3], out: &mut [f32]) -> Result<(), Look
     let z: Vec<f64> = zh.iter().map(|&v| v as f64).collect();
     let mut tmp = [0.0f64; MAX_COEFFS];
     zh_to_sh(&z, d.map(f64::from), &mut tmp)?;
-    for (o, t) in out.iter_mut().zip(&tmp[..n * n]) {
-        *o = *t as f32;
-    }
-    Ok(())
+    narrow_all("SH coefficient", &tmp[..n * n], out)
 }
 
 /// Order n of a coefficient vector of length n² (error unless a square in 1..=64).
@@ -307,6 +305,9 @@ pub fn rotate_z(coeffs: &[f64], alpha: f64, out: &mut [f64]) -> Result<(), Looku
     let n = order_of_len(coeffs.len())?;
     check_len(out.len(), n * n)?;
     finite("alpha", alpha)?;
+    for &c in coeffs {
+        finite("SH coefficient", c)?;
+    }
     for l in 0..n {
         out[index(l, 0)] = coeffs[index(l, 0)];
         for m in 1..=l as i32 {
@@ -317,7 +318,8 @@ pub fn rotate_z(coeffs: &[f64], alpha: f64, out: &mut [f64]) -> Result<(), Looku
             out[index(l, -m)] = a * s + b * c;
         }
     }
-    Ok(())
+    // a cos − b sin of two huge coefficients can overflow (up to √2 × the larger).
+    finite_results("rotated SH coefficient", &out[..n * n])
 }
 
 /// [`rotate_z`] in single precision.
@@ -327,10 +329,7 @@ pub fn rotate_z_f32(coeffs: &[f32], alpha: f32, out: &mut [f32]) -> Result<(), L
     let n = order_of_len(c.len())?;
     rotate_z(&c, alpha as f64, &mut tmp[..n * n])?;
     check_len(out.len(), n * n)?;
-    for (o, t) in out.iter_mut().zip(&tmp[..n * n]) {
-        *o = *t as f32;
-    }
-    Ok(())
+    narrow_all("rotated SH coefficient", &tmp[..n * n], out)
 }
 
 /// Rotation matrix about +z by `alpha` (rad).
@@ -424,6 +423,9 @@ impl Rotation {
             });
         }
         check_len(out.len(), n * n)?;
+        for &c in coeffs {
+            finite("SH coefficient", c)?;
+        }
         for l in 0..n {
             let w = 2 * l + 1;
             let off = l * l;
@@ -432,7 +434,9 @@ impl Rotation {
                 out[off + row] = (0..w).map(|col| b[row * w + col] * coeffs[off + col]).sum();
             }
         }
-        Ok(())
+        // Rotations preserve each band's norm, but one coefficient can grow up to
+        // √(2l+1) × the band's largest: huge inputs overflow.
+        finite_results("rotated SH coefficient", &out[..n * n])
     }
 
     /// [`Rotation::apply`] in single precision (accumulated in f64).
@@ -442,10 +446,7 @@ impl Rotation {
         let mut tmp = [0.0f64; MAX_COEFFS];
         self.apply(&c, &mut tmp[..n * n])?;
         check_len(out.len(), n * n)?;
-        for (o, t) in out.iter_mut().zip(&tmp[..n * n]) {
-            *o = *t as f32;
-        }
-        Ok(())
+        narrow_all("rotated SH coefficient", &tmp[..n * n], out)
     }
 }
 

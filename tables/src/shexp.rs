@@ -26,7 +26,7 @@
 
 use std::f64::consts::PI;
 
-use crate::error::{copy_f32, finite, in_range, LoadError, LookupError};
+use crate::error::{finite, in_range, narrow, narrow_all, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::gaunt::Gaunt;
 use crate::sh::{self, MAX_COEFFS};
@@ -65,6 +65,50 @@ const NORM: usize = 8;
 /// the interval has none. Interpolation does not straddle a kink: it extrapolates
 /// linearly from the two nodes on the query's side.
 const KINK: usize = 11;
+
+/// Bound on the stored f_l/(1 − cosθ_b) and ‖f̂‖/(1 − cosθ_b). The eigenvalues of M_g
+/// lie in [min g, max g] = [0, 1] (Rayleigh quotients ∫g x² / ∫x²), the largest is at
+/// least g_0/√(4π) ≥ 1/2 for θ_b ≤ π/2, so the clamped ones are ≥ 0.01 and
+/// q(x) = ln x/(x − 1) ≤ q(0.01) = 4.65. With |cap_l| ≤ 2π(1 − cosθ_b)·√((2l+1)/(4π)),
+/// ‖g − 1‖ ≤ √π n (1 − cosθ_b), so ‖f‖/(1 − cosθ_b) ≤ 4.65·8·√π = 66; with margin, 70.
+const F_BOUND: f64 = 70.0;
+/// Bound on a and b. a = e^{−f_0/√(4π)} g_0/√(4π) with g_0/√(4π) ∈ [1/2, 1] and
+/// |f_0| ≤ ‖f‖ ≤ 4.65·‖cap‖ ≤ 4.65·√(2π) (Bessel), so 0 < a ≤ e^{3.3} = 27; b, the
+/// least-squares slope of ĝ on f̂, is a weighted mean of the slope of exp over f̂'s
+/// range, positive and of the same size. With margin, 30.
+const AB_BOUND: f64 = 30.0;
+
+/// Plausible range of each stored channel (name, lo, hi), dimensionless (kink in rad).
+/// Hi halves: f_l ∈ ±70 and ‖f̂‖ ∈ [0, 70] (both divided by 1 − cosθ_b, see the bound
+/// above), a and b in [0, 30], kink −1 (none) or θ_b ∈ [0, π/2], so [−1, 1.6]. Lo
+/// halves: half an f32 ulp of the hi bound, with margin (4e-6 below 128, 1e-6 below 32,
+/// 1e-7 below 2).
+pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+    ("f0_hi", -F_BOUND, F_BOUND),
+    ("f0_lo", -4e-6, 4e-6),
+    ("f1_hi", -F_BOUND, F_BOUND),
+    ("f1_lo", -4e-6, 4e-6),
+    ("f2_hi", -F_BOUND, F_BOUND),
+    ("f2_lo", -4e-6, 4e-6),
+    ("f3_hi", -F_BOUND, F_BOUND),
+    ("f3_lo", -4e-6, 4e-6),
+    ("f4_hi", -F_BOUND, F_BOUND),
+    ("f4_lo", -4e-6, 4e-6),
+    ("f5_hi", -F_BOUND, F_BOUND),
+    ("f5_lo", -4e-6, 4e-6),
+    ("f6_hi", -F_BOUND, F_BOUND),
+    ("f6_lo", -4e-6, 4e-6),
+    ("f7_hi", -F_BOUND, F_BOUND),
+    ("f7_lo", -4e-6, 4e-6),
+    ("norm_hi", 0.0, F_BOUND),
+    ("norm_lo", -4e-6, 4e-6),
+    ("a_hi", 0.0, AB_BOUND),
+    ("a_lo", -1e-6, 1e-6),
+    ("b_hi", 0.0, AB_BOUND),
+    ("b_lo", -1e-6, 1e-6),
+    ("kink_hi", -1.0, 1.6),
+    ("kink_lo", -1e-7, 1e-7),
+];
 
 /// Names of the stored channels: `{f0..f7|norm|a|b}_{hi|lo}`.
 pub fn channel_names() -> Vec<String> {
@@ -306,6 +350,8 @@ impl ShExp {
                 detail: format!("expected {THETA_NODES} theta_b nodes"),
             });
         }
+        // Before the branches are built from the values.
+        table.expect_channel_ranges(CHANNEL_RANGES)?;
         let mut t = ShExp {
             table,
             branches: Vec::new(),
@@ -441,19 +487,19 @@ impl ShExp {
     pub fn log_zh_f32(&self, theta_b: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
         let mut tmp = [0.0; 8];
         self.log_zh(theta_b as f64, order, &mut tmp)?;
-        copy_f32(&tmp[..order], out)
+        narrow_all("f", &tmp[..order], out)
     }
 
     /// [`ShExp::norm_ab`] in single precision (computed in f64).
     pub fn norm_ab_f32(&self, theta_b: f32, order: usize) -> Result<(f32, f32, f32), LookupError> {
         let (n, a, b) = self.norm_ab(theta_b as f64, order)?;
-        Ok((n as f32, a as f32, b as f32))
+        Ok((narrow("|f_hat|", n)?, narrow("a", a)?, narrow("b", b)?))
     }
 
     /// [`ShExp::ab_for_norm`] in single precision (computed in f64).
     pub fn ab_for_norm_f32(&self, norm: f32, order: usize) -> Result<(f32, f32), LookupError> {
         let (a, b) = self.ab_for_norm(norm as f64, order)?;
-        Ok((a as f32, b as f32))
+        Ok((narrow("a", a)?, narrow("b", b)?))
     }
 
     /// ‖f̂‖ (the norm of the log-ZH without its DC term) and the OL coefficients

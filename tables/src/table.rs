@@ -168,14 +168,76 @@ impl Table {
         &self.payload
     }
 
-    /// Stored (encoded) values of the node with multi-index `idx`.
-    pub fn node(&self, idx: &[u32]) -> &[f32] {
+    /// Stored (encoded) values of the node with multi-index `idx` (one index per axis,
+    /// slowest first). Errors: [`LookupError::Arity`] when `idx` does not have one
+    /// entry per axis, [`LookupError::NodeIndex`] for an index past its axis's end.
+    pub fn node(&self, idx: &[u32]) -> Result<&[f32], LookupError> {
+        let axes = &self.meta.axes;
+        if idx.len() != axes.len() {
+            return Err(LookupError::Arity {
+                expected: axes.len(),
+                got: idx.len(),
+            });
+        }
         let c = self.meta.channels.len();
         let mut flat = 0usize;
-        for (a, &i) in self.meta.axes.iter().zip(idx) {
+        for (a, &i) in axes.iter().zip(idx) {
+            if i >= a.count {
+                return Err(LookupError::NodeIndex {
+                    axis: a.name.clone(),
+                    index: i,
+                    count: a.count,
+                });
+            }
             flat = flat * a.count as usize + i as usize;
         }
-        &self.values[flat * c..(flat + 1) * c]
+        Ok(&self.values[flat * c..(flat + 1) * c])
+    }
+
+    /// Checks every stored value against its channel's plausible range: `ranges` holds
+    /// (channel name, lo, hi) for each channel, bounds on the stored (encoded) value, so
+    /// ln of the quantity for a log-encoded channel. Family loaders call it after
+    /// [`Table::expect_layout`], so a file whose values are finite but absurd (a
+    /// corrupt or hand-edited payload with valid checksums) is refused at load time
+    /// instead of turning into infinities in lookups. The error names the channel,
+    /// the node (multi-index, slowest axis first) and the value; the first offending
+    /// value in payload order is reported.
+    pub fn expect_channel_ranges(&self, ranges: &[(&str, f64, f64)]) -> Result<(), LoadError> {
+        let m = &self.meta;
+        let mut bounds = Vec::with_capacity(m.channels.len());
+        for ch in &m.channels {
+            match ranges.iter().find(|r| r.0 == ch.name) {
+                Some(&(_, lo, hi)) => bounds.push((lo, hi)),
+                None => {
+                    return Err(LoadError::LayoutMismatch {
+                        kind: m.kind.clone(),
+                        detail: format!("no plausible range is declared for channel {}", ch.name),
+                    })
+                }
+            }
+        }
+        let nc = bounds.len().max(1);
+        for (i, &v) in self.values.iter().enumerate() {
+            let (lo, hi) = bounds[i % nc];
+            let v64 = v as f64;
+            if !(lo..=hi).contains(&v64) {
+                let mut rem = i / nc;
+                let mut node = vec![0u32; m.axes.len()];
+                for (d, a) in m.axes.iter().enumerate().rev() {
+                    node[d] = (rem % a.count as usize) as u32;
+                    rem /= a.count as usize;
+                }
+                return Err(LoadError::ImplausibleValue {
+                    kind: m.kind.clone(),
+                    channel: m.channels[i % nc].name.clone(),
+                    node,
+                    value: v,
+                    lo,
+                    hi,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Multilinear interpolation (linear in each axis's mapped coordinate) of every

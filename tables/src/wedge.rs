@@ -47,6 +47,16 @@ pub const EPS_MAX: f64 = 0.99;
 /// Channels: the operator entry as an f32 pair, value = hi + lo.
 pub const CHANNELS: [&str; 2] = ["m_hi", "m_lo"];
 
+/// Bound on |M_lin| entries: by Cauchy–Schwarz over the wedge,
+/// |∫ I_lin P̂_j y_i dω| ≤ (∫_wedge P̂_j²)^{1/2} (∫_wedge y_i²)^{1/2} ≤ √Δφ · 1 ≤ √(2π/4)
+/// = 1.2533 (|I_lin| ≤ 1, P̂_j normalised on [−1, 1], W ≥ 4); with margin, 1.3.
+const M_BOUND: f64 = 1.3;
+
+/// Plausible range of each stored channel (name, lo, hi), dimensionless: ±1.3 for
+/// `m_hi` (see the bound above), and half an f32 ulp of such a value (6e-8) with
+/// margin, ±1e-7, for `m_lo`.
+pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNELS[0], -M_BOUND, M_BOUND), (CHANNELS[1], -1e-7, 1e-7)];
+
 /// Axes, slowest first: `W` (5 nodes 4..64 uniform in ln W), `row` (0..63), `col` (0..15).
 pub fn axes() -> Vec<Axis> {
     vec![
@@ -113,7 +123,7 @@ pub fn slice_log(sigma: f64, eps: f64, order: usize, out: &mut [f64]) -> Result<
 pub fn slice_log_f32(sigma: f32, eps: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
     slice_log(sigma as f64, eps as f64, order, &mut tmp)?;
-    crate::error::copy_f32(&tmp[..order], out)
+    crate::error::narrow_all("v_log", &tmp[..order], out)
 }
 
 /// The wedge operators M_lin (order 8) for W ∈ {4, 8, 16, 32, 64}.
@@ -146,6 +156,7 @@ impl Wedges {
                 detail: "expected axes W (4..64, ln, 5) × row (0..63) × col (0..15) and channels m_hi, m_lo".into(),
             });
         }
+        table.expect_channel_ranges(CHANNEL_RANGES)?;
         let m = table
             .values()
             .chunks_exact(2)
@@ -213,13 +224,19 @@ impl Wedges {
             });
         }
         let wi = Self::w_index(w)?;
+        for (name, v) in [("v_a", v_a), ("v_b", v_b)] {
+            for x in v {
+                finite(name, *x)?;
+            }
+        }
         for (row, o) in out.iter_mut().take(n * n).enumerate() {
             let base = (wi * ROWS as usize + row) * COLS as usize;
             let mut s = 0.0;
             for j in 0..n {
                 s += self.m[base + j] * v_a[j] + self.m[base + MAX_ORDER + j] * v_b[j];
             }
-            *o = s;
+            // Huge finite slices can overflow the sum.
+            *o = crate::error::finite_result("V (wedge SH coefficient)", s)?;
         }
         Ok(())
     }

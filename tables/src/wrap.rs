@@ -26,7 +26,7 @@
 
 use std::f64::consts::PI;
 
-use crate::error::{in_range, LoadError, LookupError};
+use crate::error::{finite_result, in_range, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::sh::{self, MAX_ORDER};
 use crate::table::Table;
@@ -46,6 +46,20 @@ pub const A_NODES: u32 = 129;
 pub const CHANNELS: [&str; MAX_ORDER] = ["l0", "l1", "l2", "l3", "l4", "l5", "l6", "l7"];
 /// Lambertian (clamped-cosine) irradiance convolution weights π λ̂_l(0), l ≤ 2.
 pub use crate::sh::CLAMPED_COSINE;
+
+/// Plausible range of each stored channel (name, lo, hi), dimensionless:
+/// λ̂_0(a) = 2(1 + a)/(2 + a) ∈ [1, 4/3], and since the kernel is ≥ 0 and |P_l| ≤ 1,
+/// |λ̂_l| ≤ λ̂_0 ≤ 4/3 for every band; the ranges add about 0.5 %.
+pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+    ("l0", 0.99, 1.34),
+    ("l1", -1.34, 1.34),
+    ("l2", -1.34, 1.34),
+    ("l3", -1.34, 1.34),
+    ("l4", -1.34, 1.34),
+    ("l5", -1.34, 1.34),
+    ("l6", -1.34, 1.34),
+    ("l7", -1.34, 1.34),
+];
 
 /// Name used in the out-of-domain error of the closed forms.
 const A_NAME: &str = "wrap parameter a (closed forms exact only on [0, 1], SPEC E5)";
@@ -119,7 +133,7 @@ pub fn lambda_hat(order: usize, a: f64, out: &mut [f64]) -> Result<(), LookupErr
 pub fn lambda_hat_f32(order: usize, a: f32, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
     lambda_hat(order, a as f64, &mut tmp)?;
-    crate::error::copy_f32(&tmp[..order], out)
+    crate::error::narrow_all("lambda_hat", &tmp[..order], out)
 }
 
 /// Wrap-lighting convolution of an SH vector (n² coefficients, n ≤ 8, conventions of
@@ -138,7 +152,11 @@ pub fn convolve(coeffs: &[f64], a: f64, out: &mut [f64]) -> Result<(), LookupErr
     lambda_hat(n, a, &mut lam)?;
     for (l, &lam_l) in lam.iter().enumerate().take(n) {
         for i in l * l..(l + 1) * (l + 1) {
-            out[i] = PI * lam_l * crate::error::finite("SH coefficient", coeffs[i])?;
+            // A huge finite coefficient times π λ̂_l can overflow.
+            out[i] = finite_result(
+                "convolved SH coefficient",
+                PI * lam_l * crate::error::finite("SH coefficient", coeffs[i])?,
+            )?;
         }
     }
     Ok(())
@@ -150,7 +168,7 @@ pub fn convolve_f32(coeffs: &[f32], a: f32, out: &mut [f32]) -> Result<(), Looku
     let n = sh::order_of_len(c.len())?;
     let mut tmp = [0.0; sh::MAX_COEFFS];
     convolve(&c, a as f64, &mut tmp[..n * n])?;
-    crate::error::copy_f32(&tmp[..n * n], out)
+    crate::error::narrow_all("convolved SH", &tmp[..n * n], out)
 }
 
 /// Re-wraps an order-n ≤ 3 *irradiance* vector (radiance already convolved with the
@@ -179,7 +197,11 @@ pub fn rewrap_irradiance(irr: &[f64], a: f64, out: &mut [f64]) -> Result<(), Loo
     let lam0 = [1.0, 2.0 / 3.0, 0.25];
     for l in 0..n {
         for i in l * l..(l + 1) * (l + 1) {
-            out[i] = crate::error::finite("SH coefficient", irr[i])? * lam[l] / lam0[l];
+            // λ̂_l(a)/λ̂_l(0) reaches 4/3 (band 0): huge coefficients overflow.
+            out[i] = finite_result(
+                "re-wrapped SH coefficient",
+                crate::error::finite("SH coefficient", irr[i])? * lam[l] / lam0[l],
+            )?;
         }
     }
     Ok(())
@@ -202,6 +224,7 @@ impl WrapTable {
         table.expect_kind(KIND, VERSION)?;
         let chans: Vec<(&str, Encoding)> = CHANNELS.iter().map(|&c| (c, Encoding::Linear)).collect();
         table.expect_layout_1d(&axis(table.meta().axes.first().map_or(0, |a| a.count)), &chans)?;
+        table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
     }
 

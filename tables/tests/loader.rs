@@ -1280,3 +1280,518 @@ fn family_loaders_reject_foreign_layouts() {
     let bytes = lobefit_tables::format::encode(&meta, &t.values()[..2]).unwrap();
     assert!(CapExponent::from_bytes(&bytes).is_ok());
 }
+
+// ---------------------------------------------------------------------------------
+// 12. Plausible channel ranges: finite but absurd payloads, and lookups that stay finite
+// ---------------------------------------------------------------------------------
+
+use lobefit_tables::glam::{DVec3, Vec3};
+use lobefit_tables::{
+    disk_light, embedded, isg, lobe_product, log_zh, sg_fit, shexp, wedge, wrap, BestIsg, DiskLight, IsgModel, Lobe,
+    LobeF32, LobeProduct, RefitIsg, SgFit,
+};
+
+/// A family's declared channel ranges: (channel, lo, hi).
+type Ranges = &'static [(&'static str, f64, f64)];
+
+/// Every committed table with its family's declared channel ranges.
+fn ranged_tables() -> Vec<(&'static str, &'static [u8], Ranges)> {
+    vec![
+        ("lobe-integral", embedded::LOBE_INTEGRAL, lobe_integral::CHANNEL_RANGES),
+        ("cap-exponent", embedded::CAP_EXPONENT, cap_exponent::CHANNEL_RANGES),
+        ("isg-refit", embedded::ISG_REFIT, isg::REFIT_CHANNEL_RANGES),
+        ("isg-best", embedded::ISG_BEST, isg::BEST_CHANNEL_RANGES),
+        ("sg-fit", embedded::SG_FIT, sg_fit::CHANNEL_RANGES),
+        ("log-zh", embedded::LOG_ZH, log_zh::CHANNEL_RANGES),
+        ("wedge", embedded::WEDGE, wedge::CHANNEL_RANGES),
+        ("shexp", embedded::SHEXP, shexp::CHANNEL_RANGES),
+        ("lobe-product", embedded::LOBE_PRODUCT, lobe_product::CHANNEL_RANGES),
+        (
+            "lobe-product-l2",
+            embedded::LOBE_PRODUCT_L2,
+            lobe_product::CHANNEL_RANGES,
+        ),
+        ("disk-light", embedded::DISK_LIGHT, disk_light::CHANNEL_RANGES),
+        ("wrap", embedded::WRAP, wrap::CHANNEL_RANGES),
+    ]
+}
+
+/// (lo, hi) of each channel of `t`, in channel order, from `ranges`.
+fn channel_bounds(t: &Table, ranges: &[(&str, f64, f64)]) -> Vec<(f64, f64)> {
+    t.meta()
+        .channels
+        .iter()
+        .map(|c| {
+            let r = ranges
+                .iter()
+                .find(|r| r.0 == c.name)
+                .expect("every channel has a range");
+            (r.1, r.2)
+        })
+        .collect()
+}
+
+/// `file` with its whole payload replaced by `values`, CRCs fixed.
+fn with_payload(file: &[u8], values: &[f32]) -> Vec<u8> {
+    let mut b = file.to_vec();
+    let s = sections(file);
+    assert_eq!(s.payload.len(), 4 * values.len());
+    for (chunk, v) in b[s.payload].chunks_exact_mut(4).zip(values) {
+        chunk.copy_from_slice(&v.to_le_bytes());
+    }
+    fix_crcs(&mut b);
+    b
+}
+
+/// Loads `bytes` with the family loader of `kind`, and on success runs that family's
+/// lookups at a few query points (including huge finite scales and radiances),
+/// returning every number the lookups produced (errors are dropped: they are allowed).
+fn family_lookups(kind: &str, bytes: &[u8]) -> Result<Vec<f64>, LoadError> {
+    let mut got: Vec<f64> = Vec::new();
+    let mut put = |r: Result<Vec<f64>, LookupError>| {
+        if let Ok(v) = r {
+            got.extend(v);
+        }
+    };
+    let z = DVec3::Z;
+    match kind {
+        "lobe-integral" => {
+            let t = LobeIntegral::from_bytes(bytes)?;
+            for e in [0.0, 1.0, 333.3, 1e5] {
+                put(t.integral(e).map(|v| vec![v]));
+                put(t.integral_f32(e as f32).map(|v| vec![v as f64]));
+            }
+        }
+        "cap-exponent" => {
+            let t = CapExponent::from_bytes(bytes)?;
+            for a in [1e-3, 0.1, 1.0, FRAC_PI_2 - 1e-8, 2.0] {
+                put(t.e_cap(a).map(|v| vec![v]));
+                put(t.ratio(a.min(FRAC_PI_2)).map(|v| vec![v]));
+                put(t.e_cap_f32(a as f32).map(|v| vec![v as f64]));
+            }
+        }
+        "isg-refit" | "isg-best" => {
+            let refit;
+            let best;
+            let m: &dyn IsgModel = if kind == "isg-refit" {
+                refit = RefitIsg::from_bytes(bytes)?;
+                &refit
+            } else {
+                best = BestIsg::from_bytes(bytes)?;
+                &best
+            };
+            for (th, ph, g) in [
+                (0.0, 0.0, 0.5),
+                (1.0, 2.0, 7.0),
+                (FRAC_PI_2, FRAC_PI_2, 1e4),
+                (PI, 0.3, 300.0),
+            ] {
+                put(m.s_hat(th, ph, g).map(|v| vec![v]));
+                put(m.s(th, ph, g).map(|v| vec![v]));
+                put(m.patch(0.0, th, ph, PI, g).map(|v| vec![v]));
+                put(m.limiting_angle(g, 0.01).map(|v| vec![v]));
+                put(m.s_f32(th as f32, ph as f32, g as f32).map(|v| vec![v as f64]));
+            }
+        }
+        "sg-fit" => {
+            let t = SgFit::from_bytes(bytes)?;
+            for e in [0.0, 1.0, 1e5] {
+                put(t.fit(e).map(|(l, m)| vec![l, m]));
+                put(t.fit_f32(e as f32).map(|(l, m)| vec![l as f64, m as f64]));
+                for s in [1.0, 1e300, f64::MAX] {
+                    put(t
+                        .lobe_to_sg([0.0, 0.0, 1.0], e, s)
+                        .map(|g| vec![g.sharpness, g.amplitude]));
+                }
+            }
+        }
+        "log-zh" => {
+            let t = log_zh::LogZh::from_bytes(bytes)?;
+            let mut out = [0.0; 8];
+            for (eps, r) in [(0.01, 1.0), (0.3, 17.5), (0.99, 128.0)] {
+                put(t.table_lookup(eps, r, 8, &mut out).map(|_| out.to_vec()));
+            }
+        }
+        "wedge" => {
+            let t = wedge::Wedges::from_bytes(bytes)?;
+            let mut out = [0.0; 64];
+            put(t.m_lin(16, 8, 63, 15).map(|v| vec![v]));
+            put(t.wedge(4, &[f64::MAX; 8], &[1.0; 8], &mut out).map(|_| out.to_vec()));
+            put(t
+                .compose(&[0.3, -1.0, 1.5, 0.0], 0.01, 8, &mut out)
+                .map(|_| out.to_vec()));
+        }
+        "shexp" => {
+            let t = shexp::ShExp::from_bytes(bytes)?;
+            let mut out = [0.0; 64];
+            for n in [3, 8] {
+                for th in [0.0, 0.7, FRAC_PI_2] {
+                    put(t.log_zh(th, n, &mut out).map(|_| out[..n].to_vec()));
+                    put(t.norm_ab(th, n).map(|(a, b, c)| vec![a, b, c]));
+                }
+                let top = t.norm_max(n).unwrap();
+                put(t.ab_for_norm(0.5 * top, n).map(|(a, b)| vec![a, b]));
+                let mut f = vec![0.0; n * n];
+                f[0] = -2.0;
+                f[1] = 0.8;
+                f[n * n - 1] = -5.0;
+                put(t.hyb(&f, &mut out).map(|_| out[..n * n].to_vec()));
+            }
+        }
+        "lobe-product" | "lobe-product-l2" => {
+            let t = LobeProduct::from_bytes(bytes)?;
+            let lobe = |s: f64, a: DVec3, e: f64| Lobe {
+                scale: s,
+                axis: a,
+                exponent: e,
+            };
+            let tilted = DVec3::new(0.6, 0.0, 0.8);
+            for (e1, e2, al) in [(0.0, 0.0, 0.0), (3.0, 70.0, 0.5), (1e5, 1e5, PI), (0.1, 1e5, FRAC_PI_2)] {
+                put(t.params(e1, e2, al).map(|p| vec![p.p, p.t, p.e_r, p.integral]));
+            }
+            put(t
+                .product(&lobe(1e200, z, 2.0), &lobe(1e200, z, 3.0))
+                .map(|l| vec![l.scale, l.exponent]));
+            let huge = [lobe(1.0, z, 1e300), lobe(f64::MAX, tilted, 1.0)];
+            put(t
+                .product_sums(&huge, &huge, 0.0)
+                .map(|v| v.iter().flat_map(|l| [l.scale, l.exponent]).collect()));
+            put(t.triple_product(&huge, &huge, &huge, z, 0.0).map(|v| vec![v]));
+            let f32_lobe = |s: f32| LobeF32 {
+                scale: s,
+                axis: Vec3::Z,
+                exponent: 4.0,
+            };
+            put(t
+                .product_f32(&f32_lobe(f32::MAX), &f32_lobe(2.0))
+                .map(|l| vec![l.scale as f64, l.exponent as f64]));
+        }
+        "disk-light" => {
+            let t = DiskLight::from_bytes(bytes)?;
+            for (r, tau) in [(1e-3, 0.0), (0.01, 1.0), (0.7, 1.5), (10.0, 1.5706), (1e6, 0.2)] {
+                put(t.canonical(r, tau).map(|c| c.to_vec()));
+            }
+            let (c, n) = (DVec3::new(0.0, 0.0, 2.0), DVec3::new(0.3, 0.0, -1.0));
+            for radiance in [1.0, 1e300, f64::MAX] {
+                put(t.radiance_sh(DVec3::ZERO, c, n, 0.5, radiance).map(|v| v.to_vec()));
+                put(t.irradiance(DVec3::ZERO, z, c, n, 0.5, radiance).map(|v| vec![v]));
+            }
+            let (c32, n32) = (c.as_vec3(), n.as_vec3());
+            for radiance in [1.0, f32::MAX] {
+                put(t
+                    .radiance_sh_f32(Vec3::ZERO, c32, n32, 0.5, radiance)
+                    .map(|v| v.iter().map(|&x| x as f64).collect()));
+                put(t
+                    .irradiance_sh_f32(Vec3::ZERO, c32, n32, 0.5, radiance)
+                    .map(|v| v.iter().map(|&x| x as f64).collect()));
+            }
+        }
+        "wrap" => {
+            let t = wrap::WrapTable::from_bytes(bytes)?;
+            let mut out = [0.0; 8];
+            for a in [0.0, 0.37, 1.0] {
+                put(t.table_lookup(8, a, &mut out).map(|_| out.to_vec()));
+            }
+        }
+        other => panic!("no lookups for kind {other}"),
+    }
+    Ok(got)
+}
+
+/// Every committed table lies inside its family's declared channel ranges. Prints the
+/// measured min/max per channel next to the range, so the margin is visible
+/// (`cargo test -p lobefit-tables --test loader committed_tables_lie -- --nocapture`).
+#[test]
+fn committed_tables_lie_inside_their_channel_ranges() {
+    for (kind, file, ranges) in ranged_tables() {
+        let t = table(file);
+        assert_eq!(t.meta().kind, kind);
+        let bounds = channel_bounds(&t, ranges);
+        let nc = bounds.len();
+        for (c, (ch, &(lo, hi))) in t.meta().channels.iter().zip(&bounds).enumerate() {
+            let vals = t.values().iter().skip(c).step_by(nc).map(|&v| v as f64);
+            let (min, max) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+            println!(
+                "{kind:16} {:24} measured [{min:+.6e}, {max:+.6e}]  range [{lo:+e}, {hi:+e}]",
+                ch.name
+            );
+            assert!(
+                lo <= min && max <= hi,
+                "{kind} {}: [{min}, {max}] outside [{lo}, {hi}]",
+                ch.name
+            );
+        }
+        // The family loader accepts it, and its lookups are finite.
+        let got = family_lookups(kind, file).unwrap_or_else(|e| panic!("{kind}: {e}"));
+        assert!(got.iter().all(|v| v.is_finite()), "{kind}: non-finite lookup");
+    }
+}
+
+/// Finite but absurd stored values (valid checksums) are refused by the family loader
+/// with an error naming kind, channel and node; nothing reaches a lookup.
+#[test]
+fn finite_but_absurd_payload_values_are_refused_naming_channel_and_node() {
+    // One stored 1000.0 in lobe-product's exponent channel (it used to become e_r = inf).
+    let t = table(embedded::LOBE_PRODUCT);
+    let (n_e, n_a) = (t.meta().axes[0].count, t.meta().axes[2].count);
+    let node = [3u32, 5, 40];
+    let index = ((node[0] * n_e + node[1]) * n_a + node[2]) as usize * 2 + 1;
+    let bad = with_value(embedded::LOBE_PRODUCT, index, 1000.0);
+    match LobeProduct::from_bytes(&bad) {
+        Err(LoadError::ImplausibleValue {
+            kind,
+            channel,
+            node: at,
+            value,
+            lo,
+            hi,
+        }) => {
+            assert_eq!(
+                (kind.as_str(), channel.as_str(), at.as_slice(), value),
+                ("lobe-product", lobe_product::CHANNEL_E, &node[..], 1000.0)
+            );
+            assert!(lo < hi && (hi as f32) < value);
+        }
+        other => panic!("expected ImplausibleValue, got {:?}", other.map(|_| ())),
+    }
+    // Disk-light ratios at f32::MAX (they used to give Ok(inf) radiance and Ok(NaN)
+    // irradiance).
+    let t = table(embedded::DISK_LIGHT);
+    let mut values = t.values().to_vec();
+    for (i, v) in values.iter_mut().enumerate() {
+        if i % 6 != 0 {
+            *v = f32::MAX;
+        }
+    }
+    let e = DiskLight::from_bytes(&with_payload(embedded::DISK_LIGHT, &values)).unwrap_err();
+    assert!(
+        matches!(&e, LoadError::ImplausibleValue { channel, node, .. } if channel == "r10" && node == &[0, 0]),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("r10") && e.to_string().contains("[0, 0]"), "{e}");
+    // Every family refuses a value just past either end of each channel's range.
+    for (kind, file, ranges) in ranged_tables() {
+        let t = table(file);
+        let bounds = channel_bounds(&t, ranges);
+        let nc = bounds.len();
+        let last = t.values().len() / nc - 1;
+        for (c, &(lo, hi)) in bounds.iter().enumerate() {
+            for v in [lo - 1e-3 * (hi - lo), hi + 1e-3 * (hi - lo)] {
+                let bad = with_value(file, last * nc + c, v as f32);
+                match family_lookups(kind, &bad) {
+                    Err(LoadError::ImplausibleValue { channel, .. }) => {
+                        assert_eq!(channel, t.meta().channels[c].name, "{kind}")
+                    }
+                    other => panic!("{kind} channel {c} = {v}: {other:?}"),
+                }
+            }
+        }
+    }
+}
+
+/// A random finite f32 of any magnitude (random bits, NaN and infinities excluded).
+fn random_finite(bits: u32) -> f32 {
+    let v = f32::from_bits(bits);
+    if v.is_finite() {
+        v
+    } else {
+        f32::MAX.copysign(v)
+    }
+}
+
+fn splitmix(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+fn range_config() -> ProptestConfig {
+    ProptestConfig {
+        cases: 96,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
+}
+
+proptest! {
+    #![proptest_config(range_config())]
+
+    /// (e) Valid CRCs, random finite payload values: (0) every value uniform in its
+    /// channel's range, (1) the committed payload with a few values replaced by values
+    /// in range, (2) the committed payload with a few values replaced by arbitrary
+    /// finite f32 (huge ones included). Either the loader refuses the file (at the
+    /// first implausible value, naming its channel and node) or every lookup is an
+    /// error or finite.
+    #[test]
+    fn random_finite_payload_values_give_errors_or_finite_lookups(
+        which in 0usize..12,
+        mode in 0u8..3,
+        seed in any::<u64>(),
+        count in 1usize..8,
+    ) {
+        let (kind, file, ranges) = ranged_tables()[which];
+        let t = table(file);
+        let bounds = channel_bounds(&t, ranges);
+        let nc = bounds.len();
+        let mut s = seed;
+        let uniform = |i: usize, s: &mut u64| {
+            let (lo, hi) = bounds[i % nc];
+            let u = (splitmix(s) >> 11) as f64 / (1u64 << 53) as f64;
+            ((lo + u * (hi - lo)) as f32).clamp(lo as f32, hi as f32)
+        };
+        let mut values = t.values().to_vec();
+        let mut first_bad: Option<usize> = None;
+        if mode == 0 {
+            for (i, v) in values.iter_mut().enumerate() {
+                *v = uniform(i, &mut s);
+            }
+        } else {
+            for _ in 0..count {
+                let i = (splitmix(&mut s) % values.len() as u64) as usize;
+                let v = if mode == 1 {
+                    uniform(i, &mut s)
+                } else {
+                    let pick = [f32::MAX, -f32::MAX, 1e30, -1000.0, 1000.0, random_finite(splitmix(&mut s) as u32)];
+                    pick[(splitmix(&mut s) % pick.len() as u64) as usize]
+                };
+                values[i] = v;
+            }
+            for (i, &v) in values.iter().enumerate() {
+                let (lo, hi) = bounds[i % nc];
+                if !(lo..=hi).contains(&(v as f64)) {
+                    first_bad = Some(i);
+                    break;
+                }
+            }
+        }
+        match (family_lookups(kind, &with_payload(file, &values)), first_bad) {
+            (Ok(got), None) => {
+                prop_assert!(got.iter().all(|v| v.is_finite()), "{} mode {}: {:?}", kind, mode, got);
+            }
+            (Err(LoadError::ImplausibleValue { channel, node, value, .. }), Some(i)) => {
+                prop_assert_eq!(&channel, &t.meta().channels[i % nc].name);
+                prop_assert_eq!(value.to_bits(), values[i].to_bits());
+                let mut flat = 0usize;
+                for (a, &k) in t.meta().axes.iter().zip(&node) {
+                    flat = flat * a.count as usize + k as usize;
+                }
+                prop_assert_eq!(flat, i / nc);
+            }
+            // A log-encoded value above ln f32::MAX fails the generic loader's own
+            // (earlier) pass, at the first such value.
+            (Err(LoadError::NonFinite { index, value }), Some(i)) => {
+                let log = |j: usize| t.meta().channels[j % nc].encoding == lobefit_tables::Encoding::Log;
+                let over = |j: usize| log(j) && values[j] > format::MAX_LOG_VALUE;
+                prop_assert!(index >= i && over(index) && value == values[index]);
+                prop_assert!(!(0..index).any(over));
+            }
+            // Values in range can still break a family's structural check (the shexp
+            // monotone branch): a load error, never a non-finite lookup.
+            (Err(LoadError::Invalid(_)), None) => {}
+            (other, bad) => prop_assert!(false, "{} mode {}: {:?} (first out of range {:?})", kind, mode, other.map(|_| ()), bad),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// 13. API misuse: overflow after narrowing, node indices, gaunt::one
+// ---------------------------------------------------------------------------------
+
+#[track_caller]
+fn assert_overflow<T: std::fmt::Debug>(r: Result<T, LookupError>, what: &str) {
+    match r {
+        Err(LookupError::Overflow { name, value }) => {
+            assert!(
+                !name.is_empty() && !(value as f32).is_finite(),
+                "{what}: {name} {value}"
+            )
+        }
+        other => panic!("{what}: expected Overflow, got {other:?}"),
+    }
+}
+
+/// Finite inputs whose result overflows (in f64, or only once narrowed to f32) are
+/// errors, never Ok(inf) or Ok(NaN).
+#[test]
+fn overflowing_results_are_errors_in_f64_and_after_narrowing_to_f32() {
+    let lp = LobeProduct::embedded().unwrap();
+    let l = LobeF32 {
+        scale: 1e20,
+        axis: Vec3::Z,
+        exponent: 2.0,
+    };
+    assert_overflow(lp.product_f32(&l, &l), "product_f32 1e20 × 1e20");
+    let dl = DiskLight::embedded().unwrap();
+    let (c, n) = (Vec3::new(0.0, 0.0, 2.0), Vec3::new(0.0, 0.0, -1.0));
+    assert_overflow(
+        dl.irradiance_sh_f32(Vec3::ZERO, c, n, 100.0, f32::MAX),
+        "irradiance_sh_f32",
+    );
+    assert_overflow(dl.radiance_sh_f32(Vec3::ZERO, c, n, 100.0, f32::MAX), "radiance_sh_f32");
+    let (c, n) = (c.as_dvec3(), n.as_dvec3());
+    assert_overflow(dl.radiance_sh(DVec3::ZERO, c, n, 100.0, f64::MAX), "radiance_sh");
+    assert_overflow(
+        dl.irradiance(DVec3::ZERO, DVec3::Z, c, n, 100.0, f64::MAX),
+        "irradiance",
+    );
+    let mut o = [0.0; 9];
+    assert_overflow(wrap::convolve(&[f64::MAX; 9], 0.5, &mut o), "wrap::convolve");
+    assert_overflow(
+        wrap::rewrap_irradiance(&[f64::MAX; 9], 0.5, &mut o),
+        "rewrap_irradiance",
+    );
+    let mut o32 = [0.0f32; 9];
+    assert_overflow(wrap::convolve_f32(&[f32::MAX; 9], 0.5, &mut o32), "convolve_f32");
+    use lobefit_tables::sh;
+    assert_overflow(sh::rotate_z_f32(&[f32::MAX; 9], 0.7, &mut o32), "rotate_z_f32");
+    assert_overflow(sh::rotate_z(&[f64::MAX; 9], 0.7, &mut o), "rotate_z");
+    // Moderate inputs still give values.
+    assert!(lp.product_f32(&LobeF32 { scale: 2.0, ..l }, &l).is_ok());
+    assert!(wrap::convolve_f32(&[1e30; 9], 0.5, &mut o32).is_ok());
+}
+
+/// `Table::node` checks the number of indices and each index against its axis.
+#[test]
+fn table_node_refuses_bad_indices_with_specific_errors() {
+    let cap = table(CAP);
+    assert_eq!(cap.node(&[999]).unwrap(), &cap.values()[999..1000]);
+    for i in [1000, u32::MAX] {
+        assert_eq!(
+            cap.node(&[i]),
+            Err(LookupError::NodeIndex {
+                axis: "alpha".into(),
+                index: i,
+                count: 1000
+            })
+        );
+    }
+    assert_eq!(cap.node(&[]), Err(LookupError::Arity { expected: 1, got: 0 }));
+    assert_eq!(cap.node(&[0, 5]), Err(LookupError::Arity { expected: 1, got: 2 }));
+    let lp = table(embedded::LOBE_PRODUCT);
+    assert_eq!(
+        lp.node(&[0, 0, 96]),
+        Err(LookupError::NodeIndex {
+            axis: "alpha".into(),
+            index: 96,
+            count: 96
+        })
+    );
+    assert_eq!(lp.node(&[47, 47, 95]).unwrap().len(), 2);
+}
+
+/// `gaunt::one` accepts the supported orders 1..=8 only.
+#[test]
+fn gaunt_one_refuses_unsupported_orders() {
+    use lobefit_tables::gaunt;
+    for order in [0, 9, usize::MAX] {
+        match gaunt::one(order) {
+            Err(LookupError::OutOfDomain { name, .. }) => assert!(name.contains("order"), "{name}"),
+            other => panic!("order {order}: {other:?}"),
+        }
+    }
+    let v = gaunt::one(3).unwrap();
+    assert_eq!(v.len(), 9);
+    assert_eq!(v[0], (4.0 * PI).sqrt());
+}
