@@ -69,3 +69,84 @@ fn closed_or_full_stdout_is_a_clean_error_for_every_printing_subcommand() {
         }
     }
 }
+
+/// Generous bound on a command that must end promptly; only a regression reaches it.
+const NO_HANG: std::time::Duration = std::time::Duration::from_secs(120);
+
+/// Runs `lobefit ARGS` (no stdin); kills it and fails the test if it is still
+/// running after [`NO_HANG`].
+fn run_bounded(args: &[&str]) -> (Option<i32>, String, String) {
+    let mut child = bin()
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn lobefit");
+    let start = std::time::Instant::now();
+    while child.try_wait().expect("wait").is_none() {
+        if start.elapsed() > NO_HANG {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{args:?} still running after {NO_HANG:?}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().expect("wait");
+    (out.status.code(), text(&out.stdout), text(&out.stderr))
+}
+
+/// `mkfifo PATH`; false when the tool is unavailable.
+fn mkfifo(path: &std::path::Path) -> bool {
+    std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+#[test]
+fn inspect_refuses_an_oversized_file_from_its_size() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("big.lobefit");
+    let len = lobefit::tables::format::MAX_FILE_LEN * 6 / 5;
+    std::fs::File::create(&p).unwrap().set_len(len).unwrap();
+    let (code, _, err) = run_bounded(&["inspect", p.to_str().unwrap()]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains(&format!("is {len} bytes, over the format's limit of 1073741824 bytes")),
+        "{err}"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn inspect_refuses_a_device() {
+    let (code, _, err) = run_bounded(&["inspect", "/dev/zero"]);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(
+        err,
+        "error: cannot read table file /dev/zero: it is a character device, not a regular file\n"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn inspect_check_and_eval_refuse_a_fifo_without_blocking() {
+    let d = tempfile::tempdir().unwrap();
+    let fifo = d.path().join("lobe-integral.lobefit");
+    if !mkfifo(&fifo) {
+        eprintln!("skipped: mkfifo is unavailable");
+        return;
+    }
+    let needle = "it is a FIFO, not a regular file";
+    let (code, _, err) = run_bounded(&["inspect", fifo.to_str().unwrap()]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains(needle), "{err}");
+    let dir = d.path().to_str().unwrap();
+    let (code, out, _) = run_bounded(&["check", "--quick", "--only", "lobe-integral", "--tables", dir]);
+    assert_eq!(code, Some(1), "{out}");
+    assert!(out.contains(needle), "{out}");
+    let (code, _, err) = run_bounded(&["eval", "lobe-integral", "--table", fifo.to_str().unwrap()]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains(needle), "{err}");
+}

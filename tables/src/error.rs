@@ -52,6 +52,13 @@ pub enum LoadError {
     /// layout this runtime interprets (mapping, range, encoding, channel count).
     #[error("table '{kind}' has an unexpected layout: {detail}")]
     LayoutMismatch { kind: String, detail: String },
+    /// The path names a directory, FIFO, device or socket: refused before it is
+    /// opened (opening a FIFO blocks; a device can be read without end).
+    #[error("cannot read table file {path}: it is {what}, not a regular file")]
+    NotAFile { path: String, what: &'static str },
+    /// The file is larger than any table may be: refused before it is read.
+    #[error("table file {path} is {len} bytes, over the format's limit of {limit} bytes")]
+    TooLarge { path: String, len: u64, limit: u64 },
     /// Reading the file from disk failed (message of the I/O error).
     #[error("cannot read table file {path}: {message}")]
     Io { path: String, message: String },
