@@ -52,9 +52,9 @@ struct FitArgs {
     /// Optimizer backend for minimised families (nlopt needs the `nlopt` cargo feature).
     #[arg(long, value_enum, default_value = "argmin")]
     backend: BackendArg,
-    /// Worker threads (default: all cores). Results do not depend on it.
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
-    threads: Option<u16>,
+    /// Worker threads (default: all cores; at most 4 per core). Results do not depend on it.
+    #[arg(long, value_parser = threads_arg)]
+    threads: Option<usize>,
 }
 
 #[derive(Subcommand)]
@@ -177,10 +177,23 @@ fn fit_options(fit: &FitArgs) -> Result<FitOptions, String> {
     })
 }
 
-fn pool(threads: Option<u16>) -> Result<rayon::ThreadPool, String> {
+/// Parses `--threads`: 1 to 4 × the available cores. More threads than that
+/// only add stacks and scheduling (65535 of them ran for minutes on a small job).
+fn threads_arg(s: &str) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = 4 * cores;
+    match s.parse::<usize>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "expected a thread count from 1 to {max} (4 per available core, {cores} cores)"
+        )),
+    }
+}
+
+fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool, String> {
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
-        b = b.num_threads(n as usize);
+        b = b.num_threads(n);
     }
     b.build().map_err(|e| e.to_string())
 }
@@ -207,7 +220,11 @@ fn progress(len: u64, label: &str) -> ProgressBar {
 }
 
 /// Builds the given families into `out_path(kind)`; prints a summary.
-fn build(families: &[Box<dyn Family>], threads: Option<u16>, out_path: &dyn Fn(&str) -> PathBuf) -> Result<(), String> {
+fn build(
+    families: &[Box<dyn Family>],
+    threads: Option<usize>,
+    out_path: &dyn Fn(&str) -> PathBuf,
+) -> Result<(), String> {
     let pool = pool(threads)?;
     let t_all = Instant::now();
     let mut rows = Vec::new();

@@ -150,3 +150,28 @@ fn inspect_check_and_eval_refuse_a_fifo_without_blocking() {
     assert_eq!(code, Some(1), "{err}");
     assert!(err.contains(needle), "{err}");
 }
+
+/// `--threads` is bounded by 4 × the available cores (the child sees the same
+/// cores as this test); the error names the bound.
+#[test]
+fn thread_count_above_four_per_core_is_refused() {
+    let max = 4 * std::thread::available_parallelism().unwrap().get();
+    let d = tempfile::tempdir().unwrap();
+    let dir = d.path().to_str().unwrap();
+    for threads in [(max + 1).to_string(), "65535".to_string(), "0".to_string()] {
+        for sub in [
+            &["build-tables", "--only", "lobe-integral", "--out", dir][..],
+            &["fit", "lobe-integral", "--out", dir],
+        ] {
+            let mut args = sub.to_vec();
+            args.extend(["--threads", &threads]);
+            let (code, _, err) = run_bounded(&args);
+            assert_eq!(code, Some(2), "{args:?}: {err}");
+            assert!(
+                err.contains(&format!("from 1 to {max} (4 per available core")),
+                "{args:?}: {err}"
+            );
+        }
+    }
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0, "nothing is written");
+}
