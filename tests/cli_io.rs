@@ -175,3 +175,13 @@ fn thread_count_above_four_per_core_is_refused() {
     }
     assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0, "nothing is written");
 }
+
+/// An input line is never buffered past `eval::MAX_LINE_LEN` bytes.
+#[test]
+fn eval_refuses_an_overlong_line() {
+    let long = format!("alpha\n0.1\n{}\n", "1".repeat(lobefit::eval::MAX_LINE_LEN as usize + 1));
+    let (code, out, err) = common::run_text(&["eval", "cap-exponent"], &long);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(out.is_empty(), "{out}");
+    assert_eq!(err, "error: line 3: line longer than 1048576 bytes\n");
+}
