@@ -42,8 +42,8 @@ impl Table {
         if bytes[HEADER_LEN + meta_bytes.len()..p0].iter().any(|&b| b != 0) {
             return Err(LoadError::BadLayout("padding before the payload is not zero".into()));
         }
-        let (meta, rest) =
-            postcard::take_from_bytes::<Meta>(meta_bytes).map_err(|e| LoadError::BadMetadata(e.to_string()))?;
+        let (meta, rest) = postcard::take_from_bytes::<Meta>(meta_bytes)
+            .map_err(|e| LoadError::BadMetadata(crate::meta_error::explain(meta_bytes, &e)))?;
         if !rest.is_empty() {
             return Err(LoadError::BadMetadata(format!(
                 "{} bytes after the metadata record",
