@@ -36,6 +36,7 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use crate::family::{Extra, Family, Fitted, Lookup};
 use crate::quad::gauss_kronrod;
 use crate::rng::Rng;
+use crate::tables::error::short;
 
 /// Gauss–Legendre points per panel of the fit.
 const GL_POINTS: usize = 10;
@@ -262,7 +263,11 @@ fn disk_integral(r: f64, tau: f64, tol: f64, g: &dyn Fn([f64; 3]) -> f64) -> Res
     if ok && q.converged {
         Ok(2.0 * q.value)
     } else {
-        Err(format!("disk quadrature did not converge at R/d = {r}, tau = {tau}"))
+        Err(format!(
+            "disk quadrature did not converge at R/d = {r}, tau = {tau}",
+            r = short(r),
+            tau = short(tau)
+        ))
     }
 }
 
@@ -270,10 +275,10 @@ fn disk_integral(r: f64, tau: f64, tol: f64, g: &dyn Fn([f64; 3]) -> f64) -> Res
 /// τ ≥ π/2 gives zeros (back side).
 pub fn reference_canonical(r: f64, tau: f64) -> Result<[f64; 6], String> {
     if !(r.is_finite() && r > 0.0) {
-        return Err(format!("r_over_d = {r} must be a finite number > 0"));
+        return Err(format!("r_over_d = {r} must be a finite number > 0", r = short(r)));
     }
     if !(tau.is_finite() && (0.0..=PI).contains(&tau)) {
-        return Err(format!("tau = {tau} is outside [0, π]"));
+        return Err(format!("tau = {tau} is outside [0, π]", tau = short(tau)));
     }
     if tau >= FRAC_PI_2 {
         return Ok([0.0; 6]);

@@ -1,5 +1,6 @@
 //! End-to-end tests of the binary's I/O edges: a closed or full stdout, table
-//! paths that are not regular files or are too large, and resource bounds.
+//! paths that are not regular files or are too large, resource bounds, and numbers
+//! in error messages.
 
 mod common;
 
@@ -184,4 +185,26 @@ fn eval_refuses_an_overlong_line() {
     assert_eq!(code, Some(1), "{err}");
     assert!(out.is_empty(), "{out}");
     assert_eq!(err, "error: line 3: line longer than 1048576 bytes\n");
+}
+
+/// Out-of-domain values are echoed in short form (1e308 was a 382-character line),
+/// through the runtime and through `--exact`.
+#[test]
+fn eval_errors_print_numbers_in_short_form() {
+    for value in ["1e308", "5e-324", "-2.5e-300"] {
+        for exact in [false, true] {
+            let mut args = vec!["eval", "cap-exponent"];
+            if exact {
+                args.push("--exact");
+            }
+            let (code, out, err) = common::run_text(&args, &format!("alpha\n{value}\n"));
+            assert_eq!(code, Some(1), "{err}");
+            assert!(out.is_empty(), "{out}");
+            assert!(
+                err.starts_with(&format!("error: line 2: alpha = {value} is outside ")),
+                "{err}"
+            );
+            assert!(err.len() < 100, "{} characters: {err}", err.len());
+        }
+    }
 }

@@ -315,7 +315,7 @@ mod tests {
         let mut o = [0.0; 9];
         assert!(matches!(
             convolve(&[1.0; 8], 0.5, &mut o),
-            Err(LookupError::Arity { .. })
+            Err(LookupError::ShLength { .. })
         ));
         assert!(matches!(
             convolve(&[1.0; 9], 1.5, &mut o),
