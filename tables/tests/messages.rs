@@ -66,3 +66,17 @@ fn overflowing_lobe_product_blames_the_exponents() {
         "the product of lobes with exponents e1 = 1e300 and e2 = 10 overflows"
     );
 }
+
+#[test]
+fn short_output_buffers_of_closed_forms_name_what_they_hold() {
+    use lobefit_tables::{log_zh, wedge, wrap};
+    let mut out = [0.0; 3];
+    let e = wrap::lambda_hat(8, 0.5, &mut out).unwrap_err();
+    assert_eq!(e.to_string(), "output buffer has 3 slots, needs 8 eigenvalues");
+    let e = log_zh::phong(0.5, 2.0, 4, &mut out).unwrap_err();
+    assert_eq!(e.to_string(), "output buffer has 3 slots, needs 4 ZH coefficients");
+    let e = wedge::slice_log(0.1, 0.5, 4, &mut out).unwrap_err();
+    assert_eq!(e.to_string(), "output buffer has 3 slots, needs 4 slice coefficients");
+    let e = wrap::convolve(&[0.0; 4], 0.5, &mut out).unwrap_err();
+    assert_eq!(e.to_string(), "output buffer has 3 slots, needs 4 SH coefficients");
+}
