@@ -1,6 +1,7 @@
 //! `lobefit` command line: argument parsing and output formatting only; all
 //! numerics live in the library.
 
+use std::fmt::Write as _;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -51,9 +52,9 @@ struct FitArgs {
     /// Optimizer backend for minimised families (nlopt needs the `nlopt` cargo feature).
     #[arg(long, value_enum, default_value = "argmin")]
     backend: BackendArg,
-    /// Worker threads (default: all cores). Results do not depend on it.
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
-    threads: Option<u16>,
+    /// Worker threads (default: all cores; at most 4 per core). Results do not depend on it.
+    #[arg(long, value_parser = threads_arg)]
+    threads: Option<usize>,
 }
 
 #[derive(Subcommand)]
@@ -176,10 +177,23 @@ fn fit_options(fit: &FitArgs) -> Result<FitOptions, String> {
     })
 }
 
-fn pool(threads: Option<u16>) -> Result<rayon::ThreadPool, String> {
+/// Parses `--threads`: 1 to 4 × the available cores. More threads than that
+/// only add stacks and scheduling (65535 of them ran for minutes on a small job).
+fn threads_arg(s: &str) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = 4 * cores;
+    match s.parse::<usize>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "expected a thread count from 1 to {max} (4 per available core, {cores} cores)"
+        )),
+    }
+}
+
+fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool, String> {
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
-        b = b.num_threads(n as usize);
+        b = b.num_threads(n);
     }
     b.build().map_err(|e| e.to_string())
 }
@@ -206,7 +220,11 @@ fn progress(len: u64, label: &str) -> ProgressBar {
 }
 
 /// Builds the given families into `out_path(kind)`; prints a summary.
-fn build(families: &[Box<dyn Family>], threads: Option<u16>, out_path: &dyn Fn(&str) -> PathBuf) -> Result<(), String> {
+fn build(
+    families: &[Box<dyn Family>],
+    threads: Option<usize>,
+    out_path: &dyn Fn(&str) -> PathBuf,
+) -> Result<(), String> {
     let pool = pool(threads)?;
     let t_all = Instant::now();
     let mut rows = Vec::new();
@@ -235,14 +253,16 @@ fn build(families: &[Box<dyn Family>], threads: Option<u16>, out_path: &dyn Fn(&
             Err(e) => failures.push(e.to_string()),
         }
     }
-    eprintln!(
-        "{:<15} {:>8} {:>9} {:>12} {:>10}  file",
+    let mut summary = format!(
+        "{:<15} {:>8} {:>9} {:>12} {:>10}  file\n",
         "family", "entries", "wall s", "worst resid", "bytes"
     );
     for r in &rows {
-        eprintln!("{r}");
+        summary.push_str(r);
+        summary.push('\n');
     }
-    eprintln!("total wall time {:.2} s", t_all.elapsed().as_secs_f64());
+    summary.push_str(&format!("total wall time {:.2} s\n", t_all.elapsed().as_secs_f64()));
+    note(&summary);
     if failures.is_empty() {
         Ok(())
     } else {
@@ -267,46 +287,53 @@ fn inspect(file: &Path, json: bool) -> Result<(), String> {
             "payload_len": h.payload_len,
             "meta": m,
         });
-        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
-        return Ok(());
+        let text = serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?;
+        return emit(&format!("{text}\n"));
     }
-    println!("file        {}", file.display());
-    println!("format      {}.{} (checksums ok)", h.major, h.minor);
-    println!("kind        {} (table version {})", m.kind, m.table_version);
-    println!("generator   {}", m.generator);
-    println!("about       {}", m.description);
-    println!(
+    // Formatting into a String cannot fail; the one write to stdout can.
+    let mut s = String::new();
+    let _ = writeln!(s, "file        {}", file.display());
+    let _ = writeln!(s, "format      {}.{} (checksums ok)", h.major, h.minor);
+    let _ = writeln!(s, "kind        {} (table version {})", m.kind, m.table_version);
+    let _ = writeln!(s, "generator   {}", m.generator);
+    let _ = writeln!(s, "about       {}", m.description);
+    let _ = writeln!(
+        s,
         "layout      metadata {} B at 64, payload {} B at {} (f32 LE, C order, channels fastest)",
         h.meta_len, h.payload_len, h.payload_offset
     );
     for (i, a) in m.axes.iter().enumerate() {
-        println!(
+        let _ = writeln!(
+            s,
             "axis {i}      {} [{}] in [{}, {}], {} nodes, {:?}, mapping {:?}",
             a.name, a.unit, a.lo, a.hi, a.count, a.placement, a.mapping
         );
     }
     for c in &m.channels {
-        println!(
+        let _ = writeln!(
+            s,
             "channel     {} [{}] {:?}: {}",
             c.name, c.unit, c.encoding, c.description
         );
     }
-    println!(
+    let _ = writeln!(
+        s,
         "fit         {} (settings hash {:016x})",
         m.fit.method, m.fit.settings_hash
     );
     for (k, v) in &m.fit.settings {
-        println!("  {k} = {v}");
+        let _ = writeln!(s, "  {k} = {v}");
     }
     let d = &m.diagnostics;
-    println!(
+    let _ = writeln!(
+        s,
         "diagnostics {}/{} converged; residual max {:.3e} mean {:.3e} ({}); max iterations {}",
         d.converged, d.entries, d.max_residual, d.mean_residual, d.residual_meaning, d.max_iterations
     );
     for th in &m.thresholds {
-        println!("threshold   {}.{} <= {:e}", th.output, th.metric, th.limit);
+        let _ = writeln!(s, "threshold   {}.{} <= {:e}", th.output, th.metric, th.limit);
     }
-    Ok(())
+    emit(&s)
 }
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
@@ -347,12 +374,13 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 .map(|f| check::check_family(f.as_ref(), &table_path(&tables, f.kind()), opts))
                 .collect();
             if json {
-                println!("{}", serde_json::to_string_pretty(&reports).map_err(|e| e.to_string())?);
+                let text = serde_json::to_string_pretty(&reports).map_err(|e| e.to_string())?;
+                emit(&format!("{text}\n"))?;
             } else {
-                print!("{}", check::render(&reports));
+                emit(&check::render(&reports))?;
             }
             if reports.iter().any(|r| !r.pass) {
-                eprintln!("check FAILED");
+                note("check FAILED\n");
                 return Ok(ExitCode::from(1));
             }
         }
@@ -398,21 +426,61 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 .into_iter()
                 .find(|(n, _)| *n == name)
                 .ok_or_else(|| format!("no figures named {name}"))?;
-            for p in plot(&out)? {
-                println!("{}", p.display());
-            }
+            let listing: String = plot(&out)?.iter().map(|p| format!("{}\n", p.display())).collect();
+            emit(&listing)?;
         }
     }
     Ok(ExitCode::SUCCESS)
 }
 
+/// Writes `text` to stdout and flushes it. A closed pipe or a full disk becomes an
+/// error (one line on stderr, exit 1) instead of `println!`'s panic.
+fn emit(text: &str) -> Result<(), String> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())
+        .and_then(|()| out.flush())
+        .map_err(|e| format!("cannot write to stdout: {e}"))
+}
+
+/// Writes `text` to stderr. Ignores failure: stderr is where failures would be
+/// reported, and `eprintln!` would panic instead.
+fn note(text: &str) {
+    let _ = std::io::stderr().lock().write_all(text.as_bytes());
+}
+
+/// Parses the command line. Help and version text go through [`emit`] (clap's own
+/// printing ignores write errors) unless stdout is a terminal, where clap's styled
+/// output is kept; usage errors exit 2 as clap does.
+fn parse() -> Result<Cli, ExitCode> {
+    use clap::error::ErrorKind;
+    match Cli::try_parse() {
+        Ok(cli) => Ok(cli),
+        Err(e) if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) => {
+            if std::io::stdout().is_terminal() {
+                e.exit()
+            }
+            match emit(&e.render().to_string()) {
+                Ok(()) => Err(ExitCode::SUCCESS),
+                Err(m) => {
+                    note(&format!("error: {m}\n"));
+                    Err(ExitCode::from(1))
+                }
+            }
+        }
+        Err(e) => e.exit(),
+    }
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match parse() {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
             let _ = std::io::stdout().flush();
-            eprintln!("error: {e}");
+            note(&format!("error: {e}\n"));
             ExitCode::from(1)
         }
     }

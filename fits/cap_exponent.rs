@@ -29,6 +29,7 @@ use crate::family::{Family, Fitted, Lookup};
 use crate::fits::{Backend, Method};
 use crate::quad::{adaptive_simpson, gauss_kronrod, illinois};
 use crate::rng::Rng;
+use crate::tables::error::short;
 
 /// Grid nodes (the paper's 1000).
 pub const NODES: u32 = 1000;
@@ -312,7 +313,10 @@ pub fn objective_derivative_by_quadrature(alpha: f64, e: f64) -> (f64, bool) {
 /// Reference e_cap(α) by quadrature and root finding, for α ∈ [1e-3, π].
 pub fn reference_e_cap(alpha: f64) -> Result<f64, String> {
     if !(ALPHA_MIN..=PI).contains(&alpha) {
-        return Err(format!("alpha = {alpha} is outside [{ALPHA_MIN}, π]"));
+        return Err(format!(
+            "alpha = {alpha} is outside [{ALPHA_MIN}, π]",
+            alpha = short(alpha)
+        ));
     }
     if alpha >= FRAC_PI_2 {
         return Ok(0.0);
@@ -332,8 +336,14 @@ pub fn reference_e_cap(alpha: f64) -> Result<f64, String> {
     );
     match root {
         Some((q, _)) if all_converged => Ok(q * m),
-        Some(_) => Err(format!("reference quadrature did not converge at alpha = {alpha}")),
-        None => Err(format!("reference root not bracketed at alpha = {alpha}")),
+        Some(_) => Err(format!(
+            "reference quadrature did not converge at alpha = {alpha}",
+            alpha = short(alpha)
+        )),
+        None => Err(format!(
+            "reference root not bracketed at alpha = {alpha}",
+            alpha = short(alpha)
+        )),
     }
 }
 
@@ -474,7 +484,10 @@ impl Family for CapExponentFamily {
         // The optimizer itself, run at exactly this α.
         let alpha = x[0];
         if !(ALPHA_MIN..=PI).contains(&alpha) {
-            return Err(format!("alpha = {alpha} is outside [{ALPHA_MIN}, π]"));
+            return Err(format!(
+                "alpha = {alpha} is outside [{ALPHA_MIN}, π]",
+                alpha = short(alpha)
+            ));
         }
         if alpha >= FRAC_PI_2 {
             return Ok(vec![0.0]);
@@ -486,7 +499,7 @@ impl Family for CapExponentFamily {
         }
         let f = self.fit(&[alpha]);
         if !f.converged {
-            return Err(format!("fit did not converge at alpha = {alpha}"));
+            return Err(format!("fit did not converge at alpha = {alpha}", alpha = short(alpha)));
         }
         Ok(vec![f.values[0] * model(alpha)])
     }

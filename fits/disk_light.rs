@@ -36,6 +36,7 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use crate::family::{Extra, Family, Fitted, Lookup};
 use crate::quad::gauss_kronrod_vec;
 use crate::rng::Rng;
+use crate::tables::error::short;
 
 /// Gauss–Legendre points per panel of the fit.
 const GL_POINTS: usize = 10;
@@ -234,7 +235,12 @@ fn disk_point(rho: f64, psi: f64, st: f64, ct: f64) -> [f64; 3] {
 /// ∫_disk g(x) cos τ / |x|³ dA by nested GK (ρ inner, ψ outer over [0, π], doubled:
 /// `g` must be even in y), to absolute tolerance `tol`; every component of `g` on
 /// one shared subdivision.
-fn disk_integral<const N: usize>(r: f64, tau: f64, tol: f64, g: &dyn Fn([f64; 3]) -> [f64; N]) -> Result<[f64; N], String> {
+fn disk_integral<const N: usize>(
+    r: f64,
+    tau: f64,
+    tol: f64,
+    g: &dyn Fn([f64; 3]) -> [f64; N],
+) -> Result<[f64; N], String> {
     let (st, ct) = tau.sin_cos();
     let mut ok = true;
     let inner_breaks = [st];
@@ -267,7 +273,11 @@ fn disk_integral<const N: usize>(r: f64, tau: f64, tol: f64, g: &dyn Fn([f64; 3]
     if ok && q.converged {
         Ok(v.map(|x| 2.0 * x))
     } else {
-        Err(format!("disk quadrature did not converge at R/d = {r}, tau = {tau}"))
+        Err(format!(
+            "disk quadrature did not converge at R/d = {r}, tau = {tau}",
+            r = short(r),
+            tau = short(tau)
+        ))
     }
 }
 
@@ -275,10 +285,10 @@ fn disk_integral<const N: usize>(r: f64, tau: f64, tol: f64, g: &dyn Fn([f64; 3]
 /// τ ≥ π/2 gives zeros (back side).
 pub fn reference_canonical(r: f64, tau: f64) -> Result<[f64; 6], String> {
     if !(r.is_finite() && r > 0.0) {
-        return Err(format!("r_over_d = {r} must be a finite number > 0"));
+        return Err(format!("r_over_d = {r} must be a finite number > 0", r = short(r)));
     }
     if !(tau.is_finite() && (0.0..=PI).contains(&tau)) {
-        return Err(format!("tau = {tau} is outside [0, π]"));
+        return Err(format!("tau = {tau} is outside [0, π]", tau = short(tau)));
     }
     if tau >= FRAC_PI_2 {
         return Ok([0.0; 6]);
@@ -347,14 +357,16 @@ pub fn reference_canonical_directions(r: f64, tau: f64) -> Result<[f64; 6], Stri
         let i_cc = omc * (1.0 + cs + cs * cs) / 3.0; // ∫ cos²θ sin θ dθ
         let i_sc = sn * sn * sn / 3.0; // ∫ sin²θ cos θ dθ
         let i_ss = omc - i_cc; // ∫ sin³θ dθ = ∫ (1 − cos²θ) sin θ dθ
-        // ∫ {x, z, x², y², z², xz} dω over θ ∈ [0, θ_b] at ψ.
+                               // ∫ {x, z, x², y², z², xz} dω over θ ∈ [0, θ_b] at ψ.
         [cp * i_s, i_c, cp * cp * i_ss, sp * sp * i_ss, i_cc, cp * i_sc]
     };
     let est = (PI * r * r * ct / (1.0 + r * r)).min(2.0 * PI);
     // The region is symmetric in y: ψ over [0, π], doubled.
     let (q, m) = gauss_kronrod_vec(moments, 0.0, PI, &[], DIRECTION_REL_TOL * est, GK_REL_FLOOR, 2000);
     if !q.converged {
-        return Err(format!("direction quadrature did not converge at R/d = {r}, tau = {tau}"));
+        return Err(format!(
+            "direction quadrature did not converge at R/d = {r}, tau = {tau}"
+        ));
     }
     let mono = m.map(|v| 2.0 * v);
     // Each canonical basis function as a combination of {x, z, x², y², z², xz} (and

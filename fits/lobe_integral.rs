@@ -15,6 +15,7 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use crate::family::{Family, Fitted, Lookup};
 use crate::quad::adaptive_simpson;
 use crate::rng::Rng;
+use crate::tables::error::short;
 
 /// Grid nodes: the paper's budget of 5 decades × 128 samples, plus one end node.
 pub const NODES: u32 = 641;
@@ -125,7 +126,7 @@ impl Family for LobeIntegralFamily {
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         let e = x[0];
         if !(0.0..=E_MAX).contains(&e) {
-            return Err(format!("e = {e} is outside [0, {E_MAX}]"));
+            return Err(format!("e = {e} is outside [0, {E_MAX}]", e = short(e)));
         }
         Ok(vec![rt::exact(e).map_err(|err| err.to_string())?])
     }

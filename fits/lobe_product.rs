@@ -28,6 +28,7 @@ use crate::family::{Extra, Family, Fitted, Lookup};
 use crate::fits::Method;
 use crate::quad::gauss_kronrod;
 use crate::rng::Rng;
+use crate::tables::error::short;
 
 /// Nodes per exponent axis (uniform in ln(1 + e) on [0, 10⁵]).
 pub const N_E: u32 = 48;
@@ -881,7 +882,12 @@ impl Family for LobeProductFamily {
         let (e1, e2, alpha) = domain(x)?;
         let f = fit_fast(self.variant, e1, e2, alpha);
         if !f.converged {
-            return Err(format!("fit did not converge at e1 = {e1}, e2 = {e2}, alpha = {alpha}"));
+            return Err(format!(
+                "fit did not converge at e1 = {e1}, e2 = {e2}, alpha = {alpha}",
+                e1 = short(e1),
+                e2 = short(e2),
+                alpha = short(alpha)
+            ));
         }
         let integral = (f.c + ln_model(e1, e2, alpha)).exp();
         let p = f.k.exp() * integral * (f.e_r + 1.0) / TAU;
@@ -1071,7 +1077,7 @@ fn domain(x: &[f64]) -> Result<(f64, f64, f64), String> {
     let (e1, e2, alpha) = (x[0], x[1], x[2]);
     for (n, v, hi) in [("e1", e1, E_MAX), ("e2", e2, E_MAX), ("alpha", alpha, PI)] {
         if !(0.0..=hi).contains(&v) {
-            return Err(format!("{n} = {v} is outside [0, {hi}]"));
+            return Err(format!("{n} = {v} is outside [0, {hi}]", v = short(v)));
         }
     }
     Ok((e1, e2, alpha))

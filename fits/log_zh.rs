@@ -17,6 +17,7 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use crate::family::{Family, Fitted, Lookup};
 use crate::rng::Rng;
+use crate::tables::error::short;
 
 /// Largest allowed |closed form − Gauss–Legendre| for an entry to be written.
 const MAX_RESIDUAL: f64 = 1e-9;
@@ -111,13 +112,23 @@ fn zonal(kind: Kind, eps: f64, param: f64) -> (Box<dyn Fn(f64) -> f64>, Vec<f64>
 /// Checker reference: z_l = 2π ∫ g(s) y_l^0(s) ds by adaptive Gauss–Kronrod.
 pub fn reference_log_zh(kind: Kind, eps: f64, param: f64, order: usize) -> Result<Vec<f64>, String> {
     if !(EPS_MIN..=EPS_MAX).contains(&eps) {
-        return Err(format!("eps = {eps} is outside [{EPS_MIN}, {EPS_MAX}]"));
+        return Err(format!(
+            "eps = {eps} is outside [{EPS_MIN}, {EPS_MAX}]",
+            eps = short(eps)
+        ));
     }
     match kind {
         Kind::Phong if !(rt::R_MIN..=rt::R_MAX).contains(&param) => {
-            return Err(format!("r = {param} is outside [{}, {}]", rt::R_MIN, rt::R_MAX))
+            return Err(format!(
+                "r = {param} is outside [{}, {}]",
+                rt::R_MIN,
+                rt::R_MAX,
+                param = short(param)
+            ))
         }
-        Kind::Blocker if !(0.0..=PI).contains(&param) => return Err(format!("theta_b = {param} is outside [0, π]")),
+        Kind::Blocker if !(0.0..=PI).contains(&param) => {
+            return Err(format!("theta_b = {param} is outside [0, π]", param = short(param)))
+        }
         _ => {}
     }
     if matches!(kind, Kind::Diffuse | Kind::Phong) && t_eps(eps, if kind == Kind::Diffuse { 1.0 } else { param }) >= 1.0

@@ -26,6 +26,7 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use crate::family::{Family, Fitted, Lookup};
 use crate::quad::{adaptive_simpson, gauss_kronrod, illinois};
 use crate::rng::Rng;
+use crate::tables::error::short;
 
 /// Grid nodes, uniform in ln(1 + e).
 pub const NODES: u32 = 513;
@@ -132,7 +133,7 @@ pub fn objective_by_quadrature(e: f64, lambda: f64, mu: f64) -> f64 {
 /// Reference (λ, μ) at e by Gauss–Kronrod quadrature and regula falsi.
 pub fn reference_fit(e: f64) -> Result<(f64, f64), String> {
     if !(0.0..=E_MAX).contains(&e) {
-        return Err(format!("e = {e} is outside [0, {E_MAX}]"));
+        return Err(format!("e = {e} is outside [0, {E_MAX}]", e = short(e)));
     }
     let mut ok = true;
     let root = illinois(
@@ -151,8 +152,11 @@ pub fn reference_fit(e: f64) -> Result<(f64, f64), String> {
             let lambda = r * (e + 1.0);
             Ok((lambda, amplitude_and_residual(e, lambda).0))
         }
-        Some(_) => Err(format!("reference quadrature did not converge at e = {e}")),
-        None => Err(format!("reference root not bracketed at e = {e}")),
+        Some(_) => Err(format!(
+            "reference quadrature did not converge at e = {e}",
+            e = short(e)
+        )),
+        None => Err(format!("reference root not bracketed at e = {e}", e = short(e))),
     }
 }
 
@@ -301,11 +305,11 @@ impl Family for SgFitFamily {
         // The fit itself at exactly this e.
         let e = x[0];
         if !(0.0..=E_MAX).contains(&e) {
-            return Err(format!("e = {e} is outside [0, {E_MAX}]"));
+            return Err(format!("e = {e} is outside [0, {E_MAX}]", e = short(e)));
         }
         let f = self.fit(&[e]);
         if !f.converged {
-            return Err(format!("fit did not converge at e = {e}"));
+            return Err(format!("fit did not converge at e = {e}", e = short(e)));
         }
         Ok(f.values)
     }

@@ -25,6 +25,7 @@ use crate::family::{Extra, Family, Fitted, Lookup};
 use crate::rng::Rng;
 use crate::sh::Gaunt;
 use crate::shexp::{ren_log_zonal, ren_log_zonal_reference};
+use crate::tables::error::short;
 
 /// Largest |fit − reference| / max(‖f‖, 1) for a node to be written: both are f64
 /// computations of the same matrix function (measured ≤ 1e-13).
@@ -102,7 +103,10 @@ impl ShExpFamily {
 /// (f, ‖f̂‖, a, b) of order n by the reference at θ_b.
 pub fn reference_point(theta_b: f64, order: usize) -> Result<(Vec<f64>, f64, f64, f64), String> {
     if !(0.0..=rt::THETA_MAX).contains(&theta_b) {
-        return Err(format!("theta_b = {theta_b} is outside [0, π/2]"));
+        return Err(format!(
+            "theta_b = {theta_b} is outside [0, π/2]",
+            theta_b = short(theta_b)
+        ));
     }
     let g = cap_visibility_zh(theta_b, order).map_err(|e| e.to_string())?[..order].to_vec();
     let f = ren_log_zonal_reference(&g)?.f;
@@ -499,13 +503,19 @@ fn kink(gaunt: &Gaunt, n: usize, theta: f64) -> Result<Option<f64>, String> {
 /// adaptive Gauss–Kronrod.
 fn naive_reference(theta_b: f64, eps: f64, order: usize) -> Result<Vec<f64>, String> {
     if !(0.0..=rt::THETA_MAX).contains(&theta_b) {
-        return Err(format!("theta_b = {theta_b} is outside [0, π/2]"));
+        return Err(format!(
+            "theta_b = {theta_b} is outside [0, π/2]",
+            theta_b = short(theta_b)
+        ));
     }
     let f = crate::fits::log_zh::reference_log_zh(lobefit_tables::log_zh::Kind::Blocker, eps, theta_b, order)?;
     let c = theta_b.cos();
     let (g, ok) = crate::sh::zh_project_gk(order, |t| if t > c { 0.0 } else { 1.0 }, &[c], 1e-14);
     if !ok {
-        return Err(format!("visibility quadrature did not converge at theta_b = {theta_b}"));
+        return Err(format!(
+            "visibility quadrature did not converge at theta_b = {theta_b}",
+            theta_b = short(theta_b)
+        ));
     }
     let (a, b, norm) = ab_of_pair(&g, &f).map_err(|e| e.to_string())?;
     let mut v = f;

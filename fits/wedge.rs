@@ -19,6 +19,7 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use crate::family::{Family, Fitted, Lookup};
 use crate::quad::gauss_kronrod;
 use crate::rng::Rng;
+use crate::tables::error::short;
 
 /// Gauss–Legendre points in θ of the fit, and of its convergence cross-check.
 const GL_POINTS: [usize; 2] = [48, 64];
@@ -161,10 +162,15 @@ pub fn reference_m_lin(w: u32, row: usize, col: usize) -> Result<f64, String> {
 /// Checker reference of the slice vector: ln ε ∫_{π/2−σ}^{π} P̂_l(cosθ) sinθ dθ by GK.
 pub fn reference_slice(sigma: f64, eps: f64, order: usize) -> Result<Vec<f64>, String> {
     if !(-PI / 2.0..=PI / 2.0).contains(&sigma) {
-        return Err(format!("sigma = {sigma} is outside [-π/2, π/2]"));
+        return Err(format!("sigma = {sigma} is outside [-π/2, π/2]", sigma = short(sigma)));
     }
     if !(rt::EPS_MIN..=rt::EPS_MAX).contains(&eps) {
-        return Err(format!("eps = {eps} is outside [{}, {}]", rt::EPS_MIN, rt::EPS_MAX));
+        return Err(format!(
+            "eps = {eps} is outside [{}, {}]",
+            rt::EPS_MIN,
+            rt::EPS_MAX,
+            eps = short(eps)
+        ));
     }
     (0..order)
         .map(|l| {

@@ -1,9 +1,18 @@
-//! `lobefit eval`: CSV in, CSV out (SPEC §6). All rows are validated and computed
-//! before anything is written, so a bad row never leaves half an output behind.
+//! `lobefit eval`: CSV in, CSV out (SPEC §6). Every row is validated and computed
+//! before anything is written, so a bad row never leaves half an output behind. The
+//! input is read a line at a time and the output spooled (in memory up to
+//! [`SPOOL_MEMORY`], then in an anonymous temporary file), so memory stays bounded
+//! whatever the row count.
 
-use std::io::{Read, Write};
+use std::io::{BufRead, BufReader, BufWriter, Read, Seek, Write};
 
 use crate::family::{Family, Lookup};
+
+/// Output held in memory before the spool moves to a temporary file.
+pub const SPOOL_MEMORY: usize = 4 << 20;
+/// Longest accepted input line in bytes (a row of 64 SH coefficients is about
+/// 1.6 kB); a longer one is refused rather than buffered.
+pub const MAX_LINE_LEN: u64 = 1 << 20;
 
 /// Why an evaluation was refused. Every variant names the offending line.
 #[derive(Debug, thiserror::Error)]
@@ -31,66 +40,56 @@ pub enum EvalError {
     /// A data row is malformed or outside the domain.
     #[error("line {line}: {message}")]
     Row { line: u64, message: String },
-    /// Reading the input or writing the output failed.
-    #[error("i/o error: {0}")]
+    /// Reading the input failed.
+    #[error("i/o error: cannot read the input: {0}")]
     Io(#[from] std::io::Error),
+    /// Spooling or writing the output failed.
+    #[error("i/o error: cannot write the output: {0}")]
+    Output(std::io::Error),
 }
 
 /// Evaluates every row of `input` (CSV with a header of input columns) through
 /// `lookup` (the runtime) or, when `lookup` is `None`, the family's exact path, and
 /// writes the input columns followed by the output columns to `output`. Returns the
-/// row count.
+/// row count. Nothing is written to `output` unless every row succeeds.
 ///
 /// The accepted CSV is the plain numeric kind SPEC §6 describes: comma-separated,
 /// optional UTF-8 BOM, LF or CRLF line ends, spaces around fields ignored, blank lines
-/// skipped, no quoting. Line numbers in errors are physical lines of the input.
+/// skipped, no quoting, lines of at most [`MAX_LINE_LEN`] bytes. Line numbers in
+/// errors are physical lines of the input; the first bad line is reported.
 pub fn eval_csv(
     family: &dyn Family,
     lookup: Option<&dyn Lookup>,
-    mut input: impl Read,
+    input: impl Read,
     mut output: impl Write,
 ) -> Result<usize, EvalError> {
     let expected = family.inputs().join(", ");
-    let mut raw = Vec::new();
-    input.read_to_end(&mut raw)?;
-    let text = String::from_utf8(raw).map_err(|e| EvalError::Row {
-        line: 1 + e.as_bytes()[..e.utf8_error().valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count() as u64,
-        message: "input is not UTF-8".into(),
-    })?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-    let mut lines = text
-        .split('\n')
-        .enumerate()
-        .map(|(i, l)| (i as u64 + 1, l.strip_suffix('\r').unwrap_or(l)))
-        .filter(|(_, l)| !l.trim().is_empty());
-    let Some((hline, header)) = lines.next() else {
+    let mut lines = Lines::new(input);
+    let Some((hline, header)) = lines.next_nonblank()? else {
         return Err(EvalError::Empty { expected });
     };
-    let columns = fields(header, hline)?;
+    let columns: Vec<String> = fields(&header, hline)?.into_iter().map(str::to_string).collect();
     let mut slot = Vec::with_capacity(columns.len());
-    for (i, &c) in columns.iter().enumerate() {
-        match family.inputs().iter().position(|n| *n == c) {
+    for (i, c) in columns.iter().enumerate() {
+        match family.inputs().iter().position(|n| n == c) {
             None => {
                 return Err(EvalError::UnknownColumn {
                     line: hline,
-                    column: c.to_string(),
+                    column: c.clone(),
                     expected,
                 })
             }
-            Some(_) if columns[..i].contains(&c) => {
+            Some(_) if columns[..i].contains(c) => {
                 return Err(EvalError::DuplicateColumn {
                     line: hline,
-                    column: c.to_string(),
+                    column: c.clone(),
                 })
             }
             Some(k) => slot.push(k),
         }
     }
     for name in family.inputs() {
-        if !columns.contains(name) {
+        if !columns.iter().any(|c| c == name) {
             return Err(EvalError::MissingColumn {
                 line: hline,
                 column: name.to_string(),
@@ -98,16 +97,23 @@ pub fn eval_csv(
             });
         }
     }
-    let mut rows: Vec<(Vec<&str>, Vec<f64>)> = Vec::new();
-    for (line, l) in lines {
-        let row = fields(l, line)?;
+    let mut spool = BufWriter::new(tempfile::SpooledTempFile::new(SPOOL_MEMORY));
+    let head: Vec<&str> = columns
+        .iter()
+        .map(String::as_str)
+        .chain(family.outputs().iter().copied())
+        .collect();
+    writeln!(spool, "{}", head.join(",")).map_err(EvalError::Output)?;
+    let mut count = 0;
+    let mut x = vec![0.0; family.inputs().len()];
+    while let Some((line, l)) = lines.next_nonblank()? {
+        let row = fields(&l, line)?;
         if row.len() != columns.len() {
             return Err(EvalError::Row {
                 line,
                 message: format!("{} fields, header has {}", row.len(), columns.len()),
             });
         }
-        let mut x = vec![0.0; family.inputs().len()];
         for (&text, (&k, name)) in row.iter().zip(slot.iter().zip(&columns)) {
             x[k] = number(text).map_err(|m| EvalError::Row {
                 line,
@@ -119,25 +125,80 @@ pub fn eval_csv(
             None => family.exact(&x),
         }
         .map_err(|message| EvalError::Row { line, message })?;
-        rows.push((row, y));
+        write_row(&mut spool, &row, &y).map_err(EvalError::Output)?;
+        count += 1;
     }
-    let mut buf = String::new();
-    let head: Vec<&str> = columns
-        .iter()
-        .copied()
-        .chain(family.outputs().iter().copied())
-        .collect();
-    buf.push_str(&head.join(","));
-    buf.push('\n');
-    for (fields, y) in &rows {
-        let mut line: Vec<String> = fields.iter().map(|f| f.to_string()).collect();
-        line.extend(y.iter().map(|v| format!("{v:e}")));
-        buf.push_str(&line.join(","));
-        buf.push('\n');
+    // Every row succeeded: only now does anything reach `output`.
+    let mut spool = spool.into_inner().map_err(|e| EvalError::Output(e.into_error()))?;
+    spool.rewind().map_err(EvalError::Output)?;
+    std::io::copy(&mut spool, &mut output).map_err(EvalError::Output)?;
+    output.flush().map_err(EvalError::Output)?;
+    Ok(count)
+}
+
+/// One output row: the input fields as given, then the outputs in shortest
+/// round-trip scientific form.
+fn write_row(out: &mut impl Write, fields: &[&str], y: &[f64]) -> std::io::Result<()> {
+    out.write_all(fields.join(",").as_bytes())?;
+    for v in y {
+        write!(out, ",{v:e}")?;
     }
-    output.write_all(buf.as_bytes())?;
-    output.flush()?;
-    Ok(rows.len())
+    out.write_all(b"\n")
+}
+
+/// Physical lines of the input, read one at a time (BOM, CR and length handled).
+struct Lines<R> {
+    input: BufReader<R>,
+    number: u64,
+    buf: Vec<u8>,
+}
+
+impl<R: Read> Lines<R> {
+    fn new(input: R) -> Self {
+        Lines {
+            input: BufReader::new(input),
+            number: 0,
+            buf: Vec::new(),
+        }
+    }
+
+    /// The next line that is not blank, with its 1-based physical line number;
+    /// `None` at the end of the input.
+    fn next_nonblank(&mut self) -> Result<Option<(u64, String)>, EvalError> {
+        loop {
+            self.buf.clear();
+            let n = (&mut self.input)
+                .take(MAX_LINE_LEN + 1)
+                .read_until(b'\n', &mut self.buf)?;
+            if n == 0 {
+                return Ok(None);
+            }
+            self.number += 1;
+            let line = self.number;
+            let mut bytes = &self.buf[..];
+            if bytes.last() == Some(&b'\n') {
+                bytes = &bytes[..bytes.len() - 1];
+            } else if n as u64 > MAX_LINE_LEN {
+                return Err(EvalError::Row {
+                    line,
+                    message: format!("line longer than {MAX_LINE_LEN} bytes"),
+                });
+            }
+            let bytes = bytes.strip_suffix(b"\r").unwrap_or(bytes);
+            let text = std::str::from_utf8(bytes).map_err(|_| EvalError::Row {
+                line,
+                message: "input is not UTF-8".into(),
+            })?;
+            let text = if line == 1 {
+                text.strip_prefix('\u{feff}').unwrap_or(text)
+            } else {
+                text
+            };
+            if !text.trim().is_empty() {
+                return Ok(Some((line, text.to_string())));
+            }
+        }
+    }
 }
 
 /// Splits a line into trimmed fields; quoting is not part of the format.

@@ -5,7 +5,13 @@ use std::path::Path;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same directory,
 /// flushed to disk, then renamed over the target (rename is atomic on POSIX and
-/// NTFS). On error the target is untouched and the temporary is removed.
+/// NTFS), and the directory flushed so the rename survives a crash. On error the
+/// target is untouched and the temporary is removed.
+///
+/// The temporary is created exclusively (`O_EXCL`) under an unpredictable name
+/// `.<name>.<random>.tmp`, so a symlink or file planted in the directory is never
+/// followed or overwritten. After a successful write, temporaries of the same
+/// table left by a killed run (hidden, ignored by the loader) are removed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path
         .parent()
@@ -16,15 +22,53 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+    let prefix = format!(".{name}.");
+    // Dropping a `NamedTempFile` (on every `?` below, and inside a failed
+    // `persist`) deletes it.
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(TMP_SUFFIX);
+    // tempfile's default mode is 0600; a table is as readable as `File::create`
+    // would make it (0666 less the umask).
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let mut tmp = builder.tempfile_in(dir)?;
+    tmp.write_all(bytes)?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(path).map_err(|e| e.error)?;
+    sync_dir(dir)?;
+    remove_stale(dir, &prefix);
+    Ok(())
+}
+
+/// Suffix of the temporary files of [`write_atomic`].
+const TMP_SUFFIX: &str = ".tmp";
+
+/// Flushes a directory entry change (the rename) to disk. Windows cannot open a
+/// directory as a file; NTFS journals the rename itself.
+fn sync_dir(dir: &Path) -> std::io::Result<()> {
+    #[cfg(unix)]
+    std::fs::File::open(dir)?.sync_all()?;
+    #[cfg(not(unix))]
+    let _ = dir;
+    Ok(())
+}
+
+/// Removes leftovers `<prefix><alphanumeric>.tmp` (this writer's names, and the
+/// `<pid>` names of earlier versions) that are plain files. Best effort: a leftover
+/// that cannot be removed does not fail a write that succeeded.
+fn remove_stale(dir: &Path, prefix: &str) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file_name = e.file_name();
+        let Some(n) = file_name.to_str() else { continue };
+        let Some(middle) = n.strip_prefix(prefix).and_then(|r| r.strip_suffix(TMP_SUFFIX)) else {
+            continue;
+        };
+        let ours = !middle.is_empty() && middle.bytes().all(|b| b.is_ascii_alphanumeric());
+        if ours && e.file_type().is_ok_and(|t| t.is_file()) {
+            let _ = std::fs::remove_file(e.path());
+        }
     }
-    result
 }

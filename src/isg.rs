@@ -29,6 +29,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
 
 use crate::quad::gauss_kronrod;
+use crate::tables::error::short;
 
 /// The ISG domain and normaliser, defined once in the runtime crate.
 pub use lobefit_tables::isg::{normaliser, GAMMA_MAX, GAMMA_MIN};
@@ -61,10 +62,10 @@ pub fn check_domain(theta: f64, phi: f64, gamma: f64) -> Result<(), String> {
         ("gamma", gamma, GAMMA_MIN, GAMMA_MAX),
     ] {
         if !v.is_finite() {
-            return Err(format!("{name} = {v} is not finite"));
+            return Err(format!("{name} = {v} is not finite", v = short(v)));
         }
         if !(lo..=hi).contains(&v) {
-            return Err(format!("{name} = {v} is outside [{lo}, {hi}]"));
+            return Err(format!("{name} = {v} is outside [{lo}, {hi}]", v = short(v)));
         }
     }
     Ok(())

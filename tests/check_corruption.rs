@@ -29,16 +29,16 @@ const OPTS: CheckOptions = CheckOptions {
 /// is relative), and at least two f32 steps so the stored value changes.
 fn delta(kind: &str, channel: &str, v: f32) -> f64 {
     let d = match kind {
-        "lobe-integral" => 3e-6,                // ln I; 1e-6 relative
-        "cap-exponent" => 3e-4 * f64::from(v),  // q; 1e-4 relative on e_cap
-        "isg-refit" => 0.15,                    // ln g, ln h; 0.0225 abs on Ŝ
+        "lobe-integral" => 3e-6,               // ln I; 1e-6 relative
+        "cap-exponent" => 3e-4 * f64::from(v), // q; 1e-4 relative on e_cap
+        "isg-refit" => 0.15,                   // ln g, ln h; 0.0225 abs on Ŝ
         // A, B; 5e-4 abs on Ŝ (C and D: `rank_one_delta`).
         "isg-best" => 1.5e-3,
-        "sg-fit" => 1e-4,                       // ln λ, ln μ; 3e-5 relative
-        "log-zh" => 3e-9,                       // z hi/lo; 1e-9 abs
-        "wedge" => 3e-12,                       // M hi/lo; 1e-12 abs
-        "wrap" => 6e-7,                         // λ̂_l; table lookups 2e-7 abs at nodes
-        "disk-light" => 5e-5,                   // ln c00, ratios; 1e-5 rel L2
+        "sg-fit" => 1e-4,     // ln λ, ln μ; 3e-5 relative
+        "log-zh" => 3e-9,     // z hi/lo; 1e-9 abs
+        "wedge" => 3e-12,     // M hi/lo; 1e-12 abs
+        "wrap" => 6e-7,       // λ̂_l; table lookups 2e-7 abs at nodes
+        "disk-light" => 5e-5, // ln c00, ratios; 1e-5 rel L2
         "lobe-product" | "lobe-product-l2" => match channel {
             "ln_integral_over_model" => 3e-4, // integral 1e-4 relative at nodes
             _ => 0.03,                        // e_r, p_r: residual 1e-3 relative at nodes
@@ -112,7 +112,10 @@ fn relevant_diagonal_node(table: &Table, rng: &mut Rng) -> usize {
     let axes = &table.meta().axes;
     let (n_e, n_a) = (axes[0].count, axes[2].count);
     loop {
-        let (i, k) = ((rng.next_u64() % n_e as u64) as u32, (rng.next_u64() % n_a as u64) as u32);
+        let (i, k) = (
+            (rng.next_u64() % n_e as u64) as u32,
+            (rng.next_u64() % n_a as u64) as u32,
+        );
         let (e, alpha) = (axes[0].node(i), axes[2].node(k));
         if reference_integral(e, e, alpha).unwrap() >= RELEVANCE * TAU / (1.0 + e) {
             return ((i * n_e + i) * n_a + k) as usize;
@@ -136,7 +139,11 @@ fn any_single_corrupted_node_fails_the_quick_check() {
         let bytes = std::fs::read(format!("tables/data/{kind}.lobefit")).unwrap();
         let table = Table::from_bytes(&bytes).unwrap();
         let control = check_bytes(family.as_ref(), dir.path(), &bytes);
-        assert!(control.pass, "{kind}: the unchanged table fails: {:?}", control.problems);
+        assert!(
+            control.pass,
+            "{kind}: the unchanged table fails: {:?}",
+            control.problems
+        );
         let nc = table.meta().channels.len();
         let nodes = table.values().len() / nc;
         for (c, channel) in table.meta().channels.iter().enumerate() {
@@ -164,7 +171,11 @@ fn any_single_corrupted_node_fails_the_quick_check() {
                 };
                 let report = check_bytes(family.as_ref(), dir.path(), &corrupted(&table, index, d));
                 let failed = node_failures(&report);
-                println!("{kind:<16} {:<24} node {node:>6} {d:+.2e}: {}", channel.name, failed.join("; "));
+                println!(
+                    "{kind:<16} {:<24} node {node:>6} {d:+.2e}: {}",
+                    channel.name,
+                    failed.join("; ")
+                );
                 assert_eq!(report.kind, kind);
                 assert!(
                     !report.pass && !failed.is_empty(),

@@ -186,7 +186,7 @@ fn bad_inputs_have_their_own_errors() {
     assert!(od(t.ab_for_norm(-1.0, 4).map(|_| ()), "|f_hat|"));
     assert!(nf(t.ab_for_norm(f64::NAN, 4).map(|_| ())));
     // HYB: vector length not n², order outside 3..8, NaN, bad threshold, huge norm.
-    assert!(matches!(t.hyb(&[0.0; 10], &mut out), Err(LookupError::Arity { .. })));
+    assert!(matches!(t.hyb(&[0.0; 10], &mut out), Err(LookupError::ShLength { .. })));
     assert!(od(t.hyb(&[0.0; 4], &mut out).map(|_| ()), "order"));
     let mut f = [0.0; 16];
     f[3] = f64::NAN;
@@ -201,7 +201,7 @@ fn bad_inputs_have_their_own_errors() {
     assert!(od(t.hyb(&big, &mut out).map(|_| ()), "|f_hat|"));
     assert!(matches!(
         t.hyb(&[0.0; 16], &mut out[..8]),
-        Err(LookupError::Channels { .. })
+        Err(LookupError::Output { .. })
     ));
     assert!(matches!(
         t.hyb_f32(&[0.0; 81], &mut [0.0; 81]),
@@ -229,16 +229,19 @@ fn bad_inputs_have_their_own_errors() {
     assert!(nf(rt::ol(f64::NAN, 1.0, &[0.0; 16], &mut out)));
     assert!(matches!(
         rt::ol(1.0, 1.0, &[], &mut out),
-        Err(LookupError::Arity { .. })
+        Err(LookupError::Coefficients { .. })
     ));
     assert!(matches!(
         rt::ol(1.0, 1.0, &[0.0; 16], &mut out[..4]),
-        Err(LookupError::Channels { .. })
+        Err(LookupError::Output { .. })
     ));
-    assert!(matches!(rt::ab_of_pair(&[], &[]), Err(LookupError::Arity { .. })));
+    assert!(matches!(
+        rt::ab_of_pair(&[], &[]),
+        Err(LookupError::Coefficients { .. })
+    ));
     assert!(matches!(
         rt::ab_of_pair(&[1.0; 3], &[1.0; 4]),
-        Err(LookupError::Arity { .. })
+        Err(LookupError::Coefficients { .. })
     ));
     assert!(nf(rt::ab_of_pair(&[1.0, f64::NAN], &[1.0, 2.0]).map(|_| ())));
     assert!(nf(cap_visibility_zh(f64::NAN, 4).map(|_| ())));

@@ -1,6 +1,8 @@
 //! Typed errors of the runtime crate. Every way a file or a query can be wrong has
 //! its own variant, so callers (and tests) can tell them apart.
 
+use std::fmt;
+
 use thiserror::Error;
 
 /// Why a table file was rejected by [`crate::Table::from_bytes`].
@@ -40,7 +42,7 @@ pub enum LoadError {
     Invalid(String),
     /// The payload holds a NaN or infinite value, or a log-encoded value whose
     /// decoded value would overflow f32.
-    #[error("payload value #{index} ({value}) is not finite or decodes to infinity")]
+    #[error("payload value #{index} ({}) is not finite or decodes to infinity", short32(*.value))]
     NonFinite { index: usize, value: f32 },
     /// A family loader was handed a table of another kind.
     #[error("wrong table kind: expected '{expected}', file holds '{found}'")]
@@ -52,6 +54,13 @@ pub enum LoadError {
     /// layout this runtime interprets (mapping, range, encoding, channel count).
     #[error("table '{kind}' has an unexpected layout: {detail}")]
     LayoutMismatch { kind: String, detail: String },
+    /// The path names a directory, FIFO, device or socket: refused before it is
+    /// opened (opening a FIFO blocks; a device can be read without end).
+    #[error("cannot read table file {path}: it is {what}, not a regular file")]
+    NotAFile { path: String, what: &'static str },
+    /// The file is larger than any table may be: refused before it is read.
+    #[error("table file {path} is {len} bytes, over the format's limit of {limit} bytes")]
+    TooLarge { path: String, len: u64, limit: u64 },
     /// Reading the file from disk failed (message of the I/O error).
     #[error("cannot read table file {path}: {message}")]
     Io { path: String, message: String },
@@ -59,7 +68,7 @@ pub enum LoadError {
     /// the channel (the stored, encoded value: ln of the quantity for a log-encoded
     /// channel), so the file cannot hold what its kind says.
     #[error(
-        "table '{kind}': channel {channel} at node {node:?} holds {value}, outside its plausible range [{lo}, {hi}]"
+        "table '{kind}': channel {channel} at node {node:?} holds {}, outside its plausible range [{}, {}]", short32(*.value), short(*.lo), short(*.hi)
     )]
     ImplausibleValue {
         kind: String,
@@ -76,10 +85,10 @@ pub enum LoadError {
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum LookupError {
     /// The query holds a NaN or an infinity.
-    #[error("{name} is not a finite number ({value})")]
+    #[error("{name} is not a finite number ({})", short(*.value))]
     NotFinite { name: String, value: f64 },
     /// The query lies outside the domain the table covers.
-    #[error("{name} = {value} is outside the domain [{lo}, {hi}]")]
+    #[error("{name} = {} is outside the domain [{}, {}]", short(*.value), short(*.lo), short(*.hi))]
     OutOfDomain { name: String, value: f64, lo: f64, hi: f64 },
     /// The number of coordinates does not match the number of axes.
     #[error("query has {got} coordinates, table has {expected} axes")]
@@ -92,8 +101,75 @@ pub enum LookupError {
     NodeIndex { axis: String, index: u32, count: u32 },
     /// Finite inputs whose result is not finite (too large for f64, or for f32 in a
     /// single-precision twin): an error, never an `Ok(inf)` or `Ok(NaN)`.
-    #[error("{name} overflows ({value}): the inputs are too large for a finite result")]
+    #[error("{name} overflows ({}): the inputs are too large for a finite result", short(*.value))]
     Overflow { name: String, value: f64 },
+    /// A coefficient vector's length is not n² for an SH order n in `1..=max_order`.
+    #[error("{got} SH coefficients: not n² for an order n in 1..={max_order}")]
+    ShLength { got: usize, max_order: usize },
+    /// A coefficient vector does not have the length the operation needs.
+    #[error("{name} has {got} coefficients, expected {expected}")]
+    Coefficients {
+        name: &'static str,
+        got: usize,
+        expected: String,
+    },
+    /// An output buffer is shorter than the result (of a function that reads no table).
+    #[error("output buffer has {got} slots, needs {needed} {what}")]
+    Output {
+        got: usize,
+        needed: usize,
+        what: &'static str,
+    },
+    /// A product of lobes whose peak value or exponent overflows f64.
+    #[error("the product of lobes with exponents e1 = {} and e2 = {} overflows", short(*.e1), short(*.e2))]
+    ProductOverflow { e1: f64, e2: f64 },
+}
+
+/// A number formatted for a message: the shortest digits that round-trip, plainly
+/// for 1e-4 ≤ |x| < 1e16 and in scientific notation otherwise (`{}` alone writes
+/// 1e308 as 309 digits and a subnormal as hundreds of zeros).
+///
+/// ```
+/// use lobefit_tables::error::short;
+/// assert_eq!(short(0.1).to_string(), "0.1");
+/// assert_eq!(short(1e308).to_string(), "1e308");
+/// assert_eq!(short(-5e-324).to_string(), "-5e-324");
+/// ```
+pub fn short(x: f64) -> impl fmt::Display {
+    Short(x)
+}
+
+/// [`short`] for an `f32`, with the `f32`'s own shortest digits.
+pub fn short32(x: f32) -> impl fmt::Display {
+    Short32(x)
+}
+
+struct Short(f64);
+struct Short32(f32);
+
+/// Whether `a` (an absolute value) is written plainly rather than in scientific form.
+fn plain(a: f64) -> bool {
+    !a.is_finite() || a == 0.0 || (1e-4..1e16).contains(&a)
+}
+
+impl fmt::Display for Short {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if plain(self.0.abs()) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
+impl fmt::Display for Short32 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if plain(f64::from(self.0.abs())) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
 }
 
 /// Rejects NaN and infinities with an error naming the quantity.

@@ -9,7 +9,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::LoadError;
+use crate::error::{short, LoadError};
 
 /// First eight bytes of every table file. The `\r\n\x1a\n` tail (as in PNG) makes
 /// text-mode transfers that rewrite line endings fail loudly.
@@ -81,13 +81,23 @@ impl Mapping {
         match *self {
             Mapping::Linear => Ok(()),
             Mapping::Log if lo > 0.0 => Ok(()),
-            Mapping::Log => Err(format!("log mapping needs lo > 0, got {lo}")),
+            Mapping::Log => Err(format!("log mapping needs lo > 0, got {}", short(lo))),
             Mapping::Log1p { scale } if scale > 0.0 && scale.is_finite() && lo > -scale => Ok(()),
-            Mapping::Log1p { scale } => Err(format!("log1p mapping with scale {scale} on lo {lo}")),
+            Mapping::Log1p { scale } => Err(format!("log1p mapping with scale {} on lo {}", short(scale), short(lo))),
             Mapping::Logit { a, b } if a.is_finite() && b.is_finite() && a < lo && hi < b => Ok(()),
-            Mapping::Logit { a, b } => Err(format!("logit mapping ({a}, {b}) must strictly contain [{lo}, {hi}]")),
+            Mapping::Logit { a, b } => Err(format!(
+                "logit mapping ({}, {}) must strictly contain [{}, {}]",
+                short(a),
+                short(b),
+                short(lo),
+                short(hi)
+            )),
             Mapping::Asinh { centre, width } if centre.is_finite() && width.is_finite() && width > 0.0 => Ok(()),
-            Mapping::Asinh { centre, width } => Err(format!("asinh mapping with centre {centre}, width {width}")),
+            Mapping::Asinh { centre, width } => Err(format!(
+                "asinh mapping with centre {}, width {}",
+                short(centre),
+                short(width)
+            )),
         }
     }
 }
@@ -155,7 +165,12 @@ impl Axis {
 
     fn validate(&self) -> Result<(), String> {
         if !(self.lo.is_finite() && self.hi.is_finite() && self.lo < self.hi) {
-            return Err(format!("axis '{}' has bad range [{}, {}]", self.name, self.lo, self.hi));
+            return Err(format!(
+                "axis '{}' has bad range [{}, {}]",
+                self.name,
+                short(self.lo),
+                short(self.hi)
+            ));
         }
         if self.count < 2 {
             return Err(format!("axis '{}' has {} nodes (need >= 2)", self.name, self.count));
@@ -168,8 +183,12 @@ impl Axis {
         let (u0, u1) = self.mapped_range();
         if !(u0.is_finite() && u1.is_finite() && u0 < u1 && (u1 - u0).is_finite()) {
             return Err(format!(
-                "axis '{}' maps [{}, {}] to the degenerate [{u0}, {u1}]",
-                self.name, self.lo, self.hi
+                "axis '{}' maps [{}, {}] to the degenerate [{}, {}]",
+                self.name,
+                short(self.lo),
+                short(self.hi),
+                short(u0),
+                short(u1)
             ));
         }
         Ok(())
@@ -413,7 +432,10 @@ pub fn encode(meta: &Meta, payload: &[f32]) -> Result<Vec<u8>, String> {
         ));
     }
     if let Some((i, v)) = first_unstorable(meta, payload) {
-        return Err(format!("payload value #{i} ({v}) is not finite or decodes to infinity"));
+        return Err(format!(
+            "payload value #{i} ({}) is not finite or decodes to infinity",
+            crate::error::short32(v)
+        ));
     }
     let meta_bytes = postcard::to_allocvec(meta).map_err(|e| e.to_string())?;
     let meta_end = HEADER_LEN + meta_bytes.len();

@@ -33,6 +33,7 @@ pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
 pub mod log_zh;
+mod meta_error;
 pub mod rigs;
 pub mod sg_fit;
 pub mod sh;

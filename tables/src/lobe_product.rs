@@ -421,6 +421,10 @@ impl LobeProduct {
         // atan2 of |a1×a2| and a1·a2 is accurate at both ends, unlike acos.
         let alpha = a1.cross(a2).length().atan2(cos);
         let q = self.params_checked(e1, e2, alpha)?;
+        // Huge exponents overflow p or e_r: blame them, not the scales.
+        if !(q.p.is_finite() && q.e_r.is_finite()) {
+            return Err(LookupError::ProductOverflow { e1, e2 });
+        }
         // p first: a vanishing product stays 0 whatever the scales.
         let scale = finite_result("scale", l1.scale * q.p * l2.scale)?;
         Ok(Lobe {

@@ -195,9 +195,10 @@ pub fn phong(eps: f64, r: f64, order: usize, out: &mut [f64]) -> Result<(), Look
     let eps = check_eps(eps)?;
     let r = in_range("r", r, R_MIN, R_MAX)?;
     if out.len() < n {
-        return Err(LookupError::Channels {
-            expected: n,
+        return Err(LookupError::Output {
             got: out.len(),
+            needed: n,
+            what: "ZH coefficients",
         });
     }
     // ln t_ε = (ln(2π ε) − ln(r+1))/r; t_ε ≥ 1 means f ≤ ε everywhere.
@@ -226,9 +227,10 @@ pub fn blocker(eps: f64, theta_b: f64, order: usize, out: &mut [f64]) -> Result<
     let eps = check_eps(eps)?;
     let theta_b = in_range("theta_b", theta_b, 0.0, PI)?;
     if out.len() < n {
-        return Err(LookupError::Channels {
-            expected: n,
+        return Err(LookupError::Output {
             got: out.len(),
+            needed: n,
+            what: "ZH coefficients",
         });
     }
     let cap = cap_zh(theta_b, n);
@@ -404,7 +406,7 @@ mod tests {
         ));
         assert!(matches!(
             phong(0.5, 2.0, 4, &mut z[..3]),
-            Err(LookupError::Channels { .. })
+            Err(LookupError::Output { .. })
         ));
         assert!(matches!(
             blocker(0.5, -0.1, 4, &mut z),

@@ -81,9 +81,10 @@ pub fn check_order(order: usize) -> Result<usize, LookupError> {
 
 fn check_len(len: usize, want: usize) -> Result<(), LookupError> {
     if len < want {
-        Err(LookupError::Channels {
-            expected: want,
+        Err(LookupError::Output {
             got: len,
+            needed: want,
+            what: "SH coefficients",
         })
     } else {
         Ok(())
@@ -290,9 +291,9 @@ pub fn zh_to_sh_f32(zh: &[f32], d: [f32; 3], out: &mut [f32]) -> Result<(), Look
 pub fn order_of_len(len: usize) -> Result<usize, LookupError> {
     let n = (len as f64).sqrt().round() as usize;
     if n * n != len || !(1..=MAX_ORDER).contains(&n) {
-        return Err(LookupError::Arity {
-            expected: (n.clamp(1, MAX_ORDER)).pow(2),
+        return Err(LookupError::ShLength {
             got: len,
+            max_order: MAX_ORDER,
         });
     }
     Ok(n)
@@ -417,9 +418,14 @@ impl Rotation {
     pub fn apply(&self, coeffs: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
         let n = order_of_len(coeffs.len())?;
         if n > self.order {
-            return Err(LookupError::Arity {
-                expected: self.order * self.order,
+            return Err(LookupError::Coefficients {
+                name: "coeffs",
                 got: coeffs.len(),
+                expected: format!(
+                    "at most {} (the rotation's order {})",
+                    self.order * self.order,
+                    self.order
+                ),
             });
         }
         check_len(out.len(), n * n)?;
@@ -670,11 +676,11 @@ mod tests {
         ));
         assert!(matches!(
             eval_basis(3, [0.0, 0.0, 1.0], &mut out[..4]),
-            Err(LookupError::Channels { .. })
+            Err(LookupError::Output { .. })
         ));
         assert!(matches!(
             rotate_z(&out[..5], 0.1, &mut [0.0; 64]),
-            Err(LookupError::Arity { .. })
+            Err(LookupError::ShLength { .. })
         ));
         let scaled = [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
         assert!(matches!(Rotation::new(4, scaled), Err(LookupError::OutOfDomain { .. })));

@@ -191,10 +191,18 @@ pub fn cap_visibility_zh(theta_b: f64, order: usize) -> Result<[f64; sh::MAX_ORD
 /// a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂) — the least-squares OL fit of ĝ on {1, f̂}.
 /// b = 1 (its limit) when f̂ = 0. Errors: empty or unequal lengths, non-finite entries.
 pub fn ab_of_pair(g: &[f64], f: &[f64]) -> Result<(f64, f64, f64), LookupError> {
-    if f.is_empty() || g.len() != f.len() {
-        return Err(LookupError::Arity {
-            expected: f.len().max(1),
+    if f.is_empty() {
+        return Err(LookupError::Coefficients {
+            name: "f",
+            got: 0,
+            expected: "at least 1".into(),
+        });
+    }
+    if g.len() != f.len() {
+        return Err(LookupError::Coefficients {
+            name: "g",
             got: g.len(),
+            expected: format!("{}, as many as f", f.len()),
         });
     }
     for v in g {
@@ -219,12 +227,17 @@ pub fn ol(a: f64, b: f64, fhat: &[f64], out: &mut [f64]) -> Result<(), LookupErr
     finite("a", a)?;
     finite("b", b)?;
     if fhat.is_empty() {
-        return Err(LookupError::Arity { expected: 1, got: 0 });
+        return Err(LookupError::Coefficients {
+            name: "fhat",
+            got: 0,
+            expected: "at least 1".into(),
+        });
     }
     if out.len() < fhat.len() {
-        return Err(LookupError::Channels {
-            expected: fhat.len(),
+        return Err(LookupError::Output {
             got: out.len(),
+            needed: fhat.len(),
+            what: "SH coefficients",
         });
     }
     for (o, v) in out.iter_mut().zip(fhat) {
@@ -247,15 +260,17 @@ pub fn hyb_with(
 ) -> Result<u32, LookupError> {
     let nc = gaunt.order() * gaunt.order();
     if f.len() != nc {
-        return Err(LookupError::Arity {
-            expected: nc,
+        return Err(LookupError::Coefficients {
+            name: "f",
             got: f.len(),
+            expected: format!("{nc} (the Gaunt tensor's order {})", gaunt.order()),
         });
     }
     if out.len() < nc {
-        return Err(LookupError::Channels {
-            expected: nc,
+        return Err(LookupError::Output {
             got: out.len(),
+            needed: nc,
+            what: "SH coefficients",
         });
     }
     let t = finite("threshold", threshold)?;
@@ -620,11 +635,11 @@ mod tests {
         let ok = |_| Ok((1.0, 1.0));
         assert!(matches!(
             hyb_with(&g, &[0.0; 4], 1.0, ok, &mut out),
-            Err(LookupError::Arity { .. })
+            Err(LookupError::Coefficients { .. })
         ));
         assert!(matches!(
             hyb_with(&g, &[0.0; 9], 1.0, ok, &mut out[..4]),
-            Err(LookupError::Channels { .. })
+            Err(LookupError::Output { .. })
         ));
         assert!(matches!(
             hyb_with(&g, &[f64::NAN; 9], 1.0, ok, &mut out),

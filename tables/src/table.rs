@@ -1,9 +1,10 @@
 //! A loaded, validated table and its multilinear interpolation.
 
+use std::io::Read;
 use std::path::Path;
 
 use crate::error::{in_range, LoadError, LookupError};
-use crate::format::{decode_header, Axis, Encoding, Header, Meta, HEADER_LEN};
+use crate::format::{decode_header, Axis, Encoding, Header, Meta, HEADER_LEN, MAX_FILE_LEN};
 
 /// A validated table: header, metadata and the decoded payload.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,8 +42,8 @@ impl Table {
         if bytes[HEADER_LEN + meta_bytes.len()..p0].iter().any(|&b| b != 0) {
             return Err(LoadError::BadLayout("padding before the payload is not zero".into()));
         }
-        let (meta, rest) =
-            postcard::take_from_bytes::<Meta>(meta_bytes).map_err(|e| LoadError::BadMetadata(e.to_string()))?;
+        let (meta, rest) = postcard::take_from_bytes::<Meta>(meta_bytes)
+            .map_err(|e| LoadError::BadMetadata(crate::meta_error::explain(meta_bytes, &e)))?;
         if !rest.is_empty() {
             return Err(LoadError::BadMetadata(format!(
                 "{} bytes after the metadata record",
@@ -78,13 +79,24 @@ impl Table {
         })
     }
 
-    /// Reads and validates a table file.
+    /// Reads and validates a table file. Anything but a regular file of at most
+    /// [`MAX_FILE_LEN`] bytes is refused from its metadata, before it is read.
     pub fn from_path(path: impl AsRef<Path>) -> Result<Table, LoadError> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|e| LoadError::Io {
+        let io = |e: std::io::Error| LoadError::Io {
             path: path.display().to_string(),
             message: e.to_string(),
-        })?;
+        };
+        // Before opening: opening a FIFO blocks until a writer appears.
+        check_file(path, &std::fs::metadata(path).map_err(io)?)?;
+        let file = std::fs::File::open(path).map_err(io)?;
+        // Again on the open file, in case the path was replaced in between.
+        let meta = file.metadata().map_err(io)?;
+        check_file(path, &meta)?;
+        let mut bytes = Vec::with_capacity(meta.len() as usize);
+        // One byte past the limit at most, should the file grow while being read:
+        // `from_bytes` then refuses it.
+        file.take(MAX_FILE_LEN + 1).read_to_end(&mut bytes).map_err(io)?;
         Table::from_bytes(&bytes)
     }
 
@@ -291,6 +303,50 @@ impl Table {
             }
         }
         Ok(())
+    }
+}
+
+/// Refuses non-regular files and files over [`MAX_FILE_LEN`] from their metadata.
+fn check_file(path: &Path, meta: &std::fs::Metadata) -> Result<(), LoadError> {
+    let t = meta.file_type();
+    if !t.is_file() {
+        return Err(LoadError::NotAFile {
+            path: path.display().to_string(),
+            what: file_type_name(t),
+        });
+    }
+    if meta.len() > MAX_FILE_LEN {
+        return Err(LoadError::TooLarge {
+            path: path.display().to_string(),
+            len: meta.len(),
+            limit: MAX_FILE_LEN,
+        });
+    }
+    Ok(())
+}
+
+/// "a directory", "a FIFO", ...: what a non-regular file is, for the error.
+fn file_type_name(t: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_dir() {
+        "a directory"
+    } else {
+        "a special file"
     }
 }
 

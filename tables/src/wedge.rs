@@ -97,9 +97,10 @@ pub fn slice_log(sigma: f64, eps: f64, order: usize, out: &mut [f64]) -> Result<
     let sigma = in_range("sigma", sigma, -PI / 2.0, PI / 2.0)?;
     let eps = in_range("eps", eps, EPS_MIN, EPS_MAX)?;
     if out.len() < n {
-        return Err(LookupError::Channels {
-            expected: n,
+        return Err(LookupError::Output {
             got: out.len(),
+            needed: n,
+            what: "slice coefficients",
         });
     }
     let x = sigma.sin();
@@ -212,15 +213,17 @@ impl Wedges {
     pub fn wedge(&self, w: u32, v_a: &[f64], v_b: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
         let n = sh::check_order(v_a.len())?;
         if v_b.len() != n {
-            return Err(LookupError::Arity {
-                expected: n,
+            return Err(LookupError::Coefficients {
+                name: "v_b",
                 got: v_b.len(),
+                expected: format!("{n}, as many as v_a"),
             });
         }
         if out.len() < n * n {
-            return Err(LookupError::Channels {
-                expected: n * n,
+            return Err(LookupError::Output {
                 got: out.len(),
+                needed: n * n,
+                what: "SH coefficients",
             });
         }
         let wi = Self::w_index(w)?;
@@ -250,9 +253,10 @@ impl Wedges {
         let w = sigma.len() as u32;
         Self::w_index(w)?;
         if out.len() < n * n {
-            return Err(LookupError::Channels {
-                expected: n * n,
+            return Err(LookupError::Output {
                 got: out.len(),
+                needed: n * n,
+                what: "SH coefficients",
             });
         }
         let mut slices = Vec::with_capacity(sigma.len());

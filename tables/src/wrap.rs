@@ -101,9 +101,10 @@ pub fn lambda_hat(order: usize, a: f64, out: &mut [f64]) -> Result<(), LookupErr
     let n = sh::check_order(order)?;
     let a = in_range(A_NAME, a, A_MIN, A_MAX)?;
     if out.len() < n {
-        return Err(LookupError::Channels {
-            expected: n,
+        return Err(LookupError::Output {
             got: out.len(),
+            needed: n,
+            what: "eigenvalues",
         });
     }
     let p = legendre_monomials();
@@ -143,9 +144,10 @@ pub fn lambda_hat_f32(order: usize, a: f32, out: &mut [f32]) -> Result<(), Looku
 pub fn convolve(coeffs: &[f64], a: f64, out: &mut [f64]) -> Result<(), LookupError> {
     let n = sh::order_of_len(coeffs.len())?;
     if out.len() < n * n {
-        return Err(LookupError::Channels {
-            expected: n * n,
+        return Err(LookupError::Output {
             got: out.len(),
+            needed: n * n,
+            what: "SH coefficients",
         });
     }
     let mut lam = [0.0; MAX_ORDER];
@@ -187,9 +189,10 @@ pub fn rewrap_irradiance(irr: &[f64], a: f64, out: &mut [f64]) -> Result<(), Loo
         });
     }
     if out.len() < n * n {
-        return Err(LookupError::Channels {
-            expected: n * n,
+        return Err(LookupError::Output {
             got: out.len(),
+            needed: n * n,
+            what: "SH coefficients",
         });
     }
     let mut lam = [0.0; 3];
@@ -333,12 +336,12 @@ mod tests {
         ));
         assert!(matches!(
             lambda_hat(8, 0.5, &mut l[..4]),
-            Err(LookupError::Channels { .. })
+            Err(LookupError::Output { .. })
         ));
         let mut o = [0.0; 9];
         assert!(matches!(
             convolve(&[1.0; 8], 0.5, &mut o),
-            Err(LookupError::Arity { .. })
+            Err(LookupError::ShLength { .. })
         ));
         assert!(matches!(
             convolve(&[1.0; 9], 1.5, &mut o),
