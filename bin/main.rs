@@ -102,6 +102,16 @@ enum Command {
         /// Seed of the random off-grid points.
         #[arg(long)]
         seed: Option<u64>,
+        /// Also compare every reported metric with this saved `check --json` report
+        /// (same --quick/--points/--seed); fail when one grew past --baseline-factor.
+        #[arg(long, value_name = "FILE.json")]
+        baseline: Option<PathBuf>,
+        /// How much a metric may grow against the baseline before the check fails.
+        #[arg(long, default_value_t = lobefit::ci::DEFAULT_FACTOR, requires = "baseline")]
+        baseline_factor: f64,
+        /// Also write the verdicts as JUnit XML to this file.
+        #[arg(long, value_name = "FILE.xml")]
+        junit: Option<PathBuf>,
     },
     /// Describe a table file: header, axes, channels, fit settings, diagnostics.
     Inspect {
@@ -361,7 +371,22 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             only,
             points,
             seed,
+            baseline,
+            baseline_factor,
+            junit,
         } => {
+            // Read the baseline first: a bad file fails before minutes of checking.
+            let saved: Option<Vec<check::FamilyReport>> = match &baseline {
+                None => None,
+                Some(p) => {
+                    let text = std::fs::read_to_string(p).map_err(|e| format!("--baseline {}: {e}", p.display()))?;
+                    Some(
+                        serde_json::from_str(&text).map_err(|e| {
+                            format!("--baseline {}: not a `lobefit check --json` report: {e}", p.display())
+                        })?,
+                    )
+                }
+            };
             let mut opts = if quick { CheckOptions::QUICK } else { CheckOptions::FULL };
             if let Some(p) = points {
                 opts.offgrid = p as usize;
@@ -373,13 +398,25 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 .iter()
                 .map(|f| check::check_family(f.as_ref(), &table_path(&tables, f.kind()), opts))
                 .collect();
+            let comparisons = match &saved {
+                None => None,
+                Some(b) => Some(lobefit::ci::compare(&reports, b, baseline_factor)?),
+            };
             if json {
                 let text = serde_json::to_string_pretty(&reports).map_err(|e| e.to_string())?;
                 emit(&format!("{text}\n"))?;
             } else {
                 emit(&check::render(&reports))?;
             }
-            if reports.iter().any(|r| !r.pass) {
+            if let Some(c) = &comparisons {
+                note(&lobefit::ci::render(c, baseline_factor));
+            }
+            if let Some(p) = &junit {
+                lobefit::io::write_atomic(p, lobefit::ci::junit(&reports, comparisons.as_deref()).as_bytes())
+                    .map_err(|e| format!("--junit {}: {e}", p.display()))?;
+            }
+            let regressed = comparisons.iter().flatten().any(|c| !c.pass);
+            if reports.iter().any(|r| !r.pass) || regressed {
                 note("check FAILED\n");
                 return Ok(ExitCode::from(1));
             }

@@ -413,6 +413,7 @@ fn canonical_polynomials() -> [[f64; 6]; 6] {
 
 /// Solves A X = B (6 × 6, six right-hand sides) by Gaussian elimination with partial
 /// pivoting.
+#[allow(clippy::needless_range_loop)] // row operations read best with indices
 fn solve6(mut a: [[f64; 6]; 6], mut b: [[f64; 6]; 6]) -> [[f64; 6]; 6] {
     for col in 0..6 {
         let piv = (col..6)

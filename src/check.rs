@@ -11,7 +11,7 @@
 use std::path::Path;
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Deserializer, Serialize};
 
 use lobefit_tables::Table;
 
@@ -46,22 +46,34 @@ impl CheckOptions {
     };
 }
 
+/// A number of a saved JSON report: JSON has no NaN, so serde_json writes it as
+/// `null` (an empty sample's statistics), and this reads `null` back as NaN.
+fn nan_if_null<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
 /// Summary statistics of an error sample.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct Stats {
     /// Sample size.
     pub count: usize,
     /// Mean.
+    #[serde(deserialize_with = "nan_if_null")]
     pub mean: f64,
     /// Variance (population).
+    #[serde(deserialize_with = "nan_if_null")]
     pub variance: f64,
     /// Median.
+    #[serde(deserialize_with = "nan_if_null")]
     pub median: f64,
     /// 95th percentile.
+    #[serde(deserialize_with = "nan_if_null")]
     pub p95: f64,
     /// 99th percentile.
+    #[serde(deserialize_with = "nan_if_null")]
     pub p99: f64,
     /// Maximum.
+    #[serde(deserialize_with = "nan_if_null")]
     pub max: f64,
 }
 
@@ -94,7 +106,11 @@ impl Stats {
         }
     }
 
-    fn metric(&self, name: &str) -> Option<f64> {
+    /// The statistics a metric name can select, with their names.
+    pub const METRICS: [&'static str; 5] = ["mean", "median", "p95", "p99", "max"];
+
+    /// The statistic called `name` (one of [`Stats::METRICS`]).
+    pub fn metric(&self, name: &str) -> Option<f64> {
         Some(match name {
             "mean" => self.mean,
             "median" => self.median,
@@ -107,7 +123,7 @@ impl Stats {
 }
 
 /// Errors of one output quantity.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct OutputReport {
     /// Output column.
     pub output: String,
@@ -124,7 +140,7 @@ pub struct OutputReport {
 }
 
 /// A measured distribution (see [`Extra::Values`]).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ValueReport {
     /// What was measured.
     pub name: String,
@@ -133,7 +149,7 @@ pub struct ValueReport {
 }
 
 /// One threshold and its measured value.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ThresholdResult {
     /// Output column.
     pub output: String,
@@ -143,13 +159,14 @@ pub struct ThresholdResult {
     /// Limit from the file.
     pub limit: f64,
     /// Measured value (NaN when the metric is unknown, which fails).
+    #[serde(deserialize_with = "nan_if_null")]
     pub value: f64,
     /// Whether `value <= limit`.
     pub pass: bool,
 }
 
 /// The report of one family.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FamilyReport {
     /// Table kind.
     pub kind: String,
@@ -159,6 +176,12 @@ pub struct FamilyReport {
     pub grid_points: usize,
     /// Off-grid points checked.
     pub offgrid_points: usize,
+    /// Seed of the off-grid sample (a baseline must be compared at the same seed).
+    #[serde(default)]
+    pub seed: u64,
+    /// Off-grid points requested (`--points`, or the default of `--quick` / full).
+    #[serde(default)]
+    pub points_requested: usize,
     /// Per-output errors.
     pub outputs: Vec<OutputReport>,
     /// Threshold verdicts.
@@ -204,6 +227,8 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
         file: path.display().to_string(),
         grid_points: 0,
         offgrid_points: 0,
+        seed: opts.seed,
+        points_requested: opts.offgrid,
         outputs: Vec::new(),
         thresholds: Vec::new(),
         values: Vec::new(),

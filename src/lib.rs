@@ -10,6 +10,7 @@
 
 pub mod build;
 pub mod check;
+pub mod ci;
 pub mod eigen;
 pub mod eps_study;
 pub mod eval;

@@ -1,0 +1,127 @@
+//! `check --baseline` and `check --junit`, as a downstream CI uses them: save a report,
+//! then compare later checks with it.
+
+mod common;
+
+use common::run_text;
+use lobefit_tables::{format, Table};
+
+/// A copy of the committed cap-exponent table with one node's q moved by 1e-6
+/// relative: 20× the committed table's grid error, 100× inside the 1e-4 promise.
+fn degraded(dir: &std::path::Path) {
+    let bytes = std::fs::read("tables/data/cap-exponent.lobefit").unwrap();
+    let table = Table::from_bytes(&bytes).unwrap();
+    let mut v = table.values().to_vec();
+    v[500] *= 1.0 + 1e-6;
+    std::fs::write(
+        dir.join("cap-exponent.lobefit"),
+        format::encode(table.meta(), &v).unwrap(),
+    )
+    .unwrap();
+}
+
+#[test]
+fn a_degraded_table_passes_its_thresholds_but_fails_the_baseline() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = dir.path().join("baseline.json");
+    let tables = dir.path().join("tables");
+    std::fs::create_dir(&tables).unwrap();
+    degraded(&tables);
+    let args = ["check", "--quick", "--only", "cap-exponent,lobe-integral"];
+
+    // Save a report of the committed tables.
+    let (code, json, err) = run_text(&[&args[..], &["--json"]].concat(), "");
+    assert_eq!(code, Some(0), "{err}");
+    std::fs::write(&base, &json).unwrap();
+    std::fs::copy(
+        "tables/data/lobe-integral.lobefit",
+        tables.join("lobe-integral.lobefit"),
+    )
+    .unwrap();
+    let t = tables.to_str().unwrap();
+    let b = base.to_str().unwrap();
+
+    // The committed tables against their own report: every metric equal.
+    let junit_ok = dir.path().join("ok.xml");
+    let (code, _, err) = run_text(
+        &[&args[..], &["--baseline", b, "--junit", junit_ok.to_str().unwrap()]].concat(),
+        "",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("0 worse than 1.5×"), "{err}");
+    let xml = std::fs::read_to_string(&junit_ok).unwrap();
+    assert!(
+        xml.starts_with("<?xml") && xml.contains("failures=\"0\"") && xml.contains("baseline ("),
+        "{xml}"
+    );
+
+    // The degraded table passes its thresholds ...
+    let (code, out, err) = run_text(&[&args[..], &["--tables", t]].concat(), "");
+    assert_eq!(code, Some(0), "{out}{err}");
+
+    // ... and fails the baseline, naming family, quantity and metric.
+    let junit = dir.path().join("junit.xml");
+    let (code, _, err) = run_text(
+        &[
+            &args[..],
+            &["--tables", t, "--baseline", b, "--junit", junit.to_str().unwrap()],
+        ]
+        .concat(),
+        "",
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("FAIL cap-exponent e_cap.grid.max_rel"), "{err}");
+    assert!(!err.contains("FAIL lobe-integral"), "{err}");
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(xml.contains("<testsuite name=\"cap-exponent\""), "{xml}");
+    assert!(xml.contains("<failure message=\"e_cap.grid.max_rel"), "{xml}");
+
+    // A looser factor lets it through; a factor below 1 is refused.
+    let (code, _, err) = run_text(
+        &[&args[..], &["--tables", t, "--baseline", b, "--baseline-factor", "100"]].concat(),
+        "",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let (code, _, err) = run_text(
+        &[&args[..], &["--baseline", b, "--baseline-factor", "0.5"]].concat(),
+        "",
+    );
+    assert_eq!(code, Some(1));
+    assert!(err.contains("factor 0.5"), "{err}");
+}
+
+#[test]
+fn an_incomparable_baseline_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = dir.path().join("baseline.json");
+    let (code, json, _) = run_text(&["check", "--quick", "--only", "lobe-integral", "--json"], "");
+    assert_eq!(code, Some(0));
+    std::fs::write(&base, &json).unwrap();
+    let b = base.to_str().unwrap();
+    // Another seed, another family, a file that is no report.
+    let (code, _, err) = run_text(
+        &[
+            "check",
+            "--quick",
+            "--only",
+            "lobe-integral",
+            "--seed",
+            "7",
+            "--baseline",
+            b,
+        ],
+        "",
+    );
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("seed") && err.contains("same --quick/--points/--seed"),
+        "{err}"
+    );
+    let (code, _, err) = run_text(&["check", "--quick", "--only", "wrap", "--baseline", b], "");
+    assert_eq!(code, Some(1));
+    assert!(err.contains("no report for wrap"), "{err}");
+    std::fs::write(&base, "{}").unwrap();
+    let (code, _, err) = run_text(&["check", "--quick", "--only", "wrap", "--baseline", b], "");
+    assert_eq!(code, Some(1));
+    assert!(err.contains("not a `lobefit check --json` report"), "{err}");
+}
