@@ -125,3 +125,46 @@ fn an_incomparable_baseline_is_a_clear_error() {
     assert_eq!(code, Some(1));
     assert!(err.contains("not a `lobefit check --json` report"), "{err}");
 }
+
+/// The corruptions an attack on the checker found, each of which `check` passed:
+/// now `check --quick` fails on every one, naming the quantity.
+#[test]
+fn the_corruptions_that_once_passed_fail_the_quick_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path().to_str().unwrap();
+    let write = |kind: &str, change: &dyn Fn(&Table, &mut Vec<f32>)| {
+        let table = Table::from_bytes(&std::fs::read(format!("tables/data/{kind}.lobefit")).unwrap()).unwrap();
+        let mut v = table.values().to_vec();
+        change(&table, &mut v);
+        std::fs::write(
+            dir.path().join(format!("{kind}.lobefit")),
+            format::encode(table.meta(), &v).unwrap(),
+        )
+        .unwrap();
+    };
+    // lobe-product: +1 on the integral channel of node 94082 (median/p99 thresholds
+    // only, strided nodes: it passed).
+    write("lobe-product", &|_, v| v[94082 * 2] += 1.0);
+    // isg-refit: the node nearest γ = 0.58 (the random sample began at γ = 3).
+    write("isg-refit", &|t, v| {
+        let axis = &t.meta().axes[0];
+        let n = (0..axis.count)
+            .min_by(|&a, &b| (axis.node(a) - 0.58).abs().total_cmp(&(axis.node(b) - 0.58).abs()))
+            .unwrap() as usize;
+        v[n * 2] += 0.5;
+    });
+    // log-zh: z6's hi part at a node the strided --quick never visited.
+    write("log-zh", &|_, v| v[1001 * 16 + 12] += 1e-6);
+    // lobe-product-l2: value 0 set to f32::MAX (a single threshold did not see it).
+    write("lobe-product-l2", &|_, v| v[0] = f32::MAX);
+    for (kind, expect) in [
+        ("lobe-product", "FAIL integral_nodes.grid.max_rel"),
+        ("isg-refit", "FAIL s_hat_low_gamma.grid.max_abs"),
+        ("log-zh", "FAIL t6.grid.max_abs"),
+        ("lobe-product-l2", "outside its plausible range"),
+    ] {
+        let (code, out, err) = run_text(&["check", "--quick", "--only", kind, "--tables", t], "");
+        assert_eq!(code, Some(1), "{kind}: {out}{err}");
+        assert!(out.contains(expect), "{kind}: expected '{expect}' in\n{out}");
+    }
+}
