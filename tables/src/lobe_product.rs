@@ -420,8 +420,11 @@ impl LobeProduct {
         let cos = a1.dot(a2).clamp(-1.0, 1.0);
         // atan2 of |a1×a2| and a1·a2 is accurate at both ends, unlike acos.
         let alpha = a1.cross(a2).length().atan2(cos);
-        let q = self.params_checked(e1, e2, alpha)?;
         // Huge exponents overflow p or e_r: blame them, not the scales.
+        let q = self.params_checked(e1, e2, alpha).map_err(|e| match e {
+            LookupError::Overflow { .. } => LookupError::ProductOverflow { e1, e2 },
+            e => e,
+        })?;
         if !(q.p.is_finite() && q.e_r.is_finite()) {
             return Err(LookupError::ProductOverflow { e1, e2 });
         }
