@@ -4,10 +4,9 @@
 
 mod common;
 
-use std::io::Write;
 use std::process::{Output, Stdio};
 
-use common::{bin, text};
+use common::{bin, run_with_stdout, text};
 
 const TABLE: &str = "tables/data/lobe-product.lobefit";
 
@@ -23,21 +22,6 @@ fn printing_commands(plots: &str) -> Vec<(Vec<&str>, &'static str)> {
         (vec!["--help"], ""),
         (vec!["--version"], ""),
     ]
-}
-
-/// Runs `lobefit ARGS` with stdout on `stdout`, feeding `stdin`.
-fn run_with_stdout(args: &[&str], stdin: &str, stdout: Stdio) -> Output {
-    let mut child = bin()
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(stdout)
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn lobefit");
-    let mut pipe = child.stdin.take().expect("stdin");
-    let _ = pipe.write_all(stdin.as_bytes());
-    drop(pipe);
-    child.wait_with_output().expect("wait")
 }
 
 /// Exit 1 and exactly one line on stderr, the error naming the failed write.

@@ -14,10 +14,15 @@ pub fn bin() -> Command {
 
 /// Runs `lobefit ARGS` with `stdin` piped in and returns its output.
 pub fn run(args: &[&str], stdin: &str) -> Output {
+    run_with_stdout(args, stdin, Stdio::piped())
+}
+
+/// [`run`] with stdout on `stdout` (a closed pipe, /dev/full, …).
+pub fn run_with_stdout(args: &[&str], stdin: &str, stdout: Stdio) -> Output {
     let mut child = bin()
         .args(args)
         .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
+        .stdout(stdout)
         .stderr(Stdio::piped())
         .spawn()
         .expect("spawn lobefit");
