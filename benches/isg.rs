@@ -5,7 +5,7 @@
 use std::f64::consts::FRAC_PI_2;
 
 use divan::black_box;
-use lobefit::isg::{s_hat_fast, s_hat_reference};
+use lobefit::fits::isg::reference::{s_hat_fast, s_hat_reference};
 use lobefit::tables::{BestIsg, IsgModel, PaperIsg, RefitIsg, SgFit, Table};
 
 /// Largest query angle: π − 1e-5, so the f32 casts stay inside [0, π].

@@ -5,7 +5,7 @@
 
 use divan::black_box;
 use lobefit::fits::lobe_product::fit_fast;
-use lobefit::fits::lobe_product_paper::{fit_paper, speed_sample};
+use lobefit::fits::lobe_product::paper::{fit_paper, speed_sample};
 use lobefit::rng::Rng;
 use lobefit::tables::glam::DVec3;
 use lobefit::tables::lobe_product::E_MAX;

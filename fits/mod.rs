@@ -6,8 +6,8 @@ pub mod disk_light;
 pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
-pub mod lobe_product_paper;
 pub mod log_zh;
+pub mod rigs;
 pub mod sg_fit;
 pub mod shexp;
 pub mod wedge;
@@ -190,8 +190,8 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
         ("disk-light", disk_light::plot),
         ("isg", isg::plot),
         ("lobe-product", lobe_product::plot),
-        ("log-zh", crate::eps_study::plot),
-        ("rigs", crate::rigs::plot),
-        ("shexp", crate::shexp_study::plot),
+        ("log-zh", crate::fits::log_zh::eps_study::plot),
+        ("rigs", crate::fits::rigs::plot),
+        ("shexp", crate::fits::shexp::study::plot),
     ]
 }

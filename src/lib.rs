@@ -1,7 +1,7 @@
 //! # lobefit
 //!
 //! The numerical library behind the `lobefit` CLI: quadrature, the table families
-//! (`fits/`, one module each, listed in [`fits::registry`]), the build driver, the
+//! (`fits/`, one folder each, listed in [`fits::registry`]), the build driver, the
 //! checker and the CSV evaluator. No argument parsing and no printing live here.
 //!
 //! Conventions are those of SPEC §1 and of the runtime crate [`lobefit_tables`]:
@@ -12,18 +12,13 @@ pub mod build;
 pub mod check;
 pub mod ci;
 pub mod eigen;
-pub mod eps_study;
 pub mod eval;
 pub mod family;
 pub mod io;
-pub mod isg;
 pub mod plot;
 pub mod quad;
-pub mod rigs;
 pub mod rng;
 pub mod sh;
-pub mod shexp;
-pub mod shexp_study;
 
 /// The table families, one module each (kept in `fits/` at the repository root).
 #[path = "../fits/mod.rs"]

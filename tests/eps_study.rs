@@ -5,7 +5,7 @@
 
 use std::f64::consts::PI;
 
-use lobefit::eps_study::{eps_grid, l2_error, optimal_eps, STUDY_R};
+use lobefit::fits::log_zh::eps_study::{eps_grid, l2_error, optimal_eps, STUDY_R};
 use lobefit::fits::log_zh::reference_log_zh;
 use lobefit::quad::gauss_kronrod;
 use lobefit::sh::{zh_project_gk, Gaunt};

@@ -5,7 +5,7 @@ mod common;
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use lobefit::isg::{patch_reference, s_hat_reference};
+use lobefit::fits::isg::reference::{patch_reference, s_hat_reference};
 use lobefit::rng::Rng;
 use lobefit::tables::isg::{normaliser, GAMMA_MAX, GAMMA_MIN};
 use lobefit::tables::{BestIsg, IsgModel, LookupError, PaperIsg, RefitIsg, Sg, SgFit, Table};

@@ -6,10 +6,10 @@ mod common;
 
 use std::f64::consts::PI;
 
+use lobefit::fits::shexp::exp_log::{exp_scaling_squaring, ren_log_zonal, zh_to_sh_z};
 use lobefit::fits::shexp::reference_point;
+use lobefit::fits::shexp::study::rel_l2;
 use lobefit::sh::{exp_star, Gaunt};
-use lobefit::shexp::{exp_scaling_squaring, ren_log_zonal, zh_to_sh_z};
-use lobefit::shexp_study::rel_l2;
 use lobefit::tables::shexp::{self as rt, cap_visibility_zh, ShExp, ORDER_MAX, ORDER_MIN};
 use lobefit::tables::{LoadError, LookupError};
 

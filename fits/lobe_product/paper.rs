@@ -1,5 +1,5 @@
 //! F3 — the paper-faithful lobe-product fit (`--method paper`, SPEC F3 "Paper's fit,
-//! two steps" and §5): the slow baseline the fast fit of [`super::lobe_product`] is
+//! two steps" and §5): the slow baseline the fast fit of [`super`] is
 //! compared with. Nothing here uses the fast method's 1-D reduction.
 //!
 //! 1. Axis: Nelder–Mead (argmin) over two angles on the sphere (in-plane angle u from

@@ -460,7 +460,7 @@ pub fn reference_irradiance(r: f64, tau: f64, n: [f64; 3]) -> Result<f64, String
 }
 
 /// Relative L2 distance ‖got − want‖/‖want‖ (shared with the SHExp study).
-pub use crate::shexp_study::rel_l2;
+pub use crate::fits::shexp::study::rel_l2;
 
 struct DiskLookup(DiskLight);
 

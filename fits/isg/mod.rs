@@ -12,8 +12,10 @@
 //! The published model (`--model paper`) needs no table; its errors are measured in
 //! the tests and by `lobefit plot isg`.
 //!
-//! The fits use the fast 1-D evaluation `crate::isg::s_hat_fast`; the checker's
-//! reference is the nested Gauss–Kronrod quadrature `crate::isg::s_hat_reference`.
+//! The fits use the fast 1-D evaluation `crate::fits::isg::reference::s_hat_fast`; the checker's
+//! reference is the nested Gauss–Kronrod quadrature `crate::fits::isg::reference::s_hat_reference`.
+
+pub mod reference;
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -26,7 +28,7 @@ use lobefit_tables::isg::{
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use crate::family::{Family, Fitted, Lookup};
-use crate::isg::{check_domain, normaliser, s_hat_fast, s_hat_reference};
+use crate::fits::isg::reference::{check_domain, normaliser, s_hat_fast, s_hat_reference};
 use crate::rng::Rng;
 
 /// γ nodes of the refit table (uniform in ln γ over [0.5, 10^4]).

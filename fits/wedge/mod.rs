@@ -2,7 +2,7 @@
 //! operator table (registry family `wedge`) and the slice-vector eval view
 //! (`lobefit eval wedge --order N`: sigma, eps → v0…v(N−1)).
 //!
-//! Fit of [M_lin]_{i,j}: the integrand separates, y_i(θ, φ) = Θ_i(θ) Φ_i(φ) with
+//! Fit of \[M_lin\]_{i,j}: the integrand separates, y_i(θ, φ) = Θ_i(θ) Φ_i(φ) with
 //! Φ ∈ {1, cos mφ, sin |m|φ}, so M = T · Q with T = ∫_0^π P̂_{j mod 8}(cosθ) Θ_i sinθ dθ
 //! by Gauss–Legendre in θ (the integrand is an entire trigonometric polynomial; 48
 //! and 64 points agree to rounding, which is the entry's residual) and
@@ -85,7 +85,7 @@ fn phi_integral(i: usize, d: f64, second: bool) -> f64 {
     }
 }
 
-/// Whether [M_lin]_{row, col} is zero by symmetry: the θ factor ∫ P̂_j P_l^{|m|} dt
+/// Whether \[M_lin\]_{row, col} is zero by symmetry: the θ factor ∫ P̂_j P_l^{|m|} dt
 /// vanishes when l + |m| + j is odd (parity in t) and, for m = 0, when l ≠ j
 /// (Legendre orthogonality), and for even m when j > l (P_l^{|m|} is then a polynomial of
 /// degree l, orthogonal to P̂_j). Quadrature returns rounding noise (~1e-17) there, which
@@ -100,7 +100,7 @@ pub fn structural_zero(w: u32, row: usize, col: usize) -> bool {
         || (m > 0 && (m as u32).is_multiple_of(w))
 }
 
-/// [M_lin]_{row, col} (order-8 layout: col < 8 first slice, col ≥ 8 second) by
+/// \[M_lin\]_{row, col} (order-8 layout: col < 8 first slice, col ≥ 8 second) by
 /// `points`-point Gauss–Legendre in θ and the closed-form φ factor.
 pub fn m_lin_gl(w: u32, row: usize, col: usize, points: usize) -> f64 {
     if structural_zero(w, row, col) {
@@ -119,7 +119,7 @@ pub fn m_lin_gl(w: u32, row: usize, col: usize, points: usize) -> f64 {
     t * phi_integral(row, 2.0 * PI / w as f64, col >= MAX_ORDER)
 }
 
-/// Checker reference for [M_lin]_{row, col}: both separated factors by adaptive GK.
+/// Checker reference for \[M_lin\]_{row, col}: both separated factors by adaptive GK.
 pub fn reference_m_lin(w: u32, row: usize, col: usize) -> Result<f64, String> {
     if !WEDGE_COUNTS.contains(&w) || row >= ROWS as usize || col >= COLS as usize {
         return Err(format!("no M_lin entry W={w}, row={row}, col={col}"));

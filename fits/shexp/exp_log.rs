@@ -1,7 +1,7 @@
 //! F9 (library half) — SH exponentiation and the two SH logarithms (Ren et al. 2006 as
 //! used in the thesis §3.7; SPEC F9).
 //!
-//! exp* variants: [`exp_taylor`](crate::sh::exp_taylor) (the reference, run to
+//! exp* variants: [`exp_taylor`] (the reference, run to
 //! convergence), DC isolation ([`exp_star`]), scaling and squaring
 //! ([`exp_scaling_squaring`]), OL and HYB (in the runtime crate,
 //! [`lobefit_tables::shexp::ol`] / [`lobefit_tables::shexp::hyb_with`], re-exported here,

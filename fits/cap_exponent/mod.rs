@@ -5,7 +5,7 @@
 //! Fit: 1-D minimisation of F over q = e/m(α) ∈ [0.25, 1.25] (the stored, scale-free
 //! variable; m(α) is `lobefit_tables::cap_exponent::model`) by Brent's method
 //! (argmin), or NLopt's Nelder–Mead behind the `nlopt` feature, then polished on the
-//! closed-form stationarity condition ∂F/∂e = 0 (see [`polish`]).
+//! closed-form stationarity condition ∂F/∂e = 0 (see `polish`).
 //! Reference (checker): the root of ∂F/∂e computed by Gauss–Kronrod quadrature of
 //!   ∂F/∂e = 4π [ −∫_0^{t_c} (1 − w) w L dt + ∫_{t_c}^1 w² L dt ],
 //!   w = (1−t)^e, L = ln(1 − t)   (t = 1 − cos θ, dω = 2π dt),

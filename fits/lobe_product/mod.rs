@@ -13,6 +13,8 @@
 //! bisection, and minimises by golden-section search. The separation of variables
 //! itself is verified against a plain 2-D quadrature in spherical coordinates (tests).
 
+pub mod paper;
+
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use argmin::core::{CostFunction, Error, Executor, State};
@@ -705,7 +707,7 @@ pub struct LobeProductFamily {
     /// Which variant this family fits.
     pub variant: Variant,
     /// The fast fit or the paper-faithful baseline
-    /// ([`crate::fits::lobe_product_paper::fit_paper`]; hours for the whole grid).
+    /// ([`crate::fits::lobe_product::paper::fit_paper`]; hours for the whole grid).
     pub method: Method,
 }
 
@@ -793,7 +795,7 @@ impl Family for LobeProductFamily {
             Method::Fast => fit_fast(self.variant, e1, e2, node[2]),
             Method::Paper => {
                 let alpha = node[2];
-                let q = crate::fits::lobe_product_paper::fit_paper(self.variant, e1, e2, alpha);
+                let q = crate::fits::lobe_product::paper::fit_paper(self.variant, e1, e2, alpha);
                 FastFit {
                     c: q.integral.ln() - ln_model(e1, e2, alpha),
                     e_r: q.e_r,

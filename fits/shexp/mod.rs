@@ -4,15 +4,18 @@
 //!
 //! Fit (per node, every order): g = the closed-form cap visibility ZH; Ren's log
 //! through the Gaunt tensor's m-blocks of M_{g−1} and the q-form
-//! ([`crate::shexp::ren_log_zonal`]). Residual: distance to the independent
+//! ([`crate::fits::shexp::exp_log::ren_log_zonal`]). Residual: distance to the independent
 //! reference below (a node is written only when they agree).
 //!
 //! Reference (checker): product-matrix blocks by Gauss–Legendre quadrature of
 //! h(θ) y_l^m y_l'^m (not the Gaunt tensor) and the log applied directly to the
 //! eigenvalues, clamped ones as the q-form has them
-//! ([`crate::shexp::ren_log_zonal_reference`]); a, b and ‖f̂‖ from
+//! ([`crate::fits::shexp::exp_log::ren_log_zonal_reference`]); a, b and ‖f̂‖ from
 //! their definitions. f is compared in units of ‖f‖ (its components cross zero as
 //! θ_b grows, where a per-component relative error says nothing).
+
+pub mod exp_log;
+pub mod study;
 
 use std::f64::consts::PI;
 
@@ -22,9 +25,9 @@ use lobefit_tables::shexp::{self as rt, ab_of_pair, cap_visibility_zh, one_minus
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use crate::family::{Extra, Family, Fitted, Lookup};
+use crate::fits::shexp::exp_log::{ren_log_zonal, ren_log_zonal_reference};
 use crate::rng::Rng;
 use crate::sh::Gaunt;
-use crate::shexp::{ren_log_zonal, ren_log_zonal_reference};
 use crate::tables::error::short;
 
 /// Largest |fit − reference| / max(‖f‖, 1) for a node to be written: both are f64
@@ -179,7 +182,7 @@ impl Family for ShExpFamily {
              the OL coefficients a, b of exp*(f_hat) ~ a 1 + b f_hat. f and |f_hat| are stored divided by \
              1 - cos(theta_b). Each value is an f32 hi/lo pair. HYB looks a, b up vs |f_hat| on the \
              monotone branch of |f_hat|(theta_b) (up to its first maximum).",
-            crate::shexp::REN_CLAMP
+            crate::fits::shexp::exp_log::REN_CLAMP
         )
     }
     fn axes(&self) -> Vec<Axis> {
@@ -207,7 +210,7 @@ impl Family for ShExpFamily {
     }
     fn settings(&self) -> Vec<(String, String)> {
         vec![
-            ("ren_clamp".into(), crate::shexp::REN_CLAMP.to_string()),
+            ("ren_clamp".into(), crate::fits::shexp::exp_log::REN_CLAMP.to_string()),
             (
                 "ren_clamp_form".into(),
                 "inside q: q(max(lambda, clamp)) (g - 1)".into(),
@@ -364,17 +367,20 @@ impl Family for ShExpFamily {
             Ok(t) => t,
             Err(e) => return vec![("hyb".into(), Err(e.to_string()))],
         };
-        let scenes = crate::shexp_study::scene_geometry(count, seed);
+        let scenes = crate::fits::shexp::study::scene_geometry(count, seed);
         let mut out = vec![("intervals".to_string(), self.interval_check(table))];
         for n in ORDER_MIN..=ORDER_MAX {
             let gaunt = Gaunt::cached(n).expect("order in 3..=8");
             let hyb = scenes
                 .iter()
                 .map(|s| {
-                    let f = crate::shexp_study::scene_log(&rt, s, n)?;
+                    let f = crate::fits::shexp::study::scene_log(&rt, s, n)?;
                     let mut h = vec![0.0; n * n];
                     rt.hyb(&f, &mut h).map_err(|e| e.to_string())?;
-                    Ok(crate::shexp_study::rel_l2(&h, &crate::sh::exp_star(gaunt, &f).value))
+                    Ok(crate::fits::shexp::study::rel_l2(
+                        &h,
+                        &crate::sh::exp_star(gaunt, &f).value,
+                    ))
                 })
                 .collect::<Result<Vec<f64>, String>>();
             out.push((format!("n{n}_hyb_vs_taylor_scenes"), hyb.map(Extra::Values)));
@@ -383,8 +389,11 @@ impl Family for ShExpFamily {
                     let theta = rt::THETA_MAX * i as f64 / count as f64;
                     let g = cap_visibility_zh(theta, n).map_err(|e| e.to_string())?[..n].to_vec();
                     let f = ren_log_zonal(gaunt, &g)?.f;
-                    let back = crate::sh::exp_star(gaunt, &crate::shexp::zh_to_sh_z(&f)).value;
-                    Ok(crate::shexp_study::rel_l2(&back, &crate::shexp::zh_to_sh_z(&g)))
+                    let back = crate::sh::exp_star(gaunt, &crate::fits::shexp::exp_log::zh_to_sh_z(&f)).value;
+                    Ok(crate::fits::shexp::study::rel_l2(
+                        &back,
+                        &crate::fits::shexp::exp_log::zh_to_sh_z(&g),
+                    ))
                 })
                 .collect::<Result<Vec<f64>, String>>();
             out.push((format!("n{n}_ren_round_trip_caps"), trip.map(Extra::Values)));

@@ -8,6 +8,8 @@
 //! `gl_log_zh`), so a wrong closed form cannot be written. Reference (checker): the checker's adaptive
 //! Gauss–Kronrod projection of the definition, split at the horizon and at t_ε.
 
+pub mod eps_study;
+
 use std::f64::consts::PI;
 
 use lobefit_tables::format::Threshold;
