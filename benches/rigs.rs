@@ -1,4 +1,4 @@
-//! Speed of the F10–F12 runtime: wrap scalings, disk-light lookups, rig fits and
+//! Speed of the wrap, disk-light and rig runtime: wrap scalings, disk-light lookups, rig fits and
 //! reconstruction. `cargo bench --bench rigs`. Wall-clock numbers live here, never in tests.
 
 use divan::black_box;

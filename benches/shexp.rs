@@ -1,4 +1,4 @@
-//! Cost of SH exponentiation per vector (issue 5): the runtime's HYB (DC isolation,
+//! Cost of SH exponentiation per vector: the runtime's HYB (DC isolation,
 //! halving, OL from the `shexp` table, truncated squarings) beside the Taylor
 //! reference exp* (DC factored out, run to convergence), at orders 3, 4, 5 on an
 //! accumulated vector of three blockers (‖f̂‖ = 0.84, 1.11, 1.51 at orders 3, 4, 5:

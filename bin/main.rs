@@ -121,7 +121,7 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Evaluate a family on CSV rows from stdin (SPEC §6).
+    /// Evaluate a family on CSV rows from stdin (a header line naming the input columns, then numbers).
     Eval {
         /// Family name.
         #[arg(value_parser = PossibleValuesParser::new(fits::eval_names()))]
@@ -149,7 +149,7 @@ enum Command {
     },
 }
 
-/// Family-specific flags of `eval` (SPEC §6); each family says which it takes.
+/// Family-specific flags of `eval`; each family says which it takes.
 #[derive(clap::Args)]
 struct EvalFlagArgs {
     /// lobe-product: energy | l2.

@@ -108,7 +108,7 @@ pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Family>> {
     registry(opts).into_iter().find(|f| f.kind() == name)
 }
 
-/// Names `lobefit eval` accepts (SPEC §6). A name may select among several tables
+/// Names `lobefit eval` accepts. A name may select among several tables
 /// through its flags (e.g. `lobe-product --variant l2`).
 pub fn eval_names() -> Vec<&'static str> {
     let mut v = names();

@@ -1,5 +1,5 @@
 //! Symmetric eigen-decomposition by the cyclic Jacobi method (Golub & Van Loan §8.5),
-//! for the small (≤ 64 × 64) SH product matrices of Ren's SH logarithm (SPEC F9).
+//! for the small (≤ 64 × 64) SH product matrices of Ren's SH logarithm (docs/math.md, shexp).
 //!
 //! Jacobi is slow for large matrices but backward stable with high relative accuracy
 //! of the eigenvectors' orthogonality, needs no tridiagonalisation and is a few dozen

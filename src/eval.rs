@@ -1,4 +1,4 @@
-//! `lobefit eval`: CSV in, CSV out (SPEC §6). Every row is validated and computed
+//! `lobefit eval`: CSV in, CSV out. Every row is validated and computed
 //! before anything is written, so a bad row never leaves half an output behind. The
 //! input is read a line at a time and the output spooled (in memory up to
 //! [`SPOOL_MEMORY`], then in an anonymous temporary file), so memory stays bounded
@@ -53,7 +53,7 @@ pub enum EvalError {
 /// writes the input columns followed by the output columns to `output`. Returns the
 /// row count. Nothing is written to `output` unless every row succeeds.
 ///
-/// The accepted CSV is the plain numeric kind SPEC §6 describes: comma-separated,
+/// The accepted CSV is plain and numeric: comma-separated,
 /// optional UTF-8 BOM, LF or CRLF line ends, spaces around fields ignored, blank lines
 /// skipped, no quoting, lines of at most [`MAX_LINE_LEN`] bytes. Line numbers in
 /// errors are physical lines of the input; the first bad line is reported.

@@ -7,7 +7,7 @@ use lobefit_tables::{Axis, Channel, LoadError, LookupError, Table};
 
 use crate::rng::Rng;
 
-/// Family-specific flags of `lobefit eval` (SPEC §6). Each family reads the ones it
+/// Family-specific flags of `lobefit eval`. Each family reads the ones it
 /// documents; [`crate::fits::for_eval`] rejects a flag the family does not take.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct EvalFlags {

@@ -4,7 +4,7 @@
 //! (`fits/`, one folder each, listed in [`fits::registry`]), the build driver, the
 //! checker and the CSV evaluator. No argument parsing and no printing live here.
 //!
-//! Conventions are those of SPEC §1 and of the runtime crate [`lobefit_tables`]:
+//! Conventions are those of docs/math.md §1 and of the runtime crate [`lobefit_tables`]:
 //! unit direction vectors, solid angle in steradians, angles in radians, natural log,
 //! cosine lobe Ψ(v; a, e) = max(a·v, 0)^e.
 

@@ -1,7 +1,7 @@
-//! F6 (library half) — SH projection, the Gaunt triple-product tensor, the
+//! SH projection, the Gaunt triple-product tensor, the
 //! truncated SH product and SH exponentiation by Taylor series.
 //!
-//! Conventions are those of [`lobefit_tables::sh`] (SPEC §1): real orthonormal SH
+//! Conventions are those of [`lobefit_tables::sh`] (docs/math.md §1): real orthonormal SH
 //! with the Condon–Shortley phase, index i = l(l+1)+m, order n = bands 0..n−1.
 //! Renderer-side operations (basis, ZH→SH, rotations) live in the runtime crate and
 //! are re-exported here as [`rt`].
@@ -36,7 +36,7 @@ pub struct ExpResult {
     pub converged: bool,
 }
 
-/// SH exponentiation by the Taylor series, run to convergence (SPEC F9's reference):
+/// SH exponentiation by the Taylor series, run to convergence (docs/math.md, shexp's reference):
 /// exp*(f) = 1 + f + f^{2∗}/2! + …, each product truncated to the tensor's order.
 ///
 /// Terms are summed as they come; for large DC terms the series cancels badly
@@ -115,7 +115,7 @@ mod tests {
     use crate::quad::gauss_kronrod;
     use lobefit_tables::sh::{eval_basis, index, MAX_COEFFS};
 
-    /// Acceptance (issue 4): orthonormality and Gaunt entries vs quadrature ≤ 1e-12.
+    /// Acceptance: orthonormality and Gaunt entries vs quadrature ≤ 1e-12.
     const ACCEPT: f64 = 1e-12;
     /// Checker quadrature tolerance, well below ACCEPT.
     const GK_TOL: f64 = 1e-15;

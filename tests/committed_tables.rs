@@ -11,7 +11,7 @@ fn load(kind: &str) -> Table {
     Table::from_path(format!("{}/tables/data/{kind}.lobefit", env!("CARGO_MANIFEST_DIR"))).unwrap()
 }
 
-/// F2 between the last node (π/2 − 1e-7) and π/2, where the table holds q
+/// cap-exponent between the last node (π/2 − 1e-7) and π/2, where the table holds q
 /// constant: the runtime against the checker's quadrature reference, down to
 /// π/2 − 1.3e-11 (much closer, cos α itself is only known to ~1e-16/(π/2 − α) in f64).
 #[test]
@@ -31,7 +31,7 @@ fn cap_exponent_sliver_next_to_half_pi() {
     assert_eq!(caps.e_cap(FRAC_PI_2).unwrap(), 0.0);
 }
 
-/// F2 at a few points against the checker's quadrature reference, in f32 too.
+/// cap-exponent at a few points against the checker's quadrature reference, in f32 too.
 #[test]
 fn cap_exponent_matches_quadrature_reference() {
     let caps = CapExponent::from_table(load("cap-exponent")).unwrap();
@@ -44,7 +44,7 @@ fn cap_exponent_matches_quadrature_reference() {
     }
 }
 
-/// F1 on a dense sweep (every 1/7 of a node spacing) against 2π/(e+1).
+/// lobe-integral on a dense sweep (every 1/7 of a node spacing) against 2π/(e+1).
 #[test]
 fn lobe_integral_dense_sweep() {
     let lobes = LobeIntegral::from_table(load("lobe-integral")).unwrap();

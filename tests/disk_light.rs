@@ -1,4 +1,4 @@
-//! F11 disk light: the committed table through the runtime against closed forms and
+//! disk light: the committed table through the runtime against closed forms and
 //! the checker's independent quadrature, the world-space SH against a direct
 //! projection of a world-space disk, the form-factor comparison, bad inputs, eval.
 

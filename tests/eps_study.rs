@@ -46,7 +46,7 @@ fn zonal_gaunt(n: usize) -> Vec<f64> {
 /// expm(M_f) = Q e^Λ Qᵀ from the library's cyclic Jacobi eigen-decomposition
 /// (`lobefit::eigen`, tested against closed forms there). Note: scaling and
 /// squaring is NOT an independent path for this, the truncated product being
-/// non-associative (it is one of SPEC F9's approximations).
+/// non-associative (it is one of docs/math.md, shexp's approximations).
 fn exp_by_eigen(g: &[f64], n: usize, f: &[f64]) -> Vec<f64> {
     let mut a = vec![0.0; n * n];
     for i in 0..n {
@@ -104,7 +104,7 @@ fn curves_reproduced_independently() {
 }
 
 /// The thesis's qualitative claims: error grows with ε towards ≈ 3.3–3.5 near 1 and is
-/// ≈ 0.1 or below at small ε (SPEC F7), here from the independent path only.
+/// ≈ 0.1 or below at small ε (docs/math.md, log-zh), here from the independent path only.
 #[test]
 fn curve_shape_matches_thesis() {
     let g = zonal_gaunt(4);

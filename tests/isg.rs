@@ -1,4 +1,4 @@
-//! ISG (F4) and lobe→SG (F5) through the runtime crate and the committed tables,
+//! ISG and lobe→SG through the runtime crate and the committed tables,
 //! against the checker's Gauss–Kronrod references (no fitting code involved).
 
 mod common;
@@ -25,7 +25,7 @@ fn log_uniform(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
     rng.range(lo.ln(), hi.ln()).exp().clamp(lo, hi)
 }
 
-/// SPEC F4 targets at random off-grid points, angles near the axis and on the edges:
+/// docs/math.md, isg targets at random off-grid points, angles near the axis and on the edges:
 /// best ≤ 0.005 on [0.5, 1e4] (the table promises 5e-4); refit ≤ 0.02 on [3.3, 1e4] (below γ ≈ 3.25 no logistic
 /// meets 0.02, see `refit_target_infeasible_just_above_three`).
 #[test]
@@ -268,7 +268,7 @@ fn eval(args: &[&str], input: &str) -> std::process::Output {
     common::run(&[&["eval"], args].concat(), input)
 }
 
-/// `lobefit eval isg --model paper|refit|best` and `eval sg-fit` (SPEC §6): columns,
+/// `lobefit eval isg --model paper|refit|best` and `eval sg-fit` : columns,
 /// values against the runtime, bad model names and flags refused with a message.
 #[test]
 fn cli_eval_isg_and_sg_fit() {

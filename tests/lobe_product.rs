@@ -117,7 +117,7 @@ fn products_of_random_lobes_keep_their_integral() {
         );
     }
     assert!(checked > 150, "{checked}");
-    // SPEC F3: p99 ≤ 1e-2 over random points; every one of these is within 2 %.
+    // docs/math.md, lobe-product: p99 ≤ 1e-2 over random points; every one of these is within 2 %.
     assert!(worst < 2e-2, "worst relative integral error {worst:e}");
 }
 
@@ -201,7 +201,7 @@ fn a_triple_product_matches_quadrature() {
     }
 }
 
-/// Why the product axis is not refined jointly with e_r (SPEC F3 calls it optional):
+/// Why the product axis is not refined jointly with e_r (docs/math.md, lobe-product calls it optional):
 /// moving the axis off the closed-form peak lowers the optimal L2 residual by a
 /// median 1e-4 (relative), and by more only where one lobe fits the product poorly
 /// anyway. Slow (minutes): `cargo test --release --test lobe_product -- --ignored`.

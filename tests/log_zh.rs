@@ -1,4 +1,4 @@
-//! F7 log-ZH: the committed table's stored entries and the runtime's closed forms
+//! log-ZH: the committed table's stored entries and the runtime's closed forms
 //! against the checker's adaptive Gauss–Kronrod reference (independent of both).
 
 mod common;
@@ -11,10 +11,10 @@ use lobefit::tables::log_zh::{self as rt, Kind, LogZh};
 use lobefit::tables::sh;
 use lobefit::tables::Table;
 
-/// Acceptance (issue 4): every entry within 1e-9 relative of the quadrature, absolute
+/// Acceptance: every entry within 1e-9 relative of the quadrature, absolute
 /// below `NEAR_ZERO`. The stored f32 pairs (hi + lo) carry ~1e-15 relative.
 const ENTRY_REL: f64 = 1e-9;
-/// SPEC target for off-grid runtime values (relative; absolute below `NEAR_ZERO`).
+/// Target for off-grid runtime values (relative; absolute below `NEAR_ZERO`).
 const OFFGRID_REL: f64 = 1e-6;
 /// Below this magnitude a log-ZH value counts as ~0 and is judged absolutely.
 const NEAR_ZERO: f64 = 1e-3;
@@ -134,7 +134,7 @@ fn to_world_round_trip() {
     }
 }
 
-/// `lobefit eval log-zh` (SPEC §6): columns, values, flags and errors.
+/// `lobefit eval log-zh` : columns, values, flags and errors.
 #[test]
 fn cli_eval_log_zh() {
     let out = common::run(&["eval", "log-zh", "--kind", "diffuse", "--order", "3"], "eps\n0.05\n");

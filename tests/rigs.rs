@@ -1,4 +1,4 @@
-//! F12 irradiance rigs: light SH against independent quadrature, the exact-irradiance
+//! irradiance rigs: light SH against independent quadrature, the exact-irradiance
 //! reference against a closed form, and the car comparison's qualitative results.
 
 use std::f64::consts::PI;

@@ -1,4 +1,4 @@
-//! F9 (issue 5): the committed `shexp` table through the runtime against the
+//!: the committed `shexp` table through the runtime against the
 //! independent reference (quadrature-built product matrices, direct log), HYB against
 //! the Taylor reference, Ren's log round trip, `eval shexp`, and every bad input.
 
@@ -13,9 +13,9 @@ use lobefit::sh::{exp_star, Gaunt};
 use lobefit::tables::shexp::{self as rt, cap_visibility_zh, ShExp, ORDER_MAX, ORDER_MIN};
 use lobefit::tables::{LoadError, LookupError};
 
-/// Stored nodes vs the reference (issue 5 acceptance): f relative to ‖f‖; ‖f̂‖, a, b relative.
+/// Stored nodes vs the reference: f relative to ‖f‖; ‖f̂‖, a, b relative.
 const GRID: f64 = 1e-9;
-/// Off-grid θ_b through the runtime (issue 5 acceptance).
+/// Off-grid θ_b through the runtime.
 const OFFGRID: f64 = 1e-4;
 
 fn table() -> &'static ShExp {
@@ -296,7 +296,7 @@ fn eval_shexp() {
     assert!(!ok && err.contains("theta_b"), "{err}");
 }
 
-/// a and b are the least-squares OL fit of ĝ = e^{−f_0/√(4π)} g on {1, f̂} (SPEC F9):
+/// a and b are the least-squares OL fit of ĝ = e^{−f_0/√(4π)} g on {1, f̂} (docs/math.md, shexp):
 /// checked by the normal equations — the residual ĝ − a·1 − b·f̂ is orthogonal to 1 and
 /// to f̂ — on random vectors, not against the formula `ab_of_pair` implements.
 #[test]

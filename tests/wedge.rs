@@ -1,4 +1,4 @@
-//! F8 wedges: the committed M_lin table through the runtime and a composed
+//! wedges: the committed M_lin table through the runtime and a composed
 //! height-field visibility against a brute-force SH projection of the exact one.
 
 use std::f64::consts::PI;

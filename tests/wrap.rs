@@ -1,4 +1,4 @@
-//! F10 wrap lighting: closed forms against the checker's independent quadrature,
+//! wrap lighting: closed forms against the checker's independent quadrature,
 //! erratum E5, the convolution, the committed table, and `lobefit eval wrap`.
 
 mod common;
@@ -33,7 +33,7 @@ fn closed_forms_match_quadrature() {
     assert!(low <= CLOSED_LOW_ABS && high <= CLOSED_HIGH_ABS);
 }
 
-/// SPEC E5: above a = 1 the published form is wrong (a = 2: 0.15 vs 0.1185) and the
+/// docs/math.md, erratum E5: above a = 1 the published form is wrong (a = 2: 0.15 vs 0.1185) and the
 /// runtime refuses it; the quadrature (support cut at t = −1) gives the truth.
 #[test]
 fn erratum_e5() {

@@ -1,4 +1,4 @@
-//! F2 — spherical-cap exponent e_cap(α) (Meunier et al. §5.2).
+//! spherical-cap exponent e_cap(α) (Meunier et al. §5.2).
 //!
 //! Objective, c = cos α ≥ 0, t_c = 1 − c = 2 sin²(α/2) (no cancellation):
 //!   F(e) = 2π [ t_c − 2(1 − c^{e+1})/(e+1) + 1/(2e+1) ].
@@ -521,7 +521,7 @@ impl Family for CapExponentFamily {
 mod tests {
     use super::*;
 
-    /// E8 / SPEC F2: for α ≥ π/2 the minimiser is e = 0. The objective is computed by
+    /// E8 / docs/math.md, cap-exponent: for α ≥ π/2 the minimiser is e = 0. The objective is computed by
     /// Gauss–Kronrod over the whole sphere with the real cap (indicator up to α) and
     /// the real lobe; it must be smallest at e = 0 and increase with e, for every α.
     /// Then the product paths (fit's exact path and the reference) must return 0.

@@ -1,4 +1,4 @@
-//! F11 — the disk-light SH table (Yuan, Nowrouzezahrai & Sloan 2012 §2): fit,
+//! the disk-light SH table (Yuan, Nowrouzezahrai & Sloan 2012 §2): fit,
 //! checker reference, exact irradiance, and `lobefit plot disk-light`.
 //!
 //! Canonical frame and table layout: `lobefit_tables::disk_light` (d = 1 below).
@@ -48,7 +48,7 @@ const MAX_PANELS: usize = 4096;
 const FIT_TOL: f64 = 1e-11;
 /// Largest residual for a node to be written (f32 storage is ~6e-8).
 const MAX_RESIDUAL: f64 = 1e-9;
-/// Checker reference tolerance relative to c_00 (SPEC §4: 1e-7 or tighter).
+/// Checker reference tolerance relative to c_00 (1e-7 or tighter).
 pub const REFERENCE_REL_TOL: f64 = 1e-9;
 /// Tolerance (relative to a scale estimate) of the reference's first pass for the solid
 /// angle, which only sets the absolute tolerance of the coefficients' integrals.
@@ -62,9 +62,9 @@ const GK_REL_FLOOR: f64 = 1e-12;
 /// Tolerance of [`reference_canonical_directions`], relative to the solid angle's
 /// scale estimate.
 const DIRECTION_REL_TOL: f64 = 1e-11;
-/// Acceptance (issue 6): median relative error of c_00 off-grid.
+/// Acceptance: median relative error of c_00 off-grid.
 pub const DC_MEDIAN_REL: f64 = 1e-3;
-/// Acceptance (issue 6): relative L2 error of the 9-coefficient vector, everywhere.
+/// Acceptance: relative L2 error of the 9-coefficient vector, everywhere.
 pub const L2_MAX: f64 = 1e-2;
 /// At grid nodes only f32 storage and the rim-coordinate round trip remain.
 pub const L2_GRID_MAX: f64 = 1e-5;

@@ -1,4 +1,4 @@
-//! F4 — integral spherical Gaussian (Iwasaki et al. 2012 §4; SPEC F4, errata E1–E3).
+//! integral spherical Gaussian (Iwasaki et al. 2012 §4; docs/math.md, isg, errata E1–E3).
 //!
 //! Two tables, one family object per model:
 //! - `isg-refit`: the paper's logistic model σ(g(θ − π/2)) σ(h(φ − π/2)) refitted per γ
@@ -37,24 +37,24 @@ pub const REFIT_NODES: u32 = 65;
 pub const BEST_GAMMA_NODES: u32 = 65;
 /// u nodes of the separable table.
 pub const BEST_U_NODES: u32 = 129;
-/// Lower end of the γ range where SPEC F4 sets the refit target (0.02); below it the
+/// Lower end of the γ range where docs/math.md, isg sets the refit target (0.02); below it the
 /// logistic shape cannot follow Ŝ (see `refit_error_below_three`).
 pub const REFIT_TARGET_GAMMA_MIN: f64 = 3.0;
-/// SPEC F4 target for the refitted logistic model, γ ∈ [3, 10^4]. Infeasible for
+/// docs/math.md, isg target for the refitted logistic model, γ ∈ [3, 10^4]. Infeasible for
 /// 3 ≤ γ < 3.25: there the minimax logistic itself errs by up to 0.0221 (at θ ≈ 2.78,
 /// φ = π; test `refit_target_infeasible_just_above_three`); met from γ ≈ 3.25 on.
 pub const REFIT_TARGET: f64 = 0.02;
 /// The refit table's checker limit on [3, 10^4]: the minimax floor of the logistic
-/// shape at γ = 3 (0.0221) plus interpolation in ln γ (SPEC's 0.02 cannot be met there
+/// shape at γ = 3 (0.0221) plus interpolation in ln γ (the 0.02 target cannot be met there
 /// by any (g, h); see [`REFIT_TARGET`]).
 pub const REFIT_CHECK_LIMIT: f64 = 0.0225;
 /// The refit table's promise below γ = 3 (γ ∈ [0.5, 3)), where no logistic pair
 /// follows Ŝ to the target: max |Ŝ_refit − Ŝ| ≤ 0.07 (measured by `lobefit check`:
 /// 0.062 at the grid points, 0.059 at random points).
 pub const REFIT_LOW_GAMMA_LIMIT: f64 = 0.07;
-/// SPEC F4 target for the better model, γ ∈ [0.5, 10^4].
+/// docs/math.md, isg target for the better model, γ ∈ [0.5, 10^4].
 pub const BEST_TARGET: f64 = 0.005;
-/// The separable table's checker limit: it promises ten times the SPEC target (its
+/// The separable table's checker limit: it promises ten times the target (its
 /// rank-2 form is within 1.4e-4 of Ŝ; measured by `lobefit check`), so a regression
 /// towards the rank-1 product (3.9e-3) fails the check.
 pub const BEST_CHECK_LIMIT: f64 = 5e-4;
@@ -514,13 +514,13 @@ impl Family for IsgFamily {
     }
     fn description(&self) -> String {
         let common = "Normalised integral spherical Gaussian Ŝ(θ, φ; γ) = S/S(π,π) (Iwasaki et al. 2012 §4, \
-             SPEC F4/E1): Ω(θ,φ) = (sinθ cosφ, cosθ, sinθ sinφ), θ ∈ [0,π] from +y, φ ∈ [0,π] azimuth \
+             docs/math.md: isg, erratum E1): Ω(θ,φ) = (sinθ cosφ, cosθ, sinθ sinφ), θ ∈ [0,π] from +y, φ ∈ [0,π] azimuth \
              about +y from +x towards +z, SG axis +z at (π/2, π/2); S(π,π) = 2π/γ (1 − e^(−γ)). ";
         match self.model {
             IsgModelKind::Paper | IsgModelKind::Refit => format!(
                 "{common}Refitted logistic model f = σ(g(γ)(θ − π/2)) σ(h(γ)(φ − π/2)): channels ln g, ln h \
                  on nodes uniform in ln γ, γ ∈ [0.5, 1e4]; interpolate linearly in ln γ. Checked on \
-                 γ ∈ [3, 1e4] (SPEC target range); below γ = 3 the logistic shape errs by up to 0.062 (at γ = 0.5)."
+                 γ ∈ [3, 1e4] (the target's range); below γ = 3 the logistic shape errs by up to 0.062 (at γ = 0.5)."
             ),
             IsgModelKind::Best => format!(
                 "{common}Rank-2 separable model Ŝ ≈ A(θ;γ) B(φ;γ) + C(θ;γ) D(φ;γ), A = Ŝ(θ,π), B = Ŝ(π,φ) \
@@ -890,11 +890,11 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         })
         .chain([
             Series {
-                name: "SPEC refit target 0.02 (γ ≥ 3)".into(),
+                name: "refit target 0.02 (γ ≥ 3)".into(),
                 points: vec![(REFIT_TARGET_GAMMA_MIN, REFIT_TARGET), (GAMMA_MAX, REFIT_TARGET)],
             },
             Series {
-                name: "SPEC best target 0.005".into(),
+                name: "best-model target 0.005".into(),
                 points: vec![(GAMMA_MIN, BEST_TARGET), (GAMMA_MAX, BEST_TARGET)],
             },
         ])
@@ -917,7 +917,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
 mod tests {
     use super::*;
 
-    /// SPEC F4 / E1: the published polynomials, evaluated as printed, reproduce the
+    /// docs/math.md, isg / E1: the published polynomials, evaluated as printed, reproduce the
     /// paper's quoted max errors 0.0966 (γ = 100) and 0.0251 (γ = 1000) within 10 %.
     /// The maximum over the width-adapted grid is confirmed with the checker's
     /// quadrature at the arg-max point.
@@ -932,7 +932,7 @@ mod tests {
             assert!((e_ref - e).abs() < 1e-8);
             assert!((e / quoted - 1.0).abs() < 0.10, "{e} vs {quoted}");
         }
-        // SPEC E3: far worse outside ≈ [100, 1000] — ≈ 0.59 at γ = 1, ≈ 0.17 at 10^4;
+        // docs/math.md, erratum E3: far worse outside ≈ [100, 1000] — ≈ 0.59 at γ = 1, ≈ 0.17 at 10^4;
         // the worst γ of the range is its lower end, 0.5.
         for (gamma, spec) in [(0.5, 0.60), (1.0, 0.59), (1e4, 0.17)] {
             let m = |t, p| PaperIsg.s_hat(t, p, gamma).unwrap();
@@ -1022,8 +1022,8 @@ mod tests {
     }
 
     /// The logistic shape's own floor: the minimax (g, h) at γ = 3 still errs by more
-    /// than SPEC's 0.02 (at θ ≈ 2.78, φ = π, where σ cannot reach 1 fast enough), while
-    /// from γ = 3.3 on it meets it; at large γ the floor is ≈ 0.0166 (SPEC: ≈ 0.017).
+    /// than the 0.02 target (at θ ≈ 2.78, φ = π, where σ cannot reach 1 fast enough), while
+    /// from γ = 3.3 on it meets it; at large γ the floor is ≈ 0.0166 (the target's estimate: ≈ 0.017).
     /// The per-γ fit is checked against the reference at its worst grid point.
     #[test]
     fn refit_target_infeasible_just_above_three() {

@@ -1,7 +1,7 @@
-//! Integral spherical Gaussian (SPEC F4, errata E1–E3): the definition, the checker's
+//! Integral spherical Gaussian (docs/math.md, isg, errata E1–E3): the definition, the checker's
 //! reference and a fast, accurate evaluation used by the fits.
 //!
-//! Parameterisation (SPEC F4, erratum E1): Ω(θ, φ) = (sinθ cosφ, cosθ, sinθ sinφ),
+//! Parameterisation (docs/math.md, isg, erratum E1): Ω(θ, φ) = (sinθ cosφ, cosθ, sinθ sinφ),
 //! θ ∈ [0, π] measured from +y, φ ∈ [0, π] the azimuth about +y measured from +x
 //! towards +z. The square [0, π]² covers the hemisphere z ≥ 0; the SG axis +z sits at
 //! (π/2, π/2).

@@ -1,4 +1,4 @@
-//! F1 — cosine-lobe integral I(e) = ∫_{S²} max(a·v,0)^e dω (Meunier et al. §4.2).
+//! cosine-lobe integral I(e) = ∫_{S²} max(a·v,0)^e dω (Meunier et al. §4.2).
 //!
 //! Fit: adaptive Simpson in θ of 2π ∫_0^{π/2} cos^e θ sin θ dθ (the paper used
 //! adaptive quadrature), split where the lobe lives (θ ~ k/√(e+1)) so a sharp lobe

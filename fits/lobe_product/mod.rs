@@ -1,4 +1,4 @@
-//! F3 — lobe-product tables (Meunier et al. 2009, §4.1), variants `energy` and `l2`.
+//! lobe-product tables (Meunier et al. 2009, §4.1), variants `energy` and `l2`.
 //!
 //! The fast fit (default) is one-dimensional: the axis is the closed-form peak
 //! ([`lobefit_tables::lobe_product::peak_angle`], the paper's Nelder–Mead step solved
@@ -49,10 +49,10 @@ const BRENT_TOL: f64 = 1e-7;
 const MAX_ITERS: u64 = 200;
 
 /// Fraction of min(∫Ψ1, ∫Ψ2) below which a product is negligible for the checker
-/// (SPEC F3: accuracy is promised where ∫Ψ1Ψ2 ≥ 1e-6·min(∫Ψ1, ∫Ψ2)).
+/// (docs/math.md, lobe-product: accuracy is promised where ∫Ψ1Ψ2 ≥ 1e-6·min(∫Ψ1, ∫Ψ2)).
 pub const RELEVANCE: f64 = 1e-6;
 /// Products below this fraction of min(∫Ψ1, ∫Ψ2) may keep an e_r on the search bound:
-/// the SPEC's own relevance limit.
+/// the family's own relevance limit.
 const NEGLIGIBLE: f64 = RELEVANCE;
 /// Relative L2 residuals below 0.1 % of the product's norm count as equal in the
 /// checker: near α = 0 the optimum tends to 0 and any ratio to it is meaningless.
@@ -562,7 +562,7 @@ pub fn reference_scene(scene: &Scene) -> Result<f64, String> {
     Ok(outer.value)
 }
 
-/// The paper's grid (SPEC F3): 16 linear samples per decade of e1 and e2 on
+/// The paper's grid (docs/math.md, lobe-product): 16 linear samples per decade of e1 and e2 on
 /// [0, 1], [1, 10], …, [10⁴, 10⁵] (81 values with the end point) × 64 uniform α on
 /// [0, π].
 pub fn paper_grid() -> Vec<[f64; 3]> {

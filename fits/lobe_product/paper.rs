@@ -1,4 +1,4 @@
-//! F3 — the paper-faithful lobe-product fit (`--method paper`, SPEC F3 "Paper's fit,
+//! the paper-faithful lobe-product fit (`--method paper`, docs/math.md, lobe-product "Paper's fit,
 //! two steps" and §5): the slow baseline the fast fit of [`super`] is
 //! compared with. Nothing here uses the fast method's 1-D reduction.
 //!

@@ -1,4 +1,4 @@
-//! The ε study of the log-ZH BRDFs (Giraud's thesis Fig. 4.6, SPEC F7): how far
+//! The ε study of the log-ZH BRDFs (Giraud's thesis Fig. 4.6, docs/math.md, log-zh): how far
 //! exp*(log-ZH of the Phong lobe) lands from the lobe's true ZH vector, as a function
 //! of the clamping threshold ε, and (beyond the thesis) the ε that minimises it.
 //!
@@ -17,7 +17,7 @@ use lobefit_tables::sh::{index, MAX_ORDER};
 
 use crate::sh::{exp_star, Gaunt};
 
-/// Default SH order of the study (SPEC §1 default; the thesis renders at order 4).
+/// Default SH order of the study (docs/math.md §1 default; the thesis renders at order 4).
 pub const STUDY_ORDER: usize = 4;
 /// Phong exponents of the thesis figure.
 pub const STUDY_R: [u32; 5] = [1, 2, 3, 4, 5];

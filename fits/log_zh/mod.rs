@@ -1,4 +1,4 @@
-//! F7 — log-ZH vectors (Giraud & Nowrouzezahrai 2015 §4.5.2, §4.6): the table of
+//! log-ZH vectors (Giraud & Nowrouzezahrai 2015 §4.5.2, §4.6): the table of
 //! normalised-Phong log-ZH vectors over (r, ε), the diffuse and blocker views, and
 //! the references the checker uses.
 //!
@@ -27,7 +27,7 @@ const MAX_RESIDUAL: f64 = 1e-9;
 /// checked threshold.
 pub const REFERENCE_TOL: f64 = 1e-13;
 /// Checked accuracy (absolute; |z| ≤ 17 so this is ≤ 1e-9 relative for |z| ≥ 1, and
-/// the absolute reading SPEC allows where values are ~0).
+/// the absolute reading the target allows where values are ~0).
 pub const ACCURACY_ABS: f64 = 1e-9;
 
 /// Checked quantities: the closed-form outputs z*, and t* = the stored table at the
@@ -43,7 +43,7 @@ const TABLE_MODE: f64 = 1.0;
 /// (absolute; measured ≤ 3.5e-4, see tests/log_zh.rs and the checker).
 pub const TABLE_INTERP_ABS: f64 = 1e-3;
 
-/// Default SH order of `lobefit eval` (SPEC §1).
+/// Default SH order of `lobefit eval` (docs/math.md §1).
 pub const DEFAULT_ORDER: usize = 4;
 
 /// The log-ZH family: `kind` and `order` select the `lobefit eval` view; the
@@ -66,7 +66,7 @@ impl Default for LogZhFamily {
 }
 
 impl LogZhFamily {
-    /// The eval view for `--kind` (default phong) and `--order` (default 4, SPEC §1).
+    /// The eval view for `--kind` (default phong) and `--order` (default 4, docs/math.md §1).
     pub fn from_flags(kind: Option<&str>, order: Option<usize>) -> Result<Self, String> {
         let kind = match kind.unwrap_or("phong") {
             "diffuse" => Kind::Diffuse,

@@ -1,4 +1,4 @@
-//! F5 — the L2-best single SG for a clamped cosine lobe (SPEC F5; not in the papers).
+//! the L2-best single SG for a clamped cosine lobe (docs/math.md, sg-fit; not in the papers).
 //!
 //! With t = cos θ, s = 1 − t, dω = 2π dt and G₁ = exp(λ(t − 1)):
 //!   ∫Ψ² = 2π/(2e+1),   ∫G₁² = 2π K(λ), K = (1 − e^{−4λ})/(2λ),
@@ -45,7 +45,7 @@ const REF_QUAD_TOL: f64 = 1e-13;
 const REF_ROOT_TOL: f64 = 1e-13;
 /// Checker limit on the relative error of λ and μ through the runtime: interpolation
 /// of ln λ, ln μ in ln(1 + e) plus f32 storage (measured max 1.4e-5 over 10 000
-/// random e, grid nodes 4.7e-7; SPEC F5 sets no target).
+/// random e, grid nodes 4.7e-7; docs/math.md, sg-fit sets no target).
 const REL_LIMIT: f64 = 3e-5;
 
 /// Break points k/(e + λ) of the integrands in s.
@@ -217,7 +217,7 @@ impl Family for SgFitFamily {
     }
     fn description(&self) -> String {
         "L2-best single SG mu exp(lambda (a.v - 1)) for the clamped cosine lobe max(a.v, 0)^e over the \
-         sphere (SPEC F5), e in [0, 1e5] (e = 0: hemisphere indicator). Channels ln lambda, ln mu on nodes \
+         sphere (docs/math.md, sg-fit), e in [0, 1e5] (e = 0: hemisphere indicator). Channels ln lambda, ln mu on nodes \
          uniform in ln(1+e); interpolate linearly in that coordinate, then exponentiate. A lobe of scale s \
          maps to amplitude s mu."
             .into()
@@ -326,11 +326,11 @@ impl Family for SgFitFamily {
 mod tests {
     use super::*;
 
-    /// The known fit at e = 1 (SPEC F5: λ ≈ 2.133, μ ≈ 1.17, the values quoted in the
+    /// The known fit at e = 1 (docs/math.md, sg-fit: λ ≈ 2.133, μ ≈ 1.17, the values quoted in the
     /// SG literature), and λ/e → 1, μ → 1. The exact L2 optimum over the sphere is
     /// λ = 2.1438, μ = 1.1766 (0.5 % from the quoted pair, which must come from a
     /// slightly different fit; `reduction_matches_direct_objective` shows ours is the
-    /// minimum of the SPEC objective).
+    /// minimum of the defining objective).
     #[test]
     fn known_values_and_asymptotes() {
         let (l, m) = reference_fit(1.0).unwrap();

@@ -1,5 +1,5 @@
-//! F9 (library half) — SH exponentiation and the two SH logarithms (Ren et al. 2006 as
-//! used in the thesis §3.7; SPEC F9).
+//! SH exponentiation and the two SH logarithms (Ren et al. 2006 as
+//! used in the thesis §3.7; docs/math.md, shexp).
 //!
 //! exp* variants: [`exp_taylor`] (the reference, run to
 //! convergence), DC isolation ([`exp_star`]), scaling and squaring
@@ -7,7 +7,7 @@
 //! [`lobefit_tables::shexp::ol`] / [`lobefit_tables::shexp::hyb_with`], re-exported here,
 //! because renderers run them per pixel).
 //!
-//! Logs of a visibility vector g: naive ε-clamped projection (F7,
+//! Logs of a visibility vector g: naive ε-clamped projection (log-zh,
 //! [`lobefit_tables::log_zh::blocker`] for caps) and Ren's [`ren_log`]: f = log(M_g)·1
 //! with M_g the SH product matrix (M_g x = g ∗ x), from its symmetric
 //! eigen-decomposition with eigenvalues clamped below at [`REN_CLAMP`] × the largest
@@ -26,7 +26,7 @@ use crate::sh::{exp_star, exp_taylor, ExpResult, Gaunt, SphereRule};
 pub use lobefit_tables::shexp::{ab_of_pair, hyb_with, ol};
 
 /// Ren's eigenvalue clamp: eigenvalues of M_g below this fraction of the largest are
-/// raised to it (thesis §3.7.1; SPEC F9).
+/// raised to it (thesis §3.7.1; docs/math.md, shexp).
 pub const REN_CLAMP: f64 = 0.02;
 
 /// q(1 + μ) = ln(1 + μ)/μ, with q = 1 at μ = 0 (series for |μ| < [`Q_SERIES`]:
@@ -62,7 +62,7 @@ pub struct RenLog {
 /// q(max(λ_k, λ_c))(r_k·h), h = g − 1, λ_k = 1 + μ_k, λ_c = [`REN_CLAMP`] λ_max.
 ///
 /// The clamp sits inside q and (r_k·h) = μ_k (r_k·1) keeps the unclamped eigenvalue: the
-/// q-form f = R q(D) Rᵀ (g − 1) of SPEC F9 read literally, which is what public
+/// q-form f = R q(D) Rᵀ (g − 1) of docs/math.md, shexp read literally, which is what public
 /// implementations of Ren's log compute (`docs/shexp.md` compares one). Unclamped it is
 /// ln(λ_k)(r_k·1), the log of M_g applied to 1; for a clamped λ_k it is
 /// ln(λ_c) μ_k/(λ_c − 1) (r_k·1), not ln(λ_c)(r_k·1) (the log of the *clamped* matrix):
@@ -314,7 +314,7 @@ pub struct LmLog {
     pub converged: bool,
 }
 
-/// The "inverse exp*" log (SPEC F9): f minimising ‖exp*(f) − g‖ by Levenberg–Marquardt
+/// The "inverse exp*" log (docs/math.md, shexp): f minimising ‖exp*(f) − g‖ by Levenberg–Marquardt
 /// (Marquardt's diagonal scaling, central-difference Jacobian), from `start` (e.g. Ren's
 /// log), over the coefficients `params` (indices; the others stay as in `start`, e.g.
 /// only m = 0 for a zonal g). Where g is not exactly exp* of anything (a clamped

@@ -1,4 +1,4 @@
-//! F9 — SH exponentiation tables (Ren et al. 2006, thesis §3.7): Ren's log-ZH f of
+//! SH exponentiation tables (Ren et al. 2006, thesis §3.7): Ren's log-ZH f of
 //! spherical-cap blockers, ‖f̂‖ and the OL coefficients a, b, vs θ_b ∈ [0, π/2], for
 //! orders 3..8 in one file (`shexp`), and the `eval shexp` views (`--order`, `--log`).
 //!
@@ -33,12 +33,12 @@ use crate::tables::error::short;
 /// Largest |fit − reference| / max(‖f‖, 1) for a node to be written: both are f64
 /// computations of the same matrix function (measured ≤ 1e-13).
 const MAX_RESIDUAL: f64 = 1e-11;
-/// Stored entries vs the reference (issue 5 acceptance): f relative to ‖f‖; ‖f̂‖, a, b
+/// Stored entries vs the reference: f relative to ‖f‖; ‖f̂‖, a, b
 /// relative.
 pub const GRID_REL: f64 = 1e-9;
-/// Off-grid θ_b through the runtime's interpolation (issue 5 acceptance), same units.
+/// Off-grid θ_b through the runtime's interpolation, same units.
 pub const OFFGRID_REL: f64 = 1e-4;
-/// Default SH order of `lobefit eval` (SPEC §1).
+/// Default SH order of `lobefit eval` (docs/math.md §1).
 pub const DEFAULT_ORDER: usize = 4;
 
 /// Checked quantities of the whole table (every order).
@@ -73,7 +73,7 @@ const EVAL_OUT: [[&str; 11]; 9] = {
 pub enum LogKind {
     /// Ren's eigenvalue-clamped matrix log (the table).
     Ren,
-    /// Naive ε-clamped projection log ε·cap (F7 closed form).
+    /// Naive ε-clamped projection log ε·cap (log-zh closed form).
     Naive,
 }
 
@@ -175,7 +175,7 @@ impl Family for ShExpFamily {
     }
     fn description(&self) -> String {
         format!(
-            "SH exponentiation tables (Ren et al. 2006; SPEC F9) for a spherical-cap blocker of angular \
+            "SH exponentiation tables (Ren et al. 2006; docs/math.md, shexp) for a spherical-cap blocker of angular \
              radius theta_b about +z, orders {ORDER_MIN}..{ORDER_MAX}: Ren's log-ZH f (log of the SH product \
              matrix in the form f = R q(D) R^T (g - 1), q(x) = ln(x)/(x - 1), eigenvalues in q clamped below at \
              {} x the largest), |f_hat| (f without DC) and \

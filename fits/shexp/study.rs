@@ -1,4 +1,4 @@
-//! The SH exponentiation evaluation (issue 5, SPEC F9): how well HYB (DC isolation +
+//! The SH exponentiation evaluation (docs/math.md, shexp): how well HYB (DC isolation +
 //! halving + OL from the `shexp` table + truncated squaring) reproduces the Taylor
 //! reference exp*, for single cap blockers and for random scenes of 2–400 blockers
 //! accumulated in log space as a renderer does (each blocker's tabulated log-ZH turned

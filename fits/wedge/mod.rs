@@ -1,4 +1,4 @@
-//! F8 — height-field wedges (Giraud & Nowrouzezahrai 2015 §4.5.1): the M_lin
+//! height-field wedges (Giraud & Nowrouzezahrai 2015 §4.5.1): the M_lin
 //! operator table (registry family `wedge`) and the slice-vector eval view
 //! (`lobefit eval wedge --order N`: sigma, eps → v0…v(N−1)).
 //!

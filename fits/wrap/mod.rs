@@ -1,4 +1,4 @@
-//! F10 — wrap lighting (Yuan, Nowrouzezahrai & Sloan 2012 §3): the λ̂_l(a) table
+//! wrap lighting (Yuan, Nowrouzezahrai & Sloan 2012 §3): the λ̂_l(a) table
 //! (kind `wrap`, for texture upload) and `lobefit eval wrap --order N`.
 //!
 //! The runtime computes λ̂_l(a) = 2 ∫_{max(−a,−1)}^1 ((t+a)/(1+a))^{1+a} P_l(t) dt in
@@ -24,9 +24,9 @@ const FIT_TOL: f64 = 1e-13;
 const MAX_RESIDUAL: f64 = 1e-10;
 /// Absolute tolerance of the checker's Gauss–Kronrod reference (|λ̂| ≤ 1.34).
 pub const REFERENCE_TOL: f64 = 1e-15;
-/// Acceptance (issue 6): published closed form (l ≤ 2) vs quadrature.
+/// Acceptance: published closed form (l ≤ 2) vs quadrature.
 pub const CLOSED_LOW_ABS: f64 = 1e-12;
-/// Acceptance (issue 6): higher bands (3 ≤ l < 8) vs an independent quadrature.
+/// Acceptance: higher bands (3 ≤ l < 8) vs an independent quadrature.
 pub const CLOSED_HIGH_ABS: f64 = 1e-10;
 /// Linear interpolation of the 129-node f32 table between nodes (absolute; h²/8·|λ̂''|
 /// with h = 1/128 plus f32 rounding; measured by the checker, see docs/rigs.md).
@@ -43,7 +43,7 @@ const TABLE_MODE: f64 = 1.0;
 /// Second lookup coordinate selecting the closed form at order 8 (checker only).
 const CLOSED_MODE: f64 = 2.0;
 
-/// Default SH order of `lobefit eval wrap` (SPEC §1).
+/// Default SH order of `lobefit eval wrap` (docs/math.md §1).
 pub const DEFAULT_ORDER: usize = 4;
 
 /// The wrap family; `order` selects the eval view (the registry's instance is order 8).
@@ -260,7 +260,7 @@ impl Family for WrapFamily {
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         if !(A_MIN..=A_MAX).contains(&x[0]) {
             return Err(format!(
-                "a = {} is outside [0, 1] (the closed forms' domain, SPEC E5)",
+                "a = {} is outside [0, 1] (the closed forms' domain, docs/math.md, erratum E5)",
                 x[0]
             ));
         }

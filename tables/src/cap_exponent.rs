@@ -1,4 +1,4 @@
-//! F2 — the spherical-cap exponent (Meunier et al. 2009, §5.2).
+//! the spherical-cap exponent (Meunier et al. 2009, §5.2).
 //!
 //! For a cap of half-angle α around axis a, e_cap(α) minimises
 //! ∫_{S²} (f_cap − max(a·v, 0)^e)² dω. With c = cos α ≥ 0 the objective is

@@ -1,4 +1,4 @@
-//! F11 — SH response of a disk light (Yuan, Nowrouzezahrai & Sloan 2012, §2).
+//! SH response of a disk light (Yuan, Nowrouzezahrai & Sloan 2012, §2).
 //!
 //! **Canonical frame.** Receiver at the origin; a one-sided disk emitter of radius R with
 //! centre (0, 0, d) and emitting normal n = (sin τ, 0, −cos τ): τ (rad) is the angle

@@ -1,6 +1,6 @@
 //! The SH triple-product (Gaunt) tensor and the truncated SH product, shared by the
 //! `lobefit` library (which builds tables with it) and renderers (SH exponentiation,
-//! [`crate::shexp`]). Conventions of [`crate::sh`] (SPEC §1).
+//! [`crate::shexp`]). Conventions of [`crate::sh`] (docs/math.md §1).
 //!
 //! Exactness: [`SphereRule`] is Gauss–Legendre in z = cosθ times the trapezoid rule
 //! in φ. It integrates x^a y^b z^c exactly (to rounding) when the φ frequency
@@ -255,7 +255,7 @@ impl Gaunt {
 
 impl Gaunt {
     /// The product matrix M_g (n² × n², row-major, symmetric): M_g x = g ∗ x, i.e.
-    /// [M_g]_{ik} = Σ_j Γ_ijk g_j. Ren et al.'s SH log is log(M_g)·1 (SPEC F9).
+    /// \[M_g\]_{ik} = Σ_j Γ_ijk g_j. Ren et al.'s SH log is log(M_g)·1 (docs/math.md, shexp).
     pub fn product_matrix(&self, g: &[f64]) -> Vec<f64> {
         let nc = self.order * self.order;
         assert!(g.len() == nc, "operand must have n² = {nc} coefficients");

@@ -1,5 +1,5 @@
-//! F4 — the integral spherical Gaussian (Iwasaki et al. 2012, §4; SPEC F4, errata
-//! E1–E3), three models of it, and the SG algebra of SPEC §1.
+//! the integral spherical Gaussian (Iwasaki et al. 2012, §4; docs/math.md, isg, errata
+//! E1–E3), three models of it, and the SG algebra of docs/math.md §1.
 //!
 //! # Parameterisation
 //!
@@ -8,7 +8,7 @@
 //! **φ ∈ [0, π] the azimuth about +y measured from +x towards +z**. The square [0, π]²
 //! covers the hemisphere z ≥ 0 and the SG axis sits at (θ, φ) = (π/2, π/2).
 //!
-//!   S(θ, φ; γ) = ∫_0^θ ∫_0^φ exp(γ (Ω(θ',φ')·z − 1)) sinθ' dφ' dθ'   [sr],
+//!   S(θ, φ; γ) = ∫_0^θ ∫_0^φ exp(γ (Ω(θ',φ')·z − 1)) sinθ' dφ' dθ'   \[sr\],
 //!   Ŝ(θ, φ; γ) = S / S(π, π),   S(π, π) = 2π/γ (1 − e^{−γ})   ([`normaliser`]).
 //!
 //! A unit-amplitude SG of sharpness γ integrates over the patch
@@ -249,7 +249,7 @@ fn logistic(theta: f64, phi: f64, g: f64, h: f64) -> f64 {
     sigmoid(g * (theta - FRAC_PI_2)) * sigmoid(h * (phi - FRAC_PI_2))
 }
 
-/// The paper's published model (no table). Valid only near γ ∈ [100, 1000] (SPEC E3).
+/// The paper's published model (no table). Valid only near γ ∈ [100, 1000] (docs/math.md, erratum E3).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PaperIsg;
 
@@ -472,7 +472,7 @@ impl IsgModel for BestIsg {
     }
 }
 
-/// A spherical Gaussian G(v) = μ exp(λ (a·v − 1)) (SPEC §1): unit axis `axis`,
+/// A spherical Gaussian G(v) = μ exp(λ (a·v − 1)) (docs/math.md §1): unit axis `axis`,
 /// sharpness λ > 0, amplitude μ.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sg {
@@ -654,7 +654,7 @@ mod tests {
 
     #[test]
     fn paper_polynomials_as_printed() {
-        // g(1) = g4 + g3 + g2 + g1 + g0 at γ = 100 (SPEC E3: g(γ=1) ≈ 17.6).
+        // g(1) = g4 + g3 + g2 + g1 + g0 at γ = 100 (docs/math.md, erratum E3: g(γ=1) ≈ 17.6).
         let sum: f64 = PAPER_G.iter().sum();
         assert!((paper_poly(&PAPER_G, 100.0) - sum).abs() < 1e-12);
         assert!((paper_poly(&PAPER_G, 1.0) - 17.6).abs() < 0.05);

@@ -5,7 +5,7 @@
 //! Its only dependencies are serde, postcard, crc32fast, thiserror and glam (whose
 //! `Vec3`/`DVec3` the vector APIs take, re-exported as [`glam`]).
 //!
-//! Conventions (SPEC §1): directions are unit vectors, integrals are over solid angle
+//! Conventions (docs/math.md §1): directions are unit vectors, integrals are over solid angle
 //! (steradians), angles are in radians, `log` is the natural logarithm. A cosine lobe
 //! is `Ψ(v; a, e) = max(a·v, 0)^e`.
 //!

@@ -1,8 +1,8 @@
-//! F1 — the cosine-lobe integral I(e) = ∫_{S²} max(a·v, 0)^e dω = 2π/(e+1) (sr).
+//! the cosine-lobe integral I(e) = ∫_{S²} max(a·v, 0)^e dω = 2π/(e+1) (sr).
 //!
-//! Meunier et al. (2009, §4.2) tabulate I(e) and interpolate it; SPEC erratum E7
+//! Meunier et al. (2009, §4.2) tabulate I(e) and interpolate it; erratum E7
 //! notes the closed form makes the table unnecessary. Both are offered: the table
-//! (what users of the paper expect) and [`LobeIntegral::exact`].
+//! (what users of the paper expect) and [`exact`].
 //!
 //! Layout: one axis `e` on [0, 1e5] with nodes uniform in ln(1 + e) (641 nodes,
 //! the paper's 5 × 128 budget), one channel stored as ln I. Since ln I = ln 2π −

@@ -1,4 +1,4 @@
-//! F3 — the product of two cosine lobes as one lobe (Meunier et al. 2009, §4.1), and
+//! the product of two cosine lobes as one lobe (Meunier et al. 2009, §4.1), and
 //! the lobe-sum algebra built on it (§4.3, §5.4).
 //!
 //! Ψ(v; a1, e1)·Ψ(v; a2, e2) ≈ p_r·Ψ(v; a_r, e_r), with Ψ(v; a, e) = max(a·v, 0)^e,
@@ -28,7 +28,7 @@
 //! sharp lobes, so the sphere's curvature (e_r ≈ E(1 + α²/8) for equal lobes) is not
 //! left to linear interpolation.
 //!
-//! Two variants (SPEC F3), one table each:
+//! Two variants (docs/math.md, lobe-product), one table each:
 //! - `energy` ([`KIND_ENERGY`], the default): p_r makes ∫p_rΨ_r = ∫Ψ1Ψ2 exactly,
 //!   p_r = (e_r + 1)/(2π)·∫Ψ1Ψ2; e_r minimises the L2 residual under that constraint.
 //! - `l2` ([`KIND_L2`]): the paper's unconstrained L2 fit; a third channel stores

@@ -1,7 +1,7 @@
-//! F7 — log-ZH vectors of BRDFs and blockers (Giraud & Nowrouzezahrai 2015, §4.5.2, §4.6).
+//! log-ZH vectors of BRDFs and blockers (Giraud & Nowrouzezahrai 2015, §4.5.2, §4.6).
 //!
 //! The log projection of a zonal function f (symmetric about +z) is
-//! z_l = ∫ log(max(f, ε)) y_l^0 dω (natural log, SPEC E4), l < n ≤ 8. The runtime
+//! z_l = ∫ log(max(f, ε)) y_l^0 dω (natural log, docs/math.md, erratum E4), l < n ≤ 8. The runtime
 //! evaluates exact closed forms (f64, ~1e-14), for any real r and ε:
 //!
 //! - **Phong** f(θ) = (r+1)/(2π) cos^r θ above the horizon, log ε below. With
@@ -65,7 +65,7 @@ const Z_BOUND: f64 = 20.0;
 const Z_LO_BOUND: f64 = 1e-6;
 
 /// Plausible range of each stored channel (name, lo, hi), in the unit of z_l (that of
-/// the log of the BRDF value): ±[`Z_BOUND`] for the hi halves, ±[`Z_LO_BOUND`] for
+/// the log of the BRDF value): ±`Z_BOUND` for the hi halves, ±`Z_LO_BOUND` for
 /// the lo halves.
 pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
     ("z0_hi", -Z_BOUND, Z_BOUND),
@@ -315,7 +315,7 @@ impl LogZh {
             .map_err(Clone::clone)
     }
 
-    /// The underlying table (row-major [r][eps][z0_hi, z0_lo, …, z7_lo], f32), e.g. for
+    /// The underlying table (row-major \[r\]\[eps\]\[z0_hi, z0_lo, …, z7_lo\], f32), e.g. for
     /// GPU upload (a shader that is happy with f32 precision reads the hi channels only).
     pub fn table(&self) -> &Table {
         &self.table

@@ -1,4 +1,4 @@
-//! F12 — irradiance rigs (Yuan, Nowrouzezahrai & Sloan 2012, §1).
+//! irradiance rigs (Yuan, Nowrouzezahrai & Sloan 2012, §1).
 //!
 //! A rig reconstructs order-3 SH irradiance vectors l(p) ∈ R⁹ (conventions of
 //! [`crate::sh`]; each vector is already convolved with the clamped cosine, so the

@@ -1,9 +1,9 @@
-//! F5 — one spherical Gaussian fitted to a clamped cosine lobe (SPEC F5).
+//! one spherical Gaussian fitted to a clamped cosine lobe (docs/math.md, sg-fit).
 //!
 //! For e ≥ 0, (λ(e), μ(e)) minimise ∫_{S²} (Ψ(v; a, e) − μ exp(λ(a·v − 1)))² dω with
 //! Ψ(v; a, e) = max(a·v, 0)^e (e = 0: the indicator of the open hemisphere a·v > 0).
-//! A lobe s·Ψ(·; a, e) is then approximated by the SG G(·; a, λ(e), s·μ(e)) (SPEC §1).
-//! At e = 1, λ ≈ 2.133 and μ ≈ 1.17; λ/e → 1 and μ → 1 as e → ∞.
+//! A lobe s·Ψ(·; a, e) is then approximated by the SG G(·; a, λ(e), s·μ(e)) (docs/math.md §1).
+//! At e = 1, λ = 2.1438 and μ = 1.1766 (the L2 optimum, docs/isg.md); λ/e → 1 and μ → 1 as e → ∞.
 //!
 //! Layout: ln λ and ln μ on nodes uniform in ln(1 + e), e ∈ [0, 10^5]; both are smooth
 //! in that coordinate (λ ~ e for large e), so linear interpolation of the logs is

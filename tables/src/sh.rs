@@ -1,7 +1,7 @@
-//! F6 — real spherical harmonics (SH) for renderers: basis evaluation, zonal (ZH)
+//! real spherical harmonics (SH) for renderers: basis evaluation, zonal (ZH)
 //! rotation, rotation about z and general rotation, for orders 1..=8.
 //!
-//! # Conventions (SPEC §1; stated once, used by every SH routine in lobefit)
+//! # Conventions (docs/math.md §1; stated once, used by every SH routine in lobefit)
 //!
 //! - Real SH, orthonormal on the unit sphere (∫ y_i y_j dω = δ_ij), with the
 //!   Condon–Shortley phase folded in (Sloan's "Stupid SH Tricks", the thesis eq. 3.36):

@@ -1,4 +1,4 @@
-//! F9 — SH exponentiation (Ren et al. 2006, thesis §3.7): the `shexp` table of
+//! SH exponentiation (Ren et al. 2006, thesis §3.7): the `shexp` table of
 //! spherical-cap blockers and the per-pixel exp* that renderers run (OL and HYB).
 //!
 //! exp*(f) = 1 + f + f^{2∗}/2! + … with every product truncated to order n
@@ -171,7 +171,7 @@ pub fn ol_threshold(order: usize) -> Result<f64, LookupError> {
 }
 
 /// ZH of the visibility g = 1 − cap of a cap of angular radius `theta_b` (rad) about
-/// +z, l < `order` ≤ 8 (closed form of SPEC F9: the cap term is
+/// +z, l < `order` ≤ 8 (closed form of docs/math.md, shexp: the cap term is
 /// [`crate::log_zh::cap_zh`]); entries ≥ `order` are 0. Errors: θ_b not finite or
 /// outside [0, π], order outside 1..=8.
 pub fn cap_visibility_zh(theta_b: f64, order: usize) -> Result<[f64; sh::MAX_ORDER], LookupError> {
@@ -187,7 +187,7 @@ pub fn cap_visibility_zh(theta_b: f64, order: usize) -> Result<[f64; sh::MAX_ORD
 }
 
 /// (a, b, ‖f̂‖) of a pair (g, f) of a visibility and its log (ZH or SH vectors of the
-/// same length; SPEC F9, thesis eq. 3.44–3.47): ĝ = e^{−f_0/√(4π)} g,
+/// same length; docs/math.md, shexp, thesis eq. 3.44–3.47): ĝ = e^{−f_0/√(4π)} g,
 /// a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂) — the least-squares OL fit of ĝ on {1, f̂}.
 /// b = 1 (its limit) when f̂ = 0. Errors: empty or unequal lengths, non-finite entries.
 pub fn ab_of_pair(g: &[f64], f: &[f64]) -> Result<(f64, f64, f64), LookupError> {
@@ -405,7 +405,7 @@ impl ShExp {
             .map_err(Clone::clone)
     }
 
-    /// The underlying table (row-major [order][θ_b], channels of [`channel_names`]), e.g.
+    /// The underlying table (row-major \[order\]\[θ_b\], channels of [`channel_names`]), e.g.
     /// for GPU upload.
     pub fn table(&self) -> &Table {
         &self.table

@@ -1,4 +1,4 @@
-//! F8 — height-field wedge visibility in log-SH space (Giraud & Nowrouzezahrai 2015 §4.5.1).
+//! height-field wedge visibility in log-SH space (Giraud & Nowrouzezahrai 2015 §4.5.1).
 //!
 //! **Slice.** In azimuth φ a height field hides everything below its horizon
 //! elevation σ (rad; σ = 0 is the tangent plane, σ > 0 above it, σ ∈ [−π/2, π/2]):
@@ -12,7 +12,7 @@
 //! functions are interpolated linearly in φ, α = (φ − φ_k)/Δφ, and the log-visibility is
 //! 0 (visibility 1) outside the wedge. Its SH projection is V_k = M_lin [v_k; v_{k+1}]
 //! with the n² × 2n operator
-//! [M_lin]_{i,j} = ∫_0^{Δφ} ∫_0^π [I_lin]_j P̂_{j mod n}(cosθ) y_i(θ, φ) sinθ dθ dφ,
+//! \[M_lin\]_{i,j} = ∫_0^{Δφ} ∫_0^π \[I_lin\]_j P̂_{j mod n}(cosθ) y_i(θ, φ) sinθ dθ dφ,
 //! I_lin = (1−α, …, 1−α, α, …, α) (n entries each), for the canonical wedge [0, Δφ].
 //! The table stores M_lin of order 8 for W ∈ {4, 8, 16, 32, 64}; the order-n operator
 //! is its sub-block (rows i < n², columns j mod 8 < n of each half), since entries do
@@ -192,7 +192,7 @@ impl Wedges {
             })
     }
 
-    /// [M_lin]_{row, col} of order n for W wedges: row < n², col < 2n (col < n weighs
+    /// \[M_lin\]_{row, col} of order n for W wedges: row < n², col < 2n (col < n weighs
     /// the wedge's first slice by 1−α, col ≥ n the second by α).
     pub fn m_lin(&self, w: u32, order: usize, row: usize, col: usize) -> Result<f64, LookupError> {
         let n = sh::check_order(order)?;

@@ -1,4 +1,4 @@
-//! F10 — wrap lighting (Yuan, Nowrouzezahrai & Sloan 2012, §3).
+//! wrap lighting (Yuan, Nowrouzezahrai & Sloan 2012, §3).
 //!
 //! The wrapped-diffuse kernel, a function of cosθ = t between the surface normal and the
 //! light direction, with wrap parameter a ≥ 0 (a = 0 is Lambert's clamped cosine):
@@ -16,7 +16,7 @@
 //! needed. For l ≤ 2 this is the published form ([`published`]):
 //! [2(1+a)/(2+a), 4(1+a)/((2+a)(3+a)), 2(1+a)(3−2a+a²)/((2+a)(3+a)(4+a))].
 //! For a > 1 the kernel's support is cut at t = −1 and both formulas are wrong
-//! (SPEC erratum E5: at a = 2 the published l = 2 value is 0.15, the truth 0.1185), so
+//! (erratum E5: at a = 2 the published l = 2 value is 0.15, the truth 0.1185), so
 //! they refuse a > 1 with [`LookupError::OutOfDomain`].
 //!
 //! **Table** ([`WrapTable`], kind `wrap`): λ̂_0…λ̂_7 on 129 nodes a ∈ [0, 1] (linear),
@@ -37,7 +37,7 @@ pub const KIND: &str = "wrap";
 pub const VERSION: u32 = 1;
 /// Smallest wrap parameter.
 pub const A_MIN: f64 = 0.0;
-/// Largest wrap parameter of the closed forms and the table (SPEC E5: the closed
+/// Largest wrap parameter of the closed forms and the table (docs/math.md, erratum E5: the closed
 /// form integrates down to t = −a, which leaves [−1, 1] for a > 1).
 pub const A_MAX: f64 = 1.0;
 /// Nodes of the table's `a` axis.
@@ -62,7 +62,7 @@ pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
 ];
 
 /// Name used in the out-of-domain error of the closed forms.
-const A_NAME: &str = "wrap parameter a (closed forms exact only on [0, 1], SPEC E5)";
+const A_NAME: &str = "wrap parameter a (closed forms exact only on [0, 1], docs/math.md, erratum E5)";
 
 /// The table's one axis: `a` on [0, 1], linear, end-point nodes.
 pub fn axis(count: u32) -> Axis {
