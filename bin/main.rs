@@ -122,6 +122,7 @@ enum Command {
         json: bool,
     },
     /// Evaluate a family on CSV rows from stdin (a header line naming the input columns, then numbers).
+    #[command(after_help = lobefit::eval::COLUMNS)]
     Eval {
         /// Family name.
         #[arg(value_parser = PossibleValuesParser::new(fits::eval_names()))]

@@ -528,3 +528,70 @@ fn check_cannot_be_switched_off_by_the_file_or_an_empty_sample() {
     let out = run(&["check", "--points", "0"], "");
     assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
 }
+
+/// `eval --help` lists every family's input and output columns: each column name of
+/// every family and flag combination appears in it (backquoted, or as the `… N`
+/// range of a numbered set).
+#[test]
+fn eval_help_lists_every_column() {
+    use lobefit::family::EvalFlags;
+    use lobefit::fits::{eval_names, for_eval, FitOptions};
+    let (code, help, _) = common::run_text(&["eval", "--help"], "");
+    assert_eq!(code, Some(0));
+    let mut combos: Vec<(&str, EvalFlags)> = eval_names().into_iter().map(|n| (n, EvalFlags::default())).collect();
+    for kind in ["diffuse", "phong", "blocker"] {
+        combos.push((
+            "log-zh",
+            EvalFlags {
+                kind: Some(kind.into()),
+                order: Some(8),
+                ..Default::default()
+            },
+        ));
+    }
+    for (name, top) in [("wedge", 8), ("wrap", 8), ("shexp", 8)] {
+        combos.push((
+            name,
+            EvalFlags {
+                order: Some(top),
+                ..Default::default()
+            },
+        ));
+    }
+    combos.push((
+        "shexp",
+        EvalFlags {
+            log: Some("naive".into()),
+            ..Default::default()
+        },
+    ));
+    for model in ["paper", "refit", "best"] {
+        combos.push((
+            "isg",
+            EvalFlags {
+                model: Some(model.into()),
+                ..Default::default()
+            },
+        ));
+    }
+    combos.push((
+        "lobe-product",
+        EvalFlags {
+            variant: Some("l2".into()),
+            ..Default::default()
+        },
+    ));
+    for (name, flags) in combos {
+        let f = for_eval(name, &flags, FitOptions::default()).unwrap();
+        assert!(help.contains(name), "{name} has no entry");
+        for col in f.inputs().iter().chain(f.outputs()) {
+            // Numbered sets are written `x0` … `x7`.
+            let set = col.trim_end_matches(|c: char| c.is_ascii_digit());
+            let numbered = set.len() < col.len() && help.contains(&format!("`{set}0` … `{set}7`"));
+            assert!(
+                help.contains(&format!("`{col}`")) || numbered,
+                "{name}: column {col} is not in eval --help"
+            );
+        }
+    }
+}
