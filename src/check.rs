@@ -403,36 +403,61 @@ pub fn metric_value(o: &OutputReport, metric: &str) -> Option<f64> {
     stats.metric(stat)
 }
 
-/// Renders reports as a fixed-width text table.
+/// Whether an output's errors read best as absolute values: the kind its thresholds
+/// use, else absolute where relative errors exceed 1 (the quantity crosses 0, so a
+/// ratio to it means nothing), else relative.
+fn reads_absolute(r: &FamilyReport, o: &OutputReport) -> bool {
+    match r.thresholds.iter().find(|t| t.output == o.output) {
+        Some(t) => t.metric.ends_with("_abs"),
+        None => !(o.grid_rel.max.max(o.offgrid_rel.max) <= 1.0) && o.offgrid_abs.count + o.grid_abs.count > 0,
+    }
+}
+
+/// Renders reports as a fixed-width text table: each quantity in the kind of error it
+/// promises (see [`reads_absolute`]), the other kind on the line below where it means
+/// something.
 pub fn render(reports: &[FamilyReport]) -> String {
     let mut s = String::new();
     s.push_str(&format!(
-        "{:<15} {:<10} {:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}\n",
-        "family", "output", "grid", "random", "grid max", "rnd mean", "rnd median", "rnd p95", "rnd max", "rnd maxabs"
+        "{:<15} {:<22} {:>3} {:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10}\n",
+        "family", "output", "err", "nodes", "random", "grid max", "rnd mean", "rnd median", "rnd p95", "rnd max"
     ));
     for r in reports {
+        let mut other = String::new();
         for o in &r.outputs {
+            let abs = reads_absolute(r, o);
+            let (g, x) = if abs {
+                (&o.grid_abs, &o.offgrid_abs)
+            } else {
+                (&o.grid_rel, &o.offgrid_rel)
+            };
             s.push_str(&format!(
-                "{:<15} {:<10} {:>6} {:>6} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e}\n",
+                "{:<15} {:<22} {:>3} {:>6} {:>6} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e}\n",
                 r.kind,
                 o.output,
-                o.grid_rel.count,
-                o.offgrid_rel.count,
-                o.grid_rel.max,
-                o.offgrid_rel.mean,
-                o.offgrid_rel.median,
-                o.offgrid_rel.p95,
-                o.offgrid_rel.max,
-                o.offgrid_abs.max
+                if abs { "abs" } else { "rel" },
+                g.count,
+                x.count,
+                g.max,
+                x.mean,
+                x.median,
+                x.p95,
+                x.max
             ));
+            let (g, x, kind) = if abs {
+                (&o.grid_rel, &o.offgrid_rel, "relative")
+            } else {
+                (&o.grid_abs, &o.offgrid_abs, "absolute")
+            };
+            // A relative error above 1 is a ratio to a value near 0: not shown.
+            if !abs || g.max.max(x.max) <= 1.0 {
+                other.push_str(&format!(
+                    "  {} {kind}: grid max {:.3e}; random mean {:.3e} median {:.3e} p95 {:.3e} max {:.3e}\n",
+                    o.output, g.max, x.mean, x.median, x.p95, x.max
+                ));
+            }
         }
-        for o in &r.outputs {
-            let a = &o.offgrid_abs;
-            s.push_str(&format!(
-                "  {} absolute: grid max {:.3e}; random mean {:.3e} median {:.3e} p95 {:.3e} max {:.3e}\n",
-                o.output, o.grid_abs.max, a.mean, a.median, a.p95, a.max
-            ));
-        }
+        s.push_str(&other);
         for v in &r.values {
             let st = &v.stats;
             s.push_str(&format!(
@@ -454,7 +479,10 @@ pub fn render(reports: &[FamilyReport]) -> String {
             s.push_str(&format!("  FAIL {p}\n"));
         }
     }
-    s.push_str("(errors are relative unless marked abs; rnd = seeded random off-grid points through the runtime)\n");
+    s.push_str(
+        "(err: the kind of error each quantity promises, abs or rel; nodes: points checked at grid nodes; \
+         rnd = seeded random off-grid points through the runtime; NaN = no points of that kind)\n",
+    );
     s
 }
 

@@ -51,8 +51,12 @@ pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
 pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
 pub use lobe_integral::LobeIntegral;
 pub use lobe_product::{Lobe, LobeF32, LobeProduct, ProductParams, Variant};
+pub use log_zh::LogZh;
 pub use sg_fit::SgFit;
+pub use shexp::ShExp;
 pub use table::Table;
+pub use wedge::Wedges;
+pub use wrap::WrapTable;
 
 /// The committed default tables (`tables/data/*.lobefit`), compiled in.
 #[cfg(feature = "embedded")]
