@@ -409,7 +409,10 @@ pub fn metric_value(o: &OutputReport, metric: &str) -> Option<f64> {
 fn reads_absolute(r: &FamilyReport, o: &OutputReport) -> bool {
     match r.thresholds.iter().find(|t| t.output == o.output) {
         Some(t) => t.metric.ends_with("_abs"),
-        None => !(o.grid_rel.max.max(o.offgrid_rel.max) <= 1.0) && o.offgrid_abs.count + o.grid_abs.count > 0,
+        None => {
+            let rel = o.grid_rel.max.max(o.offgrid_rel.max);
+            (rel.is_nan() || rel > 1.0) && o.offgrid_abs.count + o.grid_abs.count > 0
+        }
     }
 }
 
