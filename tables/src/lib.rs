@@ -58,31 +58,44 @@ pub use table::Table;
 pub use wedge::Wedges;
 pub use wrap::WrapTable;
 
-/// The committed default tables (`tables/data/*.lobefit`), compiled in.
-#[cfg(feature = "embedded")]
+/// The committed default tables (`tables/data/*.lobefit`), compiled in: each behind
+/// its cargo feature `embedded-<table>` (`embedded`, on by default, means all), so a
+/// renderer compiles in only the tables it uses.
 pub mod embedded {
+    #[cfg(feature = "embedded-lobe-integral")]
     /// `tables/data/lobe-integral.lobefit`.
     pub static LOBE_INTEGRAL: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
+    #[cfg(feature = "embedded-cap-exponent")]
     /// `tables/data/cap-exponent.lobefit`.
     pub static CAP_EXPONENT: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+    #[cfg(feature = "embedded-isg-refit")]
     /// `tables/data/isg-refit.lobefit`.
     pub static ISG_REFIT: &[u8] = include_bytes!("../data/isg-refit.lobefit");
+    #[cfg(feature = "embedded-isg-best")]
     /// `tables/data/isg-best.lobefit`.
     pub static ISG_BEST: &[u8] = include_bytes!("../data/isg-best.lobefit");
+    #[cfg(feature = "embedded-sg-fit")]
     /// `tables/data/sg-fit.lobefit`.
     pub static SG_FIT: &[u8] = include_bytes!("../data/sg-fit.lobefit");
+    #[cfg(feature = "embedded-log-zh")]
     /// `tables/data/log-zh.lobefit`.
     pub static LOG_ZH: &[u8] = include_bytes!("../data/log-zh.lobefit");
+    #[cfg(feature = "embedded-wedge")]
     /// `tables/data/wedge.lobefit`.
     pub static WEDGE: &[u8] = include_bytes!("../data/wedge.lobefit");
+    #[cfg(feature = "embedded-shexp")]
     /// `tables/data/shexp.lobefit`.
     pub static SHEXP: &[u8] = include_bytes!("../data/shexp.lobefit");
+    #[cfg(feature = "embedded-lobe-product")]
     /// `tables/data/lobe-product.lobefit` (the `energy` variant).
     pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
+    #[cfg(feature = "embedded-lobe-product-l2")]
     /// `tables/data/lobe-product-l2.lobefit`.
     pub static LOBE_PRODUCT_L2: &[u8] = include_bytes!("../data/lobe-product-l2.lobefit");
+    #[cfg(feature = "embedded-disk-light")]
     /// `tables/data/disk-light.lobefit`.
     pub static DISK_LIGHT: &[u8] = include_bytes!("../data/disk-light.lobefit");
+    #[cfg(feature = "embedded-wrap")]
     /// `tables/data/wrap.lobefit`.
     pub static WRAP: &[u8] = include_bytes!("../data/wrap.lobefit");
 }

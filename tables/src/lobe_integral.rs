@@ -74,7 +74,7 @@ impl LobeIntegral {
     }
 
     /// The default table compiled into this crate.
-    #[cfg(feature = "embedded")]
+    #[cfg(feature = "embedded-lobe-integral")]
     pub fn embedded() -> Result<&'static Self, LoadError> {
         static CELL: std::sync::OnceLock<Result<LobeIntegral, LoadError>> = std::sync::OnceLock::new();
         CELL.get_or_init(|| Self::from_bytes(crate::embedded::LOBE_INTEGRAL))

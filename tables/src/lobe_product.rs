@@ -336,7 +336,7 @@ impl LobeProduct {
     }
 
     /// The default `energy` table compiled into this crate.
-    #[cfg(feature = "embedded")]
+    #[cfg(feature = "embedded-lobe-product")]
     pub fn embedded() -> Result<&'static Self, LoadError> {
         static CELL: std::sync::OnceLock<Result<LobeProduct, LoadError>> = std::sync::OnceLock::new();
         CELL.get_or_init(|| Self::from_bytes(crate::embedded::LOBE_PRODUCT))
@@ -345,7 +345,7 @@ impl LobeProduct {
     }
 
     /// The default `l2` table compiled into this crate.
-    #[cfg(feature = "embedded")]
+    #[cfg(feature = "embedded-lobe-product-l2")]
     pub fn embedded_l2() -> Result<&'static Self, LoadError> {
         static CELL: std::sync::OnceLock<Result<LobeProduct, LoadError>> = std::sync::OnceLock::new();
         CELL.get_or_init(|| Self::from_bytes(crate::embedded::LOBE_PRODUCT_L2))

@@ -67,7 +67,7 @@ impl SgFit {
     }
 
     /// The default table compiled into this crate.
-    #[cfg(feature = "embedded")]
+    #[cfg(feature = "embedded-sg-fit")]
     pub fn embedded() -> Result<&'static Self, LoadError> {
         static CELL: std::sync::OnceLock<Result<SgFit, LoadError>> = std::sync::OnceLock::new();
         CELL.get_or_init(|| Self::from_bytes(crate::embedded::SG_FIT))

@@ -397,7 +397,7 @@ impl ShExp {
     }
 
     /// The default table compiled into this crate.
-    #[cfg(feature = "embedded")]
+    #[cfg(feature = "embedded-shexp")]
     pub fn embedded() -> Result<&'static Self, LoadError> {
         static CELL: std::sync::OnceLock<Result<ShExp, LoadError>> = std::sync::OnceLock::new();
         CELL.get_or_init(|| Self::from_bytes(crate::embedded::SHEXP))

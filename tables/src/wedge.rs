@@ -167,7 +167,7 @@ impl Wedges {
     }
 
     /// The default table compiled into this crate.
-    #[cfg(feature = "embedded")]
+    #[cfg(feature = "embedded-wedge")]
     pub fn embedded() -> Result<&'static Self, LoadError> {
         static CELL: std::sync::OnceLock<Result<Wedges, LoadError>> = std::sync::OnceLock::new();
         CELL.get_or_init(|| Self::from_bytes(crate::embedded::WEDGE))

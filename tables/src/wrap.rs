@@ -232,7 +232,7 @@ impl WrapTable {
     }
 
     /// The default table compiled into this crate.
-    #[cfg(feature = "embedded")]
+    #[cfg(feature = "embedded-wrap")]
     pub fn embedded() -> Result<&'static Self, LoadError> {
         static CELL: std::sync::OnceLock<Result<WrapTable, LoadError>> = std::sync::OnceLock::new();
         CELL.get_or_init(|| Self::from_bytes(crate::embedded::WRAP))
