@@ -23,6 +23,66 @@
 //! assert!(caps.e_cap(f64::NAN).is_err());
 //! # }
 //! ```
+//!
+//! ## Map of the crate
+//!
+//! | family (table) | type | what a renderer asks it |
+//! | --- | --- | --- |
+//! | lobe-integral | [`LobeIntegral`] | ∫ of a cosine lobe (sr); also the closed form [`lobe_integral::exact`] |
+//! | cap-exponent | [`CapExponent`] | the lobe exponent standing for a spherical cap (a light, a blocker) |
+//! | lobe-product, lobe-product-l2 | [`LobeProduct`] | the product of two lobes as one lobe; lobe-sum triple products |
+//! | isg-refit, isg-best | [`RefitIsg`], [`BestIsg`] ([`PaperIsg`] needs no table) | SG integrals over spherical rectangles |
+//! | sg-fit | [`SgFit`] | the SG closest to a cosine lobe ([`Sg`]: SG algebra) |
+//! | log-zh | [`LogZh`] | log-space ZH vectors of BRDFs and spherical blockers |
+//! | wedge | [`Wedges`] | height-field wedge visibility in log space |
+//! | shexp | [`ShExp`] | SH exponentiation (HYB) of summed log-visibility |
+//! | wrap | [`WrapTable`] | per-band scalings of wrap lighting |
+//! | disk-light | [`DiskLight`] | SH radiance and irradiance of a disk light |
+//! | (no table) | [`rigs`], [`sh`], [`gaunt`] | irradiance rigs; SH basis, rotation, products |
+//! | every table | [`Table`], [`format`] | loading, validation, interpolation, the file format |
+//!
+//! Each family type loads its committed table with `embedded()` (cargo feature
+//! `embedded-<table>`) or any file with `from_bytes` / `from_table`.
+//!
+//! ```
+//! # #[cfg(feature = "embedded")] {
+//! use lobefit_tables::glam::DVec3;
+//! use lobefit_tables::*;
+//! // Lobe product: two lobes as one (scale, axis, exponent).
+//! let a = Lobe { scale: 1.0, axis: DVec3::Z, exponent: 20.0 };
+//! let b = Lobe { scale: 1.0, axis: DVec3::new(0.1, 0.0, 1.0).normalize(), exponent: 20.0 };
+//! let ab = LobeProduct::embedded().unwrap().product(&a, &b).unwrap();
+//! assert!(ab.exponent > 20.0 && ab.axis.x > 0.0);
+//! // SG closest to a cosine lobe of exponent 1, and the normalised ISG of a patch.
+//! let sg = SgFit::embedded().unwrap().lobe_to_sg([0.0, 0.0, 1.0], 1.0, 1.0).unwrap();
+//! assert!((sg.sharpness - 2.14).abs() < 0.01);
+//! let s = BestIsg::embedded().unwrap().s_hat(1.2, 2.0, 10.0).unwrap();
+//! assert!(s > 0.0 && s < 1.0);
+//! // Log-ZH of a spherical blocker of angular radius 0.4 rad (order 4, ε = 0.1).
+//! let mut z = [0.0; 4];
+//! LogZh::embedded().unwrap().lookup(log_zh::Kind::Blocker, 0.1, 0.4, 4, &mut z).unwrap();
+//! assert!(z[0] < 0.0);
+//! // Turn it to the blocker's direction and exponentiate: SH visibility by HYB.
+//! let mut f = [0.0; 16];
+//! sh::zh_to_sh(&z, [0.0, 0.6, 0.8], &mut f).unwrap();
+//! let mut vis = [0.0; 16];
+//! ShExp::embedded().unwrap().hyb(&f, &mut vis).unwrap();
+//! assert!(vis[0] > 0.0 && vis[0] < (4.0 * std::f64::consts::PI).sqrt());
+//! // Wrap lighting's per-band scalings at a = 0.5.
+//! let mut l = [0.0; 3];
+//! WrapTable::embedded().unwrap().lookup(3, 0.5, &mut l).unwrap();
+//! assert!(l[0] > l[1] && l[1] > l[2]);
+//! // Irradiance at the origin (normal +z) from a disk light 2 m above, facing down.
+//! let e = DiskLight::embedded()
+//!     .unwrap()
+//!     .irradiance(DVec3::ZERO, DVec3::Z, 2.0 * DVec3::Z, -DVec3::Z, 0.5, 1.0)
+//!     .unwrap();
+//! let exact = std::f64::consts::PI * 0.25 / (0.25 + 4.0); // π R²/(R² + d²), head-on
+//! // Order-3 SH irradiance band-limits the clamped cosine: a small source on the
+//! // normal reads up to 1/16 high (the truncated kernel is 1/4 + 1/2 + 5/16 at the pole).
+//! assert!(e > exact && e < 1.0625 * exact, "{e} vs {exact}");
+//! # }
+//! ```
 
 pub mod cap_exponent;
 pub mod disk_light;
