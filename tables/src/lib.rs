@@ -39,7 +39,7 @@
 //! | wrap | [`WrapTable`] | per-band scalings of wrap lighting |
 //! | disk-light | [`DiskLight`] | SH radiance and irradiance of a disk light |
 //! | (no table) | [`rigs`], [`sh`], [`gaunt`] | irradiance rigs; SH basis, rotation, products |
-//! | every table | [`Table`], [`format`] | loading, validation, interpolation, the file format |
+//! | every table | [`Table`], [`format`](mod@format) | loading, validation, interpolation, the file format |
 //!
 //! Each family type loads its committed table with `embedded()` (cargo feature
 //! `embedded-<table>`) or any file with `from_bytes` / `from_table`.
