@@ -82,3 +82,18 @@ fn light_sh_sphere() -> f64 {
     };
     l.irradiance_sh(black_box(DVec3::new(0.3, 0.9, 0.2)), d).unwrap()[6]
 }
+
+/// The checker's two disk-light references side by side (every node uses the
+/// direction one, the off-grid sample the area one), at three (R/d, τ): small and
+/// head-on, rim-crossing, near grazing.
+const DISK_CASES: [(f64, f64); 3] = [(0.05, 0.3), (0.9, 1.2), (5.0, 1.5)];
+
+#[divan::bench(args = DISK_CASES)]
+fn disk_reference_area(case: (f64, f64)) -> f64 {
+    lobefit::fits::disk_light::reference_canonical(black_box(case.0), black_box(case.1)).unwrap()[0]
+}
+
+#[divan::bench(args = DISK_CASES)]
+fn disk_reference_directions(case: (f64, f64)) -> f64 {
+    lobefit::fits::disk_light::reference_canonical_directions(black_box(case.0), black_box(case.1)).unwrap()[0]
+}
