@@ -5,7 +5,7 @@
 
 use std::fmt::Write as _;
 
-use crate::check::{FamilyReport, OutputReport, Stats};
+use crate::check::{metric_value, FamilyReport, OutputReport, Stats};
 
 /// Default of `--baseline-factor`: a metric may grow to 1.5× its saved value. Rebuilds
 /// of unchanged tables reproduce every metric exactly (the checker is deterministic),
@@ -36,15 +36,14 @@ pub struct Comparison {
 
 /// The named statistics of an output report, as (metric name, value).
 fn output_metrics(o: &OutputReport) -> Vec<(String, f64)> {
-    let sets: [(&str, &str, &Stats); 4] = [
-        ("grid", "abs", &o.grid_abs),
-        ("grid", "rel", &o.grid_rel),
-        ("offgrid", "abs", &o.offgrid_abs),
-        ("offgrid", "rel", &o.offgrid_rel),
-    ];
-    sets.iter()
-        .flat_map(|(set, kind, st)| {
-            Stats::METRICS.map(|m| (format!("{set}.{m}_{kind}"), st.metric(m).unwrap_or(f64::NAN)))
+    let names = ["grid", "offgrid"]
+        .iter()
+        .flat_map(|set| ["abs", "rel"].map(|kind| (set, kind)))
+        .flat_map(|(set, kind)| Stats::METRICS.map(|m| format!("{set}.{m}_{kind}")));
+    names
+        .map(|name| {
+            let value = metric_value(o, &name).unwrap_or(f64::NAN);
+            (name, value)
         })
         .collect()
 }
