@@ -168,3 +168,41 @@ fn the_corruptions_that_once_passed_fail_the_quick_check() {
         assert!(out.contains(expect), "{kind}: expected '{expect}' in\n{out}");
     }
 }
+
+/// Bad `--junit` / `--baseline-factor` arguments are specific errors.
+#[test]
+fn bad_ci_arguments_are_specific_errors() {
+    let (code, _, err) = run_text(
+        &[
+            "check",
+            "--quick",
+            "--only",
+            "lobe-integral",
+            "--junit",
+            "/proc/no/such/dir/check.xml",
+        ],
+        "",
+    );
+    assert_eq!(code, Some(1));
+    assert!(err.contains("--junit /proc/no/such/dir/check.xml"), "{err}");
+    let (code, _, err) = run_text(
+        &["check", "--quick", "--only", "lobe-integral", "--baseline-factor", "2"],
+        "",
+    );
+    assert_eq!(code, Some(2), "the factor without a baseline is a usage error");
+    assert!(err.contains("--baseline"), "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("none.json");
+    let (code, _, err) = run_text(
+        &[
+            "check",
+            "--only",
+            "lobe-integral",
+            "--baseline",
+            missing.to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(code, Some(1));
+    assert!(err.contains("--baseline") && err.contains("none.json"), "{err}");
+}
