@@ -229,7 +229,7 @@ fn sg_integrals_against_quadrature() {
     use lobefit::quad::gauss_kronrod;
     for &l in &[0.01, 1.0, 37.0, 5000.0] {
         let g = Sg {
-            axis: [0.0, 1.0, 0.0],
+            axis: lobefit::tables::glam::DVec3::Y,
             sharpness: l,
             amplitude: 1.7,
         };

@@ -169,7 +169,7 @@ pub fn form_factor_irradiance(
 }
 
 fn unit(name: &str, v: DVec3) -> Result<DVec3, LookupError> {
-    let d = sh::normalize([v.x, v.y, v.z]).map_err(|e| match e {
+    let d = sh::normalize(v).map_err(|e| match e {
         LookupError::NotFinite { value, .. } => LookupError::NotFinite {
             name: name.into(),
             value,
@@ -182,7 +182,7 @@ fn unit(name: &str, v: DVec3) -> Result<DVec3, LookupError> {
         },
         other => other,
     })?;
-    Ok(DVec3::from_array(d))
+    Ok(d)
 }
 
 /// The canonical coefficients in the limit τ → π/2⁻ (receiver approaching the disk's

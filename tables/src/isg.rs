@@ -32,6 +32,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use crate::error::{finite, finite_result, in_range, narrow, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
+use glam::{DVec3, Vec3};
 
 /// Table kind of the refitted logistic model.
 pub const KIND_REFIT: &str = "isg-refit";
@@ -477,7 +478,7 @@ impl IsgModel for BestIsg {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sg {
     /// Unit lobe axis.
-    pub axis: [f64; 3],
+    pub axis: DVec3,
     /// Sharpness λ (> 0).
     pub sharpness: f64,
     /// Amplitude μ (value at the axis).
@@ -487,8 +488,8 @@ pub struct Sg {
 impl Sg {
     /// A validated SG: `axis` of unit length (within 1e-3; normalised), sharpness
     /// λ ∈ (0, 1e6], finite amplitude.
-    pub fn new(axis: [f64; 3], sharpness: f64, amplitude: f64) -> Result<Sg, LookupError> {
-        let n = unit_axis(axis)?;
+    pub fn new(axis: impl Into<DVec3>, sharpness: f64, amplitude: f64) -> Result<Sg, LookupError> {
+        let n = unit_axis(axis.into())?;
         let sharpness = in_range("sharpness", sharpness, f64::MIN_POSITIVE, 1e6)?;
         let amplitude = finite("amplitude", amplitude)?;
         Ok(Sg {
@@ -499,32 +500,29 @@ impl Sg {
     }
 
     /// G(v) for a unit direction v.
-    pub fn eval(&self, v: [f64; 3]) -> f64 {
-        let d = self.axis[0] * v[0] + self.axis[1] * v[1] + self.axis[2] * v[2];
-        self.amplitude * (self.sharpness * (d - 1.0)).exp()
+    pub fn eval(&self, v: impl Into<DVec3>) -> f64 {
+        self.amplitude * (self.sharpness * (self.axis.dot(v.into()) - 1.0)).exp()
     }
 
     /// The product of two SGs, itself an SG: λ_m = ‖λ1 a1 + λ2 a2‖,
     /// a_m = (λ1 a1 + λ2 a2)/λ_m, μ_m = μ1 μ2 exp(λ_m − λ1 − λ2). When the lobes are
     /// exactly opposite with equal sharpness (λ_m = 0) the product is the constant
-    /// μ1 μ2 e^{−2λ}; it is returned with axis `self.axis` and sharpness 0.
-    pub fn product(&self, other: &Sg) -> Sg {
-        let m = [
-            self.sharpness * self.axis[0] + other.sharpness * other.axis[0],
-            self.sharpness * self.axis[1] + other.sharpness * other.axis[1],
-            self.sharpness * self.axis[2] + other.sharpness * other.axis[2],
-        ];
-        let lm = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
-        let axis = if lm > 0.0 {
-            [m[0] / lm, m[1] / lm, m[2] / lm]
-        } else {
-            self.axis
-        };
-        Sg {
+    /// μ1 μ2 e^{−2λ}; it is returned with axis `self.axis` and sharpness 0. Errors
+    /// with [`LookupError::Overflow`] when μ_m overflows (|μ1 μ2| beyond f64).
+    pub fn product(&self, other: &Sg) -> Result<Sg, LookupError> {
+        let m = self.sharpness * self.axis + other.sharpness * other.axis;
+        let lm = m.length();
+        let axis = if lm > 0.0 { m / lm } else { self.axis };
+        // exp(λ_m − λ1 − λ2) ≤ 1, so only μ1 μ2 can overflow.
+        let amplitude = finite_result(
+            "SG product amplitude",
+            self.amplitude * other.amplitude * (lm - self.sharpness - other.sharpness).exp(),
+        )?;
+        Ok(Sg {
             axis,
             sharpness: lm,
-            amplitude: self.amplitude * other.amplitude * (lm - self.sharpness - other.sharpness).exp(),
-        }
+            amplitude,
+        })
     }
 
     /// ∫_{S²} G dω = μ 2π/λ (1 − e^{−2λ}) sr (4πμ in the limit λ → 0).
@@ -539,13 +537,13 @@ impl Sg {
 }
 
 /// A finite axis of unit length within 1e-3, normalised.
-pub(crate) fn unit_axis(a: [f64; 3]) -> Result<[f64; 3], LookupError> {
-    for x in a {
+pub(crate) fn unit_axis(a: DVec3) -> Result<DVec3, LookupError> {
+    for x in a.to_array() {
         finite("axis", x)?;
     }
-    let len = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    let len = a.length();
     in_range("|axis|", len, 1.0 - 1e-3, 1.0 + 1e-3)?;
-    Ok(a.map(|x| x / len))
+    Ok(a / len)
 }
 
 /// 2π (1 − e^{−kλ})/λ, with its limit 2πk at λ = 0.
@@ -557,11 +555,12 @@ fn sphere_factor(lambda: f64, k: f64) -> f64 {
     }
 }
 
-/// [`Sg`] in single precision (computed in f64, rounded once).
+/// [`Sg`] with an f32 interface: f32 in and out, computed in f64 and rounded once
+/// (the crate's convention for `_f32` twins; see the crate docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sg32 {
     /// Unit lobe axis.
-    pub axis: [f32; 3],
+    pub axis: Vec3,
     /// Sharpness λ (> 0).
     pub sharpness: f32,
     /// Amplitude μ.
@@ -571,25 +570,26 @@ pub struct Sg32 {
 impl Sg32 {
     fn wide(&self) -> Sg {
         Sg {
-            axis: self.axis.map(f64::from),
+            axis: self.axis.as_dvec3(),
             sharpness: self.sharpness as f64,
             amplitude: self.amplitude as f64,
         }
     }
-    fn narrow(s: Sg) -> Sg32 {
-        Sg32 {
-            axis: s.axis.map(|x| x as f32),
-            sharpness: s.sharpness as f32,
-            amplitude: s.amplitude as f32,
-        }
+    /// The f64 SG rounded to f32 (errors where a value overflows f32).
+    pub fn from_sg(s: &Sg) -> Result<Sg32, LookupError> {
+        Ok(Sg32 {
+            axis: s.axis.as_vec3(),
+            sharpness: narrow("SG sharpness", s.sharpness)?,
+            amplitude: narrow("SG amplitude", s.amplitude)?,
+        })
     }
     /// [`Sg::eval`].
-    pub fn eval(&self, v: [f32; 3]) -> f32 {
-        self.wide().eval(v.map(f64::from)) as f32
+    pub fn eval(&self, v: impl Into<Vec3>) -> f32 {
+        self.wide().eval(v.into().as_dvec3()) as f32
     }
-    /// [`Sg::product`].
-    pub fn product(&self, other: &Sg32) -> Sg32 {
-        Self::narrow(self.wide().product(&other.wide()))
+    /// [`Sg::product`]; also errors where the product's amplitude overflows f32.
+    pub fn product(&self, other: &Sg32) -> Result<Sg32, LookupError> {
+        Self::from_sg(&self.wide().product(&other.wide())?)
     }
     /// [`Sg::integral`].
     pub fn integral(&self) -> f32 {
@@ -627,17 +627,17 @@ mod tests {
     #[test]
     fn sg_product_and_integrals() {
         let a = Sg {
-            axis: [0.0, 0.0, 1.0],
+            axis: DVec3::Z,
             sharpness: 3.0,
             amplitude: 2.0,
         };
         let s = 0.6f64;
         let b = Sg {
-            axis: [s.sin(), 0.0, s.cos()],
+            axis: DVec3::new(s.sin(), 0.0, s.cos()),
             sharpness: 5.0,
             amplitude: 0.5,
         };
-        let p = a.product(&b);
+        let p = a.product(&b).unwrap();
         for v in [[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, -1.0, 0.0], [-0.48, 0.6, 0.64]] {
             assert!((p.eval(v) - a.eval(v) * b.eval(v)).abs() < 1e-14, "{v:?}");
         }
@@ -645,11 +645,16 @@ mod tests {
         assert!((a.integral() - 2.0 * 2.0 * PI * (1.0 - (-6.0f64).exp()) / 3.0).abs() < 1e-13);
         assert!((a.hemisphere_integral() - 2.0 * 2.0 * PI * (1.0 - (-3.0f64).exp()) / 3.0).abs() < 1e-13);
         let z = Sg {
-            axis: [1.0, 0.0, 0.0],
+            axis: DVec3::X,
             sharpness: 0.0,
             amplitude: 1.0,
         };
         assert!((z.integral() - 4.0 * PI).abs() < 1e-15);
+        // μ1 μ2 beyond f64 is an error, not an infinite amplitude.
+        let big = Sg::new(DVec3::Z, 1.0, 1e200).unwrap();
+        assert!(matches!(big.product(&big), Err(LookupError::Overflow { .. })));
+        let big32 = Sg32::from_sg(&Sg::new(DVec3::Z, 1.0, 1e30).unwrap()).unwrap();
+        assert!(matches!(big32.product(&big32), Err(LookupError::Overflow { .. })));
     }
 
     #[test]

@@ -275,7 +275,7 @@ pub fn blocker_f32(eps: f32, theta_b: f32, order: usize, out: &mut [f32]) -> Res
 
 /// Turns a log-ZH vector (about +z) to the world axis `d` (need not be unit):
 /// `out[..n²]`, n = `zh.len()`. Same as [`sh::zh_to_sh`].
-pub fn to_world(zh: &[f64], d: [f64; 3], out: &mut [f64]) -> Result<(), LookupError> {
+pub fn to_world(zh: &[f64], d: impl Into<glam::DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
     sh::zh_to_sh(zh, d, out)
 }
 

@@ -220,8 +220,8 @@ impl RigBox {
     }
 
     /// The point at normalised coordinates t.
-    pub fn point(&self, t: [f64; 3]) -> DVec3 {
-        self.centre + self.half * DVec3::from_array(t)
+    pub fn point(&self, t: impl Into<DVec3>) -> DVec3 {
+        self.centre + self.half * t.into()
     }
 }
 

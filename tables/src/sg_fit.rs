@@ -97,7 +97,7 @@ impl SgFit {
 
     /// The SG approximating the lobe s·max(a·v, 0)^e: axis a (unit within 1e-3), λ(e),
     /// s·μ(e) (s finite).
-    pub fn lobe_to_sg(&self, axis: [f64; 3], e: f64, scale: f64) -> Result<Sg, LookupError> {
+    pub fn lobe_to_sg(&self, axis: impl Into<glam::DVec3>, e: f64, scale: f64) -> Result<Sg, LookupError> {
         let (lambda, mu) = self.fit(e)?;
         let scale = crate::error::finite("scale", scale)?;
         let amplitude = crate::error::finite_result("SG amplitude s·mu", scale * mu)?;

@@ -33,6 +33,7 @@
 use std::f64::consts::PI;
 
 use crate::error::{finite, finite_results, narrow_all, LookupError};
+use glam::{DVec3, Vec3};
 
 /// Largest supported order (bands l = 0..7).
 pub const MAX_ORDER: usize = 8;
@@ -92,11 +93,12 @@ fn check_len(len: usize, want: usize) -> Result<(), LookupError> {
 }
 
 /// Unit vector along `d`; errors on non-finite or zero-length input.
-pub fn normalize(d: [f64; 3]) -> Result<[f64; 3], LookupError> {
-    for (k, &c) in d.iter().enumerate() {
+pub fn normalize(d: impl Into<DVec3>) -> Result<DVec3, LookupError> {
+    let d = d.into();
+    for (k, &c) in d.to_array().iter().enumerate() {
         finite(["direction.x", "direction.y", "direction.z"][k], c)?;
     }
-    let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let n = d.length();
     if !(n > 0.0 && n.is_finite()) {
         return Err(LookupError::OutOfDomain {
             name: "direction length".into(),
@@ -105,7 +107,7 @@ pub fn normalize(d: [f64; 3]) -> Result<[f64; 3], LookupError> {
             hi: f64::MAX,
         });
     }
-    Ok([d[0] / n, d[1] / n, d[2] / n])
+    Ok(d / n)
 }
 
 /// Normalisation K_l^m = √((2l+1)/(4π) (l−m)!/(l+m)!) for 0 ≤ m ≤ l.
@@ -133,7 +135,8 @@ fn k_table() -> &'static [[f64; MAX_ORDER]; MAX_ORDER] {
 
 /// Basis values y_0 … y_{n²−1} at direction `d` (normalised here; need not be unit)
 /// into `out[..n²]`. Uses the hard-coded path for n ≤ 4, the recurrence above.
-pub fn eval_basis(order: usize, d: [f64; 3], out: &mut [f64]) -> Result<(), LookupError> {
+pub fn eval_basis(order: usize, d: impl Into<DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
+    let d = d.into();
     if order <= HARDCODED_MAX_ORDER {
         eval_basis_hardcoded(order, d, out)
     } else {
@@ -142,11 +145,11 @@ pub fn eval_basis(order: usize, d: [f64; 3], out: &mut [f64]) -> Result<(), Look
 }
 
 /// [`eval_basis`] in single precision (computed in f64, rounded once).
-pub fn eval_basis_f32(order: usize, d: [f32; 3], out: &mut [f32]) -> Result<(), LookupError> {
+pub fn eval_basis_f32(order: usize, d: impl Into<Vec3>, out: &mut [f32]) -> Result<(), LookupError> {
     let n = coeff_count(check_order(order)?);
     check_len(out.len(), n)?;
     let mut tmp = [0.0f64; MAX_COEFFS];
-    eval_basis(order, d.map(f64::from), &mut tmp)?;
+    eval_basis(order, d.into().as_dvec3(), &mut tmp)?;
     for (o, t) in out.iter_mut().zip(&tmp[..n]) {
         *o = *t as f32;
     }
@@ -158,10 +161,10 @@ pub fn eval_basis_f32(order: usize, d: [f32; 3], out: &mut [f32]) -> Result<(), 
 /// Cartesian form: (1−z²)^{m/2} (cos mφ, sin mφ) = (Re, Im)(x + iy)^m for unit d, and
 /// P_l^m = (−1)^m (1−z²)^{m/2} Q_l^m(z) with Q_l^m = d^m P_l/dz^m, which obeys
 /// Q_m^m = (2m−1)!!, (l−m) Q_l^m = (2l−1) z Q_{l−1}^m − (l+m−1) Q_{l−2}^m.
-pub fn eval_basis_recurrence(order: usize, d: [f64; 3], out: &mut [f64]) -> Result<(), LookupError> {
+pub fn eval_basis_recurrence(order: usize, d: impl Into<DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
     let n = check_order(order)?;
     check_len(out.len(), n * n)?;
-    let [x, y, z] = normalize(d)?;
+    let [x, y, z] = normalize(d)?.to_array();
     let (mut c, mut s) = (1.0, 0.0); // Re, Im of (x + iy)^m
     let mut dfact = 1.0; // (2m−1)!!
     for m in 0..n {
@@ -192,7 +195,7 @@ pub fn eval_basis_recurrence(order: usize, d: [f64; 3], out: &mut [f64]) -> Resu
 
 /// Basis by hard-coded polynomials in (x, y, z), orders 1..=4 (Sloan's table).
 #[allow(clippy::excessive_precision)]
-pub fn eval_basis_hardcoded(order: usize, d: [f64; 3], out: &mut [f64]) -> Result<(), LookupError> {
+pub fn eval_basis_hardcoded(order: usize, d: impl Into<DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
     let n = check_order(order)?;
     if n > HARDCODED_MAX_ORDER {
         return Err(LookupError::OutOfDomain {
@@ -203,7 +206,7 @@ pub fn eval_basis_hardcoded(order: usize, d: [f64; 3], out: &mut [f64]) -> Resul
         });
     }
     check_len(out.len(), n * n)?;
-    let [x, y, z] = normalize(d)?;
+    let [x, y, z] = normalize(d)?.to_array();
     out[0] = 0.282_094_791_773_878_14; // 1/(2√π)
     if n == 1 {
         return Ok(());
@@ -260,7 +263,7 @@ pub fn eval_zonal(order: usize, t: f64, out: &mut [f64]) -> Result<(), LookupErr
 
 /// Turns a ZH vector `zh` (z_0 … z_{n−1}, symmetric about +z) to axis `d`:
 /// out[(l,m)] = √(4π/(2l+1)) z_l y_l^m(d) (Funk–Hecke), n = `zh.len()`, n² outputs.
-pub fn zh_to_sh(zh: &[f64], d: [f64; 3], out: &mut [f64]) -> Result<(), LookupError> {
+pub fn zh_to_sh(zh: &[f64], d: impl Into<DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
     let n = check_order(zh.len())?;
     check_len(out.len(), n * n)?;
     for &z in zh {
@@ -278,12 +281,12 @@ pub fn zh_to_sh(zh: &[f64], d: [f64; 3], out: &mut [f64]) -> Result<(), LookupEr
 }
 
 /// [`zh_to_sh`] in single precision.
-pub fn zh_to_sh_f32(zh: &[f32], d: [f32; 3], out: &mut [f32]) -> Result<(), LookupError> {
+pub fn zh_to_sh_f32(zh: &[f32], d: impl Into<Vec3>, out: &mut [f32]) -> Result<(), LookupError> {
     let n = check_order(zh.len())?;
     check_len(out.len(), n * n)?;
     let z: Vec<f64> = zh.iter().map(|&v| v as f64).collect();
     let mut tmp = [0.0f64; MAX_COEFFS];
-    zh_to_sh(&z, d.map(f64::from), &mut tmp)?;
+    zh_to_sh(&z, d.into().as_dvec3(), &mut tmp)?;
     narrow_all("SH coefficient", &tmp[..n * n], out)
 }
 
@@ -340,8 +343,8 @@ pub fn rotation_z(alpha: f64) -> [[f64; 3]; 3] {
 }
 
 /// Rotation matrix about unit `axis` by `angle` (rad), right-handed (Rodrigues).
-pub fn rotation_axis_angle(axis: [f64; 3], angle: f64) -> Result<[[f64; 3]; 3], LookupError> {
-    let [x, y, z] = normalize(axis)?;
+pub fn rotation_axis_angle(axis: impl Into<DVec3>, angle: f64) -> Result<[[f64; 3]; 3], LookupError> {
+    let [x, y, z] = normalize(axis)?.to_array();
     finite("angle", angle)?;
     let (s, c) = angle.sin_cos();
     let t = 1.0 - c;
@@ -364,6 +367,12 @@ pub struct Rotation {
 }
 
 impl Rotation {
+    /// [`Rotation::new`] for a glam matrix `m` (maps d to `m * d`).
+    pub fn from_mat3(order: usize, m: glam::DMat3) -> Result<Rotation, LookupError> {
+        // glam stores columns; `new` takes rows: row i = (m.x_axis[i], m.y_axis[i], m.z_axis[i]).
+        Rotation::new(order, m.transpose().to_cols_array_2d())
+    }
+
     /// SH rotation of order `order` for the rotation matrix `r` (row-major, maps d to
     /// r·d). Errors when `r` is not finite, not orthonormal within
     /// [`ROTATION_ORTHONORMALITY_TOL`], or a reflection (det < 0).
