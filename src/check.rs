@@ -15,7 +15,7 @@ use serde::{Deserialize, Deserializer, Serialize};
 
 use lobefit_tables::Table;
 
-use crate::family::{Extra, Family};
+use crate::family::{Extra, F32Twin, Family};
 use crate::rng::Rng;
 
 /// Checker settings.
@@ -198,6 +198,26 @@ pub struct FamilyReport {
 /// where the family promises nothing), or what went wrong.
 type PointResult = Result<Option<(Vec<f64>, Vec<f64>)>, String>;
 
+/// Suffix of the report rows of the runtime's f32 twins (`"<output> f32"`).
+pub const F32_SUFFIX: &str = "f32";
+
+/// What one rounding to f32 may add to an f32 twin's error (relative, with slack 2).
+const F32_SLACK: f64 = 1.0 / (1u64 << 23) as f64;
+
+/// The f32 twins are checked at every this-many-th off-grid sample: they differ from
+/// the f64 lookup by one rounding, which needs no full sample to show.
+const F32_STRIDE: usize = 4;
+
+/// The f32 nearest to `v` whose magnitude does not exceed |v|.
+fn f32_toward_zero(v: f64) -> f32 {
+    let r = v as f32;
+    if (r as f64).abs() > v.abs() {
+        f32::from_bits(r.to_bits() - 1)
+    } else {
+        r
+    }
+}
+
 fn rel_err(got: f64, want: f64) -> f64 {
     let d = (got - want).abs();
     if d == 0.0 {
@@ -280,16 +300,40 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
     };
     let grid_res = eval(&grid);
     let off_res = eval(&offgrid);
+    // The f32 twins at every F32_STRIDE-th sample rounded to f32 (their inputs),
+    // against the reference there. Rounding to nearest can leave the domain (a bound
+    // not representable in f32); such a point is rounded towards zero instead.
+    let offgrid32: Vec<Vec<f64>> = offgrid
+        .iter()
+        .step_by(F32_STRIDE)
+        .map(|x| {
+            // As the twins read an angle: f32(π) stands for π.
+            let near: Vec<f64> = x.iter().map(|&v| lobefit_tables::error::angle_f32(v as f32)).collect();
+            if runtime.lookup(&near).is_ok() {
+                near
+            } else {
+                x.iter().map(|&v| f32_toward_zero(v) as f64).collect()
+            }
+        })
+        .collect();
+    let has_f32 = offgrid32.first().is_some_and(|x| runtime.lookup_f32(x).is_some());
+    let off32_res: Vec<PointResult> = if has_f32 {
+        let twin = F32Twin(runtime.as_ref());
+        offgrid32.par_iter().map(|x| family.check_point(&twin, x)).collect()
+    } else {
+        Vec::new()
+    };
     let promised = |res: &[PointResult]| res.iter().filter(|r| matches!(r, Ok(Some(_)))).count();
     report.grid_points = promised(&grid_res);
     report.offgrid_points = promised(&off_res);
-    for r in grid_res.iter().chain(&off_res) {
+    for r in grid_res.iter().chain(&off_res).chain(&off32_res) {
         if let Err(e) = r {
             if report.problems.len() < 10 {
                 report.problems.push(e.clone());
             }
         }
     }
+    let (mut f32_rows, mut f32_scale) = (Vec::new(), Vec::new());
     for (k, name) in family.checked().iter().enumerate() {
         let errs = |res: &[PointResult]| {
             let (mut abs, mut rel) = (Vec::new(), Vec::new());
@@ -304,6 +348,26 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
         };
         let (ga, gr) = errs(&grid_res);
         let (oa, or) = errs(&off_res);
+        if has_f32 {
+            let (a32, r32) = errs(&off32_res);
+            f32_rows.push(OutputReport {
+                output: format!("{name} {F32_SUFFIX}"),
+                grid_abs: Stats::of(Vec::new()),
+                grid_rel: Stats::of(Vec::new()),
+                offgrid_abs: Stats::of(a32),
+                offgrid_rel: Stats::of(r32),
+                worst_offgrid_input: Vec::new(),
+            });
+            f32_scale.push(
+                off32_res
+                    .iter()
+                    .flatten()
+                    .flatten()
+                    .map(|(g, _)| g[k].abs())
+                    .filter(|v| v.is_finite())
+                    .fold(0.0, f64::max),
+            );
+        }
         let worst_input = off_res
             .iter()
             .zip(&offgrid)
@@ -323,6 +387,7 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
             worst_offgrid_input: worst_input,
         });
     }
+    report.outputs.extend(f32_rows);
     // Whole-scene sections: a handful of cases each (they are expensive to reference).
     let cases = (opts.offgrid / 100).max(10);
     for (name, res) in family.extra_checks(&table_copy, cases, opts.seed) {
@@ -353,6 +418,37 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
             limit: t.limit,
             value,
             pass: value <= t.limit,
+        });
+    }
+    // The f32 twins promise what the f64 lookup promises plus one rounding to f32:
+    // |g32 − g64| ≤ 2⁻²⁴|g64|, so a relative limit widens by 2⁻²⁴(1 + limit) and an
+    // absolute one by 2⁻²⁴ max|g64| (both taken at 2⁻²³ for slack). Off-grid metrics
+    // only: the twins are sampled off the grid.
+    for (t, scale) in meta.thresholds.iter().flat_map(|t| {
+        let k = family.checked().iter().position(|&c| c == t.output)?;
+        Some((t, *f32_scale.get(k)?))
+    }) {
+        if !t.metric.starts_with("offgrid.") {
+            continue;
+        }
+        let output = format!("{} {F32_SUFFIX}", t.output);
+        let slack = if t.metric.ends_with("_rel") {
+            F32_SLACK * (1.0 + t.limit)
+        } else {
+            F32_SLACK * scale
+        };
+        let value = report
+            .outputs
+            .iter()
+            .find(|o| o.output == output)
+            .and_then(|o| metric_value(o, &t.metric))
+            .unwrap_or(f64::NAN);
+        report.thresholds.push(ThresholdResult {
+            output,
+            metric: t.metric.clone(),
+            limit: t.limit + slack,
+            value,
+            pass: value <= t.limit + slack,
         });
     }
     // The file's thresholds are what the file promises; the family's are what this
@@ -420,6 +516,14 @@ fn reads_absolute(r: &FamilyReport, o: &OutputReport) -> bool {
 /// promises (see [`reads_absolute`]), the other kind on the line below where it means
 /// something.
 pub fn render(reports: &[FamilyReport]) -> String {
+    // A statistic of no points (e.g. grid errors of an off-grid-only row) prints as "-".
+    let num = |x: f64| {
+        if x.is_nan() {
+            "-".to_string()
+        } else {
+            format!("{x:.3e}")
+        }
+    };
     let mut s = String::new();
     s.push_str(&format!(
         "{:<15} {:<22} {:>3} {:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10}\n",
@@ -435,17 +539,17 @@ pub fn render(reports: &[FamilyReport]) -> String {
                 (&o.grid_rel, &o.offgrid_rel)
             };
             s.push_str(&format!(
-                "{:<15} {:<22} {:>3} {:>6} {:>6} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e}\n",
+                "{:<15} {:<22} {:>3} {:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10}\n",
                 r.kind,
                 o.output,
                 if abs { "abs" } else { "rel" },
                 g.count,
                 x.count,
-                g.max,
-                x.mean,
-                x.median,
-                x.p95,
-                x.max
+                num(g.max),
+                num(x.mean),
+                num(x.median),
+                num(x.p95),
+                num(x.max)
             ));
             let (g, x, kind) = if abs {
                 (&o.grid_rel, &o.offgrid_rel, "relative")
@@ -455,8 +559,13 @@ pub fn render(reports: &[FamilyReport]) -> String {
             // A relative error above 1 is a ratio to a value near 0: not shown.
             if !abs || g.max.max(x.max) <= 1.0 {
                 other.push_str(&format!(
-                    "  {} {kind}: grid max {:.3e}; random mean {:.3e} median {:.3e} p95 {:.3e} max {:.3e}\n",
-                    o.output, g.max, x.mean, x.median, x.p95, x.max
+                    "  {} {kind}: grid max {}; random mean {} median {} p95 {} max {}\n",
+                    o.output,
+                    num(g.max),
+                    num(x.mean),
+                    num(x.median),
+                    num(x.p95),
+                    num(x.max)
                 ));
             }
         }
@@ -484,7 +593,8 @@ pub fn render(reports: &[FamilyReport]) -> String {
     }
     s.push_str(
         "(err: the kind of error each quantity promises, abs or rel; nodes: points checked at grid nodes; \
-         rnd = seeded random off-grid points through the runtime; NaN = no points of that kind)\n",
+         rnd = seeded random off-grid points through the runtime; -: no points of that kind; \
+         `<output> f32`: the runtime's f32 twin at every 4th random point rounded to f32)\n",
     );
     s
 }

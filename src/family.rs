@@ -77,6 +77,25 @@ pub struct Fitted {
 pub trait Lookup: Sync {
     /// Output columns (see [`Family::outputs`]) at the input point `x`.
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError>;
+    /// The same through the runtime's `_f32` twins: inputs `x` (already
+    /// f32-representable) passed as f32, outputs widened. `None` where the family has
+    /// no f32 twin. The checker reports these as the `<output> f32` rows.
+    fn lookup_f32(&self, _x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        None
+    }
+}
+
+/// A runtime whose [`Lookup::lookup`] is its f32 twin: [`Family::check_point`] run
+/// through it checks the twin with the family's own rules.
+pub struct F32Twin<'a>(pub &'a dyn Lookup);
+
+impl Lookup for F32Twin<'_> {
+    fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
+        self.0.lookup_f32(x).unwrap_or(Err(LookupError::Arity {
+            expected: 0,
+            got: x.len(),
+        }))
+    }
 }
 
 /// A table family: its grid, its fit, its reference, its runtime lookup.

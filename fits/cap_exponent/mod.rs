@@ -351,6 +351,9 @@ impl Lookup for CapExponent {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         Ok(vec![self.e_cap(x[0])?])
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        Some(self.e_cap_f32(x[0] as f32).map(|v| vec![v.into()]))
+    }
 }
 
 impl CapExponentFamily {

@@ -469,6 +469,13 @@ impl Lookup for DiskLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         Ok(self.0.canonical(x[0], x[1])?.to_vec())
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        Some(
+            self.0
+                .canonical_f32(x[0] as f32, x[1] as f32)
+                .map(|c| c.map(f64::from).to_vec()),
+        )
+    }
 }
 
 /// The disk-light family.

@@ -500,6 +500,11 @@ impl<M: IsgModel + Sync> Lookup for ModelLookup<M> {
         let s_hat = self.0.s_hat(theta, phi, gamma)?;
         Ok(vec![s_hat, s_hat * rt::normaliser(gamma)])
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        let (gamma, theta, phi) = (x[0] as f32, x[1] as f32, x[2] as f32);
+        let r = (self.0.s_hat_f32(theta, phi, gamma)).and_then(|s_hat| Ok((s_hat, self.0.s_f32(theta, phi, gamma)?)));
+        Some(r.map(|(s_hat, s)| vec![s_hat.into(), s.into()]))
+    }
 }
 
 impl Family for IsgFamily {

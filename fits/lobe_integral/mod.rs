@@ -52,6 +52,9 @@ impl Lookup for LobeIntegral {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         Ok(vec![self.integral(x[0])?])
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        Some(self.integral_f32(x[0] as f32).map(|v| vec![v.into()]))
+    }
 }
 
 impl Family for LobeIntegralFamily {

@@ -718,6 +718,10 @@ impl Lookup for Runtime {
         let q = self.0.params(x[0], x[1], x[2])?;
         Ok(vec![q.p, q.t, q.e_r])
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        let q = self.0.params_f32(x[0] as f32, x[1] as f32, x[2] as f32);
+        Some(q.map(|q| vec![q.p.into(), q.t.into(), q.e_r.into()]))
+    }
 }
 
 impl Family for LobeProductFamily {

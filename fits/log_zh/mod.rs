@@ -217,6 +217,16 @@ impl Lookup for LogZhLookup {
         self.rt.lookup(self.kind, x[0], param, self.order, &mut out)?;
         Ok(out[..self.order].to_vec())
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        let mut out = [0.0f32; MAX_ORDER];
+        let r = if self.kind == Kind::Phong && x.len() == 3 && x[2] == TABLE_MODE {
+            self.rt.table_lookup_f32(x[0] as f32, x[1] as f32, self.order, &mut out)
+        } else {
+            let param = if self.kind == Kind::Diffuse { 1.0 } else { x[1] as f32 };
+            self.rt.lookup_f32(self.kind, x[0] as f32, param, self.order, &mut out)
+        };
+        Some(r.map(|()| out[..self.order].iter().map(|&v| v.into()).collect()))
+    }
 }
 
 impl Family for LogZhFamily {

@@ -206,6 +206,9 @@ impl Lookup for SgFit {
         let (l, m) = self.fit(x[0])?;
         Ok(vec![l, m])
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        Some(self.fit_f32(x[0] as f32).map(|(l, m)| vec![l.into(), m.into()]))
+    }
 }
 
 impl Family for SgFitFamily {

@@ -164,6 +164,25 @@ impl Lookup for ShExpLookup {
             Some((n, LogKind::Naive)) => naive_point(x[0], x[1], n),
         }
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        let theta_b = x[0] as f32;
+        let point = |n: usize| -> Result<Vec<f64>, LookupError> {
+            let mut f = [0.0f32; 8];
+            self.rt.log_zh_f32(theta_b, n, &mut f)?;
+            let (norm, a, b) = self.rt.norm_ab_f32(theta_b, n)?;
+            Ok(f[..n].iter().chain(&[norm, a, b]).map(|&v| v.into()).collect())
+        };
+        match self.view {
+            None => Some(
+                (ORDER_MIN..=ORDER_MAX)
+                    .map(point)
+                    .collect::<Result<Vec<_>, _>>()
+                    .map(|v| v.concat()),
+            ),
+            Some((n, LogKind::Ren)) => Some(point(n)),
+            Some((_, LogKind::Naive)) => None,
+        }
+    }
 }
 
 impl Family for ShExpFamily {

@@ -206,6 +206,10 @@ impl Lookup for Wedges {
             x[2] as usize,
         )?])
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        let m = self.m_lin_f32(node_w(x[0]), MAX_ORDER, x[1] as usize, x[2] as usize);
+        Some(m.map(|v| vec![v.into()]))
+    }
 }
 
 impl Family for WedgeFamily {
@@ -324,6 +328,11 @@ impl Lookup for SliceLookup {
         let mut v = [0.0; MAX_ORDER];
         rt::slice_log(x[0], x[1], self.order, &mut v)?;
         Ok(v[..self.order].to_vec())
+    }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        let mut v = [0.0f32; MAX_ORDER];
+        let r = rt::slice_log_f32(x[0] as f32, x[1] as f32, self.order, &mut v);
+        Some(r.map(|()| v[..self.order].iter().map(|&c| c.into()).collect()))
     }
 }
 

@@ -149,6 +149,16 @@ impl Lookup for WrapLookup {
             }
         }
     }
+    fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
+        let mut out = [0.0f32; MAX_ORDER];
+        let a = x[0] as f32;
+        let (r, n) = match x.get(1) {
+            Some(&TABLE_MODE) => (self.rt.table_lookup_f32(MAX_ORDER, a, &mut out), MAX_ORDER),
+            Some(&CLOSED_MODE) => (self.rt.lookup_f32(MAX_ORDER, a, &mut out), MAX_ORDER),
+            _ => (self.rt.lookup_f32(self.order, a, &mut out), self.order),
+        };
+        Some(r.map(|()| out[..n].iter().map(|&v| v.into()).collect()))
+    }
 }
 
 impl Family for WrapFamily {

@@ -118,7 +118,7 @@ impl CapExponent {
         Ok(self.table_ratio(alpha)? * model(alpha))
     }
 
-    /// [`CapExponent::e_cap`] in single precision.
+    /// [`CapExponent::e_cap`] with an f32 interface (computed in f64, rounded once).
     pub fn e_cap_f32(&self, alpha: f32) -> Result<f32, LookupError> {
         narrow("e_cap", self.e_cap(alpha as f64)?)
     }

@@ -31,7 +31,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 use glam::{DVec3, Vec3};
 
-use crate::error::{finite, finite_result, finite_results, in_range, narrow_all, LoadError, LookupError};
+use crate::error::{finite, finite_result, finite_results, in_range, narrow, narrow_all, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::sh::{self, Rotation};
 use crate::table::Table;
@@ -431,11 +431,11 @@ impl DiskLight {
         let e = self.irradiance_sh(receiver, centre, normal, radius, radiance)?;
         let nr = unit("receiver normal", receiver_normal)?;
         let mut y = [0.0; 9];
-        sh::eval_basis(3, nr.to_array(), &mut y)?;
+        sh::eval_basis(3, nr, &mut y)?;
         finite_result("irradiance", e.iter().zip(&y).map(|(a, b)| a * b).sum())
     }
 
-    /// [`DiskLight::radiance_sh`] in single precision (computed in f64, rounded once).
+    /// [`DiskLight::radiance_sh`] with an f32 interface (computed in f64, rounded once).
     pub fn radiance_sh_f32(
         &self,
         receiver: Vec3,
@@ -456,7 +456,7 @@ impl DiskLight {
         Ok(out)
     }
 
-    /// [`DiskLight::irradiance_sh`] in single precision.
+    /// [`DiskLight::irradiance_sh`] with an f32 interface (computed in f64, rounded once).
     pub fn irradiance_sh_f32(
         &self,
         receiver: Vec3,
@@ -475,6 +475,35 @@ impl DiskLight {
         let mut out = [0.0f32; 9];
         narrow_all("irradiance SH", &v, &mut out)?;
         Ok(out)
+    }
+
+    /// [`DiskLight::canonical`] with an f32 interface (computed in f64, rounded once).
+    pub fn canonical_f32(&self, r_over_d: f32, tau: f32) -> Result<[f32; 6], LookupError> {
+        let v = self.canonical(r_over_d as f64, crate::error::angle_f32(tau))?;
+        let mut out = [0.0f32; 6];
+        narrow_all("canonical SH", &v, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`DiskLight::irradiance`] with an f32 interface (computed in f64, rounded once).
+    pub fn irradiance_f32(
+        &self,
+        receiver: Vec3,
+        receiver_normal: Vec3,
+        centre: Vec3,
+        normal: Vec3,
+        radius: f32,
+        radiance: f32,
+    ) -> Result<f32, LookupError> {
+        let e = self.irradiance(
+            receiver.as_dvec3(),
+            receiver_normal.as_dvec3(),
+            centre.as_dvec3(),
+            normal.as_dvec3(),
+            radius as f64,
+            radiance as f64,
+        )?;
+        narrow("irradiance", e)
     }
 }
 

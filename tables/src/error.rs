@@ -227,6 +227,17 @@ pub(crate) fn finite_result(name: &str, value: f64) -> Result<f64, LookupError> 
 
 /// Rounds an f64 result to f32 (the f32 twins), refusing a value that is not finite
 /// in f32: narrowing can overflow where the f64 result did not.
+/// An f32 angle as f64, with `std::f32::consts::PI` (π + 8.7e-8) taken as π: the
+/// f32 nearest to π (what `acos(-1.0f32)` returns) must be a valid end of a [0, π]
+/// domain. Every `_f32` twin taking an angle reads it through this.
+pub fn angle_f32(x: f32) -> f64 {
+    if x == std::f32::consts::PI {
+        std::f64::consts::PI
+    } else {
+        x as f64
+    }
+}
+
 pub(crate) fn narrow(name: &str, value: f64) -> Result<f32, LookupError> {
     let v = value as f32;
     if v.is_finite() {

@@ -29,7 +29,7 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use crate::error::{finite, finite_result, in_range, narrow, LoadError, LookupError};
+use crate::error::{angle_f32, finite, finite_result, in_range, narrow, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 use glam::{DVec3, Vec3};
@@ -195,17 +195,17 @@ pub trait IsgModel {
         finite_result("limiting angle", self.limiting_angle_unchecked(gamma, e).min(FRAC_PI_2))
     }
 
-    /// [`IsgModel::s_hat`] in single precision.
+    /// [`IsgModel::s_hat`] with an f32 interface (computed in f64, rounded once).
     fn s_hat_f32(&self, theta: f32, phi: f32, gamma: f32) -> Result<f32, LookupError> {
         narrow("S_hat", self.s_hat(angle_f32(theta), angle_f32(phi), gamma as f64)?)
     }
 
-    /// [`IsgModel::s`] in single precision.
+    /// [`IsgModel::s`] with an f32 interface (computed in f64, rounded once).
     fn s_f32(&self, theta: f32, phi: f32, gamma: f32) -> Result<f32, LookupError> {
         narrow("S", self.s(angle_f32(theta), angle_f32(phi), gamma as f64)?)
     }
 
-    /// [`IsgModel::patch`] in single precision.
+    /// [`IsgModel::patch`] with an f32 interface (computed in f64, rounded once).
     fn patch_f32(&self, theta1: f32, theta2: f32, phi1: f32, phi2: f32, gamma: f32) -> Result<f32, LookupError> {
         let a = angle_f32;
         narrow(
@@ -214,24 +214,11 @@ pub trait IsgModel {
         )
     }
 
-    /// [`IsgModel::limiting_angle`] in single precision.
+    /// [`IsgModel::limiting_angle`] with an f32 interface (computed in f64, rounded once).
     fn limiting_angle_f32(&self, gamma: f32, eps: f32) -> Result<f32, LookupError> {
         narrow("limiting angle", self.limiting_angle(gamma as f64, eps as f64)?)
     }
 }
-
-/// An f32 angle as f64, with `std::f32::consts::PI` (π + 8.7e-8) taken as π: the
-/// nearest float to π must be a valid end of the [0, π] domain.
-fn angle_f32(x: f32) -> f64 {
-    let v = x as f64;
-    if v > PI && v <= PI_F32_AS_F64 {
-        PI
-    } else {
-        v
-    }
-}
-
-const PI_F32_AS_F64: f64 = std::f32::consts::PI as f64;
 
 /// Smallest threshold ε of [`IsgModel::limiting_angle`]: below ~1e-10 the best
 /// model's warped marginals saturate and the root would be too small.

@@ -44,6 +44,27 @@
 //! Each family type loads its committed table with `embedded()` (cargo feature
 //! `embedded-<table>`) or any file with `from_bytes` / `from_table`.
 //!
+//! ## Vectors and f32
+//!
+//! Directions are glam vectors: `DVec3` for f64 calls (functions accept anything
+//! `Into<DVec3>`, so `[f64; 3]` works too), `Vec3` for f32 calls. Every lookup has an
+//! `_f32` twin (`e_cap_f32`, `params_f32`, `product_f32`, `product_sums_f32`,
+//! `triple_product_f32`, `canonical_f32`, `irradiance_f32`, `hyb_f32`,
+//! `hyb_threshold_f32`, `lookup_f32`, `lobe_to_sg_f32`, [`Sg32`], [`LobeF32`], …).
+//! A twin takes and returns f32 and computes in f64, rounding once: its result is the
+//! f64 lookup's correctly rounded, so its error is the f64 lookup's plus at most half
+//! an f32 ulp. `lobefit check` measures every twin against the independent references
+//! (the `<output> f32` rows) and holds it to the f64 promise widened by one rounding.
+//! Twins taking an angle read `std::f32::consts::PI` (what `acos(-1.0f32)` returns,
+//! π + 8.7e-8) as π ([`error::angle_f32`]).
+//!
+//! This is a choice: computing in f32 throughout, as a shader does, loses digits in
+//! the mappings (logarithms, arc sines, the lgamma model of the lobe product) that
+//! the tightest targets cannot spare (the lobe integral promises 1e-6 relative, eight
+//! f32 ulps), and on a CPU costs about the same. What an f32-arithmetic pipeline gets
+//! depends on that pipeline (its texture layout, filtering and mappings) and is
+//! measured with it.
+//!
 //! ```
 //! # #[cfg(feature = "embedded")] {
 //! use lobefit_tables::glam::DVec3;

@@ -94,7 +94,7 @@ impl LobeIntegral {
         Ok(out[0])
     }
 
-    /// [`LobeIntegral::integral`] in single precision.
+    /// [`LobeIntegral::integral`] with an f32 interface (computed in f64, rounded once).
     pub fn integral_f32(&self, e: f32) -> Result<f32, LookupError> {
         narrow("I", self.integral(e as f64)?)
     }

@@ -271,8 +271,8 @@ impl Lobe {
     }
 
     /// Value at the unit direction `v`.
-    pub fn eval(&self, v: DVec3) -> f64 {
-        let c = self.axis.dot(v);
+    pub fn eval(&self, v: impl Into<DVec3>) -> f64 {
+        let c = self.axis.dot(v.into());
         if c <= 0.0 {
             0.0
         } else {
@@ -281,7 +281,7 @@ impl Lobe {
     }
 }
 
-/// [`Lobe`] in single precision.
+/// [`Lobe`] with an f32 interface (computed in f64, rounded once).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LobeF32 {
     /// Scale s.
@@ -290,6 +290,49 @@ pub struct LobeF32 {
     pub axis: Vec3,
     /// Exponent e ≥ 0.
     pub exponent: f32,
+}
+
+impl LobeF32 {
+    /// The lobe in f64 (exact).
+    pub fn to_lobe(&self) -> Lobe {
+        Lobe {
+            scale: self.scale as f64,
+            axis: self.axis.as_dvec3(),
+            exponent: self.exponent as f64,
+        }
+    }
+
+    /// [`Lobe::integral`] (sr), rounded to f32.
+    pub fn integral(&self) -> f32 {
+        self.to_lobe().integral() as f32
+    }
+
+    /// [`Lobe::eval`] at the unit direction `v`, rounded to f32.
+    pub fn eval(&self, v: Vec3) -> f32 {
+        self.to_lobe().eval(v.as_dvec3()) as f32
+    }
+
+    /// `l` rounded to f32; an error where the scale or exponent overflows f32.
+    pub fn from_lobe(l: &Lobe) -> Result<LobeF32, LookupError> {
+        Ok(LobeF32 {
+            scale: narrow("scale", l.scale)?,
+            axis: l.axis.as_vec3(),
+            exponent: narrow("exponent", l.exponent)?,
+        })
+    }
+}
+
+/// [`ProductParams`] in f32 (see [`LobeProduct::params_f32`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProductParamsF32 {
+    /// Partial scale p_r.
+    pub p: f32,
+    /// Fraction t ∈ [0, 1] of the arc from a1 to a2 at which the axis a_r lies.
+    pub t: f32,
+    /// Exponent e_r.
+    pub e_r: f32,
+    /// ∫Ψ1Ψ2 dω (sr).
+    pub integral: f32,
 }
 
 /// A lobe-product table (either variant).
@@ -437,20 +480,47 @@ impl LobeProduct {
         })
     }
 
-    /// [`LobeProduct::product`] in single precision.
+    /// [`LobeProduct::product`] with an f32 interface (computed in f64, rounded once).
     pub fn product_f32(&self, l1: &LobeF32, l2: &LobeF32) -> Result<LobeF32, LookupError> {
-        let wide = |l: &LobeF32| Lobe {
-            scale: l.scale as f64,
-            axis: l.axis.as_dvec3(),
-            exponent: l.exponent as f64,
-        };
-        let r = self.product(&wide(l1), &wide(l2))?;
-        // A scale or exponent finite in f64 can overflow f32.
-        Ok(LobeF32 {
-            scale: narrow("scale", r.scale)?,
-            axis: r.axis.as_vec3(),
-            exponent: narrow("exponent", r.exponent)?,
+        LobeF32::from_lobe(&self.product(&l1.to_lobe(), &l2.to_lobe())?)
+    }
+
+    /// [`LobeProduct::params`] with an f32 interface (computed in f64, rounded once).
+    pub fn params_f32(&self, e1: f32, e2: f32, alpha: f32) -> Result<ProductParamsF32, LookupError> {
+        let q = self.params(e1 as f64, e2 as f64, crate::error::angle_f32(alpha))?;
+        Ok(ProductParamsF32 {
+            p: narrow("p_r", q.p)?,
+            t: narrow("t", q.t)?,
+            e_r: narrow("e_r", q.e_r)?,
+            integral: narrow("integral", q.integral)?,
         })
+    }
+
+    /// [`LobeProduct::product_sums`] with an f32 interface (computed in f64, rounded once).
+    pub fn product_sums_f32(&self, a: &[LobeF32], b: &[LobeF32], threshold: f32) -> Result<Vec<LobeF32>, LookupError> {
+        let wide = |l: &[LobeF32]| l.iter().map(LobeF32::to_lobe).collect::<Vec<_>>();
+        let r = self.product_sums(&wide(a), &wide(b), threshold as f64)?;
+        r.iter().map(LobeF32::from_lobe).collect()
+    }
+
+    /// [`LobeProduct::triple_product`] with an f32 interface (computed in f64, rounded once).
+    pub fn triple_product_f32(
+        &self,
+        brdf: &[LobeF32],
+        lighting: &[LobeF32],
+        visibility: &[LobeF32],
+        normal: Vec3,
+        threshold: f32,
+    ) -> Result<f32, LookupError> {
+        let wide = |l: &[LobeF32]| l.iter().map(LobeF32::to_lobe).collect::<Vec<_>>();
+        let v = self.triple_product(
+            &wide(brdf),
+            &wide(lighting),
+            &wide(visibility),
+            normal.as_dvec3(),
+            threshold as f64,
+        )?;
+        narrow("triple-product integral", v)
     }
 
     /// Product of two lobe sums (§4.3): every pairwise product whose integral is at

@@ -259,17 +259,22 @@ pub fn cap_zh(theta_b: f64, order: usize) -> [f64; MAX_ORDER] {
     out
 }
 
-/// [`phong`] in single precision (computed in f64).
+/// [`phong`] with an f32 interface (computed in f64, rounded once).
 pub fn phong_f32(eps: f32, r: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
     phong(eps as f64, r as f64, order, &mut tmp)?;
     narrow_all("z", &tmp[..order], out)
 }
 
-/// [`blocker`] in single precision (computed in f64).
+/// [`diffuse`] with an f32 interface (computed in f64, rounded once).
+pub fn diffuse_f32(eps: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
+    phong_f32(eps, 1.0, order, out)
+}
+
+/// [`blocker`] with an f32 interface (computed in f64, rounded once).
 pub fn blocker_f32(eps: f32, theta_b: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
-    blocker(eps as f64, theta_b as f64, order, &mut tmp)?;
+    blocker(eps as f64, crate::error::angle_f32(theta_b), order, &mut tmp)?;
     narrow_all("z", &tmp[..order], out)
 }
 
@@ -351,6 +356,31 @@ impl LogZh {
             Kind::Phong => phong(eps, param, order, out),
             Kind::Blocker => blocker(eps, param, order, out),
         }
+    }
+
+    /// [`LogZh::lookup`] with an f32 interface (computed in f64, rounded once).
+    pub fn lookup_f32(
+        &self,
+        kind: Kind,
+        eps: f32,
+        param: f32,
+        order: usize,
+        out: &mut [f32],
+    ) -> Result<(), LookupError> {
+        let mut tmp = [0.0; MAX_ORDER];
+        let param = match kind {
+            Kind::Blocker => crate::error::angle_f32(param),
+            _ => param as f64,
+        };
+        self.lookup(kind, eps as f64, param, order, &mut tmp)?;
+        narrow_all("z", &tmp[..order], out)
+    }
+
+    /// [`LogZh::table_lookup`] with an f32 interface (computed in f64, rounded once).
+    pub fn table_lookup_f32(&self, eps: f32, r: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
+        let mut tmp = [0.0; MAX_ORDER];
+        self.table_lookup(eps as f64, r as f64, order, &mut tmp)?;
+        narrow_all("z", &tmp[..order], out)
     }
 }
 

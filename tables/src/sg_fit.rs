@@ -11,7 +11,7 @@
 
 use crate::error::{in_range, narrow, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
-use crate::isg::Sg;
+use crate::isg::{Sg, Sg32};
 use crate::table::Table;
 
 /// Table kind.
@@ -89,7 +89,7 @@ impl SgFit {
         Ok((out[0], out[1]))
     }
 
-    /// [`SgFit::fit`] in single precision.
+    /// [`SgFit::fit`] with an f32 interface (computed in f64, rounded once).
     pub fn fit_f32(&self, e: f32) -> Result<(f32, f32), LookupError> {
         let (l, m) = self.fit(e as f64)?;
         Ok((narrow("lambda", l)?, narrow("mu", m)?))
@@ -102,5 +102,10 @@ impl SgFit {
         let scale = crate::error::finite("scale", scale)?;
         let amplitude = crate::error::finite_result("SG amplitude s·mu", scale * mu)?;
         Sg::new(axis, lambda, amplitude)
+    }
+
+    /// [`SgFit::lobe_to_sg`] with an f32 interface (computed in f64, rounded once).
+    pub fn lobe_to_sg_f32(&self, axis: impl Into<glam::Vec3>, e: f32, scale: f32) -> Result<Sg32, LookupError> {
+        Sg32::from_sg(&self.lobe_to_sg(axis.into().as_dvec3(), e as f64, scale as f64)?)
     }
 }

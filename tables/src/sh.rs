@@ -144,7 +144,7 @@ pub fn eval_basis(order: usize, d: impl Into<DVec3>, out: &mut [f64]) -> Result<
     }
 }
 
-/// [`eval_basis`] in single precision (computed in f64, rounded once).
+/// [`eval_basis`] with an f32 interface (computed in f64, rounded once).
 pub fn eval_basis_f32(order: usize, d: impl Into<Vec3>, out: &mut [f32]) -> Result<(), LookupError> {
     let n = coeff_count(check_order(order)?);
     check_len(out.len(), n)?;
@@ -280,7 +280,7 @@ pub fn zh_to_sh(zh: &[f64], d: impl Into<DVec3>, out: &mut [f64]) -> Result<(), 
     Ok(())
 }
 
-/// [`zh_to_sh`] in single precision.
+/// [`zh_to_sh`] with an f32 interface (computed in f64, rounded once).
 pub fn zh_to_sh_f32(zh: &[f32], d: impl Into<Vec3>, out: &mut [f32]) -> Result<(), LookupError> {
     let n = check_order(zh.len())?;
     check_len(out.len(), n * n)?;
@@ -326,7 +326,7 @@ pub fn rotate_z(coeffs: &[f64], alpha: f64, out: &mut [f64]) -> Result<(), Looku
     finite_results("rotated SH coefficient", &out[..n * n])
 }
 
-/// [`rotate_z`] in single precision.
+/// [`rotate_z`] with an f32 interface (computed in f64, rounded once).
 pub fn rotate_z_f32(coeffs: &[f32], alpha: f32, out: &mut [f32]) -> Result<(), LookupError> {
     let c: Vec<f64> = coeffs.iter().map(|&v| v as f64).collect();
     let mut tmp = [0.0f64; MAX_COEFFS];
@@ -454,7 +454,7 @@ impl Rotation {
         finite_results("rotated SH coefficient", &out[..n * n])
     }
 
-    /// [`Rotation::apply`] in single precision (accumulated in f64).
+    /// [`Rotation::apply`] with an f32 interface (computed in f64, rounded once).
     pub fn apply_f32(&self, coeffs: &[f32], out: &mut [f32]) -> Result<(), LookupError> {
         let c: Vec<f64> = coeffs.iter().map(|&v| v as f64).collect();
         let n = order_of_len(c.len())?;

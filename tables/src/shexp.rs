@@ -498,20 +498,20 @@ impl ShExp {
         Ok(())
     }
 
-    /// [`ShExp::log_zh`] in single precision (computed in f64).
+    /// [`ShExp::log_zh`] with an f32 interface (computed in f64, rounded once).
     pub fn log_zh_f32(&self, theta_b: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
         let mut tmp = [0.0; 8];
-        self.log_zh(theta_b as f64, order, &mut tmp)?;
+        self.log_zh(crate::error::angle_f32(theta_b), order, &mut tmp)?;
         narrow_all("f", &tmp[..order], out)
     }
 
-    /// [`ShExp::norm_ab`] in single precision (computed in f64).
+    /// [`ShExp::norm_ab`] with an f32 interface (computed in f64, rounded once).
     pub fn norm_ab_f32(&self, theta_b: f32, order: usize) -> Result<(f32, f32, f32), LookupError> {
-        let (n, a, b) = self.norm_ab(theta_b as f64, order)?;
+        let (n, a, b) = self.norm_ab(crate::error::angle_f32(theta_b), order)?;
         Ok((narrow("|f_hat|", n)?, narrow("a", a)?, narrow("b", b)?))
     }
 
-    /// [`ShExp::ab_for_norm`] in single precision (computed in f64).
+    /// [`ShExp::ab_for_norm`] with an f32 interface (computed in f64, rounded once).
     pub fn ab_for_norm_f32(&self, norm: f32, order: usize) -> Result<(f32, f32), LookupError> {
         let (a, b) = self.ab_for_norm(norm as f64, order)?;
         Ok((narrow("a", a)?, narrow("b", b)?))
@@ -569,38 +569,45 @@ impl ShExp {
         hyb_with(Gaunt::cached(n)?, f, threshold, |x| self.ab_for_norm(x, n), out)
     }
 
-    /// [`ShExp::hyb`] in single precision (computed in f64).
+    /// [`ShExp::hyb`] with an f32 interface (computed in f64, rounded once).
     pub fn hyb_f32(&self, f: &[f32], out: &mut [f32]) -> Result<u32, LookupError> {
-        let nc = f.len();
-        if nc > MAX_COEFFS {
-            return Err(LookupError::Arity {
-                expected: MAX_COEFFS,
-                got: nc,
-            });
-        }
-        if out.len() < nc {
-            return Err(LookupError::Channels {
-                expected: nc,
-                got: out.len(),
-            });
-        }
-        let mut a = [0.0; MAX_COEFFS];
-        let mut b = [0.0; MAX_COEFFS];
-        for (x, v) in a.iter_mut().zip(f) {
-            *x = *v as f64;
-        }
-        let k = self.hyb(&a[..nc], &mut b)?;
-        for (o, v) in out.iter_mut().zip(&b[..nc]) {
-            *o = *v as f32;
-            if !o.is_finite() {
-                return Err(LookupError::NotFinite {
-                    name: "exp*(f) in f32 (overflow)".into(),
-                    value: *v,
-                });
-            }
-        }
-        Ok(k)
+        widened(f, out, |a, b| self.hyb(a, b))
     }
+
+    /// [`ShExp::hyb_threshold`] with an f32 interface (computed in f64, rounded once).
+    pub fn hyb_threshold_f32(&self, f: &[f32], threshold: f32, out: &mut [f32]) -> Result<u32, LookupError> {
+        widened(f, out, |a, b| self.hyb_threshold(a, threshold as f64, b))
+    }
+}
+
+/// Runs an f64 SH → SH map `run` on f32 coefficients `f`, rounding its output into
+/// `out[..f.len()]` once (an error where a value overflows f32).
+fn widened(
+    f: &[f32],
+    out: &mut [f32],
+    run: impl FnOnce(&[f64], &mut [f64]) -> Result<u32, LookupError>,
+) -> Result<u32, LookupError> {
+    let nc = f.len();
+    if nc > MAX_COEFFS {
+        return Err(LookupError::Arity {
+            expected: MAX_COEFFS,
+            got: nc,
+        });
+    }
+    if out.len() < nc {
+        return Err(LookupError::Channels {
+            expected: nc,
+            got: out.len(),
+        });
+    }
+    let mut a = [0.0; MAX_COEFFS];
+    let mut b = [0.0; MAX_COEFFS];
+    for (x, v) in a.iter_mut().zip(f) {
+        *x = *v as f64;
+    }
+    let k = run(&a[..nc], &mut b)?;
+    narrow_all("exp*(f)", &b[..nc], &mut out[..nc])?;
+    Ok(k)
 }
 
 #[cfg(test)]

@@ -120,7 +120,7 @@ pub fn slice_log(sigma: f64, eps: f64, order: usize, out: &mut [f64]) -> Result<
     Ok(())
 }
 
-/// [`slice_log`] in single precision.
+/// [`slice_log`] with an f32 interface (computed in f64, rounded once).
 pub fn slice_log_f32(sigma: f32, eps: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
     slice_log(sigma as f64, eps as f64, order, &mut tmp)?;
@@ -209,6 +209,11 @@ impl Wedges {
         Ok(self.m[(wi * ROWS as usize + row) * COLS as usize + stored_col])
     }
 
+    /// [`Wedges::m_lin`] rounded to f32 (the stored hi + lo pair, summed in f64).
+    pub fn m_lin_f32(&self, w: u32, order: usize, row: usize, col: usize) -> Result<f32, LookupError> {
+        crate::error::narrow("M_lin", self.m_lin(w, order, row, col)?)
+    }
+
     /// V = M_lin [v_a; v_b] for one canonical wedge [0, Δφ] (n² outputs into `out`).
     pub fn wedge(&self, w: u32, v_a: &[f64], v_b: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
         let n = sh::check_order(v_a.len())?;
@@ -279,6 +284,15 @@ impl Wedges {
             }
         }
         Ok(())
+    }
+
+    /// [`Wedges::compose`] with an f32 interface (computed in f64, rounded once).
+    pub fn compose_f32(&self, sigma: &[f32], eps: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
+        let n = sh::check_order(order)?;
+        let wide: Vec<f64> = sigma.iter().map(|&s| s as f64).collect();
+        let mut tmp = [0.0; sh::MAX_COEFFS];
+        self.compose(&wide, eps as f64, n, &mut tmp[..n * n])?;
+        crate::error::narrow_all("log-SH visibility", &tmp[..n * n], out)
     }
 }
 

@@ -130,7 +130,7 @@ pub fn lambda_hat(order: usize, a: f64, out: &mut [f64]) -> Result<(), LookupErr
     Ok(())
 }
 
-/// [`lambda_hat`] in single precision (computed in f64, rounded once).
+/// [`lambda_hat`] with an f32 interface (computed in f64, rounded once).
 pub fn lambda_hat_f32(order: usize, a: f32, out: &mut [f32]) -> Result<(), LookupError> {
     let mut tmp = [0.0; MAX_ORDER];
     lambda_hat(order, a as f64, &mut tmp)?;
@@ -164,7 +164,7 @@ pub fn convolve(coeffs: &[f64], a: f64, out: &mut [f64]) -> Result<(), LookupErr
     Ok(())
 }
 
-/// [`convolve`] in single precision.
+/// [`convolve`] with an f32 interface (computed in f64, rounded once).
 pub fn convolve_f32(coeffs: &[f32], a: f32, out: &mut [f32]) -> Result<(), LookupError> {
     let c: Vec<f64> = coeffs.iter().map(|&v| v as f64).collect();
     let n = sh::order_of_len(c.len())?;
@@ -210,6 +210,14 @@ pub fn rewrap_irradiance(irr: &[f64], a: f64, out: &mut [f64]) -> Result<(), Loo
     Ok(())
 }
 
+/// [`rewrap_irradiance`] with an f32 interface (computed in f64, rounded once).
+pub fn rewrap_irradiance_f32(irr: &[f32], a: f32, out: &mut [f32]) -> Result<(), LookupError> {
+    let wide: Vec<f64> = irr.iter().map(|&v| v as f64).collect();
+    let mut tmp = vec![0.0; wide.len()];
+    rewrap_irradiance(&wide, a as f64, &mut tmp)?;
+    crate::error::narrow_all("re-wrapped irradiance", &tmp, out)
+}
+
 /// The wrap table: λ̂_0 … λ̂_7 against a ∈ [0, 1] (for texture upload).
 #[derive(Debug, Clone)]
 pub struct WrapTable {
@@ -248,6 +256,19 @@ impl WrapTable {
     /// λ̂_l(a), l < `order`, from the closed form ([`lambda_hat`]; the accurate path).
     pub fn lookup(&self, order: usize, a: f64, out: &mut [f64]) -> Result<(), LookupError> {
         lambda_hat(order, a, out)
+    }
+
+    /// [`WrapTable::lookup`] with an f32 interface (computed in f64, rounded once).
+    pub fn lookup_f32(&self, order: usize, a: f32, out: &mut [f32]) -> Result<(), LookupError> {
+        lambda_hat_f32(order, a, out)
+    }
+
+    /// [`WrapTable::table_lookup`] with an f32 interface (computed in f64, rounded once).
+    pub fn table_lookup_f32(&self, order: usize, a: f32, out: &mut [f32]) -> Result<(), LookupError> {
+        let n = sh::check_order(order)?;
+        let mut tmp = [0.0; MAX_ORDER];
+        self.table_lookup(n, a as f64, &mut tmp)?;
+        crate::error::narrow_all("lambda_hat", &tmp[..n], out)
     }
 
     /// λ̂_l(a), l < `order`, linearly interpolated from the stored f32 nodes (what a
