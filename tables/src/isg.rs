@@ -175,6 +175,67 @@ pub trait IsgModel {
         )
     }
 
+    /// ∫ of the SG `sg` over a spherical rectangle given in world space (sr times the
+    /// SG's amplitude): θ ∈ [θ1, θ2] = `theta` from the unit `pole`, φ ∈ [φ1, φ2] =
+    /// `phi` (φ1 ≤ φ2, rad) about the pole, from `phi_zero` (its part ⟂ the pole)
+    /// towards phi_zero × pole; that is, in the right-handed frame x = phi_zero, y =
+    /// pole, z = x × y, the points Ω(θ, φ) = (sin θ cos φ, cos θ, sin θ sin φ).
+    ///
+    /// The models describe an SG whose axis lies on the frame's equator, so `sg.axis`
+    /// must be ⟂ `pole` (|axis·pole| ≤ [`WORLD_AXIS_TOL`]); its azimuth φ_a is taken out
+    /// exactly (a rotation about the pole), and the rectangle must lie in the
+    /// hemisphere around the axis, φ_a − π/2 ≤ φ1 ≤ φ2 ≤ φ_a + π/2 (mod 2π). Each of
+    /// these is a specific error otherwise.
+    fn patch_world(
+        &self,
+        sg: &Sg,
+        pole: DVec3,
+        phi_zero: DVec3,
+        theta: [f64; 2],
+        phi: [f64; 2],
+    ) -> Result<f64, LookupError> {
+        let y = unit_axis(pole).map_err(|_| LookupError::OutOfDomain {
+            name: "|pole| (unit, within 1e-3)".into(),
+            value: pole.length(),
+            lo: 1.0,
+            hi: 1.0,
+        })?;
+        let x0 = phi_zero - phi_zero.dot(y) * y;
+        if !(x0.length() > 1e-6) {
+            return Err(LookupError::OutOfDomain {
+                name: "length of phi_zero's part perpendicular to the pole".into(),
+                value: x0.length(),
+                lo: 1e-6,
+                hi: f64::INFINITY,
+            });
+        }
+        let x = x0.normalize();
+        let z = x.cross(y);
+        let tilt = sg.axis.dot(y);
+        in_range("SG axis · pole (must be ~0)", tilt, -WORLD_AXIS_TOL, WORLD_AXIS_TOL)?;
+        for v in phi {
+            finite("phi", v)?;
+        }
+        if phi[0] > phi[1] {
+            return Err(LookupError::OutOfDomain {
+                name: "phi1 − phi2 (need phi1 ≤ phi2)".into(),
+                value: phi[0] - phi[1],
+                lo: f64::NEG_INFINITY,
+                hi: 0.0,
+            });
+        }
+        // Rotate about the pole so that the axis sits at φ = π/2.
+        let phi_a = sg.axis.dot(z).atan2(sg.axis.dot(x));
+        let p1 = (phi[0] - phi_a + FRAC_PI_2).rem_euclid(2.0 * PI);
+        let p2 = p1 + (phi[1] - phi[0]);
+        // Rounding in the shift may leave an end a few ulps outside [0, π].
+        let slack = 1e-12;
+        let p1 = if p1 > 2.0 * PI - slack { 0.0 } else { p1 };
+        let p2 = if p2 > PI && p2 <= PI + slack { PI } else { p2 };
+        in_range("phi2 relative to the SG axis's azimuth + π/2", p2, 0.0, PI)?;
+        Ok(sg.amplitude * self.patch(theta[0], theta[1], p1, p2, sg.sharpness)?)
+    }
+
     /// Limiting angle Γ ∈ [0, π/2] (rad) for the threshold ε ∈ [1e-8, 1/2) (paper §4.1,
     /// ε = 0.01 there): the model's marginal in θ and in φ is below ε at an angular
     /// distance Γ from the SG axis (θ or φ = π/2 − Γ), so patches beyond the cone of
@@ -459,6 +520,9 @@ impl IsgModel for BestIsg {
         root(0).max(root(1))
     }
 }
+
+/// How far from ⟂ the pole an SG axis may be in [`IsgModel::patch_world`] (|a·pole|).
+pub const WORLD_AXIS_TOL: f64 = 1e-6;
 
 /// A spherical Gaussian G(v) = μ exp(λ (a·v − 1)) (docs/math.md §1): unit axis `axis`,
 /// sharpness λ > 0, amplitude μ.

@@ -83,12 +83,17 @@
 //! let mut z = [0.0; 4];
 //! LogZh::embedded().unwrap().lookup(log_zh::Kind::Blocker, 0.1, 0.4, 4, &mut z).unwrap();
 //! assert!(z[0] < 0.0);
-//! // Turn it to the blocker's direction and exponentiate: SH visibility by HYB.
-//! let mut f = [0.0; 16];
-//! sh::zh_to_sh(&z, [0.0, 0.6, 0.8], &mut f).unwrap();
+//! // SH visibility (order 4) at the origin of two sphere blockers (centre, radius),
+//! // by HYB, in one call (log_zh::sphere_cap gives one blocker's direction and angle).
+//! let blockers = [(DVec3::new(0.0, 1.2, 1.6), 0.5), (DVec3::new(1.0, 0.0, 2.0), 0.3)];
 //! let mut vis = [0.0; 16];
-//! ShExp::embedded().unwrap().hyb(&f, &mut vis).unwrap();
+//! ShExp::embedded().unwrap().hyb_spheres(DVec3::ZERO, &blockers, 4, &mut vis).unwrap();
 //! assert!(vis[0] > 0.0 && vis[0] < (4.0 * std::f64::consts::PI).sqrt());
+//! // An SG's integral over a rectangle given in world space (θ from the pole +y,
+//! // φ about it from +x): the SG axis +z sits at φ = π/2.
+//! let (t, p) = ([1.2, 1.9], [1.3, 1.8]);
+//! let i = BestIsg::embedded().unwrap().patch_world(&sg, DVec3::Y, DVec3::X, t, p).unwrap();
+//! assert!(i > 0.0 && i < sg.integral());
 //! // Wrap lighting's per-band scalings at a = 0.5.
 //! let mut l = [0.0; 3];
 //! WrapTable::embedded().unwrap().lookup(3, 0.5, &mut l).unwrap();

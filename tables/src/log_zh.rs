@@ -29,6 +29,7 @@ use crate::error::{finite, in_range, narrow_all, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::sh::{self, MAX_ORDER};
 use crate::table::Table;
+use glam::DVec3;
 
 /// Table kind.
 pub const KIND: &str = "log-zh";
@@ -282,6 +283,32 @@ pub fn blocker_f32(eps: f32, theta_b: f32, order: usize, out: &mut [f32]) -> Res
 /// `out[..n²]`, n = `zh.len()`. Same as [`sh::zh_to_sh`].
 pub fn to_world(zh: &[f64], d: impl Into<glam::DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
     sh::zh_to_sh(zh, d, out)
+}
+
+/// A spherical blocker (centre `centre`, radius `radius` > 0, same length unit)
+/// seen from `point`: the unit direction to its centre and its angular radius
+/// θ_b = asin(r/d) ∈ (0, π/2) (rad), d = |centre − point|. Errors name a non-finite
+/// input, a radius ≤ 0, or a point inside or on the sphere (d ≤ r).
+pub fn sphere_cap(point: impl Into<DVec3>, centre: impl Into<DVec3>, radius: f64) -> Result<(DVec3, f64), LookupError> {
+    let (p, c) = (point.into(), centre.into());
+    for (name, v) in [("point", p), ("blocker centre", c)] {
+        for x in v.to_array() {
+            finite(name, x)?;
+        }
+    }
+    let r = in_range("blocker radius", radius, f64::MIN_POSITIVE, f64::MAX)?;
+    let to = c - p;
+    let d = to.length();
+    // d ≤ r: the point is inside the blocker, which hides everything.
+    if !(d > r) || !d.is_finite() {
+        return Err(LookupError::OutOfDomain {
+            name: "distance to the blocker's centre over its radius".into(),
+            value: d / r,
+            lo: 1.0,
+            hi: f64::INFINITY,
+        });
+    }
+    Ok((to / d, (r / d).asin()))
 }
 
 /// The log-ZH table (Phong rows r = 1..128, ε nodes 0.01..0.99, channels z0..z7).

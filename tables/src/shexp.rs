@@ -31,6 +31,7 @@ use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::gaunt::Gaunt;
 use crate::sh::{self, MAX_COEFFS};
 use crate::table::Table;
+use glam::{DVec3, Vec3};
 
 /// Table kind.
 pub const KIND: &str = "shexp";
@@ -567,6 +568,48 @@ impl ShExp {
         let top = self.norm_max(n)?;
         in_range("threshold", threshold, f64::MIN_POSITIVE, top)?;
         hyb_with(Gaunt::cached(n)?, f, threshold, |x| self.ab_for_norm(x, n), out)
+    }
+
+    /// SH visibility (order `order` ∈ 3..=8, n² coefficients into `out[..n²]`) at
+    /// `point` of a set of spherical blockers `(centre, radius)`: each blocker's log-ZH
+    /// ([`ShExp::log_zh`] of its [`log_zh::sphere_cap`] angle) turned to its direction
+    /// and summed, then exponentiated by HYB ([`ShExp::hyb`]). No blockers gives the
+    /// unoccluded visibility (y₀₀ coefficient √(4π)). Returns HYB's number of squarings.
+    pub fn hyb_spheres(
+        &self,
+        point: DVec3,
+        spheres: &[(DVec3, f64)],
+        order: usize,
+        out: &mut [f64],
+    ) -> Result<u32, LookupError> {
+        let n = check_order(order)?;
+        let nc = n * n;
+        let (mut f, mut zh, mut turned) = ([0.0; MAX_COEFFS], [0.0; 8], [0.0; MAX_COEFFS]);
+        for &(centre, radius) in spheres {
+            let (dir, theta_b) = crate::log_zh::sphere_cap(point, centre, radius)?;
+            self.log_zh(theta_b, n, &mut zh)?;
+            sh::zh_to_sh(&zh[..n], dir, &mut turned[..nc])?;
+            for (a, b) in f.iter_mut().zip(&turned[..nc]) {
+                *a += b;
+            }
+        }
+        self.hyb(&f[..nc], out)
+    }
+
+    /// [`ShExp::hyb_spheres`] with an f32 interface (computed in f64, rounded once).
+    pub fn hyb_spheres_f32(
+        &self,
+        point: Vec3,
+        spheres: &[(Vec3, f32)],
+        order: usize,
+        out: &mut [f32],
+    ) -> Result<u32, LookupError> {
+        let n = check_order(order)?;
+        let wide: Vec<(DVec3, f64)> = spheres.iter().map(|&(c, r)| (c.as_dvec3(), r as f64)).collect();
+        let mut tmp = [0.0; MAX_COEFFS];
+        let k = self.hyb_spheres(point.as_dvec3(), &wide, n, &mut tmp)?;
+        narrow_all("SH visibility", &tmp[..n * n], out)?;
+        Ok(k)
     }
 
     /// [`ShExp::hyb`] with an f32 interface (computed in f64, rounded once).
