@@ -201,7 +201,7 @@ pub trait IsgModel {
             hi: 1.0,
         })?;
         let x0 = phi_zero - phi_zero.dot(y) * y;
-        if !(x0.length() > 1e-6) {
+        if x0.length().is_nan() || x0.length() <= 1e-6 {
             return Err(LookupError::OutOfDomain {
                 name: "length of phi_zero's part perpendicular to the pole".into(),
                 value: x0.length(),

@@ -300,7 +300,7 @@ pub fn sphere_cap(point: impl Into<DVec3>, centre: impl Into<DVec3>, radius: f64
     let to = c - p;
     let d = to.length();
     // d ≤ r: the point is inside the blocker, which hides everything.
-    if !(d > r) || !d.is_finite() {
+    if d.is_nan() || d <= r || !d.is_finite() {
         return Err(LookupError::OutOfDomain {
             name: "distance to the blocker's centre over its radius".into(),
             value: d / r,
