@@ -214,7 +214,9 @@ mod sg_fit {
     }
     #[divan::bench]
     fn lobe_to_sg(b: Bencher) {
-        bench_each(b, &es(), |&e| t().lobe_to_sg([0.0, 0.0, 1.0], e, 1.0).unwrap().sharpness);
+        bench_each(b, &es(), |&e| {
+            t().lobe_to_sg([0.0, 0.0, 1.0], e, 1.0).unwrap().sharpness
+        });
     }
 }
 
@@ -484,7 +486,9 @@ mod disk_light {
     }
     #[divan::bench]
     fn irradiance_sh(b: Bencher) {
-        bench_each(b, &scenes(), |&(p, c, n, r)| t().irradiance_sh(p, c, n, r, 1.0).unwrap()[0]);
+        bench_each(b, &scenes(), |&(p, c, n, r)| {
+            t().irradiance_sh(p, c, n, r, 1.0).unwrap()[0]
+        });
     }
     #[divan::bench]
     fn irradiance_sh_f32(b: Bencher) {
@@ -492,7 +496,9 @@ mod disk_light {
             .iter()
             .map(|&(p, c, n, r)| (p.as_vec3(), c.as_vec3(), n.as_vec3(), r as f32))
             .collect();
-        bench_each(b, &xs, |&(p, c, n, r)| t().irradiance_sh_f32(p, c, n, r, 1.0).unwrap()[0]);
+        bench_each(b, &xs, |&(p, c, n, r)| {
+            t().irradiance_sh_f32(p, c, n, r, 1.0).unwrap()[0]
+        });
     }
 }
 
