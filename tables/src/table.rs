@@ -352,9 +352,6 @@ impl Table {
     /// [`Table::interpolate`] for `D` axes (`x.len() == D`, `out.len()` = channels).
     #[inline]
     fn interpolate_n<const D: usize>(&self, x: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
-        let nc = out.len();
-        let mut base = [0usize; D];
-        let mut frac = [0f64; D];
         for d in 0..D {
             let m = &self.maps[d];
             let xd = x[d];
@@ -362,7 +359,27 @@ impl Table {
                 // Cold path: the error names the axis.
                 in_range(&self.meta.axes[d].name, xd, m.lo, m.hi)?;
             }
-            let s = m.coordinate(xd);
+        }
+        let x: &[f64; D] = x.try_into().map_err(|_| LookupError::Arity {
+            expected: D,
+            got: x.len(),
+        })?;
+        self.interpolate_valid(x, out);
+        Ok(())
+    }
+
+    /// [`Table::interpolate`] at coordinates the caller has already checked to lie in
+    /// the axes' ranges (`D` = axis count, `out.len()` = channel count): the batch
+    /// lookups validate a whole slice first and then call this, with no `Result` per
+    /// item. Out-of-range coordinates are clamped to the end nodes; NaN gives NaN.
+    #[inline]
+    pub(crate) fn interpolate_valid<const D: usize>(&self, x: &[f64; D], out: &mut [f64]) {
+        let nc = out.len();
+        let mut base = [0usize; D];
+        let mut frac = [0f64; D];
+        for d in 0..D {
+            let m = &self.maps[d];
+            let s = m.coordinate(x[d]);
             let i = (s as usize).min(m.last_cell);
             base[d] = i;
             frac[d] = s - i as f64;
@@ -389,7 +406,6 @@ impl Table {
                 *o = o.exp();
             }
         }
-        Ok(())
     }
 }
 
