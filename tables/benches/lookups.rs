@@ -154,6 +154,27 @@ mod cap_exponent {
         let xs: Vec<f32> = alphas().iter().map(|&a| a as f32).collect();
         bench_each(b, &xs, |&a| t().e_cap_f32(a).unwrap());
     }
+    #[divan::bench]
+    fn e_caps_batch(b: Bencher) {
+        let xs = alphas();
+        let mut out = vec![0.0; xs.len()];
+        b.counter(ItemsCount::new(xs.len()))
+            .bench_local(|| t().e_caps(black_box(&xs), &mut out).unwrap());
+    }
+    #[divan::bench]
+    fn e_caps_f32_batch(b: Bencher) {
+        let xs: Vec<f32> = alphas().iter().map(|&a| a as f32).collect();
+        let mut out = vec![0.0; xs.len()];
+        b.counter(ItemsCount::new(xs.len()))
+            .bench_local(|| t().e_caps_f32(black_box(&xs), &mut out).unwrap());
+    }
+    /// The floor: the logit mapping's ln and the model's sin, cos and ln, no table.
+    #[divan::bench]
+    fn floor_transcendentals(b: Bencher) {
+        bench_each(b, &alphas(), |&a| {
+            (a / (std::f64::consts::FRAC_PI_2 - a)).ln() + lobefit_tables::cap_exponent::model(a)
+        });
+    }
 }
 
 mod lobe_integral {
@@ -182,6 +203,18 @@ mod lobe_integral {
     fn integral_f32(b: Bencher) {
         let xs: Vec<f32> = es().iter().map(|&e| e as f32).collect();
         bench_each(b, &xs, |&e| t().integral_f32(e).unwrap());
+    }
+    #[divan::bench]
+    fn integrals_batch(b: Bencher) {
+        let xs = es();
+        let mut out = vec![0.0; xs.len()];
+        b.counter(ItemsCount::new(xs.len()))
+            .bench_local(|| t().integrals(black_box(&xs), &mut out).unwrap());
+    }
+    /// The floor: the mapping's ln_1p and the decoding exp, no table.
+    #[divan::bench]
+    fn floor_transcendentals(b: Bencher) {
+        bench_each(b, &es(), |&e| e.ln_1p().exp());
     }
 }
 
@@ -256,6 +289,21 @@ mod isg {
     fn refit_s_hat_f32(b: Bencher) {
         bench_each(b, &points_f32(), |p| refit().s_hat_f32(p[0], p[1], p[2]).unwrap());
     }
+    #[divan::bench]
+    fn refit_s_hats_batch(b: Bencher) {
+        let xs = points();
+        let mut out = vec![0.0; xs.len()];
+        b.counter(ItemsCount::new(xs.len()))
+            .bench_local(|| refit().s_hats(black_box(&xs), &mut out).unwrap());
+    }
+    /// The floor: ln γ (mapping), two exp (decoding ln g, ln h), two logistic exp.
+    #[divan::bench]
+    fn refit_floor_transcendentals(b: Bencher) {
+        bench_each(b, &points(), |p| {
+            let l = p[2].ln();
+            (l.exp() * (p[0] - FRAC_PI_2)).exp() + (l.exp() * (p[1] - FRAC_PI_2)).exp()
+        });
+    }
 
     /// Two 2-D gathers (all four channels) per Ŝ: one at (γ, u(θ)), one at (γ, u(φ)).
     #[divan::bench]
@@ -292,6 +340,20 @@ mod isg {
     #[divan::bench]
     fn best_s_hat_f32(b: Bencher) {
         bench_each(b, &points_f32(), |p| best().s_hat_f32(p[0], p[1], p[2]).unwrap());
+    }
+    #[divan::bench]
+    fn best_s_hats_batch(b: Bencher) {
+        let xs = points();
+        let mut out = vec![0.0; xs.len()];
+        b.counter(ItemsCount::new(xs.len()))
+            .bench_local(|| best().s_hats(black_box(&xs), &mut out).unwrap());
+    }
+    /// The floor: ln γ, e^{−γ} − 1 and the warp (sin, exp_m1, sqrt) of θ and of φ.
+    #[divan::bench]
+    fn best_floor_transcendentals(b: Bencher) {
+        bench_each(b, &points(), |p| {
+            p[2].ln() + warp(p[0].min(FRAC_PI_2), p[2]) + warp(p[1].min(FRAC_PI_2), p[2])
+        });
     }
     /// The published model needs no table: for scale.
     #[divan::bench]
@@ -652,5 +714,41 @@ mod lobe_product {
             })
             .collect();
         bench_each(b, &xs, |(a, c)| energy().product_f32(a, c).unwrap().exponent);
+    }
+    #[divan::bench]
+    fn products_batch(b: Bencher) {
+        let xs = lobes();
+        let mut out = vec![xs[0].0; xs.len()];
+        b.counter(ItemsCount::new(xs.len()))
+            .bench_local(|| energy().products(black_box(&xs), &mut out).unwrap());
+    }
+    /// The floor of `params` without the table: the closed-form terms it must add to
+    /// the stored corrections (mapping ln_1p ×2 and asinh, the model exponent, ln M
+    /// with its two ln Γ, the peak fraction).
+    #[divan::bench]
+    fn floor_closed_form(b: Bencher) {
+        use lobefit_tables::lobe_product::{exponent_model, ln_model, peak_fraction};
+        bench_each(b, &points(), |p| {
+            let m = (10.0 * p[0]).ln_1p() + (10.0 * p[1]).ln_1p() + ((p[2] - 1.5707963) / 2e-3).asinh();
+            m + exponent_model(p[0], p[1], p[2]) + ln_model(p[0], p[1], p[2]) + peak_fraction(p[0], p[1], p[2])
+        });
+    }
+    /// ln W(E) (two Lanczos ln Γ), one term of ln M.
+    #[divan::bench]
+    fn ln_w(b: Bencher) {
+        bench_each(b, &points(), |p| lobefit_tables::lobe_product::ln_w(p[0] + p[1]));
+    }
+    /// A cheaper alternative tried for ln W(E): the asymptotic series of
+    /// ln Γ(x + ½) − ln Γ(x), x = E/2 + 1 (one ln and a polynomial in 1/x²; for E ≥ 30).
+    /// Not adopted: it differs from the Lanczos path by up to ~1e-11 at E ~ 10⁴–10⁵
+    /// (that path's own rounding), above the bit-identical bar.
+    #[divan::bench]
+    fn ln_w_asymptotic(b: Bencher) {
+        bench_each(b, &points(), |p| {
+            let x = 0.5 * (p[0] + p[1]) + 1.0;
+            let y = 1.0 / (x * x);
+            let s = (1.0 / 8.0) - y * (1.0 / 192.0 - y * (1.0 / 640.0 - y * (17.0 / 14336.0)));
+            0.5 * (std::f64::consts::PI.ln() - x.ln()) + s / x
+        });
     }
 }
