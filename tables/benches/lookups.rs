@@ -729,7 +729,8 @@ mod lobe_product {
     fn floor_closed_form(b: Bencher) {
         use lobefit_tables::lobe_product::{exponent_model, ln_model, peak_fraction};
         bench_each(b, &points(), |p| {
-            let m = (10.0 * p[0]).ln_1p() + (10.0 * p[1]).ln_1p() + ((p[2] - 1.5707963) / 2e-3).asinh();
+            let m =
+                (10.0 * p[0]).ln_1p() + (10.0 * p[1]).ln_1p() + ((p[2] - std::f64::consts::FRAC_PI_2) / 2e-3).asinh();
             m + exponent_model(p[0], p[1], p[2]) + ln_model(p[0], p[1], p[2]) + peak_fraction(p[0], p[1], p[2])
         });
     }

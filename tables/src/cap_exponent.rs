@@ -144,7 +144,7 @@ impl CapExponent {
     pub fn e_caps(&self, alphas: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
         same_length(alphas.len(), out.len())?;
         // A branch-free fold over the slice; the slow search runs only on failure.
-        let ok = alphas.iter().fold(true, |ok, &a| ok & (a >= ALPHA_MIN) & (a <= PI));
+        let ok = alphas.iter().fold(true, |ok, &a| ok & (ALPHA_MIN..=PI).contains(&a));
         if !ok {
             first_failure(alphas, |&a| self.e_cap(a))?;
         }
@@ -160,7 +160,7 @@ impl CapExponent {
         same_length(alphas.len(), out.len())?;
         let ok = alphas
             .iter()
-            .fold(true, |ok, &a| ok & (a as f64 >= ALPHA_MIN) & (a as f64 <= PI));
+            .fold(true, |ok, &a| ok & (ALPHA_MIN..=PI).contains(&(a as f64)));
         if !ok {
             first_failure(alphas, |&a| self.e_cap_f32(a))?;
         }

@@ -106,7 +106,7 @@ impl LobeIntegral {
     /// out-of-domain e.
     pub fn integrals(&self, es: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
         same_length(es.len(), out.len())?;
-        let ok = es.iter().fold(true, |ok, &e| ok & (e >= 0.0) & (e <= E_MAX));
+        let ok = es.iter().fold(true, |ok, &e| ok & (0.0..=E_MAX).contains(&e));
         if !ok {
             first_failure(es, |&e| self.integral(e))?;
         }
@@ -122,9 +122,7 @@ impl LobeIntegral {
     /// for bit [`LobeIntegral::integral_f32`].
     pub fn integrals_f32(&self, es: &[f32], out: &mut [f32]) -> Result<(), LookupError> {
         same_length(es.len(), out.len())?;
-        let ok = es
-            .iter()
-            .fold(true, |ok, &e| ok & (e as f64 >= 0.0) & (e as f64 <= E_MAX));
+        let ok = es.iter().fold(true, |ok, &e| ok & (0.0..=E_MAX).contains(&(e as f64)));
         if !ok {
             first_failure(es, |&e| self.integral_f32(e))?;
         }

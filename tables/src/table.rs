@@ -352,9 +352,7 @@ impl Table {
     /// [`Table::interpolate`] for `D` axes (`x.len() == D`, `out.len()` = channels).
     #[inline]
     fn interpolate_n<const D: usize>(&self, x: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
-        for d in 0..D {
-            let m = &self.maps[d];
-            let xd = x[d];
+        for (d, (m, &xd)) in self.maps.iter().zip(x).enumerate() {
             if !(xd >= m.lo && xd <= m.hi) {
                 // Cold path: the error names the axis.
                 in_range(&self.meta.axes[d].name, xd, m.lo, m.hi)?;
