@@ -11,9 +11,9 @@
 //! u = ln(α/(π/2 − α)), which
 //! are dense at both ends. Renderers evaluate e = q(α)·m(α) ([`model`]).
 
-use std::f64::consts::FRAC_PI_2;
+use std::f64::consts::{FRAC_PI_2, PI};
 
-use crate::error::{in_range, narrow, LoadError, LookupError};
+use crate::error::{first_failure, in_range, narrow, same_length, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 
@@ -111,7 +111,7 @@ impl CapExponent {
     /// Best-fitting lobe exponent e_cap(α) (dimensionless) for a cap of half-angle
     /// α ∈ [1e-3, π] rad; 0 for α ≥ π/2.
     pub fn e_cap(&self, alpha: f64) -> Result<f64, LookupError> {
-        let alpha = in_range("alpha", alpha, ALPHA_MIN, std::f64::consts::PI)?;
+        let alpha = in_range("alpha", alpha, ALPHA_MIN, PI)?;
         if alpha >= FRAC_PI_2 {
             return Ok(0.0);
         }
@@ -121,5 +121,56 @@ impl CapExponent {
     /// [`CapExponent::e_cap`] with an f32 interface (computed in f64, rounded once).
     pub fn e_cap_f32(&self, alpha: f32) -> Result<f32, LookupError> {
         narrow("e_cap", self.e_cap(alpha as f64)?)
+    }
+
+    /// [`CapExponent::e_cap`] without input checks, for α already in [1e-3, π]: the
+    /// same arithmetic, so the same bits.
+    #[inline]
+    fn e_cap_valid(&self, alpha: f64) -> f64 {
+        if alpha >= FRAC_PI_2 {
+            return 0.0;
+        }
+        let mut q = [0.0];
+        self.table.interpolate_valid(&[alpha.min(ALPHA_TABLE_MAX)], &mut q);
+        q[0] * model(alpha)
+    }
+
+    /// Batch [`CapExponent::e_cap`]: `out[i]` = e_cap(`alphas[i]`) (dimensionless; α in
+    /// rad, each in [1e-3, π]), bit for bit the one-at-a-time value. The whole slice
+    /// is validated first, then computed in a plain loop with no per-item `Result`.
+    /// Errors: [`LookupError::BatchLength`] when the slices differ in length,
+    /// [`LookupError::BatchItem`] (index and the one-at-a-time error) for the first
+    /// NaN, infinite or out-of-domain α.
+    pub fn e_caps(&self, alphas: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
+        same_length(alphas.len(), out.len())?;
+        // A branch-free fold over the slice; the slow search runs only on failure.
+        let ok = alphas.iter().fold(true, |ok, &a| ok & (ALPHA_MIN..=PI).contains(&a));
+        if !ok {
+            first_failure(alphas, |&a| self.e_cap(a))?;
+        }
+        for (o, &a) in out.iter_mut().zip(alphas) {
+            *o = self.e_cap_valid(a);
+        }
+        Ok(())
+    }
+
+    /// [`CapExponent::e_caps`] in single precision: each value computed in f64 and
+    /// rounded once, bit for bit [`CapExponent::e_cap_f32`].
+    pub fn e_caps_f32(&self, alphas: &[f32], out: &mut [f32]) -> Result<(), LookupError> {
+        same_length(alphas.len(), out.len())?;
+        let ok = alphas
+            .iter()
+            .fold(true, |ok, &a| ok & (ALPHA_MIN..=PI).contains(&(a as f64)));
+        if !ok {
+            first_failure(alphas, |&a| self.e_cap_f32(a))?;
+        }
+        for (o, &a) in out.iter_mut().zip(alphas) {
+            *o = self.e_cap_valid(a as f64) as f32;
+        }
+        // e_cap ≤ 2·10⁶ on the domain, so this never fires; it keeps "no Ok(inf)" a check.
+        if !out.iter().all(|v| v.is_finite()) {
+            first_failure(alphas, |&a| self.e_cap_f32(a))?;
+        }
+        Ok(())
     }
 }

@@ -123,6 +123,47 @@ pub enum LookupError {
     /// A product of lobes whose peak value or exponent overflows f64.
     #[error("the product of lobes with exponents e1 = {} and e2 = {} overflows", short(*.e1), short(*.e2))]
     ProductOverflow { e1: f64, e2: f64 },
+    /// A batch lookup's output slice is not as long as its input slice.
+    #[error("batch of {inputs} queries has {outputs} output slots; they must be equal")]
+    BatchLength { inputs: usize, outputs: usize },
+    /// Item `index` (0-based) of a batch lookup was refused, for the reason `error`
+    /// (what the one-at-a-time lookup returns for it); the first such item is
+    /// reported and the output slice is left unspecified.
+    #[error("batch item {index}: {error}")]
+    BatchItem { index: usize, error: Box<LookupError> },
+}
+
+/// Fails with [`LookupError::BatchLength`] unless `inputs == outputs`.
+pub(crate) fn same_length(inputs: usize, outputs: usize) -> Result<(), LookupError> {
+    if inputs == outputs {
+        Ok(())
+    } else {
+        Err(LookupError::BatchLength { inputs, outputs })
+    }
+}
+
+/// Wraps the error of batch item `index`.
+pub(crate) fn at_index(index: usize, error: LookupError) -> LookupError {
+    LookupError::BatchItem {
+        index,
+        error: Box::new(error),
+    }
+}
+
+/// The first item of a batch for which `single` (the one-at-a-time lookup) fails, as
+/// [`LookupError::BatchItem`]; `Ok` when every item passes. Batch APIs call it only
+/// after their branch-free pass found a bad input or result, so the error is exactly
+/// the one-at-a-time error.
+pub(crate) fn first_failure<T, R>(
+    items: &[T],
+    single: impl Fn(&T) -> Result<R, LookupError>,
+) -> Result<(), LookupError> {
+    for (i, x) in items.iter().enumerate() {
+        if let Err(e) = single(x) {
+            return Err(at_index(i, e));
+        }
+    }
+    Ok(())
 }
 
 /// A number formatted for a message: the shortest digits that round-trip, plainly

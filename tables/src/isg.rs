@@ -29,7 +29,9 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use crate::error::{angle_f32, finite, finite_result, in_range, narrow, LoadError, LookupError};
+use crate::error::{
+    angle_f32, finite, finite_result, first_failure, in_range, narrow, same_length, LoadError, LookupError,
+};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 use glam::{DVec3, Vec3};
@@ -256,6 +258,45 @@ pub trait IsgModel {
         finite_result("limiting angle", self.limiting_angle_unchecked(gamma, e).min(FRAC_PI_2))
     }
 
+    /// Batch [`IsgModel::s_hat`]: `out[i]` = Ŝ(θ, φ; γ) for `queries[i]` = [θ, φ, γ]
+    /// (rad, rad, dimensionless; same domain), bit for bit the one-at-a-time value.
+    /// The slice is validated first, then computed in a plain loop with no per-item
+    /// `Result`. Errors: [`LookupError::BatchLength`] when the slices differ in
+    /// length, [`LookupError::BatchItem`] (index and the one-at-a-time error) for the
+    /// first bad query.
+    fn s_hats(&self, queries: &[[f64; 3]], out: &mut [f64]) -> Result<(), LookupError> {
+        same_length(queries.len(), out.len())?;
+        if !queries.iter().fold(true, |ok, q| ok & valid(q)) {
+            first_failure(queries, |q| self.s_hat(q[0], q[1], q[2]))?;
+        }
+        for (o, q) in out.iter_mut().zip(queries) {
+            *o = self.s_hat_unchecked(q[0], q[1], q[2]);
+        }
+        // The models are bounded (see s_hat); checked, never assumed.
+        if !out.iter().all(|v| v.is_finite()) {
+            first_failure(queries, |q| self.s_hat(q[0], q[1], q[2]))?;
+        }
+        Ok(())
+    }
+
+    /// [`IsgModel::s_hats`] in single precision (f64 inside, rounded once; π as f32
+    /// taken as π), bit for bit [`IsgModel::s_hat_f32`].
+    fn s_hats_f32(&self, queries: &[[f32; 3]], out: &mut [f32]) -> Result<(), LookupError> {
+        same_length(queries.len(), out.len())?;
+        let wide = |q: &[f32; 3]| [angle_f32(q[0]), angle_f32(q[1]), q[2] as f64];
+        if !queries.iter().fold(true, |ok, q| ok & valid(&wide(q))) {
+            first_failure(queries, |q| self.s_hat_f32(q[0], q[1], q[2]))?;
+        }
+        for (o, q) in out.iter_mut().zip(queries) {
+            let [t, p, g] = wide(q);
+            *o = self.s_hat_unchecked(t, p, g) as f32;
+        }
+        if !out.iter().all(|v| v.is_finite()) {
+            first_failure(queries, |q| self.s_hat_f32(q[0], q[1], q[2]))?;
+        }
+        Ok(())
+    }
+
     /// [`IsgModel::s_hat`] with an f32 interface (computed in f64, rounded once).
     fn s_hat_f32(&self, theta: f32, phi: f32, gamma: f32) -> Result<f32, LookupError> {
         narrow("S_hat", self.s_hat(angle_f32(theta), angle_f32(phi), gamma as f64)?)
@@ -291,6 +332,12 @@ fn check(theta: f64, phi: f64, gamma: f64) -> Result<(), LookupError> {
     in_range("phi", phi, 0.0, PI)?;
     in_range("gamma", gamma, GAMMA_MIN, GAMMA_MAX)?;
     Ok(())
+}
+
+/// Whether (θ, φ, γ) passes [`check`], without branches (NaN fails).
+#[inline]
+fn valid(q: &[f64; 3]) -> bool {
+    (q[0] >= 0.0) & (q[0] <= PI) & (q[1] >= 0.0) & (q[1] <= PI) & (q[2] >= GAMMA_MIN) & (q[2] <= GAMMA_MAX)
 }
 
 /// Logistic product σ(g(θ − π/2)) σ(h(φ − π/2)).
@@ -359,8 +406,10 @@ impl RefitIsg {
     }
 
     fn slopes_unchecked(&self, gamma: f64) -> (f64, f64) {
-        // γ was validated: interpolation cannot fail.
-        self.slopes(gamma).unwrap_or((f64::NAN, f64::NAN))
+        // γ was validated: no second range check.
+        let mut out = [0.0; 2];
+        self.table.interpolate_valid(&[gamma], &mut out);
+        (out[0], out[1])
     }
 }
 

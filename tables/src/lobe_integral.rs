@@ -12,7 +12,7 @@
 
 use std::f64::consts::PI;
 
-use crate::error::{in_range, narrow, LoadError, LookupError};
+use crate::error::{first_failure, in_range, narrow, same_length, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 
@@ -97,5 +97,40 @@ impl LobeIntegral {
     /// [`LobeIntegral::integral`] with an f32 interface (computed in f64, rounded once).
     pub fn integral_f32(&self, e: f32) -> Result<f32, LookupError> {
         narrow("I", self.integral(e as f64)?)
+    }
+
+    /// Batch [`LobeIntegral::integral`]: `out[i]` = I(`es[i]`) in sr, each e in [0, 10⁵],
+    /// bit for bit the one-at-a-time value; the slice is validated first, then
+    /// computed in a plain loop. Errors: [`LookupError::BatchLength`] when the slices
+    /// differ in length, [`LookupError::BatchItem`] for the first NaN, infinite or
+    /// out-of-domain e.
+    pub fn integrals(&self, es: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
+        same_length(es.len(), out.len())?;
+        let ok = es.iter().fold(true, |ok, &e| ok & (0.0..=E_MAX).contains(&e));
+        if !ok {
+            first_failure(es, |&e| self.integral(e))?;
+        }
+        for (o, &e) in out.iter_mut().zip(es) {
+            let mut i = [0.0];
+            self.table.interpolate_valid(&[e], &mut i);
+            *o = i[0];
+        }
+        Ok(())
+    }
+
+    /// [`LobeIntegral::integrals`] in single precision (f64 inside, rounded once), bit
+    /// for bit [`LobeIntegral::integral_f32`].
+    pub fn integrals_f32(&self, es: &[f32], out: &mut [f32]) -> Result<(), LookupError> {
+        same_length(es.len(), out.len())?;
+        let ok = es.iter().fold(true, |ok, &e| ok & (0.0..=E_MAX).contains(&(e as f64)));
+        if !ok {
+            first_failure(es, |&e| self.integral_f32(e))?;
+        }
+        for (o, &e) in out.iter_mut().zip(es) {
+            let mut i = [0.0];
+            self.table.interpolate_valid(&[e as f64], &mut i);
+            *o = i[0] as f32;
+        }
+        Ok(())
     }
 }

@@ -38,7 +38,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use glam::{DVec3, Vec3};
 
-use crate::error::{finite, finite_result, in_range, narrow, LoadError, LookupError};
+use crate::error::{finite, finite_result, first_failure, in_range, narrow, same_length, LoadError, LookupError};
 use crate::format::{Axis, Encoding, Mapping, Placement};
 use crate::table::Table;
 
@@ -181,17 +181,29 @@ pub fn ln_w(e: f64) -> f64 {
 /// the root of e1 tan β = e2 tan(α − β), i.e. sin(2β − α) = (e2 − e1)/(e1 + e2)·sin α.
 /// At α = 0 returns 0; for e1 = e2 = 0 (a lune) the lune's centre α/2.
 pub fn peak_angle(e1: f64, e2: f64, alpha: f64) -> f64 {
+    peak_angle_with(e1, e2, alpha, alpha.sin())
+}
+
+/// [`peak_angle`] given sin α (shared by the lookups' several closed-form terms).
+#[inline]
+fn peak_angle_with(e1: f64, e2: f64, alpha: f64, sin_alpha: f64) -> f64 {
     let sum = e1 + e2;
     let c = if sum > 0.0 { (e2 - e1) / sum } else { 0.0 };
     // Rounding can push the root an ulp outside the arc (e1 or e2 = 0).
-    (0.5 * (alpha + (c * alpha.sin()).clamp(-1.0, 1.0).asin())).clamp(0.0, alpha)
+    (0.5 * (alpha + (c * sin_alpha).clamp(-1.0, 1.0).asin())).clamp(0.0, alpha)
 }
 
 /// The fraction t = β/α of the arc from a1 at which the product peaks; at α = 0 its
 /// limit e2/(e1 + e2) (1/2 when both are 0).
 pub fn peak_fraction(e1: f64, e2: f64, alpha: f64) -> f64 {
+    peak_fraction_with(e1, e2, alpha, alpha.sin())
+}
+
+/// [`peak_fraction`] given sin α.
+#[inline]
+fn peak_fraction_with(e1: f64, e2: f64, alpha: f64, sin_alpha: f64) -> f64 {
     if alpha > 0.0 {
-        (peak_angle(e1, e2, alpha) / alpha).clamp(0.0, 1.0)
+        (peak_angle_with(e1, e2, alpha, sin_alpha) / alpha).clamp(0.0, 1.0)
     } else if e1 + e2 > 0.0 {
         e2 / (e1 + e2)
     } else {
@@ -212,24 +224,48 @@ pub fn lobe_ln(e: f64, c: f64) -> f64 {
 /// ln M(e1, e2, α), the closed-form model of ∫Ψ1Ψ2 (see the module docs);
 /// −∞ at α = π.
 pub fn ln_model(e1: f64, e2: f64, alpha: f64) -> f64 {
+    ln_model_with(e1, e2, alpha, &Trig::new(alpha))
+}
+
+/// sin α and the chord 2 sin(α/2): each closed-form term of a lookup needs one of
+/// them, computed once per lookup instead of once per term (same values, same bits).
+struct Trig {
+    sin_alpha: f64,
+    chord: f64,
+}
+
+impl Trig {
+    #[inline]
+    fn new(alpha: f64) -> Trig {
+        Trig {
+            sin_alpha: alpha.sin(),
+            chord: 2.0 * (0.5 * alpha).sin(),
+        }
+    }
+}
+
+/// [`ln_model`] given the shared trigonometry.
+#[inline]
+fn ln_model_with(e1: f64, e2: f64, alpha: f64, trig: &Trig) -> f64 {
     // The peak of the product with both exponents raised by 1: never pinned to a
     // hemisphere's edge, so the model stays smooth (no e·ln e) as an exponent → 0,
     // and still the true peak for sharp lobes.
-    let beta = peak_angle(e1 + 1.0, e2 + 1.0, alpha);
+    let beta = peak_angle_with(e1 + 1.0, e2 + 1.0, alpha, trig.sin_alpha);
     let lune = PI - alpha;
     let ln_peak = lobe_ln(e1, beta.cos().max(0.0)) + lobe_ln(e2, (alpha - beta).cos().max(0.0));
-    ln_w(e1 + e2) + ln_peak - 0.5 * (curvature(e1, e2, alpha) / TAU + 1.0 / (lune * lune)).ln()
+    ln_w(e1 + e2) + ln_peak - 0.5 * (curvature(e1, e2, trig.chord) / TAU + 1.0 / (lune * lune)).ln()
 }
 
 /// In-plane curvature of the log-product at its peak, G = E + 4κ sin²(α/2) with
 /// κ = e1e2/(e1 + e2): the Gaussian limit E + κα², with the chord in place of α so it
 /// stays bounded up to α = π.
-fn curvature(e1: f64, e2: f64, alpha: f64) -> f64 {
+/// `chord` = 2 sin(α/2).
+#[inline]
+fn curvature(e1: f64, e2: f64, chord: f64) -> f64 {
     let sum = e1 + e2;
     if sum == 0.0 {
         return 0.0;
     }
-    let chord = 2.0 * (0.5 * alpha).sin();
     sum + e1 * e2 / sum * chord * chord
 }
 
@@ -237,7 +273,13 @@ fn curvature(e1: f64, e2: f64, alpha: f64) -> f64 {
 /// and in-plane (G) curvatures; e_r = e1 + e2 at α = 0, and e_r ≈ e_m(1 + O(α⁴)) for
 /// two sharp lobes. The table stores ln((1 + e_r)/(1 + e_m)).
 pub fn exponent_model(e1: f64, e2: f64, alpha: f64) -> f64 {
-    ((e1 + e2) * curvature(e1, e2, alpha)).sqrt()
+    exponent_model_with(e1, e2, &Trig::new(alpha))
+}
+
+/// [`exponent_model`] given the shared trigonometry.
+#[inline]
+fn exponent_model_with(e1: f64, e2: f64, trig: &Trig) -> f64 {
+    ((e1 + e2) * curvature(e1, e2, trig.chord)).sqrt()
 }
 
 /// Fitted product parameters at (e1, e2, α).
@@ -420,15 +462,21 @@ impl LobeProduct {
     /// are ~1e-6, and let the closed-form models — exact in the sharp-lobe limit —
     /// carry the true exponents.
     fn params_checked(&self, e1: f64, e2: f64, alpha: f64) -> Result<ProductParams, LookupError> {
+        self.params_trig(e1, e2, alpha, &Trig::new(alpha))
+    }
+
+    /// [`LobeProduct::params_checked`] given the shared trigonometry of α.
+    #[inline]
+    fn params_trig(&self, e1: f64, e2: f64, alpha: f64, trig: &Trig) -> Result<ProductParams, LookupError> {
         let mut ch = [0.0; 3];
         let n = self.variant.channels().len();
         self.table
             .interpolate(&[e1.min(E_MAX), e2.min(E_MAX), alpha], &mut ch[..n])?;
-        let e_r = (1.0 + exponent_model(e1, e2, alpha)) * ch[1].exp() - 1.0;
+        let e_r = (1.0 + exponent_model_with(e1, e2, trig)) * ch[1].exp() - 1.0;
         let e_r = e_r.max(0.0);
         // exp of a very negative ln underflows to an exact 0: vanishing products are
         // exact zeros, never noise.
-        let integral = (ln_model(e1, e2, alpha) + ch[0]).exp();
+        let integral = (ln_model_with(e1, e2, alpha, trig) + ch[0]).exp();
         let k = if self.variant == Variant::L2 { ch[2].exp() } else { 1.0 };
         // Exponents beyond 10⁵ (lobe sums) can push e_r and p_r past f64.
         let e_r = finite_result("e_r", e_r)?;
@@ -436,7 +484,7 @@ impl LobeProduct {
         let p = finite_result("p_r", k * integral * (e_r + 1.0) / TAU)?;
         Ok(ProductParams {
             p,
-            t: peak_fraction(e1, e2, alpha),
+            t: peak_fraction_with(e1, e2, alpha, trig.sin_alpha),
             e_r,
             integral,
         })
@@ -464,7 +512,8 @@ impl LobeProduct {
         // atan2 of |a1×a2| and a1·a2 is accurate at both ends, unlike acos.
         let alpha = a1.cross(a2).length().atan2(cos);
         // Huge exponents overflow p or e_r: blame them, not the scales.
-        let q = self.params_checked(e1, e2, alpha).map_err(|e| match e {
+        let trig = Trig::new(alpha);
+        let q = self.params_trig(e1, e2, alpha, &trig).map_err(|e| match e {
             LookupError::Overflow { .. } => LookupError::ProductOverflow { e1, e2 },
             e => e,
         })?;
@@ -475,9 +524,84 @@ impl LobeProduct {
         let scale = finite_result("scale", l1.scale * q.p * l2.scale)?;
         Ok(Lobe {
             scale,
-            axis: slerp(a1, a2, alpha, q.t),
+            axis: slerp(a1, a2, alpha, trig.sin_alpha, q.t),
             exponent: q.e_r,
         })
+    }
+
+    /// [`LobeProduct::product_any`] for inputs that passed [`valid_pair`], with no
+    /// `Result`: the same arithmetic in the same order (so the same bits when the
+    /// result is finite); a non-finite scale or exponent marks an overflow, which the
+    /// caller turns into the one-at-a-time error.
+    #[inline]
+    fn product_valid(&self, l1: &Lobe, l2: &Lobe) -> Lobe {
+        let (a1, a2) = (l1.axis / l1.axis.length(), l2.axis / l2.axis.length());
+        let (e1, e2) = (l1.exponent, l2.exponent);
+        let cos = a1.dot(a2).clamp(-1.0, 1.0);
+        let alpha = a1.cross(a2).length().atan2(cos);
+        let trig = Trig::new(alpha);
+        let mut ch = [0.0; 3];
+        let n = self.variant.channels().len();
+        self.table
+            .interpolate_valid(&[e1.min(E_MAX), e2.min(E_MAX), alpha], &mut ch[..n]);
+        let e_r = ((1.0 + exponent_model_with(e1, e2, &trig)) * ch[1].exp() - 1.0).max(0.0);
+        let integral = (ln_model_with(e1, e2, alpha, &trig) + ch[0]).exp();
+        let k = if self.variant == Variant::L2 { ch[2].exp() } else { 1.0 };
+        let p = k * integral * (e_r + 1.0) / TAU;
+        let t = peak_fraction_with(e1, e2, alpha, trig.sin_alpha);
+        let ok = e_r.is_finite() & integral.is_finite() & p.is_finite();
+        Lobe {
+            // NaN flags an intermediate overflow even where the scales would hide it.
+            scale: if ok { l1.scale * p * l2.scale } else { f64::NAN },
+            axis: slerp(a1, a2, alpha, trig.sin_alpha, t),
+            exponent: e_r,
+        }
+    }
+
+    /// Batch [`LobeProduct::product`]: `out[i]` = the product of `pairs[i]` as one lobe,
+    /// bit for bit the one-at-a-time value (same contract: unit axes within 1e-3,
+    /// finite scales, exponents in [0, 10⁵]). The slice is validated first, then
+    /// computed in a plain loop with no per-item `Result`. Errors:
+    /// [`LookupError::BatchLength`] when the slices differ in length,
+    /// [`LookupError::BatchItem`] (index and the one-at-a-time error) for the first bad
+    /// pair or overflowing product.
+    pub fn products(&self, pairs: &[(Lobe, Lobe)], out: &mut [Lobe]) -> Result<(), LookupError> {
+        same_length(pairs.len(), out.len())?;
+        let single = |(a, b): &(Lobe, Lobe)| self.product(a, b);
+        if !pairs.iter().fold(true, |ok, (a, b)| ok & valid_lobe(a) & valid_lobe(b)) {
+            first_failure(pairs, single)?;
+        }
+        for (o, (a, b)) in out.iter_mut().zip(pairs) {
+            *o = self.product_valid(a, b);
+        }
+        if !out.iter().all(|l| l.scale.is_finite() & l.exponent.is_finite()) {
+            first_failure(pairs, single)?;
+        }
+        Ok(())
+    }
+
+    /// [`LobeProduct::products`] in single precision (f64 inside, rounded once), bit for
+    /// bit [`LobeProduct::product_f32`].
+    pub fn products_f32(&self, pairs: &[(LobeF32, LobeF32)], out: &mut [LobeF32]) -> Result<(), LookupError> {
+        same_length(pairs.len(), out.len())?;
+        let single = |(a, b): &(LobeF32, LobeF32)| self.product_f32(a, b);
+        if !pairs.iter().fold(true, |ok, (a, b)| {
+            ok & valid_lobe(&a.to_lobe()) & valid_lobe(&b.to_lobe())
+        }) {
+            first_failure(pairs, single)?;
+        }
+        for (o, (a, b)) in out.iter_mut().zip(pairs) {
+            let r = self.product_valid(&a.to_lobe(), &b.to_lobe());
+            *o = LobeF32 {
+                scale: r.scale as f32,
+                axis: r.axis.as_vec3(),
+                exponent: r.exponent as f32,
+            };
+        }
+        if !out.iter().all(|l| l.scale.is_finite() & l.exponent.is_finite()) {
+            first_failure(pairs, single)?;
+        }
+        Ok(())
     }
 
     /// [`LobeProduct::product`] with an f32 interface (computed in f64, rounded once).
@@ -571,6 +695,14 @@ pub fn lobe_sum_integral(lobes: &[Lobe]) -> f64 {
     lobes.iter().map(Lobe::integral).sum()
 }
 
+/// Whether [`LobeProduct::product`] accepts the lobe (finite scale and axis, axis
+/// length within 1e-3 of 1, exponent in [0, 10⁵]), without branches (NaN fails).
+#[inline]
+fn valid_lobe(l: &Lobe) -> bool {
+    let len = l.axis.length();
+    l.scale.is_finite() & l.axis.is_finite() & ((len - 1.0).abs() <= 1e-3) & (l.exponent >= 0.0) & (l.exponent <= E_MAX)
+}
+
 fn unit(name: &str, a: DVec3) -> Result<DVec3, LookupError> {
     for x in a.to_array() {
         finite(name, x)?;
@@ -589,8 +721,8 @@ fn unit(name: &str, a: DVec3) -> Result<DVec3, LookupError> {
 
 /// The point at fraction t of the arc (angle α) from a1 to a2. For α = π the arc is
 /// not unique; any perpendicular works since the product is 0 there.
-fn slerp(a1: DVec3, a2: DVec3, alpha: f64, t: f64) -> DVec3 {
-    let s = alpha.sin();
+/// `s` = sin α.
+fn slerp(a1: DVec3, a2: DVec3, alpha: f64, s: f64, t: f64) -> DVec3 {
     if s < 1e-9 {
         // Parallel (the product axis is a1 = a2) or antiparallel (the product vanishes).
         return a1;

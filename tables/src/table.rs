@@ -13,6 +13,74 @@ pub struct Table {
     meta: Meta,
     values: Vec<f32>,
     payload: Vec<u8>,
+    /// Per-axis constants of the lookup, derived from `meta` once at load time.
+    maps: Vec<AxisMap>,
+}
+
+/// What [`Table::interpolate`] needs of one axis, computed once at load time rather
+/// than per lookup (the mapped range ends alone cost two transcendental calls per axis
+/// and call). The arithmetic is the same as [`Axis::node_coordinate`]'s, in the same
+/// order, so results are bit-identical.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct AxisMap {
+    mapping: crate::format::Mapping,
+    lo: f64,
+    hi: f64,
+    /// Mapped coordinate of `lo`.
+    u0: f64,
+    /// Mapped span u(hi) − u(lo).
+    du: f64,
+    /// Node-index scale of the normalised coordinate: count − 1 (end-points) or count
+    /// (centres).
+    k: f64,
+    /// Whether nodes sit on cell centres (then the index is shifted by −1/2).
+    centres: bool,
+    /// Largest node index, as f64 (the clamp bound).
+    last: f64,
+    /// Largest cell start index, count − 2.
+    last_cell: usize,
+    /// Flat-index stride of the axis, in nodes.
+    stride: usize,
+}
+
+impl AxisMap {
+    fn new(a: &Axis, stride: usize) -> AxisMap {
+        let (u0, u1) = a.mapped_range();
+        let centres = a.placement == crate::format::Placement::Centres;
+        AxisMap {
+            mapping: a.mapping,
+            lo: a.lo,
+            hi: a.hi,
+            u0,
+            du: u1 - u0,
+            k: if centres { a.count as f64 } else { a.count as f64 - 1.0 },
+            centres,
+            last: (a.count - 1) as f64,
+            last_cell: a.count as usize - 2,
+            stride,
+        }
+    }
+
+    /// Clamped continuous node index of `x`: [`Axis::node_coordinate`] clamped to
+    /// [0, count − 1].
+    #[inline]
+    fn coordinate(&self, x: f64) -> f64 {
+        let t = (self.mapping.forward(x) - self.u0) / self.du;
+        let s = if self.centres { t * self.k - 0.5 } else { t * self.k };
+        s.clamp(0.0, self.last)
+    }
+}
+
+/// The axis maps of a validated description (strides in nodes, slowest axis first).
+fn axis_maps(meta: &Meta) -> Vec<AxisMap> {
+    let mut maps = Vec::with_capacity(meta.axes.len());
+    let mut stride = 1usize;
+    for a in meta.axes.iter().rev() {
+        maps.push(AxisMap::new(a, stride));
+        stride *= a.count as usize;
+    }
+    maps.reverse();
+    maps
 }
 
 impl Table {
@@ -73,6 +141,7 @@ impl Table {
         }
         Ok(Table {
             header,
+            maps: axis_maps(&meta),
             meta,
             values,
             payload: payload.to_vec(),
@@ -257,11 +326,10 @@ impl Table {
     /// Coordinates must lie in each axis's `[lo, hi]`; between a `Centres` end node
     /// and the range end the value is held constant (clamp-to-edge).
     pub fn interpolate(&self, x: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
-        let axes = &self.meta.axes;
         let nc = self.meta.channels.len();
-        if x.len() != axes.len() {
+        if x.len() != self.maps.len() {
             return Err(LookupError::Arity {
-                expected: axes.len(),
+                expected: self.maps.len(),
                 got: x.len(),
             });
         }
@@ -271,30 +339,64 @@ impl Table {
                 got: out.len(),
             });
         }
-        let mut base = [0usize; 4];
-        let mut frac = [0f64; 4];
-        for (d, (a, &xd)) in axes.iter().zip(x).enumerate() {
-            in_range(&a.name, xd, a.lo, a.hi)?;
-            let n = a.count as usize;
-            let s = a.node_coordinate(xd).clamp(0.0, (n - 1) as f64);
-            let i = (s.floor() as usize).min(n - 2);
+        // Dispatch on the axis count (at most 4, checked at load) so the corner loop
+        // is unrolled with fixed-size stack arrays.
+        match x.len() {
+            1 => self.interpolate_n::<1>(x, out),
+            2 => self.interpolate_n::<2>(x, out),
+            3 => self.interpolate_n::<3>(x, out),
+            _ => self.interpolate_n::<4>(x, out),
+        }
+    }
+
+    /// [`Table::interpolate`] for `D` axes (`x.len() == D`, `out.len()` = channels).
+    #[inline]
+    fn interpolate_n<const D: usize>(&self, x: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
+        for (d, (m, &xd)) in self.maps.iter().zip(x).enumerate() {
+            if !(xd >= m.lo && xd <= m.hi) {
+                // Cold path: the error names the axis.
+                in_range(&self.meta.axes[d].name, xd, m.lo, m.hi)?;
+            }
+        }
+        let x: &[f64; D] = x.try_into().map_err(|_| LookupError::Arity {
+            expected: D,
+            got: x.len(),
+        })?;
+        self.interpolate_valid(x, out);
+        Ok(())
+    }
+
+    /// [`Table::interpolate`] at coordinates the caller has already checked to lie in
+    /// the axes' ranges (`D` = axis count, `out.len()` = channel count): the batch
+    /// lookups validate a whole slice first and then call this, with no `Result` per
+    /// item. Out-of-range coordinates are clamped to the end nodes; NaN gives NaN.
+    #[inline]
+    pub(crate) fn interpolate_valid<const D: usize>(&self, x: &[f64; D], out: &mut [f64]) {
+        let nc = out.len();
+        let mut base = [0usize; D];
+        let mut frac = [0f64; D];
+        for d in 0..D {
+            let m = &self.maps[d];
+            let s = m.coordinate(x[d]);
+            let i = (s as usize).min(m.last_cell);
             base[d] = i;
             frac[d] = s - i as f64;
         }
         out.iter_mut().for_each(|o| *o = 0.0);
-        for corner in 0..(1usize << axes.len()) {
+        for corner in 0..(1usize << D) {
             let mut w = 1.0;
             let mut flat = 0usize;
-            for (d, a) in axes.iter().enumerate() {
+            for d in 0..D {
                 let hi = (corner >> d) & 1;
                 w *= if hi == 1 { frac[d] } else { 1.0 - frac[d] };
-                flat = flat * a.count as usize + base[d] + hi;
+                flat += (base[d] + hi) * self.maps[d].stride;
             }
             if w == 0.0 {
                 continue;
             }
-            for (c, o) in out.iter_mut().enumerate() {
-                *o += w * self.values[flat * nc + c] as f64;
+            let v = &self.values[flat * nc..flat * nc + nc];
+            for (o, &s) in out.iter_mut().zip(v) {
+                *o += w * s as f64;
             }
         }
         for (o, ch) in out.iter_mut().zip(&self.meta.channels) {
@@ -302,7 +404,6 @@ impl Table {
                 *o = o.exp();
             }
         }
-        Ok(())
     }
 }
 
@@ -580,6 +681,73 @@ mod tests {
         match t.interpolate(&[f64::NAN, 1.5], &mut out) {
             Err(LookupError::NotFinite { name, .. }) => assert_eq!(name, "x"),
             r => panic!("{r:?}"),
+        }
+    }
+    /// The straightforward evaluation (mapped range ends recomputed per call through
+    /// [`Axis::node_coordinate`], corners in the same order): the per-axis constants
+    /// cached at load time must not change a single bit.
+    fn reference_interpolate(t: &Table, x: &[f64], out: &mut [f64]) {
+        let axes = &t.meta().axes;
+        let nc = t.meta().channels.len();
+        let (mut base, mut frac) = ([0usize; 4], [0f64; 4]);
+        for (d, (a, &xd)) in axes.iter().zip(x).enumerate() {
+            let n = a.count as usize;
+            let s = a.node_coordinate(xd).clamp(0.0, (n - 1) as f64);
+            let i = (s.floor() as usize).min(n - 2);
+            base[d] = i;
+            frac[d] = s - i as f64;
+        }
+        out.iter_mut().for_each(|o| *o = 0.0);
+        for corner in 0..(1usize << axes.len()) {
+            let mut w = 1.0;
+            let mut flat = 0usize;
+            for (d, a) in axes.iter().enumerate() {
+                let hi = (corner >> d) & 1;
+                w *= if hi == 1 { frac[d] } else { 1.0 - frac[d] };
+                flat = flat * a.count as usize + base[d] + hi;
+            }
+            if w == 0.0 {
+                continue;
+            }
+            for (c, o) in out.iter_mut().enumerate() {
+                *o += w * t.values()[flat * nc + c] as f64;
+            }
+        }
+        for (o, ch) in out.iter_mut().zip(&t.meta().channels) {
+            if ch.encoding == Encoding::Log {
+                *o = o.exp();
+            }
+        }
+    }
+
+    #[test]
+    fn interpolation_is_bit_identical_to_the_reference() {
+        let all = [
+            axis("a", 0.5, 3.0, Mapping::Linear, 5, Placement::Centres),
+            axis("b", 0.01, 100.0, Mapping::Log, 7, Placement::Endpoints),
+            axis("c", 0.0, 1e4, Mapping::Log1p { scale: 2.0 }, 4, Placement::Centres),
+            axis(
+                "d",
+                0.1,
+                1.4,
+                Mapping::Logit { a: 0.0, b: 1.5 },
+                6,
+                Placement::Endpoints,
+            ),
+        ];
+        let mut s = 11u64;
+        for dims in 1..=4 {
+            let axes: Vec<Axis> = all[..dims].to_vec();
+            let t = synthetic(axes.clone(), &[Encoding::Linear, Encoding::Log], |u, c| {
+                (0.3 * u.iter().sum::<f64>() + c as f64).sin() + 2.0
+            });
+            for _ in 0..2000 {
+                let x: Vec<f64> = axes.iter().map(|a| a.lo + (a.hi - a.lo) * lcg(&mut s)).collect();
+                let (mut got, mut want) = ([0.0; 2], [0.0; 2]);
+                t.interpolate(&x, &mut got).unwrap();
+                reference_interpolate(&t, &x, &mut want);
+                assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{dims}D at {x:?}");
+            }
         }
     }
 }
