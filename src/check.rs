@@ -513,7 +513,7 @@ fn reads_absolute(r: &FamilyReport, o: &OutputReport) -> bool {
 }
 
 /// Renders reports as a fixed-width text table: each quantity in the kind of error it
-/// promises (see [`reads_absolute`]), the other kind on the line below where it means
+/// promises (see `reads_absolute`), the other kind on the line below where it means
 /// something.
 pub fn render(reports: &[FamilyReport]) -> String {
     // A statistic of no points (e.g. grid errors of an off-grid-only row) prints as "-".

@@ -9,7 +9,7 @@
 //! bounded ratio q(α) = e_cap / m(α) with m(α) = c(1 − ln c)/(1 − c) (q is 0.9613 at
 //! small α, dips to 0.472 near α ≈ 1.54 and tends to 1/2 at π/2), on nodes uniform in
 //! u = ln(α/(π/2 − α)), which
-//! are dense at both ends. Renderers evaluate e = q(α)·m(α) ([`model`]).
+//! are dense at both ends. Renderers evaluate e = q(α)·m(α) (`model`).
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -34,11 +34,13 @@ pub const CHANNEL: &str = "q";
 /// q(α) lies in [0.4718, 0.9613] (0.9613 as α → 0, minimum near α ≈ 1.54, 1/2 at
 /// π/2); the range is the fit's search bracket [0.25, 1.25], so a fitted file can never
 /// leave it and a value outside it is corrupt.
-pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNEL, 0.25, 1.25)];
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNEL, 0.25, 1.25)];
 
 /// The axis this runtime interprets: `alpha` on [1e-3, π/2 − 1e-7], nodes uniform in
 /// ln(α/(π/2 − α)).
-pub fn axis(count: u32) -> Axis {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn axis(count: u32) -> Axis {
     Axis {
         name: "alpha".into(),
         unit: "rad".into(),
@@ -51,7 +53,8 @@ pub fn axis(count: u32) -> Axis {
 }
 
 /// The scale model m(α) = c(1 − ln c)/(1 − c), c = cos α, for α ∈ (0, π/2); e_cap = q·m.
-pub fn model(alpha: f64) -> f64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn model(alpha: f64) -> f64 {
     let s = (0.5 * alpha).sin();
     let one_minus_c = 2.0 * s * s; // accurate for small α, unlike 1 − cos α
     let c = alpha.cos();

@@ -11,7 +11,7 @@
 //! ([`CANONICAL_INDEX`]). c_00 = Ω/(2√π) with Ω the disk's solid angle (sr).
 //!
 //! **Table** (kind `disk-light`). Axes: `v` ∈ [0, 1], a normalised coordinate along R/d
-//! ([`rim_coordinate`]): v ∝ ln(R/d) + asinh((R/d − sin τ)/cos τ), which is uniform in
+//! (`rim_coordinate`): v ∝ ln(R/d) + asinh((R/d − sin τ)/cos τ), which is uniform in
 //! ln(R/d) for small disks and dense where the receiver's foot point on the disk's plane
 //! crosses the rim (R/d = sin τ), where the response changes over a width ∝ cos τ near
 //! grazing; and `tau` ∈ [0, [`TAU_MAX`]] with nodes uniform in ln((π/2 + τ)/(π/2 − τ)),
@@ -24,7 +24,7 @@
 //! receiver point: the canonical vector rotated by [`crate::sh::Rotation`]),
 //! [`DiskLight::irradiance_sh`] (convolved with the clamped cosine π, 2π/3, π/4) and
 //! [`DiskLight::irradiance`] (evaluated at a receiver normal), with f32 twins; and
-//! [`form_factor_irradiance`], the point-to-disk approximation of Wallace et al. (1989)
+//! `form_factor_irradiance`, the point-to-disk approximation of Wallace et al. (1989)
 //! the paper compares with.
 
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -47,11 +47,13 @@ pub const R_MIN: f64 = 0.01;
 pub const R_MAX: f64 = 10.0;
 /// Largest tabulated τ (rad), 0.999·π/2 (cos τ ≈ 1.6e-3). Between it and π/2 the
 /// receiver is within 0.16 % of d from the disk's plane and [`DiskLight::canonical`]
-/// interpolates towards the plane limit ([`grazing_limit`]).
+/// interpolates towards the plane limit (`grazing_limit`).
 pub const TAU_MAX: f64 = 0.999 * FRAC_PI_2;
 /// Nodes along `v`.
+#[cfg(feature = "writer")]
 pub const V_NODES: u32 = 192;
 /// Nodes along `tau`.
+#[cfg(feature = "writer")]
 pub const TAU_NODES: u32 = 128;
 /// Stored channels: c_00 (log-encoded) and c_lm / c_00 for the other five.
 pub const CHANNELS: [&str; 6] = ["y00", "r10", "r11", "r20", "r21", "r22"];
@@ -62,7 +64,8 @@ pub const CHANNELS: [&str; 6] = ["y00", "r10", "r11", "r20", "r21", "r22"];
 /// |c_lm/c_00| ≤ 2√π max|y_lm|: √3 = 1.732 for l = 1, √5 = 2.236 for (2, 0), √15/2 =
 /// 1.936 for (2, 1) and (2, 2); the committed table reaches the first two to 1e-5, so
 /// the ranges add 1 %.
-pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
     ("y00", -18.0, 1.0),
     ("r10", -1.75, 1.75),
     ("r11", -1.75, 1.75),
@@ -80,7 +83,8 @@ pub use crate::sh::CLAMPED_COSINE;
 
 /// The `tau` axis mapping: logit on (−π/2, π/2), symmetric about τ = 0 (where the
 /// coefficients are even or odd in τ) and dense towards grazing.
-pub const TAU_MAPPING: Mapping = Mapping::Logit {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const TAU_MAPPING: Mapping = Mapping::Logit {
     a: -FRAC_PI_2,
     b: FRAC_PI_2,
 };
@@ -92,12 +96,14 @@ fn rim_g(r: f64, tau: f64) -> f64 {
 
 /// The `v` coordinate of (R/d, τ): (g(R/d) − g(R_MIN)) / (g(R_MAX) − g(R_MIN)) with
 /// g(r) = ln r + asinh((r − sin τ)/cos τ). In [0, 1] for R/d ∈ [R_MIN, R_MAX], τ < π/2.
-pub fn rim_coordinate(r_over_d: f64, tau: f64) -> f64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn rim_coordinate(r_over_d: f64, tau: f64) -> f64 {
     let (lo, hi) = (rim_g(R_MIN, tau), rim_g(R_MAX, tau));
     ((rim_g(r_over_d, tau) - lo) / (hi - lo)).clamp(0.0, 1.0)
 }
 
 /// Inverse of [`rim_coordinate`] in R/d (bisection in ln R/d to f64 resolution).
+#[cfg(feature = "writer")]
 pub fn r_from_rim_coordinate(v: f64, tau: f64) -> f64 {
     let (lo, hi) = (rim_g(R_MIN, tau), rim_g(R_MAX, tau));
     let target = lo + v * (hi - lo);
@@ -117,7 +123,8 @@ pub fn r_from_rim_coordinate(v: f64, tau: f64) -> f64 {
 }
 
 /// Axes, slowest first: `v` (linear on [0, 1]) and `tau` (rad, [`TAU_MAPPING`]).
-pub fn axes(v_nodes: u32, tau_nodes: u32) -> Vec<Axis> {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn axes(v_nodes: u32, tau_nodes: u32) -> Vec<Axis> {
     vec![
         Axis {
             name: "v".into(),
@@ -144,6 +151,7 @@ pub fn axes(v_nodes: u32, tau_nodes: u32) -> Vec<Axis> {
 /// per unit radiance × `radiance`): E ≈ π L A cos θ_s cos θ_r / (π r² + A), A = π R²,
 /// r = |c − p|, θ_s at the disk (normal `disk_normal`, emitting side), θ_r at the
 /// receiver (normal `receiver_normal`); zero when either cosine is ≤ 0.
+#[cfg(feature = "writer")]
 pub fn form_factor_irradiance(
     receiver: DVec3,
     receiver_normal: DVec3,
@@ -189,7 +197,8 @@ fn unit(name: &str, v: DVec3) -> Result<DVec3, LookupError> {
 /// plane from the front, d fixed): 0 when R/d < 1 (the disk is seen edge-on), the
 /// hemisphere about −n = (−1, 0, 0) when R/d > 1 (c_00 = √π, c_11 = √(3π)/2, others 0:
 /// the receiver is at the disk's surface), and half of that at R/d = 1.
-pub fn grazing_limit(r_over_d: f64) -> [f64; 6] {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn grazing_limit(r_over_d: f64) -> [f64; 6] {
     let hemi = [PI.sqrt(), 0.0, (3.0 * PI).sqrt() / 2.0, 0.0, 0.0, 0.0];
     let f = match r_over_d.partial_cmp(&1.0) {
         Some(std::cmp::Ordering::Less) => 0.0,
@@ -202,7 +211,8 @@ pub fn grazing_limit(r_over_d: f64) -> [f64; 6] {
 /// The canonical coefficients of an infinite emitting plane (R/d → ∞): the hemisphere
 /// about −n = (−sin τ, 0, cos τ), τ < π/2 (c_00 = √π, (c_10, c_11) = √(3π)/2 (cos τ, sin τ),
 /// band 2 zero).
-pub fn plane_limit(tau: f64) -> [f64; 6] {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn plane_limit(tau: f64) -> [f64; 6] {
     let z1 = (3.0 * PI).sqrt() / 2.0;
     [PI.sqrt(), z1 * tau.cos(), z1 * tau.sin(), 0.0, 0.0, 0.0]
 }
@@ -317,11 +327,11 @@ impl DiskLight {
     /// R/d > 0: below 0.01 the small-disk limit is used (c_00 scaled by
     /// (R/d / 0.01)², ratios of R/d = 0.01; relative error O((R/d)²) ≤ 1e-4); above 10
     /// the value is interpolated linearly in d/R between R/d = 10 and the infinite
-    /// plane ([`plane_limit`]); see docs/rigs.md for its measured error.
+    /// plane (`plane_limit`); see docs/rigs.md for its measured error.
     /// τ ∈ [0, π]: zero from π/2 on (back side). Beyond the table, τ ∈ (0.999·π/2, π/2)
     /// (receiver within 0.0016·d of the disk's plane), the value is interpolated
     /// linearly in cos τ between the table's last row and the limit at the plane
-    /// ([`grazing_limit`]); see docs/rigs.md for its measured error.
+    /// (`grazing_limit`); see docs/rigs.md for its measured error.
     pub fn canonical(&self, r_over_d: f64, tau: f64) -> Result<[f64; 6], LookupError> {
         let r = in_range("R/d", r_over_d, f64::MIN_POSITIVE, f64::MAX)?;
         let tau = in_range("tau", tau, 0.0, PI)?;

@@ -176,12 +176,13 @@ pub(crate) fn first_failure<T, R>(
 /// assert_eq!(short(1e308).to_string(), "1e308");
 /// assert_eq!(short(-5e-324).to_string(), "-5e-324");
 /// ```
-pub fn short(x: f64) -> impl fmt::Display {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn short(x: f64) -> impl fmt::Display {
     Short(x)
 }
 
 /// [`short`] for an `f32`, with the `f32`'s own shortest digits.
-pub fn short32(x: f32) -> impl fmt::Display {
+pub(crate) fn short32(x: f32) -> impl fmt::Display {
     Short32(x)
 }
 

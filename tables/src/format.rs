@@ -231,7 +231,7 @@ pub struct FitInfo {
     pub method: String,
     /// Every setting that influences the payload, as `(key, value)` in a fixed order.
     pub settings: Vec<(String, String)>,
-    /// FNV-1a 64 of the postcard encoding of `(method, settings)`: see [`settings_hash`].
+    /// FNV-1a 64 of the postcard encoding of `(method, settings)`: see `settings_hash`.
     pub settings_hash: u64,
 }
 
@@ -361,7 +361,7 @@ pub const MAX_LOG_VALUE: f32 = 88.0;
 
 /// Index and value of the first stored value that is non-finite, or whose decoded
 /// value would overflow f32 (log channels), in payload order.
-pub fn first_unstorable(meta: &Meta, payload: &[f32]) -> Option<(usize, f32)> {
+pub(crate) fn first_unstorable(meta: &Meta, payload: &[f32]) -> Option<(usize, f32)> {
     let nc = meta.channels.len().max(1);
     payload.iter().copied().enumerate().find(|&(i, v)| {
         !v.is_finite() || (meta.channels.get(i % nc).map(|c| c.encoding) == Some(Encoding::Log) && v > MAX_LOG_VALUE)
@@ -370,13 +370,14 @@ pub fn first_unstorable(meta: &Meta, payload: &[f32]) -> Option<(usize, f32)> {
 
 /// FNV-1a 64-bit hash of the postcard encoding of `(method, settings)`: a stable
 /// fingerprint of how a table was fitted.
-pub fn settings_hash(method: &str, settings: &[(String, String)]) -> u64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn settings_hash(method: &str, settings: &[(String, String)]) -> u64 {
     let bytes = postcard::to_allocvec(&(method, settings)).unwrap_or_default();
     fnv1a64(&bytes)
 }
 
 /// FNV-1a, 64-bit.
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a64(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for &b in bytes {
         h ^= b as u64;
@@ -418,6 +419,7 @@ fn u32_at(b: &[u8], o: usize) -> u32 {
 /// Serialises a table. `payload` holds the stored (already encoded) values in
 /// payload order. Fails when the description is invalid or does not match the
 /// payload, so a writer can never produce a file the reader rejects.
+#[cfg(feature = "writer")]
 pub fn encode(meta: &Meta, payload: &[f32]) -> Result<Vec<u8>, String> {
     meta.validate()?;
     let kind = meta.kind.as_bytes();

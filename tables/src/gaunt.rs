@@ -16,11 +16,13 @@ use crate::error::LookupError;
 use crate::sh::{self as rt, coeff_count, eval_basis, MAX_COEFFS, MAX_ORDER};
 /// Gaunt entries below this magnitude are structural zeros: the smallest true non-zero
 /// entry at order 8 is ~1e-3 (see tests), rounding noise of the exact rule is ~1e-17.
-pub const GAUNT_ZERO: f64 = 1e-10;
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const GAUNT_ZERO: f64 = 1e-10;
 
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n, Golub-free and exact
 /// to rounding for n ≤ a few hundred).
-pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     let mut x = vec![0.0; n];
     let mut w = vec![0.0; n];
     for i in 0..n.div_ceil(2) {

@@ -9,7 +9,7 @@
 //! covers the hemisphere z ≥ 0 and the SG axis sits at (θ, φ) = (π/2, π/2).
 //!
 //!   S(θ, φ; γ) = ∫_0^θ ∫_0^φ exp(γ (Ω(θ',φ')·z − 1)) sinθ' dφ' dθ'   \[sr\],
-//!   Ŝ(θ, φ; γ) = S / S(π, π),   S(π, π) = 2π/γ (1 − e^{−γ})   ([`normaliser`]).
+//!   Ŝ(θ, φ; γ) = S / S(π, π),   S(π, π) = 2π/γ (1 − e^{−γ})   (`normaliser`).
 //!
 //! A unit-amplitude SG of sharpness γ integrates over the patch
 //! [θ1, θ2] × [φ1, φ2] to S(θ2,φ2) − S(θ1,φ2) − S(θ2,φ1) + S(θ1,φ1) ([`IsgModel::patch`]).
@@ -24,7 +24,7 @@
 //!   with the exact marginals A(θ) = Ŝ(θ, π), B(φ) = Ŝ(π, φ) and C D the leading
 //!   singular pair of Ŝ − A B (table kind `isg-best`). Exact whenever θ or φ is 0 or π
 //!   (C and D vanish there). A(π − θ) = 1 − A(θ), C(π − θ) = −C(θ), B and D likewise,
-//!   so only θ, φ ≤ π/2 are stored, on a warped coordinate u (see [`warp`]) that maps
+//!   so only θ, φ ≤ π/2 are stored, on a warped coordinate u (see `warp`) that maps
 //!   [0, π/2] to [1, 0] for every γ and is proportional to |θ − π/2|·√γ near the axis.
 
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -57,7 +57,9 @@ pub const BEST_CHANNELS: [&str; 4] = ["a", "b", "c", "d"];
 /// width 1/√γ, g ≈ k√γ with k between 1.7 (γ = 10⁴) and 3.5 (γ = 0.5), so g, h lie in
 /// [1.2, 170] (ln in [0.7, 5.2]) over γ ∈ [0.5, 10⁴]. Range: ln g, ln h ∈ [−1.5, 7]
 /// (slopes 0.22 to 1100 1/rad).
-pub const REFIT_CHANNEL_RANGES: &[(&str, f64, f64)] = &[(REFIT_CHANNELS[0], -1.5, 7.0), (REFIT_CHANNELS[1], -1.5, 7.0)];
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const REFIT_CHANNEL_RANGES: &[(&str, f64, f64)] =
+    &[(REFIT_CHANNELS[0], -1.5, 7.0), (REFIT_CHANNELS[1], -1.5, 7.0)];
 
 /// Plausible range of each stored channel of `isg-best` (name, lo, hi),
 /// dimensionless: the marginals A(θ), B(φ) are fractions of the SG's integral, in
@@ -65,7 +67,8 @@ pub const REFIT_CHANNEL_RANGES: &[(&str, f64, f64)] = &[(REFIT_CHANNELS[0], -1.5
 /// [−0.05, 0.55]. C·D approximates Ŝ − A·B, which lies in [−1/4, 1/4] there, and the
 /// fit splits it evenly between the factors (C ≈ D, at most 0.0625 in the committed
 /// table), so |C|, |D| ≤ 1/2.
-pub const BEST_CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const BEST_CHANNEL_RANGES: &[(&str, f64, f64)] = &[
     (BEST_CHANNELS[0], -0.05, 0.55),
     (BEST_CHANNELS[1], -0.05, 0.55),
     (BEST_CHANNELS[2], -0.5, 0.5),
@@ -73,17 +76,19 @@ pub const BEST_CHANNEL_RANGES: &[(&str, f64, f64)] = &[
 ];
 
 /// Published coefficients (g4, g3, g2, g1, g0) of g(x), x = γ/100 (paper appendix).
-pub const PAPER_G: [f64; 5] = [-2.6856e-6, 7e-4, -0.0571, 3.9529, 17.6028];
+pub(crate) const PAPER_G: [f64; 5] = [-2.6856e-6, 7e-4, -0.0571, 3.9529, 17.6028];
 /// Published coefficients (h4, h3, h2, h1, h0) of h(x), x = γ/100 (paper appendix).
-pub const PAPER_H: [f64; 5] = [-2.6875e-6, 7e-4, -0.0592, 3.9900, 17.5003];
+pub(crate) const PAPER_H: [f64; 5] = [-2.6875e-6, 7e-4, -0.0592, 3.9900, 17.5003];
 
 /// S(π, π; γ) = 2π/γ (1 − e^{−γ}) sr: the integral of exp(γ(v·z − 1)) over z ≥ 0.
-pub fn normaliser(gamma: f64) -> f64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn normaliser(gamma: f64) -> f64 {
     2.0 * PI / gamma * -(-gamma).exp_m1()
 }
 
 /// The logistic function σ(x) = 1/(1 + e^{−x}), without overflow for large |x|.
-pub fn sigmoid(x: f64) -> f64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn sigmoid(x: f64) -> f64 {
     if x >= 0.0 {
         1.0 / (1.0 + (-x).exp())
     } else {
@@ -93,7 +98,7 @@ pub fn sigmoid(x: f64) -> f64 {
 }
 
 /// The published quartic in x = γ/100, evaluated as printed (Horner).
-pub fn paper_poly(c: &[f64; 5], gamma: f64) -> f64 {
+pub(crate) fn paper_poly(c: &[f64; 5], gamma: f64) -> f64 {
     let x = gamma / 100.0;
     (((c[0] * x + c[1]) * x + c[2]) * x + c[3]) * x + c[4]
 }
@@ -103,20 +108,23 @@ pub fn paper_poly(c: &[f64; 5], gamma: f64) -> f64 {
 ///   u = √((1 − e^{−γq}) / (1 − e^{−γ})) ∈ [0, 1],
 /// so u = 1 at x = 0 for every γ, and u ≈ |x − π/2|·√(γ/2)/√(1 − e^{−γ}) near the axis
 /// (linear in the SG's natural width, where the marginals vary).
-pub fn warp(x: f64, gamma: f64) -> f64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn warp(x: f64, gamma: f64) -> f64 {
     let s = (0.5 * (x - FRAC_PI_2)).sin();
     let q = 2.0 * s * s;
     ((-gamma * q).exp_m1() / (-gamma).exp_m1()).sqrt().min(1.0)
 }
 
 /// Inverse of [`warp`]: the angle x ∈ [0, π/2] of a coordinate u ∈ [0, 1].
+#[cfg(feature = "writer")]
 pub fn unwarp(u: f64, gamma: f64) -> f64 {
     let q = (-(u * u * (-gamma).exp_m1()).ln_1p() / gamma).clamp(0.0, 1.0);
     (FRAC_PI_2 - 2.0 * (0.5 * q).sqrt().asin()).clamp(0.0, FRAC_PI_2)
 }
 
 /// The γ axis of both tables: ln γ uniform on [0.5, 10^4].
-pub fn gamma_axis(count: u32) -> Axis {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn gamma_axis(count: u32) -> Axis {
     Axis {
         name: "gamma".into(),
         unit: "1".into(),
@@ -129,7 +137,8 @@ pub fn gamma_axis(count: u32) -> Axis {
 }
 
 /// The warped-angle axis of the separable table (see [`warp`]).
-pub fn warp_axis(count: u32) -> Axis {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn warp_axis(count: u32) -> Axis {
     Axis {
         name: "u".into(),
         unit: "1".into(),

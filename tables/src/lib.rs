@@ -44,6 +44,18 @@
 //! Each family type loads its committed table with `embedded()` (cargo feature
 //! `embedded-<table>`) or any file with `from_bytes` / `from_table`.
 //!
+//! ## Cargo features
+//!
+//! - `embedded` (default): all committed tables compiled in ([`embedded`]).
+//! - `embedded-<table>` (e.g. `embedded-cap-exponent`): only that table, with
+//!   `default-features = false`.
+//! - `writer`: what only the table writer and fitter (the `lobefit` crate) need:
+//!   `format::encode`, the families' axis builders and channel ranges, the models and
+//!   reference closed forms the fits are built on. Not needed to read any table
+//!   (adds the `visibility` proc-macro dependency).
+//! - `ndarray`: `Table::view`, a table's stored values as an `ndarray::ArrayViewD<f32>`
+//!   (axes × channels), for analysis code.
+//!
 //! ## Vectors and f32
 //!
 //! Directions are glam vectors: `DVec3` for f64 calls (functions accept anything

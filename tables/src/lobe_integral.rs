@@ -29,10 +29,12 @@ pub const CHANNEL: &str = "integral";
 /// Plausible range of each stored channel (name, lo, hi), on the stored value ln I
 /// (ln sr): I = 2π/(e + 1) runs from 2π (ln 1.838) at e = 0 down to ln 2π − ln(10⁵ + 1)
 /// = −9.675 at e = 10⁵; the range adds a margin of about 0.3 on each side.
-pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNEL, -10.0, 2.0)];
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNEL, -10.0, 2.0)];
 
 /// The axis this runtime interprets: `e` on [0, 1e5], nodes uniform in ln(1 + e).
-pub fn axis(count: u32) -> Axis {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn axis(count: u32) -> Axis {
     Axis {
         name: "e".into(),
         unit: "1".into(),

@@ -11,19 +11,19 @@
 //! a·v = cos u · cos(s − s_a) for any in-plane axis, dω = cos u du ds, and every product
 //! of lobes with in-plane axes separates,
 //! ∫Π Ψ_k = W(E)·∫ Π max(cos(s − s_k), 0)^{e_k} ds, E = Σ e_k,
-//! W(E) = ∫cos^{E+1}u du = √π Γ(E/2 + 1)/Γ(E/2 + 3/2) ([`ln_w`]).
+//! W(E) = ∫cos^{E+1}u du = √π Γ(E/2 + 1)/Γ(E/2 + 3/2) (`ln_w`).
 //! The in-plane factor peaks where e1 tan β = e2 tan(α − β), which has the closed form
-//! β = (α + asin((e2 − e1)/(e1 + e2)·sin α))/2 ([`peak_angle`]): that is the paper's
+//! β = (α + asin((e2 − e1)/(e1 + e2)·sin α))/2 (`peak_angle`): that is the paper's
 //! axis (its Nelder–Mead step) and the axis of both tables, computed exactly at run
 //! time. The integral ∫Ψ1Ψ2 spans hundreds of orders of magnitude (it vanishes like
 //! exp(−e1e2 α²/(2(e1+e2))) for sharp lobes and like (π − α)^{E+1} at α → π), so the
 //! tables store it relative to the closed-form model
 //! M = W(E)·P*·(G/2π + 1/(π − α)²)^{−1/2}, P* = cos^{e1}β′ cos^{e2}(α − β′), β′ the peak
-//! for exponents e1 + 1, e2 + 1 (never pinned to a hemisphere's edge) ([`ln_model`]):
+//! for exponents e1 + 1, e2 + 1 (never pinned to a hemisphere's edge) (`ln_model`):
 //! c = ln(∫Ψ1Ψ2 / M) is smooth and O(1) wherever products matter (it reaches −10 only
 //! where they are negligible), and finite up to α = π, where
 //! both vanish like (π − α)^{E+1}; G is the in-plane curvature of the log-product
-//! ([`exponent_model`]). The exponent is stored as ln((1 + e_r)/(1 + e_m)) with the
+//! (`exponent_model`). The exponent is stored as ln((1 + e_r)/(1 + e_m)) with the
 //! model e_m = √(E·G): zero at α = 0, where e_r = e1 + e2 exactly, and O(α⁴) for
 //! sharp lobes, so the sphere's curvature (e_r ≈ E(1 + α²/8) for equal lobes) is not
 //! left to linear interpolation.
@@ -52,7 +52,7 @@ pub const VERSION: u32 = 1;
 pub const E_MAX: f64 = 1.0e5;
 /// Channel: c = ln(∫Ψ1Ψ2 / M).
 pub const CHANNEL_C: &str = "ln_integral_over_model";
-/// Channel: ln((1 + e_r)/(1 + e_m)), e_m = [`exponent_model`].
+/// Channel: ln((1 + e_r)/(1 + e_m)), e_m = `exponent_model`.
 pub const CHANNEL_E: &str = "ln_exponent_ratio";
 /// Channel (l2 only): ln(∫p_rΨ_r / ∫Ψ1Ψ2).
 pub const CHANNEL_K: &str = "ln_integral_ratio";
@@ -67,7 +67,8 @@ pub const CHANNEL_K: &str = "ln_integral_ratio";
 ///   ln 1001] = [−12.55, 6.91]; range [−13, 7].
 /// - k = ln(∫p_rΨ_r / ∫Ψ1Ψ2) (l2 only): the L2 fit trades integral for shape,
 ///   measured −2.54 to 0.019; range [−10, 2].
-pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
     (CHANNEL_C, -30.0, 5.0),
     (CHANNEL_E, -13.0, 7.0),
     (CHANNEL_K, -10.0, 2.0),
@@ -107,16 +108,19 @@ impl Variant {
 /// Scale of the exponent axes, u = ln(1 + e/E_SCALE): below ~1 the product changes
 /// fast with e (an exponent-0 lobe is a hemisphere with a hard edge), so the nodes
 /// are dense there.
-pub const E_SCALE: f64 = 0.1;
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const E_SCALE: f64 = 0.1;
 
 /// Resolution of the α axis at π/2 (rad): where a sharp lobe crosses the horizon of a
 /// wide one the product changes over ~1/√e ≥ 3e-3 rad.
-pub const ALPHA_WIDTH: f64 = 2e-3;
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const ALPHA_WIDTH: f64 = 2e-3;
 
 /// The three axes, slowest first: `e1`, `e2` (nodes uniform in ln(1 + e)) and `alpha`
 /// (nodes uniform in asinh((α − π/2)/[`ALPHA_WIDTH`]): dense at π/2, where a sharp
 /// lobe crosses a wide lobe's horizon, and spaced ∝ distance from it elsewhere).
-pub fn axes(n_e: u32, n_alpha: u32) -> [Axis; 3] {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn axes(n_e: u32, n_alpha: u32) -> [Axis; 3] {
     let e = |name: &str| Axis {
         name: name.into(),
         unit: "1".into(),
@@ -145,7 +149,7 @@ pub fn axes(n_e: u32, n_alpha: u32) -> [Axis; 3] {
 }
 
 /// ln Γ(x) for x > 0 (Lanczos, g = 7, n = 9; relative error ~1e-15).
-pub fn ln_gamma(x: f64) -> f64 {
+pub(crate) fn ln_gamma(x: f64) -> f64 {
     const G: f64 = 7.0;
     const C: [f64; 9] = [
         0.999_999_999_999_809_9,
@@ -173,13 +177,15 @@ pub fn ln_gamma(x: f64) -> f64 {
 
 /// ln W(E), W(E) = ∫_{−π/2}^{π/2} cos^{E+1}u du = √π Γ(E/2 + 1)/Γ(E/2 + 3/2): the
 /// out-of-plane factor of any product of lobes whose axes share a plane (E ≥ 0).
-pub fn ln_w(e: f64) -> f64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn ln_w(e: f64) -> f64 {
     0.5 * PI.ln() + ln_gamma(0.5 * e + 1.0) - ln_gamma(0.5 * e + 1.5)
 }
 
 /// Angle β (rad) from a1 to the maximum of Ψ(·; a1, e1)Ψ(·; a2, e2) on the arc to a2:
 /// the root of e1 tan β = e2 tan(α − β), i.e. sin(2β − α) = (e2 − e1)/(e1 + e2)·sin α.
 /// At α = 0 returns 0; for e1 = e2 = 0 (a lune) the lune's centre α/2.
+#[cfg(feature = "writer")]
 pub fn peak_angle(e1: f64, e2: f64, alpha: f64) -> f64 {
     peak_angle_with(e1, e2, alpha, alpha.sin())
 }
@@ -195,6 +201,7 @@ fn peak_angle_with(e1: f64, e2: f64, alpha: f64, sin_alpha: f64) -> f64 {
 
 /// The fraction t = β/α of the arc from a1 at which the product peaks; at α = 0 its
 /// limit e2/(e1 + e2) (1/2 when both are 0).
+#[cfg(feature = "writer")]
 pub fn peak_fraction(e1: f64, e2: f64, alpha: f64) -> f64 {
     peak_fraction_with(e1, e2, alpha, alpha.sin())
 }
@@ -213,7 +220,8 @@ fn peak_fraction_with(e1: f64, e2: f64, alpha: f64, sin_alpha: f64) -> f64 {
 
 /// ln max(c, 0)^e for a lobe with exponent e at cosine c, with the lobe convention
 /// 0·ln 0 = 0 (an exponent-0 lobe is the open hemisphere's indicator); −∞ outside.
-pub fn lobe_ln(e: f64, c: f64) -> f64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn lobe_ln(e: f64, c: f64) -> f64 {
     if e == 0.0 {
         0.0
     } else {
@@ -223,6 +231,7 @@ pub fn lobe_ln(e: f64, c: f64) -> f64 {
 
 /// ln M(e1, e2, α), the closed-form model of ∫Ψ1Ψ2 (see the module docs);
 /// −∞ at α = π.
+#[cfg(feature = "writer")]
 pub fn ln_model(e1: f64, e2: f64, alpha: f64) -> f64 {
     ln_model_with(e1, e2, alpha, &Trig::new(alpha))
 }
@@ -272,6 +281,7 @@ fn curvature(e1: f64, e2: f64, chord: f64) -> f64 {
 /// Model exponent e_m = √(E·G): the geometric mean of the product's out-of-plane (E)
 /// and in-plane (G) curvatures; e_r = e1 + e2 at α = 0, and e_r ≈ e_m(1 + O(α⁴)) for
 /// two sharp lobes. The table stores ln((1 + e_r)/(1 + e_m)).
+#[cfg(feature = "writer")]
 pub fn exponent_model(e1: f64, e2: f64, alpha: f64) -> f64 {
     exponent_model_with(e1, e2, &Trig::new(alpha))
 }

@@ -48,7 +48,7 @@ pub const R_TABLE_MAX: f64 = 128.0;
 pub const R_MAX: f64 = 4096.0;
 /// ε nodes of the table, uniform in ln ε (z is smooth in ln ε: it is
 /// C_l[2δ_l0 ln ε + r G_l(t_ε)] with ln t_ε linear in ln ε).
-pub const EPS_NODES: u32 = 128;
+pub(crate) const EPS_NODES: u32 = 128;
 /// Output names z0..z7.
 pub const CHANNELS: [&str; MAX_ORDER] = ["z0", "z1", "z2", "z3", "z4", "z5", "z6", "z7"];
 /// Stored channels: each z_l as an f32 pair, z_l = hi + lo (~1e-15 relative).
@@ -68,7 +68,8 @@ const Z_LO_BOUND: f64 = 1e-6;
 /// Plausible range of each stored channel (name, lo, hi), in the unit of z_l (that of
 /// the log of the BRDF value): ±`Z_BOUND` for the hi halves, ±`Z_LO_BOUND` for
 /// the lo halves.
-pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
     ("z0_hi", -Z_BOUND, Z_BOUND),
     ("z0_lo", -Z_LO_BOUND, Z_LO_BOUND),
     ("z1_hi", -Z_BOUND, Z_BOUND),
@@ -111,7 +112,8 @@ impl Kind {
 
 /// The table's axes, slowest first: `r` (integer rows 1..=128), `eps` (0.01..0.99,
 /// 128 nodes uniform in ln ε).
-pub fn axes() -> Vec<Axis> {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn axes() -> Vec<Axis> {
     vec![
         Axis {
             name: "r".into(),
@@ -165,7 +167,7 @@ fn exp_m1_minus_x(x: f64) -> f64 {
 }
 
 /// G_l(t) = ∫_t^1 log(s/t) P_l(s) ds for l < n, t ∈ (0, 1] (0 at t = 1).
-pub fn g_integrals(order: usize, t: f64) -> [f64; MAX_ORDER] {
+pub(crate) fn g_integrals(order: usize, t: f64) -> [f64; MAX_ORDER] {
     let a = legendre_coeffs();
     let lt = t.ln();
     let mut m = [0.0; MAX_ORDER]; // ∫_t^1 s^k log(s/t) ds

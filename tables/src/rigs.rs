@@ -37,13 +37,13 @@ pub const COEFFS: usize = 9;
 pub const MAX_PARAMS: usize = 4096;
 /// Rank test of the least-squares solve: |R_kk| below this times max |R_ii| means the
 /// samples do not determine the model (e.g. a lattice cell with no samples).
-pub const RANK_TOL: f64 = 1e-10;
+pub(crate) const RANK_TOL: f64 = 1e-10;
 /// Points may lie this far (in normalised box units) outside [−1, 1]³ (rounding of
 /// points placed on the box's faces).
-pub const BOX_SLACK: f64 = 1e-9;
+pub(crate) const BOX_SLACK: f64 = 1e-9;
 /// Central-difference half step (normalised box units) of [`Rig::fit_sampled`]'s
 /// gradients: small against the light distances, large against f64 rounding.
-pub const GRADIENT_STEP: f64 = 1e-4;
+pub(crate) const GRADIENT_STEP: f64 = 1e-4;
 
 /// Why a rig could not be built or evaluated.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -308,7 +308,7 @@ impl Rig {
 
     /// The traditional fit from point samples of the field `f` (SH irradiance at a
     /// point): lattice nodes sampled, constants at the centre, gradients by central
-    /// differences (half step [`GRADIENT_STEP`] box units) at the centre.
+    /// differences (half step `GRADIENT_STEP` box units) at the centre.
     pub fn fit_sampled(
         model: RigModel,
         bbox: RigBox,

@@ -28,10 +28,12 @@ pub const CHANNELS: [&str; 2] = ["lambda", "mu"];
 /// (ln λ ∈ [0.17, 11.51]); range [−1, 13] (λ up to 4.4·10⁵, inside the 10⁶ that
 /// [`Sg::new`] accepts). ln μ: μ falls from 1.40 at e = 0 to 1 as e → ∞
 /// (ln μ ∈ [0, 0.34]); range [−0.5, 1].
-pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNELS[0], -1.0, 13.0), (CHANNELS[1], -0.5, 1.0)];
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNELS[0], -1.0, 13.0), (CHANNELS[1], -0.5, 1.0)];
 
 /// The axis this runtime interprets: `e` on [0, 10^5], nodes uniform in ln(1 + e).
-pub fn axis(count: u32) -> Axis {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn axis(count: u32) -> Axis {
     Axis {
         name: "e".into(),
         unit: "1".into(),

@@ -21,8 +21,8 @@
 //!   those of f'.
 //!
 //! Two evaluation paths, tested against each other: hard-coded polynomials for
-//! orders ≤ 4 ([`eval_basis_hardcoded`]) and the associated-Legendre recurrence in
-//! Cartesian form for any order ([`eval_basis_recurrence`]); [`eval_basis`] picks the
+//! orders ≤ 4 (`eval_basis_hardcoded`) and the associated-Legendre recurrence in
+//! Cartesian form for any order (`eval_basis_recurrence`); [`eval_basis`] picks the
 //! fast one. f32 twins exist for the renderer-facing functions.
 //!
 //! General rotation uses the exact recurrences of Ivanic & Ruedenberg (J. Phys. Chem.
@@ -43,7 +43,7 @@ pub const MAX_COEFFS: usize = MAX_ORDER * MAX_ORDER;
 /// π·(1, 2/3, 1/4), the Funk–Hecke eigenvalues of max(cos θ, 0).
 pub const CLAMPED_COSINE: [f64; 3] = [PI, 2.0 * PI / 3.0, PI / 4.0];
 /// Largest order evaluated by the hard-coded polynomials.
-pub const HARDCODED_MAX_ORDER: usize = 4;
+pub(crate) const HARDCODED_MAX_ORDER: usize = 4;
 /// How far rᵀr may be from the identity (max entry) for `r` to count as a rotation:
 /// loose enough for matrices built in f32 and converted, tight enough to catch scaling.
 pub const ROTATION_ORTHONORMALITY_TOL: f64 = 1e-5;
@@ -161,7 +161,8 @@ pub fn eval_basis_f32(order: usize, d: impl Into<Vec3>, out: &mut [f32]) -> Resu
 /// Cartesian form: (1−z²)^{m/2} (cos mφ, sin mφ) = (Re, Im)(x + iy)^m for unit d, and
 /// P_l^m = (−1)^m (1−z²)^{m/2} Q_l^m(z) with Q_l^m = d^m P_l/dz^m, which obeys
 /// Q_m^m = (2m−1)!!, (l−m) Q_l^m = (2l−1) z Q_{l−1}^m − (l+m−1) Q_{l−2}^m.
-pub fn eval_basis_recurrence(order: usize, d: impl Into<DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn eval_basis_recurrence(order: usize, d: impl Into<DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
     let n = check_order(order)?;
     check_len(out.len(), n * n)?;
     let [x, y, z] = normalize(d)?.to_array();
@@ -195,7 +196,8 @@ pub fn eval_basis_recurrence(order: usize, d: impl Into<DVec3>, out: &mut [f64])
 
 /// Basis by hard-coded polynomials in (x, y, z), orders 1..=4 (Sloan's table).
 #[allow(clippy::excessive_precision)]
-pub fn eval_basis_hardcoded(order: usize, d: impl Into<DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn eval_basis_hardcoded(order: usize, d: impl Into<DVec3>, out: &mut [f64]) -> Result<(), LookupError> {
     let n = check_order(order)?;
     if n > HARDCODED_MAX_ORDER {
         return Err(LookupError::OutOfDomain {

@@ -6,8 +6,8 @@
 //! (each blocker's log-ZH rotated into place with [`crate::sh::zh_to_sh`]) and then
 //! evaluate exp*(f) once:
 //!
-//! - **OL** ([`ol`]): exp*(f̂) ≈ a(‖f̂‖) 1 + b(‖f̂‖) f̂, f̂ = f without its DC term;
-//! - **HYB** ([`ShExp::hyb`], [`hyb_with`]): exp*(f) = e^{f_0/√(4π)} exp*(f̂) (DC
+//! - **OL** (`ol`): exp*(f̂) ≈ a(‖f̂‖) 1 + b(‖f̂‖) f̂, f̂ = f without its DC term;
+//! - **HYB** ([`ShExp::hyb`], `hyb_with`): exp*(f) = e^{f_0/√(4π)} exp*(f̂) (DC
 //!   isolation), f̂ halved k times until ‖f̂‖/2^k ≤ the OL threshold, OL, then k
 //!   truncated squarings.
 //!
@@ -44,7 +44,8 @@ pub const ORDER_MAX: usize = 8;
 /// Largest blocker radius θ_b (rad): a hemisphere.
 pub const THETA_MAX: f64 = PI / 2.0;
 /// Nodes of the θ_b axis (uniform on [0, π/2]).
-pub const THETA_NODES: u32 = 2049;
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const THETA_NODES: u32 = 2049;
 /// Squarings HYB allows before it calls ‖f̂‖ unreasonable (2^64 × the threshold).
 pub const MAX_SQUARINGS: u32 = 64;
 
@@ -57,7 +58,8 @@ pub const OL_THRESHOLD: [f64; ORDER_MAX - ORDER_MIN + 1] = [0.75, 0.125, 0.0625,
 
 /// Decoded channels (hi/lo pairs) per node: f_0..f_7 (f_l for l ≥ n is stored as 0),
 /// ‖f̂‖, a, b, kink.
-pub const PAIRS: usize = 12;
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const PAIRS: usize = 12;
 /// Pair index of ‖f̂‖ (scaled); a and b follow.
 const NORM: usize = 8;
 /// Pair index of `kink`: the θ_b (rad) in [θ_i, θ_{i+1}) where the eigenvalue clamp
@@ -84,7 +86,8 @@ const AB_BOUND: f64 = 30.0;
 /// above), a and b in [0, 30], kink −1 (none) or θ_b ∈ [0, π/2], so [−1, 1.6]. Lo
 /// halves: half an f32 ulp of the hi bound, with margin (4e-6 below 128, 1e-6 below 32,
 /// 1e-7 below 2).
-pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
     ("f0_hi", -F_BOUND, F_BOUND),
     ("f0_lo", -4e-6, 4e-6),
     ("f1_hi", -F_BOUND, F_BOUND),
@@ -112,7 +115,8 @@ pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
 ];
 
 /// Names of the stored channels: `{f0..f7|norm|a|b}_{hi|lo}`.
-pub fn channel_names() -> Vec<String> {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn channel_names() -> Vec<String> {
     let mut q: Vec<String> = (0..8).map(|l| format!("f{l}")).collect();
     q.extend(["norm".to_string(), "a".into(), "b".into(), "kink".into()]);
     q.iter().flat_map(|n| [format!("{n}_hi"), format!("{n}_lo")]).collect()
@@ -120,7 +124,8 @@ pub fn channel_names() -> Vec<String> {
 
 /// The table's axes, slowest first: `order` (3..8, one node each) and θ_b ∈ [0, π/2]
 /// rad (uniform, end-points).
-pub fn axes() -> Vec<Axis> {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn axes() -> Vec<Axis> {
     vec![
         Axis {
             name: "order".into(),
@@ -144,12 +149,14 @@ pub fn axes() -> Vec<Axis> {
 }
 
 /// θ_b of node `i` (rad).
-pub fn node_theta(i: usize) -> f64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn node_theta(i: usize) -> f64 {
     THETA_MAX * i as f64 / (THETA_NODES - 1) as f64
 }
 
 /// 1 − cosθ, accurate for small θ.
-pub fn one_minus_cos(theta: f64) -> f64 {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn one_minus_cos(theta: f64) -> f64 {
     let s = (0.5 * theta).sin();
     2.0 * s * s
 }
@@ -191,6 +198,7 @@ pub fn cap_visibility_zh(theta_b: f64, order: usize) -> Result<[f64; sh::MAX_ORD
 /// same length; docs/math.md, shexp, thesis eq. 3.44–3.47): ĝ = e^{−f_0/√(4π)} g,
 /// a = ĝ_0/√(4π), b = ĝ·f̂/(f̂·f̂) — the least-squares OL fit of ĝ on {1, f̂}.
 /// b = 1 (its limit) when f̂ = 0. Errors: empty or unequal lengths, non-finite entries.
+#[cfg(feature = "writer")]
 pub fn ab_of_pair(g: &[f64], f: &[f64]) -> Result<(f64, f64, f64), LookupError> {
     if f.is_empty() {
         return Err(LookupError::Coefficients {
@@ -224,6 +232,7 @@ pub fn ab_of_pair(g: &[f64], f: &[f64]) -> Result<(f64, f64, f64), LookupError> 
 /// OL: exp*(f̂) ≈ a 1 + b f̂ for a DC-free `fhat` (n² coefficients; `fhat[0]` is
 /// ignored and treated as 0), into `out[..n²]`. Errors: empty `fhat`, `out` shorter
 /// than `fhat`, non-finite a or b.
+#[cfg(feature = "writer")]
 pub fn ol(a: f64, b: f64, fhat: &[f64], out: &mut [f64]) -> Result<(), LookupError> {
     finite("a", a)?;
     finite("b", b)?;
@@ -252,7 +261,8 @@ pub fn ol(a: f64, b: f64, fhat: &[f64], out: &mut [f64]) -> Result<(), LookupErr
 /// the OL coefficients from `ab(‖f̂‖/2^k)` and OL used once ‖f̂‖/2^k ≤ `threshold`.
 /// Returns the number k of squarings. Errors: wrong lengths, non-finite input, a
 /// threshold ≤ 0, more than [`MAX_SQUARINGS`] halvings, or an error of `ab`.
-pub fn hyb_with(
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn hyb_with(
     gaunt: &Gaunt,
     f: &[f64],
     threshold: f64,
@@ -340,7 +350,7 @@ struct Branch {
     b: Vec<f64>,
 }
 
-/// The shexp table (axes `order` × `theta_b`, [`PAIRS`] f32 pairs per node): per order
+/// The shexp table (axes `order` × `theta_b`, `PAIRS` f32 pairs per node): per order
 /// 3..8, f, ‖f̂‖, a, b of cap blockers vs θ_b, and the a/b lookup vs ‖f̂‖ that HYB uses.
 #[derive(Debug, Clone)]
 pub struct ShExp {
@@ -406,7 +416,7 @@ impl ShExp {
             .map_err(Clone::clone)
     }
 
-    /// The underlying table (row-major \[order\]\[θ_b\], channels of [`channel_names`]), e.g.
+    /// The underlying table (row-major \[order\]\[θ_b\], channels of `channel_names`), e.g.
     /// for GPU upload.
     pub fn table(&self) -> &Table {
         &self.table
@@ -572,7 +582,7 @@ impl ShExp {
 
     /// SH visibility (order `order` ∈ 3..=8, n² coefficients into `out[..n²]`) at
     /// `point` of a set of spherical blockers `(centre, radius)`: each blocker's log-ZH
-    /// ([`ShExp::log_zh`] of its [`log_zh::sphere_cap`] angle) turned to its direction
+    /// ([`ShExp::log_zh`] of its [`crate::log_zh::sphere_cap`] angle) turned to its direction
     /// and summed, then exponentiated by HYB ([`ShExp::hyb`]). No blockers gives the
     /// unoccluded visibility (y₀₀ coefficient √(4π)). Returns HYB's number of squarings.
     pub fn hyb_spheres(

@@ -275,6 +275,19 @@ impl Table {
         Ok(&self.values[flat * c..(flat + 1) * c])
     }
 
+    /// The stored values as an n-dimensional view for analysis code (cargo feature
+    /// `ndarray`): shape = (node count of each axis, slowest first..., channel count),
+    /// so `view[[i, j, c]] == node(&[i, j])?[c]`. Values are shown as stored: still
+    /// encoded (ln of the quantity for a log channel), and families that store a value
+    /// as an f32 hi + lo pair (log-zh, wedge, shexp) show both halves as channels.
+    #[cfg(feature = "ndarray")]
+    pub fn view(&self) -> ndarray::ArrayViewD<'_, f32> {
+        let mut shape: Vec<usize> = self.meta.axes.iter().map(|a| a.count as usize).collect();
+        shape.push(self.meta.channels.len());
+        // Loading checked that the payload holds exactly entries × channels values.
+        ndarray::ArrayViewD::from_shape(shape, &self.values).expect("a validated payload matches its layout")
+    }
+
     /// Checks every stored value against its channel's plausible range: `ranges` holds
     /// (channel name, lo, hi) for each channel, bounds on the stored (encoded) value, so
     /// ln of the quantity for a log-encoded channel. Family loaders call it after
@@ -747,6 +760,27 @@ mod tests {
                 t.interpolate(&x, &mut got).unwrap();
                 reference_interpolate(&t, &x, &mut want);
                 assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{dims}D at {x:?}");
+            }
+        }
+    }
+
+    #[cfg(all(feature = "ndarray", feature = "embedded-disk-light"))]
+    #[test]
+    fn view_matches_node_on_a_2d_table() {
+        let t = Table::from_bytes(crate::embedded::DISK_LIGHT).unwrap();
+        let (n0, n1, nc) = (t.meta().axes[0].count, t.meta().axes[1].count, t.meta().channels.len());
+        let v = t.view();
+        assert_eq!(v.shape(), &[n0 as usize, n1 as usize, nc]);
+        for i in 0..n0 {
+            for j in 0..n1 {
+                let node = t.node(&[i, j]).unwrap();
+                for (c, &x) in node.iter().enumerate() {
+                    assert_eq!(
+                        v[[i as usize, j as usize, c]].to_bits(),
+                        x.to_bits(),
+                        "node ({i}, {j}), channel {c}"
+                    );
+                }
             }
         }
     }

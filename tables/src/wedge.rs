@@ -55,10 +55,12 @@ const M_BOUND: f64 = 1.3;
 /// Plausible range of each stored channel (name, lo, hi), dimensionless: ±1.3 for
 /// `m_hi` (see the bound above), and half an f32 ulp of such a value (6e-8) with
 /// margin, ±1e-7, for `m_lo`.
-pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNELS[0], -M_BOUND, M_BOUND), (CHANNELS[1], -1e-7, 1e-7)];
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const CHANNEL_RANGES: &[(&str, f64, f64)] = &[(CHANNELS[0], -M_BOUND, M_BOUND), (CHANNELS[1], -1e-7, 1e-7)];
 
 /// Axes, slowest first: `W` (5 nodes 4..64 uniform in ln W), `row` (0..63), `col` (0..15).
-pub fn axes() -> Vec<Axis> {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn axes() -> Vec<Axis> {
     vec![
         Axis {
             name: "W".into(),

@@ -13,7 +13,7 @@
 //! coefficients d_k = P_l^{(k)}(−a)/k!) gives
 //! λ̂_l(a) = 2 Σ_k d_k (1 + a)^{k+1} / (2 + a + k),
 //! exact for any real a ∈ [0, 1] and any l (here l < 8), ~40 flops per band: no table is
-//! needed. For l ≤ 2 this is the published form ([`published`]):
+//! needed. For l ≤ 2 this is the published form (`published`):
 //! [2(1+a)/(2+a), 4(1+a)/((2+a)(3+a)), 2(1+a)(3−2a+a²)/((2+a)(3+a)(4+a))].
 //! For a > 1 the kernel's support is cut at t = −1 and both formulas are wrong
 //! (erratum E5: at a = 2 the published l = 2 value is 0.15, the truth 0.1185), so
@@ -41,6 +41,7 @@ pub const A_MIN: f64 = 0.0;
 /// form integrates down to t = −a, which leaves [−1, 1] for a > 1).
 pub const A_MAX: f64 = 1.0;
 /// Nodes of the table's `a` axis.
+#[cfg(feature = "writer")]
 pub const A_NODES: u32 = 129;
 /// Stored channels λ̂_0 … λ̂_7.
 pub const CHANNELS: [&str; MAX_ORDER] = ["l0", "l1", "l2", "l3", "l4", "l5", "l6", "l7"];
@@ -50,7 +51,8 @@ pub use crate::sh::CLAMPED_COSINE;
 /// Plausible range of each stored channel (name, lo, hi), dimensionless:
 /// λ̂_0(a) = 2(1 + a)/(2 + a) ∈ [1, 4/3], and since the kernel is ≥ 0 and |P_l| ≤ 1,
 /// |λ̂_l| ≤ λ̂_0 ≤ 4/3 for every band; the ranges add about 0.5 %.
-pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
     ("l0", 0.99, 1.34),
     ("l1", -1.34, 1.34),
     ("l2", -1.34, 1.34),
@@ -65,7 +67,8 @@ pub const CHANNEL_RANGES: &[(&str, f64, f64)] = &[
 const A_NAME: &str = "wrap parameter a (closed forms exact only on [0, 1], docs/math.md, erratum E5)";
 
 /// The table's one axis: `a` on [0, 1], linear, end-point nodes.
-pub fn axis(count: u32) -> Axis {
+#[cfg_attr(feature = "writer", visibility::make(pub))]
+pub(crate) fn axis(count: u32) -> Axis {
     Axis {
         name: "a".into(),
         unit: "1".into(),
@@ -85,6 +88,7 @@ fn legendre_monomials() -> &'static [[f64; MAX_ORDER]; MAX_ORDER] {
 }
 
 /// The published closed form (λ̂_0, λ̂_1, λ̂_2)(a), a ∈ [0, 1] (errors above 1, E5).
+#[cfg(feature = "writer")]
 pub fn published(a: f64) -> Result<[f64; 3], LookupError> {
     let a = in_range(A_NAME, a, A_MIN, A_MAX)?;
     let (b2, b3, b4) = (2.0 + a, 3.0 + a, 4.0 + a);
