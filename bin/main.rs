@@ -12,6 +12,9 @@ use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use lobefit::check::{self, CheckOptions};
+use lobefit::export::layout::Filter;
+use lobefit::export::run::ExportOptions;
+use lobefit::export::{Format, Storage};
 use lobefit::family::{EvalFlags, Family};
 use lobefit::fits::{self, Backend, FitOptions, Method};
 use lobefit::tables::Table;
@@ -112,6 +115,30 @@ enum Command {
         /// Also write the verdicts as JUnit XML to this file.
         #[arg(long, value_name = "FILE.xml")]
         junit: Option<PathBuf>,
+        /// Check a `lobefit export` directory instead: read every texture back with
+        /// independent readers, sample it as a GPU does (manual and 8-bit hardware
+        /// filtering, f32 arithmetic) against the references, and compare with the
+        /// errors its manifest promises.
+        #[arg(long, value_name = "DIR", conflicts_with_all = ["baseline", "junit", "only", "points", "seed"])]
+        export: Option<PathBuf>,
+    },
+    /// Write the tables as GPU textures with a manifest (mappings, packing, measured error).
+    Export {
+        /// Only these families (comma-separated table kinds; default: every textured family).
+        #[arg(long, value_delimiter = ',')]
+        only: Vec<String>,
+        /// Container: ktx2, dds, inc (C/C++ header) or raw (texels + JSON sidecar).
+        #[arg(long, value_parser = ["ktx2", "dds", "inc", "raw"])]
+        format: String,
+        /// Texel precision.
+        #[arg(long, value_parser = ["f32", "f16"], default_value = "f32")]
+        storage: String,
+        /// Output directory (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Export f16 textures that miss their family's target (the manifest records the error).
+        #[arg(long)]
+        allow_lossy: bool,
     },
     /// Describe a table file: header, axes, channels, fit settings, diagnostics.
     Inspect {
@@ -375,7 +402,11 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             baseline,
             baseline_factor,
             junit,
+            export,
         } => {
+            if let Some(dir) = export {
+                return check_export(&dir);
+            }
             // Read the baseline first: a bad file fails before minutes of checking.
             let saved: Option<Vec<check::FamilyReport>> = match &baseline {
                 None => None,
@@ -423,6 +454,41 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             }
         }
         Command::Inspect { file, json } => inspect(&file, json)?,
+        Command::Export {
+            only,
+            format,
+            storage,
+            out,
+            allow_lossy,
+        } => {
+            let format = match format.as_str() {
+                "ktx2" => Format::Ktx2,
+                "dds" => Format::Dds,
+                "inc" => Format::Inc,
+                _ => Format::Raw,
+            };
+            let storage = if storage == "f16" { Storage::F16 } else { Storage::F32 };
+            let opts = ExportOptions {
+                only,
+                format,
+                storage,
+                allow_lossy,
+            };
+            let m = lobefit::export::run::export(&opts, &out)?;
+            let mut s = String::new();
+            for t in &m.textures {
+                let _ = writeln!(
+                    s,
+                    "{:<14} {:<22} {:>9} B  {}",
+                    t.family,
+                    t.file,
+                    t.bytes,
+                    worst_errors(&t.error)
+                );
+            }
+            let _ = writeln!(s, "manifest: {}", out.join(lobefit::export::run::MANIFEST).display());
+            emit(&s)?;
+        }
         Command::Eval {
             family,
             flags,
@@ -507,6 +573,65 @@ fn parse() -> Result<Cli, ExitCode> {
         }
         Err(e) => e.exit(),
     }
+}
+
+/// The largest measured error per filter of one texture, relative to its target.
+fn worst_errors(errors: &[lobefit::export::run::ErrorEntry]) -> String {
+    let mut parts = Vec::new();
+    for f in Filter::ALL {
+        if let Some(e) = errors
+            .iter()
+            .filter(|e| e.filter == f)
+            .max_by(|a, b| (a.measured / a.target).total_cmp(&(b.measured / b.target)))
+        {
+            parts.push(format!(
+                "{}: {} {} {:.2e} (target {:.1e})",
+                f.name(),
+                e.output,
+                e.metric,
+                e.measured,
+                e.target
+            ));
+        }
+    }
+    parts.join("; ")
+}
+
+/// `check --export DIR`.
+fn check_export(dir: &Path) -> Result<ExitCode, String> {
+    let checks = lobefit::export::run::check_export(dir)?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:<24} {:<8} {:<14} {:<18} {:>10} {:>10} {:>10}",
+        "file", "filter", "output", "metric", "measured", "promise", "target"
+    );
+    for c in &checks {
+        let _ = writeln!(
+            s,
+            "{:<24} {:<8} {:<14} {:<18} {:>10.3e} {:>10.3e} {:>10.1e} {}",
+            c.file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            c.entry.filter.name(),
+            c.entry.output,
+            c.entry.metric,
+            c.now,
+            c.entry.promise,
+            c.entry.target,
+            if !c.pass {
+                "FAIL"
+            } else if c.entry.meets_target() {
+                "ok"
+            } else {
+                "ok (lossy: misses the target)"
+            }
+        );
+    }
+    emit(&s)?;
+    if checks.iter().any(|c| !c.pass) {
+        note("check --export FAILED\n");
+        return Ok(ExitCode::from(1));
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 fn main() -> ExitCode {

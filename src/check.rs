@@ -15,7 +15,7 @@ use serde::{Deserialize, Deserializer, Serialize};
 
 use lobefit_tables::Table;
 
-use crate::family::{Extra, F32Twin, Family};
+use crate::family::{Extra, F32Twin, Family, Lookup};
 use crate::rng::Rng;
 
 /// Checker settings.
@@ -208,6 +208,19 @@ const F32_SLACK: f64 = 1.0 / (1u64 << 23) as f64;
 /// the f64 lookup by one rounding, which needs no full sample to show.
 const F32_STRIDE: usize = 4;
 
+/// The input point `x` rounded to f32, as the f32 twins and shaders receive it, inside
+/// the domain `runtime` serves: to nearest (f32(π) read as π, as the twins read an
+/// angle), or towards zero where that leaves the domain (a bound not representable
+/// in f32).
+pub fn f32_point(runtime: &dyn Lookup, x: &[f64]) -> Vec<f64> {
+    let near: Vec<f64> = x.iter().map(|&v| lobefit_tables::error::angle_f32(v as f32)).collect();
+    if runtime.lookup(&near).is_ok() {
+        near
+    } else {
+        x.iter().map(|&v| f32_toward_zero(v) as f64).collect()
+    }
+}
+
 /// The f32 nearest to `v` whose magnitude does not exceed |v|.
 fn f32_toward_zero(v: f64) -> f32 {
     let r = v as f32;
@@ -218,7 +231,8 @@ fn f32_toward_zero(v: f64) -> f32 {
     }
 }
 
-fn rel_err(got: f64, want: f64) -> f64 {
+/// |got − want| / |want| (0 where equal).
+pub fn rel_err(got: f64, want: f64) -> f64 {
     let d = (got - want).abs();
     if d == 0.0 {
         0.0
@@ -306,15 +320,7 @@ pub fn check_family(family: &dyn Family, path: &Path, opts: CheckOptions) -> Fam
     let offgrid32: Vec<Vec<f64>> = offgrid
         .iter()
         .step_by(F32_STRIDE)
-        .map(|x| {
-            // As the twins read an angle: f32(π) stands for π.
-            let near: Vec<f64> = x.iter().map(|&v| lobefit_tables::error::angle_f32(v as f32)).collect();
-            if runtime.lookup(&near).is_ok() {
-                near
-            } else {
-                x.iter().map(|&v| f32_toward_zero(v) as f64).collect()
-            }
-        })
+        .map(|x| f32_point(runtime.as_ref(), x))
         .collect();
     let has_f32 = offgrid32.first().is_some_and(|x| runtime.lookup_f32(x).is_some());
     let off32_res: Vec<PointResult> = if has_f32 {

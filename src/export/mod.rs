@@ -2,7 +2,10 @@
 //! with a JSON sidecar), in f32 or f16, with a manifest saying how a shader maps a
 //! query to texture coordinates.
 
+pub mod families;
 pub mod formats;
+pub mod layout;
+pub mod run;
 
 use std::fmt;
 

@@ -1,0 +1,370 @@
+//! GPU layouts: a table's grid as a texture (axes → texture x, y; channels → RGBA,
+//! array layers beyond 4), the per-channel packing (offset and scale, so that f16
+//! stores a bounded, well-scaled number), and the sampler a shader runs, emulated on
+//! the CPU in f32 arithmetic: texel-centre coordinates, manual linear interpolation or
+//! hardware linear filtering with 8-bit sub-texel weights.
+
+use lobefit_tables::{Axis, Encoding, Mapping, Placement, Table};
+use serde::{Deserialize, Serialize};
+
+use super::{Storage, Texture};
+
+/// How the sampled value between texels is formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Filter {
+    /// The shader fetches the neighbouring texels (`textureLoad`/`texelFetch`) and
+    /// interpolates in f32.
+    Manual,
+    /// The texture unit's linear filter: its sub-texel weight has 8 fractional bits
+    /// on current GPUs (weight rounded to a multiple of 1/256), emulated as such.
+    Hardware,
+}
+
+impl Filter {
+    /// Both filters, manual first.
+    pub const ALL: [Filter; 2] = [Filter::Manual, Filter::Hardware];
+    /// Report name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Filter::Manual => "manual",
+            Filter::Hardware => "hardware",
+        }
+    }
+}
+
+/// Sub-texel weight resolution of hardware linear filtering (8 bits).
+pub const HARDWARE_WEIGHT_STEPS: f32 = 256.0;
+
+/// One stored channel: stored texel value = (v − offset) / scale, where v is the
+/// channel's quantity (its natural log when `log`). A shader reads
+/// v = offset + scale · texel, then exp(v) when `log`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Channel {
+    /// Channel name (the table's).
+    pub name: String,
+    /// What it holds (the table's description).
+    pub meaning: String,
+    /// Whether the texel holds the natural log of the quantity.
+    pub log: bool,
+    /// Added after scaling.
+    pub offset: f64,
+    /// Multiplies the texel.
+    pub scale: f64,
+    /// A cubic trend added back (1D textures in f16; empty otherwise): the channel's
+    /// value is trend(t) + offset + scale · texel with t = s / (count − 1) ∈ [0, 1]
+    /// and trend(t) = c0 + c1 t + c2 t² + c3 t³ (Horner in f32). Storing the residual
+    /// from the trend leaves f16 a narrow range to resolve.
+    #[serde(default)]
+    pub trend: Vec<f64>,
+    /// Array layer holding the channel.
+    pub layer: u32,
+    /// Component within the texel: 0 = R, 1 = G, 2 = B, 3 = A.
+    pub component: u32,
+}
+
+/// One axis of the texture: the table axis it samples and the texture coordinate
+/// convention. Texture coordinate u = (s + 0.5) / count with s = (map(x) − map(lo)) /
+/// (map(hi) − map(lo)) · (count − 1): node i sits at the centre of texel i.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TexAxis {
+    /// The table axis (name, range, mapping, node count).
+    pub axis: Axis,
+    /// map(lo), map(hi): the constants of the mapping to s.
+    pub mapped_lo: f64,
+    /// See `mapped_lo`.
+    pub mapped_hi: f64,
+    /// Texture axis: `x` (fastest) or `y`.
+    pub texture_axis: String,
+}
+
+impl TexAxis {
+    fn new(axis: &Axis, texture_axis: &str) -> Result<TexAxis, String> {
+        if axis.placement != Placement::Endpoints {
+            return Err(format!("axis {}: only node-on-endpoint axes export", axis.name));
+        }
+        Ok(TexAxis {
+            mapped_lo: axis.mapping.forward(axis.lo),
+            mapped_hi: axis.mapping.forward(axis.hi),
+            axis: axis.clone(),
+            texture_axis: texture_axis.into(),
+        })
+    }
+
+    /// s (texel units, node i at s = i) of the axis value `x`, computed in f32 as a
+    /// shader does (the mapping by f32 `ln`, `asinh`; no `ln_1p`, which shading
+    /// languages lack).
+    pub fn texel_coordinate(&self, x: f32) -> f32 {
+        let u = match self.axis.mapping {
+            Mapping::Linear => x,
+            Mapping::Log => x.ln(),
+            Mapping::Log1p { scale } => (1.0 + x / scale as f32).ln(),
+            Mapping::Logit { a, b } => ((x - a as f32) / (b as f32 - x)).ln(),
+            Mapping::Asinh { centre, width } => ((x - centre as f32) / width as f32).asinh(),
+        };
+        let (u0, u1) = (self.mapped_lo as f32, self.mapped_hi as f32);
+        (u - u0) / (u1 - u0) * (self.axis.count - 1) as f32
+    }
+
+    /// The shader's formula for the texture coordinate, for the manifest.
+    pub fn formula(&self) -> String {
+        let m = match self.axis.mapping {
+            Mapping::Linear => "x".to_string(),
+            Mapping::Log => "log(x)".to_string(),
+            Mapping::Log1p { scale } => format!("log(1 + x / {scale:?})"),
+            Mapping::Logit { a, b } => format!("log((x - {a:?}) / ({b:?} - x))"),
+            Mapping::Asinh { centre, width } => format!("asinh((x - {centre:?}) / {width:?})"),
+        };
+        format!(
+            "u = (s + 0.5) / {n}, s = clamp(({m} - {lo:?}) / ({hi:?} - {lo:?}) * {nm1}, 0, {nm1}) with x = {name}",
+            n = self.axis.count,
+            lo = self.mapped_lo,
+            hi = self.mapped_hi,
+            nm1 = self.axis.count - 1,
+            name = self.axis.name
+        )
+    }
+}
+
+/// A table's grid as one texture: its axes, channel packing, and texels.
+#[derive(Debug, Clone)]
+pub struct Grid {
+    /// Axes, slowest first (2D: y then x).
+    pub axes: Vec<TexAxis>,
+    /// Channels, in the table's order.
+    pub channels: Vec<Channel>,
+    /// The texture (values already packed).
+    pub texture: Texture,
+}
+
+/// The texels of `table` as they are stored (log channels as ln), packed for
+/// `storage`: f32 stores them as they are (offset 0, scale 1); f16 stores each
+/// channel mapped onto [−1, 1] by its own offset and scale, where binary16 has its
+/// finest absolute spacing relative to the channel's range. More than 4 channels go
+/// to array layers of RGBA; 3 are padded to RGBA with zeros.
+pub fn grid_of_table(name: &str, table: &Table, storage: Storage) -> Result<Grid, String> {
+    let meta = table.meta();
+    let naxes = meta.axes.len();
+    if !(1..=2).contains(&naxes) {
+        return Err(format!("{name}: {naxes} axes (1 or 2 export as one texture)"));
+    }
+    let names = if naxes == 1 { vec!["x"] } else { vec!["y", "x"] };
+    let axes = meta
+        .axes
+        .iter()
+        .zip(names)
+        .map(|(a, t)| TexAxis::new(a, t))
+        .collect::<Result<Vec<_>, _>>()?;
+    let nch = meta.channels.len();
+    let per_texel = if nch > 4 { 4 } else { [1, 1, 2, 4, 4][nch] };
+    let layers = nch.div_ceil(4) as u32;
+    let values = table.values();
+    let texels = values.len() / nch;
+    let mut channels = Vec::with_capacity(nch);
+    let mut residuals: Vec<Vec<f64>> = Vec::with_capacity(nch);
+    for (c, ch) in meta.channels.iter().enumerate() {
+        let raw: Vec<f64> = (0..texels).map(|i| values[i * nch + c] as f64).collect();
+        let trend = if storage == Storage::F16 && naxes == 1 {
+            cubic_fit(&raw)
+        } else {
+            Vec::new()
+        };
+        let resid: Vec<f64> = raw
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v - eval_trend(&trend, i as f64 / (texels - 1).max(1) as f64))
+            .collect();
+        let (offset, scale) = match storage {
+            Storage::F32 => (0.0, 1.0),
+            Storage::F16 => {
+                let (lo, hi) = resid
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+                let half = 0.5 * (hi - lo);
+                (0.5 * (hi + lo), if half > 0.0 { half } else { 1.0 })
+            }
+        };
+        residuals.push(resid);
+        channels.push(Channel {
+            name: ch.name.clone(),
+            meaning: ch.description.clone(),
+            log: ch.encoding == Encoding::Log,
+            offset,
+            scale,
+            trend,
+            layer: (c / 4) as u32,
+            component: (c % 4) as u32,
+        });
+    }
+    let mut data = vec![0.0f32; layers as usize * texels * per_texel];
+    for i in 0..texels {
+        for (c, ch) in channels.iter().enumerate() {
+            let packed = if storage == Storage::F32 {
+                values[i * nch + c]
+            } else {
+                ((residuals[c][i] - ch.offset) / ch.scale) as f32
+            };
+            data[(ch.layer as usize * texels + i) * per_texel + ch.component as usize] = packed;
+        }
+    }
+    let (width, height) = match naxes {
+        1 => (meta.axes[0].count, 1),
+        _ => (meta.axes[1].count, meta.axes[0].count),
+    };
+    let texture = Texture {
+        name: name.to_string(),
+        dimension: naxes as u8,
+        width,
+        height,
+        depth: 1,
+        layers,
+        channels: per_texel as u32,
+        data,
+    };
+    texture.validate()?;
+    Ok(Grid {
+        axes,
+        channels,
+        texture,
+    })
+}
+
+/// Least-squares cubic in t = i/(n − 1) through the values (normal equations on
+/// the monomials; n ≥ 4, else no trend).
+fn cubic_fit(v: &[f64]) -> Vec<f64> {
+    let n = v.len();
+    if n < 4 {
+        return Vec::new();
+    }
+    let mut a = [[0.0f64; 4]; 4];
+    let mut b = [0.0f64; 4];
+    for (i, &y) in v.iter().enumerate() {
+        let t = i as f64 / (n - 1) as f64;
+        let p = [1.0, t, t * t, t * t * t];
+        for r in 0..4 {
+            b[r] += p[r] * y;
+            for c in 0..4 {
+                a[r][c] += p[r] * p[c];
+            }
+        }
+    }
+    // Gaussian elimination with partial pivoting (4×4, well conditioned on [0, 1]).
+    for k in 0..4 {
+        let piv = (k..4).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())).unwrap_or(k);
+        a.swap(k, piv);
+        b.swap(k, piv);
+        for r in k + 1..4 {
+            let f = a[r][k] / a[k][k];
+            for c in k..4 {
+                a[r][c] -= f * a[k][c];
+            }
+            b[r] -= f * b[k];
+        }
+    }
+    let mut x = [0.0f64; 4];
+    for k in (0..4).rev() {
+        let s: f64 = (k + 1..4).map(|c| a[k][c] * x[c]).sum();
+        x[k] = (b[k] - s) / a[k][k];
+    }
+    if x.iter().all(|c| c.is_finite()) {
+        x.to_vec()
+    } else {
+        Vec::new()
+    }
+}
+
+/// c0 + c1 t + c2 t² + c3 t³ (0 for no trend), in f64.
+fn eval_trend(c: &[f64], t: f64) -> f64 {
+    c.iter().rev().fold(0.0, |acc, &k| acc * t + k)
+}
+
+/// The same in f32, as a shader evaluates it.
+fn eval_trend32(c: &[f64], t: f32) -> f32 {
+    c.iter().rev().fold(0.0f32, |acc, &k| acc * t + k as f32)
+}
+
+/// The sampler a shader runs on a texture read back from a file: `sample` gives the
+/// unpacked channel values (exp applied to log channels) at axis values `x` (one per
+/// axis, slowest first), in f32 arithmetic.
+#[derive(Debug, Clone)]
+pub struct Sampler {
+    /// Axes, slowest first.
+    pub axes: Vec<TexAxis>,
+    /// Channel packing.
+    pub channels: Vec<Channel>,
+    /// The texels as read back (f16 widened exactly).
+    pub texture: Texture,
+    /// Filter.
+    pub filter: Filter,
+}
+
+impl Sampler {
+    /// Corner index and weight of the upper neighbour along one axis.
+    fn split(&self, axis: &TexAxis, x: f32) -> (usize, f32) {
+        let n = axis.axis.count as usize;
+        let s = axis.texel_coordinate(x);
+        match self.filter {
+            Filter::Manual => {
+                let s = s.clamp(0.0, (n - 1) as f32);
+                let i = (s.floor() as usize).min(n - 2);
+                (i, s - i as f32)
+            }
+            Filter::Hardware => {
+                // The shader passes u = (s + 0.5)/n; the unit recovers t = u·n − 0.5,
+                // clamps to the edge texels, and weights with 8 fractional bits.
+                let u = (s + 0.5) / n as f32;
+                let t = (u * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+                let i = (t.floor() as usize).min(n - 2);
+                let w = ((t - i as f32) * HARDWARE_WEIGHT_STEPS).round() / HARDWARE_WEIGHT_STEPS;
+                (i, w)
+            }
+        }
+    }
+
+    /// The channel values at `x` (axis values, slowest first), unpacked, in f32.
+    pub fn sample(&self, x: &[f32]) -> Vec<f32> {
+        let t = &self.texture;
+        let pt = t.channels as usize;
+        let texels = (t.width * t.height) as usize;
+        let fetch = |flat: usize, ch: &Channel| t.data[(ch.layer as usize * texels + flat) * pt + ch.component as usize];
+        let mut out = Vec::with_capacity(self.channels.len());
+        match self.axes.len() {
+            1 => {
+                let (i, w) = self.split(&self.axes[0], x[0]);
+                let n = self.axes[0].axis.count;
+                // The trend's t: the same coordinate the shader samples at.
+                let t = (i as f32 + w) / (n - 1) as f32;
+                for ch in &self.channels {
+                    let v = fetch(i, ch) + w * (fetch(i + 1, ch) - fetch(i, ch));
+                    out.push(unpack(ch, v, eval_trend32(&ch.trend, t)));
+                }
+            }
+            _ => {
+                let (j, wy) = self.split(&self.axes[0], x[0]);
+                let (i, wx) = self.split(&self.axes[1], x[1]);
+                let wdt = t.width as usize;
+                for ch in &self.channels {
+                    let f = |jj: usize, ii: usize| fetch(jj * wdt + ii, ch);
+                    let lo = f(j, i) + wx * (f(j, i + 1) - f(j, i));
+                    let hi = f(j + 1, i) + wx * (f(j + 1, i + 1) - f(j + 1, i));
+                    out.push(unpack(ch, lo + wy * (hi - lo), 0.0));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// trend + offset + scale · texel, then exp for log channels (f32, as the shader).
+fn unpack(ch: &Channel, texel: f32, trend: f32) -> f32 {
+    let v = if ch.offset == 0.0 && ch.scale == 1.0 && ch.trend.is_empty() {
+        texel
+    } else {
+        trend + ch.offset as f32 + ch.scale as f32 * texel
+    };
+    if ch.log {
+        v.exp()
+    } else {
+        v
+    }
+}

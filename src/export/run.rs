@@ -1,0 +1,334 @@
+//! The export driver (`lobefit export`) and its checker (`lobefit check --export`):
+//! textures written, read back with independent readers, and sampled as a GPU
+//! samples them, against the families' independent references.
+
+use std::path::{Path, PathBuf};
+
+use lobefit_tables::Table;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::families::{self, Emulated, GpuFamily};
+use super::formats;
+use super::layout::{grid_of_table, Channel, Filter, Sampler, TexAxis};
+use super::{Format, Storage};
+use crate::check::{f32_point, metric_value, OutputReport, Stats};
+use crate::family::Family;
+use crate::fits::{registry, FitOptions};
+use crate::rng::Rng;
+
+/// Manifest file name in an export directory.
+pub const MANIFEST: &str = "manifest.json";
+/// Manifest layout version.
+pub const MANIFEST_VERSION: u32 = 1;
+/// Off-grid samples per family the export error is measured on.
+pub const SAMPLES: usize = 2000;
+/// Their seed (the checker's).
+pub const SEED: u64 = crate::check::CheckOptions::QUICK.seed;
+
+/// What `lobefit export` writes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ExportOptions {
+    /// Families (table kinds); empty = every textured family.
+    pub only: Vec<String>,
+    /// Container format.
+    pub format: Format,
+    /// Texel precision.
+    pub storage: Storage,
+    /// Export an f16 texture that misses its family's target (its measured error is
+    /// in the manifest) instead of refusing it.
+    pub allow_lossy: bool,
+}
+
+/// The manifest: everything a renderer needs to sample the textures, and the
+/// measured error of these very files.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// [`MANIFEST_VERSION`].
+    pub version: u32,
+    /// Container format of every texture here.
+    pub format: Format,
+    /// Texel precision.
+    pub storage: Storage,
+    /// The texture-coordinate convention, in words.
+    pub convention: String,
+    /// Off-grid samples (seeded) behind each measured error.
+    pub samples: usize,
+    /// Their seed.
+    pub seed: u64,
+    /// One entry per texture.
+    pub textures: Vec<TextureEntry>,
+    /// Families a shader evaluates in closed form: (kind, formula).
+    pub closed_form: Vec<(String, String)>,
+    /// Families not exported yet: (kind, what their layout needs).
+    pub pending: Vec<(String, String)>,
+}
+
+/// One exported texture.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TextureEntry {
+    /// Table kind.
+    pub family: String,
+    /// File name in the export directory.
+    pub file: String,
+    /// File size (bytes).
+    pub bytes: u64,
+    /// 1, 2 or 3.
+    pub dimension: u8,
+    /// Texels along x, y, z; array layers; channels per texel.
+    pub extent: [u32; 5],
+    /// The family's inputs (as `lobefit eval` names them).
+    pub inputs: Vec<String>,
+    /// The texture axes (slowest first) and their coordinate formulas.
+    pub axes: Vec<TexAxis>,
+    /// The formula of each axis's texture coordinate.
+    pub axis_formulas: Vec<String>,
+    /// Channel packing.
+    pub channels: Vec<Channel>,
+    /// What the shader computes from the samples.
+    pub shader: String,
+    /// Measured error per filter, quantity and metric.
+    pub error: Vec<ErrorEntry>,
+}
+
+/// One measured error of an exported texture.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorEntry {
+    /// `manual` or `hardware`.
+    pub filter: Filter,
+    /// Quantity (the family's checked output).
+    pub output: String,
+    /// Metric, e.g. `offgrid.max_rel`.
+    pub metric: String,
+    /// Measured on this file.
+    pub measured: f64,
+    /// The family's own limit (its `check` threshold).
+    pub target: f64,
+    /// What `check --export` holds the file to: the target where met, else the
+    /// measured value (a lossy export).
+    pub promise: f64,
+}
+
+impl ErrorEntry {
+    /// Whether the measured error meets the family's target.
+    pub fn meets_target(&self) -> bool {
+        self.measured <= self.target
+    }
+}
+
+fn family_of(kind: &str) -> Option<Box<dyn Family>> {
+    registry(FitOptions::default()).into_iter().find(|f| f.kind() == kind)
+}
+
+/// The export error of one texture, per filter: the family's own pointwise check run
+/// through the emulated GPU lookup at seeded off-grid samples (rounded to f32, the
+/// inputs a shader gets), reduced to the family's off-grid threshold metrics.
+pub fn measure(
+    family: &dyn Family,
+    gpu: GpuFamily,
+    axes: &[TexAxis],
+    channels: &[Channel],
+    texture: &super::Texture,
+    samples: usize,
+    seed: u64,
+) -> Result<Vec<ErrorEntry>, String> {
+    let mut rng = Rng::new(seed);
+    let points: Vec<Vec<f64>> = (0..samples).map(|_| family.sample(&mut rng)).collect();
+    // The CPU runtime only tells which f32 roundings of a sample stay in the domain.
+    let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", family.kind()))?;
+    let cpu = family.runtime(table).map_err(|e| format!("{}: {e}", family.kind()))?;
+    let mut out = Vec::new();
+    for filter in Filter::ALL {
+        let sampler = Sampler {
+            axes: axes.to_vec(),
+            channels: channels.to_vec(),
+            texture: texture.clone(),
+            filter,
+        };
+        let emu = Emulated { family: gpu, sampler: &sampler };
+        let res: Vec<_> = points
+            .par_iter()
+            .map(|x| family.check_point(&emu, &f32_point(cpu.as_ref(), x)))
+            .collect();
+        if let Some(Err(e)) = res.iter().find(|r| r.is_err()) {
+            return Err(format!("{}: {e}", family.kind()));
+        }
+        for (k, name) in family.checked().iter().enumerate() {
+            let (mut abs, mut rel) = (Vec::new(), Vec::new());
+            for (g, w) in res.iter().flatten().flatten() {
+                if g[k].is_nan() && w[k].is_nan() {
+                    continue;
+                }
+                abs.push((g[k] - w[k]).abs());
+                rel.push(crate::check::rel_err(g[k], w[k]));
+            }
+            let report = OutputReport {
+                output: name.to_string(),
+                grid_abs: Stats::of(Vec::new()),
+                grid_rel: Stats::of(Vec::new()),
+                offgrid_abs: Stats::of(abs),
+                offgrid_rel: Stats::of(rel),
+                worst_offgrid_input: Vec::new(),
+            };
+            for t in family.thresholds() {
+                if t.output != *name || !t.metric.starts_with("offgrid.") {
+                    continue;
+                }
+                let measured = metric_value(&report, &t.metric).unwrap_or(f64::NAN);
+                out.push(ErrorEntry {
+                    filter,
+                    output: t.output.clone(),
+                    metric: t.metric.clone(),
+                    measured,
+                    target: t.limit,
+                    promise: if measured <= t.limit { t.limit } else { measured },
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Writes the textures of `opts` and their manifest into `dir` (created if missing).
+/// Returns the manifest. Refuses (an error naming the measured error and the target)
+/// an f16 texture that misses its target with manual filtering, unless
+/// `allow_lossy`. Every file is written atomically.
+pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
+    let gpu: Vec<GpuFamily> = if opts.only.is_empty() {
+        families::textured()
+    } else {
+        opts.only
+            .iter()
+            .map(|k| {
+                families::find(k).ok_or_else(|| {
+                    if let Some((_, f)) = families::CLOSED_FORM.iter().find(|(c, _)| c == k) {
+                        format!("{k} needs no texture: a shader evaluates it in closed form ({f})")
+                    } else if let Some((_, why)) = families::PENDING.iter().find(|(c, _)| c == k) {
+                        format!("{k} has no GPU layout yet: {why}")
+                    } else {
+                        let all: Vec<&str> = families::textured().iter().map(|f| f.kind).collect();
+                        format!("unknown family {k:?} (textured families: {})", all.join(", "))
+                    }
+                })
+            })
+            .collect::<Result<_, _>>()?
+    };
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let mut textures = Vec::new();
+    for g in gpu {
+        let family = family_of(g.kind).ok_or_else(|| format!("{}: not in the registry", g.kind))?;
+        let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", g.kind))?;
+        let grid = grid_of_table(g.kind, &table, opts.storage)?;
+        let path = formats::write(&grid.texture, opts.format, opts.storage, dir)?;
+        // Measure the file as a reader sees it, through the independent reader.
+        let (back, _) = formats::read(&path, opts.format)?;
+        let error = measure(
+            family.as_ref(),
+            g,
+            &grid.axes,
+            &grid.channels,
+            &back,
+            SAMPLES,
+            SEED,
+        )?;
+        if opts.storage == Storage::F16 && !opts.allow_lossy {
+            if let Some(e) = error.iter().find(|e| e.filter == Filter::Manual && !e.meets_target()) {
+                let _ = std::fs::remove_file(&path);
+                return Err(format!(
+                    "{}: f16 misses the target: {} {} = {:.3e} against {:.1e} (manual filtering); \
+                     use --storage f32, or --allow-lossy to export it with that error recorded",
+                    g.kind, e.output, e.metric, e.measured, e.target
+                ));
+            }
+        }
+        let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+        let t = &grid.texture;
+        textures.push(TextureEntry {
+            family: g.kind.to_string(),
+            file: path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            bytes,
+            dimension: t.dimension,
+            extent: [t.width, t.height, t.depth, t.layers, t.channels],
+            inputs: family.inputs().iter().map(|s| s.to_string()).collect(),
+            axis_formulas: grid.axes.iter().map(TexAxis::formula).collect(),
+            axes: grid.axes,
+            channels: grid.channels,
+            shader: g.shader.to_string(),
+            error,
+        });
+    }
+    let manifest = Manifest {
+        version: MANIFEST_VERSION,
+        format: opts.format,
+        storage: opts.storage,
+        convention: "Node i of an axis with n nodes sits at the centre of texel i: texture coordinate \
+                     u = (s + 0.5) / n with s ∈ [0, n − 1] the node coordinate (formula per axis). \
+                     2D textures: x = the table's fastest axis, y = the slower one. A channel's value is \
+                     trend(t) + offset + scale · texel (trend: a cubic in t = s / (n − 1), 1D f16 textures only), then exp() for log channels. Manual filtering: fetch the two \
+                     (four) neighbouring texels and interpolate in f32; hardware filtering: a linear sampler \
+                     with clamp-to-edge addressing (its sub-texel weights have 8 fractional bits)."
+            .into(),
+        samples: SAMPLES,
+        seed: SEED,
+        textures,
+        closed_form: families::CLOSED_FORM.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
+        pending: families::PENDING.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
+    };
+    let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
+    crate::io::write_atomic(&dir.join(MANIFEST), json.as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", dir.join(MANIFEST).display()))?;
+    Ok(manifest)
+}
+
+/// One re-measured error of `check --export`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ExportCheck {
+    /// Texture file.
+    pub file: PathBuf,
+    /// The manifest's entry and the value measured now.
+    pub entry: ErrorEntry,
+    /// Measured now.
+    pub now: f64,
+    /// `now` within the manifest's promise.
+    pub pass: bool,
+}
+
+/// `lobefit check --export DIR`: reads the manifest and every texture (independent
+/// readers), re-measures each error and compares it with the manifest's promise.
+pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
+    let path = dir.join(MANIFEST);
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let m: Manifest = serde_json::from_str(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
+    if m.version != MANIFEST_VERSION {
+        return Err(format!(
+            "{}: manifest version {} (this lobefit reads {MANIFEST_VERSION})",
+            path.display(),
+            m.version
+        ));
+    }
+    let mut out = Vec::new();
+    for t in &m.textures {
+        let family = family_of(&t.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), t.family))?;
+        let gpu = families::find(&t.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), t.family))?;
+        let file = dir.join(&t.file);
+        let (tex, storage) = formats::read(&file, m.format)?;
+        if storage != m.storage {
+            return Err(format!("{}: stored as {storage}, the manifest says {}", file.display(), m.storage));
+        }
+        let now = measure(family.as_ref(), gpu, &t.axes, &t.channels, &tex, m.samples, m.seed)?;
+        for e in &t.error {
+            let v = now
+                .iter()
+                .find(|n| n.filter == e.filter && n.output == e.output && n.metric == e.metric)
+                .map_or(f64::NAN, |n| n.measured);
+            out.push(ExportCheck {
+                file: file.clone(),
+                entry: e.clone(),
+                now: v,
+                pass: v <= e.promise * (1.0 + 1e-12),
+            });
+        }
+    }
+    Ok(out)
+}
+

@@ -1,0 +1,133 @@
+//! `lobefit export` and `check --export`: every textured family in every format and
+//! precision, read back by the independent readers and sampled as a GPU samples it
+//! against the families' references; determinism; bad input.
+
+mod common;
+
+use std::path::Path;
+
+use lobefit::export::layout::Filter;
+use lobefit::export::run::{check_export, export, ExportOptions, Manifest, MANIFEST};
+use lobefit::export::{Format, Storage};
+
+fn opts(only: &[&str], format: Format, storage: Storage) -> ExportOptions {
+    ExportOptions {
+        only: only.iter().map(|s| s.to_string()).collect(),
+        format,
+        storage,
+        allow_lossy: false,
+    }
+}
+
+fn manifest(dir: &Path) -> Manifest {
+    serde_json::from_str(&std::fs::read_to_string(dir.join(MANIFEST)).unwrap()).unwrap()
+}
+
+#[test]
+fn every_textured_family_in_f32_meets_its_targets_with_manual_filtering() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = export(&opts(&[], Format::Raw, Storage::F32), dir.path()).unwrap();
+    assert_eq!(m.textures.len(), 4, "cap-exponent, sg-fit, isg-refit, disk-light");
+    for t in &m.textures {
+        for e in t.error.iter().filter(|e| e.filter == Filter::Manual) {
+            assert!(e.meets_target(), "{} {} {}: {} > {}", t.family, e.output, e.metric, e.measured, e.target);
+        }
+    }
+    // Re-measured from the files: the same numbers, within every promise.
+    let checks = check_export(dir.path()).unwrap();
+    assert!(!checks.is_empty());
+    for c in &checks {
+        assert!(c.pass, "{c:?}");
+        assert_eq!(c.now, c.entry.measured, "{c:?}");
+    }
+}
+
+#[test]
+fn f16_with_trend_and_scale_meets_the_targets_of_the_textured_families() {
+    let dir = tempfile::tempdir().unwrap();
+    // Refused families would be an error here (no --allow-lossy).
+    let m = export(&opts(&[], Format::Raw, Storage::F16), dir.path()).unwrap();
+    assert_eq!(m.textures.len(), 4);
+    assert!(check_export(dir.path()).unwrap().iter().all(|c| c.pass));
+}
+
+#[test]
+fn every_format_and_precision_round_trips_and_checks() {
+    for format in Format::ALL {
+        for storage in [Storage::F32, Storage::F16] {
+            let dir = tempfile::tempdir().unwrap();
+            let m = export(&opts(&["cap-exponent", "disk-light"], format, storage), dir.path())
+                .unwrap_or_else(|e| panic!("{format} {storage}: {e}"));
+            assert_eq!((m.format, m.storage), (format, storage));
+            let checks = check_export(dir.path()).unwrap_or_else(|e| panic!("{format} {storage}: {e}"));
+            assert!(checks.iter().all(|c| c.pass), "{format} {storage}: {checks:?}");
+        }
+    }
+}
+
+#[test]
+fn exports_are_byte_identical_run_to_run() {
+    for format in Format::ALL {
+        let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        let o = opts(&["sg-fit"], format, Storage::F16);
+        export(&o, a.path()).unwrap();
+        export(&o, b.path()).unwrap();
+        let mut names: Vec<_> = std::fs::read_dir(a.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        names.sort();
+        assert!(names.len() >= 2, "{names:?}");
+        for n in names {
+            let (x, y) = (std::fs::read(a.path().join(&n)).unwrap(), std::fs::read(b.path().join(&n)).unwrap());
+            assert!(x == y, "{format}: {n:?} differs");
+        }
+    }
+}
+
+#[test]
+fn a_corrupted_texel_fails_check_export() {
+    let dir = tempfile::tempdir().unwrap();
+    export(&opts(&["cap-exponent"], Format::Raw, Storage::F32), dir.path()).unwrap();
+    let m = manifest(dir.path());
+    let file = dir.path().join(&m.textures[0].file);
+    let mut bytes = std::fs::read(&file).unwrap();
+    // Texel 500 (of 1000) of the single-channel f32 texture, scaled by 1.01.
+    let at = 500 * 4;
+    let v = f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) * 1.01;
+    bytes[at..at + 4].copy_from_slice(&v.to_le_bytes());
+    std::fs::write(&file, bytes).unwrap();
+    let checks = check_export(dir.path()).unwrap();
+    assert!(checks.iter().any(|c| !c.pass), "{checks:?}");
+}
+
+#[test]
+fn bad_requests_are_specific_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let err = |only: &[&str]| export(&opts(only, Format::Ktx2, Storage::F32), dir.path()).unwrap_err();
+    assert!(err(&["nonsense"]).contains("unknown family"), "{}", err(&["nonsense"]));
+    assert!(err(&["lobe-integral"]).contains("closed form"));
+    assert!(err(&["shexp"]).contains("no GPU layout yet"));
+    // An unwritable output directory.
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let e = export(&opts(&["sg-fit"], Format::Dds, Storage::F32), &file.join("sub")).unwrap_err();
+    assert!(e.contains("a-file"), "{e}");
+    // check --export on a directory without a manifest, and on a corrupt manifest.
+    assert!(check_export(dir.path()).unwrap_err().contains(MANIFEST));
+    std::fs::write(dir.path().join(MANIFEST), b"{\"version\": 1}").unwrap();
+    assert!(check_export(dir.path()).unwrap_err().contains("not a lobefit export manifest"));
+}
+
+#[test]
+fn cli_export_and_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let (code, stdout, stderr) =
+        common::run_text(&["export", "--only", "sg-fit", "--format", "ktx2", "--storage", "f16", "--out", out], "");
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(stdout.contains("sg-fit.ktx2") && stdout.contains("manifest"), "{stdout}");
+    let (code, stdout, stderr) = common::run_text(&["check", "--export", out], "");
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(stdout.contains("manual") && stdout.contains("hardware"), "{stdout}");
+    let (code, _, stderr) = common::run_text(&["export", "--format", "png", "--out", out], "");
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("png"), "{stderr}");
+}
