@@ -13,6 +13,7 @@ pub mod check;
 pub mod ci;
 pub mod eigen;
 pub mod eval;
+pub mod export;
 pub mod family;
 pub mod io;
 pub mod plot;
