@@ -180,7 +180,7 @@ fn ktx2_header_fields_match_the_specification() {
                 let texels = tex.data.len() as u64 * bytes_per as u64;
                 let (lo, ll, lu) = (u64_at(&f, 80), u64_at(&f, 88), u64_at(&f, 96));
                 let block = (channels * bytes_per) as u64;
-                let lcm = if block % 4 == 0 { block } else { 4 };
+                let lcm = if block.is_multiple_of(4) { block } else { 4 }; // blocks are 2, 4, 8 or 16 bytes
                 assert_eq!(lo % lcm, 0, "level alignment {what}");
                 assert!(lo as usize >= kvd_off + kvd_len, "{what}");
                 assert_eq!((ll, lu), (texels, texels), "{what}");
