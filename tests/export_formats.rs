@@ -323,6 +323,16 @@ fn an_unwritable_directory_is_an_error_naming_the_path() {
     }
 }
 
+#[test]
+fn a_name_that_is_not_a_plain_file_stem_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["", "..", "a/b", "../up", "a\\b"] {
+        let mut tex = texture("x", (1, 2, 1, 1, 1), 1);
+        tex.name = name.into();
+        assert!(write(&tex, Format::Raw, Storage::F32, dir.path()).is_err(), "{name:?}");
+    }
+}
+
 /// Writes `bytes` to `dir/name` and reads it back as `format`; must not panic.
 fn read_bytes(dir: &Path, name: &str, bytes: &[u8], format: Format) -> Result<(Texture, Storage), String> {
     let p = dir.join(name);
@@ -435,6 +445,9 @@ fn the_c_header_compiles_as_c99_and_cpp11_and_holds_the_exact_values() {
     }
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
+    // A name with comment-closing characters (encode allows it; write would not).
+    let odd = texture("evil*/name", (1, 2, 1, 1, 1), 1);
+    std::fs::write(d.join("odd.inc"), encode(&odd, Format::Inc, Storage::F32).unwrap()).unwrap();
     let a = texture("cap-exponent", (2, 5, 3, 1, 2), 4);
     let b = texture("cap-exponent-half", (3, 2, 2, 3, 1), 2);
     write(&a, Format::Inc, Storage::F32, d).unwrap();
@@ -446,7 +459,7 @@ fn the_c_header_compiles_as_c99_and_cpp11_and_holds_the_exact_values() {
     let src = format!(
         "#include <stdio.h>\n#include <string.h>\n\
          #include \"cap-exponent.inc\"\n#include \"cap-exponent.inc\"\n#include \"cap-exponent-half.inc\"\n\
-         #include \"cap-exponent-half.inc\"\n\
+         #include \"cap-exponent-half.inc\"\n#include \"odd.inc\"\n\
          int main(void) {{\n\
            unsigned long i;\n\
            unsigned long n = (unsigned long){ia}_WIDTH * {ia}_HEIGHT * {ia}_DEPTH * {ia}_LAYERS * {ia}_CHANNELS;\n\
