@@ -826,6 +826,28 @@ mod tests {
     }
 
     #[test]
+    fn header_text() {
+        let tex = Texture {
+            name: "t".into(),
+            dimension: 1,
+            width: 3,
+            height: 1,
+            depth: 1,
+            layers: 1,
+            channels: 1,
+            data: vec![1.0, -0.0, 0.1],
+        };
+        let s = encode_inc(&tex, Storage::F32).unwrap();
+        assert!(s.contains("#ifndef LOBEFIT_T_INC\n#define LOBEFIT_T_INC\n"));
+        assert!(s.contains("#define LOBEFIT_T_WIDTH 3\n"));
+        assert!(s.contains("static const float LOBEFIT_T[LOBEFIT_T_COUNT] = {\n    1e0f, -0e0f, 1e-1f,\n};"));
+        let h = encode_inc(&tex, Storage::F16).unwrap();
+        assert!(
+            h.contains("static const unsigned short LOBEFIT_T[LOBEFIT_T_COUNT] = {\n    0x3c00, 0x8000, 0x2e66,\n};")
+        );
+    }
+
+    #[test]
     fn identifiers() {
         assert_eq!(c_identifier("cap-exponent"), "LOBEFIT_CAP_EXPONENT");
         assert_eq!(c_identifier("sg.2d v1"), "LOBEFIT_SG_2D_V1");
