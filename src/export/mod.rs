@@ -130,7 +130,11 @@ impl Texture {
         if self.width == 0 || self.height == 0 || self.depth == 0 || self.layers == 0 {
             return Err(format!("texture {n}: an extent is 0"));
         }
-        let limit = if self.dimension == 3 { MAX_3D_EXTENT } else { MAX_1D_2D_EXTENT };
+        let limit = if self.dimension == 3 {
+            MAX_3D_EXTENT
+        } else {
+            MAX_1D_2D_EXTENT
+        };
         for (what, v) in [("width", self.width), ("height", self.height), ("depth", self.depth)] {
             if v > limit {
                 return Err(format!(
