@@ -610,7 +610,10 @@ fn check_export(dir: &Path) -> Result<ExitCode, String> {
         let _ = writeln!(
             s,
             "{:<24} {:<8} {:<14} {:<18} {:>10.3e} {:>10.3e} {:>10.1e} {}",
-            c.file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            c.file
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
             c.entry.filter.name(),
             c.entry.output,
             c.entry.metric,

@@ -30,7 +30,15 @@ fn every_textured_family_in_f32_meets_its_targets_with_manual_filtering() {
     assert_eq!(m.textures.len(), 4, "cap-exponent, sg-fit, isg-refit, disk-light");
     for t in &m.textures {
         for e in t.error.iter().filter(|e| e.filter == Filter::Manual) {
-            assert!(e.meets_target(), "{} {} {}: {} > {}", t.family, e.output, e.metric, e.measured, e.target);
+            assert!(
+                e.meets_target(),
+                "{} {} {}: {} > {}",
+                t.family,
+                e.output,
+                e.metric,
+                e.measured,
+                e.target
+            );
         }
     }
     // Re-measured from the files: the same numbers, within every promise.
@@ -72,11 +80,17 @@ fn exports_are_byte_identical_run_to_run() {
         let o = opts(&["sg-fit"], format, Storage::F16);
         export(&o, a.path()).unwrap();
         export(&o, b.path()).unwrap();
-        let mut names: Vec<_> = std::fs::read_dir(a.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let mut names: Vec<_> = std::fs::read_dir(a.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         names.sort();
         assert!(names.len() >= 2, "{names:?}");
         for n in names {
-            let (x, y) = (std::fs::read(a.path().join(&n)).unwrap(), std::fs::read(b.path().join(&n)).unwrap());
+            let (x, y) = (
+                std::fs::read(a.path().join(&n)).unwrap(),
+                std::fs::read(b.path().join(&n)).unwrap(),
+            );
             assert!(x == y, "{format}: {n:?} differs");
         }
     }
@@ -113,17 +127,34 @@ fn bad_requests_are_specific_errors() {
     // check --export on a directory without a manifest, and on a corrupt manifest.
     assert!(check_export(dir.path()).unwrap_err().contains(MANIFEST));
     std::fs::write(dir.path().join(MANIFEST), b"{\"version\": 1}").unwrap();
-    assert!(check_export(dir.path()).unwrap_err().contains("not a lobefit export manifest"));
+    assert!(check_export(dir.path())
+        .unwrap_err()
+        .contains("not a lobefit export manifest"));
 }
 
 #[test]
 fn cli_export_and_check() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
-    let (code, stdout, stderr) =
-        common::run_text(&["export", "--only", "sg-fit", "--format", "ktx2", "--storage", "f16", "--out", out], "");
+    let (code, stdout, stderr) = common::run_text(
+        &[
+            "export",
+            "--only",
+            "sg-fit",
+            "--format",
+            "ktx2",
+            "--storage",
+            "f16",
+            "--out",
+            out,
+        ],
+        "",
+    );
     assert_eq!(code, Some(0), "{stderr}");
-    assert!(stdout.contains("sg-fit.ktx2") && stdout.contains("manifest"), "{stdout}");
+    assert!(
+        stdout.contains("sg-fit.ktx2") && stdout.contains("manifest"),
+        "{stdout}"
+    );
     let (code, stdout, stderr) = common::run_text(&["check", "--export", out], "");
     assert_eq!(code, Some(0), "{stderr}");
     assert!(stdout.contains("manual") && stdout.contains("hardware"), "{stdout}");

@@ -230,7 +230,8 @@ pub fn grid_of_table(name: &str, table: &Table, storage: Storage) -> Result<Grid
 }
 
 /// Least-squares cubic in t = i/(n − 1) through the values (normal equations on
-/// the monomials; n ≥ 4, else no trend).
+/// the monomials; n ≥ 4, else no trend). Any trend is exact here — the texels store
+/// the residual from it — so a 4×4 solve needs no library.
 fn cubic_fit(v: &[f64]) -> Vec<f64> {
     let n = v.len();
     if n < 4 {
@@ -250,15 +251,18 @@ fn cubic_fit(v: &[f64]) -> Vec<f64> {
     }
     // Gaussian elimination with partial pivoting (4×4, well conditioned on [0, 1]).
     for k in 0..4 {
-        let piv = (k..4).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())).unwrap_or(k);
+        let piv = (k..4)
+            .max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))
+            .unwrap_or(k);
         a.swap(k, piv);
         b.swap(k, piv);
-        for r in k + 1..4 {
-            let f = a[r][k] / a[k][k];
-            for c in k..4 {
-                a[r][c] -= f * a[k][c];
+        let (pivot_row, pivot_b) = (a[k], b[k]);
+        for (row, rb) in a.iter_mut().zip(b.iter_mut()).skip(k + 1) {
+            let f = row[k] / pivot_row[k];
+            for (x, p) in row.iter_mut().zip(pivot_row).skip(k) {
+                *x -= f * p;
             }
-            b[r] -= f * b[k];
+            *rb -= f * pivot_b;
         }
     }
     let mut x = [0.0f64; 4];
@@ -326,7 +330,8 @@ impl Sampler {
         let t = &self.texture;
         let pt = t.channels as usize;
         let texels = (t.width * t.height) as usize;
-        let fetch = |flat: usize, ch: &Channel| t.data[(ch.layer as usize * texels + flat) * pt + ch.component as usize];
+        let fetch =
+            |flat: usize, ch: &Channel| t.data[(ch.layer as usize * texels + flat) * pt + ch.component as usize];
         let mut out = Vec::with_capacity(self.channels.len());
         match self.axes.len() {
             1 => {

@@ -145,7 +145,10 @@ pub fn measure(
             texture: texture.clone(),
             filter,
         };
-        let emu = Emulated { family: gpu, sampler: &sampler };
+        let emu = Emulated {
+            family: gpu,
+            sampler: &sampler,
+        };
         let res: Vec<_> = points
             .par_iter()
             .map(|x| family.check_point(&emu, &f32_point(cpu.as_ref(), x)))
@@ -222,15 +225,7 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         let path = formats::write(&grid.texture, opts.format, opts.storage, dir)?;
         // Measure the file as a reader sees it, through the independent reader.
         let (back, _) = formats::read(&path, opts.format)?;
-        let error = measure(
-            family.as_ref(),
-            g,
-            &grid.axes,
-            &grid.channels,
-            &back,
-            SAMPLES,
-            SEED,
-        )?;
+        let error = measure(family.as_ref(), g, &grid.axes, &grid.channels, &back, SAMPLES, SEED)?;
         if opts.storage == Storage::F16 && !opts.allow_lossy {
             if let Some(e) = error.iter().find(|e| e.filter == Filter::Manual && !e.meets_target()) {
                 let _ = std::fs::remove_file(&path);
@@ -245,7 +240,10 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         let t = &grid.texture;
         textures.push(TextureEntry {
             family: g.kind.to_string(),
-            file: path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            file: path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
             bytes,
             dimension: t.dimension,
             extent: [t.width, t.height, t.depth, t.layers, t.channels],
@@ -298,7 +296,8 @@ pub struct ExportCheck {
 pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
     let path = dir.join(MANIFEST);
     let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let m: Manifest = serde_json::from_str(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
+    let m: Manifest =
+        serde_json::from_str(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
     if m.version != MANIFEST_VERSION {
         return Err(format!(
             "{}: manifest version {} (this lobefit reads {MANIFEST_VERSION})",
@@ -308,12 +307,18 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
     }
     let mut out = Vec::new();
     for t in &m.textures {
-        let family = family_of(&t.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), t.family))?;
-        let gpu = families::find(&t.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), t.family))?;
+        let family =
+            family_of(&t.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), t.family))?;
+        let gpu =
+            families::find(&t.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), t.family))?;
         let file = dir.join(&t.file);
         let (tex, storage) = formats::read(&file, m.format)?;
         if storage != m.storage {
-            return Err(format!("{}: stored as {storage}, the manifest says {}", file.display(), m.storage));
+            return Err(format!(
+                "{}: stored as {storage}, the manifest says {}",
+                file.display(),
+                m.storage
+            ));
         }
         let now = measure(family.as_ref(), gpu, &t.axes, &t.channels, &tex, m.samples, m.seed)?;
         for e in &t.error {
@@ -331,4 +336,3 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
     }
     Ok(out)
 }
-
