@@ -139,6 +139,10 @@ enum Command {
         /// Export f16 textures that miss their family's target (the manifest records the error).
         #[arg(long)]
         allow_lossy: bool,
+        /// Resolution: nodes per axis relative to the table's (0.25: a quarter; values
+        /// resampled through the table's interpolation).
+        #[arg(long, default_value_t = 1.0)]
+        scale: f64,
     },
     /// Describe a table file: header, axes, channels, fit settings, diagnostics.
     Inspect {
@@ -460,6 +464,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             storage,
             out,
             allow_lossy,
+            scale,
         } => {
             let format = match format.as_str() {
                 "ktx2" => Format::Ktx2,
@@ -472,6 +477,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 only,
                 format,
                 storage,
+                scale,
                 allow_lossy,
             };
             let m = lobefit::export::run::export(&opts, &out)?;

@@ -15,6 +15,7 @@ fn opts(only: &[&str], format: Format, storage: Storage) -> ExportOptions {
         only: only.iter().map(|s| s.to_string()).collect(),
         format,
         storage,
+        scale: 1.0,
         allow_lossy: false,
     }
 }
@@ -93,6 +94,22 @@ fn exports_are_byte_identical_run_to_run() {
             );
             assert!(x == y, "{format}: {n:?} differs");
         }
+    }
+}
+
+#[test]
+fn scale_trades_nodes_and_is_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut o = opts(&["cap-exponent", "disk-light"], Format::Ktx2, Storage::F32);
+    o.scale = 0.5;
+    let m = export(&o, dir.path()).unwrap();
+    // 1000 nodes → round(999/2) + 1; disk-light 192 × 128 → 97 × 65.
+    assert_eq!(m.textures[0].extent[0], 501);
+    assert_eq!(&m.textures[1].extent[..2], &[65, 97]);
+    assert!(check_export(dir.path()).unwrap().iter().all(|c| c.pass));
+    for bad in [0.0, -1.0, f64::NAN, 17.0] {
+        o.scale = bad;
+        assert!(export(&o, dir.path()).unwrap_err().contains("--scale"), "{bad}");
     }
 }
 

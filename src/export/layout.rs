@@ -142,15 +142,22 @@ pub struct Grid {
 /// channel mapped onto [−1, 1] by its own offset and scale, where binary16 has its
 /// finest absolute spacing relative to the channel's range. More than 4 channels go
 /// to array layers of RGBA; 3 are padded to RGBA with zeros.
-pub fn grid_of_table(name: &str, table: &Table, storage: Storage) -> Result<Grid, String> {
+///
+/// `scale` sets the resolution: each axis gets round((n − 1) · scale) + 1 nodes over
+/// the same range and mapping, valued by the table's own interpolation there (1: the
+/// table's nodes and values as they are).
+pub fn grid_of_table(name: &str, table: &Table, storage: Storage, scale: f64) -> Result<Grid, String> {
     let meta = table.meta();
     let naxes = meta.axes.len();
     if !(1..=2).contains(&naxes) {
         return Err(format!("{name}: {naxes} axes (1 or 2 export as one texture)"));
     }
+    if !(scale > 0.0 && scale <= MAX_SCALE) {
+        return Err(format!("--scale {scale}: must lie in (0, {MAX_SCALE}]"));
+    }
+    let (table_axes, values) = resample(table, scale)?;
     let names = if naxes == 1 { vec!["x"] } else { vec!["y", "x"] };
-    let axes = meta
-        .axes
+    let axes = table_axes
         .iter()
         .zip(names)
         .map(|(a, t)| TexAxis::new(a, t))
@@ -158,12 +165,11 @@ pub fn grid_of_table(name: &str, table: &Table, storage: Storage) -> Result<Grid
     let nch = meta.channels.len();
     let per_texel = if nch > 4 { 4 } else { [1, 1, 2, 4, 4][nch] };
     let layers = nch.div_ceil(4) as u32;
-    let values = table.values();
     let texels = values.len() / nch;
     let mut channels = Vec::with_capacity(nch);
     let mut residuals: Vec<Vec<f64>> = Vec::with_capacity(nch);
     for (c, ch) in meta.channels.iter().enumerate() {
-        let raw: Vec<f64> = (0..texels).map(|i| values[i * nch + c] as f64).collect();
+        let raw: Vec<f64> = (0..texels).map(|i| values[i * nch + c]).collect();
         let trend = if storage == Storage::F16 && naxes == 1 {
             cubic_fit(&raw)
         } else {
@@ -200,7 +206,7 @@ pub fn grid_of_table(name: &str, table: &Table, storage: Storage) -> Result<Grid
     for i in 0..texels {
         for (c, ch) in channels.iter().enumerate() {
             let packed = if storage == Storage::F32 {
-                values[i * nch + c]
+                values[i * nch + c] as f32
             } else {
                 ((residuals[c][i] - ch.offset) / ch.scale) as f32
             };
@@ -208,8 +214,8 @@ pub fn grid_of_table(name: &str, table: &Table, storage: Storage) -> Result<Grid
         }
     }
     let (width, height) = match naxes {
-        1 => (meta.axes[0].count, 1),
-        _ => (meta.axes[1].count, meta.axes[0].count),
+        1 => (table_axes[0].count, 1),
+        _ => (table_axes[1].count, table_axes[0].count),
     };
     let texture = Texture {
         name: name.to_string(),
@@ -227,6 +233,44 @@ pub fn grid_of_table(name: &str, table: &Table, storage: Storage) -> Result<Grid
         channels,
         texture,
     })
+}
+
+/// Largest `--scale` (16× the nodes per axis; API limits bound it further).
+pub const MAX_SCALE: f64 = 16.0;
+
+/// The table's axes and stored values (log channels as ln), at `scale` × the nodes.
+fn resample(table: &Table, scale: f64) -> Result<(Vec<Axis>, Vec<f64>), String> {
+    let meta = table.meta();
+    if scale == 1.0 {
+        return Ok((meta.axes.clone(), table.values().iter().map(|&v| v as f64).collect()));
+    }
+    let axes: Vec<Axis> = meta
+        .axes
+        .iter()
+        .map(|a| Axis {
+            count: (((a.count - 1) as f64 * scale).round() as u32).max(1) + 1,
+            ..a.clone()
+        })
+        .collect();
+    let nch = meta.channels.len();
+    let nodes: Vec<Vec<f64>> = match axes.len() {
+        1 => (0..axes[0].count).map(|i| vec![axes[0].node(i)]).collect(),
+        _ => (0..axes[0].count)
+            .flat_map(|j| (0..axes[1].count).map(move |i| (j, i)))
+            .map(|(j, i)| vec![axes[0].node(j), axes[1].node(i)])
+            .collect(),
+    };
+    let mut values = Vec::with_capacity(nodes.len() * nch);
+    let mut out = vec![0.0; nch];
+    for x in &nodes {
+        // A node may fall an ulp outside the range through the mapping's round trip.
+        let x: Vec<f64> = x.iter().zip(&axes).map(|(v, a)| v.clamp(a.lo, a.hi)).collect();
+        table.interpolate(&x, &mut out).map_err(|e| e.to_string())?;
+        for (v, ch) in out.iter().zip(&meta.channels) {
+            values.push(if ch.encoding == Encoding::Log { v.ln() } else { *v });
+        }
+    }
+    Ok((axes, values))
 }
 
 /// Least-squares cubic in t = i/(n − 1) through the values (normal equations on

@@ -27,7 +27,7 @@ pub const SAMPLES: usize = 2000;
 pub const SEED: u64 = crate::check::CheckOptions::QUICK.seed;
 
 /// What `lobefit export` writes.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ExportOptions {
     /// Families (table kinds); empty = every textured family.
     pub only: Vec<String>,
@@ -35,6 +35,8 @@ pub struct ExportOptions {
     pub format: Format,
     /// Texel precision.
     pub storage: Storage,
+    /// Nodes per axis relative to the table's (see [`grid_of_table`]).
+    pub scale: f64,
     /// Export an f16 texture that misses its family's target (its measured error is
     /// in the manifest) instead of refusing it.
     pub allow_lossy: bool,
@@ -50,6 +52,8 @@ pub struct Manifest {
     pub format: Format,
     /// Texel precision.
     pub storage: Storage,
+    /// Nodes per axis relative to the tables' (`--scale`).
+    pub scale: f64,
     /// The texture-coordinate convention, in words.
     pub convention: String,
     /// Off-grid samples (seeded) behind each measured error.
@@ -221,7 +225,7 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
     for g in gpu {
         let family = family_of(g.kind).ok_or_else(|| format!("{}: not in the registry", g.kind))?;
         let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", g.kind))?;
-        let grid = grid_of_table(g.kind, &table, opts.storage)?;
+        let grid = grid_of_table(g.kind, &table, opts.storage, opts.scale)?;
         let path = formats::write(&grid.texture, opts.format, opts.storage, dir)?;
         // Measure the file as a reader sees it, through the independent reader.
         let (back, _) = formats::read(&path, opts.format)?;
@@ -259,6 +263,7 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         version: MANIFEST_VERSION,
         format: opts.format,
         storage: opts.storage,
+        scale: opts.scale,
         convention: "Node i of an axis with n nodes sits at the centre of texel i: texture coordinate \
                      u = (s + 0.5) / n with s ∈ [0, n − 1] the node coordinate (formula per axis). \
                      2D textures: x = the table's fastest axis, y = the slower one. A channel's value is \
