@@ -482,14 +482,16 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             };
             let m = lobefit::export::run::export(&opts, &out)?;
             let mut s = String::new();
-            for t in &m.textures {
+            for f in &m.families {
+                let files: Vec<&str> = f.textures.iter().map(|t| t.file.as_str()).collect();
+                let bytes: u64 = f.textures.iter().map(|t| t.bytes).sum();
                 let _ = writeln!(
                     s,
                     "{:<14} {:<22} {:>9} B  {}",
-                    t.family,
-                    t.file,
-                    t.bytes,
-                    worst_errors(&t.error)
+                    f.family,
+                    files.join(","),
+                    bytes,
+                    worst_errors(&f.error)
                 );
             }
             let _ = writeln!(s, "manifest: {}", out.join(lobefit::export::run::MANIFEST).display());
@@ -610,16 +612,13 @@ fn check_export(dir: &Path) -> Result<ExitCode, String> {
     let _ = writeln!(
         s,
         "{:<24} {:<8} {:<14} {:<18} {:>10} {:>10} {:>10}",
-        "file", "filter", "output", "metric", "measured", "promise", "target"
+        "family", "filter", "output", "metric", "measured", "promise", "target"
     );
     for c in &checks {
         let _ = writeln!(
             s,
             "{:<24} {:<8} {:<14} {:<18} {:>10.3e} {:>10.3e} {:>10.1e} {}",
-            c.file
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default(),
+            c.family,
             c.entry.filter.name(),
             c.entry.output,
             c.entry.metric,

@@ -15,10 +15,10 @@ for s in $scales; do
     python3 - "$tmp/$s-$st/manifest.json" <<'PY'
 import json, sys
 m = json.load(open(sys.argv[1]))
-for t in m["textures"]:
+for t in m["families"]:
     errs = "  ".join(f'{e["output"]} {e["metric"]} {e["measured"]:.2e}/{e["target"]:.0e}'
                      for e in t["error"] if e["filter"] == "manual")
-    print(f'{t["family"]:<13} scale {m["scale"]:<5} {m["storage"]} {t["bytes"]:>8} B  {errs}')
+    print(f'{t["family"]:<13} scale {m["scale"]:<5} {m["storage"]} {sum(x["bytes"] for x in t["textures"]):>8} B  {errs}')
 PY
   done
 done

@@ -28,8 +28,8 @@ fn manifest(dir: &Path) -> Manifest {
 fn every_textured_family_in_f32_meets_its_targets_with_manual_filtering() {
     let dir = tempfile::tempdir().unwrap();
     let m = export(&opts(&[], Format::Raw, Storage::F32), dir.path()).unwrap();
-    assert_eq!(m.textures.len(), 4, "cap-exponent, sg-fit, isg-refit, disk-light");
-    for t in &m.textures {
+    assert_eq!(m.families.len(), 4, "cap-exponent, sg-fit, isg-refit, disk-light");
+    for t in &m.families {
         for e in t.error.iter().filter(|e| e.filter == Filter::Manual) {
             assert!(
                 e.meets_target(),
@@ -56,7 +56,7 @@ fn f16_with_trend_and_scale_meets_the_targets_of_the_textured_families() {
     let dir = tempfile::tempdir().unwrap();
     // Refused families would be an error here (no --allow-lossy).
     let m = export(&opts(&[], Format::Raw, Storage::F16), dir.path()).unwrap();
-    assert_eq!(m.textures.len(), 4);
+    assert_eq!(m.families.len(), 4);
     assert!(check_export(dir.path()).unwrap().iter().all(|c| c.pass));
 }
 
@@ -104,8 +104,8 @@ fn scale_trades_nodes_and_is_checked() {
     o.scale = 0.5;
     let m = export(&o, dir.path()).unwrap();
     // 1000 nodes → round(999/2) + 1; disk-light 192 × 128 → 97 × 65.
-    assert_eq!(m.textures[0].extent[0], 501);
-    assert_eq!(&m.textures[1].extent[..2], &[65, 97]);
+    assert_eq!(m.families[0].textures[0].extent[0], 501);
+    assert_eq!(&m.families[1].textures[0].extent[..2], &[65, 97]);
     assert!(check_export(dir.path()).unwrap().iter().all(|c| c.pass));
     for bad in [0.0, -1.0, f64::NAN, 17.0] {
         o.scale = bad;
@@ -118,7 +118,7 @@ fn a_corrupted_texel_fails_check_export() {
     let dir = tempfile::tempdir().unwrap();
     export(&opts(&["cap-exponent"], Format::Raw, Storage::F32), dir.path()).unwrap();
     let m = manifest(dir.path());
-    let file = dir.path().join(&m.textures[0].file);
+    let file = dir.path().join(&m.families[0].textures[0].file);
     let mut bytes = std::fs::read(&file).unwrap();
     // Texel 500 (of 1000) of the single-channel f32 texture, scaled by 1.01.
     let at = 500 * 4;

@@ -15,6 +15,8 @@
 //! F(e) = 2π[(1 − c) − 2/(e+1) + 1/(2e+1)] and F'(e) = 4π[1/(e+1)² − 1/(2e+1)²] > 0
 //! for e > 0 (2e+1 > e+1): F increases, its minimum on e ≥ 0 is at e = 0.
 
+pub mod gpu;
+
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use argmin::core::{CostFunction, Error, Executor, State, TerminationReason, TerminationStatus};

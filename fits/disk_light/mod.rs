@@ -22,6 +22,8 @@
 //! nested adaptive Gauss–Kronrod (ρ inner, break at the foot point ρ = sin τ; ψ outer,
 //! break at ψ = π where the foot point lies), basis from the runtime's `eval_basis`.
 
+pub mod gpu;
+
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use lobefit_tables::disk_light::{

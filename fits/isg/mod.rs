@@ -17,6 +17,8 @@
 
 pub mod reference;
 
+pub mod gpu;
+
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use argmin::core::{CostFunction, Error as ArgminError, Executor, State, TerminationReason, TerminationStatus};

@@ -16,6 +16,8 @@
 //! quadrature or root finder. e = 0 (hemisphere indicator) is an ordinary point:
 //! (1 − s)^0 = 1.
 
+pub mod gpu;
+
 use argmin::core::{CostFunction, Error, Executor, State, TerminationReason, TerminationStatus};
 use argmin::solver::brent::BrentRoot;
 

@@ -149,14 +149,14 @@ pub struct Grid {
 pub fn grid_of_table(name: &str, table: &Table, storage: Storage, scale: f64) -> Result<Grid, String> {
     let meta = table.meta();
     let naxes = meta.axes.len();
-    if !(1..=2).contains(&naxes) {
-        return Err(format!("{name}: {naxes} axes (1 or 2 export as one texture)"));
+    if !(1..=3).contains(&naxes) {
+        return Err(format!("{name}: {naxes} axes (1 to 3 export as one texture)"));
     }
     if !(scale > 0.0 && scale <= MAX_SCALE) {
         return Err(format!("--scale {scale}: must lie in (0, {MAX_SCALE}]"));
     }
     let (table_axes, values) = resample(table, scale)?;
-    let names = if naxes == 1 { vec!["x"] } else { vec!["y", "x"] };
+    let names = ["z", "y", "x"][3 - naxes..].to_vec();
     let axes = table_axes
         .iter()
         .zip(names)
@@ -213,16 +213,15 @@ pub fn grid_of_table(name: &str, table: &Table, storage: Storage, scale: f64) ->
             data[(ch.layer as usize * texels + i) * per_texel + ch.component as usize] = packed;
         }
     }
-    let (width, height) = match naxes {
-        1 => (table_axes[0].count, 1),
-        _ => (table_axes[1].count, table_axes[0].count),
-    };
+    // Texture x = the fastest axis (the table's last), then y, then z.
+    let count = |k: usize| table_axes.get(naxes.wrapping_sub(1 + k)).map_or(1, |a| a.count);
+    let (width, height, depth) = (count(0), count(1), count(2));
     let texture = Texture {
         name: name.to_string(),
         dimension: naxes as u8,
         width,
         height,
-        depth: 1,
+        depth,
         layers,
         channels: per_texel as u32,
         data,
@@ -253,13 +252,18 @@ fn resample(table: &Table, scale: f64) -> Result<(Vec<Axis>, Vec<f64>), String> 
         })
         .collect();
     let nch = meta.channels.len();
-    let nodes: Vec<Vec<f64>> = match axes.len() {
-        1 => (0..axes[0].count).map(|i| vec![axes[0].node(i)]).collect(),
-        _ => (0..axes[0].count)
-            .flat_map(|j| (0..axes[1].count).map(move |i| (j, i)))
-            .map(|(j, i)| vec![axes[0].node(j), axes[1].node(i)])
-            .collect(),
-    };
+    // Every node in C order (the last axis fastest).
+    let total: usize = axes.iter().map(|a| a.count as usize).product();
+    let nodes: Vec<Vec<f64>> = (0..total)
+        .map(|mut flat| {
+            let mut x = vec![0.0; axes.len()];
+            for (d, a) in axes.iter().enumerate().rev() {
+                x[d] = a.node((flat % a.count as usize) as u32);
+                flat /= a.count as usize;
+            }
+            x
+        })
+        .collect();
     let mut values = Vec::with_capacity(nodes.len() * nch);
     let mut out = vec![0.0; nch];
     for x in &nodes {
@@ -373,7 +377,7 @@ impl Sampler {
     pub fn sample(&self, x: &[f32]) -> Vec<f32> {
         let t = &self.texture;
         let pt = t.channels as usize;
-        let texels = (t.width * t.height) as usize;
+        let texels = (t.width * t.height * t.depth) as usize;
         let fetch =
             |flat: usize, ch: &Channel| t.data[(ch.layer as usize * texels + flat) * pt + ch.component as usize];
         let mut out = Vec::with_capacity(self.channels.len());
@@ -388,7 +392,7 @@ impl Sampler {
                     out.push(unpack(ch, v, eval_trend32(&ch.trend, t)));
                 }
             }
-            _ => {
+            2 => {
                 let (j, wy) = self.split(&self.axes[0], x[0]);
                 let (i, wx) = self.split(&self.axes[1], x[1]);
                 let wdt = t.width as usize;
@@ -397,6 +401,22 @@ impl Sampler {
                     let lo = f(j, i) + wx * (f(j, i + 1) - f(j, i));
                     let hi = f(j + 1, i) + wx * (f(j + 1, i + 1) - f(j + 1, i));
                     out.push(unpack(ch, lo + wy * (hi - lo), 0.0));
+                }
+            }
+            _ => {
+                let (k, wz) = self.split(&self.axes[0], x[0]);
+                let (j, wy) = self.split(&self.axes[1], x[1]);
+                let (i, wx) = self.split(&self.axes[2], x[2]);
+                let (wdt, hgt) = (t.width as usize, t.height as usize);
+                for ch in &self.channels {
+                    let f = |kk: usize, jj: usize, ii: usize| fetch((kk * hgt + jj) * wdt + ii, ch);
+                    let plane = |kk: usize| {
+                        let lo = f(kk, j, i) + wx * (f(kk, j, i + 1) - f(kk, j, i));
+                        let hi = f(kk, j + 1, i) + wx * (f(kk, j + 1, i + 1) - f(kk, j + 1, i));
+                        lo + wy * (hi - lo)
+                    };
+                    let (p0, p1) = (plane(k), plane(k + 1));
+                    out.push(unpack(ch, p0 + wz * (p1 - p0), 0.0));
                 }
             }
         }

@@ -2,7 +2,7 @@
 //! textures written, read back with independent readers, and sampled as a GPU
 //! samples them, against the families' independent references.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use lobefit_tables::Table;
 use rayon::prelude::*;
@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::families::{self, Emulated, GpuFamily};
 use super::formats;
-use super::layout::{grid_of_table, Channel, Filter, Sampler, TexAxis};
+use super::layout::{Channel, Filter, Sampler, TexAxis};
 use super::{Format, Storage};
 use crate::check::{f32_point, metric_value, OutputReport, Stats};
 use crate::family::Family;
@@ -60,19 +60,32 @@ pub struct Manifest {
     pub samples: usize,
     /// Their seed.
     pub seed: u64,
-    /// One entry per texture.
-    pub textures: Vec<TextureEntry>,
+    /// One entry per exported family.
+    pub families: Vec<FamilyEntry>,
     /// Families a shader evaluates in closed form: (kind, formula).
     pub closed_form: Vec<(String, String)>,
     /// Families not exported yet: (kind, what their layout needs).
     pub pending: Vec<(String, String)>,
 }
 
+/// One exported family: its textures, the shader's formulas, the measured error.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FamilyEntry {
+    /// Table kind.
+    pub family: String,
+    /// The family's inputs (as `lobefit eval` names them).
+    pub inputs: Vec<String>,
+    /// What the shader computes from the samples.
+    pub shader: String,
+    /// The textures.
+    pub textures: Vec<TextureEntry>,
+    /// Measured error per filter, quantity and metric.
+    pub error: Vec<ErrorEntry>,
+}
+
 /// One exported texture.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TextureEntry {
-    /// Table kind.
-    pub family: String,
     /// File name in the export directory.
     pub file: String,
     /// File size (bytes).
@@ -81,18 +94,12 @@ pub struct TextureEntry {
     pub dimension: u8,
     /// Texels along x, y, z; array layers; channels per texel.
     pub extent: [u32; 5],
-    /// The family's inputs (as `lobefit eval` names them).
-    pub inputs: Vec<String>,
     /// The texture axes (slowest first) and their coordinate formulas.
     pub axes: Vec<TexAxis>,
     /// The formula of each axis's texture coordinate.
     pub axis_formulas: Vec<String>,
     /// Channel packing.
     pub channels: Vec<Channel>,
-    /// What the shader computes from the samples.
-    pub shader: String,
-    /// Measured error per filter, quantity and metric.
-    pub error: Vec<ErrorEntry>,
 }
 
 /// One measured error of an exported texture.
@@ -130,9 +137,7 @@ fn family_of(kind: &str) -> Option<Box<dyn Family>> {
 pub fn measure(
     family: &dyn Family,
     gpu: GpuFamily,
-    axes: &[TexAxis],
-    channels: &[Channel],
-    texture: &super::Texture,
+    textures: &[(Vec<TexAxis>, Vec<Channel>, super::Texture)],
     samples: usize,
     seed: u64,
 ) -> Result<Vec<ErrorEntry>, String> {
@@ -143,15 +148,18 @@ pub fn measure(
     let cpu = family.runtime(table).map_err(|e| format!("{}: {e}", family.kind()))?;
     let mut out = Vec::new();
     for filter in Filter::ALL {
-        let sampler = Sampler {
-            axes: axes.to_vec(),
-            channels: channels.to_vec(),
-            texture: texture.clone(),
-            filter,
-        };
+        let samplers: Vec<Sampler> = textures
+            .iter()
+            .map(|(axes, channels, texture)| Sampler {
+                axes: axes.clone(),
+                channels: channels.clone(),
+                texture: texture.clone(),
+                filter,
+            })
+            .collect();
         let emu = Emulated {
             family: gpu,
-            sampler: &sampler,
+            samplers: &samplers,
         };
         let res: Vec<_> = points
             .par_iter()
@@ -221,18 +229,40 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             .collect::<Result<_, _>>()?
     };
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let mut textures = Vec::new();
+    let mut entries = Vec::new();
     for g in gpu {
         let family = family_of(g.kind).ok_or_else(|| format!("{}: not in the registry", g.kind))?;
         let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", g.kind))?;
-        let grid = grid_of_table(g.kind, &table, opts.storage, opts.scale)?;
-        let path = formats::write(&grid.texture, opts.format, opts.storage, dir)?;
-        // Measure the file as a reader sees it, through the independent reader.
-        let (back, _) = formats::read(&path, opts.format)?;
-        let error = measure(family.as_ref(), g, &grid.axes, &grid.channels, &back, SAMPLES, SEED)?;
+        let grids = (g.grids)(g.kind, &table, opts.storage, opts.scale)?;
+        let mut written = Vec::new();
+        let mut back = Vec::new();
+        let mut tex_entries = Vec::new();
+        for grid in grids {
+            let path = formats::write(&grid.texture, opts.format, opts.storage, dir)?;
+            // Measure the file as a reader sees it, through the independent reader.
+            let (tex, _) = formats::read(&path, opts.format)?;
+            let t = &grid.texture;
+            tex_entries.push(TextureEntry {
+                file: path
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                bytes: std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0),
+                dimension: t.dimension,
+                extent: [t.width, t.height, t.depth, t.layers, t.channels],
+                axis_formulas: grid.axes.iter().map(TexAxis::formula).collect(),
+                axes: grid.axes.clone(),
+                channels: grid.channels.clone(),
+            });
+            back.push((grid.axes, grid.channels, tex));
+            written.push(path);
+        }
+        let error = measure(family.as_ref(), g, &back, SAMPLES, SEED)?;
         if opts.storage == Storage::F16 && !opts.allow_lossy {
             if let Some(e) = error.iter().find(|e| e.filter == Filter::Manual && !e.meets_target()) {
-                let _ = std::fs::remove_file(&path);
+                for p in &written {
+                    let _ = std::fs::remove_file(p);
+                }
                 return Err(format!(
                     "{}: f16 misses the target: {} {} = {:.3e} against {:.1e} (manual filtering); \
                      use --storage f32, or --allow-lossy to export it with that error recorded",
@@ -240,22 +270,11 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
                 ));
             }
         }
-        let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
-        let t = &grid.texture;
-        textures.push(TextureEntry {
+        entries.push(FamilyEntry {
             family: g.kind.to_string(),
-            file: path
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default(),
-            bytes,
-            dimension: t.dimension,
-            extent: [t.width, t.height, t.depth, t.layers, t.channels],
             inputs: family.inputs().iter().map(|s| s.to_string()).collect(),
-            axis_formulas: grid.axes.iter().map(TexAxis::formula).collect(),
-            axes: grid.axes,
-            channels: grid.channels,
             shader: g.shader.to_string(),
+            textures: tex_entries,
             error,
         });
     }
@@ -273,7 +292,7 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             .into(),
         samples: SAMPLES,
         seed: SEED,
-        textures,
+        families: entries,
         closed_form: families::CLOSED_FORM.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
         pending: families::PENDING.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
     };
@@ -286,8 +305,8 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
 /// One re-measured error of `check --export`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ExportCheck {
-    /// Texture file.
-    pub file: PathBuf,
+    /// Family.
+    pub family: String,
     /// The manifest's entry and the value measured now.
     pub entry: ErrorEntry,
     /// Measured now.
@@ -311,28 +330,32 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
         ));
     }
     let mut out = Vec::new();
-    for t in &m.textures {
+    for f in &m.families {
         let family =
-            family_of(&t.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), t.family))?;
+            family_of(&f.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), f.family))?;
         let gpu =
-            families::find(&t.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), t.family))?;
-        let file = dir.join(&t.file);
-        let (tex, storage) = formats::read(&file, m.format)?;
-        if storage != m.storage {
-            return Err(format!(
-                "{}: stored as {storage}, the manifest says {}",
-                file.display(),
-                m.storage
-            ));
+            families::find(&f.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), f.family))?;
+        let mut back = Vec::new();
+        for t in &f.textures {
+            let file = dir.join(&t.file);
+            let (tex, storage) = formats::read(&file, m.format)?;
+            if storage != m.storage {
+                return Err(format!(
+                    "{}: stored as {storage}, the manifest says {}",
+                    file.display(),
+                    m.storage
+                ));
+            }
+            back.push((t.axes.clone(), t.channels.clone(), tex));
         }
-        let now = measure(family.as_ref(), gpu, &t.axes, &t.channels, &tex, m.samples, m.seed)?;
-        for e in &t.error {
+        let now = measure(family.as_ref(), gpu, &back, m.samples, m.seed)?;
+        for e in &f.error {
             let v = now
                 .iter()
                 .find(|n| n.filter == e.filter && n.output == e.output && n.metric == e.metric)
                 .map_or(f64::NAN, |n| n.measured);
             out.push(ExportCheck {
-                file: file.clone(),
+                family: f.family.clone(),
                 entry: e.clone(),
                 now: v,
                 pass: v <= e.promise * (1.0 + 1e-12),

@@ -1,0 +1,16 @@
+//! sg-fit on the GPU: ln λ, ln μ on log(1 + e) as a 1D RG texture.
+
+use crate::export::families::{table_grid, GpuFamily};
+use crate::export::layout::Sampler;
+
+/// The export of sg-fit.
+pub const GPU: GpuFamily = GpuFamily {
+    kind: "sg-fit",
+    grids: table_grid,
+    eval,
+    shader: "λ = exp(R), μ = exp(G) at e (log channels); a lobe of scale s maps to amplitude s μ",
+};
+
+fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {
+    s[0].sample(&[x[0]])
+}
