@@ -9,6 +9,9 @@ use super::layout::{grid_of_table, Grid, Sampler};
 use super::Storage;
 use crate::family::Lookup;
 
+/// Builds a family's textures: (kind, table, storage, scale) → grids.
+pub type GridsFn = fn(&str, &Table, Storage, f64) -> Result<Vec<Grid>, String>;
+
 /// A family's GPU export.
 #[derive(Debug, Clone, Copy)]
 pub struct GpuFamily {
@@ -16,7 +19,7 @@ pub struct GpuFamily {
     pub kind: &'static str,
     /// The textures, built from the family's table: packing for the storage, nodes per
     /// axis × the scale (see [`grid_of_table`]).
-    pub grids: fn(&str, &Table, Storage, f64) -> Result<Vec<Grid>, String>,
+    pub grids: GridsFn,
     /// The runtime lookup's outputs at the inputs `x` (f32, as `lobefit eval` orders
     /// them), from samplers of the textures (in `grids` order): what the shader computes.
     pub eval: fn(&[Sampler], &[f32]) -> Vec<f32>,
