@@ -148,27 +148,69 @@ pub struct Grid {
 /// table's nodes and values as they are).
 pub fn grid_of_table(name: &str, table: &Table, storage: Storage, scale: f64) -> Result<Grid, String> {
     let meta = table.meta();
-    let naxes = meta.axes.len();
-    if !(1..=3).contains(&naxes) {
-        return Err(format!("{name}: {naxes} axes (1 to 3 export as one texture)"));
-    }
     if !(scale > 0.0 && scale <= MAX_SCALE) {
         return Err(format!("--scale {scale}: must lie in (0, {MAX_SCALE}]"));
     }
     let (table_axes, values) = resample(table, scale)?;
+    let channels: Vec<ChannelSpec> = meta
+        .channels
+        .iter()
+        .map(|c| ChannelSpec {
+            name: c.name.clone(),
+            meaning: c.description.clone(),
+            log: c.encoding == Encoding::Log,
+        })
+        .collect();
+    grid_of_values(name, &table_axes, &channels, &values, storage)
+}
+
+/// A channel of [`grid_of_values`]: name, meaning, and whether the values given are
+/// the natural log of the quantity (the shader applies exp).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelSpec {
+    /// Channel name.
+    pub name: String,
+    /// What it holds.
+    pub meaning: String,
+    /// Values are ln of the quantity.
+    pub log: bool,
+}
+
+/// A texture of node values `values` (C order over `table_axes`, slowest first;
+/// channels fastest; log channels as ln), packed for `storage` as
+/// [`grid_of_table`] describes. For layouts that are not a table's own grid.
+pub fn grid_of_values(
+    name: &str,
+    table_axes: &[Axis],
+    specs: &[ChannelSpec],
+    values: &[f64],
+    storage: Storage,
+) -> Result<Grid, String> {
+    let naxes = table_axes.len();
+    if !(1..=3).contains(&naxes) {
+        return Err(format!("{name}: {naxes} axes (1 to 3 export as one texture)"));
+    }
+    let nodes: usize = table_axes.iter().map(|a| a.count as usize).product();
+    if specs.is_empty() || values.len() != nodes * specs.len() {
+        return Err(format!(
+            "{name}: {} values for {nodes} nodes × {} channels",
+            values.len(),
+            specs.len()
+        ));
+    }
     let names = ["z", "y", "x"][3 - naxes..].to_vec();
     let axes = table_axes
         .iter()
         .zip(names)
         .map(|(a, t)| TexAxis::new(a, t))
         .collect::<Result<Vec<_>, _>>()?;
-    let nch = meta.channels.len();
+    let nch = specs.len();
     let per_texel = if nch > 4 { 4 } else { [1, 1, 2, 4, 4][nch] };
     let layers = nch.div_ceil(4) as u32;
     let texels = values.len() / nch;
     let mut channels = Vec::with_capacity(nch);
     let mut residuals: Vec<Vec<f64>> = Vec::with_capacity(nch);
-    for (c, ch) in meta.channels.iter().enumerate() {
+    for (c, ch) in specs.iter().enumerate() {
         let raw: Vec<f64> = (0..texels).map(|i| values[i * nch + c]).collect();
         let trend = if storage == Storage::F16 && naxes == 1 {
             cubic_fit(&raw)
@@ -193,8 +235,8 @@ pub fn grid_of_table(name: &str, table: &Table, storage: Storage, scale: f64) ->
         residuals.push(resid);
         channels.push(Channel {
             name: ch.name.clone(),
-            meaning: ch.description.clone(),
-            log: ch.encoding == Encoding::Log,
+            meaning: ch.meaning.clone(),
+            log: ch.log,
             offset,
             scale,
             trend,
