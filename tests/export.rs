@@ -28,7 +28,7 @@ fn manifest(dir: &Path) -> Manifest {
 fn every_textured_family_in_f32_meets_its_targets_with_manual_filtering() {
     let dir = tempfile::tempdir().unwrap();
     let m = export(&opts(&[], Format::Raw, Storage::F32), dir.path()).unwrap();
-    assert_eq!(m.families.len(), 4, "cap-exponent, sg-fit, isg-refit, disk-light");
+    assert_eq!(m.families.len(), lobefit::export::families::textured().len());
     for t in &m.families {
         for e in t.error.iter().filter(|e| e.filter == Filter::Manual) {
             assert!(
@@ -51,12 +51,35 @@ fn every_textured_family_in_f32_meets_its_targets_with_manual_filtering() {
     }
 }
 
+/// The families whose f16 export meets every target with manual filtering.
+const F16_OK: [&str; 4] = ["cap-exponent", "sg-fit", "isg-refit", "disk-light"];
+
 #[test]
 fn f16_with_trend_and_scale_meets_the_targets_of_the_textured_families() {
     let dir = tempfile::tempdir().unwrap();
     // Refused families would be an error here (no --allow-lossy).
-    let m = export(&opts(&[], Format::Raw, Storage::F16), dir.path()).unwrap();
-    assert_eq!(m.families.len(), 4);
+    let m = export(&opts(&F16_OK, Format::Raw, Storage::F16), dir.path()).unwrap();
+    assert_eq!(m.families.len(), F16_OK.len());
+    assert!(check_export(dir.path()).unwrap().iter().all(|c| c.pass));
+}
+
+#[test]
+fn f16_that_misses_its_target_is_refused_unless_lossy_is_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut o = opts(&["lobe-product"], Format::Raw, Storage::F16);
+    let e = export(&o, dir.path()).unwrap_err();
+    assert!(
+        e.contains("f16 misses the target") && e.contains("l2_residual") && e.contains("--allow-lossy"),
+        "{e}"
+    );
+    assert!(
+        std::fs::read_dir(dir.path()).unwrap().next().is_none(),
+        "nothing left behind"
+    );
+    o.allow_lossy = true;
+    let m = export(&o, dir.path()).unwrap();
+    let lossy: Vec<_> = m.families[0].error.iter().filter(|e| !e.meets_target()).collect();
+    assert!(!lossy.is_empty() && lossy.iter().all(|e| e.promise == e.measured));
     assert!(check_export(dir.path()).unwrap().iter().all(|c| c.pass));
 }
 

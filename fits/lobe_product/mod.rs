@@ -13,6 +13,7 @@
 //! bisection, and minimises by golden-section search. The separation of variables
 //! itself is verified against a plain 2-D quadrature in spherical coordinates (tests).
 
+pub mod gpu;
 pub mod paper;
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};

@@ -40,6 +40,8 @@ pub fn textured() -> Vec<GpuFamily> {
         fits::sg_fit::gpu::GPU,
         fits::isg::gpu::REFIT,
         fits::disk_light::gpu::GPU,
+        fits::lobe_product::gpu::ENERGY,
+        fits::lobe_product::gpu::L2,
     ]
 }
 

@@ -1,0 +1,116 @@
+//! The lobe products on the GPU. The table's 3D grid (e1, e2, α) as a 3D texture, and
+//! the closed-form model the table's channels correct, evaluated in the shader; its one
+//! term shaders cannot compute, ln W(E) (two ln Γ), comes from a 1D texture of its
+//! residual from the asymptotic form ½ ln(2π/(E + 3/2)).
+
+use std::f32::consts::{PI, TAU};
+
+use lobefit_tables::format::{Axis, Mapping, Placement};
+use lobefit_tables::lobe_product::{ln_w, E_MAX};
+use lobefit_tables::Table;
+
+use crate::export::families::GpuFamily;
+use crate::export::layout::{grid_of_table, grid_of_values, ChannelSpec, Grid, Sampler};
+use crate::export::Storage;
+
+/// Largest E = e1 + e2 the ln W texture covers (both exponents at the table's limit).
+const E_SUM_MAX: f64 = 2.0 * E_MAX;
+/// Nodes of the ln W residual texture (uniform in ln(1 + E)).
+const LNW_NODES: u32 = 512;
+
+const SHADER: &str = "channels (c, ρ[, κ]) at (min(e1, 1e5), min(e2, 1e5), α) from the 3D texture; E = e1 + e2; \
+     ln W = r(E) + ½ ln(2π / (E + 1.5)) with r from the 1D texture; s = sin α, h = 2 sin(α/2); \
+     G = E + e1 e2 / E · h²; β = ½(α + asin((e2 − e1)/(E + 2) · s)); \
+     ln M = ln W − 2 e1 atanh(tan²(β/2)) − 2 e2 atanh(tan²((α − β)/2)) − ½ ln(G / 2π + 1/(π − α)²) \
+     (−∞ where β or α − β ≥ π/2); ∫ = exp(ln M + c); e_m = √(E G); e_r = max((1 + e_m) exp(ρ) − 1, 0); \
+     p = exp(κ) ∫ (e_r + 1) / 2π (κ = 0 for the energy variant); t = (α + asin((e2 − e1)/E · s)) / 2α \
+     (e2/E at α = 0)";
+
+/// The export of lobe-product (energy-conserving).
+pub const ENERGY: GpuFamily = GpuFamily {
+    kind: "lobe-product",
+    grids,
+    eval,
+    shader: SHADER,
+};
+
+/// The export of lobe-product-l2.
+pub const L2: GpuFamily = GpuFamily {
+    kind: "lobe-product-l2",
+    grids,
+    eval,
+    shader: SHADER,
+};
+
+/// The table's grid, and the ln W residual texture `<kind>-lnw`.
+fn grids(kind: &str, table: &Table, storage: Storage, scale: f64) -> Result<Vec<Grid>, String> {
+    let main = grid_of_table(kind, table, storage, scale)?;
+    let axis = Axis {
+        name: "E".into(),
+        unit: "1".into(),
+        lo: 0.0,
+        hi: E_SUM_MAX,
+        mapping: Mapping::Log1p { scale: 1.0 },
+        count: ((LNW_NODES - 1) as f64 * scale).round().max(1.0) as u32 + 1,
+        placement: Placement::Endpoints,
+    };
+    let values: Vec<f64> = (0..axis.count)
+        .map(|i| {
+            let e = axis.node(i).clamp(0.0, E_SUM_MAX);
+            ln_w(e) - 0.5 * (std::f64::consts::TAU / (e + 1.5)).ln()
+        })
+        .collect();
+    let spec = ChannelSpec {
+        name: "lnw_residual".into(),
+        meaning: "ln W(E) − ½ ln(2π/(E + 3/2)), W(E) = √π Γ(E/2 + 1)/Γ(E/2 + 3/2)".into(),
+        log: false,
+    };
+    let lnw = grid_of_values(&format!("{kind}-lnw"), &[axis], &[spec], &values, storage)?;
+    Ok(vec![main, lnw])
+}
+
+/// ln max(cos x, 0)^e in a form exact for small x in f32: ln cos x = −2 atanh(tan²(x/2))
+/// (1 − cos x would cancel); 0 for e = 0, −∞ beyond π/2.
+fn lobe_ln(e: f32, x: f32) -> f32 {
+    if e == 0.0 {
+        0.0
+    } else if x.abs() >= PI / 2.0 {
+        f32::NEG_INFINITY
+    } else {
+        let t = (0.5 * x).tan();
+        -2.0 * e * (t * t).atanh()
+    }
+}
+
+/// The peak angle from a1 of the product of exponents (e1, e2) at separation α.
+fn peak_angle(e1: f32, e2: f32, alpha: f32, s: f32) -> f32 {
+    let sum = e1 + e2;
+    let c = if sum > 0.0 { (e2 - e1) / sum } else { 0.0 };
+    (0.5 * (alpha + (c * s).clamp(-1.0, 1.0).asin())).clamp(0.0, alpha)
+}
+
+fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {
+    let (e1, e2, alpha) = (x[0], x[1], x[2].min(PI));
+    let emax = E_MAX as f32;
+    let ch = s[0].sample(&[e1.min(emax), e2.min(emax), alpha]);
+    let e = e1 + e2;
+    let lnw = s[1].sample(&[e])[0] + 0.5 * (TAU / (e + 1.5)).ln();
+    let (sin_a, chord) = (alpha.sin(), 2.0 * (0.5 * alpha).sin());
+    let g = if e > 0.0 { e + e1 * e2 / e * chord * chord } else { 0.0 };
+    let beta = peak_angle(e1 + 1.0, e2 + 1.0, alpha, sin_a);
+    let lune = PI - alpha;
+    let ln_model = lnw + lobe_ln(e1, beta) + lobe_ln(e2, alpha - beta) - 0.5 * (g / TAU + 1.0 / (lune * lune)).ln();
+    let integral = (ln_model + ch[0]).exp();
+    let e_m = (e * g).sqrt();
+    let e_r = ((1.0 + e_m) * ch[1].exp() - 1.0).max(0.0);
+    let k = if ch.len() > 2 { ch[2].exp() } else { 1.0 };
+    let p = k * integral * (e_r + 1.0) / TAU;
+    let t = if alpha > 0.0 {
+        (peak_angle(e1, e2, alpha, sin_a) / alpha).clamp(0.0, 1.0)
+    } else if e > 0.0 {
+        e2 / e
+    } else {
+        0.5
+    };
+    vec![p, t, e_r]
+}
