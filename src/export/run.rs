@@ -262,6 +262,9 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             if let Some(e) = error.iter().find(|e| e.filter == Filter::Manual && !e.meets_target()) {
                 for p in &written {
                     let _ = std::fs::remove_file(p);
+                    if opts.format == Format::Raw {
+                        let _ = std::fs::remove_file(p.with_extension("json"));
+                    }
                 }
                 return Err(format!(
                     "{}: f16 misses the target: {} {} = {:.3e} against {:.1e} (manual filtering); \
