@@ -1,5 +1,7 @@
 //! The ISG models on the GPU. isg-refit: ln g, ln h on log γ as a 1D RG texture and the
-//! logistic product in the shader.
+//! logistic product in the shader. isg-best: the table's (γ, u) grid as a 2D RGBA
+//! texture (a, b, c, d), sampled twice (at θ's and at φ's warped coordinate), with the
+//! warp and the mirror about π/2 in the shader.
 
 use std::f32::consts::{FRAC_PI_2, PI};
 
@@ -24,4 +26,59 @@ fn refit(s: &[Sampler], x: &[f32]) -> Vec<f32> {
 
 fn sigmoid(t: f32) -> f32 {
     1.0 / (1.0 + (-t).exp())
+}
+
+/// The export of isg-best.
+pub const BEST: GpuFamily = GpuFamily {
+    kind: "isg-best",
+    grids: table_grid,
+    eval: best,
+    shader: "E(y) = 1 − exp(−y), as y (1 − y/2 (1 − y/3 (1 − y/4 (1 − y/5)))) for y < 1/16 \
+             (1 − exp(−y) cancels there); per angle x ∈ {θ, φ}: d = x − π/2, h = sin(d/2), \
+             q = 2h² (= 1 − sin x, without the cancellation near the axis), \
+             u = min(sqrt(E(γq) / E(γ)), 1); at (γ, u_θ): A = .r, C = .b of the texel; at (γ, u_φ): \
+             B = .g, D = .a; mirror where x > π/2 (d > 0): A → 1 − A, C → −C (B, D likewise \
+             for φ); Ŝ = A·B + C·D; S = Ŝ · 2π E(γ) / γ",
+};
+
+/// Texture rows are (a, b, c, d): θ's factors (A, C) are channels 0 and 2, φ's (B, D)
+/// channels 1 and 3.
+fn best(s: &[Sampler], x: &[f32]) -> Vec<f32> {
+    let (gamma, theta, phi) = (x[0], x[1], x[2]);
+    let e_gamma = one_minus_exp_neg(gamma);
+    let (a, c) = best_factor(&s[0], 0, theta, gamma, e_gamma);
+    let (b, d) = best_factor(&s[0], 1, phi, gamma, e_gamma);
+    let s_hat = a * b + c * d;
+    vec![s_hat, s_hat * 2.0 * PI * e_gamma / gamma]
+}
+
+/// (marginal, correction) of axis `k` at the angle x ∈ [0, π], as the runtime's
+/// `BestIsg` forms them. q is even about π/2, so it is taken from d = x − π/2 directly
+/// (exact in f32 for x ≥ π/4) rather than from the mirrored angle π − x: f32 π and π/2
+/// would add their two rounding errors. The mirror then only flips the factors.
+fn best_factor(s: &Sampler, k: usize, x: f32, gamma: f32, e_gamma: f32) -> (f32, f32) {
+    let d = x - FRAC_PI_2;
+    let h = (0.5 * d).sin();
+    let q = 2.0 * h * h;
+    let u = (one_minus_exp_neg(gamma * q) / e_gamma).sqrt().min(1.0);
+    let t = s.sample(&[gamma, u]);
+    let (m, c) = (t[k], t[k + 2]);
+    if d > 0.0 {
+        (1.0 - m, -c)
+    } else {
+        (m, c)
+    }
+}
+
+/// 1 − e^{−y} for y ≥ 0 in f32 with only `exp`: near the SG axis γq is tiny and
+/// 1 − exp(−y) loses its digits (exp(−y) rounds to 1 for y below 3e-8: u snaps to 0
+/// from up to 3e-4, where the marginals are steepest), so small y takes the Taylor
+/// series (truncated, y⁵/720 < 2e-9 relative for y < 1/16; beyond, the cancellation
+/// costs about 2⁻²⁴/y ≤ 1e-6 relative).
+fn one_minus_exp_neg(y: f32) -> f32 {
+    if y < 0.0625 {
+        y * (1.0 - 0.5 * y * (1.0 - y / 3.0 * (1.0 - 0.25 * y * (1.0 - 0.2 * y))))
+    } else {
+        1.0 - (-y).exp()
+    }
 }

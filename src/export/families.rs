@@ -39,6 +39,7 @@ pub fn textured() -> Vec<GpuFamily> {
         fits::cap_exponent::gpu::GPU,
         fits::sg_fit::gpu::GPU,
         fits::isg::gpu::REFIT,
+        fits::isg::gpu::BEST,
         fits::disk_light::gpu::GPU,
         fits::lobe_product::gpu::ENERGY,
         fits::lobe_product::gpu::L2,
@@ -59,16 +60,12 @@ pub const CLOSED_FORM: [(&str, &str); 3] = [
 ];
 
 /// Families whose GPU layout is not built yet, with what it needs.
-pub const PENDING: [(&str, &str); 5] = [
+pub const PENDING: [(&str, &str); 4] = [
     (
         "lobe-product",
         "3D (e1, e2, α); the closed-form model needs ln Γ, which shaders lack: tabulate it",
     ),
     ("lobe-product-l2", "as lobe-product"),
-    (
-        "isg-best",
-        "its u axis is a γ-dependent warp, and x > π/2 mirrors: both to express in the shader",
-    ),
     (
         "shexp",
         "the kink-aware stencil and HYB's a, b against ‖f̂‖ (built at load time) need their own layout",
