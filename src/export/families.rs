@@ -40,6 +40,7 @@ pub fn textured() -> Vec<GpuFamily> {
         fits::sg_fit::gpu::GPU,
         fits::isg::gpu::REFIT,
         fits::disk_light::gpu::GPU,
+        fits::wedge::gpu::GPU,
     ]
 }
 
@@ -57,7 +58,7 @@ pub const CLOSED_FORM: [(&str, &str); 3] = [
 ];
 
 /// Families whose GPU layout is not built yet, with what it needs.
-pub const PENDING: [(&str, &str); 5] = [
+pub const PENDING: [(&str, &str); 4] = [
     (
         "lobe-product",
         "3D (e1, e2, α); the closed-form model needs ln Γ, which shaders lack: tabulate it",
@@ -70,10 +71,6 @@ pub const PENDING: [(&str, &str); 5] = [
     (
         "shexp",
         "the kink-aware stencil and HYB's a, b against ‖f̂‖ (built at load time) need their own layout",
-    ),
-    (
-        "wedge",
-        "an operator matrix per W, applied in the shader as a mat-vec; f32 hi + lo pairs to merge",
     ),
 ];
 
