@@ -41,6 +41,7 @@ pub fn textured() -> Vec<GpuFamily> {
         fits::isg::gpu::REFIT,
         fits::disk_light::gpu::GPU,
         fits::wedge::gpu::GPU,
+        fits::shexp::gpu::GPU,
     ]
 }
 
@@ -58,7 +59,7 @@ pub const CLOSED_FORM: [(&str, &str); 3] = [
 ];
 
 /// Families whose GPU layout is not built yet, with what it needs.
-pub const PENDING: [(&str, &str); 4] = [
+pub const PENDING: [(&str, &str); 3] = [
     (
         "lobe-product",
         "3D (e1, e2, α); the closed-form model needs ln Γ, which shaders lack: tabulate it",
@@ -67,10 +68,6 @@ pub const PENDING: [(&str, &str); 4] = [
     (
         "isg-best",
         "its u axis is a γ-dependent warp, and x > π/2 mirrors: both to express in the shader",
-    ),
-    (
-        "shexp",
-        "the kink-aware stencil and HYB's a, b against ‖f̂‖ (built at load time) need their own layout",
     ),
 ];
 
