@@ -88,12 +88,12 @@ fn grids(kind: &str, table: &Table, storage: Storage, scale: f64) -> Result<Vec<
             kink[j] = (k / h - j as f64).clamp(0.0, 1.0);
         }
         let mut values = Vec::with_capacity(count as usize * (n + 4));
-        for i in 0..count as usize {
+        for (i, &kink) in kink.iter().enumerate() {
             if count as usize == nodes || i == 0 {
                 // The stored nodes; θ_b = 0 holds the limits (0/0 through the runtime).
                 values.extend((0..n).map(|q| pair(n, i, q)));
                 values.extend((8..11).map(|q| pair(n, i, q).ln()));
-                values.push(kink[i]);
+                values.push(kink);
                 continue;
             }
             let theta = axis.node(i as u32).clamp(axis.lo, axis.hi);
@@ -103,7 +103,7 @@ fn grids(kind: &str, table: &Table, storage: Storage, scale: f64) -> Result<Vec<
             let (norm, a, b) = rt.norm_ab(theta, n).map_err(|e| format!("{kind}: {e}"))?;
             values.extend(f[..n].iter().map(|v| v / s));
             values.extend([norm / s, a, b].map(f64::ln));
-            values.push(kink[i]);
+            values.push(kink);
         }
         out.push(grid_of_values(
             &format!("{kind}-n{n}"),
