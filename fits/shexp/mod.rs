@@ -15,6 +15,7 @@
 //! θ_b grows, where a per-component relative error says nothing).
 
 pub mod exp_log;
+pub mod gpu;
 pub mod study;
 
 use std::f64::consts::PI;

@@ -9,6 +9,8 @@
 //! Q = ∫_0^{Δφ} I_j(φ) Φ_i(φ) dφ in closed form. Reference (checker): the same
 //! separation, both factors by adaptive Gauss–Kronrod.
 
+pub mod gpu;
+
 use std::f64::consts::PI;
 
 use lobefit_tables::format::Threshold;

@@ -43,6 +43,8 @@ pub fn textured() -> Vec<GpuFamily> {
         fits::disk_light::gpu::GPU,
         fits::lobe_product::gpu::ENERGY,
         fits::lobe_product::gpu::L2,
+        fits::wedge::gpu::GPU,
+        fits::shexp::gpu::GPU,
     ]
 }
 
@@ -56,23 +58,6 @@ pub const CLOSED_FORM: [(&str, &str); 3] = [
     (
         "log-zh",
         "diffuse, Phong and blocker log-ZH vectors in closed form (lobefit_tables::log_zh::{diffuse, phong, blocker})",
-    ),
-];
-
-/// Families whose GPU layout is not built yet, with what it needs.
-pub const PENDING: [(&str, &str); 4] = [
-    (
-        "lobe-product",
-        "3D (e1, e2, α); the closed-form model needs ln Γ, which shaders lack: tabulate it",
-    ),
-    ("lobe-product-l2", "as lobe-product"),
-    (
-        "shexp",
-        "the kink-aware stencil and HYB's a, b against ‖f̂‖ (built at load time) need their own layout",
-    ),
-    (
-        "wedge",
-        "an operator matrix per W, applied in the shader as a mat-vec; f32 hi + lo pairs to merge",
     ),
 ];
 

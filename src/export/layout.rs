@@ -466,6 +466,33 @@ impl Sampler {
     }
 }
 
+impl Sampler {
+    /// The channel values of the texel at integer indices `idx` (slowest first),
+    /// unpacked, in f32: a shader's `texelFetch`/`textureLoad`, no filtering. For
+    /// tables indexed by integers (matrices), where a sampled coordinate computed in
+    /// f32 may land an ulp off the node and blend in a neighbour.
+    pub fn fetch(&self, idx: &[usize]) -> Vec<f32> {
+        let t = &self.texture;
+        let pt = t.channels as usize;
+        let texels = (t.width * t.height * t.depth) as usize;
+        let flat = self.axes.iter().zip(idx).fold(0, |acc, (a, &i)| {
+            acc * a.axis.count as usize + i.min(a.axis.count as usize - 1)
+        });
+        // The 1D f16 trend's t at that node.
+        let tt = match self.axes.as_slice() {
+            [a] => flat as f32 / (a.axis.count - 1).max(1) as f32,
+            _ => 0.0,
+        };
+        self.channels
+            .iter()
+            .map(|ch| {
+                let v = t.data[(ch.layer as usize * texels + flat) * pt + ch.component as usize];
+                unpack(ch, v, eval_trend32(&ch.trend, tt))
+            })
+            .collect()
+    }
+}
+
 /// trend + offset + scale · texel, then exp for log channels (f32, as the shader).
 fn unpack(ch: &Channel, texel: f32, trend: f32) -> f32 {
     let v = if ch.offset == 0.0 && ch.scale == 1.0 && ch.trend.is_empty() {

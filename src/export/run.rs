@@ -64,8 +64,6 @@ pub struct Manifest {
     pub families: Vec<FamilyEntry>,
     /// Families a shader evaluates in closed form: (kind, formula).
     pub closed_form: Vec<(String, String)>,
-    /// Families not exported yet: (kind, what their layout needs).
-    pub pending: Vec<(String, String)>,
 }
 
 /// One exported family: its textures, the shader's formulas, the measured error.
@@ -218,8 +216,6 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
                 families::find(k).ok_or_else(|| {
                     if let Some((_, f)) = families::CLOSED_FORM.iter().find(|(c, _)| c == k) {
                         format!("{k} needs no texture: a shader evaluates it in closed form ({f})")
-                    } else if let Some((_, why)) = families::PENDING.iter().find(|(c, _)| c == k) {
-                        format!("{k} has no GPU layout yet: {why}")
                     } else {
                         let all: Vec<&str> = families::textured().iter().map(|f| f.kind).collect();
                         format!("unknown family {k:?} (textured families: {})", all.join(", "))
@@ -297,7 +293,6 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         seed: SEED,
         families: entries,
         closed_form: families::CLOSED_FORM.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
-        pending: families::PENDING.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
     };
     let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
     crate::io::write_atomic(&dir.join(MANIFEST), json.as_bytes())

@@ -1,0 +1,161 @@
+//! shexp on the GPU: per order n = 3..8 a 1D texture over θ_b of f_0..f_{n−1} and ‖f̂‖
+//! divided by 1 − cos θ_b, ln ‖f̂‖/(1 − cos θ_b), ln a, ln b (hi + lo merged) and where in its interval a clamp kink
+//! sits. Linear filtering, except in an interval holding a kink, where the shader
+//! extrapolates from the two nodes on the query's side (as the runtime's stencil does:
+//! interpolating across the slope break costs ~h·Δslope/4, ten times the target);
+//! the shader multiplies by 2 sin²(θ_b/2).
+
+use lobefit_tables::shexp::{one_minus_cos, ShExp, ORDER_MAX, ORDER_MIN};
+use lobefit_tables::{Axis, Table};
+
+use crate::export::families::GpuFamily;
+use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler, MAX_SCALE};
+use crate::export::{Storage, MAX_1D_2D_EXTENT};
+
+/// The export of shexp.
+pub const GPU: GpuFamily = GpuFamily {
+    kind: "shexp",
+    grids,
+    eval,
+    shader: "per order n (texture shexp-n<n>): t = θ_b coordinate in texels, i = min(floor(t), count − 2), \
+             κ = channel kink of texel i (texelFetch); κ < 0 (none, stored −1): v = linear sample at θ_b; \
+             t − i ≤ κ: v = v_i + (t − i)(v_i − v_{i−1}), else v = v_{i+1} + (t − i − 1)(v_{i+2} − v_{i+1}) \
+             (texelFetch, f32; norm, a, b are stored as ln: exp per texel); then s = 2 sin²(θ_b/2), f_l = s · v.f<l> (l < n), ‖f̂‖ = s · v.norm, \
+             a = v.a, b = v.b",
+};
+
+/// Channels of order n's texture: f0..f(n−1), norm, a, b, kink.
+fn specs(n: usize) -> Vec<ChannelSpec> {
+    let mut v: Vec<ChannelSpec> = (0..n)
+        .map(|l| ChannelSpec {
+            name: format!("f{l}"),
+            meaning: format!("Ren's log-ZH f_{l} / (1 − cos θ_b)"),
+            log: false,
+        })
+        .collect();
+    for (name, meaning) in [
+        ("norm", "ln(‖f̂‖ / (1 − cos θ_b))"),
+        ("a", "ln of the OL coefficient a"),
+        ("b", "ln of the OL coefficient b"),
+        (
+            "kink",
+            "where in [θ_i, θ_{i+1}] the clamp kink sits, in units of the interval (−1: none)",
+        ),
+    ] {
+        v.push(ChannelSpec {
+            name: name.into(),
+            meaning: meaning.into(),
+            // ln of ‖f̂‖, a, b (all positive): f16 then resolves them relatively.
+            log: name != "kink",
+        });
+    }
+    v
+}
+
+/// Decoded pairs (hi + lo) per node, in the table's channel order: 12 pairs (f0..f7,
+/// norm, a, b, kink) per (order, θ_b) node.
+const PAIRS: usize = 12;
+
+/// One 1D texture per order. At `scale` 1 the table's nodes (2049); otherwise
+/// round(2048 · scale) + 1 nodes valued by the runtime (its kink-aware cubic), so a
+/// finer grid carries the runtime's accuracy to linear filtering.
+/// θ_b nodes per table interval at scale 1: linear filtering on the table's own 2049
+/// nodes missed the 1e-4 promise (‖f̂‖ of order 4: 1.15e-4); halving the spacing
+/// meets every one (2.6e-5), the values coming from the runtime's cubic stencil.
+const REFINE: f64 = 2.0;
+
+fn grids(kind: &str, table: &Table, storage: Storage, scale: f64) -> Result<Vec<Grid>, String> {
+    if !(scale > 0.0 && scale <= MAX_SCALE) {
+        return Err(format!("--scale {scale}: must lie in (0, {MAX_SCALE}]"));
+    }
+    let meta = table.meta();
+    let theta_axis = meta.axes[1].clone();
+    let nodes = theta_axis.count as usize;
+    let count = (((nodes - 1) as f64 * REFINE * scale).round() as u32).max(1) + 1;
+    if count > MAX_1D_2D_EXTENT {
+        return Err(format!(
+            "shexp: --scale {scale} gives {count} θ_b nodes, over the 1D texture limit {MAX_1D_2D_EXTENT}"
+        ));
+    }
+    let axis = Axis { count, ..theta_axis };
+    let pair = |n: usize, i: usize, q: usize| {
+        let at = ((n - ORDER_MIN) * nodes + i) * 2 * PAIRS + 2 * q;
+        f64::from(table.values()[at]) + f64::from(table.values()[at + 1])
+    };
+    let h = axis.hi / (count - 1) as f64;
+    let rt = ShExp::from_table(table.clone()).map_err(|e| format!("{kind}: {e}"))?;
+    let mut out = Vec::new();
+    for n in ORDER_MIN..=ORDER_MAX {
+        // The table's kinks (θ_b, rad), placed in this grid's intervals.
+        let mut kink = vec![-1.0; count as usize];
+        for k in (0..nodes).map(|i| pair(n, i, 11)).filter(|&k| k >= 0.0) {
+            let j = ((k / h).floor() as usize).min(count as usize - 2);
+            kink[j] = (k / h - j as f64).clamp(0.0, 1.0);
+        }
+        let mut values = Vec::with_capacity(count as usize * (n + 4));
+        for (i, &kink) in kink.iter().enumerate() {
+            if count as usize == nodes || i == 0 {
+                // The stored nodes; θ_b = 0 holds the limits (0/0 through the runtime).
+                values.extend((0..n).map(|q| pair(n, i, q)));
+                values.extend((8..11).map(|q| pair(n, i, q).ln()));
+                values.push(kink);
+                continue;
+            }
+            let theta = axis.node(i as u32).clamp(axis.lo, axis.hi);
+            let s = one_minus_cos(theta);
+            let mut f = [0.0; 8];
+            rt.log_zh(theta, n, &mut f).map_err(|e| format!("{kind}: {e}"))?;
+            let (norm, a, b) = rt.norm_ab(theta, n).map_err(|e| format!("{kind}: {e}"))?;
+            values.extend(f[..n].iter().map(|v| v / s));
+            values.extend([norm / s, a, b].map(f64::ln));
+            values.push(kink);
+        }
+        out.push(grid_of_values(
+            &format!("{kind}-n{n}"),
+            std::slice::from_ref(&axis),
+            &specs(n),
+            &values,
+            storage,
+        )?);
+    }
+    Ok(out)
+}
+
+/// Every order's f_0..f_{n−1}, ‖f̂‖, a, b at θ_b (the whole-table lookup's order).
+fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {
+    let theta = x[0];
+    let h = (0.5 * theta).sin();
+    let omc = 2.0 * h * h;
+    let mut out = Vec::new();
+    for n in ORDER_MIN..=ORDER_MAX {
+        let c = sample(&s[n - ORDER_MIN], theta, n + 3);
+        out.extend(c[..=n].iter().map(|v| v * omc));
+        out.extend(&c[n + 1..n + 3]);
+    }
+    out
+}
+
+/// The first `k` channels at θ_b: the sampler's linear filter, or in an interval
+/// holding a kink, linear extrapolation from the two texels on θ_b's side.
+fn sample(s: &Sampler, theta: f32, k: usize) -> Vec<f32> {
+    let axis = &s.axes[0];
+    let last = axis.axis.count as usize - 1;
+    let t = axis.texel_coordinate(theta).clamp(0.0, last as f32);
+    let i = (t.floor() as usize).min(last - 1);
+    let kink = s.fetch(&[i])[k];
+    // Stored −1 where there is none (f16 leaves it within 1e-3 of that).
+    if kink < -0.5 {
+        return s.sample(&[theta])[..k].to_vec();
+    }
+    let w = t - i as f32;
+    let (j, x) = if w <= kink && i >= 1 {
+        (i - 1, w + 1.0)
+    } else if i + 2 <= last {
+        (i + 1, w - 1.0)
+    } else {
+        (i - 1, w + 1.0)
+    };
+    // The line through texels j, j + 1, at x texels from j.
+    let (a, b) = (s.fetch(&[j]), s.fetch(&[j + 1]));
+    (0..k).map(|c| a[c] + x * (b[c] - a[c])).collect()
+}
