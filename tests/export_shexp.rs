@@ -1,7 +1,7 @@
 //! `lobefit export --only shexp`: one 1D texture per order (f/(1 − cos θ_b),
 //! ln ‖f̂‖/(1 − cos θ_b), ln a, ln b, kink position), linear filtering with
-//! extrapolation in kink intervals. Measured: twice the table's θ_b nodes meet every
-//! target in f32, and ‖f̂‖, a, b in f16.
+//! extrapolation in kink intervals. Measured: twice the table's θ_b nodes (the
+//! default, scale 1) meet every target in f32, and ‖f̂‖, a, b in f16.
 
 use lobefit::export::layout::Filter;
 use lobefit::export::run::{check_export, export, ErrorEntry, ExportOptions, Manifest};
@@ -36,7 +36,7 @@ fn checked(dir: &std::path::Path) {
 #[test]
 fn f32_at_twice_the_nodes_meets_every_target() {
     let dir = tempfile::tempdir().unwrap();
-    let m = export(&opts(Format::Ktx2, Storage::F32, 2.0, false), dir.path()).unwrap();
+    let m = export(&opts(Format::Ktx2, Storage::F32, 1.0, false), dir.path()).unwrap();
     let t = &m.families[0].textures;
     assert_eq!(t.len(), 6, "one texture per order 3..8");
     // Order 3: 7 channels in 2 RGBA layers; order 8: 12 in 3; 4097 θ_b nodes.
@@ -52,7 +52,8 @@ fn f32_at_twice_the_nodes_meets_every_target() {
 #[test]
 fn f32_at_the_table_nodes_meets_a_and_b() {
     let dir = tempfile::tempdir().unwrap();
-    let m = export(&opts(Format::Raw, Storage::F32, 1.0, false), dir.path()).unwrap();
+    // Scale 0.5: the table's own 2049 θ_b nodes.
+    let m = export(&opts(Format::Raw, Storage::F32, 0.5, false), dir.path()).unwrap();
     for e in errors(&m) {
         // ‖f̂‖ of order 4 misses (measured 1.15e-4): extrapolation over a kink interval.
         if e.output == "n4_norm" {
@@ -68,9 +69,9 @@ fn f32_at_the_table_nodes_meets_a_and_b() {
 fn f16_meets_norm_a_and_b() {
     let dir = tempfile::tempdir().unwrap();
     // Refused without --allow-lossy: f_6, f_7 of order 8 miss by a few per cent.
-    let e = export(&opts(Format::Raw, Storage::F16, 2.0, false), dir.path()).unwrap_err();
+    let e = export(&opts(Format::Raw, Storage::F16, 1.0, false), dir.path()).unwrap_err();
     assert!(e.contains("shexp: f16 misses the target"), "{e}");
-    let m = export(&opts(Format::Raw, Storage::F16, 2.0, true), dir.path()).unwrap();
+    let m = export(&opts(Format::Raw, Storage::F16, 1.0, true), dir.path()).unwrap();
     for e in errors(&m) {
         if norm_ab(e) {
             assert!(e.meets_target(), "{e:?}");
@@ -81,7 +82,7 @@ fn f16_meets_norm_a_and_b() {
     checked(dir.path());
     // At the table's nodes a and b still meet it with manual filtering.
     let dir = tempfile::tempdir().unwrap();
-    let m = export(&opts(Format::Raw, Storage::F16, 1.0, true), dir.path()).unwrap();
+    let m = export(&opts(Format::Raw, Storage::F16, 0.5, true), dir.path()).unwrap();
     for e in errors(&m).iter().filter(|e| e.filter == Filter::Manual && norm_ab(e)) {
         assert!(e.meets_target(), "{e:?}");
     }
