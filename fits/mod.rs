@@ -188,6 +188,7 @@ pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
     vec![
         ("disk-light", disk_light::plot),
+        ("export", crate::export::run::plot),
         ("isg", isg::plot),
         ("lobe-product", lobe_product::plot),
         ("log-zh", crate::fits::log_zh::eps_study::plot),

@@ -362,3 +362,67 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
     }
     Ok(out)
 }
+
+/// Resolutions `lobefit plot export` measures (nodes per axis relative to the tables').
+pub const PLOT_SCALES: [f64; 3] = [0.25, 0.5, 1.0];
+
+/// The families `lobefit plot export` covers (the single-texture 1D and 2D ones, whose
+/// bytes scale with `--scale` alone).
+pub const PLOT_FAMILIES: [&str; 5] = ["cap-exponent", "sg-fit", "isg-refit", "isg-best", "disk-light"];
+
+/// `lobefit plot export`: per family, the export's error against its bytes, f32 and f16,
+/// manual filtering, at [`PLOT_SCALES`]: the error is the largest measured/target ratio
+/// over the family's metrics (1 = at the target). Exports into a temporary directory.
+pub fn plot(out: &Path) -> Result<Vec<std::path::PathBuf>, String> {
+    use crate::plot::{line_chart, LineChart, Series};
+    let tmp = tempfile::tempdir().map_err(|e| format!("temporary directory: {e}"))?;
+    let mut files = Vec::new();
+    for kind in PLOT_FAMILIES {
+        let mut series = Vec::new();
+        for storage in [Storage::F32, Storage::F16] {
+            let mut points = Vec::new();
+            for scale in PLOT_SCALES {
+                let dir = tmp.path().join(format!("{kind}-{storage}-{scale}"));
+                let opts = ExportOptions {
+                    only: vec![kind.to_string()],
+                    format: Format::Raw,
+                    storage,
+                    scale,
+                    allow_lossy: true,
+                };
+                let m = export(&opts, &dir)?;
+                let f = &m.families[0];
+                let bytes: u64 = f.textures.iter().map(|t| t.bytes).sum();
+                let worst = f
+                    .error
+                    .iter()
+                    .filter(|e| e.filter == Filter::Manual)
+                    .map(|e| e.measured / e.target)
+                    .fold(0.0, f64::max);
+                points.push((bytes as f64, worst));
+            }
+            series.push(Series {
+                name: format!("{storage}"),
+                points,
+            });
+        }
+        let bytes = series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+        let (lo, hi) = bytes.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
+        series.push(Series {
+            name: "target".into(),
+            points: vec![(lo, 1.0), (hi, 1.0)],
+        });
+        files.push(line_chart(
+            &out.join(format!("export-{kind}.png")),
+            &LineChart {
+                title: format!("{kind}: exported texture error against bytes (manual filtering)"),
+                x_label: "texel bytes".into(),
+                y_label: "max measured error / target".into(),
+                log_x: true,
+                log_y: true,
+                series,
+            },
+        )?);
+    }
+    Ok(files)
+}
