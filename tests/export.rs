@@ -206,3 +206,51 @@ fn cli_export_and_check() {
     assert_eq!(code, Some(2), "{stderr}");
     assert!(stderr.contains("png"), "{stderr}");
 }
+
+#[test]
+fn every_texture_of_every_family_round_trips_through_the_independent_readers() {
+    use lobefit::export::{families::textured, formats};
+    use lobefit::tables::Table;
+    let dir = tempfile::tempdir().unwrap();
+    for g in textured() {
+        let family = lobefit::fits::by_name(g.kind, Default::default()).unwrap();
+        let table = Table::from_bytes(family.embedded()).unwrap();
+        for storage in [Storage::F32, Storage::F16] {
+            for grid in (g.grids)(g.kind, &table, storage, 1.0).unwrap() {
+                let want: Vec<f32> = match storage {
+                    Storage::F32 => grid.texture.data.clone(),
+                    Storage::F16 => grid
+                        .texture
+                        .data
+                        .iter()
+                        .map(|&v| half::f16::from_f32(v).to_f32())
+                        .collect(),
+                };
+                for format in Format::ALL {
+                    let path = formats::write(&grid.texture, format, storage, dir.path()).unwrap();
+                    let (back, st) = formats::read(&path, format).unwrap();
+                    assert_eq!(st, storage);
+                    let t = &grid.texture;
+                    assert_eq!(
+                        (
+                            back.dimension,
+                            back.width,
+                            back.height,
+                            back.depth,
+                            back.layers,
+                            back.channels
+                        ),
+                        (t.dimension, t.width, t.height, t.depth, t.layers, t.channels),
+                        "{} {format} {storage}",
+                        t.name
+                    );
+                    assert!(
+                        back.data.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()),
+                        "{} {format} {storage}",
+                        t.name
+                    );
+                }
+            }
+        }
+    }
+}
