@@ -1,5 +1,7 @@
-//! Symmetric eigen-decomposition by the cyclic Jacobi method (Golub & Van Loan §8.5),
-//! for the small (≤ 64 × 64) SH product matrices of Ren's SH logarithm (docs/math.md, shexp).
+//! Small dense linear algebra: symmetric eigen-decomposition by the cyclic Jacobi
+//! method (Golub & Van Loan §8.5), for the small (≤ 64 × 64) SH product matrices of
+//! Ren's SH logarithm (docs/math.md, shexp), and least-squares polynomials
+//! ([`polyfit`]).
 //!
 //! Jacobi is slow for large matrices but backward stable with high relative accuracy
 //! of the eigenvectors' orthogonality, needs no tridiagonalisation and is a few dozen
@@ -108,6 +110,53 @@ pub fn sym_eigen(a: &[f64], n: usize) -> Result<SymEigen, String> {
         vectors,
         sweeps,
     })
+}
+
+/// Least-squares polynomial c0 + c1 x + … + c_d x^d of degree `degree` through the
+/// points (`x[i]`, `y[i]`), by the normal equations on the monomials and Gaussian
+/// elimination with partial pivoting: meant for low degrees on x scaled to about
+/// [0, 1], where the normal equations are well conditioned. `None` for fewer points
+/// than coefficients, mismatched lengths, or a non-finite solution.
+pub fn polyfit(x: &[f64], y: &[f64], degree: usize) -> Option<Vec<f64>> {
+    let m = degree + 1;
+    if x.len() != y.len() || x.len() < m {
+        return None;
+    }
+    let mut a = vec![vec![0.0f64; m]; m];
+    let mut b = vec![0.0f64; m];
+    let mut p = vec![1.0f64; m];
+    for (&t, &v) in x.iter().zip(y) {
+        for j in 1..m {
+            p[j] = p[j - 1] * t;
+        }
+        for r in 0..m {
+            b[r] += p[r] * v;
+            for c in 0..m {
+                a[r][c] += p[r] * p[c];
+            }
+        }
+    }
+    for k in 0..m {
+        let piv = (k..m)
+            .max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))
+            .unwrap_or(k);
+        a.swap(k, piv);
+        b.swap(k, piv);
+        let (pivot_row, pivot_b) = (a[k].clone(), b[k]);
+        for (row, rb) in a.iter_mut().zip(b.iter_mut()).skip(k + 1) {
+            let f = row[k] / pivot_row[k];
+            for (v, p) in row.iter_mut().zip(&pivot_row).skip(k) {
+                *v -= f * p;
+            }
+            *rb -= f * pivot_b;
+        }
+    }
+    let mut c = vec![0.0f64; m];
+    for k in (0..m).rev() {
+        let s: f64 = (k + 1..m).map(|j| a[k][j] * c[j]).sum();
+        c[k] = (b[k] - s) / a[k][k];
+    }
+    c.iter().all(|v| v.is_finite()).then_some(c)
 }
 
 #[cfg(test)]

@@ -975,48 +975,23 @@ mod tests {
         let ax = gamma_axis(REFIT_NODES);
         let nodes: Vec<f64> = (0..REFIT_NODES).map(|i| ax.node(i)).collect();
         // Least squares in x = γ/1e4 ∈ (0, 1] (scaled for conditioning; same polynomial).
-        let quartic = |k: usize| -> [f64; 5] {
-            let mut ata = [[0.0f64; 5]; 5];
-            let mut atb = [0.0f64; 5];
-            for &g in &nodes {
-                let y = if k == 0 {
-                    t.slopes(g).unwrap().0
-                } else {
-                    t.slopes(g).unwrap().1
-                };
-                let x = g / 1e4;
-                let p: Vec<f64> = (0..5).map(|j| x.powi(j)).collect();
-                for r in 0..5 {
-                    atb[r] += p[r] * y;
-                    for c in 0..5 {
-                        ata[r][c] += p[r] * p[c];
+        let x: Vec<f64> = nodes.iter().map(|g| g / 1e4).collect();
+        let quartic = |k: usize| -> Vec<f64> {
+            let y: Vec<f64> = nodes
+                .iter()
+                .map(|&g| {
+                    let (gs, hs) = t.slopes(g).unwrap();
+                    if k == 0 {
+                        gs
+                    } else {
+                        hs
                     }
-                }
-            }
-            // Gaussian elimination with partial pivoting.
-            for col in 0..5 {
-                let piv = (col..5)
-                    .max_by(|&a, &b| ata[a][col].abs().total_cmp(&ata[b][col].abs()))
-                    .unwrap();
-                ata.swap(col, piv);
-                atb.swap(col, piv);
-                let pivot = ata[col];
-                for r in col + 1..5 {
-                    let f = ata[r][col] / pivot[col];
-                    for (c, v) in ata[r].iter_mut().enumerate().skip(col) {
-                        *v -= f * pivot[c];
-                    }
-                    atb[r] -= f * atb[col];
-                }
-            }
-            let mut x = [0.0; 5];
-            for r in (0..5).rev() {
-                x[r] = (atb[r] - (r + 1..5).map(|c| ata[r][c] * x[c]).sum::<f64>()) / ata[r][r];
-            }
-            x
+                })
+                .collect();
+            crate::eigen::polyfit(&x, &y, 4).unwrap()
         };
         let (cg, ch) = (quartic(0), quartic(1));
-        let eval = |c: &[f64; 5], g: f64| (0..5).rev().fold(0.0, |acc, j| acc * (g / 1e4) + c[j]);
+        let eval = |c: &[f64], g: f64| c.iter().rev().fold(0.0, |acc, k| acc * (g / 1e4) + k);
         let mut worst: f64 = 0.0;
         for gamma in [3.0, 10.0, 100.0, 1000.0, 1e4] {
             let (g, h) = (eval(&cg, gamma), eval(&ch, gamma));

@@ -319,52 +319,12 @@ fn resample(table: &Table, scale: f64) -> Result<(Vec<Axis>, Vec<f64>), String> 
     Ok((axes, values))
 }
 
-/// Least-squares cubic in t = i/(n − 1) through the values (normal equations on
-/// the monomials; n ≥ 4, else no trend). Any trend is exact here — the texels store
-/// the residual from it — so a 4×4 solve needs no library.
+/// Least-squares cubic in t = i/(n − 1) through the values (n ≥ 4, else no trend).
+/// Any trend is exact here — the texels store the residual from it.
 fn cubic_fit(v: &[f64]) -> Vec<f64> {
     let n = v.len();
-    if n < 4 {
-        return Vec::new();
-    }
-    let mut a = [[0.0f64; 4]; 4];
-    let mut b = [0.0f64; 4];
-    for (i, &y) in v.iter().enumerate() {
-        let t = i as f64 / (n - 1) as f64;
-        let p = [1.0, t, t * t, t * t * t];
-        for r in 0..4 {
-            b[r] += p[r] * y;
-            for c in 0..4 {
-                a[r][c] += p[r] * p[c];
-            }
-        }
-    }
-    // Gaussian elimination with partial pivoting (4×4, well conditioned on [0, 1]).
-    for k in 0..4 {
-        let piv = (k..4)
-            .max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))
-            .unwrap_or(k);
-        a.swap(k, piv);
-        b.swap(k, piv);
-        let (pivot_row, pivot_b) = (a[k], b[k]);
-        for (row, rb) in a.iter_mut().zip(b.iter_mut()).skip(k + 1) {
-            let f = row[k] / pivot_row[k];
-            for (x, p) in row.iter_mut().zip(pivot_row).skip(k) {
-                *x -= f * p;
-            }
-            *rb -= f * pivot_b;
-        }
-    }
-    let mut x = [0.0f64; 4];
-    for k in (0..4).rev() {
-        let s: f64 = (k + 1..4).map(|c| a[k][c] * x[c]).sum();
-        x[k] = (b[k] - s) / a[k][k];
-    }
-    if x.iter().all(|c| c.is_finite()) {
-        x.to_vec()
-    } else {
-        Vec::new()
-    }
+    let t: Vec<f64> = (0..n).map(|i| i as f64 / (n.max(2) - 1) as f64).collect();
+    crate::eigen::polyfit(&t, v, 3).unwrap_or_default()
 }
 
 /// c0 + c1 t + c2 t² + c3 t³ (0 for no trend), in f64.
