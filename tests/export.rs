@@ -254,3 +254,32 @@ fn every_texture_of_every_family_round_trips_through_the_independent_readers() {
         }
     }
 }
+
+#[test]
+fn cli_bad_export_arguments_are_specific_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    for (args, want) in [
+        (
+            vec!["export", "--format", "ktx2", "--storage", "f64", "--out", out],
+            "f64",
+        ),
+        (
+            vec!["export", "--format", "ktx2", "--scale", "0", "--out", out],
+            "--scale",
+        ),
+        (
+            vec!["export", "--format", "ktx2", "--only", "nonsense", "--out", out],
+            "unknown family",
+        ),
+        (vec!["check", "--export", out, "--only", "sg-fit"], "--only"),
+    ] {
+        let (code, _, stderr) = common::run_text(&args, "");
+        assert_ne!(code, Some(0), "{args:?}");
+        assert!(stderr.contains(want), "{args:?}: {stderr}");
+    }
+    // A directory without a manifest.
+    let (code, _, stderr) = common::run_text(&["check", "--export", out], "");
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("manifest.json"), "{stderr}");
+}
