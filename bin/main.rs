@@ -128,8 +128,13 @@ enum Command {
         #[arg(long, value_delimiter = ',')]
         only: Vec<String>,
         /// Container: ktx2, dds, inc (C/C++ header) or raw (texels + JSON sidecar).
-        #[arg(long, value_parser = ["ktx2", "dds", "inc", "raw"])]
-        format: String,
+        /// Optional with --shaders alone (shaders only, no textures).
+        #[arg(long, value_parser = ["ktx2", "dds", "inc", "raw"], required_unless_present = "shaders")]
+        format: Option<String>,
+        /// Also write the shader library (comma-separated: wgsl, glsl, hlsl):
+        /// lobefit.wgsl, lobefit.glsl + lobefit.es.glsl, lobefit.hlsl.
+        #[arg(long, value_delimiter = ',', value_parser = ["wgsl", "glsl", "hlsl"])]
+        shaders: Vec<String>,
         /// Texel precision.
         #[arg(long, value_parser = ["f32", "f16"], default_value = "f32")]
         storage: String,
@@ -465,7 +470,22 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             out,
             allow_lossy,
             scale,
+            shaders,
         } => {
+            let mut s = String::new();
+            if !shaders.is_empty() {
+                let langs = shaders
+                    .iter()
+                    .map(|l| lobefit::export::shaders::ShaderLang::parse(l))
+                    .collect::<Result<Vec<_>, _>>()?;
+                for p in lobefit::export::shaders::write(&langs, &out)? {
+                    let _ = writeln!(s, "shader library: {}", p.display());
+                }
+            }
+            let Some(format) = format else {
+                emit(&s)?;
+                return Ok(ExitCode::SUCCESS);
+            };
             let format = match format.as_str() {
                 "ktx2" => Format::Ktx2,
                 "dds" => Format::Dds,
@@ -481,7 +501,6 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 allow_lossy,
             };
             let m = lobefit::export::run::export(&opts, &out)?;
-            let mut s = String::new();
             for f in &m.families {
                 let files: Vec<&str> = f.textures.iter().map(|t| t.file.as_str()).collect();
                 let bytes: u64 = f.textures.iter().map(|t| t.bytes).sum();

@@ -387,8 +387,10 @@ impl Sampler {
             1 => {
                 let (i, w) = self.split(&self.axes[0], x[0]);
                 let n = self.axes[0].axis.count;
-                // The trend's t: the same coordinate the shader samples at.
-                let t = (i as f32 + w) / (n - 1) as f32;
+                // The trend's t: the coordinate the shader samples at, unrounded (a
+                // shader cannot know the filter's rounded weight; manual: = i + w).
+                let s_exact = self.axes[0].texel_coordinate(x[0]).clamp(0.0, (n - 1) as f32);
+                let t = s_exact / (n - 1) as f32;
                 for ch in &self.channels {
                     let v = fetch(i, ch) + w * (fetch(i + 1, ch) - fetch(i, ch));
                     out.push(unpack(ch, v, eval_trend32(&ch.trend, t)));

@@ -6,6 +6,7 @@ pub mod families;
 pub mod formats;
 pub mod layout;
 pub mod run;
+pub mod shaders;
 
 use std::fmt;
 

@@ -125,7 +125,8 @@ impl ErrorEntry {
     }
 }
 
-fn family_of(kind: &str) -> Option<Box<dyn Family>> {
+/// The registry's family of `kind` (default options).
+pub fn family_of(kind: &str) -> Option<Box<dyn Family>> {
     registry(FitOptions::default()).into_iter().find(|f| f.kind() == kind)
 }
 
@@ -139,11 +140,7 @@ pub fn measure(
     samples: usize,
     seed: u64,
 ) -> Result<Vec<ErrorEntry>, String> {
-    let mut rng = Rng::new(seed);
-    let points: Vec<Vec<f64>> = (0..samples).map(|_| family.sample(&mut rng)).collect();
-    // The CPU runtime only tells which f32 roundings of a sample stay in the domain.
-    let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", family.kind()))?;
-    let cpu = family.runtime(table).map_err(|e| format!("{}: {e}", family.kind()))?;
+    let points = sample_points(family, samples, seed)?;
     let mut out = Vec::new();
     for filter in Filter::ALL {
         let samplers: Vec<Sampler> = textures
@@ -159,44 +156,67 @@ pub fn measure(
             family: gpu,
             samplers: &samplers,
         };
-        let res: Vec<_> = points
-            .par_iter()
-            .map(|x| family.check_point(&emu, &f32_point(cpu.as_ref(), x)))
-            .collect();
-        if let Some(Err(e)) = res.iter().find(|r| r.is_err()) {
-            return Err(format!("{}: {e}", family.kind()));
+        out.extend(errors_of(family, &emu, &points, filter)?);
+    }
+    Ok(out)
+}
+
+/// The seeded off-grid samples the export error is measured on: `samples` points of
+/// `family.sample`, each rounded to the f32 inputs a shader gets (staying in the
+/// runtime's domain).
+pub fn sample_points(family: &dyn Family, samples: usize, seed: u64) -> Result<Vec<Vec<f64>>, String> {
+    let mut rng = Rng::new(seed);
+    let points: Vec<Vec<f64>> = (0..samples).map(|_| family.sample(&mut rng)).collect();
+    // The CPU runtime only tells which f32 roundings of a sample stay in the domain.
+    let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", family.kind()))?;
+    let cpu = family.runtime(table).map_err(|e| format!("{}: {e}", family.kind()))?;
+    Ok(points.iter().map(|x| f32_point(cpu.as_ref(), x)).collect())
+}
+
+/// The family's own pointwise check (`Family::check_point`) of `lookup` at `points`
+/// (from [`sample_points`]), reduced to its off-grid threshold metrics: one entry per
+/// threshold, labelled `filter`.
+pub fn errors_of(
+    family: &dyn Family,
+    lookup: &dyn crate::family::Lookup,
+    points: &[Vec<f64>],
+    filter: Filter,
+) -> Result<Vec<ErrorEntry>, String> {
+    let mut out = Vec::new();
+    let res: Vec<_> = points.par_iter().map(|x| family.check_point(lookup, x)).collect();
+    if let Some(Err(e)) = res.iter().find(|r| r.is_err()) {
+        return Err(format!("{}: {e}", family.kind()));
+    }
+    for (k, name) in family.checked().iter().enumerate() {
+        let (mut abs, mut rel) = (Vec::new(), Vec::new());
+        for (g, w) in res.iter().flatten().flatten() {
+            if g[k].is_nan() && w[k].is_nan() {
+                continue;
+            }
+            abs.push((g[k] - w[k]).abs());
+            rel.push(crate::check::rel_err(g[k], w[k]));
         }
-        for (k, name) in family.checked().iter().enumerate() {
-            let (mut abs, mut rel) = (Vec::new(), Vec::new());
-            for (g, w) in res.iter().flatten().flatten() {
-                if g[k].is_nan() && w[k].is_nan() {
-                    continue;
-                }
-                abs.push((g[k] - w[k]).abs());
-                rel.push(crate::check::rel_err(g[k], w[k]));
+        let report = OutputReport {
+            output: name.to_string(),
+            grid_abs: Stats::of(Vec::new()),
+            grid_rel: Stats::of(Vec::new()),
+            offgrid_abs: Stats::of(abs),
+            offgrid_rel: Stats::of(rel),
+            worst_offgrid_input: Vec::new(),
+        };
+        for t in family.thresholds() {
+            if t.output != *name || !t.metric.starts_with("offgrid.") {
+                continue;
             }
-            let report = OutputReport {
-                output: name.to_string(),
-                grid_abs: Stats::of(Vec::new()),
-                grid_rel: Stats::of(Vec::new()),
-                offgrid_abs: Stats::of(abs),
-                offgrid_rel: Stats::of(rel),
-                worst_offgrid_input: Vec::new(),
-            };
-            for t in family.thresholds() {
-                if t.output != *name || !t.metric.starts_with("offgrid.") {
-                    continue;
-                }
-                let measured = metric_value(&report, &t.metric).unwrap_or(f64::NAN);
-                out.push(ErrorEntry {
-                    filter,
-                    output: t.output.clone(),
-                    metric: t.metric.clone(),
-                    measured,
-                    target: t.limit,
-                    promise: if measured <= t.limit { t.limit } else { measured },
-                });
-            }
+            let measured = metric_value(&report, &t.metric).unwrap_or(f64::NAN);
+            out.push(ErrorEntry {
+                filter,
+                output: t.output.clone(),
+                metric: t.metric.clone(),
+                measured,
+                target: t.limit,
+                promise: if measured <= t.limit { t.limit } else { measured },
+            });
         }
     }
     Ok(out)

@@ -135,6 +135,7 @@ mod meta_error;
 pub mod rigs;
 pub mod sg_fit;
 pub mod sh;
+pub mod shaders;
 pub mod shexp;
 pub mod table;
 pub mod wedge;

@@ -1,0 +1,551 @@
+//! `lobefit-gpu gpu-check`: the shader library run on a real Vulkan device against
+//! (a) the CPU emulation of the export (`lobefit::export`: f32 arithmetic, texel
+//! centres, manual and 8-bit hardware filtering) or, for closed forms, the runtime's
+//! f64 functions, and (b) the families' independent references, at the checker's
+//! seeded off-grid samples.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use lobefit::check::{metric_value, rel_err, OutputReport, Stats};
+use lobefit::export::families::{self, GpuFamily};
+use lobefit::export::formats;
+use lobefit::export::layout::{Filter, Sampler};
+use lobefit::export::run::{errors_of, family_of, sample_points, Manifest, TextureEntry, MANIFEST, MANIFEST_VERSION};
+use lobefit::export::{Storage, Texture};
+use lobefit::family::{Family, Lookup};
+use lobefit::rng::Rng;
+use lobefit_tables::{LookupError, Mapping};
+
+use crate::device::{wgsl_texture_type, Gpu, GpuTexture};
+
+/// GPU against the CPU emulation of the same texture and filter (or, for closed
+/// forms, the runtime's f64 function): largest |gpu − cpu| / max(|cpu|, FLOOR · the
+/// output's largest |cpu| over the samples). The GPU's exp, log, sin, asinh carry a
+/// few f32 ulps (Vulkan allows 3 ulp and more), the mappings amplify them by the
+/// axis's node count (an ulp of a coordinate in [0, n)); 1e-4 bounds that with
+/// margin, while an indexing, packing or formula bug errs by 1e-3 or more.
+pub const TOL_CPU: f64 = 1e-4;
+/// Values below this fraction of an output's range count as that fraction: relative
+/// differences of values near a zero crossing mean nothing (disk-light's c_22 crosses
+/// zero where its texels change fast: an ulp of the GPU's log in the rim coordinate
+/// moves it 1e-6 of its range, 1e-4 of a value at 1e-3 of the range).
+pub const FLOOR: f64 = 1e-2;
+/// How far a GPU's error against the reference may exceed the manifest's promise:
+/// the promise was measured on the CPU emulation, which a GPU matches to ~TOL_CPU
+/// relative in the outputs; lossy entries (promise = the measured error) need that
+/// room.
+pub const PROMISE_SLACK: f64 = 0.02;
+/// Closed forms in f32 against their f64 references: largest |gpu − reference| over a
+/// sample's outputs, relative to its largest |reference| (the families' own limits,
+/// 1e-9 to 1e-12, are f64 targets below f32 resolution; they are reported beside).
+/// f32 sums of up to 8 terms with Legendre coefficients up to 43 give ~2e-5 at worst
+/// (measured: 8e-6); a wrong term errs by 1e-3 or more.
+pub const TOL_CLOSED: f64 = 3e-5;
+
+/// One row of the report.
+#[derive(Debug, Clone)]
+pub struct Row {
+    /// Family or function.
+    pub function: String,
+    /// Texel storage ("-" for closed forms).
+    pub storage: String,
+    /// Filter ("-" for closed forms and exact fetches).
+    pub filter: String,
+    /// Samples.
+    pub samples: usize,
+    /// GPU against the CPU emulation / f64 function (see [`TOL_CPU`]).
+    pub vs_cpu: f64,
+    /// What `vs_cpu` compares with.
+    pub cpu_what: &'static str,
+    /// GPU against the reference: (quantity metric, measured, limit).
+    pub vs_ref: Vec<(String, f64, f64)>,
+    /// Reported beside, not held: (quantity metric, measured, the family's f64 target).
+    pub info: Vec<(String, f64, f64)>,
+}
+
+impl Row {
+    /// Whether the row meets its limits.
+    pub fn pass(&self) -> bool {
+        self.vs_cpu <= TOL_CPU && self.vs_ref.iter().all(|(_, m, l)| *m <= *l)
+    }
+}
+
+/// The uniform `LfTex` of a texture (see tables/shaders/common.wgsl): 19 vec4 = 304 bytes.
+pub fn lf_tex(t: &TextureEntry, filter: Filter) -> Vec<u8> {
+    let mut v = [[0f32; 4]; 18];
+    for (k, a) in t.axes.iter().enumerate() {
+        let (kind, p0, p1) = match a.axis.mapping {
+            Mapping::Linear => (0.0, 0.0, 0.0),
+            Mapping::Log => (1.0, 0.0, 0.0),
+            Mapping::Log1p { scale } => (2.0, scale, 0.0),
+            Mapping::Logit { a, b } => (3.0, a, b),
+            Mapping::Asinh { centre, width } => (4.0, centre, width),
+        };
+        v[k] = [a.mapped_lo as f32, a.mapped_hi as f32, a.axis.count as f32, kind];
+        v[3 + k] = [p0 as f32, p1 as f32, 0.0, 0.0];
+    }
+    // Unused channels: offset 0, scale 1.
+    v[8] = [1.0; 4];
+    v[9] = [1.0; 4];
+    for ch in &t.channels {
+        let (l, c) = (ch.layer as usize, ch.component as usize);
+        v[6 + l][c] = ch.offset as f32;
+        v[8 + l][c] = ch.scale as f32;
+        for (j, k) in ch.trend.iter().enumerate() {
+            v[10 + 4 * l + c][j] = *k as f32;
+        }
+    }
+    let mut bytes: Vec<u8> = bytemuck::cast_slice(&v).to_vec();
+    let mode: [u32; 4] = [if filter == Filter::Hardware { 1 } else { 0 }, 0, 0, 0];
+    bytes.extend_from_slice(bytemuck::cast_slice(&mode));
+    bytes
+}
+
+/// The kernel: the library, the bindings of [`Gpu::run`], and `body` run per item with
+/// inputs `x0 ..` and outputs written to `Y[o + k]`.
+pub fn kernel(tex_type: &str, n_in: usize, n_out: usize, body: &str) -> String {
+    let xs: String = (0..n_in)
+        .map(|k| format!("    let x{k} = X[i * {n_in}u + {k}u];\n"))
+        .collect();
+    format!(
+        "{lib}
+@group(0) @binding(0) var<uniform> P: LfTex;
+@group(0) @binding(1) var T: {tex_type};
+@group(0) @binding(2) var S: sampler;
+@group(0) @binding(3) var<storage, read> X: array<f32>;
+@group(0) @binding(4) var<storage, read_write> Y: array<f32>;
+@group(0) @binding(5) var<uniform> N: vec4<u32>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
+    let i = gid.x;
+    if i >= N.x {{
+        return;
+    }}
+    let o = i * {n_out}u;
+{xs}{body}
+}}
+",
+        lib = lobefit_tables::shaders::library()
+    )
+}
+
+/// The per-family kernel body over the family's inputs (as `lobefit eval` orders them)
+/// and outputs (the runtime lookup's), and its output count.
+fn textured_body(kind: &str) -> Option<(&'static str, usize)> {
+    Some(match kind {
+        "cap-exponent" => ("    Y[o] = lf_cap_exponent(T, S, P, x0);", 1),
+        "sg-fit" => (
+            "    let v = lf_sg_fit(T, S, P, x0);\n    Y[o] = v.x;\n    Y[o + 1u] = v.y;",
+            2,
+        ),
+        "isg-refit" => (
+            "    let s = lf_isg_refit(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
+            2,
+        ),
+        "isg-best" => (
+            "    let s = lf_isg_best(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
+            2,
+        ),
+        "disk-light" => (
+            "    let c = lf_disk_canonical(T, S, P, x0, x1);\n    Y[o] = c[0].x;\n    Y[o + 1u] = c[0].y;\n    \
+             Y[o + 2u] = c[0].z;\n    Y[o + 3u] = c[0].w;\n    Y[o + 4u] = c[1].x;\n    Y[o + 5u] = c[1].y;",
+            6,
+        ),
+        "wedge" => (
+            "    let w = u32(round(log2(x0))) - 2u;\n    Y[o] = lf_wedge_entry(T, P, w, u32(x1), u32(x2));",
+            1,
+        ),
+        _ => return None,
+    })
+}
+
+/// Looks up precomputed GPU outputs by the f32 bits of the input point.
+struct Precomputed(HashMap<Vec<u32>, Vec<f64>>);
+
+fn key(x: &[f64]) -> Vec<u32> {
+    x.iter().map(|&v| (v as f32).to_bits()).collect()
+}
+
+impl Lookup for Precomputed {
+    fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
+        self.0.get(&key(x)).cloned().ok_or_else(|| LookupError::OutOfDomain {
+            name: "input point not evaluated on the GPU".into(),
+            value: x.first().copied().unwrap_or(f64::NAN),
+            lo: f64::NAN,
+            hi: f64::NAN,
+        })
+    }
+}
+
+/// Largest scaled difference of `got` against `want` (rows of outputs), see [`TOL_CPU`],
+/// and the output where it occurs.
+pub fn scaled_diff(got: &[Vec<f64>], want: &[Vec<f64>]) -> (f64, usize) {
+    let n = want.first().map_or(0, |w| w.len());
+    let mut worst = (0.0f64, 0);
+    for k in 0..n {
+        let range = want
+            .iter()
+            .map(|w| w[k].abs())
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        for (g, w) in got.iter().zip(want) {
+            let (g, w) = (g[k], w[k]);
+            if g.is_nan() && w.is_nan() {
+                continue;
+            }
+            let d = (g - w).abs() / w.abs().max(FLOOR * range).max(f64::MIN_POSITIVE);
+            let d = if d.is_nan() { f64::INFINITY } else { d };
+            if d > worst.0 {
+                worst = (d, k);
+            }
+        }
+    }
+    worst
+}
+
+/// Largest |got − want| of a row relative to the row's largest |want| (vectors whose
+/// entries share one scale: SH, ZH and eigenvalue vectors).
+pub fn vector_diff(got: &[Vec<f64>], want: &[Vec<f64>]) -> f64 {
+    let mut worst = 0.0f64;
+    for (g, w) in got.iter().zip(want) {
+        let scale = w.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
+        for (a, b) in g.iter().zip(w) {
+            let d = (a - b).abs() / scale;
+            worst = worst.max(if d.is_nan() { f64::INFINITY } else { d });
+        }
+    }
+    worst
+}
+
+/// A manifest and its directory, read and checked.
+pub struct Export {
+    /// The manifest.
+    pub manifest: Manifest,
+    /// The textures of each family (in the manifest's order), read back by the
+    /// independent readers.
+    pub textures: Vec<Vec<(TextureEntry, Texture)>>,
+}
+
+/// Reads `dir/manifest.json` and every texture it names. Errors name the file.
+pub fn read_export(dir: &Path) -> Result<Export, String> {
+    if !dir.is_dir() {
+        return Err(format!(
+            "{}: no such export directory (run `lobefit export --format ktx2 --out DIR` first)",
+            dir.display()
+        ));
+    }
+    let path = dir.join(MANIFEST);
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let manifest: Manifest =
+        serde_json::from_str(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
+    if manifest.version != MANIFEST_VERSION {
+        return Err(format!(
+            "{}: manifest version {} (this lobefit-gpu reads {MANIFEST_VERSION})",
+            path.display(),
+            manifest.version
+        ));
+    }
+    let mut textures = Vec::new();
+    for f in &manifest.families {
+        let mut ts = Vec::new();
+        for t in &f.textures {
+            let file = dir.join(&t.file);
+            let (tex, storage) = formats::read(&file, manifest.format)?;
+            if storage != manifest.storage {
+                return Err(format!(
+                    "{}: stored as {storage}, the manifest says {}",
+                    file.display(),
+                    manifest.storage
+                ));
+            }
+            let e = &t.extent;
+            if [tex.width, tex.height, tex.depth, tex.layers, tex.channels] != *e {
+                return Err(format!(
+                    "{}: extent {:?} does not match the manifest's {:?}",
+                    file.display(),
+                    [tex.width, tex.height, tex.depth, tex.layers, tex.channels],
+                    e
+                ));
+            }
+            ts.push((t.clone(), tex));
+        }
+        textures.push(ts);
+    }
+    Ok(Export { manifest, textures })
+}
+
+/// Every textured family of the export: GPU against the CPU emulation and against
+/// the reference, per filter.
+pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Vec<Row>, String> {
+    let m = &export.manifest;
+    // The device's hardware filter is emulated as it weights: 8-bit emulation where it
+    // rounds weights to 1/256, exact (f32) weights where the probe found ≥ 12 bits.
+    let hw_emulation = if weight_bits >= 12 {
+        Filter::Manual
+    } else {
+        Filter::Hardware
+    };
+    let mut rows = Vec::new();
+    for (f, texs) in m.families.iter().zip(&export.textures) {
+        let Some((body, n_out)) = textured_body(&f.family) else {
+            eprintln!("note: {}: no shader function in this library yet; skipped", f.family);
+            continue;
+        };
+        let family = family_of(&f.family).ok_or_else(|| format!("unknown family {:?}", f.family))?;
+        let gpu_family: GpuFamily = families::find(&f.family).ok_or_else(|| format!("{}: no GPU layout", f.family))?;
+        let (entry, tex) = &texs[0];
+        let uploaded = gpu.upload(tex, m.storage)?;
+        let points = sample_points(family.as_ref(), m.samples, m.seed)?;
+        let n_in = family.inputs().len();
+        let inputs: Vec<f32> = points.iter().flat_map(|x| x.iter().map(|&v| v as f32)).collect();
+        let src = kernel(wgsl_texture_type(tex), n_in, n_out, body);
+        // wedge's entries are exact fetches: no filter to vary.
+        let filters: &[Filter] = if f.family == "wedge" {
+            &[Filter::Manual]
+        } else {
+            &Filter::ALL
+        };
+        for &filter in filters {
+            if filter == Filter::Hardware && !gpu.float32_filterable && m.storage == Storage::F32 {
+                eprintln!(
+                    "note: the adapter cannot filter 32-bit float textures: {} f32 hardware skipped",
+                    f.family
+                );
+                continue;
+            }
+            let out = gpu.run(&src, &lf_tex(entry, filter), &uploaded, &inputs, points.len(), n_out)?;
+            let got: Vec<Vec<f64>> = out
+                .chunks(n_out)
+                .map(|c| c.iter().map(|&v| v as f64).collect())
+                .collect();
+            let emu_filter = if filter == Filter::Hardware {
+                hw_emulation
+            } else {
+                filter
+            };
+            let samplers: Vec<Sampler> = texs
+                .iter()
+                .map(|(e, t)| Sampler {
+                    axes: e.axes.clone(),
+                    channels: e.channels.clone(),
+                    texture: t.clone(),
+                    filter: emu_filter,
+                })
+                .collect();
+            let emu: Vec<Vec<f64>> = points
+                .iter()
+                .map(|x| {
+                    let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+                    (gpu_family.eval)(&samplers, &x32).into_iter().map(f64::from).collect()
+                })
+                .collect();
+            let lookup = Precomputed(points.iter().map(|x| key(x)).zip(got.iter().cloned()).collect());
+            let errs = errors_of(family.as_ref(), &lookup, &points, filter)?;
+            let vs_ref = errs
+                .iter()
+                .map(|e| {
+                    let promise = f
+                        .error
+                        .iter()
+                        .find(|p| p.filter == filter && p.output == e.output && p.metric == e.metric)
+                        .map_or(e.target, |p| p.promise);
+                    (
+                        format!("{} {}", e.output, e.metric.trim_start_matches("offgrid.")),
+                        e.measured,
+                        promise * (1.0 + PROMISE_SLACK),
+                    )
+                })
+                .collect();
+            let (vs_cpu, worst) = scaled_diff(&got, &emu);
+            rows.push(Row {
+                function: format!("{} ({})", f.family, family.outputs().get(worst).unwrap_or(&"?")),
+                storage: m.storage.to_string(),
+                filter: if f.family == "wedge" {
+                    "fetch".into()
+                } else {
+                    filter.name().into()
+                },
+                samples: points.len(),
+                vs_cpu,
+                cpu_what: if filter == Filter::Hardware && emu_filter == Filter::Hardware {
+                    "emulation 8-bit"
+                } else {
+                    "emulation"
+                },
+                vs_ref,
+                info: Vec::new(),
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// A closed form (no texture) on the GPU: `body` over the family's inputs, against
+/// `cpu` (the runtime's f64 function) and the family's reference with its off-grid
+/// thresholds.
+fn closed_row(
+    gpu: &Gpu,
+    dummy: &GpuTexture,
+    name: &str,
+    family: &dyn Family,
+    body: &str,
+    cpu: &dyn Fn(&[f64]) -> Vec<f64>,
+    samples: usize,
+    seed: u64,
+) -> Result<Row, String> {
+    let mut rng = Rng::new(seed);
+    let points: Vec<Vec<f64>> = (0..samples)
+        .map(|_| family.sample(&mut rng).iter().map(|&v| v as f32 as f64).collect())
+        .collect();
+    let outputs = family.outputs();
+    let n_out = outputs.len();
+    let inputs: Vec<f32> = points.iter().flat_map(|x| x.iter().map(|&v| v as f32)).collect();
+    let src = kernel("texture_2d<f32>", family.inputs().len(), n_out, body);
+    let out = gpu.run(&src, &[0u8; 304], dummy, &inputs, points.len(), n_out)?;
+    let got: Vec<Vec<f64>> = out
+        .chunks(n_out)
+        .map(|c| c.iter().map(|&v| v as f64).collect())
+        .collect();
+    let want_cpu: Vec<Vec<f64>> = points.iter().map(|x| cpu(x)).collect();
+    let refs: Vec<Vec<f64>> = points
+        .iter()
+        .map(|x| family.reference(x))
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{name}: {e}"))?;
+    let vec_rel = vector_diff(&got, &refs);
+    let vs_ref = vec![("max |error| / max |ref| of the vector".to_string(), vec_rel, TOL_CLOSED)];
+    let mut info = Vec::new();
+    for (k, o) in outputs.iter().enumerate() {
+        let abs: Vec<f64> = got.iter().zip(&refs).map(|(g, w)| (g[k] - w[k]).abs()).collect();
+        let rel: Vec<f64> = got.iter().zip(&refs).map(|(g, w)| rel_err(g[k], w[k])).collect();
+        let report = OutputReport {
+            output: o.to_string(),
+            grid_abs: Stats::of(Vec::new()),
+            grid_rel: Stats::of(Vec::new()),
+            offgrid_abs: Stats::of(abs),
+            offgrid_rel: Stats::of(rel),
+            worst_offgrid_input: Vec::new(),
+        };
+        for t in family.thresholds() {
+            if t.output == *o && t.metric.starts_with("offgrid.") {
+                let v = metric_value(&report, &t.metric).unwrap_or(f64::NAN);
+                info.push((format!("{o} {}", t.metric.trim_start_matches("offgrid.")), v, t.limit));
+            }
+        }
+    }
+    Ok(Row {
+        function: name.into(),
+        storage: "-".into(),
+        filter: "-".into(),
+        samples: points.len(),
+        vs_cpu: vector_diff(&got, &want_cpu),
+        cpu_what: "runtime f64",
+        vs_ref,
+        info,
+    })
+}
+
+/// The closed forms: lobe integral, wrap λ̂_l, log-ZH diffuse / Phong / blocker.
+pub fn check_closed(gpu: &Gpu, samples: usize, seed: u64) -> Result<Vec<Row>, String> {
+    use lobefit::fits::log_zh::LogZhFamily;
+    use lobefit::fits::wrap::WrapFamily;
+    use lobefit_tables::log_zh::{self as lz, Kind};
+    use lobefit_tables::{lobe_integral, wrap};
+    let dummy = gpu.upload(&dummy_texture(), Storage::F32)?;
+    let mut rows = Vec::new();
+    let li = family_of("lobe-integral").ok_or("lobe-integral: not in the registry")?;
+    rows.push(closed_row(
+        gpu,
+        &dummy,
+        "lobe-integral",
+        li.as_ref(),
+        "    Y[o] = lf_lobe_integral(x0);",
+        &|x| vec![lobe_integral::exact(x[0]).unwrap_or(f64::NAN)],
+        samples,
+        seed,
+    )?);
+    let wf = WrapFamily::default();
+    let eight = |body: &str| {
+        format!("    let z = {body};\n    for (var k = 0u; k < 8u; k++) {{\n        Y[o + k] = z[k];\n    }}")
+    };
+    rows.push(closed_row(
+        gpu,
+        &dummy,
+        "wrap",
+        &wf,
+        &eight("lf_wrap_lambda_hat(8u, x0)"),
+        &|x| {
+            let mut o = vec![0.0; 8];
+            wrap::lambda_hat(8, x[0], &mut o)
+                .map(|_| o)
+                .unwrap_or(vec![f64::NAN; 8])
+        },
+        samples,
+        seed,
+    )?);
+    for (kind, name, call) in [
+        (Kind::Diffuse, "log-zh diffuse", "lf_log_zh_diffuse(x0, 8u)"),
+        (Kind::Phong, "log-zh phong", "lf_log_zh_phong(x0, x1, 8u)"),
+        (Kind::Blocker, "log-zh blocker", "lf_log_zh_blocker(x0, x1, 8u)"),
+    ] {
+        let fam = LogZhFamily { kind, order: 8 };
+        rows.push(closed_row(
+            gpu,
+            &dummy,
+            name,
+            &fam,
+            &eight(call),
+            &move |x| {
+                let mut o = vec![0.0; 8];
+                let r = match kind {
+                    Kind::Diffuse => lz::diffuse(x[0], 8, &mut o),
+                    Kind::Phong => lz::phong(x[0], x[1], 8, &mut o),
+                    Kind::Blocker => lz::blocker(x[0], x[1], 8, &mut o),
+                };
+                r.map(|_| o).unwrap_or(vec![f64::NAN; 8])
+            },
+            samples,
+            seed,
+        )?);
+    }
+    Ok(rows)
+}
+
+/// Fractional bits of the device's linear-filter weights: a 2 × 1 texture (0, 1)
+/// sampled at 65 537 evenly spaced sub-texel positions; the weight is the value read,
+/// and the number of distinct values read gives the resolution (16 = as fine as
+/// probed: exact to the probe).
+pub fn probe_weight_bits(gpu: &Gpu) -> Result<u32, String> {
+    let mut t = dummy_texture();
+    t.data = vec![0.0, 1.0];
+    let tex = gpu.upload(&t, Storage::F32)?;
+    let n = 65_537usize;
+    let xs: Vec<f32> = (0..n).map(|i| i as f32 / (n - 1) as f32).collect();
+    let src = kernel(
+        "texture_2d<f32>",
+        1,
+        1,
+        "    Y[o] = textureSampleLevel(T, S, vec2<f32>((x0 + 0.5) / 2.0, 0.5), 0.0).x;",
+    );
+    let out = gpu.run(&src, &[0u8; 304], &tex, &xs, n, 1)?;
+    let mut v: Vec<u32> = out.iter().map(|x| x.to_bits()).collect();
+    v.sort_unstable();
+    v.dedup();
+    Ok(((v.len().max(2) - 1) as f64).log2().round() as u32)
+}
+
+/// A 2 × 1 R32F texture for kernels that sample nothing.
+pub fn dummy_texture() -> Texture {
+    Texture {
+        name: "dummy".into(),
+        dimension: 1,
+        width: 2,
+        height: 1,
+        depth: 1,
+        layers: 1,
+        channels: 1,
+        data: vec![0.0, 0.0],
+    }
+}

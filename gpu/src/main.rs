@@ -1,0 +1,113 @@
+//! lobefit-gpu: the shader library and exported textures on a real Vulkan device.
+//!
+//! `lobefit-gpu gpu-check --export DIR` runs every shader function at the checker's
+//! seeded off-grid samples and compares with the CPU emulation and the references.
+
+mod conformance;
+mod device;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "lobefit-gpu", about = "lobefit's shader library on a Vulkan device (wgpu)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run every shader function on the GPU against the CPU emulation of the export and
+    /// the independent references; exit 1 on a miss.
+    GpuCheck {
+        /// A `lobefit export` directory (manifest.json and the textures).
+        #[arg(long, value_name = "DIR")]
+        export: PathBuf,
+    },
+}
+
+fn run(cli: Cli) -> Result<ExitCode, String> {
+    match cli.command {
+        Command::GpuCheck { export } => {
+            let ex = conformance::read_export(&export)?;
+            let gpu = device::Gpu::new()?;
+            println!(
+                "device: {} ({:?}, driver {} {}), float32-filterable: {}",
+                gpu.info.name, gpu.info.backend, gpu.info.driver, gpu.info.driver_info, gpu.float32_filterable
+            );
+            println!(
+                "export: {} ({} {}, {} samples, seed {:#x})",
+                export.display(),
+                ex.manifest.format,
+                ex.manifest.storage,
+                ex.manifest.samples,
+                ex.manifest.seed
+            );
+            let bits = conformance::probe_weight_bits(&gpu)?;
+            println!(
+                "hardware linear filter: {bits} fractional weight bits (probe){}",
+                if bits >= 12 {
+                    "; emulated with exact weights"
+                } else {
+                    "; emulated with 8-bit weights"
+                }
+            );
+            let mut rows = conformance::check_textured(&gpu, &ex, bits)?;
+            rows.extend(conformance::check_closed(&gpu, ex.manifest.samples, ex.manifest.seed)?);
+            let mut failed = 0;
+            println!(
+                "{:<16} {:<4} {:<8} {:>5} {:>9} {:<14} | vs reference: quantity metric measured (limit)",
+                "function", "stor", "filter", "n", "vs CPU", "(CPU side)"
+            );
+            for r in &rows {
+                let mut refs: Vec<String> = r
+                    .vs_ref
+                    .iter()
+                    .map(|(q, m, l)| format!("{q} {m:.2e} ({l:.1e})"))
+                    .collect();
+                if !r.info.is_empty() {
+                    let info: Vec<String> = r
+                        .info
+                        .iter()
+                        .map(|(q, m, l)| format!("{q} {m:.1e} [f64 {l:.0e}]"))
+                        .collect();
+                    refs.push(format!("beside: {}", info.join(", ")));
+                }
+                let pass = r.pass();
+                if !pass {
+                    failed += 1;
+                }
+                println!(
+                    "{:<16} {:<4} {:<8} {:>5} {:>9.2e} {:<14} | {}{}",
+                    r.function,
+                    r.storage,
+                    r.filter,
+                    r.samples,
+                    r.vs_cpu,
+                    r.cpu_what,
+                    refs.join(", "),
+                    if pass { "" } else { "  MISS" }
+                );
+            }
+            if failed > 0 {
+                println!("gpu-check FAILED: {failed} of {} rows miss their limits", rows.len());
+                return Ok(ExitCode::from(1));
+            }
+            println!("gpu-check passed: {} rows", rows.len());
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}

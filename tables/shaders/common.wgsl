@@ -1,0 +1,166 @@
+// lobefit shader library: common part (texture parameters, coordinate mappings,
+// manual and hardware filtering, channel unpacking). Every other file of the library
+// needs it; concatenate it first (lobefit_tables::shaders::library() does).
+//
+// Conventions (the export manifest, manifest.json, states them per texture):
+// - Node i of an axis with n nodes sits at the centre of texel i: texture coordinate
+//   u = (s + 0.5) / n, s = (map(x) - map(lo)) / (map(hi) - map(lo)) * (n - 1).
+// - 1D tables are bound as 2D textures of height 1 (GLSL ES has no 1D textures);
+//   tables with more than 4 channels as 2D array textures (RGBA per layer).
+// - A channel's value is trend(t) + offset + scale * texel (t = s / (n - 1); trend a
+//   cubic, zero unless the manifest gives one), then exp() for log channels.
+// - Angles in radians; directions unit vectors.
+
+// One texture's parameters, filled from its manifest entry.
+struct LfTex {
+    // Per texture axis, slowest first (manifest `axes`): (mapped_lo, mapped_hi,
+    // node count, mapping kind: 0 linear, 1 log, 2 log1p, 3 logit, 4 asinh).
+    axis: array<vec4<f32>, 3>,
+    // The mapping's constants per axis: log1p (scale, -), logit (a, b), asinh
+    // (centre, width).
+    map: array<vec4<f32>, 3>,
+    // Channel k's offset and scale at [k / 4][k % 4] (f32 storage: 0 and 1).
+    offset: array<vec4<f32>, 2>,
+    scale: array<vec4<f32>, 2>,
+    // Channel k's trend coefficients (c0, c1, c2, c3); zero: none.
+    trend: array<vec4<f32>, 8>,
+    // .x: 0 = manual filtering (textureLoad, f32 interpolation), 1 = hardware
+    // filtering (a linear, clamp-to-edge sampler; 32-bit float textures then need
+    // float32-filterable support).
+    mode: vec4<u32>,
+}
+
+// asinh(x) = sign(x) ln(|x| + sqrt(x^2 + 1)): odd by construction, so a large
+// negative x does not cancel (some drivers' asinh lose all digits there).
+fn lf_asinh(x: f32) -> f32 {
+    let a = abs(x);
+    return sign(x) * log(a + sqrt(a * a + 1.0));
+}
+
+// The mapping of axis k of `p` applied to x.
+fn lf_map(p: LfTex, k: u32, x: f32) -> f32 {
+    let kind = u32(p.axis[k].w);
+    let c = p.map[k];
+    if kind == 1u {
+        return log(x);
+    } else if kind == 2u {
+        return log(1.0 + x / c.x);
+    } else if kind == 3u {
+        return log((x - c.x) / (c.y - x));
+    } else if kind == 4u {
+        return lf_asinh((x - c.x) / c.y);
+    }
+    return x;
+}
+
+// The node coordinate s (texel units, node i at s = i, not clamped) of x on axis k.
+fn lf_node_coord(p: LfTex, k: u32, x: f32) -> f32 {
+    let a = p.axis[k];
+    return (lf_map(p, k, x) - a.x) / (a.y - a.x) * (a.z - 1.0);
+}
+
+// Lower texel index and weight of the upper one for manual filtering at s.
+fn lf_split(s: f32, n: f32) -> vec2<f32> {
+    let c = clamp(s, 0.0, n - 1.0);
+    let i = min(floor(c), n - 2.0);
+    return vec2<f32>(i, c - i);
+}
+
+// The 4 channels of layer `layer` unpacked (offset, scale, trend at t), exp not applied.
+fn lf_unpack(p: LfTex, layer: u32, texel: vec4<f32>, t: f32) -> vec4<f32> {
+    var tr = vec4<f32>(0.0);
+    for (var c = 0u; c < 4u; c++) {
+        let k = p.trend[layer * 4u + c];
+        tr[c] = ((k.w * t + k.z) * t + k.y) * t + k.x;
+    }
+    return (tr + p.offset[layer]) + p.scale[layer] * texel;
+}
+
+// A 1D table (bound as a width x 1 texture) at axis value x: the 4 channels, unpacked.
+fn lf_sample_1d(tex: texture_2d<f32>, smp: sampler, p: LfTex, x: f32) -> vec4<f32> {
+    let n = p.axis[0].z;
+    let s = lf_node_coord(p, 0u, x);
+    let t = clamp(s, 0.0, n - 1.0) / max(n - 1.0, 1.0);
+    var v: vec4<f32>;
+    if p.mode.x == 1u {
+        v = textureSampleLevel(tex, smp, vec2<f32>((s + 0.5) / n, 0.5), 0.0);
+    } else {
+        let iw = lf_split(s, n);
+        let i = i32(iw.x);
+        let a = textureLoad(tex, vec2<i32>(i, 0), 0);
+        let b = textureLoad(tex, vec2<i32>(i + 1, 0), 0);
+        v = a + iw.y * (b - a);
+    }
+    return lf_unpack(p, 0u, v, t);
+}
+
+// Bilinear manual filtering of a 2D texture at node coordinates (sx, sy).
+fn lf_lerp_2d(tex: texture_2d<f32>, sx: f32, sy: f32, nx: f32, ny: f32) -> vec4<f32> {
+    let ix = lf_split(sx, nx);
+    let iy = lf_split(sy, ny);
+    let i = i32(ix.x);
+    let j = i32(iy.x);
+    let a = textureLoad(tex, vec2<i32>(i, j), 0);
+    let b = textureLoad(tex, vec2<i32>(i + 1, j), 0);
+    let c = textureLoad(tex, vec2<i32>(i, j + 1), 0);
+    let d = textureLoad(tex, vec2<i32>(i + 1, j + 1), 0);
+    let lo = a + ix.y * (b - a);
+    let hi = c + ix.y * (d - c);
+    return lo + iy.y * (hi - lo);
+}
+
+// A 2D table at axis values (y = the slower axis, x = the faster one): 4 channels, unpacked.
+fn lf_sample_2d(tex: texture_2d<f32>, smp: sampler, p: LfTex, y: f32, x: f32) -> vec4<f32> {
+    let ny = p.axis[0].z;
+    let nx = p.axis[1].z;
+    let sy = lf_node_coord(p, 0u, y);
+    let sx = lf_node_coord(p, 1u, x);
+    var v: vec4<f32>;
+    if p.mode.x == 1u {
+        v = textureSampleLevel(tex, smp, vec2<f32>((sx + 0.5) / nx, (sy + 0.5) / ny), 0.0);
+    } else {
+        v = lf_lerp_2d(tex, sx, sy, nx, ny);
+    }
+    return lf_unpack(p, 0u, v, 0.0);
+}
+
+// Layer `layer` of a 2D array table at axis values (y, x): 4 channels, unpacked.
+fn lf_sample_2d_layer(tex: texture_2d_array<f32>, smp: sampler, p: LfTex, layer: u32, y: f32, x: f32) -> vec4<f32> {
+    let ny = p.axis[0].z;
+    let nx = p.axis[1].z;
+    let sy = lf_node_coord(p, 0u, y);
+    let sx = lf_node_coord(p, 1u, x);
+    var v: vec4<f32>;
+    if p.mode.x == 1u {
+        v = textureSampleLevel(tex, smp, vec2<f32>((sx + 0.5) / nx, (sy + 0.5) / ny), i32(layer), 0.0);
+    } else {
+        let ix = lf_split(sx, nx);
+        let iy = lf_split(sy, ny);
+        let i = i32(ix.x);
+        let j = i32(iy.x);
+        let l = i32(layer);
+        let a = textureLoad(tex, vec2<i32>(i, j), l, 0);
+        let b = textureLoad(tex, vec2<i32>(i + 1, j), l, 0);
+        let c = textureLoad(tex, vec2<i32>(i, j + 1), l, 0);
+        let d = textureLoad(tex, vec2<i32>(i + 1, j + 1), l, 0);
+        let lo = a + ix.y * (b - a);
+        let hi = c + ix.y * (d - c);
+        v = lo + iy.y * (hi - lo);
+    }
+    return lf_unpack(p, layer, v, 0.0);
+}
+
+// The texel at integer indices (x, y, z) of a 3D table, unpacked: no filtering.
+fn lf_fetch_3d(tex: texture_3d<f32>, p: LfTex, x: i32, y: i32, z: i32) -> vec4<f32> {
+    return lf_unpack(p, 0u, textureLoad(tex, vec3<i32>(x, y, z), 0), 0.0);
+}
+
+// 1 - exp(-y) for y >= 0 without cancellation near 0 (a short series below 1/16).
+fn lf_one_minus_exp_neg(y: f32) -> f32 {
+    if y < 0.0625 {
+        return y * (1.0 - 0.5 * y * (1.0 - y / 3.0 * (1.0 - 0.25 * y * (1.0 - 0.2 * y))));
+    }
+    return 1.0 - exp(-y);
+}
+
+const LF_PI: f32 = 3.14159265358979;
