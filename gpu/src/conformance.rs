@@ -41,6 +41,10 @@ pub const PROMISE_SLACK: f64 = 0.02;
 /// 1e-9 to 1e-12, are f64 targets below f32 resolution; they are reported beside).
 /// f32 sums of up to 8 terms with Legendre coefficients up to 43 give ~2e-5 at worst
 /// (measured: 8e-6); a wrong term errs by 1e-3 or more.
+/// Random inputs per world-space function (disk light with its quadrature
+/// reference, ISG patches: four reference corners each).
+pub const WORLD_SAMPLES: usize = 500;
+/// See [`TOL_CLOSED`]'s use.
 pub const TOL_CLOSED: f64 = 3e-5;
 
 /// One row of the report.
@@ -359,6 +363,51 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
                 })
                 .collect();
             let (vs_cpu, worst) = scaled_diff(&got, &emu);
+            let storage = m.storage.to_string();
+            if f.family == "isg-refit" || f.family == "isg-best" {
+                let limit = family
+                    .thresholds()
+                    .iter()
+                    .filter(|t| t.output.starts_with("s_hat") && t.metric.starts_with("offgrid."))
+                    .map(|t| t.limit)
+                    .fold(0.0, f64::max);
+                let mut r = crate::world::check_patch(
+                    gpu,
+                    &f.family,
+                    family.as_ref(),
+                    gpu_family.eval,
+                    texs,
+                    &uploaded,
+                    filter,
+                    emu_filter,
+                    limit,
+                    WORLD_SAMPLES,
+                    m.seed,
+                )?;
+                r.storage = storage.clone();
+                rows.push(r);
+            }
+            if f.family == "disk-light" {
+                let limit = family
+                    .thresholds()
+                    .iter()
+                    .find(|t| t.output == "l2" && t.metric.starts_with("offgrid."))
+                    .map_or(1e-2, |t| t.limit);
+                let mut r = crate::world::check_disk_world(
+                    gpu,
+                    family.as_ref(),
+                    gpu_family.eval,
+                    texs,
+                    &uploaded,
+                    filter,
+                    emu_filter,
+                    limit,
+                    WORLD_SAMPLES,
+                    m.seed,
+                )?;
+                r.storage = storage.clone();
+                rows.push(r);
+            }
             rows.push(Row {
                 function: format!("{} ({})", f.family, family.outputs().get(worst).unwrap_or(&"?")),
                 storage: m.storage.to_string(),
@@ -385,6 +434,7 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
 /// A closed form (no texture) on the GPU: `body` over the family's inputs, against
 /// `cpu` (the runtime's f64 function) and the family's reference with its off-grid
 /// thresholds.
+#[allow(clippy::too_many_arguments)]
 fn closed_row(
     gpu: &Gpu,
     dummy: &GpuTexture,
@@ -548,4 +598,52 @@ pub fn dummy_texture() -> Texture {
         channels: 1,
         data: vec![0.0, 0.0],
     }
+}
+
+/// The GLSL of `lobefit export --shaders glsl` compiled by glslangValidator: GLSL 450
+/// (as Vulkan GLSL to SPIR-V, `-V`) and GLSL ES 3.0, each in a fragment shader that
+/// includes the library. Rows pass when glslang accepts the source; a missing
+/// glslangValidator is a miss (Debian package glslang-tools).
+pub fn check_glslang() -> Result<Vec<Row>, String> {
+    let dir = std::env::temp_dir().join(format!("lobefit-gpu-glslang-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut rows = Vec::new();
+    for (name, es) in [("glsl 450 (glslang -V)", false), ("glsl es 300 (glslang)", true)] {
+        let lib = lobefit::export::shaders::glsl(es)?;
+        let src = if es {
+            format!(
+                "#version 300 es\n{lib}\nlayout(location = 0) out highp vec4 o;\nvoid main() {{ o = vec4(0.0); }}\n"
+            )
+        } else {
+            format!("#version 450\n{lib}\nlayout(location = 0) out vec4 o;\nvoid main() {{ o = vec4(0.0); }}\n")
+        };
+        let file = dir.join(if es { "lib_es.frag" } else { "lib.frag" });
+        std::fs::write(&file, src).map_err(|e| format!("{}: {e}", file.display()))?;
+        let mut cmd = std::process::Command::new("glslangValidator");
+        if !es {
+            cmd.args(["-V", "-o"]).arg(dir.join("lib.spv"));
+        }
+        let (ok, msg) = match cmd.arg(&file).output() {
+            Ok(o) => (o.status.success(), String::from_utf8_lossy(&o.stdout).into_owned()),
+            Err(e) => (
+                false,
+                format!("cannot run glslangValidator ({e}); install glslang-tools"),
+            ),
+        };
+        if !ok {
+            eprintln!("{name}: {msg}");
+        }
+        rows.push(Row {
+            function: name.into(),
+            storage: "-".into(),
+            filter: "-".into(),
+            samples: 0,
+            vs_cpu: 0.0,
+            cpu_what: "compiles",
+            vs_ref: vec![("rejected".into(), if ok { 0.0 } else { 1.0 }, 0.0)],
+            info: Vec::new(),
+        });
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(rows)
 }

@@ -5,6 +5,7 @@
 
 mod conformance;
 mod device;
+mod world;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -57,6 +58,14 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             );
             let mut rows = conformance::check_textured(&gpu, &ex, bits)?;
             rows.extend(conformance::check_closed(&gpu, ex.manifest.samples, ex.manifest.seed)?);
+            let dummy = gpu.upload(&conformance::dummy_texture(), lobefit::export::Storage::F32)?;
+            rows.extend(world::check_closed_world(
+                &gpu,
+                &dummy,
+                ex.manifest.samples,
+                ex.manifest.seed,
+            )?);
+            rows.extend(conformance::check_glslang()?);
             let mut failed = 0;
             println!(
                 "{:<16} {:<4} {:<8} {:>5} {:>9} {:<14} | vs reference: quantity metric measured (limit)",

@@ -54,7 +54,12 @@ fn lf_sg_product(g1: LfSg, g2: LfSg) -> LfSg {
     if lm > 0.0 {
         axis = m / lm;
     }
-    return LfSg(axis, lm, g1.amplitude * g2.amplitude * exp(lm - g1.sharpness - g2.sharpness));
+    // lambda_m - l1 - l2 = -l1 l2 |a1 - a2|^2 / (lambda_m + l1 + l2) for unit axes: no
+    // cancellation of large sharpnesses in f32.
+    let d = g1.axis - g2.axis;
+    let l12 = g1.sharpness + g2.sharpness;
+    let e = -g1.sharpness * g2.sharpness * dot(d, d) / max(lm + l12, 1e-30);
+    return LfSg(axis, lm, g1.amplitude * g2.amplitude * exp(e));
 }
 
 // 2 pi (1 - exp(-k lambda)) / lambda, with its limit 2 pi k at lambda = 0.
