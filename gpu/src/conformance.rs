@@ -137,7 +137,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
 
 /// The per-family kernel body over the family's inputs (as `lobefit eval` orders them)
 /// and outputs (the runtime lookup's), and its output count.
-fn textured_body(kind: &str) -> Option<(&'static str, usize)> {
+pub fn textured_body(kind: &str) -> Option<(&'static str, usize)> {
     Some(match kind {
         "cap-exponent" => ("    Y[o] = lf_cap_exponent(T, S, P, x0);", 1),
         "sg-fit" => (
@@ -646,4 +646,96 @@ pub fn check_glslang() -> Result<Vec<Row>, String> {
     }
     let _ = std::fs::remove_dir_all(&dir);
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `lf_tex` writes the bytes where the WGSL struct `LfTex` has its members (the
+    /// struct's layout as naga lays it out for a uniform).
+    #[test]
+    fn lf_tex_matches_the_wgsl_struct() {
+        let (module, _) = lobefit::export::shaders::module().unwrap();
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        let (h, ty) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some("LfTex"))
+            .unwrap();
+        assert_eq!(layouter[h].size, 304);
+        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!("LfTex is not a struct")
+        };
+        let offsets: Vec<(String, u32)> = members.iter().map(|m| (m.name.clone().unwrap(), m.offset)).collect();
+        let want = [
+            ("axis", 0),
+            ("map", 48),
+            ("offset", 96),
+            ("scale", 128),
+            ("trend", 160),
+            ("mode", 288),
+        ];
+        for ((name, off), (wn, wo)) in offsets.iter().zip(want) {
+            assert_eq!((name.as_str(), *off), (wn, wo));
+        }
+        // A texture entry's axis constants land in axis[0], its mode in `mode`.
+        let dir = tempdir();
+        let opts = lobefit::export::run::ExportOptions {
+            only: vec!["cap-exponent".into()],
+            format: lobefit::export::Format::Raw,
+            storage: Storage::F32,
+            scale: 1.0,
+            allow_lossy: false,
+        };
+        let m = lobefit::export::run::export(&opts, &dir).unwrap();
+        let t = &m.families[0].textures[0];
+        let b = lf_tex(t, Filter::Hardware);
+        assert_eq!(b.len(), 304);
+        let f = |off: usize| f32::from_le_bytes(b[off..off + 4].try_into().unwrap());
+        assert_eq!(f(0), t.axes[0].mapped_lo as f32);
+        assert_eq!(f(4), t.axes[0].mapped_hi as f32);
+        assert_eq!(f(8), t.axes[0].axis.count as f32);
+        assert_eq!(f(12), 3.0, "cap-exponent's axis is logit");
+        assert_eq!(u32::from_le_bytes(b[288..292].try_into().unwrap()), 1);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    fn tempdir() -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!(
+            "lobefit-gpu-test-{}-{:?}",
+            std::process::id(),
+            std::thread::current().id()
+        ));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// Bad export directories: missing, no manifest, a manifest of another version.
+    #[test]
+    fn bad_exports_have_specific_errors() {
+        let e = read_export(Path::new("/nonexistent/lobefit-export")).err().unwrap();
+        assert!(e.contains("no such export directory"), "{e}");
+        let dir = tempdir().join("bad");
+        std::fs::create_dir_all(&dir).unwrap();
+        let e = read_export(&dir).err().unwrap();
+        assert!(e.contains("cannot read") && e.contains("manifest.json"), "{e}");
+        std::fs::write(dir.join(MANIFEST), "{\"version\": 99}").unwrap();
+        let e = read_export(&dir).err().unwrap();
+        assert!(e.contains("not a lobefit export manifest"), "{e}");
+        let _ = std::fs::remove_dir_all(dir.parent().unwrap());
+    }
+
+    /// The comparison metrics: relative above the floor, absolute (× range) below it.
+    #[test]
+    fn diff_metrics() {
+        let want = vec![vec![1.0, 100.0], vec![0.0, 50.0]];
+        let got = vec![vec![1.0 + 1e-5, 100.0], vec![1e-4, 50.0]];
+        let (d, k) = scaled_diff(&got, &want);
+        // Output 0: 1e-5 relative at 1.0; 1e-4 at 0.0 against the floor 1e-2 · 1.0.
+        assert!((d - 1e-2).abs() < 1e-12 && k == 0, "{d} {k}");
+        // Row 2: 1e-4 against its largest entry 50.
+        assert!((vector_diff(&got, &want) - 2e-6).abs() < 1e-15);
+    }
 }

@@ -4,6 +4,7 @@
 //! seeded off-grid samples and compares with the CPU emulation and the references.
 
 mod conformance;
+mod cost;
 mod device;
 mod world;
 
@@ -28,10 +29,30 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         export: PathBuf,
     },
+    /// Per shader function: SPIR-V instructions of its kernel (naga) and GPU
+    /// evaluations per second on this device.
+    Cost {
+        /// A `lobefit export` directory.
+        #[arg(long, value_name = "DIR")]
+        export: PathBuf,
+    },
 }
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
+        Command::Cost { export } => {
+            let ex = conformance::read_export(&export)?;
+            let gpu = device::Gpu::new()?;
+            println!(
+                "device: {} ({:?}, driver {})",
+                gpu.info.name, gpu.info.backend, gpu.info.driver_info
+            );
+            println!("{:<28} {:>16} {:>14}", "function", "SPIR-V instr.", "evals/s");
+            for c in cost::costs(&gpu, &ex)? {
+                println!("{:<28} {:>16} {:>14.3e}", c.function, c.spirv, c.per_second);
+            }
+            Ok(ExitCode::SUCCESS)
+        }
         Command::GpuCheck { export } => {
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
