@@ -6,6 +6,7 @@
 mod conformance;
 mod cost;
 mod device;
+mod render;
 mod world;
 
 use std::path::PathBuf;
@@ -29,6 +30,17 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         export: PathBuf,
     },
+    /// Render a small image with the shader library (a sphere and a floor lit by a disk
+    /// light's SH irradiance) to a PNG and compare it with the CPU image; exit 1 when
+    /// the RMS difference exceeds 1e-4 of the peak.
+    Render {
+        /// A `lobefit export` directory with the disk-light texture.
+        #[arg(long, value_name = "DIR")]
+        export: PathBuf,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Per shader function: SPIR-V instructions of its kernel (naga) and GPU
     /// evaluations per second on this device.
     Cost {
@@ -40,6 +52,23 @@ enum Command {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
+        Command::Render { export, out } => {
+            let ex = conformance::read_export(&export)?;
+            let gpu = device::Gpu::new()?;
+            let (max, rms) = render::render(&gpu, &ex, &out)?;
+            println!(
+                "render: {0}x{0} on {1}; GPU against CPU, relative to the peak: max {max:.2e}, RMS {rms:.2e} (limit {2:.0e} RMS)",
+                render::SIZE,
+                gpu.info.name,
+                render::RMS_LIMIT
+            );
+            println!("image: {}", out.display());
+            if rms > render::RMS_LIMIT {
+                println!("render FAILED");
+                return Ok(ExitCode::from(1));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Cost { export } => {
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
