@@ -408,6 +408,16 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
                 r.storage = storage.clone();
                 rows.push(r);
             }
+            if f.family == "disk-light" && m.storage == Storage::F32 && m.scale == 1.0 {
+                let mut r = crate::world::check_disk_extensions(gpu, texs, &uploaded, filter, WORLD_SAMPLES, m.seed)?;
+                r.storage = storage.clone();
+                rows.push(r);
+            }
+            if f.family == "wedge" {
+                let mut r = crate::world::check_wedge_apply(gpu, texs, &uploaded, WORLD_SAMPLES, m.seed)?;
+                r.storage = storage.clone();
+                rows.push(r);
+            }
             rows.push(Row {
                 function: format!("{} ({})", f.family, family.outputs().get(worst).unwrap_or(&"?")),
                 storage: m.storage.to_string(),

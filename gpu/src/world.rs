@@ -466,3 +466,126 @@ pub fn check_disk_world(
         info: Vec::new(),
     })
 }
+
+/// `lf_disk_canonical` beyond the table, as the runtime extends it (R/d below 0.01 and
+/// above 10, τ beyond the last row, the back side), against the runtime's
+/// `DiskLight::canonical` (f64, the committed table): for f32 exports at scale 1 only,
+/// whose texels are the table's values (elsewhere the texture differs from the table
+/// by its storage or resampling, which the canonical row measures). Limit: the
+/// canonical 6-vector's relative L2 difference, [`crate::conformance::TOL_CPU`].
+pub fn check_disk_extensions(
+    gpu: &Gpu,
+    texs: &[(TextureEntry, Texture)],
+    tex: &GpuTexture,
+    filter: Filter,
+    samples: usize,
+    seed: u64,
+) -> Result<Row, String> {
+    let mut rng = Rng::new(seed ^ 0xe87);
+    let tau_max = lobefit_tables::disk_light::TAU_MAX;
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|k| {
+            let (r, tau) = match k % 4 {
+                0 => (rng.range(1e-4f64.ln(), 0.01f64.ln()).exp(), rng.range(0.0, tau_max)),
+                1 => (rng.range(10f64.ln(), 1e3f64.ln()).exp(), rng.range(0.0, tau_max)),
+                2 => (
+                    rng.range(0.01f64.ln(), 10f64.ln()).exp(),
+                    rng.range(tau_max, std::f64::consts::FRAC_PI_2),
+                ),
+                _ => (
+                    rng.range(0.01f64.ln(), 10f64.ln()).exp(),
+                    rng.range(std::f64::consts::FRAC_PI_2, 3.0),
+                ),
+            };
+            vec![r32(r), r32(tau)]
+        })
+        .collect();
+    let body = "    let c = lf_disk_canonical(T, S, P, x0, x1);\n    Y[o] = c[0].x;\n    Y[o + 1u] = c[0].y;\n    Y[o + 2u] = c[0].z;\n    \
+                Y[o + 3u] = c[0].w;\n    Y[o + 4u] = c[1].x;\n    Y[o + 5u] = c[1].y;";
+    let got = run_rows(
+        gpu,
+        tex,
+        &lf_tex(&texs[0].0, filter),
+        wgsl_texture_type(&texs[0].1),
+        &inputs,
+        6,
+        body,
+    )?;
+    let disk = lobefit_tables::disk_light::DiskLight::embedded().map_err(|e| e.to_string())?;
+    let mut worst = 0.0f64;
+    for (g, x) in got.iter().zip(&inputs) {
+        let w = disk.canonical(x[0], x[1]).map_err(|e| e.to_string())?;
+        let num: f64 = g.iter().zip(&w).map(|(a, b)| (a - b).powi(2)).sum();
+        let den: f64 = w.iter().map(|b| b * b).sum();
+        let d = if den > 0.0 { (num / den).sqrt() } else { num.sqrt() };
+        worst = worst.max(d);
+    }
+    Ok(Row {
+        function: "disk-light extensions".into(),
+        storage: String::new(),
+        filter: filter.name().into(),
+        samples,
+        vs_cpu: worst,
+        cpu_what: "runtime f64 (L2)",
+        vs_ref: Vec::new(),
+        info: Vec::new(),
+    })
+}
+
+/// `lf_wedge_apply` (order 8, every W) against the same mat-vec in f64 over the CPU's
+/// fetch of the exported entries; vector-relative (see [`vector_diff`]).
+pub fn check_wedge_apply(
+    gpu: &Gpu,
+    texs: &[(TextureEntry, Texture)],
+    tex: &GpuTexture,
+    samples: usize,
+    seed: u64,
+) -> Result<Row, String> {
+    let mut rng = Rng::new(seed ^ 0x3ed6e);
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|k| {
+            let mut x = vec![(k % 5) as f64];
+            x.extend((0..16).map(|_| r32(rng.range(-5.0, 0.0))));
+            x
+        })
+        .collect();
+    let body = "    var va: array<f32, 8>;\n    var vb: array<f32, 8>;\n    for (var k = 0u; k < 8u; k++) {\n        \
+                va[k] = X[i * 17u + 1u + k];\n        vb[k] = X[i * 17u + 9u + k];\n    }\n    \
+                let z = lf_wedge_apply(T, P, u32(x0), 8u, va, vb);\n    for (var k = 0u; k < 64u; k++) {\n        Y[o + k] = z[k];\n    }";
+    let got = run_rows(
+        gpu,
+        tex,
+        &lf_tex(&texs[0].0, Filter::Manual),
+        wgsl_texture_type(&texs[0].1),
+        &inputs,
+        64,
+        body,
+    )?;
+    let smp = samplers(texs, Filter::Manual);
+    let want: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| {
+            let w = x[0] as usize;
+            (0..64)
+                .map(|row| {
+                    (0..8)
+                        .map(|j| {
+                            smp[0].fetch(&[w, row, j])[0] as f64 * x[1 + j]
+                                + smp[0].fetch(&[w, row, 8 + j])[0] as f64 * x[9 + j]
+                        })
+                        .sum()
+                })
+                .collect()
+        })
+        .collect();
+    Ok(Row {
+        function: "wedge apply n8".into(),
+        storage: String::new(),
+        filter: "fetch".into(),
+        samples,
+        vs_cpu: vector_diff(&got, &want),
+        cpu_what: "emulation, f64",
+        vs_ref: Vec::new(),
+        info: Vec::new(),
+    })
+}
