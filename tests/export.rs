@@ -56,8 +56,18 @@ fn every_textured_family_in_f32_meets_its_targets_with_manual_filtering() {
     }
 }
 
-/// The families whose f16 export meets every target with manual filtering.
-const F16_OK: [&str; 5] = ["cap-exponent", "sg-fit", "isg-refit", "isg-best", "disk-light"];
+/// The families whose f16 export meets every target with manual filtering: all the
+/// textured ones but wedge (whose 1e-12 promise is beyond f32 too).
+const F16_OK: [&str; 8] = [
+    "cap-exponent",
+    "sg-fit",
+    "isg-refit",
+    "isg-best",
+    "disk-light",
+    "lobe-product",
+    "lobe-product-l2",
+    "shexp",
+];
 
 #[test]
 fn f16_with_trend_and_scale_meets_the_targets_of_the_textured_families() {
@@ -71,10 +81,10 @@ fn f16_with_trend_and_scale_meets_the_targets_of_the_textured_families() {
 #[test]
 fn f16_that_misses_its_target_is_refused_unless_lossy_is_allowed() {
     let dir = tempfile::tempdir().unwrap();
-    let mut o = opts(&["lobe-product"], Format::Raw, Storage::F16);
+    let mut o = opts(&["wedge"], Format::Raw, Storage::F16);
     let e = export(&o, dir.path()).unwrap_err();
     assert!(
-        e.contains("f16 misses the target") && e.contains("l2_residual") && e.contains("--allow-lossy"),
+        e.contains("wedge: f16 misses the target") && e.contains(" m offgrid.") && e.contains("--allow-lossy"),
         "{e}"
     );
     assert!(

@@ -13,6 +13,7 @@ pub const GPU: GpuFamily = GpuFamily {
     eval,
     shader: "e_cap = 0 for α ≥ π/2, else q · m(α), q = the texel at α; m(α) = c (1 − ln c) / (2 sin²(α/2)), \
              c = max(cos α, 1e-30)",
+    extra: None,
 };
 
 fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {

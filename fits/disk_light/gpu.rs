@@ -13,6 +13,7 @@ pub const GPU: GpuFamily = GpuFamily {
     eval,
     shader: "axes: v = (g(R/d) − g(0.01)) / (g(10) − g(0.01)), g(r) = ln r + asinh((r − sin τ) / cos τ), and τ; \
              c00 = exp(layer 0 R); c_lm = c00 · (layer 0 G, B, A, layer 1 R, G) for (1,0), (1,1), (2,0), (2,1), (2,2)",
+    extra: None,
 };
 
 fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {

@@ -15,6 +15,7 @@ pub const REFIT: GpuFamily = GpuFamily {
     eval: refit,
     shader: "g = exp(R), h = exp(G) at γ; Ŝ = σ(g (θ − π/2)) σ(h (φ − π/2)), σ(t) = 1/(1 + exp(−t)); \
              S = Ŝ · 2π (1 − exp(−γ)) / γ",
+    extra: None,
 };
 
 fn refit(s: &[Sampler], x: &[f32]) -> Vec<f32> {
@@ -39,6 +40,7 @@ pub const BEST: GpuFamily = GpuFamily {
              u = min(sqrt(E(γq) / E(γ)), 1); at (γ, u_θ): A = .r, C = .b of the texel; at (γ, u_φ): \
              B = .g, D = .a; mirror where x > π/2 (d > 0): A → 1 − A, C → −C (B, D likewise \
              for φ); Ŝ = A·B + C·D; S = Ŝ · 2π E(γ) / γ",
+    extra: None,
 };
 
 /// Texture rows are (a, b, c, d): θ's factors (A, C) are channels 0 and 2, φ's (B, D)

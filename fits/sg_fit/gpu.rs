@@ -9,6 +9,7 @@ pub const GPU: GpuFamily = GpuFamily {
     grids: table_grid,
     eval,
     shader: "λ = exp(R), μ = exp(G) at e (log channels); a lobe of scale s maps to amplitude s μ",
+    extra: None,
 };
 
 fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {

@@ -4,11 +4,18 @@
 //! extrapolates from the two nodes on the query's side (as the runtime's stencil does:
 //! interpolating across the slope break costs ~h·Δslope/4, ten times the target);
 //! the shader multiplies by 2 sin²(θ_b/2).
+//!
+//! HYB needs a, b at the ‖f̂‖ of a *sum* of blockers' log-ZH vectors, which no θ_b
+//! names: per order a second 1D texture holds ln a, ln b on an axis uniform in ‖f̂‖
+//! over [0, T_n], T_n the order's OL threshold (HYB halves f̂ until ‖f̂‖ ≤ T_n, so it
+//! never asks beyond). Its values are the runtime's `ab_for_norm`; its error is measured
+//! against the reference (a, b) of caps, looked up at the reference ‖f̂‖.
 
-use lobefit_tables::shexp::{one_minus_cos, ShExp, ORDER_MAX, ORDER_MIN};
+use lobefit_tables::format::{Mapping, Placement};
+use lobefit_tables::shexp::{one_minus_cos, ShExp, OL_THRESHOLD, ORDER_MAX, ORDER_MIN};
 use lobefit_tables::{Axis, Table};
 
-use crate::export::families::GpuFamily;
+use crate::export::families::{ExtraError, GpuFamily};
 use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler, MAX_SCALE};
 use crate::export::{Storage, MAX_1D_2D_EXTENT};
 
@@ -21,8 +28,17 @@ pub const GPU: GpuFamily = GpuFamily {
              κ = channel kink of texel i (texelFetch); κ < 0 (none, stored −1): v = linear sample at θ_b; \
              t − i ≤ κ: v = v_i + (t − i)(v_i − v_{i−1}), else v = v_{i+1} + (t − i − 1)(v_{i+2} − v_{i+1}) \
              (texelFetch, f32; norm, a, b are stored as ln: exp per texel); then s = 2 sin²(θ_b/2), f_l = s · v.f<l> (l < n), ‖f̂‖ = s · v.norm, \
-             a = v.a, b = v.b",
+             a = v.a, b = v.b. \
+             HYB (texture shexp-hyb-n<n>, axis ‖f̂‖ uniform on [0, T_n], T_n = the texture's upper end = \
+             the OL threshold 0.75, 0.125, 0.0625, 0.0625, 0.03125, 0.015625 for n = 3..8): halve f̂ k times \
+             until s = ‖f̂‖/2^k ≤ T_n; (a, b) = exp of the linear sample at s; OL: y₀₀ → a √(4π), \
+             the rest × b/2^k; square k times (SH products); × exp(f_0/√(4π))",
+    extra: Some(hyb_errors),
 };
+
+/// ‖f̂‖ nodes of each order's HYB texture at scale 1: a, b are smooth in ‖f̂‖ on
+/// [0, T_n] (linear at 0).
+const HYB_NODES: u32 = 257;
 
 /// Channels of order n's texture: f0..f(n−1), norm, a, b, kink.
 fn specs(n: usize) -> Vec<ChannelSpec> {
@@ -117,6 +133,87 @@ fn grids(kind: &str, table: &Table, storage: Storage, scale: f64) -> Result<Vec<
             &values,
             storage,
         )?);
+    }
+    for n in ORDER_MIN..=ORDER_MAX {
+        out.push(hyb_grid(kind, &rt, n, storage, scale)?);
+    }
+    Ok(out)
+}
+
+/// Order n's HYB texture: ln a, ln b against ‖f̂‖ ∈ [0, T_n].
+fn hyb_grid(kind: &str, rt: &ShExp, n: usize, storage: Storage, scale: f64) -> Result<Grid, String> {
+    let axis = Axis {
+        name: "norm".into(),
+        unit: "1".into(),
+        lo: 0.0,
+        hi: OL_THRESHOLD[n - ORDER_MIN],
+        mapping: Mapping::Linear,
+        count: (((HYB_NODES - 1) as f64 * scale).round() as u32).max(1) + 1,
+        placement: Placement::Endpoints,
+    };
+    let mut values = Vec::with_capacity(2 * axis.count as usize);
+    for i in 0..axis.count {
+        let x = axis.node(i).clamp(axis.lo, axis.hi);
+        let (a, b) = rt.ab_for_norm(x, n).map_err(|e| format!("{kind}: {e}"))?;
+        values.extend([a.ln(), b.ln()]);
+    }
+    let specs = [("a", "OL coefficient a"), ("b", "OL coefficient b")].map(|(name, what)| ChannelSpec {
+        name: name.into(),
+        meaning: format!("ln of the {what} at ‖f̂‖ (HYB)"),
+        log: true,
+    });
+    grid_of_values(&format!("{kind}-hyb-n{n}"), &[axis], &specs, &values, storage)
+}
+
+/// The HYB textures against the reference: per order, caps with ‖f̂‖ ≤ T_n (θ_b half
+/// uniform, half log-uniform down to 1e-4 rad), each looked up at its reference ‖f̂‖
+/// rounded to f32; max relative error of a and b, held to the family's a, b limit.
+fn hyb_errors(s: &[Sampler], samples: usize, seed: u64) -> Result<Vec<ExtraError>, String> {
+    use rayon::prelude::*;
+    let orders = ORDER_MAX - ORDER_MIN + 1;
+    let mut out = Vec::new();
+    for n in ORDER_MIN..=ORDER_MAX {
+        let sampler = &s[orders + n - ORDER_MIN];
+        let top = OL_THRESHOLD[n - ORDER_MIN];
+        // θ_b where the reference ‖f̂‖ reaches T_n (monotone below: bisection).
+        let (mut lo, mut hi) = (0.0, lobefit_tables::shexp::THETA_MAX);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if super::reference_point(mid, n)?.1 <= top {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let mut rng = crate::rng::Rng::new(seed ^ (0x4879_6200 + n as u64));
+        let thetas: Vec<f64> = (0..samples / orders)
+            .map(|_| {
+                if rng.uniform() < 0.5 {
+                    rng.range(0.0, lo)
+                } else {
+                    rng.range(1e-4f64.ln(), lo.ln()).exp()
+                }
+            })
+            .collect();
+        let errs = thetas
+            .par_iter()
+            .map(|&t| {
+                let (_, norm, a, b) = super::reference_point(t, n)?;
+                let v = sampler.sample(&[(norm as f32).min(top as f32)]);
+                Ok([
+                    crate::check::rel_err(f64::from(v[0]), a),
+                    crate::check::rel_err(f64::from(v[1]), b),
+                ])
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        for (k, q) in ["a", "b"].iter().enumerate() {
+            out.push(ExtraError {
+                output: format!("n{n}_{q}(norm)"),
+                metric: "offgrid.max_rel".into(),
+                measured: errs.iter().map(|e| e[k]).fold(0.0, f64::max),
+                target: super::OFFGRID_REL,
+            });
+        }
     }
     Ok(out)
 }

@@ -16,6 +16,7 @@ pub const GPU: GpuFamily = GpuFamily {
     shader: "[M_lin]_{row,col} = texelFetch at (x = col, y = row, z = log2(W) − 2), W ∈ {4, 8, 16, 32, 64}, \
              no filtering; the order-n operator is rows < n², columns j and 8 + j for j < n; \
              V = M_lin [v_k; v_{k+1}] as a mat-vec in the shader",
+    extra: None,
 };
 
 /// The table's axes (W, row, col) with one channel, m = hi + lo rounded once to the

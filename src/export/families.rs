@@ -12,6 +12,23 @@ use crate::family::Lookup;
 /// Builds a family's textures: (kind, table, storage, scale) → grids.
 pub type GridsFn = fn(&str, &Table, Storage, f64) -> Result<Vec<Grid>, String>;
 
+/// One measured error of a texture the family's own `check` does not reach.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExtraError {
+    /// Quantity.
+    pub output: String,
+    /// Metric, e.g. `offgrid.max_rel`.
+    pub metric: String,
+    /// Measured.
+    pub measured: f64,
+    /// The limit it is held to.
+    pub target: f64,
+}
+
+/// Measures textures outside the family's `check_point` comparison: (samplers in
+/// `grids` order, samples, seed) → errors against the family's independent reference.
+pub type ExtraFn = fn(&[Sampler], usize, u64) -> Result<Vec<ExtraError>, String>;
+
 /// A family's GPU export.
 #[derive(Debug, Clone, Copy)]
 pub struct GpuFamily {
@@ -25,6 +42,9 @@ pub struct GpuFamily {
     pub eval: fn(&[Sampler], &[f32]) -> Vec<f32>,
     /// The shader's formulas in words, for the manifest and docs/gpu.md.
     pub shader: &'static str,
+    /// Errors of textures the family's pointwise check does not cover (shexp's HYB
+    /// a, b against ‖f̂‖), measured per filter beside the family's own metrics.
+    pub extra: Option<ExtraFn>,
 }
 
 /// The default textures: the table's grid as one texture.

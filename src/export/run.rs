@@ -157,6 +157,18 @@ pub fn measure(
             samplers: &samplers,
         };
         out.extend(errors_of(family, &emu, &points, filter)?);
+        if let Some(extra) = gpu.extra {
+            for e in extra(&samplers, samples, seed).map_err(|e| format!("{}: {e}", family.kind()))? {
+                out.push(ErrorEntry {
+                    filter,
+                    promise: if e.measured <= e.target { e.target } else { e.measured },
+                    output: e.output,
+                    metric: e.metric,
+                    measured: e.measured,
+                    target: e.target,
+                });
+            }
+        }
     }
     Ok(out)
 }
@@ -305,7 +317,7 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         convention: "Node i of an axis with n nodes sits at the centre of texel i: texture coordinate \
                      u = (s + 0.5) / n with s ∈ [0, n − 1] the node coordinate (formula per axis). \
                      2D textures: x = the table's fastest axis, y = the slower one. A channel's value is \
-                     trend(t) + offset + scale · texel (trend: a cubic in t = s / (n − 1), 1D f16 textures only), then exp() for log channels. Manual filtering: fetch the two \
+                     trend(t) + offset + scale · texel (trend: a quintic in t = s / (n − 1), Horner in f32, 1D f16 textures only), then exp() for log channels. Manual filtering: fetch the two \
                      (four) neighbouring texels and interpolate in f32; hardware filtering: a linear sampler \
                      with clamp-to-edge addressing (its sub-texel weights have 8 fractional bits)."
             .into(),
