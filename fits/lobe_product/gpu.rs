@@ -76,10 +76,10 @@ fn grids(kind: &str, table: &Table, storage: Storage, scale: f64) -> Result<Vec<
 }
 
 /// Width w of the f16 compression (see [`compressed`]).
-const WIDTH: f64 = 0.5;
+pub const WIDTH: f64 = 0.5;
 
 /// Suffix of a compressed channel's name (f16 exports).
-const COMPRESSED: &str = "_compressed";
+pub const COMPRESSED: &str = "_compressed";
 
 /// The f16 main texture: every channel x stored as v = sign(x) ln(1 + |x|/w), w =
 /// [`WIDTH`]; the shader inverts it after filtering, x = sign(v) w (exp(|v|) − 1).

@@ -75,9 +75,15 @@ impl Row {
     }
 }
 
-/// The uniform `LfTex` of a texture (see tables/shaders/common.wgsl): 19 vec4 = 304 bytes.
+/// Bytes of the uniform `LfTex` (tables/shaders/common.wgsl): 40 vec4.
+pub const LF_TEX_SIZE: usize = 640;
+
+/// The uniform `LfTex` of a texture (see tables/shaders/common.wgsl), [`LF_TEX_SIZE`]
+/// bytes: 39 vec4 of f32 (axis 0..3, map 3..6, offset 6..9, scale 9..12, trend
+/// 12..36, decode 36..39), then `mode`. Channels named `*_compressed` (lobe-product's
+/// f16 export) get the export's compression width in `decode`.
 pub fn lf_tex(t: &TextureEntry, filter: Filter) -> Vec<u8> {
-    let mut v = [[0f32; 4]; 18];
+    let mut v = [[0f32; 4]; 39];
     for (k, a) in t.axes.iter().enumerate() {
         let (kind, p0, p1) = match a.axis.mapping {
             Mapping::Linear => (0.0, 0.0, 0.0),
@@ -90,14 +96,19 @@ pub fn lf_tex(t: &TextureEntry, filter: Filter) -> Vec<u8> {
         v[3 + k] = [p0 as f32, p1 as f32, 0.0, 0.0];
     }
     // Unused channels: offset 0, scale 1.
-    v[8] = [1.0; 4];
-    v[9] = [1.0; 4];
+    for l in 0..3 {
+        v[9 + l] = [1.0; 4];
+    }
     for ch in &t.channels {
         let (l, c) = (ch.layer as usize, ch.component as usize);
         v[6 + l][c] = ch.offset as f32;
-        v[8 + l][c] = ch.scale as f32;
-        for (j, k) in ch.trend.iter().enumerate() {
-            v[10 + 4 * l + c][j] = *k as f32;
+        v[9 + l][c] = ch.scale as f32;
+        let k = 4 * l + c;
+        for (j, coef) in ch.trend.iter().enumerate() {
+            v[12 + 2 * k + j / 4][j % 4] = *coef as f32;
+        }
+        if ch.name.ends_with(lobefit::fits::lobe_product::gpu::COMPRESSED) {
+            v[36 + l][c] = lobefit::fits::lobe_product::gpu::WIDTH as f32;
         }
     }
     let mut bytes: Vec<u8> = bytemuck::cast_slice(&v).to_vec();
@@ -109,9 +120,18 @@ pub fn lf_tex(t: &TextureEntry, filter: Filter) -> Vec<u8> {
 /// The kernel: the library, the bindings of [`Gpu::run`], and `body` run per item with
 /// inputs `x0 ..` and outputs written to `Y[o + k]`.
 pub fn kernel(tex_type: &str, n_in: usize, n_out: usize, body: &str) -> String {
+    kernel_with(tex_type, None, n_in, n_out, body)
+}
+
+/// [`kernel`] with a second texture of type `tex2_type` (`T2`, its `LfTex` `P2`: the
+/// bindings of [`Gpu::run_with`]).
+pub fn kernel_with(tex_type: &str, tex2_type: Option<&str>, n_in: usize, n_out: usize, body: &str) -> String {
     let xs: String = (0..n_in)
         .map(|k| format!("    let x{k} = X[i * {n_in}u + {k}u];\n"))
         .collect();
+    let second = tex2_type.map_or(String::new(), |t| {
+        format!("@group(0) @binding(6) var<uniform> P2: LfTex;\n@group(0) @binding(7) var T2: {t};\n")
+    });
     format!(
         "{lib}
 @group(0) @binding(0) var<uniform> P: LfTex;
@@ -120,7 +140,7 @@ pub fn kernel(tex_type: &str, n_in: usize, n_out: usize, body: &str) -> String {
 @group(0) @binding(3) var<storage, read> X: array<f32>;
 @group(0) @binding(4) var<storage, read_write> Y: array<f32>;
 @group(0) @binding(5) var<uniform> N: vec4<u32>;
-
+{second}
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     let i = gid.x;
@@ -133,6 +153,25 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
 ",
         lib = lobefit_tables::shaders::library()
     )
+}
+
+/// The kernel body of shexp's order n: f_0..f_{n−1}, ‖f̂‖, a, b at θ_b = x0.
+pub fn shexp_body(n: usize) -> String {
+    format!(
+        "    let r = lf_shexp(T, S, P, {n}u, x0);\n    for (var l = 0u; l < {n}u; l++) {{\n        Y[o + l] = r.f[l];\n    }}\n    \
+         Y[o + {n}u] = r.norm;\n    Y[o + {}u] = r.a;\n    Y[o + {}u] = r.b;",
+        n + 1,
+        n + 2
+    )
+}
+
+/// The lobe products' kernel body (main texture `T`, ln W texture `T2`): p, t, e_r.
+pub fn lobe_product_body(kind: &str) -> &'static str {
+    if kind == "lobe-product-l2" {
+        "    let r = lf_lobe_product_l2(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;"
+    } else {
+        "    let r = lf_lobe_product(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;"
+    }
 }
 
 /// The per-family kernel body over the family's inputs (as `lobefit eval` orders them)
@@ -161,6 +200,9 @@ pub fn textured_body(kind: &str) -> Option<(&'static str, usize)> {
             "    let w = u32(round(log2(x0))) - 2u;\n    Y[o] = lf_wedge_entry(T, P, w, u32(x1), u32(x2));",
             1,
         ),
+        "lobe-product" | "lobe-product-l2" => (lobe_product_body(kind), 3),
+        // Per order (see `shexp_body`); the outputs of n = 3..8 concatenated.
+        "shexp" => ("", (3..=8).map(|n| n + 3).sum()),
         _ => return None,
     })
 }
@@ -304,7 +346,24 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
         let points = sample_points(family.as_ref(), m.samples, m.seed)?;
         let n_in = family.inputs().len();
         let inputs: Vec<f32> = points.iter().flat_map(|x| x.iter().map(|&v| v as f32)).collect();
-        let src = kernel(wgsl_texture_type(tex), n_in, n_out, body);
+        // The lobe products' second texture: the ln W residual (`<kind>-lnw`).
+        let second = if f.family.starts_with("lobe-product") {
+            let (e2, t2) = texs
+                .get(1)
+                .ok_or_else(|| format!("{}: the export lacks its ln W texture", f.family))?;
+            Some((e2, gpu.upload(t2, m.storage)?))
+        } else {
+            None
+        };
+        let src = kernel_with(
+            wgsl_texture_type(tex),
+            texs.get(1)
+                .filter(|_| second.is_some())
+                .map(|(_, t)| wgsl_texture_type(t)),
+            n_in,
+            n_out,
+            body,
+        );
         // wedge's entries are exact fetches: no filter to vary.
         let filters: &[Filter] = if f.family == "wedge" {
             &[Filter::Manual]
@@ -319,11 +378,24 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
                 );
                 continue;
             }
-            let out = gpu.run(&src, &lf_tex(entry, filter), &uploaded, &inputs, points.len(), n_out)?;
-            let got: Vec<Vec<f64>> = out
-                .chunks(n_out)
-                .map(|c| c.iter().map(|&v| v as f64).collect())
-                .collect();
+            let got: Vec<Vec<f64>> = match f.family.as_str() {
+                "shexp" => run_shexp(gpu, texs, m.storage, filter, &inputs, points.len())?,
+                _ => {
+                    let second = second.as_ref().map(|(e2, t2)| (lf_tex(e2, filter), t2));
+                    let out = gpu.run_with(
+                        &src,
+                        &lf_tex(entry, filter),
+                        &uploaded,
+                        second.as_ref().map(|(p, t)| (p.as_slice(), *t)),
+                        &inputs,
+                        points.len(),
+                        n_out,
+                    )?;
+                    out.chunks(n_out)
+                        .map(|c| c.iter().map(|&v| v as f64).collect())
+                        .collect()
+                }
+            };
             let emu_filter = if filter == Filter::Hardware {
                 hw_emulation
             } else {
@@ -413,6 +485,11 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
                 r.storage = storage.clone();
                 rows.push(r);
             }
+            if f.family == "shexp" {
+                rows.push(check_shexp_hyb(
+                    gpu, f, texs, m.storage, filter, emu_filter, m.samples, m.seed,
+                )?);
+            }
             if f.family == "wedge" {
                 let mut r = crate::world::check_wedge_apply(gpu, texs, &uploaded, WORLD_SAMPLES, m.seed)?;
                 r.storage = storage.clone();
@@ -441,6 +518,130 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
     Ok(rows)
 }
 
+/// shexp on the GPU: one kernel per order n = 3..8 over texture `shexp-n<n>`, the
+/// outputs concatenated per point in the family's order (n = 3 first: f_0..f_{n−1},
+/// ‖f̂‖, a, b).
+fn run_shexp(
+    gpu: &Gpu,
+    texs: &[(TextureEntry, Texture)],
+    storage: Storage,
+    filter: Filter,
+    inputs: &[f32],
+    count: usize,
+) -> Result<Vec<Vec<f64>>, String> {
+    let mut got = vec![Vec::new(); count];
+    for n in 3..=8usize {
+        let name = format!("shexp-n{n}");
+        let (entry, tex) = texs
+            .iter()
+            .find(|(e, _)| e.file.split('.').next() == Some(name.as_str()))
+            .ok_or_else(|| format!("shexp: the export lacks texture {name}"))?;
+        let up = gpu.upload(tex, storage)?;
+        let src = kernel(wgsl_texture_type(tex), 1, n + 3, &shexp_body(n));
+        let out = gpu.run(&src, &lf_tex(entry, filter), &up, inputs, count, n + 3)?;
+        for (g, c) in got.iter_mut().zip(out.chunks(n + 3)) {
+            g.extend(c.iter().map(|&v| v as f64));
+        }
+    }
+    Ok(got)
+}
+
+/// shexp's HYB textures on the GPU (`lf_shexp_hyb_ab`): per order, caps whose
+/// reference ‖f̂‖ is at most T_n (θ_b half uniform, half log-uniform down to 1e-4 rad,
+/// as the export measures them), looked up at the reference ‖f̂‖ rounded to f32;
+/// against the CPU emulation of the texture and against the reference (a, b), held to
+/// the manifest's promise for `n<n>_a(norm)`, `n<n>_b(norm)`.
+#[allow(clippy::too_many_arguments)]
+fn check_shexp_hyb(
+    gpu: &Gpu,
+    f: &lobefit::export::run::FamilyEntry,
+    texs: &[(TextureEntry, Texture)],
+    storage: Storage,
+    filter: Filter,
+    emu_filter: Filter,
+    samples: usize,
+    seed: u64,
+) -> Result<Row, String> {
+    use lobefit::fits::shexp::reference_point;
+    use lobefit_tables::shexp::{OL_THRESHOLD, ORDER_MAX, ORDER_MIN, THETA_MAX};
+    let per_order = samples / (ORDER_MAX - ORDER_MIN + 1);
+    let (mut worst_cpu, mut vs_ref) = (0.0f64, Vec::new());
+    for n in ORDER_MIN..=ORDER_MAX {
+        let name = format!("shexp-hyb-n{n}");
+        let (entry, tex) = texs
+            .iter()
+            .find(|(e, _)| e.file.split('.').next() == Some(name.as_str()))
+            .ok_or_else(|| format!("shexp: the export lacks texture {name}"))?;
+        let top = OL_THRESHOLD[n - ORDER_MIN];
+        // θ_b where the reference ‖f̂‖ reaches T_n (monotone below it).
+        let (mut lo, mut hi) = (0.0, THETA_MAX);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if reference_point(mid, n)?.1 <= top {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let mut rng = Rng::new(seed ^ (0x4750_4859 + n as u64));
+        let refs: Vec<(f64, f64, f64)> = (0..per_order)
+            .map(|k| {
+                let t = if k % 2 == 0 {
+                    rng.range(0.0, lo)
+                } else {
+                    rng.range(1e-4f64.ln(), lo.ln()).exp()
+                };
+                reference_point(t, n).map(|(_, norm, a, b)| (norm, a, b))
+            })
+            .collect::<Result<_, _>>()?;
+        let inputs: Vec<f32> = refs.iter().map(|r| (r.0 as f32).min(top as f32)).collect();
+        let up = gpu.upload(tex, storage)?;
+        let src = kernel(
+            wgsl_texture_type(tex),
+            1,
+            2,
+            "    let ab = lf_shexp_hyb_ab(T, S, P, x0);\n    Y[o] = ab.x;\n    Y[o + 1u] = ab.y;",
+        );
+        let out = gpu.run(&src, &lf_tex(entry, filter), &up, &inputs, inputs.len(), 2)?;
+        let got: Vec<Vec<f64>> = out.chunks(2).map(|c| vec![c[0] as f64, c[1] as f64]).collect();
+        let sampler = Sampler {
+            axes: entry.axes.clone(),
+            channels: entry.channels.clone(),
+            texture: tex.clone(),
+            filter: emu_filter,
+        };
+        let emu: Vec<Vec<f64>> = inputs
+            .iter()
+            .map(|&x| sampler.sample(&[x]).iter().map(|&v| v as f64).collect())
+            .collect();
+        worst_cpu = worst_cpu.max(scaled_diff(&got, &emu).0);
+        for (k, q) in ["a", "b"].iter().enumerate() {
+            let output = format!("n{n}_{q}(norm)");
+            let measured = got
+                .iter()
+                .zip(&refs)
+                .map(|(g, r)| rel_err(g[k], if k == 0 { r.1 } else { r.2 }))
+                .fold(0.0, f64::max);
+            let promise = f
+                .error
+                .iter()
+                .find(|p| p.filter == filter && p.output == output && p.metric == "offgrid.max_rel")
+                .map_or(lobefit::fits::shexp::OFFGRID_REL, |p| p.promise);
+            vs_ref.push((format!("{output} max_rel"), measured, promise * (1.0 + PROMISE_SLACK)));
+        }
+    }
+    Ok(Row {
+        function: "shexp HYB a, b at |f|".into(),
+        storage: storage.to_string(),
+        filter: filter.name().into(),
+        samples: per_order * (ORDER_MAX - ORDER_MIN + 1),
+        vs_cpu: worst_cpu,
+        cpu_what: "emulation",
+        vs_ref,
+        info: Vec::new(),
+    })
+}
+
 /// A closed form (no texture) on the GPU: `body` over the family's inputs, against
 /// `cpu` (the runtime's f64 function) and the family's reference with its off-grid
 /// thresholds.
@@ -463,7 +664,7 @@ fn closed_row(
     let n_out = outputs.len();
     let inputs: Vec<f32> = points.iter().flat_map(|x| x.iter().map(|&v| v as f32)).collect();
     let src = kernel("texture_2d<f32>", family.inputs().len(), n_out, body);
-    let out = gpu.run(&src, &[0u8; 304], dummy, &inputs, points.len(), n_out)?;
+    let out = gpu.run(&src, &[0u8; LF_TEX_SIZE], dummy, &inputs, points.len(), n_out)?;
     let got: Vec<Vec<f64>> = out
         .chunks(n_out)
         .map(|c| c.iter().map(|&v| v as f64).collect())
@@ -589,7 +790,7 @@ pub fn probe_weight_bits(gpu: &Gpu) -> Result<u32, String> {
         1,
         "    Y[o] = textureSampleLevel(T, S, vec2<f32>((x0 + 0.5) / 2.0, 0.5), 0.0).x;",
     );
-    let out = gpu.run(&src, &[0u8; 304], &tex, &xs, n, 1)?;
+    let out = gpu.run(&src, &[0u8; LF_TEX_SIZE], &tex, &xs, n, 1)?;
     let mut v: Vec<u32> = out.iter().map(|x| x.to_bits()).collect();
     v.sort_unstable();
     v.dedup();
@@ -674,7 +875,7 @@ mod tests {
             .iter()
             .find(|(_, t)| t.name.as_deref() == Some("LfTex"))
             .unwrap();
-        assert_eq!(layouter[h].size, 304);
+        assert_eq!(layouter[h].size as usize, LF_TEX_SIZE);
         let naga::TypeInner::Struct { members, .. } = &ty.inner else {
             panic!("LfTex is not a struct")
         };
@@ -683,9 +884,10 @@ mod tests {
             ("axis", 0),
             ("map", 48),
             ("offset", 96),
-            ("scale", 128),
-            ("trend", 160),
-            ("mode", 288),
+            ("scale", 144),
+            ("trend", 192),
+            ("decode", 576),
+            ("mode", 624),
         ];
         for ((name, off), (wn, wo)) in offsets.iter().zip(want) {
             assert_eq!((name.as_str(), *off), (wn, wo));
@@ -702,13 +904,13 @@ mod tests {
         let m = lobefit::export::run::export(&opts, &dir).unwrap();
         let t = &m.families[0].textures[0];
         let b = lf_tex(t, Filter::Hardware);
-        assert_eq!(b.len(), 304);
+        assert_eq!(b.len(), LF_TEX_SIZE);
         let f = |off: usize| f32::from_le_bytes(b[off..off + 4].try_into().unwrap());
         assert_eq!(f(0), t.axes[0].mapped_lo as f32);
         assert_eq!(f(4), t.axes[0].mapped_hi as f32);
         assert_eq!(f(8), t.axes[0].axis.count as f32);
         assert_eq!(f(12), 3.0, "cap-exponent's axis is logit");
-        assert_eq!(u32::from_le_bytes(b[288..292].try_into().unwrap()), 1);
+        assert_eq!(u32::from_le_bytes(b[624..628].try_into().unwrap()), 1);
         let _ = std::fs::remove_dir_all(&dir);
     }
 

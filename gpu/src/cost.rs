@@ -137,7 +137,14 @@ pub fn costs(gpu: &Gpu, export: &Export) -> Result<Vec<Cost>, String> {
         out.push(Cost {
             function: name.into(),
             spirv: spirv_instructions(&src)?,
-            per_second: time(gpu, &src, &[0u8; 304], &dummy, &points, n_out)?,
+            per_second: time(
+                gpu,
+                &src,
+                &[0u8; crate::conformance::LF_TEX_SIZE],
+                &dummy,
+                &points,
+                n_out,
+            )?,
         });
     }
     Ok(out)

@@ -141,6 +141,22 @@ impl Gpu {
         count: usize,
         n_out: usize,
     ) -> Result<Vec<f32>, String> {
+        self.run_with(source, params, texture, None, inputs, count, n_out)
+    }
+
+    /// [`Gpu::run`] with a second texture and its uniform parameters: bindings 6 (the
+    /// uniform) and 7 (the texture; same filterability as the first, one sampler).
+    #[allow(clippy::too_many_arguments)]
+    pub fn run_with(
+        &self,
+        source: &str,
+        params: &[u8],
+        texture: &GpuTexture,
+        second: Option<(&[u8], &GpuTexture)>,
+        inputs: &[f32],
+        count: usize,
+        n_out: usize,
+    ) -> Result<Vec<f32>, String> {
         let d = &self.device;
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -164,32 +180,47 @@ impl Gpu {
             has_dynamic_offset: false,
             min_binding_size: None,
         };
+        let tex_entry = |t: &GpuTexture| wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float {
+                filterable: t.filterable,
+            },
+            view_dimension: t.view_dimension,
+            multisampled: false,
+        };
+        let mut layout_entries = vec![
+            entry(0, uniform),
+            entry(
+                1,
+                wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float {
+                        filterable: texture.filterable,
+                    },
+                    view_dimension: texture.view_dimension,
+                    multisampled: false,
+                },
+            ),
+            entry(
+                2,
+                wgpu::BindingType::Sampler(if texture.filterable {
+                    wgpu::SamplerBindingType::Filtering
+                } else {
+                    wgpu::SamplerBindingType::NonFiltering
+                }),
+            ),
+            entry(3, storage(true)),
+            entry(4, storage(false)),
+            entry(5, uniform),
+        ];
+        if let Some((_, t2)) = second {
+            if t2.filterable != texture.filterable {
+                return Err("run_with: the two textures differ in filterability".into());
+            }
+            layout_entries.push(entry(6, uniform));
+            layout_entries.push(entry(7, tex_entry(t2)));
+        }
         let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: None,
-            entries: &[
-                entry(0, uniform),
-                entry(
-                    1,
-                    wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float {
-                            filterable: texture.filterable,
-                        },
-                        view_dimension: texture.view_dimension,
-                        multisampled: false,
-                    },
-                ),
-                entry(
-                    2,
-                    wgpu::BindingType::Sampler(if texture.filterable {
-                        wgpu::SamplerBindingType::Filtering
-                    } else {
-                        wgpu::SamplerBindingType::NonFiltering
-                    }),
-                ),
-                entry(3, storage(true)),
-                entry(4, storage(false)),
-                entry(5, uniform),
-            ],
+            entries: &layout_entries,
         });
         let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: None,
@@ -249,35 +280,53 @@ impl Gpu {
             contents: bytemuck::cast_slice(&[count as u32, 0, 0, 0]),
             usage: wgpu::BufferUsages::UNIFORM,
         });
+        let params2_buf = second.map(|(p2, _)| {
+            d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: None,
+                contents: p2,
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        });
+        let mut bind_entries = vec![
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: params_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(&texture.view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::Sampler(&sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: in_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: out_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 5,
+                resource: count_buf.as_entire_binding(),
+            },
+        ];
+        if let (Some((_, t2)), Some(buf)) = (second, &params2_buf) {
+            bind_entries.push(wgpu::BindGroupEntry {
+                binding: 6,
+                resource: buf.as_entire_binding(),
+            });
+            bind_entries.push(wgpu::BindGroupEntry {
+                binding: 7,
+                resource: wgpu::BindingResource::TextureView(&t2.view),
+            });
+        }
         let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: None,
             layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: params_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&texture.view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::Sampler(&sampler),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: in_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: out_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: count_buf.as_entire_binding(),
-                },
-            ],
+            entries: &bind_entries,
         });
         let mut enc = d.create_command_encoder(&Default::default());
         {

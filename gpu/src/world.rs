@@ -62,7 +62,7 @@ fn row(function: &str, samples: usize, vs_cpu: f64, vs_ref: Vec<(String, f64, f6
     }
 }
 
-const NONE: [u8; 304] = [0; 304];
+const NONE: [u8; crate::conformance::LF_TEX_SIZE] = [0; crate::conformance::LF_TEX_SIZE];
 const WRITE64: &str = "    for (var k = 0u; k < 64u; k++) {\n        Y[o + k] = z[k];\n    }";
 const WRITE9: &str = "    for (var k = 0u; k < 9u; k++) {\n        Y[o + k] = z[k];\n    }";
 
@@ -234,6 +234,64 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
         .collect::<Result<_, LookupError>>()
         .map_err(map)?;
     rows.push(row("isg paper", samples, scaled_diff(&got, &want).0, Vec::new()));
+
+    // The lobe product's axis on the arc a1 -> a2 at fraction t, against the f64
+    // slerp (sin((1 − t) α) a1 + sin(t α) a2) / sin α of the f32 inputs, normalised.
+    // Half the pairs close (α log-uniform in [1e-4, 1]), half anywhere with α below
+    // π − 1e-2 (the arc between near-antipodal axes is ill-conditioned).
+    let mut inputs: Vec<Vec<f64>> = Vec::with_capacity(samples);
+    while inputs.len() < samples {
+        let a1 = unit(&mut rng);
+        let a2 = if inputs.len().is_multiple_of(2) {
+            let p = unit(&mut rng).cross(a1).normalize_or_zero();
+            let ang = rng.range(1e-4f64.ln(), 0.0).exp();
+            a1 * ang.cos() + p * ang.sin()
+        } else {
+            unit(&mut rng)
+        };
+        let t = rng.uniform();
+        let x: Vec<f64> = [a1.to_array(), a2.to_array()]
+            .concat()
+            .into_iter()
+            .chain([t])
+            .map(r32)
+            .collect();
+        let (b1, b2) = (
+            DVec3::from_slice(&x[0..3]).normalize(),
+            DVec3::from_slice(&x[3..6]).normalize(),
+        );
+        if b1.dot(b2).clamp(-1.0, 1.0).acos() < std::f64::consts::PI - 1e-2 && b1 != b2 {
+            inputs.push(x);
+        }
+    }
+    let got = run_rows(
+        gpu,
+        dummy,
+        &NONE,
+        t2,
+        &inputs,
+        3,
+        "    let a = lf_lobe_product_axis(vec3<f32>(x0, x1, x2), vec3<f32>(x3, x4, x5), x6);\n    \
+         Y[o] = a.x;\n    Y[o + 1u] = a.y;\n    Y[o + 2u] = a.z;",
+    )?;
+    let want: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| {
+            let (a1, a2) = (
+                DVec3::from_slice(&x[0..3]).normalize(),
+                DVec3::from_slice(&x[3..6]).normalize(),
+            );
+            let alpha = a1.dot(a2).clamp(-1.0, 1.0).acos();
+            let v = (a1 * ((1.0 - x[6]) * alpha).sin() + a2 * (x[6] * alpha).sin()) / alpha.sin();
+            v.to_array().to_vec()
+        })
+        .collect();
+    rows.push(row(
+        "lobe-product axis on the arc",
+        samples,
+        vector_diff(&got, &want),
+        Vec::new(),
+    ));
     Ok(rows)
 }
 

@@ -11,7 +11,8 @@
 //   cubic, zero unless the manifest gives one), then exp() for log channels.
 // - Angles in radians; directions unit vectors.
 
-// One texture's parameters, filled from its manifest entry.
+// One texture's parameters, filled from its manifest entry (at most 12 channels:
+// 3 layers of RGBA).
 struct LfTex {
     // Per texture axis, slowest first (manifest `axes`): (mapped_lo, mapped_hi,
     // node count, mapping kind: 0 linear, 1 log, 2 log1p, 3 logit, 4 asinh).
@@ -19,11 +20,17 @@ struct LfTex {
     // The mapping's constants per axis: log1p (scale, -), logit (a, b), asinh
     // (centre, width).
     map: array<vec4<f32>, 3>,
-    // Channel k's offset and scale at [k / 4][k % 4] (f32 storage: 0 and 1).
-    offset: array<vec4<f32>, 2>,
-    scale: array<vec4<f32>, 2>,
-    // Channel k's trend coefficients (c0, c1, c2, c3); zero: none.
-    trend: array<vec4<f32>, 8>,
+    // Channel k's (k = 4 layer + component) offset and scale at [k / 4][k % 4] (f32
+    // storage: 0 and 1).
+    offset: array<vec4<f32>, 3>,
+    scale: array<vec4<f32>, 3>,
+    // Channel k's trend coefficients c0..c5 (a quintic in t; 1D f16 textures): (c0, c1,
+    // c2, c3) at [2k], (c4, c5, -, -) at [2k + 1]; zero: none.
+    trend: array<vec4<f32>, 24>,
+    // Channel k's compression width w at [k / 4][k % 4]: 0, stored as is; w > 0, the
+    // texel holds v = sign(x) ln(1 + |x| / w) and x = sign(v) w (exp(|v|) - 1) after
+    // filtering and unpacking (manifest channels named `*_compressed`).
+    decode: array<vec4<f32>, 3>,
     // .x: 0 = manual filtering (textureLoad, f32 interpolation), 1 = hardware
     // filtering (a linear, clamp-to-edge sampler; 32-bit float textures then need
     // float32-filterable support).
@@ -66,14 +73,19 @@ fn lf_split(s: f32, n: f32) -> vec2<f32> {
     return vec2<f32>(i, c - i);
 }
 
-// The 4 channels of layer `layer` unpacked (offset, scale, trend at t), exp not applied.
+// The 4 channels of layer `layer` unpacked (offset, scale, trend at t, then the
+// compression's inverse where `decode` has a width), exp not applied.
 fn lf_unpack(p: LfTex, layer: u32, texel: vec4<f32>, t: f32) -> vec4<f32> {
     var tr = vec4<f32>(0.0);
     for (var c = 0u; c < 4u; c++) {
-        let k = p.trend[layer * 4u + c];
-        tr[c] = ((k.w * t + k.z) * t + k.y) * t + k.x;
+        let k = 2u * (layer * 4u + c);
+        let lo = p.trend[k];
+        let hi = p.trend[k + 1u];
+        tr[c] = ((((hi.y * t + hi.x) * t + lo.w) * t + lo.z) * t + lo.y) * t + lo.x;
     }
-    return (tr + p.offset[layer]) + p.scale[layer] * texel;
+    let v = (tr + p.offset[layer]) + p.scale[layer] * texel;
+    let w = p.decode[layer];
+    return select(v, sign(v) * w * (exp(abs(v)) - 1.0), w > vec4<f32>(0.0));
 }
 
 // A 1D table (bound as a width x 1 texture) at axis value x: the 4 channels, unpacked.
@@ -92,6 +104,70 @@ fn lf_sample_1d(tex: texture_2d<f32>, smp: sampler, p: LfTex, x: f32) -> vec4<f3
         v = a + iw.y * (b - a);
     }
     return lf_unpack(p, 0u, v, t);
+}
+
+// Layer `layer` of a 1D table with more than 4 channels (bound as a width x 1 2D
+// array texture) at axis value x: 4 channels, unpacked.
+fn lf_sample_1d_layer(tex: texture_2d_array<f32>, smp: sampler, p: LfTex, layer: u32, x: f32) -> vec4<f32> {
+    let n = p.axis[0].z;
+    let s = lf_node_coord(p, 0u, x);
+    let t = clamp(s, 0.0, n - 1.0) / max(n - 1.0, 1.0);
+    var v: vec4<f32>;
+    if p.mode.x == 1u {
+        v = textureSampleLevel(tex, smp, vec2<f32>((s + 0.5) / n, 0.5), i32(layer), 0.0);
+    } else {
+        let iw = lf_split(s, n);
+        let i = i32(iw.x);
+        let a = textureLoad(tex, vec2<i32>(i, 0), i32(layer), 0);
+        let b = textureLoad(tex, vec2<i32>(i + 1, 0), i32(layer), 0);
+        v = a + iw.y * (b - a);
+    }
+    return lf_unpack(p, layer, v, t);
+}
+
+// Texel i of layer `layer` of a layered 1D table, unpacked (the trend at node i): no
+// filtering.
+fn lf_fetch_1d_layer(tex: texture_2d_array<f32>, p: LfTex, layer: u32, i: i32) -> vec4<f32> {
+    let n = p.axis[0].z;
+    let t = f32(i) / max(n - 1.0, 1.0);
+    return lf_unpack(p, layer, textureLoad(tex, vec2<i32>(i, 0), i32(layer), 0), t);
+}
+
+// Trilinear manual filtering of a 3D texture at node coordinates (sx fastest, sz
+// slowest).
+fn lf_lerp_3d(tex: texture_3d<f32>, sx: f32, sy: f32, sz: f32, n: vec3<f32>) -> vec4<f32> {
+    let ix = lf_split(sx, n.x);
+    let iy = lf_split(sy, n.y);
+    let iz = lf_split(sz, n.z);
+    let i = i32(ix.x);
+    let j = i32(iy.x);
+    var plane: array<vec4<f32>, 2>;
+    for (var d = 0; d < 2; d++) {
+        let k = i32(iz.x) + d;
+        let a = textureLoad(tex, vec3<i32>(i, j, k), 0);
+        let b = textureLoad(tex, vec3<i32>(i + 1, j, k), 0);
+        let c = textureLoad(tex, vec3<i32>(i, j + 1, k), 0);
+        let e = textureLoad(tex, vec3<i32>(i + 1, j + 1, k), 0);
+        let lo = a + ix.y * (b - a);
+        let hi = c + ix.y * (e - c);
+        plane[d] = lo + iy.y * (hi - lo);
+    }
+    return plane[0] + iz.y * (plane[1] - plane[0]);
+}
+
+// A 3D table at axis values (z slowest, y, x fastest): 4 channels, unpacked.
+fn lf_sample_3d(tex: texture_3d<f32>, smp: sampler, p: LfTex, z: f32, y: f32, x: f32) -> vec4<f32> {
+    let n = vec3<f32>(p.axis[2].z, p.axis[1].z, p.axis[0].z);
+    let sz = lf_node_coord(p, 0u, z);
+    let sy = lf_node_coord(p, 1u, y);
+    let sx = lf_node_coord(p, 2u, x);
+    var v: vec4<f32>;
+    if p.mode.x == 1u {
+        v = textureSampleLevel(tex, smp, (vec3<f32>(sx, sy, sz) + 0.5) / n, 0.0);
+    } else {
+        v = lf_lerp_3d(tex, sx, sy, sz, n);
+    }
+    return lf_unpack(p, 0u, v, 0.0);
 }
 
 // Bilinear manual filtering of a 2D texture at node coordinates (sx, sy).

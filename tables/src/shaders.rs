@@ -27,9 +27,13 @@ pub const LOG_ZH: &str = include_str!("../shaders/log_zh.wgsl");
 pub const DISK_LIGHT: &str = include_str!("../shaders/disk_light.wgsl");
 /// Wedge visibility operator: entries and the mat-vec.
 pub const WEDGE: &str = include_str!("../shaders/wedge.wgsl");
+/// Lobe products (both variants): peak, exponent, arc fraction, integral; the axis on the arc.
+pub const LOBE_PRODUCT: &str = include_str!("../shaders/lobe_product.wgsl");
+/// shexp: f, ‖f̂‖, a, b at θ_b (kink-aware); HYB's a, b at ‖f̂‖.
+pub const SHEXP: &str = include_str!("../shaders/shexp.wgsl");
 
 /// Every file of the library as (file name, source), in dependency order.
-pub const FILES: [(&str, &str); 8] = [
+pub const FILES: [(&str, &str); 10] = [
     ("common.wgsl", COMMON),
     ("sh.wgsl", SH),
     ("lobe.wgsl", LOBE),
@@ -38,6 +42,8 @@ pub const FILES: [(&str, &str); 8] = [
     ("log_zh.wgsl", LOG_ZH),
     ("disk_light.wgsl", DISK_LIGHT),
     ("wedge.wgsl", WEDGE),
+    ("lobe_product.wgsl", LOBE_PRODUCT),
+    ("shexp.wgsl", SHEXP),
 ];
 
 /// The whole library as one WGSL source (the files of [`FILES`] concatenated).
