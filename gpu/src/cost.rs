@@ -12,7 +12,7 @@ use lobefit::fits::wrap::WrapFamily;
 use lobefit::rng::Rng;
 use lobefit_tables::log_zh::Kind;
 
-use crate::conformance::{dummy_texture, kernel, lf_tex, textured_body, Export};
+use crate::conformance::{dummy_texture, kernel, kernel_with, lf_tex, shexp_body, textured_body, Export};
 use crate::device::{wgsl_texture_type, Gpu};
 
 /// Items per timed dispatch.
@@ -54,6 +54,7 @@ fn time(
     src: &str,
     params: &[u8],
     tex: &crate::device::GpuTexture,
+    second: Option<(&[u8], &crate::device::GpuTexture)>,
     points: &[Vec<f64>],
     n_out: usize,
 ) -> Result<f64, String> {
@@ -70,7 +71,7 @@ fn time(
         let mut best = f64::INFINITY;
         for _ in 0..3 {
             let t = Instant::now();
-            gpu.run(src, params, tex, &inputs, n, n_out)?;
+            gpu.run_with(src, params, tex, second, &inputs, n, n_out)?;
             best = best.min(t.elapsed().as_secs_f64());
         }
         Ok(best)
@@ -88,14 +89,70 @@ pub fn costs(gpu: &Gpu, export: &Export) -> Result<Vec<Cost>, String> {
             continue;
         };
         let family = family_of(&f.family).ok_or_else(|| format!("unknown family {:?}", f.family))?;
+        let points = sample_points(family.as_ref(), 2000, m.seed)?;
+        let by_name = |name: &str| {
+            texs.iter()
+                .find(|(e, _)| e.file.split('.').next() == Some(name))
+                .ok_or_else(|| format!("{}: the export lacks texture {name}", f.family))
+        };
+        if f.family == "shexp" {
+            // Order 8, the largest: f_0..f_7, ‖f̂‖, a, b at θ_b.
+            let (entry, tex) = by_name("shexp-n8")?;
+            let up = gpu.upload(tex, m.storage)?;
+            let src = kernel(wgsl_texture_type(tex), 1, 11, &shexp_body(8));
+            out.push(Cost {
+                function: format!("shexp order 8 ({})", m.storage),
+                spirv: spirv_instructions(&src)?,
+                per_second: time(gpu, &src, &lf_tex(entry, Filter::Manual), &up, None, &points, 11)?,
+            });
+            let (entry, tex) = by_name("shexp-hyb-n8")?;
+            let up = gpu.upload(tex, m.storage)?;
+            let src = kernel(
+                wgsl_texture_type(tex),
+                1,
+                2,
+                "    let ab = lf_shexp_hyb_ab(T, S, P, x0);\n    Y[o] = ab.x;\n    Y[o + 1u] = ab.y;",
+            );
+            let norms: Vec<Vec<f64>> = (0..2000).map(|i| vec![0.015625 * i as f64 / 1999.0]).collect();
+            out.push(Cost {
+                function: format!("shexp HYB a, b ({})", m.storage),
+                spirv: spirv_instructions(&src)?,
+                per_second: time(gpu, &src, &lf_tex(entry, Filter::Manual), &up, None, &norms, 2)?,
+            });
+            continue;
+        }
         let (entry, tex) = &texs[0];
         let up = gpu.upload(tex, m.storage)?;
-        let points = sample_points(family.as_ref(), 2000, m.seed)?;
-        let src = kernel(wgsl_texture_type(tex), family.inputs().len(), n_out, body);
+        // The lobe products' ln W texture rides along.
+        let second = if f.family.starts_with("lobe-product") {
+            let (e2, t2) = by_name(&format!("{}-lnw", f.family))?;
+            Some((
+                lf_tex(e2, Filter::Manual),
+                gpu.upload(t2, m.storage)?,
+                wgsl_texture_type(t2),
+            ))
+        } else {
+            None
+        };
+        let src = kernel_with(
+            wgsl_texture_type(tex),
+            second.as_ref().map(|s| s.2),
+            family.inputs().len(),
+            n_out,
+            body,
+        );
         out.push(Cost {
             function: format!("{} ({})", f.family, m.storage),
             spirv: spirv_instructions(&src)?,
-            per_second: time(gpu, &src, &lf_tex(entry, Filter::Manual), &up, &points, n_out)?,
+            per_second: time(
+                gpu,
+                &src,
+                &lf_tex(entry, Filter::Manual),
+                &up,
+                second.as_ref().map(|s| (s.0.as_slice(), &s.1)),
+                &points,
+                n_out,
+            )?,
         });
     }
     let dummy = gpu.upload(&dummy_texture(), Storage::F32)?;
@@ -142,6 +199,7 @@ pub fn costs(gpu: &Gpu, export: &Export) -> Result<Vec<Cost>, String> {
                 &src,
                 &[0u8; crate::conformance::LF_TEX_SIZE],
                 &dummy,
+                None,
                 &points,
                 n_out,
             )?,
