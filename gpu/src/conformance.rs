@@ -101,6 +101,14 @@ pub fn lf_tex(t: &TextureEntry, filter: Filter) -> Vec<u8> {
     }
     for ch in &t.channels {
         let (l, c) = (ch.layer as usize, ch.component as usize);
+        assert!(
+            l < 3 && c < 4 && ch.trend.len() <= 6,
+            "{}: channel {} (layer {l}, component {c}, {} trend coefficients) does not fit LfTex \
+             (3 layers of 4 channels, quintic trends)",
+            t.file,
+            ch.name,
+            ch.trend.len()
+        );
         v[6 + l][c] = ch.offset as f32;
         v[9 + l][c] = ch.scale as f32;
         let k = 4 * l + c;
