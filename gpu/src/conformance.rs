@@ -922,6 +922,44 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
+    /// f16 lobe-product: every `*_compressed` channel gets the export's width in
+    /// `decode` (vec4 36 + layer), the others 0; the 1D ln W texture's six trend
+    /// coefficients land at vec4 12 + 2k (c0..c3) and 13 + 2k (c4, c5).
+    #[test]
+    fn lf_tex_carries_compression_and_quintic_trends() {
+        let dir = tempdir().join("lp16");
+        let opts = lobefit::export::run::ExportOptions {
+            only: vec!["lobe-product-l2".into()],
+            format: lobefit::export::Format::Raw,
+            storage: Storage::F16,
+            scale: 0.25,
+            allow_lossy: true,
+        };
+        let m = lobefit::export::run::export(&opts, &dir).unwrap();
+        let texs = &m.families[0].textures;
+        let f = |b: &[u8], vec4: usize, c: usize| {
+            let off = 16 * vec4 + 4 * c;
+            f32::from_le_bytes(b[off..off + 4].try_into().unwrap())
+        };
+        let main = &texs[0];
+        assert_eq!(main.channels.len(), 3, "c, ρ, κ");
+        let b = lf_tex(main, Filter::Manual);
+        for ch in &main.channels {
+            assert!(ch.name.ends_with("_compressed"), "{}", ch.name);
+            assert_eq!(f(&b, 36 + ch.layer as usize, ch.component as usize), 0.5);
+        }
+        assert_eq!(f(&b, 36, 3), 0.0, "an unused channel is not decoded");
+        let lnw = &texs[1];
+        let ch = &lnw.channels[0];
+        assert_eq!(ch.trend.len(), 6, "f16 1D textures carry a quintic trend");
+        let b = lf_tex(lnw, Filter::Manual);
+        for (j, want) in ch.trend.iter().enumerate() {
+            assert_eq!(f(&b, 12 + j / 4, j % 4), *want as f32, "coefficient {j}");
+        }
+        assert_eq!(f(&b, 36, 0), 0.0, "ln W is stored as is");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     fn tempdir() -> std::path::PathBuf {
         let d = std::env::temp_dir().join(format!(
             "lobefit-gpu-test-{}-{:?}",
