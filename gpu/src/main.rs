@@ -31,7 +31,8 @@ enum Command {
         export: PathBuf,
     },
     /// Render a small image with the shader library (a sphere and a floor lit by a disk
-    /// light's SH irradiance) to a PNG and compare it with the CPU image; exit 1 when
+    /// light's SH irradiance, cosine-lobe lights on the glossy sphere through the lobe
+    /// product) to a PNG and compare it with the CPU image; exit 1 when
     /// the RMS difference exceeds 1e-4 of the peak.
     Render {
         /// A `lobefit export` directory with the disk-light texture.
@@ -55,9 +56,10 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         Command::Render { export, out } => {
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
-            let (max, rms) = render::render(&gpu, &ex, &out)?;
+            let (max, rms, gloss_max) = render::render(&gpu, &ex, &out)?;
             println!(
-                "render: {0}x{0} on {1}; GPU against CPU, relative to the peak: max {max:.2e}, RMS {rms:.2e} (limit {2:.0e} RMS)",
+                "render: {0}x{0} on {1}; GPU against CPU, relative to the peak: max {max:.2e}, RMS {rms:.2e} (limit {2:.0e} RMS); \
+                 glossy (lobe-product) pass alone, relative to its peak: max {gloss_max:.2e}",
                 render::SIZE,
                 gpu.info.name,
                 render::RMS_LIMIT

@@ -1,16 +1,20 @@
 //! `lobefit-gpu render`: a small headless image through the shader library — a
 //! diffuse sphere on a floor lit by a one-sided disk light, shaded by the disk's order-3
-//! SH irradiance (`lf_disk_irradiance` on the exported disk-light texture) — written
-//! as a PNG, and the same image computed on the CPU with the runtime crate
-//! (`DiskLight::irradiance`, f64, the committed table), compared pixel by pixel.
+//! SH irradiance (`lf_disk_irradiance` on the exported disk-light texture), plus a
+//! glossy term on the sphere: two cosine-lobe lights through a Phong lobe about the
+//! mirror direction, each ∫ BRDF lobe × light lobe from `lf_lobe_product` (the exported
+//! lobe-product texture and its ln W texture, a second pass) — written as a PNG, and
+//! the same image computed on the CPU with the runtime crate (`DiskLight::irradiance`,
+//! `LobeProduct::params`, f64, the committed tables), compared pixel by pixel.
 
 use std::path::Path;
 
 use glam::DVec3;
 use lobefit::export::layout::Filter;
 use lobefit_tables::disk_light::DiskLight;
+use lobefit_tables::lobe_product::LobeProduct;
 
-use crate::conformance::{kernel, lf_tex, Export};
+use crate::conformance::{kernel, kernel_with, lf_tex, Export};
 use crate::device::{wgsl_texture_type, Gpu};
 
 /// Image side (pixels).
@@ -22,6 +26,11 @@ pub const RMS_LIMIT: f64 = 1e-4;
 const CENTRE: [f64; 3] = [1.5, 2.5, 1.5];
 const RADIUS: f64 = 0.8;
 const RADIANCE: f64 = 1.0;
+/// The sphere's Phong exponent (lobe about the mirror direction) and glossy weight.
+const GLOSS_EXPONENT: f64 = 50.0;
+const GLOSS_WEIGHT: f64 = 4.0;
+/// Cosine-lobe lights: (axis, not normalised; exponent; scale).
+const LIGHTS: [([f64; 3], f64, f64); 2] = [([-1.0, 1.0, 1.0], 200.0, 1.0), ([1.0, 0.3, 2.0], 20.0, 0.3)];
 
 /// The scene's hit point and normal for pixel (i, j), in f64 (the CPU side; the shader
 /// repeats it in f32): orthographic rays along (0, −0.5, −1) onto the unit sphere at
@@ -72,9 +81,62 @@ const BODY: &str = "    let px = f32(i % 256u);
     }
     Y[o] = e;";
 
+/// The glossy pass's kernel body (texture `T`: lobe-product, `T2`: its ln W): 0 off
+/// the sphere.
+fn glossy_body() -> String {
+    let lights: String = LIGHTS
+        .iter()
+        .map(|(a, e, s)| {
+            format!(
+                "        g += {s:?} * lf_lobe_product(T, S, P, T2, P2, {GLOSS_EXPONENT:?}, {e:?}, \
+                 lf_angle_between(r, normalize(vec3<f32>({:?}, {:?}, {:?})))).integral;\n",
+                a[0], a[1], a[2]
+            )
+        })
+        .collect();
+    format!(
+        "    let px = f32(i % 256u);
+    let py = f32(i / 256u);
+    let u = (px + 0.5) / 256.0 * 4.0 - 2.0;
+    let v = 2.0 - (py + 0.5) / 256.0 * 4.0;
+    let ro = vec3<f32>(u, v + 2.5, 5.0);
+    let d = normalize(vec3<f32>(0.0, -0.5, -1.0));
+    let b = dot(ro, d);
+    let c = dot(ro, ro) - 1.0;
+    let disc = b * b - c;
+    var g = 0.0;
+    if disc >= 0.0 {{
+        let n = normalize(ro + (-b - sqrt(disc)) * d);
+        let r = normalize(d - 2.0 * dot(d, n) * n);
+{lights}    }}
+    Y[o] = {GLOSS_WEIGHT:?} * g;"
+    )
+}
+
+/// The glossy term on the CPU at pixel (i, j): f64 geometry, the runtime's integral.
+fn glossy_cpu(lp: &LobeProduct, i: usize, j: usize) -> Result<f64, String> {
+    let Some((p, n)) = hit(i, j) else { return Ok(0.0) };
+    if n == DVec3::Y && (p.length() - 1.0).abs() > 1e-9 {
+        return Ok(0.0);
+    }
+    let d = DVec3::new(0.0, -0.5, -1.0).normalize();
+    let r = (d - 2.0 * d.dot(n) * n).normalize();
+    let mut g = 0.0;
+    for (a, e, s) in LIGHTS {
+        let l = DVec3::from_array(a).normalize();
+        let alpha = 2.0 * (r - l).length().atan2((r + l).length());
+        g += s * lp
+            .params(GLOSS_EXPONENT, e, alpha)
+            .map_err(|e| format!("CPU lobe product at pixel ({i}, {j}): {e}"))?
+            .integral;
+    }
+    Ok(GLOSS_WEIGHT * g)
+}
+
 /// Renders on the GPU and the CPU; writes `out` (PNG, 8-bit grey, E / peak, sRGB-ish
-/// gamma 1/2.2). Returns (max, RMS) of |gpu − cpu| / peak over the pixels.
-pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64), String> {
+/// gamma 1/2.2). Returns (max, RMS) of |gpu − cpu| / peak over the pixels, and the
+/// glossy pass's own max |gpu − cpu| / its peak.
+pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64), String> {
     let m = &export.manifest;
     let k = m
         .families
@@ -85,10 +147,42 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64), Stri
     let up = gpu.upload(tex, m.storage)?;
     let n = SIZE * SIZE;
     let src = kernel(wgsl_texture_type(tex), 0, 1, BODY);
-    let img = gpu.run(&src, &lf_tex(entry, Filter::Manual), &up, &[], n, 1)?;
+    let mut img = gpu.run(&src, &lf_tex(entry, Filter::Manual), &up, &[], n, 1)?;
+    let texs = m
+        .families
+        .iter()
+        .position(|f| f.family == "lobe-product")
+        .map(|k| &export.textures[k])
+        .ok_or("the export has no lobe-product texture (export it: --only disk-light,lobe-product)")?;
+    let [(e_main, t_main), (e_lnw, t_lnw)] = &texs[..] else {
+        return Err("lobe-product: the export should hold its table and its ln W texture".into());
+    };
+    let (up_main, up_lnw) = (gpu.upload(t_main, m.storage)?, gpu.upload(t_lnw, m.storage)?);
+    let src = kernel_with(
+        wgsl_texture_type(t_main),
+        Some(wgsl_texture_type(t_lnw)),
+        0,
+        1,
+        &glossy_body(),
+    );
+    let lnw_params = lf_tex(e_lnw, Filter::Manual);
+    let gloss = gpu.run_with(
+        &src,
+        &lf_tex(e_main, Filter::Manual),
+        &up_main,
+        Some((&lnw_params, &up_lnw)),
+        &[],
+        n,
+        1,
+    )?;
+    for (a, g) in img.iter_mut().zip(&gloss) {
+        *a += g;
+    }
     let disk = DiskLight::embedded().map_err(|e| e.to_string())?;
+    let lp = LobeProduct::embedded().map_err(|e| e.to_string())?;
     let centre = DVec3::from_array(CENTRE);
     let mut cpu = vec![0.0f64; n];
+    let mut cpu_gloss = vec![0.0f64; n];
     for j in 0..SIZE {
         for i in 0..SIZE {
             if let Some((p, nrm)) = hit(i, j) {
@@ -96,6 +190,8 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64), Stri
                     .irradiance(p, nrm, centre, -centre.normalize(), RADIUS, RADIANCE)
                     .map_err(|e| format!("CPU irradiance at pixel ({i}, {j}): {e}"))?;
             }
+            cpu_gloss[j * SIZE + i] = glossy_cpu(lp, i, j)?;
+            cpu[j * SIZE + i] += cpu_gloss[j * SIZE + i];
         }
     }
     let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs()));
@@ -106,6 +202,12 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64), Stri
         sum += d * d;
     }
     let rms = (sum / n as f64).sqrt();
+    let gloss_peak = cpu_gloss.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let gloss_max = gloss
+        .iter()
+        .zip(&cpu_gloss)
+        .map(|(g, c)| (*g as f64 - c).abs() / gloss_peak)
+        .fold(0.0, f64::max);
     let pixels: Vec<u8> = img
         .iter()
         .map(|&g| ((g as f64 / peak).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8)
@@ -117,5 +219,5 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64), Stri
     enc.write_header()
         .and_then(|mut w| w.write_image_data(&pixels))
         .map_err(|e| format!("{}: {e}", out.display()))?;
-    Ok((max, rms))
+    Ok((max, rms, gloss_max))
 }
