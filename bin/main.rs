@@ -199,6 +199,15 @@ struct EvalFlagArgs {
     /// shexp: ren | naive.
     #[arg(long)]
     log: Option<String>,
+    /// direct-light: maximal visibility-mask depth, 1..=5 (default 5).
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=5))]
+    depth: Option<u8>,
+    /// direct-light: aggressive | conservative (default aggressive).
+    #[arg(long)]
+    mask: Option<String>,
+    /// direct-light: fitted | paper | one (default fitted).
+    #[arg(long)]
+    weights: Option<String>,
 }
 
 fn backend(b: BackendArg) -> Result<Backend, String> {
@@ -510,6 +519,9 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 kind: flags.kind,
                 order: flags.order.map(usize::from),
                 log: flags.log,
+                depth: flags.depth.map(usize::from),
+                mask: flags.mask,
+                weights: flags.weights,
             };
             let f = fits::for_eval(&family, &flags, FitOptions::default())?;
             let runtime = if exact {
