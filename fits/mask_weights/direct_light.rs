@@ -356,8 +356,8 @@ pub fn unoccluded_closed_form(x: DVec3, n: DVec3, light: &SphereLight) -> Option
 
 /// A seeded scene for the statistics of docs/meunier.md: the point at the origin with
 /// a normal within 60° of +z, a light at distance 2–6 of radius 0.1–1.5 within 50° of
-/// the normal, and (in 5 of 6 cases) a blocker on the way to the light, offset so that
-/// full, partial and no shadow all occur.
+/// the normal, and (in 5 of 6 cases) a blocker on the way to the light, sized and
+/// offset so that full, partial and no shadow all occur.
 pub fn random_row(rng: &mut Rng) -> [f64; 14] {
     let dir = |rng: &mut Rng, max: f64| {
         let t = rng.range(0.0, max);
@@ -376,16 +376,25 @@ pub fn random_row(rng: &mut Rng) -> [f64; 14] {
     out[3..6].copy_from_slice(&n.to_array());
     out[6..9].copy_from_slice(&lc.to_array());
     out[9] = lr;
-    if rng.next_u64() % 6 != 0 {
-        // Blocker at a fraction of the way, offset sideways by up to twice the
-        // light cone's radius there plus its own radius.
+    let kind = rng.next_u64() % 6;
+    if kind != 0 {
+        // Blocker at a fraction of the way, offset sideways: in one case of six
+        // (kind 1) larger than the light's cone there and offset less than the
+        // difference (full shadow), otherwise anywhere it may overlap the cone.
         let f = rng.range(0.2, 0.7);
         let bd = f * ld;
         let cone = bd * lr / ld;
-        let br = cone * rng.range(0.3, 2.5);
+        let (br, off) = if kind == 1 {
+            let br = cone * rng.range(1.3, 2.5);
+            (br, rng.uniform() * (br - cone) * 0.8)
+        } else {
+            let br = cone * rng.range(0.3, 2.5);
+            (br, rng.uniform().sqrt() * (cone + br) * 1.2)
+        };
+        // Keep the point and the light outside the blocker.
+        let br = br.min(0.8 * bd).min(0.9 * (ld - bd));
         let (p, q) = ldir.any_orthonormal_pair();
         let ph = rng.range(0.0, TAU);
-        let off = rng.uniform().sqrt() * (cone + br) * 1.2;
         let bc = bd * ldir + off * (ph.cos() * p + ph.sin() * q);
         out[10..13].copy_from_slice(&bc.to_array());
         out[13] = br;
@@ -449,4 +458,58 @@ impl Family for DirectLightView {
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         random_row(rng).to_vec()
     }
+}
+
+/// One row of [`study`]: the pipeline's and the reference's irradiance and the
+/// unoccluded reference.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StudyRow {
+    /// Lobe pipeline.
+    pub lobes: f64,
+    /// Reference (exact visibility).
+    pub exact: f64,
+    /// Reference without the blocker.
+    pub unoccluded: f64,
+}
+
+impl StudyRow {
+    /// |E − E_exact| / E_unoccluded.
+    pub fn error(&self) -> f64 {
+        (self.lobes - self.exact).abs() / self.unoccluded
+    }
+    /// E_exact / E_unoccluded: 0 full shadow, 1 none.
+    pub fn lit_fraction(&self) -> f64 {
+        self.exact / self.unoccluded
+    }
+}
+
+/// The pipeline against the reference on `n` seeded rows ([`random_row`]) whose
+/// light is at least partly above the horizon (E_unoccluded > 0), in parallel
+/// (same results for any thread count).
+pub fn study(n: usize, seed: u64, settings: &MaskSettings, weights: &MaskWeights) -> Result<Vec<StudyRow>, String> {
+    use rayon::prelude::*;
+    let mut rng = Rng::new(seed);
+    let rows: Vec<[f64; 14]> = (0..n).map(|_| random_row(&mut rng)).collect();
+    let m = Meunier {
+        products: LobeProduct::embedded().map_err(|e| e.to_string())?,
+        caps: CapExponent::embedded().map_err(|e| e.to_string())?,
+        weights,
+    };
+    rows.par_iter()
+        .map(|x| {
+            let r = row(x);
+            let blockers: Vec<Sphere> = r.blocker.into_iter().collect();
+            let lobes = m
+                .irradiance(r.x, r.n, &[r.light], &blockers, settings)
+                .map_err(|e| e.to_string())?;
+            let exact = exact_irradiance(r.x, r.n, &r.light, &blockers).map_err(|e| e.to_string())?;
+            let unoccluded = exact_irradiance(r.x, r.n, &r.light, &[]).map_err(|e| e.to_string())?;
+            Ok(StudyRow {
+                lobes,
+                exact,
+                unoccluded,
+            })
+        })
+        .filter(|r: &Result<StudyRow, String>| r.as_ref().map_or(true, |r| r.unoccluded > 0.0))
+        .collect()
 }

@@ -313,6 +313,21 @@ pub struct MaskCell {
     pub depth: u32,
     /// Fully covered by one blocker cap (a shadow leaf); `false`: partially covered.
     pub full: bool,
+    /// The cell's corners (unit directions, in order around it; its edges are the
+    /// great-circle arcs between consecutive corners).
+    pub corners: [DVec3; 4],
+}
+
+impl MaskCell {
+    /// Whether the unit direction `v` lies in the cell (the spherical quadrilateral).
+    pub fn contains(&self, v: DVec3) -> bool {
+        let c = &self.corners;
+        let centre = c[0] + c[1] + c[2] + c[3];
+        (0..4).all(|k| {
+            let m = c[k].cross(c[(k + 1) % 4]);
+            m.dot(v) * m.dot(centre).signum() >= 0.0
+        }) && centre.dot(v) > 0.0
+    }
 }
 
 /// A visibility mask: the quad-tree cells of one light seen from one point.
@@ -370,7 +385,6 @@ pub fn build_mask(light: Cap, blockers: &[Cap], max_depth: u32) -> Result<Mask, 
         w,
         u: u * k,
         v: v * k,
-        cos_light: alpha.cos(),
         caps: relevant,
         max_depth,
         cells: Vec::new(),
@@ -420,7 +434,6 @@ struct Builder {
     /// u and v scaled by 2 tan α: square coordinate s ∈ [−1/2, 1/2] ↦ w + s·u + t·v.
     u: DVec3,
     v: DVec3,
-    cos_light: f64,
     /// Relevant blocker caps: (axis, cos half-angle).
     caps: Vec<(DVec3, f64)>,
     max_depth: u32,
@@ -439,9 +452,6 @@ impl Builder {
             self.dir(s0 + h, t0 + h),
             self.dir(s0, t0 + h),
         ];
-        if max_dot(&c, self.w) < self.cos_light {
-            return; // outside the light's cone
-        }
         let full = self.caps.iter().any(|&(a, cb)| c.iter().all(|x| a.dot(*x) >= cb));
         if !full && !self.caps.iter().any(|&(a, cb)| max_dot(&c, a) >= cb) {
             return; // no blocker meets the cell
@@ -453,6 +463,7 @@ impl Builder {
             half_angle: min_cos.acos(),
             depth,
             full,
+            corners: c,
         });
         if !full && depth < self.max_depth {
             let g = 0.5 * h;
