@@ -144,11 +144,19 @@ fn unoccluded_light_matches_closed_form() {
         for beta in [0.0f64, 0.3, 0.6] {
             let n = DVec3::new(beta.sin(), 0.0, beta.cos());
             let l = light([0.0, 0.0, dist], r);
-            let Some(closed) = unoccluded_closed_form(x, n, &l) else { continue };
+            let Some(closed) = unoccluded_closed_form(x, n, &l) else {
+                continue;
+            };
             let exact = exact_irradiance(x, n, &l, &[]).unwrap();
-            assert!((exact - closed).abs() < 1e-7 * closed, "{dist} {r} {beta}: {exact} vs {closed}");
+            assert!(
+                (exact - closed).abs() < 1e-7 * closed,
+                "{dist} {r} {beta}: {exact} vs {closed}"
+            );
             let lobes = m.irradiance(x, n, &[l], &[], &MaskSettings::default()).unwrap();
-            assert!((lobes - closed).abs() < lobe_rel(alpha) * closed, "{dist} {r} {beta}: {lobes} vs {closed}");
+            assert!(
+                (lobes - closed).abs() < lobe_rel(alpha) * closed,
+                "{dist} {r} {beta}: {lobes} vs {closed}"
+            );
         }
     }
 }
@@ -181,7 +189,8 @@ fn eq39_with_known_weights() {
     let meta = real.table().meta().clone();
     let with = |w: f64| {
         let n = meta.axes[0].count as usize * channel_names().len();
-        MaskWeights::from_table(Table::from_bytes(&format::encode(&meta, &vec![w as f32; n]).unwrap()).unwrap()).unwrap()
+        MaskWeights::from_table(Table::from_bytes(&format::encode(&meta, &vec![w as f32; n]).unwrap()).unwrap())
+            .unwrap()
     };
     let tables: Vec<MaskWeights> = [0.0, 0.5, 1.0].iter().map(|&w| with(w)).collect();
     let x = DVec3::ZERO;
@@ -190,7 +199,10 @@ fn eq39_with_known_weights() {
     let e: Vec<f64> = tables
         .iter()
         .map(|t| {
-            let m = Meunier { weights: t, ..pipeline() };
+            let m = Meunier {
+                weights: t,
+                ..pipeline()
+            };
             let v = m.visibility(x, DVec3::Z, &l, &b, &MaskSettings::default()).unwrap();
             assert!(v.leaves > 10);
             assert_eq!(v.lobes[0].scale, 1.0);
@@ -206,7 +218,9 @@ fn eq39_with_known_weights() {
     assert!(v.lobes[1..].iter().all(|c| c.scale == -0.5));
     assert_eq!(v.lobes.len(), v.leaves + 1);
     // w = 0: the unoccluded value; the affine relation to rounding.
-    let unocc = pipeline().irradiance(x, DVec3::Z, &[l], &[], &MaskSettings::default()).unwrap();
+    let unocc = pipeline()
+        .irradiance(x, DVec3::Z, &[l], &[], &MaskSettings::default())
+        .unwrap();
     assert!((e[0] - unocc).abs() < 1e-12 * unocc);
     assert!((e[1] - 0.5 * (e[0] + e[2])).abs() < 1e-9 * e[0], "{e:?}");
     // All-ones through the table's `Ones` set matches the table of ones.
@@ -246,16 +260,37 @@ fn degenerate_scenes_are_specific_errors() {
         Err(MeunierError::LightInsideBlocker { light: 0, blocker: 0 })
     ));
     for r in [0.0, -1.0] {
-        assert!(matches!(irr(x, DVec3::Z, light([0.0, 0.0, 4.0], r), &[]), Err(MeunierError::BadRadius { .. })));
-        assert!(matches!(irr(x, DVec3::Z, l, &[sphere([1.0, 0.0, 2.0], r)]), Err(MeunierError::BadRadius { .. })));
+        assert!(matches!(
+            irr(x, DVec3::Z, light([0.0, 0.0, 4.0], r), &[]),
+            Err(MeunierError::BadRadius { .. })
+        ));
+        assert!(matches!(
+            irr(x, DVec3::Z, l, &[sphere([1.0, 0.0, 2.0], r)]),
+            Err(MeunierError::BadRadius { .. })
+        ));
     }
-    assert!(matches!(irr(DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Z, l, &[]), Err(MeunierError::NotFinite { .. })));
-    assert!(matches!(irr(x, DVec3::Z, light([0.0, f64::INFINITY, 4.0], 1.0), &[]), Err(MeunierError::NotFinite { .. })));
-    assert!(matches!(irr(x, DVec3::Z, light([0.0, 0.0, 4.0], f64::NAN), &[]), Err(MeunierError::NotFinite { .. })));
-    assert!(matches!(irr(x, DVec3::new(0.0, 0.0, 2.0), l, &[]), Err(MeunierError::NotUnit { .. })));
+    assert!(matches!(
+        irr(DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Z, l, &[]),
+        Err(MeunierError::NotFinite { .. })
+    ));
+    assert!(matches!(
+        irr(x, DVec3::Z, light([0.0, f64::INFINITY, 4.0], 1.0), &[]),
+        Err(MeunierError::NotFinite { .. })
+    ));
+    assert!(matches!(
+        irr(x, DVec3::Z, light([0.0, 0.0, 4.0], f64::NAN), &[]),
+        Err(MeunierError::NotFinite { .. })
+    ));
+    assert!(matches!(
+        irr(x, DVec3::new(0.0, 0.0, 2.0), l, &[]),
+        Err(MeunierError::NotUnit { .. })
+    ));
     assert!(matches!(irr(x, DVec3::ZERO, l, &[]), Err(MeunierError::NotUnit { .. })));
     let deep = MaskSettings { depth: 6, ..s };
-    assert!(matches!(m.irradiance(x, DVec3::Z, &[l], &[], &deep), Err(MeunierError::Lookup(_))));
+    assert!(matches!(
+        m.irradiance(x, DVec3::Z, &[l], &[], &deep),
+        Err(MeunierError::Lookup(_))
+    ));
     // The reference refuses the same scenes.
     assert!(exact_irradiance(x, DVec3::Z, &l, &[sphere([0.0, 0.0, 0.1], 0.5)]).is_err());
     assert!(exact_irradiance(DVec3::new(0.0, 0.0, 3.5), DVec3::Z, &l, &[]).is_err());
@@ -283,7 +318,13 @@ fn f32_twin_rounds_the_f64_result() {
         radiance: 2.0,
     };
     let want = m
-        .irradiance(DVec3::ZERO, DVec3::Z, &[l], &[sphere([0.2f32 as f64, 0.1f32 as f64, 2.0], 0.3f32 as f64)], &s)
+        .irradiance(
+            DVec3::ZERO,
+            DVec3::Z,
+            &[l],
+            &[sphere([0.2f32 as f64, 0.1f32 as f64, 2.0], 0.3f32 as f64)],
+            &s,
+        )
         .unwrap();
     assert_eq!(got, want as f32);
 }
@@ -307,13 +348,22 @@ fn pipeline_against_exact_visibility() {
         let rows = study(120, 16, &s, w).unwrap();
         let kinds = [
             rows.iter().filter(|r| r.lit_fraction() < 1e-9).count(),
-            rows.iter().filter(|r| r.lit_fraction() > 1e-9 && r.lit_fraction() < 1.0 - 1e-9).count(),
+            rows.iter()
+                .filter(|r| r.lit_fraction() > 1e-9 && r.lit_fraction() < 1.0 - 1e-9)
+                .count(),
             rows.iter().filter(|r| r.lit_fraction() >= 1.0 - 1e-9).count(),
         ];
         let mut e: Vec<f64> = rows.iter().map(|r| r.error()).collect();
         e.sort_by(f64::total_cmp);
         let q = |p: f64| e[((e.len() - 1) as f64 * p).round() as usize];
-        println!("{}: n = {} (full/partial/none {kinds:?}) median {:.4} p90 {:.4} max {:.4}", set.name(), e.len(), q(0.5), q(0.9), q(1.0));
+        println!(
+            "{}: n = {} (full/partial/none {kinds:?}) median {:.4} p90 {:.4} max {:.4}",
+            set.name(),
+            e.len(),
+            q(0.5),
+            q(0.9),
+            q(1.0)
+        );
         assert!(kinds.iter().all(|&k| k >= 5), "{kinds:?}");
         (q(0.5), q(0.9))
     };

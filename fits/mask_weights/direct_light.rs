@@ -351,7 +351,7 @@ pub fn unoccluded_closed_form(x: DVec3, n: DVec3, light: &SphereLight) -> Option
     let sin_a = light.sphere.radius / d;
     let cos_b = n.normalize().dot(to / d);
     let beta = cos_b.clamp(-1.0, 1.0).acos();
-    (beta + sin_a.asin() <= FRAC_PI_2).then(|| std::f64::consts::PI * light.radiance * sin_a * sin_a * cos_b)
+    (beta + sin_a.asin() <= FRAC_PI_2).then_some(std::f64::consts::PI * light.radiance * sin_a * sin_a * cos_b)
 }
 
 /// A seeded scene for the statistics of docs/meunier.md: the point at the origin with

@@ -290,7 +290,8 @@ fn point(name: &str, p: DVec3) -> Result<DVec3, MeunierError> {
 fn unit(name: &str, d: DVec3) -> Result<DVec3, MeunierError> {
     point(name, d)?;
     let length = d.length();
-    if !((length - 1.0).abs() <= 1e-3) {
+    // NaN lengths fail too (the point check above rejects non-finite input).
+    if (length - 1.0).abs() > 1e-3 || length.is_nan() {
         return Err(MeunierError::NotUnit {
             name: name.into(),
             length,
