@@ -24,6 +24,7 @@
 //! configurations at random `dist` with it.
 
 pub mod direct_light;
+pub mod render;
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::OnceLock;
