@@ -198,6 +198,7 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
         ("isg", isg::plot),
         ("lobe-product", lobe_product::plot),
         ("log-zh", crate::fits::log_zh::eps_study::plot),
+        ("meunier", crate::fits::mask_weights::direct_light::plot),
         ("rigs", crate::fits::rigs::plot),
         ("shexp", crate::fits::shexp::study::plot),
     ]

@@ -513,3 +513,83 @@ pub fn study(n: usize, seed: u64, settings: &MaskSettings, weights: &MaskWeights
         .filter(|r: &Result<StudyRow, String>| r.as_ref().map_or(true, |r| r.unoccluded > 0.0))
         .collect()
 }
+
+/// Rows of `lobefit plot meunier`'s study.
+pub const STUDY_ROWS: usize = 600;
+/// Seed of that study (the test `pipeline_against_exact_visibility` uses its first rows).
+pub const STUDY_SEED: u64 = 16;
+
+/// `lobefit plot meunier`: the pipeline against `--exact` on [`STUDY_ROWS`] seeded
+/// scenes for each weight set, mode and depth: quantiles of |E − E_exact|/E_unoccluded
+/// (all rows, and the partially shadowed ones) in `meunier-direct-light.txt`, and their
+/// distributions as a chart.
+pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
+    use crate::plot::{line_chart, LineChart, Series};
+    let weights = MaskWeights::embedded().map_err(|e| e.to_string())?;
+    let mut text = format!(
+        "|E − E_exact| / E_unoccluded over {STUDY_ROWS} seeded scenes (seed {STUDY_SEED}; docs/meunier.md)\n\
+         settings                     rows  full/partial/none   median     p90     max | partial: median     p90\n"
+    );
+    let mut series = Vec::new();
+    let q = |v: &[f64], p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+    for (mode, depth) in [
+        (MaskMode::Aggressive, 5),
+        (MaskMode::Conservative, 5),
+        (MaskMode::Aggressive, 3),
+    ] {
+        for set in [WeightSet::Fitted, WeightSet::Paper, WeightSet::Ones] {
+            let s = MaskSettings {
+                depth,
+                mode,
+                weights: set,
+                threshold: 0.0,
+            };
+            let rows = study(STUDY_ROWS, STUDY_SEED, &s, weights)?;
+            let partial: Vec<&StudyRow> = rows
+                .iter()
+                .filter(|r| r.lit_fraction() > 1e-9 && r.lit_fraction() < 1.0 - 1e-9)
+                .collect();
+            let full = rows.iter().filter(|r| r.lit_fraction() <= 1e-9).count();
+            let mut e: Vec<f64> = rows.iter().map(StudyRow::error).collect();
+            let mut ep: Vec<f64> = partial.iter().map(|r| r.error()).collect();
+            e.sort_by(f64::total_cmp);
+            ep.sort_by(f64::total_cmp);
+            let name = format!("{} depth {depth}, {}", mode.name(), set.name());
+            text.push_str(&format!(
+                "{name:<28} {:>5}  {:>4}/{:>4}/{:>4}   {:.4}  {:.4}  {:.4} |          {:.4}  {:.4}\n",
+                e.len(),
+                full,
+                ep.len(),
+                e.len() - full - ep.len(),
+                q(&e, 0.5),
+                q(&e, 0.9),
+                q(&e, 1.0),
+                q(&ep, 0.5),
+                q(&ep, 0.9)
+            ));
+            series.push(Series {
+                name,
+                points: ep
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &x)| ((i as f64 + 0.5) / ep.len() as f64, x))
+                    .collect(),
+            });
+        }
+    }
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let txt = dir.join("meunier-direct-light.txt");
+    std::fs::write(&txt, &text).map_err(|e| format!("{}: {e}", txt.display()))?;
+    let png = line_chart(
+        &dir.join("meunier-direct-light.png"),
+        &LineChart {
+            title: "eval direct-light vs --exact, partially shadowed scenes".into(),
+            x_label: "fraction of scenes".into(),
+            y_label: "|E − E_exact| / E_unoccluded".into(),
+            log_x: false,
+            log_y: false,
+            series,
+        },
+    )?;
+    Ok(vec![txt, png])
+}
