@@ -372,3 +372,70 @@ fn pipeline_against_exact_visibility() {
     stats(WeightSet::Paper);
     assert!(fitted.0 <= MEDIAN_MAX && fitted.1 <= P90_MAX, "{fitted:?}");
 }
+
+/// The Lafortune BRDF as cosine lobes (eq. 30) equals its definition
+/// ρ_d/π + Σ ρ_s (C_x u_x v_x + C_y u_y v_y + C_z u_z v_z)^k at every direction of the
+/// upper hemisphere (the renderer's reference evaluates the definition).
+#[test]
+fn lafortune_lobes_equal_the_definition() {
+    use lobefit::fits::mask_weights::render::{brdf_value, Hit};
+    use lobefit_tables::meunier::{Brdf, LafortuneLobe};
+    let brdf = Brdf::Lafortune {
+        albedo: 0.3,
+        lobes: vec![
+            LafortuneLobe {
+                c: DVec3::new(-1.0, -1.0, 1.0),
+                rho: 1.7,
+                exponent: 20.0,
+            },
+            LafortuneLobe {
+                c: DVec3::new(-0.8, -0.3, 0.9),
+                rho: 0.4,
+                exponent: 3.5,
+            },
+        ],
+    };
+    let mut rng = Rng::new(3);
+    let n = DVec3::new(0.2, -0.1, 1.0).normalize();
+    let t = n.any_orthonormal_vector();
+    for _ in 0..20 {
+        let wo = in_cap(
+            &mut rng,
+            &Cap {
+                axis: n,
+                half_angle: 1.5,
+            },
+        );
+        let lobes = brdf.lobes(n, t, wo).unwrap();
+        let hit = Hit {
+            x: DVec3::ZERO,
+            n,
+            t,
+            wo,
+            sphere: None,
+        };
+        for _ in 0..50 {
+            let v = in_cap(
+                &mut rng,
+                &Cap {
+                    axis: n,
+                    half_angle: 1.55,
+                },
+            );
+            let from_lobes: f64 = lobes.iter().map(|l| l.eval(v)).sum();
+            let want = brdf_value(&brdf, &hit, v);
+            assert!(
+                (from_lobes - want).abs() <= 1e-12 * want.max(1.0),
+                "{from_lobes} vs {want}"
+            );
+        }
+    }
+    // Bad BRDF inputs are specific errors.
+    let lam = Brdf::Lambert { albedo: -0.1 };
+    assert!(matches!(lam.lobes(n, t, n), Err(MeunierError::Negative { .. })));
+    assert!(matches!(brdf.lobes(n, t, 2.0 * n), Err(MeunierError::NotUnit { .. })));
+    assert!(
+        matches!(brdf.lobes(n, n, n), Err(MeunierError::NotUnit { .. })),
+        "tangent along the normal"
+    );
+}
