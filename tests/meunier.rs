@@ -439,3 +439,50 @@ fn lafortune_lobes_equal_the_definition() {
         "tangent along the normal"
     );
 }
+
+/// The batch form equals the one-at-a-time calls bit for bit and names the first bad
+/// point.
+#[test]
+fn batch_irradiance_matches_single_calls() {
+    let m = pipeline();
+    let s = MaskSettings::default();
+    let l = [light([0.0, 0.0, 4.0], 1.0)];
+    let b = [sphere([0.3, 0.0, 2.0], 0.3)];
+    let points: Vec<DVec3> = (0..6).map(|i| DVec3::new(0.1 * i as f64, 0.05, 0.0)).collect();
+    let normals = vec![DVec3::Z; 6];
+    let mut out = vec![0.0; 6];
+    m.irradiances(&points, &normals, &l, &b, &s, &mut out).unwrap();
+    for i in 0..6 {
+        assert_eq!(out[i], m.irradiance(points[i], normals[i], &l, &b, &s).unwrap());
+    }
+    let p32: Vec<Vec3> = points.iter().map(|p| p.as_vec3()).collect();
+    let n32 = vec![Vec3::Z; 6];
+    let l32 = [SphereLight32 {
+        sphere: Sphere32 {
+            centre: Vec3::new(0.0, 0.0, 4.0),
+            radius: 1.0,
+        },
+        radiance: 1.0,
+    }];
+    let b32 = [Sphere32 {
+        centre: Vec3::new(0.3, 0.0, 2.0),
+        radius: 0.3,
+    }];
+    let mut o32 = vec![0.0f32; 6];
+    m.irradiances_f32(&p32, &n32, &l32, &b32, &s, &mut o32).unwrap();
+    for i in 0..6 {
+        assert_eq!(o32[i], m.irradiance_f32(p32[i], n32[i], &l32, &b32, &s).unwrap());
+    }
+    let mut bad = points.clone();
+    bad[4] = DVec3::new(0.3, 0.0, 2.1); // inside the blocker
+    match m.irradiances(&bad, &normals, &l, &b, &s, &mut out) {
+        Err(MeunierError::BatchItem { index: 4, error }) => {
+            assert!(matches!(*error, MeunierError::PointInsideBlocker { .. }))
+        }
+        r => panic!("{r:?}"),
+    }
+    assert!(matches!(
+        m.irradiances(&points, &normals[..5], &l, &b, &s, &mut out),
+        Err(MeunierError::Lookup(lobefit_tables::LookupError::BatchLength { .. }))
+    ));
+}

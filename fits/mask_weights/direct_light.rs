@@ -145,6 +145,10 @@ pub fn to_lookup(e: MeunierError) -> LookupError {
             lo: 1.0,
             hi: f64::INFINITY,
         },
+        MeunierError::BatchItem { index, error } => LookupError::BatchItem {
+            index,
+            error: Box::new(to_lookup(*error)),
+        },
         MeunierError::LightInsideBlocker { .. } => LookupError::OutOfDomain {
             name: "the light lies inside the blocker: (distance between centres + light radius) − blocker radius"
                 .into(),

@@ -253,6 +253,15 @@ pub enum MeunierError {
     /// A table lookup failed (depth out of range, an overflowing product, …).
     #[error(transparent)]
     Lookup(#[from] LookupError),
+    /// Item `index` (0-based) of a batch was refused for the reason `error` (what the
+    /// one-at-a-time call returns for it); the first such item is reported.
+    #[error("batch item {index}: {error}")]
+    BatchItem {
+        /// Index of the item.
+        index: usize,
+        /// Its error.
+        error: Box<MeunierError>,
+    },
 }
 
 fn finite(name: &str, value: f64) -> Result<f64, MeunierError> {
@@ -529,6 +538,61 @@ impl Meunier<'_> {
             exponent: 0.0,
         }];
         self.shade(x, nn, &brdf, lights, blockers, settings)
+    }
+
+    /// Batch [`Meunier::irradiance`]: `out[i]` = the irradiance at `points[i]` with unit
+    /// normal `normals[i]`, bit for bit the one-at-a-time value, for a renderer shading
+    /// many points of one scene: each point through the one-at-a-time call (its
+    /// validation costs nothing beside the mask and the lobe products, which are per
+    /// point anyway). Errors: [`LookupError::BatchLength`]
+    /// when the slices differ in length, [`MeunierError::BatchItem`] for the first
+    /// point refused (inside a sphere, a normal that is not unit, …).
+    pub fn irradiances(
+        &self,
+        points: &[DVec3],
+        normals: &[DVec3],
+        lights: &[SphereLight],
+        blockers: &[Sphere],
+        settings: &MaskSettings,
+        out: &mut [f64],
+    ) -> Result<(), MeunierError> {
+        crate::error::same_length(points.len(), normals.len())?;
+        crate::error::same_length(points.len(), out.len())?;
+        check_depth(settings.depth)?;
+        nonneg("threshold t_i", settings.threshold)?;
+        for (i, ((x, n), o)) in points.iter().zip(normals).zip(out.iter_mut()).enumerate() {
+            *o = self
+                .irradiance(*x, *n, lights, blockers, settings)
+                .map_err(|e| MeunierError::BatchItem {
+                    index: i,
+                    error: Box::new(e),
+                })?;
+        }
+        Ok(())
+    }
+
+    /// [`Meunier::irradiances`] in single precision (f64 inside, rounded once), bit for
+    /// bit [`Meunier::irradiance_f32`].
+    pub fn irradiances_f32(
+        &self,
+        points: &[Vec3],
+        normals: &[Vec3],
+        lights: &[SphereLight32],
+        blockers: &[Sphere32],
+        settings: &MaskSettings,
+        out: &mut [f32],
+    ) -> Result<(), MeunierError> {
+        crate::error::same_length(points.len(), normals.len())?;
+        crate::error::same_length(points.len(), out.len())?;
+        for (i, ((x, n), o)) in points.iter().zip(normals).zip(out.iter_mut()).enumerate() {
+            *o = self
+                .irradiance_f32(*x, *n, lights, blockers, settings)
+                .map_err(|e| MeunierError::BatchItem {
+                    index: i,
+                    error: Box::new(e),
+                })?;
+        }
+        Ok(())
     }
 
     /// [`Meunier::irradiance`] with an f32 interface (computed in f64, rounded once).
