@@ -596,7 +596,7 @@ impl Family for MaskWeightsFamily {
     }
     fn description(&self) -> String {
         "Visibility-mask leaf-lobe weights w_d(dist) of Meunier et al. 2009 eq. 39, V = c_unit − Σ w_{d_i} c_i, \
-         per maximal quad-tree depth D = 1..5 and mode (aggressive | conservative), level d = 0..D; `fit_*`: least \
+         per maximal quad-tree depth D = 1..5 and mode (aggressive | conservative), level d = 1..D; `fit_*`: least \
          squares against the exact cap-union visibility over the light's cone; `paper_*`: the paper's manual \
          procedure made automatic. dist = 1/(2 tan α) on [0.25, 10], nodes uniform in ln dist, linear."
             .into()
