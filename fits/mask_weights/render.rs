@@ -334,11 +334,12 @@ fn lobe_image(
 
 /// The error breakdown at one hit, switching one approximation to exact at a time:
 /// the lobe algebra (E1: quadrature of the same lobe sums), the light lobe (E2: the
-/// light's cap instead, still with the leaf lobes), the leaf lobes and weights (E3:
-/// the leaf cells themselves), the mask's depth and aggressive choice (E4: exact
-/// ray–sphere visibility, the reference), all by one product rule (Gauss–Legendre in
-/// θ split at the cap's edge, uniform in φ) about the light's axis.
-fn breakdown(m: &Meunier<'_>, scene: &Scene, h: &Hit, settings: &MaskSettings) -> Result<[f64; 4], String> {
+/// light's cap instead, still with the leaf lobes), the leaf cap → lobe fit (E3: each
+/// leaf's bounding cap itself, same weights), the weights (E4: the union of the leaf
+/// cells, where no overlap needs correcting), the mask's depth and aggressive choice
+/// (E5: exact ray–sphere visibility, the reference), all by one product rule
+/// (Gauss–Legendre in θ split at the cap's edge, uniform in φ) about the light's axis.
+fn breakdown(m: &Meunier<'_>, scene: &Scene, h: &Hit, settings: &MaskSettings) -> Result<[f64; 5], String> {
     let light = &scene.light;
     let blockers = scene.blockers(h);
     let brdf = scene.brdf(h);
@@ -361,6 +362,15 @@ fn breakdown(m: &Meunier<'_>, scene: &Scene, h: &Hit, settings: &MaskSettings) -
         .collect();
     let mask = build_mask(lcap, &caps, settings.depth).map_err(|e| e.to_string())?;
     let leaves: Vec<_> = mask.leaves(settings.depth, settings.mode).collect();
+    let mut w = [0.0; lobefit_tables::mask_weights::MAX_DEPTH as usize];
+    m.weights
+        .weights(settings.weights, settings.mode, settings.depth, mask.dist, &mut w)
+        .map_err(|e| e.to_string())?;
+    // Each leaf's bounding cap as (axis, cos half-angle, weight).
+    let bounding: Vec<(DVec3, f64, f64)> = leaves
+        .iter()
+        .map(|c| (c.axis, c.half_angle.cos(), w[c.depth.max(1) as usize - 1]))
+        .collect();
     // Rule: Gauss–Legendre in θ on [0, α] and [α, θ_max] (θ_max where the light lobe
     // falls below 1e-9 of its peak), uniform in φ.
     let alpha = lcap.half_angle;
@@ -373,7 +383,7 @@ fn breakdown(m: &Meunier<'_>, scene: &Scene, h: &Hit, settings: &MaskSettings) -
     let (gx, gw) = gauss_legendre(48);
     let nphi = 160;
     let (u, v) = lcap.axis.any_orthonormal_pair();
-    let mut out = [0.0; 4];
+    let mut out = [0.0; 5];
     for (lo, hi) in [(0.0, alpha), (alpha, theta_max)] {
         for (x, wx) in gx.iter().zip(&gw) {
             let th = lo + 0.5 * (hi - lo) * (x + 1.0);
@@ -401,11 +411,18 @@ fn breakdown(m: &Meunier<'_>, scene: &Scene, h: &Hit, settings: &MaskSettings) -
                 if th <= alpha {
                     let l = f * light.radiance;
                     out[1] += l * v_lobes;
+                    let v_caps: f64 = 1.0
+                        - bounding
+                            .iter()
+                            .filter(|(a, c, _)| a.dot(dir) >= *c)
+                            .map(|(_, _, wd)| wd)
+                            .sum::<f64>();
+                    out[2] += l * v_caps;
                     if !leaves.iter().any(|c| c.contains(dir)) {
-                        out[2] += l;
+                        out[3] += l;
                     }
                     if visible(h.x, dir, &light.sphere, &blockers) {
-                        out[3] += l;
+                        out[4] += l;
                     }
                 }
             }
@@ -642,22 +659,23 @@ pub fn render(
         .flat_map(|j| (0..w).step_by(stride).map(move |i| j * w + i))
         .filter(|&p| lit[p])
         .collect();
-    let parts: Vec<[f64; 5]> = picks
+    let parts: Vec<[f64; 6]> = picks
         .par_iter()
         .map(|&p| {
             let hit = hits[p].expect("lit");
             let b = breakdown(&m, &scene, &hit, &default)?;
-            Ok([lobes[p], b[0], b[1], b[2], b[3]])
+            Ok([lobes[p], b[0], b[1], b[2], b[3], b[4]])
         })
         .collect::<Result<_, String>>()?;
     let names = [
         "lobe-product algebra (tables → quadrature of the lobe sums)",
         "light lobe (→ the light's cap)",
-        "leaf lobes and weights (→ the leaf cells themselves)",
+        "leaf cap → lobe fit (→ the leaves' bounding caps, same weights)",
+        "weights / overlaps (weighted bounding caps → the leaf cells' union)",
         "mask depth / aggressive (→ exact visibility)",
     ];
     let total_rms =
-        (parts.iter().map(|p| (p[0] - p[4]).powi(2)).sum::<f64>() / parts.len().max(1) as f64).sqrt() / mean_ref;
+        (parts.iter().map(|p| (p[0] - p[5]).powi(2)).sum::<f64>() / parts.len().max(1) as f64).sqrt() / mean_ref;
     sum.lines.push(format!(
         "{tag}: error breakdown over {} pixels (every {stride}th): total RMS {total_rms:.4} of the mean reference (quadrature, not MC); each switch to exact, in order:",
         parts.len()
@@ -672,7 +690,7 @@ pub fn render(
     let quad_vs_mc = (picks
         .iter()
         .zip(&parts)
-        .map(|(&p, q)| (q[4] - reference_img[p]).powi(2))
+        .map(|(&p, q)| (q[5] - reference_img[p]).powi(2))
         .sum::<f64>()
         / parts.len().max(1) as f64)
         .sqrt()
