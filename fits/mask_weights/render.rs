@@ -687,6 +687,35 @@ pub fn render(
         sum.lines
             .push(format!("{tag}:   {name}: RMS {rms:.4}, mean {bias:+.4}"));
     }
+    // The mask's lobes under the light's exact cap (E2 − E5), for each weight set: what
+    // the weights do once the light lobe's own error is out of the way.
+    let rms_of = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt() / mean_ref;
+    let mut per_set = vec![(
+        WeightSet::Fitted,
+        rms_of(&parts.iter().map(|p| p[2] - p[5]).collect::<Vec<_>>()),
+    )];
+    for set in [WeightSet::Paper, WeightSet::Ones] {
+        let s = MaskSettings {
+            weights: set,
+            ..default
+        };
+        let d: Vec<f64> = picks
+            .par_iter()
+            .map(|&p| {
+                let b = breakdown(&m, &scene, &hits[p].expect("lit"), &s)?;
+                Ok(b[1] - b[4])
+            })
+            .collect::<Result<_, String>>()?;
+        per_set.push((set, rms_of(&d)));
+    }
+    sum.lines.push(format!(
+        "{tag}:   with the light's exact cap, the mask's lobes against exact visibility (RMS): {}",
+        per_set
+            .iter()
+            .map(|(s, r)| format!("{} {r:.4}", s.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
     let quad_vs_mc = (picks
         .iter()
         .zip(&parts)
