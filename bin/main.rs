@@ -175,6 +175,31 @@ enum Command {
         #[arg(long, conflicts_with_all = ["table", "tables"])]
         exact: bool,
     },
+    /// Render a scene with a lobe pipeline and its Monte Carlo reference (PNGs and a
+    /// summary of the measured errors).
+    Render {
+        /// What to render: meunier (Meunier et al. 2009, docs/meunier.md).
+        #[arg(value_parser = ["meunier"])]
+        name: String,
+        /// Scene: fig13 (diffuse, the paper's Figure 13), glossy (Lafortune plane) or all.
+        #[arg(long, value_parser = ["fig13", "glossy", "all"], default_value = "all")]
+        scene: String,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Image width in pixels (height 3/4 of it).
+        #[arg(long, default_value_t = 160, value_parser = clap::value_parser!(u32).range(4..=4096))]
+        width: u32,
+        /// Reference light samples per pixel.
+        #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
+        spp: u32,
+        /// The error breakdown at every Nth pixel in x and y.
+        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
+        breakdown_stride: u32,
+        /// Worker threads (default: all cores). Results do not depend on it.
+        #[arg(long, value_parser = threads_arg)]
+        threads: Option<usize>,
+    },
     /// Write a family's figures (PNG) into a directory.
     Plot {
         /// Figure set.
@@ -204,6 +229,15 @@ struct EvalFlagArgs {
     /// shexp: ren | naive.
     #[arg(long)]
     log: Option<String>,
+    /// direct-light: maximal visibility-mask depth, 1..=5 (default 5).
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=5))]
+    depth: Option<u8>,
+    /// direct-light: aggressive | conservative (default aggressive).
+    #[arg(long)]
+    mask: Option<String>,
+    /// direct-light: fitted | paper | one (default fitted).
+    #[arg(long)]
+    weights: Option<String>,
 }
 
 fn backend(b: BackendArg) -> Result<Backend, String> {
@@ -529,6 +563,9 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 kind: flags.kind,
                 order: flags.order.map(usize::from),
                 log: flags.log,
+                depth: flags.depth.map(usize::from),
+                mask: flags.mask,
+                weights: flags.weights,
             };
             let f = fits::for_eval(&family, &flags, FitOptions::default())?;
             let runtime = if exact {
@@ -551,6 +588,42 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let stdout = std::io::stdout();
             lobefit::eval::eval_csv(f.as_ref(), runtime.as_deref(), std::io::stdin().lock(), stdout.lock())
                 .map_err(|e| e.to_string())?;
+        }
+        Command::Render {
+            name: _,
+            scene,
+            out,
+            width,
+            spp,
+            breakdown_stride,
+            threads,
+        } => {
+            use lobefit::fits::mask_weights::render::{render, RenderOptions, SceneKind};
+            let kinds = match scene.as_str() {
+                "fig13" => vec![SceneKind::Fig13],
+                "glossy" => vec![SceneKind::Glossy],
+                _ => vec![SceneKind::Fig13, SceneKind::Glossy],
+            };
+            let opts = RenderOptions {
+                width: width as usize,
+                spp: spp as usize,
+                breakdown_stride: breakdown_stride as usize,
+            };
+            let mut text = String::new();
+            for kind in kinds {
+                let rows = (opts.width * 3 / 4).max(3) as u64;
+                let pb = progress(rows, kind.name());
+                let tick = || pb.inc(1);
+                let s = pool(threads)?.install(|| render(kind, &opts, &out, &tick))?;
+                pb.finish_and_clear();
+                for l in s.lines {
+                    let _ = writeln!(text, "{l}");
+                }
+                for f in s.files {
+                    let _ = writeln!(text, "{}", f.display());
+                }
+            }
+            emit(&text)?;
         }
         Command::Plot { name, out } => {
             let (_, plot) = fits::plots()

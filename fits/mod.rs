@@ -7,6 +7,7 @@ pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
 pub mod log_zh;
+pub mod mask_weights;
 pub mod rigs;
 pub mod sg_fit;
 pub mod shexp;
@@ -95,6 +96,7 @@ pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
             variant: lobefit_tables::Variant::L2,
             method: opts.method,
         }),
+        Box::new(mask_weights::MaskWeightsFamily),
     ]
 }
 
@@ -113,6 +115,7 @@ pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Family>> {
 pub fn eval_names() -> Vec<&'static str> {
     let mut v = names();
     v.push("isg");
+    v.push("direct-light");
     v
 }
 
@@ -121,6 +124,9 @@ pub fn eval_names() -> Vec<&'static str> {
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
     match name {
         "isg" => isg::for_eval(flags),
+        "direct-light" => Ok(Box::new(mask_weights::direct_light::DirectLightView::from_flags(
+            flags,
+        )?)),
         "log-zh" => {
             if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {
                 return Err("log-zh takes only --kind and --order".into());
@@ -192,6 +198,7 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
         ("isg", isg::plot),
         ("lobe-product", lobe_product::plot),
         ("log-zh", crate::fits::log_zh::eps_study::plot),
+        ("meunier", crate::fits::mask_weights::direct_light::plot),
         ("rigs", crate::fits::rigs::plot),
         ("shexp", crate::fits::shexp::study::plot),
     ]

@@ -33,5 +33,8 @@ full=$(t "check (10 000 points per family)" $bin check)
 printf 'ratio paper/fast (cap-exponent, same 1000 nodes): %.0fx\n' "$(awk -v a="$paper" -v b="$fast" 'BEGIN{print a/b}')" >&2
 printf 'ratio 1 thread / all threads (build-tables):      %.2fx\n' "$(awk -v a="$one" -v b="$all" 'BEGIN{print a/b}')" >&2
 printf 'lobe-product tables (target <= 10 s):            %.2f s\n' "$lp" >&2
+# The Meunier pipeline against its Monte Carlo reference at equal error (one process):
+t "render meunier (fig13, 96 px, 1024 spp)" $bin render meunier --scene fig13 --width 96 --spp 1024 --out "$tmp/render" >/dev/null
+grep -h "shading time" "$tmp/render/meunier-fig13-summary.txt" >&2
 # Per-fit fast vs paper on the same grid points, and runtime lookups, side by side:
 echo "lobe-product fast vs paper per fit: cargo bench --bench lobe_product" >&2

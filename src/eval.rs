@@ -293,4 +293,29 @@ shexp  [--order N] (3..8, default 4)  [--log ren|naive] (default ren)
   out  `f0` … `f7`  (the first N) the log-ZH vector f of the cap's visibility
        `norm`     ‖f̂‖, f without its DC term
        `a`, `b`   optimal-linear coefficients of exp*(f̂) ≈ a·1 + b·f̂
+mask-weights
+  in   `dist`     the visibility mask's 1/(2 tan α) for a light of half-angle α,
+                  [0.25, 10]
+  out  weights w_l (level l = 1..D) of eq. 39 for masks of maximal depth D,
+       fitted (`fit_`) or by the paper's procedure (`paper_`), aggressive (`agg`)
+       or conservative (`con`):
+       `fit_agg_d1_w1` `fit_agg_d2_w1` `fit_agg_d2_w2` `fit_agg_d3_w1` `fit_agg_d3_w2`
+       `fit_agg_d3_w3` `fit_agg_d4_w1` `fit_agg_d4_w2` `fit_agg_d4_w3` `fit_agg_d4_w4`
+       `fit_agg_d5_w1` `fit_agg_d5_w2` `fit_agg_d5_w3` `fit_agg_d5_w4` `fit_agg_d5_w5`
+       `fit_con_d1_w1` `fit_con_d2_w1` `fit_con_d2_w2` `fit_con_d3_w1` `fit_con_d3_w2`
+       `fit_con_d3_w3` `fit_con_d4_w1` `fit_con_d4_w2` `fit_con_d4_w3` `fit_con_d4_w4`
+       `fit_con_d5_w1` `fit_con_d5_w2` `fit_con_d5_w3` `fit_con_d5_w4` `fit_con_d5_w5`
+       `paper_agg_d1_w1` `paper_agg_d2_w1` `paper_agg_d2_w2` `paper_agg_d3_w1` `paper_agg_d3_w2`
+       `paper_agg_d3_w3` `paper_agg_d4_w1` `paper_agg_d4_w2` `paper_agg_d4_w3` `paper_agg_d4_w4`
+       `paper_agg_d5_w1` `paper_agg_d5_w2` `paper_agg_d5_w3` `paper_agg_d5_w4` `paper_agg_d5_w5`
+       `paper_con_d1_w1` `paper_con_d2_w1` `paper_con_d2_w2` `paper_con_d3_w1` `paper_con_d3_w2`
+       `paper_con_d3_w3` `paper_con_d4_w1` `paper_con_d4_w2` `paper_con_d4_w3` `paper_con_d4_w4`
+       `paper_con_d5_w1` `paper_con_d5_w2` `paper_con_d5_w3` `paper_con_d5_w4` `paper_con_d5_w5`
+direct-light  [--depth N] (1..5, default 5)  [--mask aggressive|conservative]
+              [--weights fitted|paper|one]   (reads the mask-weights table)
+  in   `px`, `py`, `pz`  shading point;  `nx`, `ny`, `nz`  its unit normal
+       `lx`, `ly`, `lz`, `lr`  centre and radius of a spherical light of radiance 1
+       `bx`, `by`, `bz`, `br`  centre and radius of a spherical blocker (br = 0: none)
+  out  `irradiance`  ∫ L V max(n·ω, 0) dω through the lobe pipeline (docs/meunier.md);
+                  --exact: by quadrature with exact ray–sphere visibility
 ";

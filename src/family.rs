@@ -21,6 +21,12 @@ pub struct EvalFlags {
     pub order: Option<usize>,
     /// `--log` (shexp: `ren` | `naive`).
     pub log: Option<String>,
+    /// `--depth` (direct-light: maximal mask depth 1..=5).
+    pub depth: Option<usize>,
+    /// `--mask` (direct-light: `aggressive` | `conservative`).
+    pub mask: Option<String>,
+    /// `--weights` (direct-light: `fitted` | `paper` | `one`).
+    pub weights: Option<String>,
 }
 
 impl EvalFlags {
@@ -41,6 +47,15 @@ impl EvalFlags {
         }
         if self.log.is_some() {
             v.push("--log");
+        }
+        if self.depth.is_some() {
+            v.push("--depth");
+        }
+        if self.mask.is_some() {
+            v.push("--mask");
+        }
+        if self.weights.is_some() {
+            v.push("--weights");
         }
         v
     }

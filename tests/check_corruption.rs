@@ -33,11 +33,12 @@ fn delta(kind: &str, channel: &str, v: f32) -> f64 {
         "isg-refit" => 0.15,                   // ln g, ln h; 0.0225 abs on Ŝ
         // A, B; 5e-4 abs on Ŝ (C and D: `rank_one_delta`).
         "isg-best" => 1.5e-3,
-        "sg-fit" => 1e-4,     // ln λ, ln μ; 3e-5 relative
-        "log-zh" => 3e-9,     // z hi/lo; 1e-9 abs
-        "wedge" => 3e-12,     // M hi/lo; 1e-12 abs
-        "wrap" => 6e-7,       // λ̂_l; table lookups 2e-7 abs at nodes
-        "disk-light" => 5e-5, // ln c00, ratios; 1e-5 rel L2
+        "sg-fit" => 1e-4,       // ln λ, ln μ; 3e-5 relative
+        "log-zh" => 3e-9,       // z hi/lo; 1e-9 abs
+        "wedge" => 3e-12,       // M hi/lo; 1e-12 abs
+        "wrap" => 6e-7,         // λ̂_l; table lookups 2e-7 abs at nodes
+        "disk-light" => 5e-5,   // ln c00, ratios; 1e-5 rel L2
+        "mask-weights" => 0.15, // weights; 0.05 abs at nodes (NODE_ABS)
         "lobe-product" | "lobe-product-l2" => match channel {
             "ln_integral_over_model" => 3e-4, // integral 1e-4 relative at nodes
             _ => 0.03,                        // e_r, p_r: residual 1e-3 relative at nodes

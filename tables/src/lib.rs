@@ -38,6 +38,7 @@
 //! | shexp | [`ShExp`] | SH exponentiation (HYB) of summed log-visibility |
 //! | wrap | [`WrapTable`] | per-band scalings of wrap lighting |
 //! | disk-light | [`DiskLight`] | SH radiance and irradiance of a disk light |
+//! | mask-weights | [`MaskWeights`] ([`meunier`]: the pipeline) | eq. 39's per-depth weights of visibility-mask leaf lobes; direct lighting with soft shadows from sphere blockers |
 //! | (no table) | [`rigs`], [`sh`], [`gaunt`] | irradiance rigs; SH basis, rotation, products |
 //! | every table | [`Table`], [`format`](mod@format) | loading, validation, interpolation, the file format |
 //!
@@ -131,7 +132,9 @@ pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;
 pub mod log_zh;
+pub mod mask_weights;
 mod meta_error;
+pub mod meunier;
 pub mod rigs;
 pub mod sg_fit;
 pub mod sh;
@@ -151,6 +154,8 @@ pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
 pub use lobe_integral::LobeIntegral;
 pub use lobe_product::{Lobe, LobeF32, LobeProduct, ProductParams, Variant};
 pub use log_zh::LogZh;
+pub use mask_weights::{MaskMode, MaskWeights, WeightSet};
+pub use meunier::{Meunier, MeunierError};
 pub use sg_fit::SgFit;
 pub use shexp::ShExp;
 pub use table::Table;
@@ -197,4 +202,7 @@ pub mod embedded {
     #[cfg(feature = "embedded-wrap")]
     /// `tables/data/wrap.lobefit`.
     pub static WRAP: &[u8] = include_bytes!("../data/wrap.lobefit");
+    #[cfg(feature = "embedded-mask-weights")]
+    /// `tables/data/mask-weights.lobefit`.
+    pub static MASK_WEIGHTS: &[u8] = include_bytes!("../data/mask-weights.lobefit");
 }

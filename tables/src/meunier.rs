@@ -1,0 +1,658 @@
+//! Direct lighting with cosine lobes end to end (Meunier et al. 2009, §4.3, §5):
+//! spherical lights as lobes, BRDFs as lobe sums, soft shadows from sphere-set
+//! blockers through the visibility mask ([`crate::mask_weights`]), and the shading
+//! integral eq. 22 in the order of §5.4 (docs/meunier.md).
+//!
+//! Per shading point x (normal n) and per light (centre p, radius r, radiance L):
+//!
+//! - **Light lobe** (§5.2): the light's cap (axis (p − x)/|p − x|, half-angle
+//!   α = asin(r/|p − x|)) becomes s·Ψ(v; a, e_cap(α)) with the cap-exponent table's
+//!   exponent. The paper's scale is L; lobefit scales it to L·Ω_cap(e + 1)/(2π), so that
+//!   the lobe's integral is the cap's solid angle Ω_cap = 2π(1 − cos α) (an unoccluded
+//!   light then delivers the right power; docs/meunier.md measures the difference).
+//! - **Visibility** (§5.3, eq. 39): V = c_unit − Σ_i w_{d_i} c_i with c_unit = (1, n, 0),
+//!   the hemisphere about n (erratum E6), and one lobe per shadow leaf of the mask.
+//!   A blocker whose nearest point is farther than the light's centre is clipped (it
+//!   lies behind the light); a blocker cap containing the whole light cap hides the
+//!   light, which then contributes exactly 0.
+//! - **Shading** (eq. 22, §5.4): ∫ (Σ BRDF)(Σ light)(Σ V)·max(n·v, 0) dω through
+//!   [`LobeProduct::triple_product`]: BRDF × light first, then visibility, then the
+//!   cosine, products with |∫| below the threshold t_i dropped.
+//!
+//! Cap half-angles below the cap-exponent table's 1 mrad take the small-cap limit
+//! e_cap(β) = e_cap(1 mrad)·(1 mrad/β)² (e_cap·β² → 1.9226 as β → 0).
+//!
+//! Degenerate scenes are errors ([`MeunierError`]), never NaN: a point inside a light or
+//! a blocker, a light inside a blocker, a radius ≤ 0, a non-finite input, a normal or
+//! view direction that is not unit.
+
+use glam::{DVec3, Vec3};
+use thiserror::Error;
+
+use crate::cap_exponent::{CapExponent, ALPHA_MIN};
+use crate::error::LookupError;
+use crate::lobe_product::{Lobe, LobeProduct};
+use crate::mask_weights::{build_mask, check_depth, Cap, MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
+
+/// A sphere: centre (scene units) and radius (same units, > 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere {
+    /// Centre.
+    pub centre: DVec3,
+    /// Radius (> 0).
+    pub radius: f64,
+}
+
+/// A spherical light of uniform radiance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SphereLight {
+    /// Its sphere.
+    pub sphere: Sphere,
+    /// Radiance L (W·sr⁻¹·m⁻², or any unit: results scale with it; finite, ≥ 0).
+    pub radiance: f64,
+}
+
+/// [`Sphere`] in f32.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere32 {
+    /// Centre.
+    pub centre: Vec3,
+    /// Radius (> 0).
+    pub radius: f32,
+}
+
+/// [`SphereLight`] in f32.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SphereLight32 {
+    /// Its sphere.
+    pub sphere: Sphere32,
+    /// Radiance.
+    pub radiance: f32,
+}
+
+impl Sphere32 {
+    fn wide(&self) -> Sphere {
+        Sphere {
+            centre: self.centre.as_dvec3(),
+            radius: self.radius as f64,
+        }
+    }
+}
+
+impl SphereLight32 {
+    fn wide(&self) -> SphereLight {
+        SphereLight {
+            sphere: self.sphere.wide(),
+            radiance: self.radiance as f64,
+        }
+    }
+}
+
+/// One Lafortune lobe ρ_s·(C_x u_x v_x + C_y u_y v_y + C_z u_z v_z)^n in the local
+/// frame (tangent, bitangent, normal) of the shading point (u incoming, v outgoing).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LafortuneLobe {
+    /// Coefficients (C_x, C_y, C_z); (−1, −1, 1) is a Phong-like lobe about the mirror
+    /// direction.
+    pub c: DVec3,
+    /// Scale ρ_s (sr⁻¹).
+    pub rho: f64,
+    /// Exponent n (≥ 0).
+    pub exponent: f64,
+}
+
+/// A BRDF made of cosine lobes (§5.1).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Brdf {
+    /// Lambertian: albedo/π on the upper hemisphere (the lobe (albedo/π, n, 0)).
+    Lambert {
+        /// Albedo in [0, 1].
+        albedo: f64,
+    },
+    /// Lafortune: a Lambertian term plus generalised cosine lobes. For an outgoing
+    /// direction v_o each lobe is the cosine lobe of axis M v_o/|M v_o|, scale
+    /// ρ_s |M v_o|^n and exponent n, M = diag(C) in the local frame (eq. 30).
+    Lafortune {
+        /// Albedo of the Lambertian term.
+        albedo: f64,
+        /// The lobes.
+        lobes: Vec<LafortuneLobe>,
+    },
+}
+
+impl Brdf {
+    /// The BRDF as cosine lobes in world space at a point with unit normal `n` and
+    /// unit tangent `t` (perpendicular to n), for the unit outgoing direction `wo`.
+    pub fn lobes(&self, n: DVec3, t: DVec3, wo: DVec3) -> Result<Vec<Lobe>, MeunierError> {
+        let n = unit("normal", n)?;
+        let wo = unit("outgoing direction", wo)?;
+        let albedo = match self {
+            Brdf::Lambert { albedo } | Brdf::Lafortune { albedo, .. } => *albedo,
+        };
+        nonneg("albedo", albedo)?;
+        let mut out = vec![Lobe {
+            scale: albedo / std::f64::consts::PI,
+            axis: n,
+            exponent: 0.0,
+        }];
+        if let Brdf::Lafortune { lobes, .. } = self {
+            let t = unit("tangent", t - t.dot(n) * n)?;
+            let b = n.cross(t);
+            let local = DVec3::new(wo.dot(t), wo.dot(b), wo.dot(n));
+            for l in lobes {
+                for x in l.c.to_array() {
+                    finite("Lafortune coefficient", x)?;
+                }
+                nonneg("Lafortune scale", l.rho)?;
+                nonneg("Lafortune exponent", l.exponent)?;
+                let m = l.c * local;
+                let len = m.length();
+                if len == 0.0 || l.rho == 0.0 {
+                    continue;
+                }
+                let axis = (m.x * t + m.y * b + m.z * n) / len;
+                out.push(Lobe {
+                    scale: check_result("Lafortune lobe scale", l.rho * len.powf(l.exponent))?,
+                    axis,
+                    exponent: l.exponent,
+                });
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// How the visibility mask is built and weighted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MaskSettings {
+    /// Maximal quad-tree depth, 1..=5.
+    pub depth: u32,
+    /// Aggressive (the paper's) or conservative.
+    pub mode: MaskMode,
+    /// Weights of eq. 39.
+    pub weights: WeightSet,
+    /// Threshold t_i (sr): lobe products with |∫| below it are dropped (0 keeps all).
+    pub threshold: f64,
+}
+
+impl Default for MaskSettings {
+    /// Depth 5, aggressive, fitted weights, t_i = 0.
+    fn default() -> Self {
+        MaskSettings {
+            depth: MAX_DEPTH,
+            mode: MaskMode::Aggressive,
+            weights: WeightSet::Fitted,
+            threshold: 0.0,
+        }
+    }
+}
+
+/// Why a direct-lighting query was refused.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum MeunierError {
+    /// An input holds a NaN or an infinity.
+    #[error("{name} is not a finite number ({value})")]
+    NotFinite {
+        /// What it is.
+        name: String,
+        /// The value.
+        value: f64,
+    },
+    /// A radius is zero or negative.
+    #[error("{what} has radius {radius}; radii must be > 0")]
+    BadRadius {
+        /// `light` or `blocker i`.
+        what: String,
+        /// The radius.
+        radius: f64,
+    },
+    /// A quantity that must be ≥ 0 is negative.
+    #[error("{name} = {value} is negative")]
+    Negative {
+        /// What it is.
+        name: String,
+        /// The value.
+        value: f64,
+    },
+    /// A direction is not of unit length (within 1e-3) or is zero.
+    #[error("{name} has length {length}, expected a unit vector")]
+    NotUnit {
+        /// What it is.
+        name: String,
+        /// Its length.
+        length: f64,
+    },
+    /// The shading point lies inside (or on) a light sphere.
+    #[error("the shading point is inside light {index} (distance {distance} to its centre ≤ radius {radius})")]
+    PointInsideLight {
+        /// Index of the light.
+        index: usize,
+        /// Distance from the point to its centre.
+        distance: f64,
+        /// Its radius.
+        radius: f64,
+    },
+    /// The shading point lies inside (or on) a blocker sphere.
+    #[error("the shading point is inside blocker {index} (distance {distance} to its centre ≤ radius {radius})")]
+    PointInsideBlocker {
+        /// Index of the blocker.
+        index: usize,
+        /// Distance from the point to its centre.
+        distance: f64,
+        /// Its radius.
+        radius: f64,
+    },
+    /// A light sphere lies entirely inside a blocker sphere.
+    #[error("light {light} lies inside blocker {blocker}")]
+    LightInsideBlocker {
+        /// Index of the light.
+        light: usize,
+        /// Index of the blocker.
+        blocker: usize,
+    },
+    /// A table lookup failed (depth out of range, an overflowing product, …).
+    #[error(transparent)]
+    Lookup(#[from] LookupError),
+    /// Item `index` (0-based) of a batch was refused for the reason `error` (what the
+    /// one-at-a-time call returns for it); the first such item is reported.
+    #[error("batch item {index}: {error}")]
+    BatchItem {
+        /// Index of the item.
+        index: usize,
+        /// Its error.
+        error: Box<MeunierError>,
+    },
+}
+
+fn finite(name: &str, value: f64) -> Result<f64, MeunierError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(MeunierError::NotFinite {
+            name: name.into(),
+            value,
+        })
+    }
+}
+
+fn nonneg(name: &str, value: f64) -> Result<f64, MeunierError> {
+    if finite(name, value)? < 0.0 {
+        return Err(MeunierError::Negative {
+            name: name.into(),
+            value,
+        });
+    }
+    Ok(value)
+}
+
+fn check_result(name: &str, value: f64) -> Result<f64, MeunierError> {
+    crate::error::finite_result(name, value).map_err(MeunierError::from)
+}
+
+fn point(name: &str, p: DVec3) -> Result<DVec3, MeunierError> {
+    for x in p.to_array() {
+        finite(name, x)?;
+    }
+    Ok(p)
+}
+
+fn unit(name: &str, d: DVec3) -> Result<DVec3, MeunierError> {
+    point(name, d)?;
+    let length = d.length();
+    // NaN lengths fail too (the point check above rejects non-finite input).
+    if (length - 1.0).abs() > 1e-3 || length.is_nan() {
+        return Err(MeunierError::NotUnit {
+            name: name.into(),
+            length,
+        });
+    }
+    Ok(d / length)
+}
+
+fn check_sphere(what: &str, s: &Sphere) -> Result<(), MeunierError> {
+    point(&format!("{what} centre"), s.centre)?;
+    if finite(&format!("{what} radius"), s.radius)? <= 0.0 {
+        return Err(MeunierError::BadRadius {
+            what: what.into(),
+            radius: s.radius,
+        });
+    }
+    Ok(())
+}
+
+/// Validates a scene: every sphere well formed, the point outside every sphere, no
+/// light inside a blocker.
+pub fn check_scene(x: DVec3, lights: &[SphereLight], blockers: &[Sphere]) -> Result<(), MeunierError> {
+    point("shading point", x)?;
+    for (i, b) in blockers.iter().enumerate() {
+        check_sphere(&format!("blocker {i}"), b)?;
+        let distance = (b.centre - x).length();
+        if distance <= b.radius {
+            return Err(MeunierError::PointInsideBlocker {
+                index: i,
+                distance,
+                radius: b.radius,
+            });
+        }
+    }
+    for (i, l) in lights.iter().enumerate() {
+        check_sphere(&format!("light {i}"), &l.sphere)?;
+        nonneg(&format!("light {i} radiance"), l.radiance)?;
+        let distance = (l.sphere.centre - x).length();
+        if distance <= l.sphere.radius {
+            return Err(MeunierError::PointInsideLight {
+                index: i,
+                distance,
+                radius: l.sphere.radius,
+            });
+        }
+        for (j, b) in blockers.iter().enumerate() {
+            if (l.sphere.centre - b.centre).length() + l.sphere.radius <= b.radius {
+                return Err(MeunierError::LightInsideBlocker { light: i, blocker: j });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The cap of sphere `s` seen from `x` (outside it).
+fn cap_of(x: DVec3, s: &Sphere) -> Cap {
+    let to = s.centre - x;
+    let d = to.length();
+    Cap {
+        axis: to / d,
+        half_angle: (s.radius / d).asin(),
+    }
+}
+
+/// The visibility lobes of one light at one point (eq. 39).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Visibility {
+    /// c_unit first, then −w_i·c_i per shadow leaf (empty when the light is hidden).
+    pub lobes: Vec<Lobe>,
+    /// The paper's `dist` of the light (1/(2 tan α)).
+    pub dist: f64,
+    /// A blocker hides the whole light.
+    pub fully_blocked: bool,
+    /// Number of shadow leaves.
+    pub leaves: usize,
+}
+
+/// The lobe pipeline over the three tables it reads.
+#[derive(Debug, Clone, Copy)]
+pub struct Meunier<'a> {
+    /// Lobe products (the `energy` variant is what the paper's eq. 14 wants).
+    pub products: &'a LobeProduct,
+    /// Cap exponents (lights and leaves).
+    pub caps: &'a CapExponent,
+    /// Eq. 39's weights.
+    pub weights: &'a MaskWeights,
+}
+
+impl Meunier<'static> {
+    /// The pipeline over the compiled-in tables (lobe-product `energy`, cap-exponent,
+    /// mask-weights).
+    #[cfg(all(
+        feature = "embedded-lobe-product",
+        feature = "embedded-cap-exponent",
+        feature = "embedded-mask-weights"
+    ))]
+    pub fn embedded() -> Result<Self, crate::LoadError> {
+        Ok(Meunier {
+            products: LobeProduct::embedded()?,
+            caps: CapExponent::embedded()?,
+            weights: MaskWeights::embedded()?,
+        })
+    }
+}
+
+impl Meunier<'_> {
+    /// Cap exponent for any half-angle in (0, π): the table from 1 mrad on, the
+    /// small-cap limit e ∝ 1/β² below.
+    pub fn cap_exponent(&self, beta: f64) -> Result<f64, LookupError> {
+        if beta > 0.0 && beta < ALPHA_MIN {
+            let e0 = self.caps.e_cap(ALPHA_MIN)?;
+            return crate::error::finite_result("e_cap", e0 * (ALPHA_MIN / beta).powi(2));
+        }
+        self.caps.e_cap(beta)
+    }
+
+    /// The lobe standing for `light` seen from `x` (outside it), scaled so that its
+    /// integral is L·Ω_cap; and the light's cap.
+    pub fn light_lobe(&self, x: DVec3, light: &SphereLight) -> Result<(Lobe, Cap), MeunierError> {
+        check_scene(x, std::slice::from_ref(light), &[])?;
+        let cap = cap_of(x, &light.sphere);
+        let e = self.cap_exponent(cap.half_angle)?;
+        let s = (0.5 * cap.half_angle).sin();
+        let omega = 4.0 * std::f64::consts::PI * s * s;
+        Ok((
+            Lobe {
+                scale: light.radiance * omega * (e + 1.0) / std::f64::consts::TAU,
+                axis: cap.axis,
+                exponent: e,
+            },
+            cap,
+        ))
+    }
+
+    /// Eq. 39 for one light at the point `x` with unit normal `n`.
+    pub fn visibility(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        light: &SphereLight,
+        blockers: &[Sphere],
+        settings: &MaskSettings,
+    ) -> Result<Visibility, MeunierError> {
+        let n = unit("normal", n)?;
+        check_scene(x, std::slice::from_ref(light), blockers)?;
+        check_depth(settings.depth)?;
+        let lcap = cap_of(x, &light.sphere);
+        let light_dist = (light.sphere.centre - x).length();
+        let caps: Vec<Cap> = blockers
+            .iter()
+            .filter(|b| (b.centre - x).length() - b.radius < light_dist)
+            .map(|b| cap_of(x, b))
+            .collect();
+        let mask = build_mask(lcap, &caps, settings.depth)?;
+        if mask.fully_blocked {
+            return Ok(Visibility {
+                lobes: Vec::new(),
+                dist: mask.dist,
+                fully_blocked: true,
+                leaves: 0,
+            });
+        }
+        let mut w = [0.0; MAX_DEPTH as usize];
+        self.weights
+            .weights(settings.weights, settings.mode, settings.depth, mask.dist, &mut w)?;
+        let mut lobes = vec![Lobe {
+            scale: 1.0,
+            axis: n,
+            exponent: 0.0,
+        }];
+        let mut leaves = 0;
+        for c in mask.leaves(settings.depth, settings.mode) {
+            leaves += 1;
+            // Depth 0 never holds a leaf (a cap containing S_unit hides the light).
+            let wd = w[c.depth.max(1) as usize - 1];
+            if wd != 0.0 {
+                lobes.push(Lobe {
+                    scale: -wd,
+                    axis: c.axis,
+                    exponent: self.cap_exponent(c.half_angle)?,
+                });
+            }
+        }
+        Ok(Visibility {
+            lobes,
+            dist: mask.dist,
+            fully_blocked: false,
+            leaves,
+        })
+    }
+
+    /// Outgoing radiance ∫ f_r L V max(n·v, 0) dω at `x` (unit normal `n`) for the BRDF
+    /// lobes `brdf` (from [`Brdf::lobes`]), summed over `lights`, shadowed by
+    /// `blockers` (eq. 22, §5.4 order).
+    pub fn shade(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        brdf: &[Lobe],
+        lights: &[SphereLight],
+        blockers: &[Sphere],
+        settings: &MaskSettings,
+    ) -> Result<f64, MeunierError> {
+        let n = unit("normal", n)?;
+        check_scene(x, lights, blockers)?;
+        nonneg("threshold t_i", settings.threshold)?;
+        let mut total = 0.0;
+        for light in lights {
+            let vis = self.visibility(x, n, light, blockers, settings)?;
+            if vis.fully_blocked {
+                continue;
+            }
+            let (lobe, _) = self.light_lobe(x, light)?;
+            total += self
+                .products
+                .triple_product(brdf, &[lobe], &vis.lobes, n, settings.threshold)?;
+        }
+        check_result("shaded radiance", total)
+    }
+
+    /// Irradiance ∫ L V max(n·v, 0) dω (W·m⁻² for L in W·sr⁻¹·m⁻²) at `x`, unit normal
+    /// `n`: [`Meunier::shade`] with the BRDF 1 on the upper hemisphere.
+    pub fn irradiance(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        lights: &[SphereLight],
+        blockers: &[Sphere],
+        settings: &MaskSettings,
+    ) -> Result<f64, MeunierError> {
+        let nn = unit("normal", n)?;
+        let brdf = [Lobe {
+            scale: 1.0,
+            axis: nn,
+            exponent: 0.0,
+        }];
+        self.shade(x, nn, &brdf, lights, blockers, settings)
+    }
+
+    /// Batch [`Meunier::irradiance`]: `out[i]` = the irradiance at `points[i]` with unit
+    /// normal `normals[i]`, bit for bit the one-at-a-time value, for a renderer shading
+    /// many points of one scene: each point through the one-at-a-time call (its
+    /// validation costs nothing beside the mask and the lobe products, which are per
+    /// point anyway). Errors: [`LookupError::BatchLength`]
+    /// when the slices differ in length, [`MeunierError::BatchItem`] for the first
+    /// point refused (inside a sphere, a normal that is not unit, …).
+    pub fn irradiances(
+        &self,
+        points: &[DVec3],
+        normals: &[DVec3],
+        lights: &[SphereLight],
+        blockers: &[Sphere],
+        settings: &MaskSettings,
+        out: &mut [f64],
+    ) -> Result<(), MeunierError> {
+        crate::error::same_length(points.len(), normals.len())?;
+        crate::error::same_length(points.len(), out.len())?;
+        check_depth(settings.depth)?;
+        nonneg("threshold t_i", settings.threshold)?;
+        for (i, ((x, n), o)) in points.iter().zip(normals).zip(out.iter_mut()).enumerate() {
+            *o = self
+                .irradiance(*x, *n, lights, blockers, settings)
+                .map_err(|e| MeunierError::BatchItem {
+                    index: i,
+                    error: Box::new(e),
+                })?;
+        }
+        Ok(())
+    }
+
+    /// [`Meunier::irradiances`] in single precision (f64 inside, rounded once), bit for
+    /// bit [`Meunier::irradiance_f32`].
+    pub fn irradiances_f32(
+        &self,
+        points: &[Vec3],
+        normals: &[Vec3],
+        lights: &[SphereLight32],
+        blockers: &[Sphere32],
+        settings: &MaskSettings,
+        out: &mut [f32],
+    ) -> Result<(), MeunierError> {
+        crate::error::same_length(points.len(), normals.len())?;
+        crate::error::same_length(points.len(), out.len())?;
+        for (i, ((x, n), o)) in points.iter().zip(normals).zip(out.iter_mut()).enumerate() {
+            *o = self
+                .irradiance_f32(*x, *n, lights, blockers, settings)
+                .map_err(|e| MeunierError::BatchItem {
+                    index: i,
+                    error: Box::new(e),
+                })?;
+        }
+        Ok(())
+    }
+
+    /// [`Meunier::irradiance`] with an f32 interface (computed in f64, rounded once).
+    pub fn irradiance_f32(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        lights: &[SphereLight32],
+        blockers: &[Sphere32],
+        settings: &MaskSettings,
+    ) -> Result<f32, MeunierError> {
+        let l: Vec<SphereLight> = lights.iter().map(SphereLight32::wide).collect();
+        let b: Vec<Sphere> = blockers.iter().map(Sphere32::wide).collect();
+        let e = self.irradiance(x.as_dvec3(), n.as_dvec3(), &l, &b, settings)?;
+        Ok(crate::error::narrow("irradiance", e)?)
+    }
+
+    /// Outgoing radiance towards the unit direction `wo` of a surface with `brdf`
+    /// (unit normal `n`, unit tangent `t` for anisotropic Lafortune lobes).
+    #[allow(clippy::too_many_arguments)]
+    pub fn radiance(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        t: DVec3,
+        wo: DVec3,
+        brdf: &Brdf,
+        lights: &[SphereLight],
+        blockers: &[Sphere],
+        settings: &MaskSettings,
+    ) -> Result<f64, MeunierError> {
+        let lobes = brdf.lobes(n, t, wo)?;
+        self.shade(x, n, &lobes, lights, blockers, settings)
+    }
+
+    /// [`Meunier::radiance`] with an f32 interface (computed in f64, rounded once).
+    #[allow(clippy::too_many_arguments)]
+    pub fn radiance_f32(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        t: Vec3,
+        wo: Vec3,
+        brdf: &Brdf,
+        lights: &[SphereLight32],
+        blockers: &[Sphere32],
+        settings: &MaskSettings,
+    ) -> Result<f32, MeunierError> {
+        let l: Vec<SphereLight> = lights.iter().map(SphereLight32::wide).collect();
+        let b: Vec<Sphere> = blockers.iter().map(Sphere32::wide).collect();
+        let v = self.radiance(
+            x.as_dvec3(),
+            n.as_dvec3(),
+            t.as_dvec3(),
+            wo.as_dvec3(),
+            brdf,
+            &l,
+            &b,
+            settings,
+        )?;
+        Ok(crate::error::narrow("radiance", v)?)
+    }
+}
