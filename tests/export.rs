@@ -178,7 +178,10 @@ fn bad_requests_are_specific_errors() {
     std::fs::write(&file, b"x").unwrap();
     let e = export(&opts(&["sg-fit"], Format::Dds, Storage::F32), &file.join("sub")).unwrap_err();
     assert!(e.contains("a-file"), "{e}");
-    // check --export on a directory without a manifest, and on a corrupt manifest.
+    // check --export on a missing directory, a directory without a manifest, and on a
+    // corrupt manifest.
+    let e = check_export(&dir.path().join("missing")).unwrap_err();
+    assert!(e.contains("no such export directory"), "{e}");
     assert!(check_export(dir.path()).unwrap_err().contains(MANIFEST));
     std::fs::write(dir.path().join(MANIFEST), b"{\"version\": 1}").unwrap();
     assert!(check_export(dir.path())

@@ -5,13 +5,11 @@
 //! seeded off-grid samples.
 
 use std::collections::HashMap;
-use std::path::Path;
 
 use lobefit::check::{metric_value, rel_err, OutputReport, Stats};
 use lobefit::export::families::{self, GpuFamily};
-use lobefit::export::formats;
 use lobefit::export::layout::{Filter, Sampler};
-use lobefit::export::run::{errors_of, family_of, sample_points, Manifest, TextureEntry, MANIFEST, MANIFEST_VERSION};
+use lobefit::export::run::{errors_of, family_of, sample_points, TextureEntry};
 use lobefit::export::{Storage, Texture};
 use lobefit::family::{Family, Lookup};
 use lobefit::rng::Rng;
@@ -273,62 +271,7 @@ pub fn vector_diff(got: &[Vec<f64>], want: &[Vec<f64>]) -> f64 {
     worst
 }
 
-/// A manifest and its directory, read and checked.
-pub struct Export {
-    /// The manifest.
-    pub manifest: Manifest,
-    /// The textures of each family (in the manifest's order), read back by the
-    /// independent readers.
-    pub textures: Vec<Vec<(TextureEntry, Texture)>>,
-}
-
-/// Reads `dir/manifest.json` and every texture it names. Errors name the file.
-pub fn read_export(dir: &Path) -> Result<Export, String> {
-    if !dir.is_dir() {
-        return Err(format!(
-            "{}: no such export directory (run `lobefit export --format ktx2 --out DIR` first)",
-            dir.display()
-        ));
-    }
-    let path = dir.join(MANIFEST);
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let manifest: Manifest =
-        serde_json::from_str(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
-    if manifest.version != MANIFEST_VERSION {
-        return Err(format!(
-            "{}: manifest version {} (this lobefit-gpu reads {MANIFEST_VERSION})",
-            path.display(),
-            manifest.version
-        ));
-    }
-    let mut textures = Vec::new();
-    for f in &manifest.families {
-        let mut ts = Vec::new();
-        for t in &f.textures {
-            let file = dir.join(&t.file);
-            let (tex, storage) = formats::read(&file, manifest.format)?;
-            if storage != manifest.storage {
-                return Err(format!(
-                    "{}: stored as {storage}, the manifest says {}",
-                    file.display(),
-                    manifest.storage
-                ));
-            }
-            let e = &t.extent;
-            if [tex.width, tex.height, tex.depth, tex.layers, tex.channels] != *e {
-                return Err(format!(
-                    "{}: extent {:?} does not match the manifest's {:?}",
-                    file.display(),
-                    [tex.width, tex.height, tex.depth, tex.layers, tex.channels],
-                    e
-                ));
-            }
-            ts.push((t.clone(), tex));
-        }
-        textures.push(ts);
-    }
-    Ok(Export { manifest, textures })
-}
+pub use lobefit::export::run::{read_export, Export};
 
 /// Every textured family of the export: GPU against the CPU emulation and against
 /// the reference, per filter.
@@ -973,13 +916,15 @@ mod tests {
     /// Bad export directories: missing, no manifest, a manifest of another version.
     #[test]
     fn bad_exports_have_specific_errors() {
-        let e = read_export(Path::new("/nonexistent/lobefit-export")).err().unwrap();
+        let e = read_export(std::path::Path::new("/nonexistent/lobefit-export"))
+            .err()
+            .unwrap();
         assert!(e.contains("no such export directory"), "{e}");
         let dir = tempdir().join("bad");
         std::fs::create_dir_all(&dir).unwrap();
         let e = read_export(&dir).err().unwrap();
         assert!(e.contains("cannot read") && e.contains("manifest.json"), "{e}");
-        std::fs::write(dir.join(MANIFEST), "{\"version\": 99}").unwrap();
+        std::fs::write(dir.join(lobefit::export::run::MANIFEST), "{\"version\": 99}").unwrap();
         let e = read_export(&dir).err().unwrap();
         assert!(e.contains("not a lobefit export manifest"), "{e}");
         let _ = std::fs::remove_dir_all(dir.parent().unwrap());

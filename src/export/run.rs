@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use super::families::{self, Emulated, GpuFamily};
 use super::formats;
 use super::layout::{Channel, Filter, Sampler, TexAxis};
-use super::{Format, Storage};
+use super::{Format, Storage, Texture};
 use crate::check::{f32_point, metric_value, OutputReport, Stats};
 use crate::family::Family;
 use crate::fits::{registry, FitOptions};
@@ -345,39 +345,77 @@ pub struct ExportCheck {
     pub pass: bool,
 }
 
-/// `lobefit check --export DIR`: reads the manifest and every texture (independent
-/// readers), re-measures each error and compares it with the manifest's promise.
-pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
+/// A manifest and its directory, read and checked.
+pub struct Export {
+    /// The manifest.
+    pub manifest: Manifest,
+    /// The textures of each family (in the manifest's order), read back by the
+    /// independent readers.
+    pub textures: Vec<Vec<(TextureEntry, Texture)>>,
+}
+
+/// Reads `dir/manifest.json` and every texture it names through the independent
+/// readers, checking each file's storage and extent against the manifest (`check
+/// --export` and `lobefit-gpu` both start here). Errors name the file.
+pub fn read_export(dir: &Path) -> Result<Export, String> {
+    if !dir.is_dir() {
+        return Err(format!(
+            "{}: no such export directory (run `lobefit export --format ktx2 --out DIR` first)",
+            dir.display()
+        ));
+    }
     let path = dir.join(MANIFEST);
     let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let m: Manifest =
+    let manifest: Manifest =
         serde_json::from_str(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
-    if m.version != MANIFEST_VERSION {
+    if manifest.version != MANIFEST_VERSION {
         return Err(format!(
             "{}: manifest version {} (this lobefit reads {MANIFEST_VERSION})",
             path.display(),
-            m.version
+            manifest.version
         ));
     }
+    let mut textures = Vec::new();
+    for f in &manifest.families {
+        let mut ts = Vec::new();
+        for t in &f.textures {
+            let file = dir.join(&t.file);
+            let (tex, storage) = formats::read(&file, manifest.format)?;
+            if storage != manifest.storage {
+                return Err(format!(
+                    "{}: stored as {storage}, the manifest says {}",
+                    file.display(),
+                    manifest.storage
+                ));
+            }
+            let e = &t.extent;
+            if [tex.width, tex.height, tex.depth, tex.layers, tex.channels] != *e {
+                return Err(format!(
+                    "{}: extent {:?} does not match the manifest's {:?}",
+                    file.display(),
+                    [tex.width, tex.height, tex.depth, tex.layers, tex.channels],
+                    e
+                ));
+            }
+            ts.push((t.clone(), tex));
+        }
+        textures.push(ts);
+    }
+    Ok(Export { manifest, textures })
+}
+
+/// `lobefit check --export DIR`: reads the manifest and every texture (independent
+/// readers), re-measures each error and compares it with the manifest's promise.
+pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
+    let Export { manifest: m, textures } = read_export(dir)?;
+    let path = dir.join(MANIFEST);
     let mut out = Vec::new();
-    for f in &m.families {
+    for (f, texs) in m.families.iter().zip(textures) {
         let family =
             family_of(&f.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), f.family))?;
         let gpu =
             families::find(&f.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), f.family))?;
-        let mut back = Vec::new();
-        for t in &f.textures {
-            let file = dir.join(&t.file);
-            let (tex, storage) = formats::read(&file, m.format)?;
-            if storage != m.storage {
-                return Err(format!(
-                    "{}: stored as {storage}, the manifest says {}",
-                    file.display(),
-                    m.storage
-                ));
-            }
-            back.push((t.axes.clone(), t.channels.clone(), tex));
-        }
+        let back: Vec<_> = texs.into_iter().map(|(t, tex)| (t.axes, t.channels, tex)).collect();
         let now = measure(family.as_ref(), gpu, &back, m.samples, m.seed)?;
         for e in &f.error {
             let v = now
