@@ -6,10 +6,10 @@
 
 use std::collections::HashMap;
 
-use lobefit::check::{metric_value, rel_err, OutputReport, Stats};
+use lobefit::check::rel_err;
 use lobefit::export::families::{self, GpuFamily};
 use lobefit::export::layout::{Filter, Sampler};
-use lobefit::export::run::{errors_of, family_of, sample_points, TextureEntry};
+use lobefit::export::run::{errors_of, family_of, offgrid_metrics, sample_points, TextureEntry};
 use lobefit::export::{Storage, Texture};
 use lobefit::family::{Family, Lookup};
 use lobefit::rng::Rng;
@@ -632,19 +632,8 @@ fn closed_row(
     for (k, o) in outputs.iter().enumerate() {
         let abs: Vec<f64> = got.iter().zip(&refs).map(|(g, w)| (g[k] - w[k]).abs()).collect();
         let rel: Vec<f64> = got.iter().zip(&refs).map(|(g, w)| rel_err(g[k], w[k])).collect();
-        let report = OutputReport {
-            output: o.to_string(),
-            grid_abs: Stats::of(Vec::new()),
-            grid_rel: Stats::of(Vec::new()),
-            offgrid_abs: Stats::of(abs),
-            offgrid_rel: Stats::of(rel),
-            worst_offgrid_input: Vec::new(),
-        };
-        for t in family.thresholds() {
-            if t.output == *o && t.metric.starts_with("offgrid.") {
-                let v = metric_value(&report, &t.metric).unwrap_or(f64::NAN);
-                info.push((format!("{o} {}", t.metric.trim_start_matches("offgrid.")), v, t.limit));
-            }
+        for (metric, v, limit) in offgrid_metrics(family, o, abs, rel) {
+            info.push((format!("{o} {}", metric.trim_start_matches("offgrid.")), v, limit));
         }
     }
     Ok(Row {

@@ -185,6 +185,29 @@ pub fn sample_points(family: &dyn Family, samples: usize, seed: u64) -> Result<V
     Ok(points.iter().map(|x| f32_point(cpu.as_ref(), x)).collect())
 }
 
+/// The family's off-grid threshold metrics of one output from its pointwise absolute
+/// and relative errors: (metric, measured, limit) for each of `output`'s `offgrid.*`
+/// thresholds, measured the way `lobefit check` measures them.
+pub fn offgrid_metrics(family: &dyn Family, output: &str, abs: Vec<f64>, rel: Vec<f64>) -> Vec<(String, f64, f64)> {
+    let report = OutputReport {
+        output: output.to_string(),
+        grid_abs: Stats::of(Vec::new()),
+        grid_rel: Stats::of(Vec::new()),
+        offgrid_abs: Stats::of(abs),
+        offgrid_rel: Stats::of(rel),
+        worst_offgrid_input: Vec::new(),
+    };
+    family
+        .thresholds()
+        .into_iter()
+        .filter(|t| t.output == output && t.metric.starts_with("offgrid."))
+        .map(|t| {
+            let measured = metric_value(&report, &t.metric).unwrap_or(f64::NAN);
+            (t.metric, measured, t.limit)
+        })
+        .collect()
+}
+
 /// The family's own pointwise check (`Family::check_point`) of `lookup` at `points`
 /// (from [`sample_points`]), reduced to its off-grid threshold metrics: one entry per
 /// threshold, labelled `filter`.
@@ -208,26 +231,14 @@ pub fn errors_of(
             abs.push((g[k] - w[k]).abs());
             rel.push(crate::check::rel_err(g[k], w[k]));
         }
-        let report = OutputReport {
-            output: name.to_string(),
-            grid_abs: Stats::of(Vec::new()),
-            grid_rel: Stats::of(Vec::new()),
-            offgrid_abs: Stats::of(abs),
-            offgrid_rel: Stats::of(rel),
-            worst_offgrid_input: Vec::new(),
-        };
-        for t in family.thresholds() {
-            if t.output != *name || !t.metric.starts_with("offgrid.") {
-                continue;
-            }
-            let measured = metric_value(&report, &t.metric).unwrap_or(f64::NAN);
+        for (metric, measured, limit) in offgrid_metrics(family, name, abs, rel) {
             out.push(ErrorEntry {
                 filter,
-                output: t.output.clone(),
-                metric: t.metric.clone(),
+                output: name.to_string(),
+                metric,
                 measured,
-                target: t.limit,
-                promise: if measured <= t.limit { t.limit } else { measured },
+                target: limit,
+                promise: if measured <= limit { limit } else { measured },
             });
         }
     }
