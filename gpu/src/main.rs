@@ -9,10 +9,19 @@ mod device;
 mod render;
 mod world;
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+/// `println!` that returns an error instead of panicking when stdout is a closed pipe
+/// or a full disk (inside functions returning `Result<_, String>`).
+macro_rules! out {
+    ($($t:tt)*) => {
+        writeln!(std::io::stdout(), $($t)*).map_err(|e| format!("cannot write the output: {e}"))?
+    };
+}
 
 #[derive(Parser)]
 #[command(name = "lobefit-gpu", about = "lobefit's shader library on a Vulkan device (wgpu)")]
@@ -57,16 +66,16 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
             let (max, rms, gloss_max) = render::render(&gpu, &ex, &out)?;
-            println!(
+            out!(
                 "render: {0}x{0} on {1}; GPU against CPU, relative to the peak: max {max:.2e}, RMS {rms:.2e} (limit {2:.0e} RMS); \
                  glossy (lobe-product) pass alone, relative to its peak: max {gloss_max:.2e}",
                 render::SIZE,
                 gpu.info.name,
                 render::RMS_LIMIT
             );
-            println!("image: {}", out.display());
+            out!("image: {}", out.display());
             if rms > render::RMS_LIMIT {
-                println!("render FAILED");
+                out!("render FAILED");
                 return Ok(ExitCode::from(1));
             }
             Ok(ExitCode::SUCCESS)
@@ -74,24 +83,30 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         Command::Cost { export } => {
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
-            println!(
+            out!(
                 "device: {} ({:?}, driver {})",
-                gpu.info.name, gpu.info.backend, gpu.info.driver_info
+                gpu.info.name,
+                gpu.info.backend,
+                gpu.info.driver_info
             );
-            println!("{:<28} {:>16} {:>14}", "function", "SPIR-V instr.", "evals/s");
+            out!("{:<28} {:>16} {:>14}", "function", "SPIR-V instr.", "evals/s");
             for c in cost::costs(&gpu, &ex)? {
-                println!("{:<28} {:>16} {:>14.3e}", c.function, c.spirv, c.per_second);
+                out!("{:<28} {:>16} {:>14.3e}", c.function, c.spirv, c.per_second);
             }
             Ok(ExitCode::SUCCESS)
         }
         Command::GpuCheck { export } => {
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
-            println!(
+            out!(
                 "device: {} ({:?}, driver {} {}), float32-filterable: {}",
-                gpu.info.name, gpu.info.backend, gpu.info.driver, gpu.info.driver_info, gpu.float32_filterable
+                gpu.info.name,
+                gpu.info.backend,
+                gpu.info.driver,
+                gpu.info.driver_info,
+                gpu.float32_filterable
             );
-            println!(
+            out!(
                 "export: {} ({} {}, {} samples, seed {:#x})",
                 export.display(),
                 ex.manifest.format,
@@ -100,7 +115,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 ex.manifest.seed
             );
             let bits = conformance::probe_weight_bits(&gpu)?;
-            println!(
+            out!(
                 "hardware linear filter: {bits} fractional weight bits (probe){}",
                 if bits >= 12 {
                     "; emulated with exact weights"
@@ -119,9 +134,14 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             )?);
             rows.extend(conformance::check_glslang()?);
             let mut failed = 0;
-            println!(
+            out!(
                 "{:<16} {:<4} {:<8} {:>5} {:>9} {:<14} | vs reference: quantity metric measured (limit)",
-                "function", "stor", "filter", "n", "vs CPU", "(CPU side)"
+                "function",
+                "stor",
+                "filter",
+                "n",
+                "vs CPU",
+                "(CPU side)"
             );
             for r in &rows {
                 let mut refs: Vec<String> = r
@@ -141,7 +161,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 if !pass {
                     failed += 1;
                 }
-                println!(
+                out!(
                     "{:<16} {:<4} {:<8} {:>5} {:>9.2e} {:<14} | {}{}",
                     r.function,
                     r.storage,
@@ -154,10 +174,10 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 );
             }
             if failed > 0 {
-                println!("gpu-check FAILED: {failed} of {} rows miss their limits", rows.len());
+                out!("gpu-check FAILED: {failed} of {} rows miss their limits", rows.len());
                 return Ok(ExitCode::from(1));
             }
-            println!("gpu-check passed: {} rows", rows.len());
+            out!("gpu-check passed: {} rows", rows.len());
             Ok(ExitCode::SUCCESS)
         }
     }
