@@ -1,9 +1,7 @@
 //! `check --baseline` and `check --junit`, as a downstream CI uses them: save a report,
 //! then compare later checks with it.
 
-mod common;
-
-use common::run_text;
+use crate::common::run_text;
 use lobefit_tables::{format, Table};
 
 /// A copy of the committed cap-exponent table with one node's q moved by 1e-6

@@ -4,7 +4,7 @@
 use lobefit_tables::format::HEADER_LEN;
 use lobefit_tables::{LoadError, Table};
 
-const CAP: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+const CAP: &[u8] = include_bytes!("../../data/cap-exponent.lobefit");
 
 fn put_u32(b: &mut [u8], at: usize, v: u32) {
     b[at..at + 4].copy_from_slice(&v.to_le_bytes());

@@ -1,7 +1,7 @@
 //! `lobefit eval direct-light` through the binary: the pipeline against `--exact`,
 //! the flags, and every bad input with its specific message (nothing printed).
 
-mod common;
+use crate::common;
 
 const HEAD: &str = "px,py,pz,nx,ny,nz,lx,ly,lz,lr,bx,by,bz,br\n";
 

@@ -2,11 +2,10 @@
 //! paths that are not regular files or are too large, resource bounds, and numbers
 //! in error messages.
 
-mod common;
-
+use crate::common;
 use std::process::{Output, Stdio};
 
-use common::{bin, run_with_stdout, text};
+use crate::common::{bin, run_with_stdout, text};
 
 const TABLE: &str = "tables/data/lobe-product.lobefit";
 

@@ -2,8 +2,7 @@
 //! precision, read back by the independent readers and sampled as a GPU samples it
 //! against the families' references; determinism; bad input.
 
-mod common;
-
+use crate::common;
 use std::path::Path;
 
 use lobefit::export::layout::Filter;

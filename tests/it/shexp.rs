@@ -2,8 +2,7 @@
 //! independent reference (quadrature-built product matrices, direct log), HYB against
 //! the Taylor reference, Ren's log round trip, `eval shexp`, and every bad input.
 
-mod common;
-
+use crate::common;
 use std::f64::consts::PI;
 
 use lobefit::fits::shexp::exp_log::{exp_scaling_squaring, ren_log_zonal, zh_to_sh_z};

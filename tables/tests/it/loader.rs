@@ -16,8 +16,8 @@ use lobefit_tables::{cap_exponent, lobe_integral, CapExponent, LoadError, LobeIn
 use proptest::prelude::*;
 use proptest::sample::Index;
 
-const LOBE: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
-const CAP: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
+const LOBE: &[u8] = include_bytes!("../../data/lobe-integral.lobefit");
+const CAP: &[u8] = include_bytes!("../../data/cap-exponent.lobefit");
 const FILES: [(&str, &[u8]); 2] = [("lobe-integral", LOBE), ("cap-exponent", CAP)];
 
 // Header field offsets (format version 1).

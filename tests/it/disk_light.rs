@@ -2,8 +2,7 @@
 //! the checker's independent quadrature, the world-space SH against a direct
 //! projection of a world-space disk, the form-factor comparison, bad inputs, eval.
 
-mod common;
-
+use crate::common;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use lobefit::fits::disk_light::{reference_canonical, reference_irradiance, rel_l2, DC_MEDIAN_REL, L2_MAX};

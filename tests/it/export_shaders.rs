@@ -1,6 +1,6 @@
 //! `lobefit export --shaders`: the shader library written as WGSL, GLSL and HLSL.
 
-mod common;
+use crate::common;
 
 #[test]
 fn cli_writes_the_shader_library_in_every_language() {

@@ -1,14 +1,13 @@
 //! End-to-end tests of the `lobefit` binary: building, determinism, checking,
 //! inspecting, evaluating, and every way an argument or an input can be wrong.
 
-mod common;
-
+use crate::common;
 use std::path::{Path, PathBuf};
 
 use std::io::Write;
 use std::process::Stdio;
 
-use common::{bin, run, text};
+use crate::common::{bin, run, text};
 
 /// Every registered family (each has a committed table).
 fn families() -> Vec<&'static str> {

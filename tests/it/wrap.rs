@@ -1,8 +1,7 @@
 //! wrap lighting: closed forms against the checker's independent quadrature,
 //! erratum E5, the convolution, the committed table, and `lobefit eval wrap`.
 
-mod common;
-
+use crate::common;
 use std::f64::consts::PI;
 
 use lobefit::fits::wrap::{reference_lambda, CLOSED_HIGH_ABS, CLOSED_LOW_ABS};

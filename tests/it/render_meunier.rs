@@ -1,7 +1,7 @@
 //! `lobefit render meunier` on a tiny image: the figures and the summary appear, the
 //! numbers do not depend on the thread count, the reference states its error.
 
-mod common;
+use crate::common;
 
 fn run(dir: &std::path::Path, threads: &str) -> String {
     let out = dir.to_str().unwrap();

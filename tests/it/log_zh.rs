@@ -1,8 +1,7 @@
 //! log-ZH: the committed table's stored entries and the runtime's closed forms
 //! against the checker's adaptive Gauss–Kronrod reference (independent of both).
 
-mod common;
-
+use crate::common;
 use std::f64::consts::PI;
 
 use lobefit::fits::log_zh::reference_log_zh;

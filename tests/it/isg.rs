@@ -1,8 +1,7 @@
 //! ISG and lobe→SG through the runtime crate and the committed tables,
 //! against the checker's Gauss–Kronrod references (no fitting code involved).
 
-mod common;
-
+use crate::common;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use lobefit::fits::isg::reference::{patch_reference, s_hat_reference};

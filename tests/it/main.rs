@@ -1,0 +1,31 @@
+//! The `lobefit` crate's integration tests: one binary (one link of the crate),
+//! one module per subject. Heavy sweeps are `#[ignore]`d here and run in release
+//! from `.ci/run` (`cargo test --release --test it -- --ignored`).
+
+mod check_ci;
+mod check_corruption;
+mod cli;
+mod cli_io;
+mod committed_tables;
+mod common;
+mod disk_light;
+mod eps_study;
+mod eval_direct_light;
+mod eval_memory;
+mod export;
+mod export_formats;
+mod export_isg_best;
+mod export_shaders;
+mod export_shexp;
+mod export_wedge;
+mod io;
+mod isg;
+mod lobe_product;
+mod log_zh;
+mod meunier;
+mod nlopt_backend;
+mod render_meunier;
+mod rigs;
+mod shexp;
+mod wedge;
+mod wrap;
