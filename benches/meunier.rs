@@ -6,7 +6,8 @@
 //! tests.
 
 use divan::black_box;
-use lobefit::fits::mask_weights::direct_light::{exact_irradiance, visible};
+use lobefit::pipelines::meunier::direct_light::exact_irradiance;
+use lobefit::pipelines::scene::visible;
 use lobefit::tables::glam::DVec3;
 use lobefit::tables::mask_weights::{build_mask, Cap};
 use lobefit::tables::meunier::{MaskSettings, Sphere, SphereLight};

@@ -2,7 +2,7 @@
 //! reconstruction. `cargo bench --bench rigs`. Wall-clock numbers live here, never in tests.
 
 use divan::black_box;
-use lobefit::fits::rigs::{car_box, field, scene_lights, surface_points, FIT_POINTS, RIDGE};
+use lobefit::pipelines::rigs::{car_box, field, scene_lights, surface_points, FIT_POINTS, RIDGE};
 use lobefit::tables::disk_light::DiskLight;
 use lobefit::tables::glam::DVec3;
 use lobefit::tables::rigs::{AxisModel, Light, Rig, RigModel, COEFFS};

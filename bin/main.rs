@@ -161,7 +161,7 @@ enum Command {
     #[command(after_help = lobefit::eval::COLUMNS)]
     Eval {
         /// Family name.
-        #[arg(value_parser = PossibleValuesParser::new(fits::eval_names()))]
+        #[arg(value_parser = PossibleValuesParser::new(lobefit::catalog::eval_names()))]
         family: String,
         #[command(flatten)]
         flags: EvalFlagArgs,
@@ -178,11 +178,13 @@ enum Command {
     /// Render a scene with a lobe pipeline and its Monte Carlo reference (PNGs and a
     /// summary of the measured errors).
     Render {
-        /// What to render: meunier (Meunier et al. 2009, docs/meunier.md).
-        #[arg(value_parser = ["meunier"])]
+        /// The pipeline (`lobefit render --help` lists them; docs/pipelines.md).
+        #[arg(value_parser = PossibleValuesParser::new(lobefit::pipelines::registry().iter().map(|p| p.name)))]
         name: String,
-        /// Scene: fig13 (diffuse, the paper's Figure 13), glossy (Lafortune plane) or all.
-        #[arg(long, value_parser = ["fig13", "glossy", "all"], default_value = "all")]
+        /// Scene: one of the pipeline's built-in scenes (meunier: fig13, the paper's
+        /// Figure 13, diffuse; glossy, a Lafortune plane), all of them, or the path of a
+        /// scene file (docs/pipelines.md).
+        #[arg(long, default_value = "all")]
         scene: String,
         /// Output directory.
         #[arg(long)]
@@ -203,7 +205,7 @@ enum Command {
     /// Write a family's figures (PNG) into a directory.
     Plot {
         /// Figure set.
-        #[arg(value_parser = PossibleValuesParser::new(fits::plots().into_iter().map(|(n, _)| n)))]
+        #[arg(value_parser = PossibleValuesParser::new(lobefit::catalog::plots().into_iter().map(|(n, _)| n)))]
         name: String,
         /// Output directory.
         #[arg(long, default_value = "plots")]
@@ -567,7 +569,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 mask: flags.mask,
                 weights: flags.weights,
             };
-            let f = fits::for_eval(&family, &flags, FitOptions::default())?;
+            let f = lobefit::catalog::for_eval(&family, &flags, FitOptions::default())?;
             let runtime = if exact {
                 None
             } else {
@@ -590,7 +592,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 .map_err(|e| e.to_string())?;
         }
         Command::Render {
-            name: _,
+            name,
             scene,
             out,
             width,
@@ -598,23 +600,23 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             breakdown_stride,
             threads,
         } => {
-            use lobefit::fits::mask_weights::render::{render, RenderOptions, SceneKind};
-            let kinds = match scene.as_str() {
-                "fig13" => vec![SceneKind::Fig13],
-                "glossy" => vec![SceneKind::Glossy],
-                _ => vec![SceneKind::Fig13, SceneKind::Glossy],
+            let pipeline = lobefit::pipelines::by_name(&name).ok_or_else(|| format!("no pipeline named {name}"))?;
+            let scenes: Vec<&str> = if scene == "all" {
+                pipeline.scenes.to_vec()
+            } else {
+                vec![scene.as_str()]
             };
-            let opts = RenderOptions {
+            let opts = lobefit::pipelines::RenderOptions {
                 width: width as usize,
                 spp: spp as usize,
                 breakdown_stride: breakdown_stride as usize,
             };
             let mut text = String::new();
-            for kind in kinds {
+            for scene in scenes {
                 let rows = (opts.width * 3 / 4).max(3) as u64;
-                let pb = progress(rows, kind.name());
+                let pb = progress(rows, scene);
                 let tick = || pb.inc(1);
-                let s = pool(threads)?.install(|| render(kind, &opts, &out, &tick))?;
+                let s = pool(threads)?.install(|| (pipeline.render)(scene, &opts, &out, &tick))?;
                 pb.finish_and_clear();
                 for l in s.lines {
                     let _ = writeln!(text, "{l}");
@@ -626,7 +628,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             emit(&text)?;
         }
         Command::Plot { name, out } => {
-            let (_, plot) = fits::plots()
+            let (_, plot) = lobefit::catalog::plots()
                 .into_iter()
                 .find(|(n, _)| *n == name)
                 .ok_or_else(|| format!("no figures named {name}"))?;

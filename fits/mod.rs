@@ -8,7 +8,6 @@ pub mod lobe_integral;
 pub mod lobe_product;
 pub mod log_zh;
 pub mod mask_weights;
-pub mod rigs;
 pub mod sg_fit;
 pub mod shexp;
 pub mod wedge;
@@ -115,7 +114,6 @@ pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Family>> {
 pub fn eval_names() -> Vec<&'static str> {
     let mut v = names();
     v.push("isg");
-    v.push("direct-light");
     v
 }
 
@@ -124,9 +122,6 @@ pub fn eval_names() -> Vec<&'static str> {
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
     match name {
         "isg" => isg::for_eval(flags),
-        "direct-light" => Ok(Box::new(mask_weights::direct_light::DirectLightView::from_flags(
-            flags,
-        )?)),
         "log-zh" => {
             if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {
                 return Err("log-zh takes only --kind and --order".into());
@@ -198,8 +193,6 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
         ("isg", isg::plot),
         ("lobe-product", lobe_product::plot),
         ("log-zh", crate::fits::log_zh::eps_study::plot),
-        ("meunier", crate::fits::mask_weights::direct_light::plot),
-        ("rigs", crate::fits::rigs::plot),
         ("shexp", crate::fits::shexp::study::plot),
     ]
 }

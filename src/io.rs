@@ -72,3 +72,20 @@ fn remove_stale(dir: &Path, prefix: &str) {
         }
     }
 }
+
+/// Reads a small text file (a scene, a manifest): refuses what is not a regular file
+/// (a FIFO would block) or is longer than `limit` bytes, before reading it.
+pub fn read_text(path: &Path, limit: u64) -> Result<String, String> {
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    if !meta.is_file() {
+        return Err(format!("{} is not a regular file", path.display()));
+    }
+    if meta.len() > limit {
+        return Err(format!(
+            "{} is {} bytes, more than the {limit} a text file here may have",
+            path.display(),
+            meta.len()
+        ));
+    }
+    std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+}

@@ -1,7 +1,8 @@
 //! # lobefit
 //!
 //! The numerical library behind the `lobefit` CLI: quadrature, the table families
-//! (`fits/`, one folder each, listed in [`fits::registry`]), the build driver, the
+//! (`fits/`, one folder each, listed in [`fits::registry`]), the rendering pipelines
+//! that combine them (`pipelines/`, [`pipelines::registry`]), the build driver, the
 //! checker and the CSV evaluator. No argument parsing and no printing live here.
 //!
 //! Conventions are those of docs/math.md §1 and of the runtime crate [`lobefit_tables`]:
@@ -9,6 +10,7 @@
 //! cosine lobe Ψ(v; a, e) = max(a·v, 0)^e.
 
 pub mod build;
+pub mod catalog;
 pub mod check;
 pub mod ci;
 pub mod eigen;
@@ -24,5 +26,10 @@ pub mod sh;
 /// The table families, one module each (kept in `fits/` at the repository root).
 #[path = "../fits/mod.rs"]
 pub mod fits;
+
+/// The papers' rendering pipelines and what they share: scenes, the Monte Carlo
+/// reference, image statistics, equal-error timing (kept in `pipelines/`).
+#[path = "../pipelines/mod.rs"]
+pub mod pipelines;
 
 pub use lobefit_tables as tables;

@@ -8,7 +8,7 @@
 //! log-ZH: the runtime's closed form; true ZH: closed form
 //! z_l = √(π(2l+1)) (r+1)/(2π) Σ_k a_{lk}/(r+k+1) (P_l = Σ a_{lk} s^k);
 //! exp*: Taylor series with the DC term factored out ([`crate::sh::exp_star`]).
-//! `tests/eps_study.rs` reproduces the numbers by an independent path.
+//! `tests/it/eps_study.rs` reproduces the numbers by an independent path.
 
 use std::f64::consts::PI;
 

@@ -40,7 +40,7 @@ const TABLE_CHECKED: [&str; MAX_ORDER] = ["t0", "t1", "t2", "t3", "t4", "t5", "t
 /// (only the checker passes it; eval rows have two coordinates).
 const TABLE_MODE: f64 = 1.0;
 /// What interpolation of the stored grid in ln ε may cost between nodes, at integer r
-/// (absolute; measured ≤ 3.5e-4, see tests/log_zh.rs and the checker).
+/// (absolute; measured ≤ 3.5e-4, see tests/it/log_zh.rs and the checker).
 pub const TABLE_INTERP_ABS: f64 = 1e-3;
 
 /// Default SH order of `lobefit eval` (docs/math.md §1).

@@ -1,8 +1,8 @@
 //! mask-weights (Meunier et al. 2009 §5.3, eq. 39; docs/math.md, mask-weights;
 //! docs/meunier.md): the per-depth weights of the visibility mask's leaf lobes,
 //! fitted by least squares against the exact mask visibility, with the paper's manual
-//! procedure made automatic as a baseline; and `lobefit eval direct-light`
-//! ([`direct_light`]), `lobefit render meunier` ([`render`]).
+//! procedure made automatic as a baseline. The pipeline that reads these weights
+//! (`eval direct-light`, `render meunier`) is `crate::pipelines::meunier`.
 //!
 //! **Definition.** For a light cap of half-angle α (the node's `dist` = 1/(2 tan α))
 //! and a blocker configuration (caps b_j), the mask of maximal depth D in a mode gives
@@ -22,9 +22,6 @@
 //! independent Gauss–Legendre × trapezoid rule ([`REF_RULE`]), and measures the
 //! visibility error of the fitted, paper and all-ones weights on held-out
 //! configurations at random `dist` with it.
-
-pub mod direct_light;
-pub mod render;
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::OnceLock;

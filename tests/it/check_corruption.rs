@@ -151,6 +151,7 @@ fn check_bytes(family: &dyn Family, dir: &Path, bytes: &[u8]) -> FamilyReport {
 }
 
 #[test]
+#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
 fn any_single_corrupted_node_fails_the_quick_check() {
     let dir = tempfile::tempdir().unwrap();
     let mut tried = 0;
@@ -259,6 +260,7 @@ fn moved_kink_error(table: &Table, node: usize, d: f64) -> f64 {
 /// the off-grid promise (lookups next to it off by more than 1e-4); where it does not,
 /// nothing is promised to catch it.
 #[test]
+#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
 fn a_moved_kink_that_breaks_the_promise_fails_the_quick_check() {
     use lobefit::fits::shexp::{ShExpFamily, OFFGRID_REL};
     let bytes = std::fs::read("tables/data/shexp.lobefit").unwrap();

@@ -44,6 +44,7 @@ fn build_into(dir: &Path, threads: &str) {
 
 /// Same inputs, same bytes: two builds, 1 vs 2 threads, and the committed tables.
 #[test]
+#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
 fn builds_are_byte_identical_and_match_the_committed_tables() {
     let a = tempfile::tempdir().unwrap();
     let b = tempfile::tempdir().unwrap();
@@ -68,7 +69,31 @@ fn builds_are_byte_identical_and_match_the_committed_tables() {
     assert!(leftovers.is_empty());
 }
 
+/// The JSON report on two cheap families (every family: the ignored test below).
 #[test]
+fn check_json_names_each_selected_family_once() {
+    let out = run(
+        &["check", "--quick", "--json", "--only", "cap-exponent,lobe-integral"],
+        "",
+    );
+    // Registry order, whatever the order of --only.
+    assert!(out.status.success(), "{}{}", text(&out.stdout), text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("valid JSON");
+    let kinds: Vec<&str> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(kinds, ["lobe-integral", "cap-exponent"]);
+    for r in v.as_array().unwrap() {
+        assert_eq!(r["pass"], true, "{r}");
+        assert!(r["offgrid_points"].as_u64().unwrap() >= 1000, "{r}");
+    }
+}
+
+#[test]
+#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
 fn check_passes_on_the_committed_tables_and_emits_json() {
     let out = run(&["check", "--quick", "--json"], "");
     assert!(out.status.success(), "{}{}", text(&out.stdout), text(&out.stderr));
@@ -533,8 +558,9 @@ fn check_cannot_be_switched_off_by_the_file_or_an_empty_sample() {
 /// range of a numbered set).
 #[test]
 fn eval_help_lists_every_column() {
+    use lobefit::catalog::{eval_names, for_eval};
     use lobefit::family::EvalFlags;
-    use lobefit::fits::{eval_names, for_eval, FitOptions};
+    use lobefit::fits::FitOptions;
     let (code, help, _) = common::run_text(&["eval", "--help"], "");
     assert_eq!(code, Some(0));
     let mut combos: Vec<(&str, EvalFlags)> = eval_names().into_iter().map(|n| (n, EvalFlags::default())).collect();

@@ -204,7 +204,8 @@ fn a_triple_product_matches_quadrature() {
 /// Why the product axis is not refined jointly with e_r (docs/math.md, lobe-product calls it optional):
 /// moving the axis off the closed-form peak lowers the optimal L2 residual by a
 /// median 1e-4 (relative), and by more only where one lobe fits the product poorly
-/// anyway. Slow (minutes): `cargo test --release --test lobe_product -- --ignored`.
+/// anyway. A study, not a check, and slow (minutes), so `.ci/run` skips it:
+/// `cargo test --release --test it axis_refinement_gains_little -- --ignored`.
 #[test]
 #[ignore]
 fn axis_refinement_gains_little() {

@@ -4,8 +4,8 @@
 
 use std::f64::consts::PI;
 
-use lobefit::fits::mask_weights::direct_light::{exact_irradiance, study, unoccluded_closed_form};
 use lobefit::fits::mask_weights::random_config;
+use lobefit::pipelines::meunier::direct_light::{exact_irradiance, study, unoccluded_closed_form};
 use lobefit::rng::Rng;
 use lobefit_tables::glam::{DVec3, Vec3};
 use lobefit_tables::mask_weights::{build_mask, channel_names, Cap, MaskMode, MaskWeights, WeightSet};
@@ -378,7 +378,7 @@ fn pipeline_against_exact_visibility() {
 /// upper hemisphere (the renderer's reference evaluates the definition).
 #[test]
 fn lafortune_lobes_equal_the_definition() {
-    use lobefit::fits::mask_weights::render::{brdf_value, Hit};
+    use lobefit::pipelines::scene::{brdf_value, Hit};
     use lobefit_tables::meunier::{Brdf, LafortuneLobe};
     let brdf = Brdf::Lafortune {
         albedo: 0.3,
@@ -413,6 +413,7 @@ fn lafortune_lobes_equal_the_definition() {
             t,
             wo,
             sphere: None,
+            material: 0,
         };
         for _ in 0..50 {
             let v = in_cap(

@@ -32,7 +32,7 @@ fn run(dir: &std::path::Path, threads: &str) -> String {
 fn results(stdout: &str) -> Vec<String> {
     stdout
         .lines()
-        .filter(|l| !l.contains("shading time") && !l.ends_with(".png") && !l.ends_with(".txt"))
+        .filter(|l| !l.contains("shading time") && !l.ends_with(".png") && !l.ends_with(".txt") && !l.ends_with(".pfm"))
         .map(str::to_string)
         .collect()
 }
@@ -49,6 +49,11 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
             let p = a.path().join(format!("meunier-{scene}-{fig}.png"));
             let bytes = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             assert_eq!(&bytes[..4], b"\x89PNG");
+        }
+        for img in ["lobes", "reference", "error"] {
+            let bytes = std::fs::read(a.path().join(format!("meunier-{scene}-{img}.pfm"))).unwrap();
+            // 12 × 9 pixels of f32 after the header.
+            assert!(bytes.starts_with(b"Pf\n12 9\n-1.0\n") && bytes.len() == 13 + 12 * 9 * 4);
         }
         let summary = std::fs::read_to_string(a.path().join(format!("meunier-{scene}-summary.txt"))).unwrap();
         assert!(summary.contains("standard error"), "{summary}");
@@ -77,12 +82,64 @@ fn bad_render_arguments_are_refused() {
     let out = d.path().to_str().unwrap();
     for args in [
         &["render", "meunier", "--width", "2", "--out", out][..],
-        &["render", "meunier", "--scene", "cornell", "--out", out],
         &["render", "meunier", "--spp", "1", "--out", out],
         &["render", "other", "--out", out],
     ] {
         let (code, stdout, _) = common::run_text(args, "");
         assert_eq!(code, Some(2), "{args:?}");
         assert!(stdout.is_empty());
+    }
+}
+
+/// A scene file renders like the built-in it copies (same numbers, its own name);
+/// a missing or malformed one is a specific error and writes nothing.
+#[test]
+fn scene_files_render_and_bad_ones_are_specific_errors() {
+    let d = tempfile::tempdir().unwrap();
+    let file = d.path().join("mine.json");
+    std::fs::write(&file, lobefit::pipelines::scene::BUILTIN[0].1).unwrap();
+    let args = |scene: &str, out: &std::path::Path| -> Vec<String> {
+        [
+            "render",
+            "meunier",
+            "--scene",
+            scene,
+            "--width",
+            "8",
+            "--spp",
+            "16",
+            "--breakdown-stride",
+            "4",
+            "--out",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([out.to_str().unwrap().to_string()])
+        .collect()
+    };
+    let run = |a: Vec<String>| {
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        common::run_text(&a, "")
+    };
+    let (code, mine, err) = run(args(file.to_str().unwrap(), &d.path().join("a")));
+    assert_eq!(code, Some(0), "{err}");
+    let (_, builtin, _) = run(args("fig13", &d.path().join("b")));
+    let strip = |s: &str, tag: &str| -> Vec<String> { results(s).iter().map(|l| l.replacen(tag, "", 1)).collect() };
+    assert_eq!(strip(&mine, "mine"), strip(&builtin, "fig13"));
+    assert!(d.path().join("a/meunier-mine-summary.txt").exists());
+
+    std::fs::write(&file, "{\"version\": 7}").unwrap();
+    for (scene, want) in [
+        (file.to_str().unwrap().to_string(), "version 7".to_string()),
+        (
+            "cornell".to_string(),
+            "not a built-in scene of meunier either: fig13, glossy".to_string(),
+        ),
+    ] {
+        let out = d.path().join("c");
+        let (code, stdout, err) = run(args(&scene, &out));
+        assert_eq!(code, Some(1), "{scene}: {err}");
+        assert!(stdout.is_empty() && err.contains(&want), "{scene}: {err}");
+        assert!(!out.exists(), "{scene}: wrote {}", out.display());
     }
 }

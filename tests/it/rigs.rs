@@ -3,7 +3,7 @@
 
 use std::f64::consts::PI;
 
-use lobefit::fits::rigs::{compare, exact_irradiance, markdown, Receiver};
+use lobefit::pipelines::rigs::{compare, exact_irradiance, markdown, Receiver};
 use lobefit::quad::gauss_kronrod;
 use lobefit::tables::disk_light::DiskLight;
 use lobefit::tables::glam::DVec3;
@@ -126,7 +126,7 @@ fn car_comparison() {
 /// Bad light parameters and a bad tolerance: their specific errors.
 #[test]
 fn bad_light_inputs() {
-    use lobefit::fits::rigs::car_box;
+    use lobefit::pipelines::rigs::car_box;
     use lobefit::tables::rigs::{select_direct, RigError, RigModel};
     let disks = DiskLight::embedded().unwrap();
     let p = DVec3::ZERO;

@@ -329,7 +329,7 @@ fn ab_is_the_least_squares_ol_fit() {
 /// The two readings of Ren's clamp (docs/shexp.md): the q-form with the clamp inside q
 /// (the table's) and the log of the clamped matrix applied to 1. Prints the max round
 /// trip exp*(log g) vs g over clamped caps for both; the q-form's must not be worse.
-/// `cargo test --test shexp clamp_conventions -- --nocapture`.
+/// `cargo test --test it shexp::clamp_conventions -- --nocapture`.
 #[test]
 fn clamp_conventions_round_trip() {
     use lobefit::eigen::sym_eigen;

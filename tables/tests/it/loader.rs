@@ -1500,7 +1500,7 @@ fn family_lookups(kind: &str, bytes: &[u8]) -> Result<Vec<f64>, LoadError> {
 
 /// Every committed table lies inside its family's declared channel ranges. Prints the
 /// measured min/max per channel next to the range, so the margin is visible
-/// (`cargo test -p lobefit-tables --test loader committed_tables_lie -- --nocapture`).
+/// (`cargo test -p lobefit-tables --test it loader::committed_tables_lie -- --nocapture`).
 #[test]
 fn committed_tables_lie_inside_their_channel_ranges() {
     for (kind, file, ranges) in ranged_tables() {

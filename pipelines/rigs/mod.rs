@@ -1,4 +1,4 @@
-//! harness: irradiance rigs on a car-sized box (Yuan et al. 2012, §1, Figure 1).
+//! The irradiance-rig harness (`lobefit plot rigs`): rigs on a car-sized box (Yuan et al. 2012, §1, Figure 1).
 //!
 //! Scene: the box [−2.25, 2.25] × [−0.9, 0.9] × [−0.75, 0.75] m (length x, width y,
 //! height z), lit by two point lights, a sphere light and two disk lights

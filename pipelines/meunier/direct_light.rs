@@ -15,8 +15,9 @@ use lobefit_tables::mask_weights::{MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
 use lobefit_tables::meunier::{check_scene, MaskSettings, Sphere, SphereLight};
 use lobefit_tables::{Axis, CapExponent, Channel, LoadError, LobeProduct, LookupError, Meunier, MeunierError, Table};
 
-use super::MaskWeightsFamily;
 use crate::family::{EvalFlags, Family, Fitted, Lookup};
+use crate::fits::mask_weights::MaskWeightsFamily;
+use crate::pipelines::scene::visible;
 use crate::quad::gauss_kronrod;
 use crate::rng::Rng;
 
@@ -188,38 +189,6 @@ impl Lookup for DirectLookup {
             .map_err(to_lookup)?;
         Ok(vec![e])
     }
-}
-
-/// Distance along the ray x + t·v (v unit) to the first intersection with `s`, if any
-/// (t > 0).
-pub fn ray_sphere(x: DVec3, v: DVec3, s: &Sphere) -> Option<f64> {
-    let oc = x - s.centre;
-    let b = oc.dot(v);
-    let c = oc.length_squared() - s.radius * s.radius;
-    let disc = b * b - c;
-    if disc < 0.0 {
-        return None;
-    }
-    let sq = disc.sqrt();
-    // Stable roots: q = −b − sign(b)·sq, t1 = q, t2 = c/q.
-    let q = -b - b.signum() * sq;
-    let (t1, t2) = if q != 0.0 { (q, c / q) } else { (0.0, 0.0) };
-    let (lo, hi) = (t1.min(t2), t1.max(t2));
-    if lo > 0.0 {
-        Some(lo)
-    } else if hi > 0.0 {
-        Some(hi)
-    } else {
-        None
-    }
-}
-
-/// Whether the ray from `x` in direction `v` reaches `light` before any blocker.
-pub fn visible(x: DVec3, v: DVec3, light: &Sphere, blockers: &[Sphere]) -> bool {
-    let Some(tl) = ray_sphere(x, v, light) else {
-        return false;
-    };
-    !blockers.iter().any(|b| ray_sphere(x, v, b).is_some_and(|t| t < tl))
 }
 
 /// Azimuths φ (about the frame's w, from u) where the circle of directions at angle

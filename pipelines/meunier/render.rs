@@ -10,306 +10,54 @@
 //! count) and reports its own standard error.
 
 use std::f64::consts::{PI, TAU};
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::Path;
 
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{build_mask, Cap, MaskMode, WeightSet};
-use lobefit_tables::meunier::{Brdf, LafortuneLobe, MaskSettings, Sphere, SphereLight};
+use lobefit_tables::meunier::{MaskSettings, SphereLight};
 use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
 
-use super::direct_light::{ray_sphere, visible};
-use super::gauss_legendre;
-use crate::plot::{heatmaps, line_chart, Heatmap, LineChart, Series};
-use crate::rng::Rng;
+use crate::fits::mask_weights::gauss_legendre;
+use crate::pipelines::estimate::{estimate, Estimate};
+use crate::pipelines::image::{compare, error_map, masked, mean_over, panel, write_pfm};
+use crate::pipelines::scene::{brdf_value, visible, Hit, Scene};
+use crate::pipelines::timing::{timed, EqualError};
+use crate::pipelines::{RenderOptions, Summary};
+use crate::plot::{heatmaps, line_chart, LineChart, Series};
 
 /// Seed of the reference's per-pixel light samples.
 pub const MC_SEED: u64 = 0x5eed_0013;
 
-/// Which scene.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SceneKind {
-    /// Figure 13: five spheres over a plane, diffuse.
-    Fig13,
-    /// The same geometry with a glossy Lafortune plane (Figure 14's kind).
-    Glossy,
-}
-
-impl SceneKind {
-    /// Command-line name.
-    pub fn name(self) -> &'static str {
-        match self {
-            SceneKind::Fig13 => "fig13",
-            SceneKind::Glossy => "glossy",
-        }
-    }
-}
-
-/// A scene: the plane z = 0, sphere blockers (also visible, diffuse), one light,
-/// a pinhole camera.
-#[derive(Debug, Clone)]
-pub struct Scene {
-    /// BRDF of the plane.
-    pub plane: Brdf,
-    /// BRDF of the spheres.
-    pub sphere_brdf: Brdf,
-    /// Spheres.
-    pub spheres: Vec<Sphere>,
-    /// The light.
-    pub light: SphereLight,
-    /// Camera position.
-    pub eye: DVec3,
-    /// Point looked at.
-    pub target: DVec3,
-    /// Vertical field of view (rad).
-    pub fov: f64,
-}
-
-/// The scenes of docs/meunier.md.
-pub fn scene(kind: SceneKind) -> Scene {
-    let s = |x: f64, y: f64, z: f64, r: f64| Sphere {
-        centre: DVec3::new(x, y, z),
-        radius: r,
-    };
-    let plane = match kind {
-        SceneKind::Fig13 => Brdf::Lambert { albedo: 0.8 },
-        SceneKind::Glossy => Brdf::Lafortune {
-            albedo: 0.3,
-            // Phong-like lobe about the mirror direction, normalised: (n + 2)/(2π)·k_s.
-            lobes: vec![LafortuneLobe {
-                c: DVec3::new(-1.0, -1.0, 1.0),
-                rho: 0.5 * (20.0 + 2.0) / TAU,
-                exponent: 20.0,
-            }],
-        },
-    };
-    Scene {
-        plane,
-        sphere_brdf: Brdf::Lambert { albedo: 0.6 },
-        spheres: vec![
-            s(-1.2, 0.0, 0.9, 0.5),
-            s(0.2, -0.6, 0.7, 0.35),
-            s(1.1, 0.6, 1.0, 0.45),
-            s(-0.3, 1.2, 0.6, 0.3),
-            s(0.6, -1.6, 0.5, 0.25),
-        ],
-        light: SphereLight {
-            sphere: s(0.8, 0.6, 4.0, 0.7),
-            radiance: 4.0,
-        },
-        eye: DVec3::new(0.0, -6.5, 4.5),
-        target: DVec3::new(0.0, 0.0, 0.3),
-        fov: 0.75,
-    }
-}
-
-/// What a pixel sees.
-#[derive(Debug, Clone, Copy)]
-pub struct Hit {
-    /// Surface point.
-    pub x: DVec3,
-    /// Unit normal.
-    pub n: DVec3,
-    /// Unit tangent.
-    pub t: DVec3,
-    /// Unit direction to the eye.
-    pub wo: DVec3,
-    /// Index of the sphere hit, `None` for the plane.
-    pub sphere: Option<usize>,
-}
-
-impl Scene {
-    /// Primary ray of pixel (i, j) of a w × h image (row 0 at the top).
-    pub fn primary(&self, i: usize, j: usize, w: usize, h: usize) -> Option<Hit> {
-        let f = (self.target - self.eye).normalize();
-        let r = f.cross(DVec3::Z).normalize();
-        let u = r.cross(f);
-        let k = (0.5 * self.fov).tan();
-        let sx = ((i as f64 + 0.5) / w as f64 * 2.0 - 1.0) * k * w as f64 / h as f64;
-        let sy = (1.0 - (j as f64 + 0.5) / h as f64 * 2.0) * k;
-        let d = (f + sx * r + sy * u).normalize();
-        let mut best: Option<(f64, Hit)> = None;
-        for (idx, s) in self.spheres.iter().enumerate() {
-            if let Some(t) = ray_sphere(self.eye, d, s) {
-                if best.as_ref().is_none_or(|b| t < b.0) {
-                    let x = self.eye + t * d;
-                    let n = (x - s.centre).normalize();
-                    best = Some((
-                        t,
-                        Hit {
-                            x,
-                            n,
-                            t: n.any_orthonormal_vector(),
-                            wo: -d,
-                            sphere: Some(idx),
-                        },
-                    ));
-                }
-            }
-        }
-        if d.z < 0.0 {
-            let t = -self.eye.z / d.z;
-            if best.as_ref().is_none_or(|b| t < b.0) {
-                let x = self.eye + t * d;
-                // Only a finite floor is drawn, so the background stays out of the metrics.
-                if x.x.abs() <= 4.0 && x.y.abs() <= 4.0 {
-                    best = Some((
-                        t,
-                        Hit {
-                            x,
-                            n: DVec3::Z,
-                            t: DVec3::X,
-                            wo: -d,
-                            sphere: None,
-                        },
-                    ));
-                }
-            }
-        }
-        best.map(|b| b.1)
-    }
-
-    /// The BRDF at a hit.
-    pub fn brdf(&self, h: &Hit) -> &Brdf {
-        if h.sphere.is_some() {
-            &self.sphere_brdf
-        } else {
-            &self.plane
-        }
-    }
-
-    /// Blockers seen from a hit: every sphere but the one it lies on (a sphere hides
-    /// exactly the lower hemisphere of its own surface points, which the cosine
-    /// already removes).
-    pub fn blockers(&self, h: &Hit) -> Vec<Sphere> {
-        self.spheres
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| Some(*i) != h.sphere)
-            .map(|(_, s)| *s)
-            .collect()
-    }
-}
-
-/// The BRDF's value f_r(v, wo) from its definition (independent of the lobe form).
-pub fn brdf_value(b: &Brdf, h: &Hit, v: DVec3) -> f64 {
-    if h.n.dot(v) <= 0.0 {
-        return 0.0;
-    }
-    match b {
-        Brdf::Lambert { albedo } => albedo / PI,
-        Brdf::Lafortune { albedo, lobes } => {
-            let t = (h.t - h.t.dot(h.n) * h.n).normalize();
-            let bt = h.n.cross(t);
-            let loc = |d: DVec3| DVec3::new(d.dot(t), d.dot(bt), d.dot(h.n));
-            let (a, o) = (loc(v), loc(h.wo));
-            albedo / PI
-                + lobes
-                    .iter()
-                    .map(|l| {
-                        let s = l.c.x * a.x * o.x + l.c.y * a.y * o.y + l.c.z * a.z * o.z;
-                        if s > 0.0 {
-                            l.rho * s.powf(l.exponent)
-                        } else {
-                            0.0
-                        }
-                    })
-                    .sum::<f64>()
-        }
-    }
-}
-
-/// Reference radiance at a hit: `n` light samples uniform in the light's cap;
-/// (mean, standard error of the mean).
-pub fn reference(scene: &Scene, h: &Hit, n: usize, seed: u64) -> (f64, f64) {
-    let light = &scene.light;
+/// Reference radiance at a hit: `n` light samples uniform in the light's cap, with
+/// exact ray–sphere visibility through the scene's BVH.
+pub fn reference(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, seed: u64) -> Estimate {
     let to = light.sphere.centre - h.x;
     let d = to.length();
     let w = to / d;
     let cos_a = (1.0 - (light.sphere.radius / d).powi(2)).sqrt();
     let omega = TAU * (1.0 - cos_a);
     let (u, v) = w.any_orthonormal_pair();
-    let blockers = scene.blockers(h);
     let brdf = scene.brdf(h);
-    let mut rng = Rng::new(seed);
-    let (mut s, mut s2) = (0.0, 0.0);
-    for _ in 0..n {
+    estimate(n, seed, |rng| {
         let mu = 1.0 - rng.uniform() * (1.0 - cos_a);
         let phi = rng.range(0.0, TAU);
         let st = (1.0 - mu * mu).max(0.0).sqrt();
         let dir = mu * w + st * (phi.cos() * u + phi.sin() * v);
         let c = h.n.dot(dir);
-        let f = if c > 0.0 && visible(h.x, dir, &light.sphere, &blockers) {
+        if c > 0.0 && scene.light_visible(h, dir, &light.sphere) {
             brdf_value(brdf, h, dir) * light.radiance * c * omega
         } else {
             0.0
-        };
-        s += f;
-        s2 += f * f;
-    }
-    let mean = s / n as f64;
-    let var = (s2 / n as f64 - mean * mean).max(0.0) * n as f64 / (n as f64 - 1.0).max(1.0);
-    (mean, (var / n as f64).sqrt())
-}
-
-/// Options of a render.
-#[derive(Debug, Clone, Copy)]
-pub struct RenderOptions {
-    /// Image width (pixels); the height is 3/4 of it.
-    pub width: usize,
-    /// Reference samples per pixel.
-    pub spp: usize,
-    /// Every `breakdown_stride`-th pixel (in x and y) gets the error breakdown.
-    pub breakdown_stride: usize,
-}
-
-/// Measured results of one scene.
-#[derive(Debug, Clone, Default)]
-pub struct Summary {
-    /// Lines of text (also written to `summary.txt`).
-    pub lines: Vec<String>,
-    /// Files written.
-    pub files: Vec<PathBuf>,
-    /// Relative RMSE of the default pipeline (fitted weights) over lit pixels.
-    pub rel_rmse: f64,
-    /// Mean relative standard error of the reference.
-    pub ref_rel_se: f64,
-}
-
-/// Error statistics of `img` against `reference` over pixels with `mask`: relative
-/// RMSE, p99 and max of |img − ref|, all divided by the mean reference.
-fn stats(img: &[f64], reference: &[f64], mask: &[bool]) -> (f64, f64, f64) {
-    let mean = mean_over(reference, mask);
-    let mut d: Vec<f64> = img
-        .iter()
-        .zip(reference)
-        .zip(mask)
-        .filter(|(_, &m)| m)
-        .map(|((a, b), _)| (a - b).abs() / mean)
-        .collect();
-    d.sort_by(f64::total_cmp);
-    if d.is_empty() {
-        return (f64::NAN, f64::NAN, f64::NAN);
-    }
-    let rmse = (d.iter().map(|x| x * x).sum::<f64>() / d.len() as f64).sqrt();
-    let p99 = d[((d.len() - 1) as f64 * 0.99).round() as usize];
-    (rmse, p99, *d.last().expect("non-empty"))
-}
-
-fn mean_over(v: &[f64], mask: &[bool]) -> f64 {
-    let (s, n) = v
-        .iter()
-        .zip(mask)
-        .filter(|(_, &m)| m)
-        .fold((0.0, 0usize), |(s, n), (x, _)| (s + x, n + 1));
-    s / n.max(1) as f64
+        }
+    })
 }
 
 /// The lobe pipeline over the whole image with `settings`; `None` for background.
 fn lobe_image(
     m: &Meunier<'_>,
     scene: &Scene,
+    light: &SphereLight,
     hits: &[Option<Hit>],
     settings: &MaskSettings,
 ) -> Result<Vec<f64>, String> {
@@ -323,7 +71,7 @@ fn lobe_image(
                     h.t,
                     h.wo,
                     scene.brdf(h),
-                    &[scene.light],
+                    &[*light],
                     &scene.blockers(h),
                     settings,
                 )
@@ -339,8 +87,13 @@ fn lobe_image(
 /// cells, where no overlap needs correcting), the mask's depth and aggressive choice
 /// (E5: exact ray–sphere visibility, the reference), all by one product rule
 /// (Gauss–Legendre in θ split at the cap's edge, uniform in φ) about the light's axis.
-fn breakdown(m: &Meunier<'_>, scene: &Scene, h: &Hit, settings: &MaskSettings) -> Result<[f64; 5], String> {
-    let light = &scene.light;
+fn breakdown(
+    m: &Meunier<'_>,
+    scene: &Scene,
+    light: &SphereLight,
+    h: &Hit,
+    settings: &MaskSettings,
+) -> Result<[f64; 5], String> {
     let blockers = scene.blockers(h);
     let brdf = scene.brdf(h);
     let (llobe, lcap) = m.light_lobe(h.x, light).map_err(|e| e.to_string())?;
@@ -431,46 +184,59 @@ fn breakdown(m: &Meunier<'_>, scene: &Scene, h: &Hit, settings: &MaskSettings) -
     Ok(out)
 }
 
-/// Renders `kind` and writes its figures into `dir`. `progress` is called once per
+/// Renders the scene `name` (a built-in, [`super::PIPELINE`]'s `scenes`, or a scene
+/// file's path) and writes its figures into `dir`. `progress` is called once per
 /// finished image row of the reference.
-pub fn render(
-    kind: SceneKind,
-    opts: &RenderOptions,
-    dir: &Path,
-    progress: &(dyn Fn() + Sync),
-) -> Result<Summary, String> {
+pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
+    let scene = match crate::pipelines::scene::builtin(&format!("meunier-{name}")) {
+        Some(s) => s?,
+        None => crate::pipelines::scene::load(name).map_err(|e| {
+            format!(
+                "{e} (not a built-in scene of meunier either: {})",
+                super::PIPELINE.scenes.join(", ")
+            )
+        })?,
+    };
+    let light = match scene.lights[..] {
+        [l] => l,
+        _ => {
+            return Err(format!(
+                "render meunier: scene {} has {} lights; the error breakdown takes one",
+                scene.name,
+                scene.lights.len()
+            ))
+        }
+    };
+    let tag = scene.name.strip_prefix("meunier-").unwrap_or(&scene.name).to_string();
     let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
-    let scene = scene(kind);
-    let weights = MaskWeights::embedded().map_err(|e| e.to_string())?;
     let m = Meunier {
         products: LobeProduct::embedded().map_err(|e| e.to_string())?,
         caps: CapExponent::embedded().map_err(|e| e.to_string())?,
-        weights,
+        weights: MaskWeights::embedded().map_err(|e| e.to_string())?,
     };
     let hits: Vec<Option<Hit>> = (0..w * h).map(|p| scene.primary(p % w, p / w, w, h)).collect();
     let lit: Vec<bool> = hits.iter().map(Option::is_some).collect();
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let tag = kind.name();
     let mut sum = Summary::default();
 
     // Reference (row by row for the progress bar), timed.
-    let t0 = Instant::now();
-    let refs: Vec<(f64, f64)> = (0..h)
-        .into_par_iter()
-        .flat_map_iter(|j| {
-            let row: Vec<(f64, f64)> = (0..w)
-                .map(|i| match &hits[j * w + i] {
-                    None => (0.0, 0.0),
-                    Some(hit) => reference(&scene, hit, opts.spp, MC_SEED ^ (j * w + i) as u64),
-                })
-                .collect();
-            progress();
-            row
-        })
-        .collect();
-    let t_ref = t0.elapsed().as_secs_f64();
-    let reference_img: Vec<f64> = refs.iter().map(|r| r.0).collect();
-    let se: Vec<f64> = refs.iter().map(|r| r.1).collect();
+    let (refs, t_ref) = timed(|| -> Vec<Estimate> {
+        (0..h)
+            .into_par_iter()
+            .flat_map_iter(|j| {
+                let row: Vec<Estimate> = (0..w)
+                    .map(|i| match &hits[j * w + i] {
+                        None => estimate(0, 0, |_| 0.0),
+                        Some(hit) => reference(&scene, &light, hit, opts.spp, MC_SEED ^ (j * w + i) as u64),
+                    })
+                    .collect();
+                progress();
+                row
+            })
+            .collect()
+    });
+    let reference_img: Vec<f64> = refs.iter().map(|r| r.mean).collect();
+    let se: Vec<f64> = refs.iter().map(|r| r.std_error).collect();
     let mean_ref = mean_over(&reference_img, &lit);
     let ref_rel_se = mean_over(&se, &lit) / mean_ref;
     let max_se = se
@@ -483,13 +249,12 @@ pub fn render(
 
     // Lobe pipeline, three weight sets, timed (default set).
     let default = MaskSettings::default();
-    let t1 = Instant::now();
-    let lobes = lobe_image(&m, &scene, &hits, &default)?;
-    let t_lobe = t1.elapsed().as_secs_f64();
-    let pixels = lit.iter().filter(|&&l| l).count().max(1) as f64;
+    let (lobes, t_lobe) = timed(|| lobe_image(&m, &scene, &light, &hits, &default));
+    let lobes = lobes?;
+    let pixels = lit.iter().filter(|&&l| l).count();
     sum.lines.push(format!(
-        "{tag}: {w}×{h}, {} lit pixels; reference {} light samples/pixel, standard error mean {:.2e}, max {:.2e} (of the mean radiance {:.4})",
-        pixels, opts.spp, ref_rel_se, max_se, mean_ref
+        "{tag}: {w}×{h}, {pixels} lit pixels; reference {} light samples/pixel, standard error mean {:.2e}, max {:.2e} (of the mean radiance {:.4})",
+        opts.spp, ref_rel_se, max_se, mean_ref
     ));
     let mut rmse_default = f64::NAN;
     for set in [WeightSet::Fitted, WeightSet::Paper, WeightSet::Ones] {
@@ -500,97 +265,88 @@ pub fn render(
         let img = if set == WeightSet::Fitted {
             lobes.clone()
         } else {
-            lobe_image(&m, &scene, &hits, &s)?
+            lobe_image(&m, &scene, &light, &hits, &s)?
         };
-        let (rmse, p99, max) = stats(&img, &reference_img, &lit);
+        let st = compare(&img, &reference_img, &lit);
         if set == WeightSet::Fitted {
-            rmse_default = rmse;
+            rmse_default = st.rel_rmse;
         }
         sum.lines.push(format!(
-            "{tag}: weights {:<6} depth 5 aggressive: relative RMSE {rmse:.4}, p99 {p99:.4}, max {max:.4}",
-            set.name()
+            "{tag}: weights {:<6} depth 5 aggressive: relative RMSE {:.4}, p99 {:.4}, max {:.4}",
+            set.name(),
+            st.rel_rmse,
+            st.p99,
+            st.max
         ));
     }
-    // Time at equal error: the reference's per-sample spread gives the samples it
-    // needs for a standard error equal to the pipeline's RMSE.
-    let var_per_sample = mean_over(&se.iter().map(|s| s * s * opts.spp as f64).collect::<Vec<_>>(), &lit);
-    let n_eq = var_per_sample / (rmse_default * mean_ref).powi(2);
-    let t_sample = t_ref / (pixels * opts.spp as f64);
-    let t_px_lobe = t_lobe / pixels;
+    let var_per_sample = mean_over(
+        &refs.iter().map(Estimate::per_sample_variance).collect::<Vec<_>>(),
+        &lit,
+    );
+    let eq = EqualError::new(t_lobe, t_ref, pixels, opts.spp, var_per_sample, rmse_default * mean_ref);
     sum.lines.push(format!(
         "{tag}: shading time per pixel: lobes {:.2} µs; reference {:.3} µs per sample, {:.1} samples for the lobes' RMSE → {:.2} µs; ratio reference/lobes {:.2} (one run, same process)",
-        1e6 * t_px_lobe,
-        1e6 * t_sample,
-        n_eq,
-        1e6 * t_sample * n_eq,
-        t_sample * n_eq / t_px_lobe
+        1e6 * eq.pipeline_per_pixel,
+        1e6 * eq.reference_per_sample,
+        eq.samples,
+        1e6 * eq.reference_per_pixel,
+        eq.ratio
     ));
 
-    // Images.
-    let panel = |title: String, values: Vec<f64>, label: &str| Heatmap {
-        title,
-        x_label: "pixel x".into(),
-        y_label: "pixel y (up)".into(),
-        x_range: (0.0, w as f64),
-        y_range: (0.0, h as f64),
-        nx: w,
-        ny: h,
-        values,
-        colour_label: label.into(),
-        log_colour: false,
-    };
-    // Heat maps put row 0 at the bottom: flip.
-    let flip = |v: &[f64]| -> Vec<f64> { (0..h).rev().flat_map(|j| v[j * w..(j + 1) * w].to_vec()).collect() };
-    let masked = |v: &[f64]| -> Vec<f64> {
-        v.iter()
-            .zip(&lit)
-            .map(|(x, &l)| if l { *x } else { f64::NAN })
-            .collect()
-    };
+    // Images: PNG panels, and the float images for other tools.
     sum.files.push(heatmaps(
         &dir.join(format!("meunier-{tag}-images.png")),
         &[
             panel(
                 format!("{tag}: lobe pipeline (depth 5, fitted)"),
-                flip(&masked(&lobes)),
+                w,
+                h,
+                &masked(&lobes, &lit),
                 "radiance",
             ),
             panel(
                 format!("{tag}: Monte Carlo reference ({} spp)", opts.spp),
-                flip(&masked(&reference_img)),
+                w,
+                h,
+                &masked(&reference_img, &lit),
                 "radiance",
             ),
         ],
         2,
     )?);
-    let rel: Vec<f64> = lobes
-        .iter()
-        .zip(&reference_img)
-        .map(|(a, b)| (a - b) / mean_ref)
-        .collect();
+    let rel = error_map(&lobes, &reference_img, &lit, mean_ref);
     sum.files.push(heatmaps(
         &dir.join(format!("meunier-{tag}-error.png")),
         &[panel(
             format!("{tag}: (lobes − reference) / mean reference"),
-            flip(&masked(&rel)),
+            w,
+            h,
+            &rel,
             "relative error",
         )],
         1,
     )?);
+    for (what, img) in [("lobes", &lobes), ("reference", &reference_img), ("error", &rel)] {
+        sum.files
+            .push(write_pfm(&dir.join(format!("meunier-{tag}-{what}.pfm")), w, h, img)?);
+    }
     // Figure 10: aggressive and conservative × depth 2, 3, 5.
     let mut fig10 = Vec::new();
     for mode in MaskMode::ALL {
         for depth in [2, 3, 5] {
             let s = MaskSettings { depth, mode, ..default };
-            let img = lobe_image(&m, &scene, &hits, &s)?;
-            let (rmse, _, _) = stats(&img, &reference_img, &lit);
+            let img = lobe_image(&m, &scene, &light, &hits, &s)?;
+            let st = compare(&img, &reference_img, &lit);
             sum.lines.push(format!(
-                "{tag}: Figure 10 {} depth {depth}: relative RMSE {rmse:.4}",
-                mode.name()
+                "{tag}: Figure 10 {} depth {depth}: relative RMSE {:.4}",
+                mode.name(),
+                st.rel_rmse
             ));
             fig10.push(panel(
                 format!("{} depth {depth}", mode.name()),
-                flip(&masked(&img)),
+                w,
+                h,
+                &masked(&img, &lit),
                 "radiance",
             ));
         }
@@ -631,7 +387,7 @@ pub fn render(
             ..default
         };
         let row_hits: Vec<Option<Hit>> = (0..w).map(|i| hits[row * w + i]).collect();
-        let img = lobe_image(&m, &scene, &row_hits, &s)?;
+        let img = lobe_image(&m, &scene, &light, &row_hits, &s)?;
         series.push(Series {
             name: format!("lobes, {}", set.name()),
             points: (0..w)
@@ -663,7 +419,7 @@ pub fn render(
         .par_iter()
         .map(|&p| {
             let hit = hits[p].expect("lit");
-            let b = breakdown(&m, &scene, &hit, &default)?;
+            let b = breakdown(&m, &scene, &light, &hit, &default)?;
             Ok([lobes[p], b[0], b[1], b[2], b[3], b[4]])
         })
         .collect::<Result<_, String>>()?;
@@ -702,7 +458,7 @@ pub fn render(
         let d: Vec<f64> = picks
             .par_iter()
             .map(|&p| {
-                let b = breakdown(&m, &scene, &hits[p].expect("lit"), &s)?;
+                let b = breakdown(&m, &scene, &light, &hits[p].expect("lit"), &s)?;
                 Ok(b[1] - b[4])
             })
             .collect::<Result<_, String>>()?;
@@ -731,7 +487,7 @@ pub fn render(
     sum.ref_rel_se = ref_rel_se;
     let text: String = sum.lines.iter().map(|l| format!("{l}\n")).collect();
     let path = dir.join(format!("meunier-{tag}-summary.txt"));
-    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    crate::io::write_atomic(&path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
     sum.files.push(path);
     Ok(sum)
 }

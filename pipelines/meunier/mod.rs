@@ -1,0 +1,18 @@
+//! Meunier et al. 2009, direct lighting from spherical lights with cosine-lobe
+//! visibility masks (docs/meunier.md), end to end: `lobefit eval direct-light`
+//! ([`direct_light`]: the pipeline without images, and its exact reference) and
+//! `lobefit render meunier` ([`render`]). The tables it reads (lobe-product,
+//! cap-exponent, mask-weights) are fitted in `fits/`.
+
+pub mod direct_light;
+pub mod render;
+
+use super::Pipeline;
+
+/// `lobefit render meunier`.
+pub const PIPELINE: Pipeline = Pipeline {
+    name: "meunier",
+    about: "Meunier et al. 2009: spheres over a plane under a spherical light (docs/meunier.md)",
+    scenes: &["fig13", "glossy"],
+    render: render::render,
+};

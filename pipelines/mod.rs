@@ -1,0 +1,96 @@
+//! The papers' rendering pipelines, beside the table families of `fits/`: a table
+//! answers one query; a pipeline combines several tables into pictures of a scene and
+//! measures them against a Monte Carlo reference with exact visibility.
+//!
+//! What every pipeline shares lives here, once:
+//!
+//! - [`scene`]: geometry (spheres, planes; rays; a BVH over spheres), the pinhole
+//!   camera, materials, lights, and the JSON scene file every pipeline reads
+//!   (`pipelines/scenes/*.json`, documented in docs/pipelines.md);
+//! - [`estimate`]: the Monte Carlo estimator, which always reports its standard error;
+//! - [`image`]: image statistics against a reference (relative RMSE, p99, max, error
+//!   maps) and image output (PNG panels and a PFM float image generic tools read);
+//! - [`timing`]: the cost of the reference at the pipeline's error (equal-error timing).
+//!
+//! Each pipeline is one module ([`meunier`], [`rigs`]) and one entry of [`registry`],
+//! which `lobefit render NAME` lists.
+
+pub mod estimate;
+pub mod image;
+pub mod meunier;
+pub mod rigs;
+pub mod scene;
+pub mod timing;
+
+use std::path::{Path, PathBuf};
+
+use crate::family::{EvalFlags, Family};
+use crate::fits::PlotFn;
+
+/// Options every `lobefit render` takes.
+#[derive(Debug, Clone)]
+pub struct RenderOptions {
+    /// Image width (pixels); the height is 3/4 of it.
+    pub width: usize,
+    /// Reference samples per pixel.
+    pub spp: usize,
+    /// Every `breakdown_stride`-th pixel (in x and y) gets the pipeline's error
+    /// breakdown, where it has one.
+    pub breakdown_stride: usize,
+}
+
+/// Measured results of one rendered scene.
+#[derive(Debug, Clone, Default)]
+pub struct Summary {
+    /// Lines of text (also written to the scene's `*-summary.txt`).
+    pub lines: Vec<String>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// Relative RMSE of the pipeline's default settings against the reference, over
+    /// the pixels that see geometry.
+    pub rel_rmse: f64,
+    /// Mean relative standard error of the reference.
+    pub ref_rel_se: f64,
+}
+
+/// Renders one scene (a [`Pipeline::scenes`] name or a scene file's path) into a
+/// directory; `progress` is called once per finished image row of the reference.
+pub type RenderFn = fn(&str, &RenderOptions, &Path, &(dyn Fn() + Sync)) -> Result<Summary, String>;
+
+/// One pipeline of `lobefit render`.
+#[derive(Debug, Clone, Copy)]
+pub struct Pipeline {
+    /// Command-line name.
+    pub name: &'static str,
+    /// One line for `--help`.
+    pub about: &'static str,
+    /// Its built-in scenes (`--scene all` renders each).
+    pub scenes: &'static [&'static str],
+    /// The renderer.
+    pub render: RenderFn,
+}
+
+/// A pipeline's query for `lobefit eval NAME [flags]` (the pipeline without images).
+pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn Family>, String>;
+
+/// The `lobefit eval` names the pipelines add to the families'.
+pub fn eval_views() -> Vec<(&'static str, EvalFn)> {
+    vec![("direct-light", |flags| {
+        Ok(Box::new(meunier::direct_light::DirectLightView::from_flags(flags)?))
+    })]
+}
+
+/// The `lobefit plot` figure sets of the pipelines.
+pub fn plots() -> Vec<(&'static str, PlotFn)> {
+    vec![("meunier", meunier::direct_light::plot), ("rigs", rigs::plot)]
+}
+
+/// Every pipeline `lobefit render` knows.
+pub fn registry() -> Vec<Pipeline> {
+    vec![meunier::PIPELINE]
+}
+
+/// The pipeline called `name`.
+pub fn by_name(name: &str) -> Option<Pipeline> {
+    registry().into_iter().find(|p| p.name == name)
+}

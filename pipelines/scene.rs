@@ -1,0 +1,799 @@
+//! The scene layer every pipeline shares: rays against spheres and finite planes, a
+//! BVH over spheres, a pinhole camera, materials evaluated from their definition (what
+//! the Monte Carlo reference needs), lights, and the JSON scene file.
+//!
+//! Conventions: right-handed world space, +z up, lengths in scene units, angles in
+//! radians; a ray is x + t·v with v unit and t > 0; normals are unit and face out of
+//! spheres and up out of planes (planes are one-sided: seen from the side the normal
+//! points to). Image pixel (i, j) has row j = 0 at the top.
+//!
+//! The scene file (JSON, `"version": 1`; every field required unless noted, unknown
+//! fields are errors) is documented in docs/pipelines.md; the built-in scenes live in
+//! `pipelines/scenes/` and are compiled in ([`builtin`]).
+
+use std::f64::consts::{PI, TAU};
+use std::path::Path;
+
+use lobefit_tables::glam::DVec3;
+pub use lobefit_tables::meunier::{Brdf, LafortuneLobe, Sphere, SphereLight};
+use serde::Deserialize;
+
+/// Version of the scene file format this build reads.
+pub const SCENE_VERSION: u32 = 1;
+/// Longest scene file read (bytes): far above any hand-written scene, and a bound on
+/// what a mistaken path can make us read.
+pub const MAX_SCENE_LEN: u64 = 64 << 20;
+
+/// Distance along the ray x + t·v (v unit) to the first intersection with `s`, if any
+/// (t > 0).
+pub fn ray_sphere(x: DVec3, v: DVec3, s: &Sphere) -> Option<f64> {
+    let oc = x - s.centre;
+    let b = oc.dot(v);
+    let c = oc.length_squared() - s.radius * s.radius;
+    let disc = b * b - c;
+    if disc < 0.0 {
+        return None;
+    }
+    let sq = disc.sqrt();
+    // Stable roots: q = −b − sign(b)·sq, t1 = q, t2 = c/q.
+    let q = -b - b.signum() * sq;
+    let (t1, t2) = if q != 0.0 { (q, c / q) } else { (0.0, 0.0) };
+    let (lo, hi) = (t1.min(t2), t1.max(t2));
+    if lo > 0.0 {
+        Some(lo)
+    } else if hi > 0.0 {
+        Some(hi)
+    } else {
+        None
+    }
+}
+
+/// Whether the ray from `x` in direction `v` reaches `light` before any blocker.
+pub fn visible(x: DVec3, v: DVec3, light: &Sphere, blockers: &[Sphere]) -> bool {
+    let Some(tl) = ray_sphere(x, v, light) else {
+        return false;
+    };
+    !blockers.iter().any(|b| ray_sphere(x, v, b).is_some_and(|t| t < tl))
+}
+
+/// A one-sided square patch of a plane: the points x with n·x = `offset` within
+/// `half_extent` of n·offset along `tangent` and along n × tangent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plane {
+    /// Unit normal (the side it is seen from).
+    pub normal: DVec3,
+    /// n·x on the plane.
+    pub offset: f64,
+    /// Unit tangent, perpendicular to the normal (the BRDF's local x axis).
+    pub tangent: DVec3,
+    /// Half the side of the patch.
+    pub half_extent: f64,
+}
+
+impl Plane {
+    /// Distance along x + t·v to the patch, if the ray meets its front side (t > 0).
+    pub fn intersect(&self, x: DVec3, v: DVec3) -> Option<f64> {
+        let denom = self.normal.dot(v);
+        if denom >= 0.0 {
+            return None;
+        }
+        let t = (self.offset - self.normal.dot(x)) / denom;
+        if t <= 0.0 {
+            return None;
+        }
+        let p = x + t * v - self.offset * self.normal;
+        let b = self.normal.cross(self.tangent);
+        (p.dot(self.tangent).abs() <= self.half_extent && p.dot(b).abs() <= self.half_extent).then_some(t)
+    }
+}
+
+/// A bounding-volume hierarchy over spheres (axis-aligned boxes, median splits on the
+/// longest axis, up to [`Bvh::LEAF`] spheres a leaf). Its answers equal a linear scan's.
+#[derive(Debug, Clone)]
+pub struct Bvh {
+    nodes: Vec<BvhNode>,
+    /// Sphere indices, leaves' ranges into it.
+    order: Vec<usize>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct BvhNode {
+    lo: DVec3,
+    hi: DVec3,
+    /// Leaf: `count > 0`, spheres `order[first..first + count]`; inner: children
+    /// `first` and `first + 1`.
+    first: usize,
+    count: usize,
+}
+
+impl Bvh {
+    /// Spheres per leaf at most.
+    pub const LEAF: usize = 4;
+
+    /// The hierarchy over `spheres` (indices refer to this slice).
+    pub fn new(spheres: &[Sphere]) -> Bvh {
+        let mut bvh = Bvh {
+            nodes: Vec::new(),
+            order: (0..spheres.len()).collect(),
+        };
+        if !spheres.is_empty() {
+            bvh.nodes.push(BvhNode {
+                lo: DVec3::ZERO,
+                hi: DVec3::ZERO,
+                first: 0,
+                count: 0,
+            });
+            bvh.split(spheres, 0, 0, spheres.len());
+        }
+        bvh
+    }
+
+    fn split(&mut self, spheres: &[Sphere], node: usize, start: usize, end: usize) {
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let (mut clo, mut chi) = (lo, hi);
+        for &i in &self.order[start..end] {
+            let s = &spheres[i];
+            lo = lo.min(s.centre - s.radius);
+            hi = hi.max(s.centre + s.radius);
+            clo = clo.min(s.centre);
+            chi = chi.max(s.centre);
+        }
+        self.nodes[node].lo = lo;
+        self.nodes[node].hi = hi;
+        if end - start <= Self::LEAF {
+            self.nodes[node].first = start;
+            self.nodes[node].count = end - start;
+            return;
+        }
+        let ext = chi - clo;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        let mid = (start + end) / 2;
+        // Ties broken by index, so the tree does not depend on the sort's stability.
+        self.order[start..end].sort_by(|&a, &b| {
+            spheres[a].centre[axis]
+                .total_cmp(&spheres[b].centre[axis])
+                .then(a.cmp(&b))
+        });
+        let left = self.nodes.len();
+        let empty = BvhNode {
+            lo,
+            hi,
+            first: 0,
+            count: 0,
+        };
+        self.nodes.push(empty);
+        self.nodes.push(empty);
+        self.nodes[node].first = left;
+        self.split(spheres, left, start, mid);
+        self.split(spheres, left + 1, mid, end);
+    }
+
+    /// Whether x + t·v meets the box for some t in (0, t_max).
+    fn hits_box(n: &BvhNode, x: DVec3, inv: DVec3, t_max: f64) -> bool {
+        let a = (n.lo - x) * inv;
+        let b = (n.hi - x) * inv;
+        // NaN (0·∞ on a slab the ray lies in) must not cull: min/max ignore it.
+        let t0 = a.min(b).max_element().max(0.0);
+        let t1 = a.max(b).min_element().min(t_max);
+        t0 <= t1
+    }
+
+    /// The nearest sphere along x + t·v (v unit) with t < `t_max`, as (t, index);
+    /// the lower index on equal t, as a scan in index order would give.
+    pub fn nearest(&self, spheres: &[Sphere], x: DVec3, v: DVec3, t_max: f64) -> Option<(f64, usize)> {
+        let inv = v.recip();
+        let mut best: Option<(f64, usize)> = None;
+        let mut stack = Stack::new();
+        while let Some(k) = stack.pop() {
+            let Some(n) = self.nodes.get(k) else { continue };
+            let limit = best.map_or(t_max, |b| b.0);
+            if !Self::hits_box(n, x, inv, limit) {
+                continue;
+            }
+            if n.count == 0 {
+                stack.push(n.first);
+                stack.push(n.first + 1);
+                continue;
+            }
+            for &i in &self.order[n.first..n.first + n.count] {
+                if let Some(t) = ray_sphere(x, v, &spheres[i]) {
+                    let better = match best {
+                        None => t < t_max,
+                        Some((bt, bi)) => t < bt || (t == bt && i < bi),
+                    };
+                    if better {
+                        best = Some((t, i));
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    /// Whether some sphere other than `skip` meets x + t·v for t < `t_max`.
+    pub fn occluded(&self, spheres: &[Sphere], x: DVec3, v: DVec3, t_max: f64, skip: Option<usize>) -> bool {
+        let inv = v.recip();
+        let mut stack = Stack::new();
+        while let Some(k) = stack.pop() {
+            let Some(n) = self.nodes.get(k) else { continue };
+            if !Self::hits_box(n, x, inv, t_max) {
+                continue;
+            }
+            if n.count == 0 {
+                stack.push(n.first);
+                stack.push(n.first + 1);
+                continue;
+            }
+            let hit = self.order[n.first..n.first + n.count]
+                .iter()
+                .any(|&i| Some(i) != skip && ray_sphere(x, v, &spheres[i]).is_some_and(|t| t < t_max));
+            if hit {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+/// The traversal stack, on the stack: no allocation per ray. Median splits keep the
+/// depth at ⌈log₂(n/LEAF)⌉ + 1, so 64 entries hold any scene that fits in memory.
+struct Stack {
+    items: [usize; 64],
+    len: usize,
+}
+
+impl Stack {
+    fn new() -> Self {
+        Stack { items: [0; 64], len: 1 }
+    }
+    fn push(&mut self, k: usize) {
+        self.items[self.len] = k;
+        self.len += 1;
+    }
+    fn pop(&mut self) -> Option<usize> {
+        self.len = self.len.checked_sub(1)?;
+        Some(self.items[self.len])
+    }
+}
+
+/// A pinhole camera with +z up.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// Position.
+    pub eye: DVec3,
+    /// Point looked at.
+    pub target: DVec3,
+    /// Vertical field of view (rad).
+    pub fov: f64,
+}
+
+impl Camera {
+    /// Unit direction of the primary ray through the centre of pixel (i, j) of a
+    /// w × h image (row 0 at the top).
+    pub fn ray(&self, i: usize, j: usize, w: usize, h: usize) -> DVec3 {
+        let f = (self.target - self.eye).normalize();
+        let r = f.cross(DVec3::Z).normalize();
+        let u = r.cross(f);
+        let k = (0.5 * self.fov).tan();
+        let sx = ((i as f64 + 0.5) / w as f64 * 2.0 - 1.0) * k * w as f64 / h as f64;
+        let sy = (1.0 - (j as f64 + 0.5) / h as f64 * 2.0) * k;
+        (f + sx * r + sy * u).normalize()
+    }
+}
+
+/// What a primary ray sees.
+#[derive(Debug, Clone, Copy)]
+pub struct Hit {
+    /// Surface point.
+    pub x: DVec3,
+    /// Unit normal.
+    pub n: DVec3,
+    /// Unit tangent (perpendicular to n: the BRDF's local x axis).
+    pub t: DVec3,
+    /// Unit direction to the eye.
+    pub wo: DVec3,
+    /// Index of the sphere hit, `None` for a plane.
+    pub sphere: Option<usize>,
+    /// Index into [`Scene::materials`].
+    pub material: usize,
+}
+
+/// The BRDF's value f_r(v, wo) (sr⁻¹) at a hit from its definition (independent of
+/// the lobe form the pipelines use); 0 below the surface.
+pub fn brdf_value(b: &Brdf, h: &Hit, v: DVec3) -> f64 {
+    if h.n.dot(v) <= 0.0 {
+        return 0.0;
+    }
+    match b {
+        Brdf::Lambert { albedo } => albedo / PI,
+        Brdf::Lafortune { albedo, lobes } => {
+            let t = (h.t - h.t.dot(h.n) * h.n).normalize();
+            let bt = h.n.cross(t);
+            let loc = |d: DVec3| DVec3::new(d.dot(t), d.dot(bt), d.dot(h.n));
+            let (a, o) = (loc(v), loc(h.wo));
+            albedo / PI
+                + lobes
+                    .iter()
+                    .map(|l| {
+                        let s = l.c.x * a.x * o.x + l.c.y * a.y * o.y + l.c.z * a.z * o.z;
+                        if s > 0.0 {
+                            l.rho * s.powf(l.exponent)
+                        } else {
+                            0.0
+                        }
+                    })
+                    .sum::<f64>()
+        }
+    }
+}
+
+/// A scene: spheres and plane patches with their materials, lights, a camera.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// Name (the built-in's or the file's stem), used in output file names.
+    pub name: String,
+    /// Spheres (they are also blockers).
+    pub spheres: Vec<Sphere>,
+    /// Each sphere's index into `materials`.
+    pub sphere_materials: Vec<usize>,
+    /// Plane patches (visible, not blockers).
+    pub planes: Vec<Plane>,
+    /// Each plane's index into `materials`.
+    pub plane_materials: Vec<usize>,
+    /// Materials.
+    pub materials: Vec<Brdf>,
+    /// Spherical lights (not seen by primary rays).
+    pub lights: Vec<SphereLight>,
+    /// The camera.
+    pub camera: Camera,
+    bvh: Bvh,
+}
+
+impl Scene {
+    /// What the primary ray of pixel (i, j) of a w × h image sees, if anything.
+    pub fn primary(&self, i: usize, j: usize, w: usize, h: usize) -> Option<Hit> {
+        let eye = self.camera.eye;
+        let d = self.camera.ray(i, j, w, h);
+        let mut best: Option<(f64, Hit)> = None;
+        if let Some((t, idx)) = self.bvh.nearest(&self.spheres, eye, d, f64::INFINITY) {
+            let x = eye + t * d;
+            let n = (x - self.spheres[idx].centre).normalize();
+            best = Some((
+                t,
+                Hit {
+                    x,
+                    n,
+                    t: n.any_orthonormal_vector(),
+                    wo: -d,
+                    sphere: Some(idx),
+                    material: self.sphere_materials[idx],
+                },
+            ));
+        }
+        for (p, &material) in self.planes.iter().zip(&self.plane_materials) {
+            if let Some(t) = p.intersect(eye, d) {
+                if best.as_ref().is_none_or(|b| t < b.0) {
+                    best = Some((
+                        t,
+                        Hit {
+                            x: eye + t * d,
+                            n: p.normal,
+                            t: p.tangent,
+                            wo: -d,
+                            sphere: None,
+                            material,
+                        },
+                    ));
+                }
+            }
+        }
+        best.map(|b| b.1)
+    }
+
+    /// The BRDF at a hit.
+    pub fn brdf(&self, h: &Hit) -> &Brdf {
+        &self.materials[h.material]
+    }
+
+    /// Blockers seen from a hit: every sphere but the one it lies on (a sphere hides
+    /// exactly the lower hemisphere of its own surface points, which the cosine
+    /// already removes).
+    pub fn blockers(&self, h: &Hit) -> Vec<Sphere> {
+        self.spheres
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| Some(*i) != h.sphere)
+            .map(|(_, s)| *s)
+            .collect()
+    }
+
+    /// Whether the ray from hit `h` in direction `v` reaches sphere light `light`
+    /// before any sphere (the BVH; equal to [`visible`] with [`Scene::blockers`]).
+    pub fn light_visible(&self, h: &Hit, v: DVec3, light: &Sphere) -> bool {
+        let Some(tl) = ray_sphere(h.x, v, light) else {
+            return false;
+        };
+        !self.bvh.occluded(&self.spheres, h.x, v, tl, h.sphere)
+    }
+}
+
+/// The built-in scenes: (name, JSON text).
+pub const BUILTIN: [(&str, &str); 2] = [
+    ("meunier-fig13", include_str!("scenes/meunier-fig13.json")),
+    ("meunier-glossy", include_str!("scenes/meunier-glossy.json")),
+];
+
+/// The built-in scene `name`, parsed.
+pub fn builtin(name: &str) -> Option<Result<Scene, String>> {
+    BUILTIN.iter().find(|(n, _)| *n == name).map(|(n, text)| parse(n, text))
+}
+
+/// A scene by built-in name, else by path to a scene file.
+pub fn load(name_or_path: &str) -> Result<Scene, String> {
+    if let Some(s) = builtin(name_or_path) {
+        return s;
+    }
+    let path = Path::new(name_or_path);
+    let text = crate::io::read_text(path, MAX_SCENE_LEN).map_err(|e| format!("scene {name_or_path}: {e}"))?;
+    let stem = path
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    parse(&stem, &text)
+}
+
+/// The file's structure (docs/pipelines.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    /// Checked before the rest is parsed (see `parse`).
+    #[serde(rename = "version")]
+    _version: u32,
+    camera: FileCamera,
+    #[serde(default)]
+    spheres: Vec<FileSphere>,
+    #[serde(default)]
+    planes: Vec<FilePlane>,
+    lights: Vec<FileLight>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileCamera {
+    eye: [f64; 3],
+    target: [f64; 3],
+    fov: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileSphere {
+    centre: [f64; 3],
+    radius: f64,
+    material: FileMaterial,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilePlane {
+    normal: [f64; 3],
+    offset: f64,
+    tangent: [f64; 3],
+    half_extent: f64,
+    material: FileMaterial,
+}
+
+#[derive(Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields, rename_all = "lowercase")]
+enum FileMaterial {
+    Lambert { albedo: f64 },
+    Lafortune { albedo: f64, lobes: Vec<FileLobe> },
+}
+
+#[derive(Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+struct FileLobe {
+    c: [f64; 3],
+    exponent: f64,
+    /// Specular reflectance k_s: ρ_s = k_s (n + 2)/(2π), the normalised Phong form.
+    specular: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "lowercase")]
+enum FileLight {
+    Sphere {
+        centre: [f64; 3],
+        radius: f64,
+        radiance: f64,
+    },
+}
+
+/// Parses and validates a scene file's text; errors name the scene and the field.
+pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
+    let err = |m: String| format!("scene {name}: {m}");
+    // The version first: a newer file's other fields are not this build's to judge.
+    #[derive(Deserialize)]
+    struct Versioned {
+        version: u32,
+    }
+    let v: Versioned = serde_json::from_str(text).map_err(|e| err(e.to_string()))?;
+    if v.version != SCENE_VERSION {
+        return Err(err(format!(
+            "version {} (this build reads version {SCENE_VERSION})",
+            v.version
+        )));
+    }
+    let f: File = serde_json::from_str(text).map_err(|e| err(e.to_string()))?;
+    let vec3 = |what: &str, v: [f64; 3]| -> Result<DVec3, String> {
+        if v.iter().all(|x| x.is_finite()) {
+            Ok(DVec3::from_array(v))
+        } else {
+            Err(err(format!("{what} {v:?} is not finite")))
+        }
+    };
+    let positive = |what: &str, x: f64| -> Result<f64, String> {
+        if x.is_finite() && x > 0.0 {
+            Ok(x)
+        } else {
+            Err(err(format!("{what} {x} must be finite and > 0")))
+        }
+    };
+    let unit = |what: &str, v: [f64; 3]| -> Result<DVec3, String> {
+        let d = vec3(what, v)?;
+        if (d.length() - 1.0).abs() > 1e-9 {
+            return Err(err(format!("{what} {v:?} is not a unit vector")));
+        }
+        Ok(d)
+    };
+    let eye = vec3("camera.eye", f.camera.eye)?;
+    let target = vec3("camera.target", f.camera.target)?;
+    let dir = target - eye;
+    if dir.length() == 0.0 || dir.normalize().cross(DVec3::Z).length() < 1e-6 {
+        return Err(err(
+            "camera: eye and target must differ and not lie on one vertical line".into(),
+        ));
+    }
+    if !(f.camera.fov > 0.0 && f.camera.fov < PI) {
+        return Err(err(format!("camera.fov {} must lie in (0, π)", f.camera.fov)));
+    }
+    let mut materials: Vec<FileMaterial> = Vec::new();
+    let mut material = |what: &str, m: FileMaterial| -> Result<usize, String> {
+        let (albedo, lobes) = match &m {
+            FileMaterial::Lambert { albedo } => (*albedo, &[][..]),
+            FileMaterial::Lafortune { albedo, lobes } => (*albedo, &lobes[..]),
+        };
+        if !(0.0..=1.0).contains(&albedo) {
+            return Err(err(format!("{what}: albedo {albedo} must lie in [0, 1]")));
+        }
+        for l in lobes {
+            vec3(&format!("{what}: lobe c"), l.c)?;
+            if !(l.exponent.is_finite() && l.exponent >= 0.0 && l.specular.is_finite() && l.specular >= 0.0) {
+                return Err(err(format!(
+                    "{what}: lobe exponent {} and specular {} must be finite and ≥ 0",
+                    l.exponent, l.specular
+                )));
+            }
+        }
+        // Equal materials share an index: the material list is the set of BRDFs.
+        Ok(match materials.iter().position(|x| *x == m) {
+            Some(i) => i,
+            None => {
+                materials.push(m);
+                materials.len() - 1
+            }
+        })
+    };
+    let mut spheres = Vec::new();
+    let mut sphere_materials = Vec::new();
+    for (k, s) in f.spheres.into_iter().enumerate() {
+        let what = format!("spheres[{k}]");
+        spheres.push(Sphere {
+            centre: vec3(&format!("{what}.centre"), s.centre)?,
+            radius: positive(&format!("{what}.radius"), s.radius)?,
+        });
+        sphere_materials.push(material(&what, s.material)?);
+    }
+    let mut planes = Vec::new();
+    let mut plane_materials = Vec::new();
+    for (k, p) in f.planes.into_iter().enumerate() {
+        let what = format!("planes[{k}]");
+        let normal = unit(&format!("{what}.normal"), p.normal)?;
+        let tangent = unit(&format!("{what}.tangent"), p.tangent)?;
+        if normal.dot(tangent).abs() > 1e-9 {
+            return Err(err(format!("{what}: tangent is not perpendicular to the normal")));
+        }
+        if !p.offset.is_finite() {
+            return Err(err(format!("{what}.offset {} is not finite", p.offset)));
+        }
+        planes.push(Plane {
+            normal,
+            offset: p.offset,
+            tangent,
+            half_extent: positive(&format!("{what}.half_extent"), p.half_extent)?,
+        });
+        plane_materials.push(material(&what, p.material)?);
+    }
+    if f.lights.is_empty() {
+        return Err(err("no lights".into()));
+    }
+    let mut lights = Vec::new();
+    for (k, l) in f.lights.into_iter().enumerate() {
+        let FileLight::Sphere {
+            centre,
+            radius,
+            radiance,
+        } = l;
+        let what = format!("lights[{k}]");
+        if !(radiance.is_finite() && radiance >= 0.0) {
+            return Err(err(format!("{what}.radiance {radiance} must be finite and ≥ 0")));
+        }
+        lights.push(SphereLight {
+            sphere: Sphere {
+                centre: vec3(&format!("{what}.centre"), centre)?,
+                radius: positive(&format!("{what}.radius"), radius)?,
+            },
+            radiance,
+        });
+    }
+    let materials = materials
+        .into_iter()
+        .map(|m| match m {
+            FileMaterial::Lambert { albedo } => Brdf::Lambert { albedo },
+            FileMaterial::Lafortune { albedo, lobes } => Brdf::Lafortune {
+                albedo,
+                lobes: lobes
+                    .into_iter()
+                    .map(|l| LafortuneLobe {
+                        c: DVec3::from_array(l.c),
+                        rho: l.specular * (l.exponent + 2.0) / TAU,
+                        exponent: l.exponent,
+                    })
+                    .collect(),
+            },
+        })
+        .collect();
+    let bvh = Bvh::new(&spheres);
+    Ok(Scene {
+        name: name.into(),
+        spheres,
+        sphere_materials,
+        planes,
+        plane_materials,
+        materials,
+        lights,
+        camera: Camera {
+            eye,
+            target,
+            fov: f.camera.fov,
+        },
+        bvh,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    fn random_spheres(rng: &mut Rng, n: usize) -> Vec<Sphere> {
+        (0..n)
+            .map(|_| Sphere {
+                centre: DVec3::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)),
+                radius: rng.range(0.05, 1.0),
+            })
+            .collect()
+    }
+
+    fn random_dir(rng: &mut Rng) -> DVec3 {
+        let z = rng.range(-1.0, 1.0);
+        let phi = rng.range(0.0, TAU);
+        let s = (1.0 - z * z).sqrt();
+        DVec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
+
+    /// The BVH answers exactly what a linear scan answers (rays from inside and
+    /// outside the spheres, axis-aligned rays whose slabs give 0·∞).
+    #[test]
+    fn bvh_equals_a_linear_scan() {
+        let mut rng = Rng::new(7);
+        for n in [0, 1, 3, 4, 5, 17, 200] {
+            let spheres = random_spheres(&mut rng, n);
+            let bvh = Bvh::new(&spheres);
+            for k in 0..2000 {
+                let x = DVec3::new(rng.range(-6.0, 6.0), rng.range(-6.0, 6.0), rng.range(-6.0, 6.0));
+                let v = if k % 10 == 0 { DVec3::X } else { random_dir(&mut rng) };
+                let t_max = if k % 3 == 0 { rng.range(0.5, 8.0) } else { f64::INFINITY };
+                let scan = spheres
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, s)| ray_sphere(x, v, s).map(|t| (t, i)))
+                    .filter(|&(t, _)| t < t_max)
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                assert_eq!(bvh.nearest(&spheres, x, v, t_max), scan, "n {n} ray {k}");
+                let skip = (n > 0).then(|| k % n);
+                let any = spheres
+                    .iter()
+                    .enumerate()
+                    .any(|(i, s)| Some(i) != skip && ray_sphere(x, v, s).is_some_and(|t| t < t_max));
+                assert_eq!(bvh.occluded(&spheres, x, v, t_max, skip), any, "n {n} ray {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn ray_sphere_from_outside_inside_and_behind() {
+        let s = Sphere {
+            centre: DVec3::new(0.0, 0.0, 5.0),
+            radius: 1.0,
+        };
+        assert_eq!(ray_sphere(DVec3::ZERO, DVec3::Z, &s), Some(4.0));
+        assert_eq!(ray_sphere(DVec3::new(0.0, 0.0, 5.0), DVec3::Z, &s), Some(1.0));
+        assert_eq!(ray_sphere(DVec3::ZERO, -DVec3::Z, &s), None);
+        assert_eq!(ray_sphere(DVec3::new(2.0, 0.0, 0.0), DVec3::Z, &s), None);
+    }
+
+    #[test]
+    fn plane_patch_is_one_sided_and_finite() {
+        let p = Plane {
+            normal: DVec3::Z,
+            offset: 1.0,
+            tangent: DVec3::X,
+            half_extent: 2.0,
+        };
+        let down = -DVec3::Z;
+        assert_eq!(p.intersect(DVec3::new(0.5, -1.5, 3.0), down), Some(2.0));
+        assert_eq!(p.intersect(DVec3::new(2.5, 0.0, 3.0), down), None);
+        assert_eq!(p.intersect(DVec3::new(0.0, 0.0, -1.0), DVec3::Z), None);
+        assert_eq!(p.intersect(DVec3::new(0.0, 0.0, 0.5), down), None);
+    }
+
+    #[test]
+    fn builtin_scenes_parse() {
+        for (name, _) in BUILTIN {
+            let s = builtin(name).unwrap().unwrap();
+            assert!(!s.lights.is_empty() && !s.spheres.is_empty(), "{name}");
+        }
+    }
+
+    /// Bad scene files are specific errors naming the field.
+    #[test]
+    fn bad_scene_files_are_specific_errors() {
+        let good = BUILTIN[0].1;
+        let cases = [
+            (good.replace("\"version\": 1", "\"version\": 2"), "version 2"),
+            (
+                good.replace("\"radius\": 0.5", "\"radius\": -0.5"),
+                "spheres[0].radius -0.5",
+            ),
+            (good.replace("\"fov\": 0.75", "\"fov\": 4.0"), "camera.fov 4"),
+            (
+                good.replace("\"normal\": [0.0, 0.0, 1.0]", "\"normal\": [0.0, 0.0, 2.0]"),
+                "planes[0].normal",
+            ),
+            (good.replace("\"albedo\": 0.8", "\"albedo\": 1.8"), "albedo 1.8"),
+            (
+                good.replace("\"version\": 1", "\"version\": 1, \"fog\": 1"),
+                "unknown field `fog`",
+            ),
+            (
+                good.replace("\"radiance\": 4.0", "\"radiance\": -4.0"),
+                "lights[0].radiance",
+            ),
+            ("{".to_string(), "EOF"),
+        ];
+        for (text, want) in cases {
+            assert_ne!(text, good, "case {want} did not change the file");
+            let e = parse("t", &text).unwrap_err();
+            assert!(e.starts_with("scene t: ") && e.contains(want), "{e} (want {want})");
+        }
+        assert!(load("/nonexistent/scene.json")
+            .unwrap_err()
+            .contains("/nonexistent/scene.json"));
+    }
+}

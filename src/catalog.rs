@@ -1,0 +1,32 @@
+//! What the command line lists: the table families' names, `eval` queries and figure
+//! sets (`fits/`) together with the pipelines' (`pipelines/`). It sits above both, so
+//! neither `fits` nor `pipelines` needs to know the other's list.
+
+use crate::family::{EvalFlags, Family};
+use crate::fits::{self, FitOptions, PlotFn};
+use crate::pipelines;
+
+/// Names `lobefit eval` accepts: every family, the families' extra views (`isg`),
+/// then the pipelines' (`direct-light`).
+pub fn eval_names() -> Vec<&'static str> {
+    let mut v = fits::eval_names();
+    v.extend(pipelines::eval_views().into_iter().map(|(n, _)| n));
+    v
+}
+
+/// The query `lobefit eval NAME [flags]` runs, configured by its flags; errors name
+/// the flag a query does not take or the value it does not know.
+pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
+    match pipelines::eval_views().into_iter().find(|(n, _)| *n == name) {
+        Some((_, view)) => view(flags),
+        None => fits::for_eval(name, flags, opts),
+    }
+}
+
+/// Every `lobefit plot` name with its generator, sorted by name.
+pub fn plots() -> Vec<(&'static str, PlotFn)> {
+    let mut v = fits::plots();
+    v.extend(pipelines::plots());
+    v.sort_by_key(|(n, _)| *n);
+    v
+}
