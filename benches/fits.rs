@@ -3,7 +3,7 @@
 //! scripts/timing.sh, never in tests.
 
 use divan::black_box;
-use lobefit::family::Family;
+use lobefit::family::Fit;
 use lobefit::fits::cap_exponent::{fit_paper, CapExponentFamily};
 use lobefit::fits::lobe_integral::LobeIntegralFamily;
 use lobefit::fits::{Backend, Method};

@@ -15,7 +15,7 @@ use lobefit::check::{self, CheckOptions};
 use lobefit::export::layout::Filter;
 use lobefit::export::run::ExportOptions;
 use lobefit::export::{Format, Storage};
-use lobefit::family::{EvalFlags, Family};
+use lobefit::family::{EvalFlags, Fit};
 use lobefit::fits::{self, Backend, FitOptions, Method};
 use lobefit::tables::Table;
 
@@ -281,7 +281,7 @@ fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool, String> {
     b.build().map_err(|e| e.to_string())
 }
 
-fn select(only: &[String], opts: FitOptions) -> Vec<Box<dyn Family>> {
+fn select(only: &[String], opts: FitOptions) -> Vec<Box<dyn Fit>> {
     fits::registry(opts)
         .into_iter()
         .filter(|f| only.is_empty() || only.iter().any(|o| o == f.kind()))
@@ -303,11 +303,7 @@ fn progress(len: u64, label: &str) -> ProgressBar {
 }
 
 /// Builds the given families into `out_path(kind)`; prints a summary.
-fn build(
-    families: &[Box<dyn Family>],
-    threads: Option<usize>,
-    out_path: &dyn Fn(&str) -> PathBuf,
-) -> Result<(), String> {
+fn build(families: &[Box<dyn Fit>], threads: Option<usize>, out_path: &dyn Fn(&str) -> PathBuf) -> Result<(), String> {
     let pool = pool(threads)?;
     let t_all = Instant::now();
     let mut rows = Vec::new();

@@ -15,7 +15,7 @@ pub mod wrap;
 
 use std::path::{Path, PathBuf};
 
-use crate::family::{EvalFlags, Family};
+use crate::family::{EvalFlags, Fit, Query};
 
 /// Optimizer backend for families fitted by a 1-D minimiser.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -68,7 +68,7 @@ pub struct FitOptions {
 }
 
 /// Every family, in build order.
-pub fn registry(opts: FitOptions) -> Vec<Box<dyn Family>> {
+pub fn registry(opts: FitOptions) -> Vec<Box<dyn Fit>> {
     vec![
         Box::new(lobe_integral::LobeIntegralFamily),
         Box::new(cap_exponent::CapExponentFamily {
@@ -105,7 +105,7 @@ pub fn names() -> Vec<&'static str> {
 }
 
 /// The family called `name`, if any.
-pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Family>> {
+pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Fit>> {
     registry(opts).into_iter().find(|f| f.kind() == name)
 }
 
@@ -119,7 +119,7 @@ pub fn eval_names() -> Vec<&'static str> {
 
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
 /// Errors name the flag a family does not take or the value it does not know.
-pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Family>, String> {
+pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Query>, String> {
     match name {
         "isg" => isg::for_eval(flags),
         "log-zh" => {

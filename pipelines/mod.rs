@@ -24,7 +24,7 @@ pub mod timing;
 
 use std::path::{Path, PathBuf};
 
-use crate::family::{EvalFlags, Family};
+use crate::family::{EvalFlags, Query};
 use crate::fits::PlotFn;
 
 /// Options every `lobefit render` takes.
@@ -71,7 +71,7 @@ pub struct Pipeline {
 }
 
 /// A pipeline's query for `lobefit eval NAME [flags]` (the pipeline without images).
-pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn Family>, String>;
+pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn Query>, String>;
 
 /// The `lobefit eval` names the pipelines add to the families'.
 pub fn eval_views() -> Vec<(&'static str, EvalFn)> {

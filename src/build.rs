@@ -5,7 +5,7 @@ use lobefit_tables::format::{self, Diagnostics, EntryDiagnostics, FitInfo, Meta,
 use lobefit_tables::Encoding;
 use rayon::prelude::*;
 
-use crate::family::{Family, Fitted};
+use crate::family::{Fit, Fitted};
 
 /// Generator string stored in every file: crate and version, no timestamp, no
 /// commit hash (either would make rebuilds of unchanged tables differ).
@@ -65,7 +65,7 @@ pub fn grid_nodes(axes: &[lobefit_tables::Axis]) -> Vec<Vec<f64>> {
 }
 
 /// Fits every node of `family` on the current rayon pool, calling `tick` after each.
-pub fn build(family: &dyn Family, tick: &(dyn Fn() + Sync)) -> Result<Built, BuildError> {
+pub fn build(family: &dyn Fit, tick: &(dyn Fn() + Sync)) -> Result<Built, BuildError> {
     let kind = family.kind().to_string();
     let axes = family.axes();
     let channels = family.channels();

@@ -6,7 +6,7 @@
 
 use std::io::{BufRead, BufReader, BufWriter, Read, Seek, Write};
 
-use crate::family::{Family, Lookup};
+use crate::family::{Lookup, Query};
 
 /// Output held in memory before the spool moves to a temporary file.
 pub const SPOOL_MEMORY: usize = 4 << 20;
@@ -58,7 +58,7 @@ pub enum EvalError {
 /// skipped, no quoting, lines of at most [`MAX_LINE_LEN`] bytes. Line numbers in
 /// errors are physical lines of the input; the first bad line is reported.
 pub fn eval_csv(
-    family: &dyn Family,
+    family: &dyn Query,
     lookup: Option<&dyn Lookup>,
     input: impl Read,
     mut output: impl Write,

@@ -1,5 +1,6 @@
-//! The one trait every table family implements. `build-tables`, `check`, `eval`
-//! and `inspect` are written once against it; a new family is one module in
+//! The two traits a table family implements: [`Fit`] (build a table) and [`Query`]
+//! (query and check it). `build-tables` is written once against the first;
+//! `check`, `eval` and `export` against the second. A new family is one module in
 //! `fits/` plus one line in the registry (`fits/mod.rs`).
 
 use lobefit_tables::format::Threshold;
@@ -61,7 +62,7 @@ impl EvalFlags {
     }
 }
 
-/// One extra checker section (see [`Family::extra_checks`]).
+/// One extra checker section (see [`Query::extra_checks`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Extra {
     /// (runtime value, reference value) pairs: reported as absolute and relative errors.
@@ -71,7 +72,7 @@ pub enum Extra {
     Values(Vec<f64>),
     /// (runtime value, reference value) pairs at grid nodes: reported as the grid
     /// errors of an output of this name (the per-node sections of
-    /// [`Family::nodes_in_extras`]).
+    /// [`Query::nodes_in_extras`]).
     Nodes(Vec<(f64, f64)>),
 }
 
@@ -80,7 +81,7 @@ pub enum Extra {
 pub struct Fitted {
     /// Channel values (decoded: the writer applies each channel's encoding).
     pub values: Vec<f64>,
-    /// Family-defined residual (see [`Family::residual_meaning`]).
+    /// Family-defined residual (see [`Fit::residual_meaning`]).
     pub residual: f64,
     /// Optimizer iterations or integrand evaluations.
     pub iterations: u32,
@@ -90,7 +91,7 @@ pub struct Fitted {
 
 /// The runtime lookup a family is checked through: the runtime crate's own API.
 pub trait Lookup: Sync {
-    /// Output columns (see [`Family::outputs`]) at the input point `x`.
+    /// Output columns (see [`Query::outputs`]) at the input point `x`.
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError>;
     /// The same through the runtime's `_f32` twins: inputs `x` (already
     /// f32-representable) passed as f32, outputs widened. `None` where the family has
@@ -100,7 +101,7 @@ pub trait Lookup: Sync {
     }
 }
 
-/// A runtime whose [`Lookup::lookup`] is its f32 twin: [`Family::check_point`] run
+/// A runtime whose [`Lookup::lookup`] is its f32 twin: [`Query::check_point`] run
 /// through it checks the twin with the family's own rules.
 pub struct F32Twin<'a>(pub &'a dyn Lookup);
 
@@ -113,10 +114,71 @@ impl Lookup for F32Twin<'_> {
     }
 }
 
-/// A table family: its grid, its fit, its reference, its runtime lookup.
-pub trait Family: Sync {
+/// Querying and checking a table: what `check`, `eval` and `export` need. The eval
+/// views that only read a family's table (`wedge --order N`, `direct-light`)
+/// implement this trait alone.
+pub trait Query: Sync {
     /// Table kind, file stem and CLI name, e.g. `"cap-exponent"`.
     fn kind(&self) -> &'static str;
+    /// Accuracy promises: written into the file at build, enforced by the checker
+    /// (from here, not from the file, so a file cannot switch its check off).
+    fn thresholds(&self) -> Vec<Threshold>;
+    /// Input columns of `lobefit eval` (and of [`Query::reference`]).
+    fn inputs(&self) -> &'static [&'static str];
+    /// Output columns of `lobefit eval`.
+    fn outputs(&self) -> &'static [&'static str];
+    /// The committed default table compiled into the runtime crate.
+    fn embedded(&self) -> &'static [u8];
+    /// Wraps a loaded table in the runtime crate's lookup for this family.
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError>;
+    /// Independent reference (closed form or adaptive quadrature, never the fit's own
+    /// numerics) of the outputs at `x`. Errors name an out-of-domain input.
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String>;
+    /// A random input point of the domain, for the checker's off-grid test.
+    fn sample(&self, rng: &mut Rng) -> Vec<f64>;
+    /// `lobefit eval --exact`: the reference, or the fit run at exactly `x`.
+    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        self.reference(x)
+    }
+    /// Names of the quantities the checker compares (default: the eval outputs).
+    fn checked(&self) -> &'static [&'static str] {
+        self.outputs()
+    }
+    /// Input points the checker evaluates at a grid node (default: the node itself;
+    /// several where the axes are derived quantities or where a node's values reach
+    /// lookups along axes the grid does not have).
+    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
+        vec![node.to_vec()]
+    }
+    /// The checker's comparison at `x`: (runtime values, reference values) of
+    /// [`Query::checked`], or `None` where the family promises nothing (e.g. a
+    /// product too small to matter); a quantity whose runtime and reference values
+    /// are both NaN is promised nothing at `x` alone (a NaN on one side only is an
+    /// error). Default: the lookup against [`Query::reference`].
+    #[allow(clippy::type_complexity)]
+    fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {
+        let got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
+        let want = self.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
+        Ok(Some((got, want)))
+    }
+    /// Extra checker sections beyond pointwise lookups (e.g. whole-scene sums built
+    /// from the table, or the paper's own grid metric), from `count` seeded random
+    /// cases. Default: none.
+    fn extra_checks(&self, _table: &Table, _count: usize, _seed: u64) -> Vec<(String, Result<Extra, String>)> {
+        Vec::new()
+    }
+    /// Whether [`Query::extra_checks`] verifies every grid node with sections
+    /// cheaper than [`Query::check_point`] (which then runs on an evenly strided
+    /// subset of nodes). Default `false`: `check_point` at every node.
+    fn nodes_in_extras(&self) -> bool {
+        false
+    }
+}
+
+/// Building a table: its grid and stored channels, how each node is fitted, and what
+/// the file records about the fit. `build-tables` needs only this (and the
+/// [`Query::kind`] and [`Query::thresholds`] it writes into the file).
+pub trait Fit: Query {
     /// The family's table version (bumped when layout or meaning changes).
     fn version(&self) -> u32;
     /// What the table holds and how to use it (stored in the file).
@@ -133,58 +195,6 @@ pub trait Family: Sync {
     fn residual_meaning(&self) -> &'static str;
     /// Fits one grid node (axis coordinates `node`). Pure and deterministic.
     fn fit(&self, node: &[f64]) -> Fitted;
-    /// Accuracy promises written into the file and enforced by the checker.
-    fn thresholds(&self) -> Vec<Threshold>;
-    /// Input columns of `lobefit eval` (and of [`Family::reference`]).
-    fn inputs(&self) -> &'static [&'static str];
-    /// Output columns of `lobefit eval`.
-    fn outputs(&self) -> &'static [&'static str];
-    /// Input points the checker evaluates at a grid node (default: the node itself;
-    /// several where the axes are derived quantities or where a node's values reach
-    /// lookups along axes the grid does not have).
-    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
-        vec![node.to_vec()]
-    }
-    /// The committed default table compiled into the runtime crate.
-    fn embedded(&self) -> &'static [u8];
-    /// Wraps a loaded table in the runtime crate's lookup for this family.
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError>;
-    /// Independent reference (closed form or adaptive quadrature, never the fit's own
-    /// numerics) of the outputs at `x`. Errors name an out-of-domain input.
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String>;
-    /// `lobefit eval --exact`: the reference, or the fit run at exactly `x`.
-    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        self.reference(x)
-    }
-    /// A random input point of the domain, for the checker's off-grid test.
-    fn sample(&self, rng: &mut Rng) -> Vec<f64>;
-    /// Names of the quantities the checker compares (default: the eval outputs).
-    fn checked(&self) -> &'static [&'static str] {
-        self.outputs()
-    }
-    /// The checker's comparison at `x`: (runtime values, reference values) of
-    /// [`Family::checked`], or `None` where the family promises nothing (e.g. a
-    /// product too small to matter); a quantity whose runtime and reference values
-    /// are both NaN is promised nothing at `x` alone (a NaN on one side only is an
-    /// error). Default: the lookup against [`Family::reference`].
-    #[allow(clippy::type_complexity)]
-    fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {
-        let got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
-        let want = self.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
-        Ok(Some((got, want)))
-    }
-    /// Extra checker sections beyond pointwise lookups (e.g. whole-scene sums built
-    /// from the table, or the paper's own grid metric), from `count` seeded random
-    /// cases. Default: none.
-    fn extra_checks(&self, _table: &Table, _count: usize, _seed: u64) -> Vec<(String, Result<Extra, String>)> {
-        Vec::new()
-    }
-    /// Whether [`Family::extra_checks`] verifies every grid node with sections
-    /// cheaper than [`Family::check_point`] (which then runs on an evenly strided
-    /// subset of nodes). Default `false`: `check_point` at every node.
-    fn nodes_in_extras(&self) -> bool {
-        false
-    }
     /// Equivalent grid node whose fit this node reuses (e.g. a symmetry), or `None`.
     /// The fit at the returned node must give exactly this node's values.
     fn mirror(&self, _node: &[f64]) -> Option<Vec<f64>> {

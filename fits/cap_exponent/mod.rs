@@ -27,7 +27,7 @@ use lobefit_tables::cap_exponent::{self as rt, model, CapExponent, ALPHA_MIN};
 use lobefit_tables::format::Threshold;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Mapping, Table};
 
-use crate::family::{Family, Fitted, Lookup};
+use crate::family::{Fit, Fitted, Lookup, Query};
 use crate::fits::{Backend, Method};
 use crate::quad::{adaptive_simpson, gauss_kronrod, illinois};
 use crate::rng::Rng;
@@ -53,7 +53,7 @@ const NLOPT_XTOL: f64 = 1e-11;
 const REF_QUAD_TOL: f64 = 1e-11;
 /// Tolerance on q of the reference root.
 const REF_ROOT_TOL: f64 = 1e-13;
-/// Within this of π/2, `exact` returns the limit q = 1/2 (see `Family::exact`).
+/// Within this of π/2, `exact` returns the limit q = 1/2 (see `Query::exact`).
 const ASYMPTOTE_GAP: f64 = 1e-9;
 /// Closest approach to π/2 of checked points: beyond it e_cap < 1e-9 and cos α itself
 /// carries a relative error of ~1e-16/(π/2 − α) in f64.
@@ -373,10 +373,77 @@ impl CapExponentFamily {
     }
 }
 
-impl Family for CapExponentFamily {
+impl Query for CapExponentFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
     }
+    fn thresholds(&self) -> Vec<Threshold> {
+        vec![
+            Threshold {
+                output: "e_cap".into(),
+                metric: "grid.max_rel".into(),
+                limit: 1e-4,
+            },
+            Threshold {
+                output: "e_cap".into(),
+                metric: "offgrid.max_rel".into(),
+                limit: 1e-4,
+            },
+        ]
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["alpha"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["e_cap"]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::CAP_EXPONENT
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(CapExponent::from_table(table)?))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        Ok(vec![reference_e_cap(x[0])?])
+    }
+    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        // The optimizer itself, run at exactly this α.
+        let alpha = x[0];
+        if !(ALPHA_MIN..=PI).contains(&alpha) {
+            return Err(format!(
+                "alpha = {alpha} is outside [{ALPHA_MIN}, π]",
+                alpha = short(alpha)
+            ));
+        }
+        if alpha >= FRAC_PI_2 {
+            return Ok(vec![0.0]);
+        }
+        if alpha > FRAC_PI_2 - ASYMPTOTE_GAP {
+            // e_cap < 1e-8 here and no optimizer resolves it in f64; q → 1/2 with an
+            // error below 2e-7 (test `exact_path_uses_the_limit_next_to_half_pi`).
+            return Ok(vec![0.5 * model(alpha)]);
+        }
+        let f = self.fit(&[alpha]);
+        if !f.converged {
+            return Err(format!("fit did not converge at alpha = {alpha}", alpha = short(alpha)));
+        }
+        Ok(vec![f.values[0] * model(alpha)])
+    }
+    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
+        // Half uniform in α, half uniform in the logit coordinate up to π/2 − 1e-10:
+        // dense at both ends, including the sliver beyond the last node where the
+        // runtime holds q constant.
+        if rng.uniform() < 0.5 {
+            vec![rng.range(ALPHA_MIN, FRAC_PI_2)]
+        } else {
+            let m = Mapping::Logit { a: 0.0, b: FRAC_PI_2 };
+            let u = rng.range(m.forward(ALPHA_MIN), m.forward(FRAC_PI_2 - SAMPLE_GAP));
+            vec![m.inverse(u).clamp(ALPHA_MIN, FRAC_PI_2 - SAMPLE_GAP)]
+        }
+    }
+}
+
+impl Fit for CapExponentFamily {
     fn version(&self) -> u32 {
         rt::VERSION
     }
@@ -454,70 +521,6 @@ impl Family for CapExponentFamily {
             residual: objective(alpha, e).max(0.0).sqrt(),
             iterations,
             converged: ok && interior && q.is_finite(),
-        }
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        vec![
-            Threshold {
-                output: "e_cap".into(),
-                metric: "grid.max_rel".into(),
-                limit: 1e-4,
-            },
-            Threshold {
-                output: "e_cap".into(),
-                metric: "offgrid.max_rel".into(),
-                limit: 1e-4,
-            },
-        ]
-    }
-    fn inputs(&self) -> &'static [&'static str] {
-        &["alpha"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &["e_cap"]
-    }
-    fn embedded(&self) -> &'static [u8] {
-        lobefit_tables::embedded::CAP_EXPONENT
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(CapExponent::from_table(table)?))
-    }
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        Ok(vec![reference_e_cap(x[0])?])
-    }
-    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        // The optimizer itself, run at exactly this α.
-        let alpha = x[0];
-        if !(ALPHA_MIN..=PI).contains(&alpha) {
-            return Err(format!(
-                "alpha = {alpha} is outside [{ALPHA_MIN}, π]",
-                alpha = short(alpha)
-            ));
-        }
-        if alpha >= FRAC_PI_2 {
-            return Ok(vec![0.0]);
-        }
-        if alpha > FRAC_PI_2 - ASYMPTOTE_GAP {
-            // e_cap < 1e-8 here and no optimizer resolves it in f64; q → 1/2 with an
-            // error below 2e-7 (test `exact_path_uses_the_limit_next_to_half_pi`).
-            return Ok(vec![0.5 * model(alpha)]);
-        }
-        let f = self.fit(&[alpha]);
-        if !f.converged {
-            return Err(format!("fit did not converge at alpha = {alpha}", alpha = short(alpha)));
-        }
-        Ok(vec![f.values[0] * model(alpha)])
-    }
-    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
-        // Half uniform in α, half uniform in the logit coordinate up to π/2 − 1e-10:
-        // dense at both ends, including the sliver beyond the last node where the
-        // runtime holds q constant.
-        if rng.uniform() < 0.5 {
-            vec![rng.range(ALPHA_MIN, FRAC_PI_2)]
-        } else {
-            let m = Mapping::Logit { a: 0.0, b: FRAC_PI_2 };
-            let u = rng.range(m.forward(ALPHA_MIN), m.forward(FRAC_PI_2 - SAMPLE_GAP));
-            vec![m.inverse(u).clamp(ALPHA_MIN, FRAC_PI_2 - SAMPLE_GAP)]
         }
     }
 }

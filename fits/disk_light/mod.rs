@@ -35,7 +35,7 @@ use lobefit_tables::glam::DVec3;
 use lobefit_tables::sh::eval_basis;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Extra, Family, Fitted, Lookup};
+use crate::family::{Extra, Fit, Fitted, Lookup, Query};
 use crate::quad::gauss_kronrod_vec;
 use crate::rng::Rng;
 use crate::tables::error::short;
@@ -484,69 +484,9 @@ impl Lookup for DiskLookup {
 #[derive(Debug, Clone, Copy, Default)]
 pub struct DiskLightFamily;
 
-impl Family for DiskLightFamily {
+impl Query for DiskLightFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn version(&self) -> u32 {
-        rt::VERSION
-    }
-    fn description(&self) -> String {
-        "Order-3 SH projection of a one-sided disk light's solid-angle indicator in the canonical frame \
-         (receiver at origin, disk centre (0,0,d), radius R, emitting normal (sin tau, 0, -cos tau)); \
-         c_lm = ∫_disk y_lm dω for (l,m) = (0,0),(1,0),(1,1),(2,0),(2,1),(2,2). Axes: v = rim coordinate \
-         of R/d in [0.01, 10] (lobefit_tables::disk_light::rim_coordinate), tau in [0, 0.999 π/2] (logit). \
-         Channels: y00 (log-encoded) and r_lm = c_lm / c_00. Bilinear."
-            .into()
-    }
-    fn axes(&self) -> Vec<Axis> {
-        rt::axes(V_NODES, TAU_NODES)
-    }
-    fn channels(&self) -> Vec<Channel> {
-        CHANNELS
-            .iter()
-            .enumerate()
-            .map(|(k, n)| Channel {
-                name: n.to_string(),
-                unit: "1".into(),
-                encoding: if k == 0 { Encoding::Log } else { Encoding::Linear },
-                description: if k == 0 {
-                    "c_00 = Ω/(2√π), Ω the disk's solid angle (sr)".into()
-                } else {
-                    let (l, m) = (&OUTPUTS[k][1..2], &OUTPUTS[k][2..3]);
-                    format!("c_{l}{m} / c_00, canonical coefficient (l, m) = ({l}, {m}) over c_00")
-                },
-            })
-            .collect()
-    }
-    fn method(&self) -> String {
-        "closed-form polar-angle moments about the disk plane's normal, composite 10-point Gauss-Legendre \
-         in azimuth with panel doubling"
-            .into()
-    }
-    fn settings(&self) -> Vec<(String, String)> {
-        vec![
-            ("gl_points".into(), GL_POINTS.to_string()),
-            ("panels".into(), format!("{FIRST_PANELS}..{MAX_PANELS} doubling")),
-            ("fit_tol".into(), format!("{FIT_TOL:e}")),
-            ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
-        ]
-    }
-    fn residual_meaning(&self) -> &'static str {
-        "max |difference of the last two panel-doubled rules| over the six coefficients, relative to c_00"
-    }
-    fn fit(&self, node: &[f64]) -> Fitted {
-        let (v, tau) = (node[0], node[1]);
-        let r = r_from_rim_coordinate(v, tau);
-        let (c, residual, evals) = fit_canonical(r, tau);
-        let mut values = vec![c[0]];
-        values.extend(c[1..].iter().map(|x| x / c[0]));
-        Fitted {
-            values,
-            residual,
-            iterations: evals,
-            converged: residual <= MAX_RESIDUAL && c[0] > 0.0,
-        }
     }
     fn thresholds(&self) -> Vec<Threshold> {
         vec![
@@ -661,6 +601,69 @@ impl Family for DiskLightFamily {
             beyond,
         ));
         out
+    }
+}
+
+impl Fit for DiskLightFamily {
+    fn version(&self) -> u32 {
+        rt::VERSION
+    }
+    fn description(&self) -> String {
+        "Order-3 SH projection of a one-sided disk light's solid-angle indicator in the canonical frame \
+         (receiver at origin, disk centre (0,0,d), radius R, emitting normal (sin tau, 0, -cos tau)); \
+         c_lm = ∫_disk y_lm dω for (l,m) = (0,0),(1,0),(1,1),(2,0),(2,1),(2,2). Axes: v = rim coordinate \
+         of R/d in [0.01, 10] (lobefit_tables::disk_light::rim_coordinate), tau in [0, 0.999 π/2] (logit). \
+         Channels: y00 (log-encoded) and r_lm = c_lm / c_00. Bilinear."
+            .into()
+    }
+    fn axes(&self) -> Vec<Axis> {
+        rt::axes(V_NODES, TAU_NODES)
+    }
+    fn channels(&self) -> Vec<Channel> {
+        CHANNELS
+            .iter()
+            .enumerate()
+            .map(|(k, n)| Channel {
+                name: n.to_string(),
+                unit: "1".into(),
+                encoding: if k == 0 { Encoding::Log } else { Encoding::Linear },
+                description: if k == 0 {
+                    "c_00 = Ω/(2√π), Ω the disk's solid angle (sr)".into()
+                } else {
+                    let (l, m) = (&OUTPUTS[k][1..2], &OUTPUTS[k][2..3]);
+                    format!("c_{l}{m} / c_00, canonical coefficient (l, m) = ({l}, {m}) over c_00")
+                },
+            })
+            .collect()
+    }
+    fn method(&self) -> String {
+        "closed-form polar-angle moments about the disk plane's normal, composite 10-point Gauss-Legendre \
+         in azimuth with panel doubling"
+            .into()
+    }
+    fn settings(&self) -> Vec<(String, String)> {
+        vec![
+            ("gl_points".into(), GL_POINTS.to_string()),
+            ("panels".into(), format!("{FIRST_PANELS}..{MAX_PANELS} doubling")),
+            ("fit_tol".into(), format!("{FIT_TOL:e}")),
+            ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
+        ]
+    }
+    fn residual_meaning(&self) -> &'static str {
+        "max |difference of the last two panel-doubled rules| over the six coefficients, relative to c_00"
+    }
+    fn fit(&self, node: &[f64]) -> Fitted {
+        let (v, tau) = (node[0], node[1]);
+        let r = r_from_rim_coordinate(v, tau);
+        let (c, residual, evals) = fit_canonical(r, tau);
+        let mut values = vec![c[0]];
+        values.extend(c[1..].iter().map(|x| x / c[0]));
+        Fitted {
+            values,
+            residual,
+            iterations: evals,
+            converged: residual <= MAX_RESIDUAL && c[0] > 0.0,
+        }
     }
 }
 

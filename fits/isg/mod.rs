@@ -29,7 +29,7 @@ use lobefit_tables::isg::{
 };
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Family, Fitted, Lookup};
+use crate::family::{Fit, Fitted, Lookup, Query};
 use crate::fits::isg::reference::{check_domain, normaliser, s_hat_fast, s_hat_reference};
 use crate::rng::Rng;
 
@@ -509,13 +509,144 @@ impl<M: IsgModel + Sync> Lookup for ModelLookup<M> {
     }
 }
 
-impl Family for IsgFamily {
+impl Query for IsgFamily {
     fn kind(&self) -> &'static str {
         match self.model {
             IsgModelKind::Paper | IsgModelKind::Refit => rt::KIND_REFIT,
             IsgModelKind::Best => rt::KIND_BEST,
         }
     }
+    fn thresholds(&self) -> Vec<Threshold> {
+        let t = |output: &str, metric: &str, limit: f64| Threshold {
+            output: output.into(),
+            metric: metric.into(),
+            limit,
+        };
+        match self.model {
+            IsgModelKind::Paper | IsgModelKind::Refit => vec![
+                t("s_hat", "offgrid.max_abs", REFIT_CHECK_LIMIT),
+                t("s_hat", "grid.max_abs", REFIT_CHECK_LIMIT),
+                t("s_hat_low_gamma", "offgrid.max_abs", REFIT_LOW_GAMMA_LIMIT),
+                t("s_hat_low_gamma", "grid.max_abs", REFIT_LOW_GAMMA_LIMIT),
+            ],
+            IsgModelKind::Best => vec![
+                t("s_hat", "offgrid.max_abs", BEST_CHECK_LIMIT),
+                t("s_hat", "grid.max_abs", BEST_CHECK_LIMIT),
+            ],
+        }
+    }
+
+    fn inputs(&self) -> &'static [&'static str] {
+        &["gamma", "theta", "phi"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["s_hat", "s"]
+    }
+    fn checked(&self) -> &'static [&'static str] {
+        match self.model {
+            IsgModelKind::Paper | IsgModelKind::Refit => &["s_hat", "s", "s_hat_low_gamma"],
+            IsgModelKind::Best => &["s_hat", "s"],
+        }
+    }
+    fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {
+        let mut got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
+        let mut want = self.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
+        if self.model != IsgModelKind::Best {
+            // Two promises: `s_hat` on γ ≥ 3 (the refit target's range) and
+            // `s_hat_low_gamma` below it, where no logistic follows Ŝ as closely.
+            // Each quantity is NaN on both sides (no promise) in the other range.
+            let (g, w) = (got[0], want[0]);
+            let low = x[0] < REFIT_TARGET_GAMMA_MIN;
+            let skip = |v: f64, keep: bool| if keep { v } else { f64::NAN };
+            got[0] = skip(g, !low);
+            want[0] = skip(w, !low);
+            got.push(skip(g, low));
+            want.push(skip(w, low));
+        }
+        Ok(Some((got, want)))
+    }
+    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
+        // The logistic tables hold two slopes per γ that reach every (θ, φ): a 5 × 5
+        // set around the axis (where Ŝ varies) and at the far edge π (where the
+        // logistic shape errs most). The separable table's node holds A, C at
+        // θ = unwarp(u) and B, D at φ = unwarp(u): checked where they meet, on the
+        // stored angle and its mirror.
+        match self.model {
+            IsgModelKind::Paper | IsgModelKind::Refit => {
+                let w = 1.0 / node[0].sqrt();
+                let angles = [-2.0, -0.5, 1.0, 3.0, 1e9].map(|k| (FRAC_PI_2 + k * w).clamp(0.0, PI));
+                angles
+                    .iter()
+                    .flat_map(|&t| angles.iter().map(move |&p| vec![node[0], t, p]))
+                    .collect()
+            }
+            IsgModelKind::Best => {
+                // A(x), B(x) where the node's two angles meet (and the mirror), and the
+                // rank-1 term C(x)·D(φ) (and D(x)·C(θ)) at three angles of the other
+                // axis: D is odd about π/2, so at φ = x alone it may be near zero.
+                let (g, x) = (node[0], unwarp(node[1], node[0]));
+                let mut pts = vec![vec![g, x, PI - x], vec![g, x, x]];
+                for u in [0.3, 0.6, 0.9] {
+                    let y = unwarp(u, g);
+                    pts.push(vec![g, x, y]);
+                    pts.push(vec![g, y, x]);
+                }
+                pts
+            }
+        }
+    }
+    fn embedded(&self) -> &'static [u8] {
+        match self.model {
+            IsgModelKind::Paper | IsgModelKind::Refit => lobefit_tables::embedded::ISG_REFIT,
+            IsgModelKind::Best => lobefit_tables::embedded::ISG_BEST,
+        }
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        match self.model {
+            IsgModelKind::Paper => Ok(Box::new(ModelLookup(PaperIsg))),
+            IsgModelKind::Refit => Ok(Box::new(ModelLookup(RefitIsg::from_table(table)?))),
+            IsgModelKind::Best => Ok(Box::new(ModelLookup(BestIsg::from_table(table)?))),
+        }
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let (gamma, theta, phi) = (x[0], x[1], x[2]);
+        let s_hat = s_hat_reference(theta, phi, gamma)?;
+        Ok(vec![s_hat, s_hat * normaliser(gamma)])
+    }
+    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let (gamma, theta, phi) = (x[0], x[1], x[2]);
+        check_domain(theta, phi, gamma)?;
+        let s_hat = s_hat_fast(theta, phi, gamma);
+        Ok(vec![s_hat, s_hat * normaliser(gamma)])
+    }
+    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
+        // γ log-uniform over the checked range; angles 45 % uniform on [0, π], 45 % within
+        // ±5 SG widths of the axis, where Ŝ varies, 10 % on the edges 0, π/2, π (the
+        // corners patch integrals use; the logistic models err most at θ or φ = π).
+        // Every model over the whole range the runtime serves, γ ∈ [0.5, 10⁴]; the
+        // logistic models' promise differs below γ = 3 (see `check_point`).
+        let gamma = rng
+            .range(GAMMA_MIN.ln(), GAMMA_MAX.ln())
+            .exp()
+            .clamp(GAMMA_MIN, GAMMA_MAX);
+        let w = 1.0 / gamma.sqrt();
+        let angle = |rng: &mut Rng| {
+            let r = rng.uniform();
+            if r < 0.45 {
+                rng.range(0.0, PI)
+            } else if r < 0.9 {
+                (FRAC_PI_2 + w * rng.range(-5.0, 5.0)).clamp(0.0, PI)
+            } else {
+                [0.0, FRAC_PI_2, PI][(rng.next_u64() % 3) as usize]
+            }
+        };
+        let theta = angle(rng);
+        let phi = angle(rng);
+        vec![gamma, theta, phi]
+    }
+}
+
+impl Fit for IsgFamily {
     fn version(&self) -> u32 {
         rt::VERSION
     }
@@ -659,134 +790,6 @@ impl Family for IsgFamily {
             }
         }
     }
-    fn thresholds(&self) -> Vec<Threshold> {
-        let t = |output: &str, metric: &str, limit: f64| Threshold {
-            output: output.into(),
-            metric: metric.into(),
-            limit,
-        };
-        match self.model {
-            IsgModelKind::Paper | IsgModelKind::Refit => vec![
-                t("s_hat", "offgrid.max_abs", REFIT_CHECK_LIMIT),
-                t("s_hat", "grid.max_abs", REFIT_CHECK_LIMIT),
-                t("s_hat_low_gamma", "offgrid.max_abs", REFIT_LOW_GAMMA_LIMIT),
-                t("s_hat_low_gamma", "grid.max_abs", REFIT_LOW_GAMMA_LIMIT),
-            ],
-            IsgModelKind::Best => vec![
-                t("s_hat", "offgrid.max_abs", BEST_CHECK_LIMIT),
-                t("s_hat", "grid.max_abs", BEST_CHECK_LIMIT),
-            ],
-        }
-    }
-
-    fn inputs(&self) -> &'static [&'static str] {
-        &["gamma", "theta", "phi"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &["s_hat", "s"]
-    }
-    fn checked(&self) -> &'static [&'static str] {
-        match self.model {
-            IsgModelKind::Paper | IsgModelKind::Refit => &["s_hat", "s", "s_hat_low_gamma"],
-            IsgModelKind::Best => &["s_hat", "s"],
-        }
-    }
-    fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {
-        let mut got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
-        let mut want = self.reference(x).map_err(|e| format!("reference at {x:?}: {e}"))?;
-        if self.model != IsgModelKind::Best {
-            // Two promises: `s_hat` on γ ≥ 3 (the refit target's range) and
-            // `s_hat_low_gamma` below it, where no logistic follows Ŝ as closely.
-            // Each quantity is NaN on both sides (no promise) in the other range.
-            let (g, w) = (got[0], want[0]);
-            let low = x[0] < REFIT_TARGET_GAMMA_MIN;
-            let skip = |v: f64, keep: bool| if keep { v } else { f64::NAN };
-            got[0] = skip(g, !low);
-            want[0] = skip(w, !low);
-            got.push(skip(g, low));
-            want.push(skip(w, low));
-        }
-        Ok(Some((got, want)))
-    }
-    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
-        // The logistic tables hold two slopes per γ that reach every (θ, φ): a 5 × 5
-        // set around the axis (where Ŝ varies) and at the far edge π (where the
-        // logistic shape errs most). The separable table's node holds A, C at
-        // θ = unwarp(u) and B, D at φ = unwarp(u): checked where they meet, on the
-        // stored angle and its mirror.
-        match self.model {
-            IsgModelKind::Paper | IsgModelKind::Refit => {
-                let w = 1.0 / node[0].sqrt();
-                let angles = [-2.0, -0.5, 1.0, 3.0, 1e9].map(|k| (FRAC_PI_2 + k * w).clamp(0.0, PI));
-                angles
-                    .iter()
-                    .flat_map(|&t| angles.iter().map(move |&p| vec![node[0], t, p]))
-                    .collect()
-            }
-            IsgModelKind::Best => {
-                // A(x), B(x) where the node's two angles meet (and the mirror), and the
-                // rank-1 term C(x)·D(φ) (and D(x)·C(θ)) at three angles of the other
-                // axis: D is odd about π/2, so at φ = x alone it may be near zero.
-                let (g, x) = (node[0], unwarp(node[1], node[0]));
-                let mut pts = vec![vec![g, x, PI - x], vec![g, x, x]];
-                for u in [0.3, 0.6, 0.9] {
-                    let y = unwarp(u, g);
-                    pts.push(vec![g, x, y]);
-                    pts.push(vec![g, y, x]);
-                }
-                pts
-            }
-        }
-    }
-    fn embedded(&self) -> &'static [u8] {
-        match self.model {
-            IsgModelKind::Paper | IsgModelKind::Refit => lobefit_tables::embedded::ISG_REFIT,
-            IsgModelKind::Best => lobefit_tables::embedded::ISG_BEST,
-        }
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        match self.model {
-            IsgModelKind::Paper => Ok(Box::new(ModelLookup(PaperIsg))),
-            IsgModelKind::Refit => Ok(Box::new(ModelLookup(RefitIsg::from_table(table)?))),
-            IsgModelKind::Best => Ok(Box::new(ModelLookup(BestIsg::from_table(table)?))),
-        }
-    }
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let (gamma, theta, phi) = (x[0], x[1], x[2]);
-        let s_hat = s_hat_reference(theta, phi, gamma)?;
-        Ok(vec![s_hat, s_hat * normaliser(gamma)])
-    }
-    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let (gamma, theta, phi) = (x[0], x[1], x[2]);
-        check_domain(theta, phi, gamma)?;
-        let s_hat = s_hat_fast(theta, phi, gamma);
-        Ok(vec![s_hat, s_hat * normaliser(gamma)])
-    }
-    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
-        // γ log-uniform over the checked range; angles 45 % uniform on [0, π], 45 % within
-        // ±5 SG widths of the axis, where Ŝ varies, 10 % on the edges 0, π/2, π (the
-        // corners patch integrals use; the logistic models err most at θ or φ = π).
-        // Every model over the whole range the runtime serves, γ ∈ [0.5, 10⁴]; the
-        // logistic models' promise differs below γ = 3 (see `check_point`).
-        let gamma = rng
-            .range(GAMMA_MIN.ln(), GAMMA_MAX.ln())
-            .exp()
-            .clamp(GAMMA_MIN, GAMMA_MAX);
-        let w = 1.0 / gamma.sqrt();
-        let angle = |rng: &mut Rng| {
-            let r = rng.uniform();
-            if r < 0.45 {
-                rng.range(0.0, PI)
-            } else if r < 0.9 {
-                (FRAC_PI_2 + w * rng.range(-5.0, 5.0)).clamp(0.0, PI)
-            } else {
-                [0.0, FRAC_PI_2, PI][(rng.next_u64() % 3) as usize]
-            }
-        };
-        let theta = angle(rng);
-        let phi = angle(rng);
-        vec![gamma, theta, phi]
-    }
 }
 
 /// Largest tolerated symmetry defect of a computed marginal pair: the fast rule is
@@ -795,7 +798,7 @@ const SYMMETRY_TOL: f64 = 1e-8;
 
 /// The family `lobefit eval isg --model paper|refit|best` queries (default `best`, the
 /// most accurate); other flags are refused.
-pub fn for_eval(flags: &crate::family::EvalFlags) -> Result<Box<dyn Family>, String> {
+pub fn for_eval(flags: &crate::family::EvalFlags) -> Result<Box<dyn Query>, String> {
     if let Some(flag) = flags.given().into_iter().find(|f| *f != "--model") {
         return Err(format!("isg takes no {flag} flag"));
     }

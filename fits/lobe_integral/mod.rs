@@ -12,7 +12,7 @@ use lobefit_tables::format::Threshold;
 use lobefit_tables::lobe_integral::{self as rt, LobeIntegral, E_MAX};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Family, Fitted, Lookup};
+use crate::family::{Fit, Fitted, Lookup, Query};
 use crate::quad::adaptive_simpson;
 use crate::rng::Rng;
 use crate::tables::error::short;
@@ -57,10 +57,46 @@ impl Lookup for LobeIntegral {
     }
 }
 
-impl Family for LobeIntegralFamily {
+impl Query for LobeIntegralFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
     }
+    fn thresholds(&self) -> Vec<Threshold> {
+        ["grid.max_rel", "offgrid.max_rel"]
+            .iter()
+            .map(|m| Threshold {
+                output: "integral".into(),
+                metric: m.to_string(),
+                limit: 1e-6,
+            })
+            .collect()
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["e"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["integral"]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::LOBE_INTEGRAL
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(LobeIntegral::from_table(table)?))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let e = x[0];
+        if !(0.0..=E_MAX).contains(&e) {
+            return Err(format!("e = {e} is outside [0, {E_MAX}]", e = short(e)));
+        }
+        Ok(vec![rt::exact(e).map_err(|err| err.to_string())?])
+    }
+    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
+        // Uniform in ln(1+e): every decade of e gets a fair share of points.
+        vec![rng.range(0.0, E_MAX.ln_1p()).exp_m1().min(E_MAX)]
+    }
+}
+
+impl Fit for LobeIntegralFamily {
     fn version(&self) -> u32 {
         rt::VERSION
     }
@@ -103,39 +139,6 @@ impl Family for LobeIntegralFamily {
             iterations: evals,
             converged: ok && residual <= MAX_REL_RESIDUAL,
         }
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        ["grid.max_rel", "offgrid.max_rel"]
-            .iter()
-            .map(|m| Threshold {
-                output: "integral".into(),
-                metric: m.to_string(),
-                limit: 1e-6,
-            })
-            .collect()
-    }
-    fn inputs(&self) -> &'static [&'static str] {
-        &["e"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &["integral"]
-    }
-    fn embedded(&self) -> &'static [u8] {
-        lobefit_tables::embedded::LOBE_INTEGRAL
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(LobeIntegral::from_table(table)?))
-    }
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let e = x[0];
-        if !(0.0..=E_MAX).contains(&e) {
-            return Err(format!("e = {e} is outside [0, {E_MAX}]", e = short(e)));
-        }
-        Ok(vec![rt::exact(e).map_err(|err| err.to_string())?])
-    }
-    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
-        // Uniform in ln(1+e): every decade of e gets a fair share of points.
-        vec![rng.range(0.0, E_MAX.ln_1p()).exp_m1().min(E_MAX)]
     }
 }
 

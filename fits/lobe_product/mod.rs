@@ -27,7 +27,7 @@ use lobefit_tables::lobe_product::{self as rt, ln_model, ln_w, lobe_ln, peak_ang
 use lobefit_tables::{Channel, LoadError, Lobe, LookupError, Table};
 use rayon::prelude::*;
 
-use crate::family::{Extra, Family, Fitted, Lookup};
+use crate::family::{Extra, Fit, Fitted, Lookup, Query};
 use crate::fits::Method;
 use crate::quad::gauss_kronrod;
 use crate::rng::Rng;
@@ -725,106 +725,9 @@ impl Lookup for Runtime {
     }
 }
 
-impl Family for LobeProductFamily {
+impl Query for LobeProductFamily {
     fn kind(&self) -> &'static str {
         self.variant.kind()
-    }
-    fn version(&self) -> u32 {
-        rt::VERSION
-    }
-    fn description(&self) -> String {
-        let what = match self.variant {
-            Variant::Energy => "integral-conserving (p_r = (e_r+1)/(2π)·∫Ψ1Ψ2; e_r minimises the L2 residual)",
-            Variant::L2 => "L2-optimal (the paper's objective; (p_r, e_r) minimise ‖Ψ1Ψ2 − p_rΨ_r‖)",
-        };
-        format!(
-            "Product of two cosine lobes max(a1·v,0)^e1·max(a2·v,0)^e2 ≈ p_r·max(a_r·v,0)^e_r, {what}. \
-             Axis a_r at the closed-form peak (not stored). Channels: c = ln(∫Ψ1Ψ2/M) with the \
-             closed-form model M of lobefit_tables::lobe_product::ln_model, ln((1+e_r)/(1+e_m)) with \
-             e_m of lobefit_tables::lobe_product::exponent_model{}.",
-            if self.variant == Variant::L2 {
-                ", ln(∫p_rΨ_r/∫Ψ1Ψ2)"
-            } else {
-                ""
-            }
-        )
-    }
-    fn axes(&self) -> Vec<lobefit_tables::Axis> {
-        rt::axes(N_E, N_ALPHA).to_vec()
-    }
-    fn channels(&self) -> Vec<Channel> {
-        self.variant
-            .channels()
-            .iter()
-            .map(|&(name, encoding)| Channel {
-                name: name.into(),
-                unit: "1".into(),
-                encoding,
-                description: match name {
-                    rt::CHANNEL_C => "ln(∫Ψ1Ψ2 dω / M(e1, e2, α)); ∫Ψ1Ψ2 = exp(c + ln_model)",
-                    rt::CHANNEL_E => "ln((1 + e_r)/(1 + e_m)), e_m = exponent_model(e1, e2, α)",
-                    _ => "ln(∫p_rΨ_r / ∫Ψ1Ψ2)",
-                }
-                .into(),
-            })
-            .collect()
-    }
-    fn method(&self) -> String {
-        match self.method {
-            Method::Fast => {
-                "closed-form axis; Brent over ln(1+e_r) on W(E)·tanh-sinh in-plane integrals; p_r closed form".into()
-            }
-            Method::Paper => "paper: Nelder-Mead axis from the bisector, Levenberg-Marquardt (p_r, e_r) on \
-                              2-D adaptive-Simpson integrals"
-                .into(),
-        }
-    }
-    fn settings(&self) -> Vec<(String, String)> {
-        vec![
-            ("variant".into(), self.variant.kind().into()),
-            ("tanh_sinh_h".into(), TS_H.to_string()),
-            ("tanh_sinh_t".into(), TS_T.to_string()),
-            ("truncation_k".into(), TRUNC_K.to_string()),
-            ("brent_tol".into(), BRENT_TOL.to_string()),
-            ("e_r_search".into(), "[0, 64(e1+e2)+1000]".into()),
-            ("bound_allowed_below".into(), NEGLIGIBLE.to_string()),
-        ]
-    }
-    fn residual_meaning(&self) -> &'static str {
-        "relative L2 residual ‖Ψ1Ψ2 − p_rΨ_r‖/‖Ψ1Ψ2‖ of the fit at the node"
-    }
-    fn fit(&self, node: &[f64]) -> Fitted {
-        // Symmetric in (e1, e2): fit the ordered pair so both halves get identical bits.
-        let (e1, e2) = (node[0].min(node[1]), node[0].max(node[1]));
-        let f = match self.method {
-            Method::Fast => fit_fast(self.variant, e1, e2, node[2]),
-            Method::Paper => {
-                let alpha = node[2];
-                let q = crate::fits::lobe_product::paper::fit_paper(self.variant, e1, e2, alpha);
-                FastFit {
-                    c: q.integral.ln() - ln_model(e1, e2, alpha),
-                    e_r: q.e_r,
-                    k: match self.variant {
-                        Variant::Energy => 0.0,
-                        Variant::L2 => (q.p * TAU / (q.e_r + 1.0) / q.integral).ln(),
-                    },
-                    residual: q.residual,
-                    iterations: q.iterations,
-                    converged: q.converged && q.integral > 0.0,
-                }
-            }
-        };
-        let ln_e = ((1.0 + f.e_r) / (1.0 + rt::exponent_model(e1, e2, node[2]))).ln();
-        let mut values = vec![f.c, ln_e];
-        if self.variant == Variant::L2 {
-            values.push(f.k);
-        }
-        Fitted {
-            values,
-            residual: f.residual,
-            iterations: f.iterations,
-            converged: f.converged,
-        }
     }
     fn thresholds(&self) -> Vec<Threshold> {
         let t = |output: &str, metric: &str, limit: f64| Threshold {
@@ -899,11 +802,6 @@ impl Family for LobeProductFamily {
         let integral = (f.c + ln_model(e1, e2, alpha)).exp();
         let p = f.k.exp() * integral * (f.e_r + 1.0) / TAU;
         Ok(vec![p, rt::peak_fraction(e1, e2, alpha), f.e_r])
-    }
-    fn mirror(&self, node: &[f64]) -> Option<Vec<f64>> {
-        // Ψ1Ψ2 is symmetric in (e1, e2) with t ↔ 1 − t; the stored channels are
-        // symmetric, so the upper triangle reuses the lower one.
-        (node[0] > node[1]).then(|| vec![node[1], node[0], node[2]])
     }
     fn checked(&self) -> &'static [&'static str] {
         &["integral", "l2_residual"]
@@ -1005,8 +903,113 @@ impl Family for LobeProductFamily {
     }
 }
 
+impl Fit for LobeProductFamily {
+    fn version(&self) -> u32 {
+        rt::VERSION
+    }
+    fn description(&self) -> String {
+        let what = match self.variant {
+            Variant::Energy => "integral-conserving (p_r = (e_r+1)/(2π)·∫Ψ1Ψ2; e_r minimises the L2 residual)",
+            Variant::L2 => "L2-optimal (the paper's objective; (p_r, e_r) minimise ‖Ψ1Ψ2 − p_rΨ_r‖)",
+        };
+        format!(
+            "Product of two cosine lobes max(a1·v,0)^e1·max(a2·v,0)^e2 ≈ p_r·max(a_r·v,0)^e_r, {what}. \
+             Axis a_r at the closed-form peak (not stored). Channels: c = ln(∫Ψ1Ψ2/M) with the \
+             closed-form model M of lobefit_tables::lobe_product::ln_model, ln((1+e_r)/(1+e_m)) with \
+             e_m of lobefit_tables::lobe_product::exponent_model{}.",
+            if self.variant == Variant::L2 {
+                ", ln(∫p_rΨ_r/∫Ψ1Ψ2)"
+            } else {
+                ""
+            }
+        )
+    }
+    fn axes(&self) -> Vec<lobefit_tables::Axis> {
+        rt::axes(N_E, N_ALPHA).to_vec()
+    }
+    fn channels(&self) -> Vec<Channel> {
+        self.variant
+            .channels()
+            .iter()
+            .map(|&(name, encoding)| Channel {
+                name: name.into(),
+                unit: "1".into(),
+                encoding,
+                description: match name {
+                    rt::CHANNEL_C => "ln(∫Ψ1Ψ2 dω / M(e1, e2, α)); ∫Ψ1Ψ2 = exp(c + ln_model)",
+                    rt::CHANNEL_E => "ln((1 + e_r)/(1 + e_m)), e_m = exponent_model(e1, e2, α)",
+                    _ => "ln(∫p_rΨ_r / ∫Ψ1Ψ2)",
+                }
+                .into(),
+            })
+            .collect()
+    }
+    fn method(&self) -> String {
+        match self.method {
+            Method::Fast => {
+                "closed-form axis; Brent over ln(1+e_r) on W(E)·tanh-sinh in-plane integrals; p_r closed form".into()
+            }
+            Method::Paper => "paper: Nelder-Mead axis from the bisector, Levenberg-Marquardt (p_r, e_r) on \
+                              2-D adaptive-Simpson integrals"
+                .into(),
+        }
+    }
+    fn settings(&self) -> Vec<(String, String)> {
+        vec![
+            ("variant".into(), self.variant.kind().into()),
+            ("tanh_sinh_h".into(), TS_H.to_string()),
+            ("tanh_sinh_t".into(), TS_T.to_string()),
+            ("truncation_k".into(), TRUNC_K.to_string()),
+            ("brent_tol".into(), BRENT_TOL.to_string()),
+            ("e_r_search".into(), "[0, 64(e1+e2)+1000]".into()),
+            ("bound_allowed_below".into(), NEGLIGIBLE.to_string()),
+        ]
+    }
+    fn residual_meaning(&self) -> &'static str {
+        "relative L2 residual ‖Ψ1Ψ2 − p_rΨ_r‖/‖Ψ1Ψ2‖ of the fit at the node"
+    }
+    fn fit(&self, node: &[f64]) -> Fitted {
+        // Symmetric in (e1, e2): fit the ordered pair so both halves get identical bits.
+        let (e1, e2) = (node[0].min(node[1]), node[0].max(node[1]));
+        let f = match self.method {
+            Method::Fast => fit_fast(self.variant, e1, e2, node[2]),
+            Method::Paper => {
+                let alpha = node[2];
+                let q = crate::fits::lobe_product::paper::fit_paper(self.variant, e1, e2, alpha);
+                FastFit {
+                    c: q.integral.ln() - ln_model(e1, e2, alpha),
+                    e_r: q.e_r,
+                    k: match self.variant {
+                        Variant::Energy => 0.0,
+                        Variant::L2 => (q.p * TAU / (q.e_r + 1.0) / q.integral).ln(),
+                    },
+                    residual: q.residual,
+                    iterations: q.iterations,
+                    converged: q.converged && q.integral > 0.0,
+                }
+            }
+        };
+        let ln_e = ((1.0 + f.e_r) / (1.0 + rt::exponent_model(e1, e2, node[2]))).ln();
+        let mut values = vec![f.c, ln_e];
+        if self.variant == Variant::L2 {
+            values.push(f.k);
+        }
+        Fitted {
+            values,
+            residual: f.residual,
+            iterations: f.iterations,
+            converged: f.converged,
+        }
+    }
+    fn mirror(&self, node: &[f64]) -> Option<Vec<f64>> {
+        // Ψ1Ψ2 is symmetric in (e1, e2) with t ↔ 1 − t; the stored channels are
+        // symmetric, so the upper triangle reuses the lower one.
+        (node[0] > node[1]).then(|| vec![node[1], node[0], node[2]])
+    }
+}
+
 impl LobeProductFamily {
-    /// The every-node verification (see [`Family::nodes_in_extras`]), each section
+    /// The every-node verification (see [`Query::nodes_in_extras`]), each section
     /// independent of the fit:
     /// - `integral_nodes`: every relevant node's stored `ln_integral_over_model` plus
     ///   the closed-form model against the Gauss–Kronrod ∫Ψ1Ψ2, for e2 ≤ e1;

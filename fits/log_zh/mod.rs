@@ -17,7 +17,7 @@ use lobefit_tables::log_zh::{self as rt, Kind, LogZh, CHANNELS, EPS_MAX, EPS_MIN
 use lobefit_tables::sh::MAX_ORDER;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Family, Fitted, Lookup};
+use crate::family::{Fit, Fitted, Lookup, Query};
 use crate::rng::Rng;
 use crate::tables::error::short;
 
@@ -229,71 +229,9 @@ impl Lookup for LogZhLookup {
     }
 }
 
-impl Family for LogZhFamily {
+impl Query for LogZhFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn version(&self) -> u32 {
-        rt::VERSION
-    }
-    fn description(&self) -> String {
-        "Log-ZH vectors z_l = ∫ ln(max(f, eps)) y_l^0 dω, l < 8, of the normalised Phong lobe \
-         f = (r+1)/(2π) cos^r θ (ln eps below the horizon); r = 1 is the diffuse BRDF cos θ/π. \
-         Rows r = 1..128 (integer), columns eps = 0.01..0.99 (128 nodes uniform in ln eps). The runtime's closed \
-         forms (lobefit_tables::log_zh::phong, any real r and eps) are exact; this grid is for \
-         texture upload."
-            .into()
-    }
-    fn axes(&self) -> Vec<Axis> {
-        rt::axes()
-    }
-    fn channels(&self) -> Vec<Channel> {
-        STORED_CHANNELS
-            .iter()
-            .enumerate()
-            .map(|(k, n)| Channel {
-                name: n.to_string(),
-                unit: "1".into(),
-                encoding: Encoding::Linear,
-                description: if k % 2 == 0 {
-                    format!("f32 rounding of z_{} = ∫ ln(max(f, eps)) y_{}^0 dω", k / 2, k / 2)
-                } else {
-                    format!("z_{} − z{}_hi, rounded to f32", k / 2, k / 2)
-                },
-            })
-            .collect()
-    }
-    fn method(&self) -> String {
-        "closed form in t_eps = (2π eps/(r+1))^(1/r), cross-checked by composite Gauss-Legendre".into()
-    }
-    fn settings(&self) -> Vec<(String, String)> {
-        vec![
-            ("gl_points".into(), GL_POINTS.to_string()),
-            ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
-        ]
-    }
-    fn residual_meaning(&self) -> &'static str {
-        "max over l of |closed form − composite Gauss–Legendre projection|"
-    }
-    fn fit(&self, node: &[f64]) -> Fitted {
-        let (r, eps) = (node[0], node[1]);
-        let mut z = [0.0; MAX_ORDER];
-        let exact = rt::phong(eps, r, MAX_ORDER, &mut z);
-        let (q, evals) = gl_log_zh(eps, r, MAX_ORDER);
-        let residual = z.iter().zip(&q).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        let values = z
-            .iter()
-            .flat_map(|&v| {
-                let hi = v as f32;
-                [hi as f64, (v - hi as f64) as f32 as f64]
-            })
-            .collect();
-        Fitted {
-            values,
-            residual,
-            iterations: evals,
-            converged: exact.is_ok() && residual <= MAX_RESIDUAL,
-        }
     }
     fn thresholds(&self) -> Vec<Threshold> {
         let mut t = Vec::new();
@@ -365,6 +303,71 @@ impl Family for LogZhFamily {
             // Log-uniform in r: small exponents (the interesting, wide lobes) get their share.
             Kind::Phong => vec![eps, rng.range(0.0, R_TABLE_MAX.ln()).exp()],
             Kind::Blocker => vec![eps, rng.range(0.0, PI)],
+        }
+    }
+}
+
+impl Fit for LogZhFamily {
+    fn version(&self) -> u32 {
+        rt::VERSION
+    }
+    fn description(&self) -> String {
+        "Log-ZH vectors z_l = ∫ ln(max(f, eps)) y_l^0 dω, l < 8, of the normalised Phong lobe \
+         f = (r+1)/(2π) cos^r θ (ln eps below the horizon); r = 1 is the diffuse BRDF cos θ/π. \
+         Rows r = 1..128 (integer), columns eps = 0.01..0.99 (128 nodes uniform in ln eps). The runtime's closed \
+         forms (lobefit_tables::log_zh::phong, any real r and eps) are exact; this grid is for \
+         texture upload."
+            .into()
+    }
+    fn axes(&self) -> Vec<Axis> {
+        rt::axes()
+    }
+    fn channels(&self) -> Vec<Channel> {
+        STORED_CHANNELS
+            .iter()
+            .enumerate()
+            .map(|(k, n)| Channel {
+                name: n.to_string(),
+                unit: "1".into(),
+                encoding: Encoding::Linear,
+                description: if k % 2 == 0 {
+                    format!("f32 rounding of z_{} = ∫ ln(max(f, eps)) y_{}^0 dω", k / 2, k / 2)
+                } else {
+                    format!("z_{} − z{}_hi, rounded to f32", k / 2, k / 2)
+                },
+            })
+            .collect()
+    }
+    fn method(&self) -> String {
+        "closed form in t_eps = (2π eps/(r+1))^(1/r), cross-checked by composite Gauss-Legendre".into()
+    }
+    fn settings(&self) -> Vec<(String, String)> {
+        vec![
+            ("gl_points".into(), GL_POINTS.to_string()),
+            ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
+        ]
+    }
+    fn residual_meaning(&self) -> &'static str {
+        "max over l of |closed form − composite Gauss–Legendre projection|"
+    }
+    fn fit(&self, node: &[f64]) -> Fitted {
+        let (r, eps) = (node[0], node[1]);
+        let mut z = [0.0; MAX_ORDER];
+        let exact = rt::phong(eps, r, MAX_ORDER, &mut z);
+        let (q, evals) = gl_log_zh(eps, r, MAX_ORDER);
+        let residual = z.iter().zip(&q).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let values = z
+            .iter()
+            .flat_map(|&v| {
+                let hi = v as f32;
+                [hi as f64, (v - hi as f64) as f32 as f64]
+            })
+            .collect();
+        Fitted {
+            values,
+            residual,
+            iterations: evals,
+            converged: exact.is_ok() && residual <= MAX_RESIDUAL,
         }
     }
 }

@@ -35,7 +35,7 @@ use lobefit_tables::mask_weights::{
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use rayon::prelude::*;
 
-use crate::family::{Extra, Family, Fitted, Lookup};
+use crate::family::{Extra, Fit, Fitted, Lookup, Query};
 use crate::fits::cap_exponent::objective_slope;
 use crate::quad::illinois;
 use crate::rng::Rng;
@@ -584,62 +584,9 @@ fn system_tag(mode: MaskMode, depth: u32) -> String {
     format!("{}_d{depth}", &mode.name()[..3])
 }
 
-impl Family for MaskWeightsFamily {
+impl Query for MaskWeightsFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn version(&self) -> u32 {
-        rt::VERSION
-    }
-    fn description(&self) -> String {
-        "Visibility-mask leaf-lobe weights w_d(dist) of Meunier et al. 2009 eq. 39, V = c_unit − Σ w_{d_i} c_i, \
-         per maximal quad-tree depth D = 1..5 and mode (aggressive | conservative), level d = 1..D; `fit_*`: least \
-         squares against the exact cap-union visibility over the light's cone; `paper_*`: the paper's manual \
-         procedure made automatic. dist = 1/(2 tan α) on [0.25, 10], nodes uniform in ln dist, linear."
-            .into()
-    }
-    fn axes(&self) -> Vec<Axis> {
-        vec![rt::axis(DIST_NODES)]
-    }
-    fn channels(&self) -> Vec<Channel> {
-        channel_names()
-            .iter()
-            .map(|n| Channel {
-                name: n.clone(),
-                unit: "1".into(),
-                encoding: Encoding::Linear,
-                description: "weight of the leaf lobes of one depth (eq. 39)".into(),
-            })
-            .collect()
-    }
-    fn method(&self) -> String {
-        format!(
-            "linear least squares (ridge {RIDGE:e}·tr/n towards 1) of the weighted leaf-lobe sum against the \
-             exact cap union, L2 over the light's cone (midpoint rule {}×{}), {TRAIN_CONFIGS} seeded \
-             configurations; paper baseline: the same, one depth at a time, coarse to fine",
-            FIT_RULE.0, FIT_RULE.1
-        )
-    }
-    fn settings(&self) -> Vec<(String, String)> {
-        vec![
-            ("train_configs".into(), TRAIN_CONFIGS.to_string()),
-            ("train_seed".into(), format!("{TRAIN_SEED:#x}")),
-            ("rule".into(), format!("{}x{}", FIT_RULE.0, FIT_RULE.1)),
-            ("ridge".into(), format!("{RIDGE:e}")),
-            ("lobe_cut".into(), format!("{LOBE_CUT:e}")),
-        ]
-    }
-    fn residual_meaning(&self) -> &'static str {
-        "relative L2 visibility error of the fitted weights (aggressive, depth 5) on the training set"
-    }
-    fn fit(&self, node: &[f64]) -> Fitted {
-        let s = solve(node[0], |a| ConeRule::midpoint(a, FIT_RULE));
-        Fitted {
-            values: s.values,
-            residual: s.residual,
-            iterations: TRAIN_CONFIGS as u32,
-            converged: s.ok,
-        }
     }
     fn thresholds(&self) -> Vec<Threshold> {
         let mut t: Vec<Threshold> = channel_names()
@@ -810,6 +757,62 @@ impl Family for MaskWeightsFamily {
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         vec![(rng.range(DIST_MIN.ln(), DIST_MAX.ln())).exp(), rng.uniform()]
+    }
+}
+
+impl Fit for MaskWeightsFamily {
+    fn version(&self) -> u32 {
+        rt::VERSION
+    }
+    fn description(&self) -> String {
+        "Visibility-mask leaf-lobe weights w_d(dist) of Meunier et al. 2009 eq. 39, V = c_unit − Σ w_{d_i} c_i, \
+         per maximal quad-tree depth D = 1..5 and mode (aggressive | conservative), level d = 1..D; `fit_*`: least \
+         squares against the exact cap-union visibility over the light's cone; `paper_*`: the paper's manual \
+         procedure made automatic. dist = 1/(2 tan α) on [0.25, 10], nodes uniform in ln dist, linear."
+            .into()
+    }
+    fn axes(&self) -> Vec<Axis> {
+        vec![rt::axis(DIST_NODES)]
+    }
+    fn channels(&self) -> Vec<Channel> {
+        channel_names()
+            .iter()
+            .map(|n| Channel {
+                name: n.clone(),
+                unit: "1".into(),
+                encoding: Encoding::Linear,
+                description: "weight of the leaf lobes of one depth (eq. 39)".into(),
+            })
+            .collect()
+    }
+    fn method(&self) -> String {
+        format!(
+            "linear least squares (ridge {RIDGE:e}·tr/n towards 1) of the weighted leaf-lobe sum against the \
+             exact cap union, L2 over the light's cone (midpoint rule {}×{}), {TRAIN_CONFIGS} seeded \
+             configurations; paper baseline: the same, one depth at a time, coarse to fine",
+            FIT_RULE.0, FIT_RULE.1
+        )
+    }
+    fn settings(&self) -> Vec<(String, String)> {
+        vec![
+            ("train_configs".into(), TRAIN_CONFIGS.to_string()),
+            ("train_seed".into(), format!("{TRAIN_SEED:#x}")),
+            ("rule".into(), format!("{}x{}", FIT_RULE.0, FIT_RULE.1)),
+            ("ridge".into(), format!("{RIDGE:e}")),
+            ("lobe_cut".into(), format!("{LOBE_CUT:e}")),
+        ]
+    }
+    fn residual_meaning(&self) -> &'static str {
+        "relative L2 visibility error of the fitted weights (aggressive, depth 5) on the training set"
+    }
+    fn fit(&self, node: &[f64]) -> Fitted {
+        let s = solve(node[0], |a| ConeRule::midpoint(a, FIT_RULE));
+        Fitted {
+            values: s.values,
+            residual: s.residual,
+            iterations: TRAIN_CONFIGS as u32,
+            converged: s.ok,
+        }
     }
 }
 

@@ -25,7 +25,7 @@ use lobefit_tables::format::Threshold;
 use lobefit_tables::sg_fit::{self as rt, SgFit, E_MAX};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Family, Fitted, Lookup};
+use crate::family::{Fit, Fitted, Lookup, Query};
 use crate::quad::{adaptive_simpson, gauss_kronrod, illinois};
 use crate::rng::Rng;
 use crate::tables::error::short;
@@ -213,10 +213,61 @@ impl Lookup for SgFit {
     }
 }
 
-impl Family for SgFitFamily {
+impl Query for SgFitFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
     }
+    fn thresholds(&self) -> Vec<Threshold> {
+        let mut v = Vec::new();
+        for output in ["lambda", "mu"] {
+            for metric in ["grid.max_rel", "offgrid.max_rel"] {
+                v.push(Threshold {
+                    output: output.into(),
+                    metric: metric.into(),
+                    limit: REL_LIMIT,
+                });
+            }
+        }
+        v
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["e"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["lambda", "mu"]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::SG_FIT
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(SgFit::from_table(table)?))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let (l, m) = reference_fit(x[0])?;
+        Ok(vec![l, m])
+    }
+    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        // The fit itself at exactly this e.
+        let e = x[0];
+        if !(0.0..=E_MAX).contains(&e) {
+            return Err(format!("e = {e} is outside [0, {E_MAX}]", e = short(e)));
+        }
+        let f = self.fit(&[e]);
+        if !f.converged {
+            return Err(format!("fit did not converge at e = {e}", e = short(e)));
+        }
+        Ok(f.values)
+    }
+    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
+        // Uniform in ln(1+e), and e = 0 (the hemisphere indicator) now and then.
+        if rng.uniform() < 0.02 {
+            return vec![0.0];
+        }
+        vec![rng.range(0.0, E_MAX.ln_1p()).exp_m1().clamp(0.0, E_MAX)]
+    }
+}
+
+impl Fit for SgFitFamily {
     fn version(&self) -> u32 {
         rt::VERSION
     }
@@ -276,54 +327,6 @@ impl Family for SgFitFamily {
             iterations,
             converged: ok && qok && lambda.is_finite() && mu.is_finite() && mu > 0.0,
         }
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        let mut v = Vec::new();
-        for output in ["lambda", "mu"] {
-            for metric in ["grid.max_rel", "offgrid.max_rel"] {
-                v.push(Threshold {
-                    output: output.into(),
-                    metric: metric.into(),
-                    limit: REL_LIMIT,
-                });
-            }
-        }
-        v
-    }
-    fn inputs(&self) -> &'static [&'static str] {
-        &["e"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &["lambda", "mu"]
-    }
-    fn embedded(&self) -> &'static [u8] {
-        lobefit_tables::embedded::SG_FIT
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(SgFit::from_table(table)?))
-    }
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let (l, m) = reference_fit(x[0])?;
-        Ok(vec![l, m])
-    }
-    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        // The fit itself at exactly this e.
-        let e = x[0];
-        if !(0.0..=E_MAX).contains(&e) {
-            return Err(format!("e = {e} is outside [0, {E_MAX}]", e = short(e)));
-        }
-        let f = self.fit(&[e]);
-        if !f.converged {
-            return Err(format!("fit did not converge at e = {e}", e = short(e)));
-        }
-        Ok(f.values)
-    }
-    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
-        // Uniform in ln(1+e), and e = 0 (the hemisphere indicator) now and then.
-        if rng.uniform() < 0.02 {
-            return vec![0.0];
-        }
-        vec![rng.range(0.0, E_MAX.ln_1p()).exp_m1().clamp(0.0, E_MAX)]
     }
 }
 

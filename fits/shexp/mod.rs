@@ -25,7 +25,7 @@ use lobefit_tables::log_zh::{EPS_MAX, EPS_MIN};
 use lobefit_tables::shexp::{self as rt, ab_of_pair, cap_visibility_zh, one_minus_cos, ShExp, ORDER_MAX, ORDER_MIN};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Extra, Family, Fitted, Lookup};
+use crate::family::{Extra, Fit, Fitted, Lookup, Query};
 use crate::fits::shexp::exp_log::{ren_log_zonal, ren_log_zonal_reference};
 use crate::rng::Rng;
 use crate::sh::Gaunt;
@@ -186,118 +186,9 @@ impl Lookup for ShExpLookup {
     }
 }
 
-impl Family for ShExpFamily {
+impl Query for ShExpFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn version(&self) -> u32 {
-        rt::VERSION
-    }
-    fn description(&self) -> String {
-        format!(
-            "SH exponentiation tables (Ren et al. 2006; docs/math.md, shexp) for a spherical-cap blocker of angular \
-             radius theta_b about +z, orders {ORDER_MIN}..{ORDER_MAX}: Ren's log-ZH f (log of the SH product \
-             matrix in the form f = R q(D) R^T (g - 1), q(x) = ln(x)/(x - 1), eigenvalues in q clamped below at \
-             {} x the largest), |f_hat| (f without DC) and \
-             the OL coefficients a, b of exp*(f_hat) ~ a 1 + b f_hat. f and |f_hat| are stored divided by \
-             1 - cos(theta_b). Each value is an f32 hi/lo pair. HYB looks a, b up vs |f_hat| on the \
-             monotone branch of |f_hat|(theta_b) (up to its first maximum).",
-            crate::fits::shexp::exp_log::REN_CLAMP
-        )
-    }
-    fn axes(&self) -> Vec<Axis> {
-        rt::axes()
-    }
-    fn channels(&self) -> Vec<Channel> {
-        rt::channel_names()
-            .into_iter()
-            .map(|name| Channel {
-                description: if name.ends_with("_hi") {
-                    "f32 rounding of the value (f_l and norm divided by 1 - cos theta_b)".into()
-                } else {
-                    "value - hi, rounded to f32".into()
-                },
-                name,
-                unit: "1".into(),
-                encoding: Encoding::Linear,
-            })
-            .collect()
-    }
-    fn method(&self) -> String {
-        "Ren's log via Gaunt m-blocks of M_(g-1), Jacobi eigen-decomposition, q-form; \
-         cross-checked by quadrature-built blocks"
-            .into()
-    }
-    fn settings(&self) -> Vec<(String, String)> {
-        vec![
-            ("ren_clamp".into(), crate::fits::shexp::exp_log::REN_CLAMP.to_string()),
-            (
-                "ren_clamp_form".into(),
-                "inside q: q(max(lambda, clamp)) (g - 1)".into(),
-            ),
-            ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
-            ("jacobi_tol".into(), format!("{:e}", crate::eigen::JACOBI_TOL)),
-        ]
-    }
-    fn residual_meaning(&self) -> &'static str {
-        "max over orders and l of |f (Gaunt blocks, q-form) - f (quadrature blocks, direct log)| / max(|f|, 1)"
-    }
-    fn fit(&self, node: &[f64]) -> Fitted {
-        let (n, theta) = (node[0].round() as usize, node[1]);
-        let s = one_minus_cos(theta);
-        let mut values = Vec::with_capacity(2 * rt::PAIRS);
-        let mut push = |v: f64| {
-            let hi = v as f32;
-            values.push(hi as f64);
-            values.push((v - hi as f64) as f32 as f64);
-        };
-        let mut stored = [0.0; rt::PAIRS];
-        stored[11] = -1.0;
-        let (mut residual, mut ok) = (0.0f64, true);
-        if theta == 0.0 {
-            // Limits: f → g − 1 = −cap, cap_l/(1 − cosθ) → √(π(2l+1)); a, b → 1.
-            for (l, v) in stored.iter_mut().enumerate().take(n) {
-                *v = -(PI * (2 * l + 1) as f64).sqrt();
-            }
-            stored[8] = (PI * (n * n - 1) as f64).sqrt();
-            stored[9] = 1.0;
-            stored[10] = 1.0;
-        } else {
-            let gaunt = Gaunt::cached(n).expect("order in 3..=8");
-            let g = cap_visibility_zh(theta, n).expect("θ_b on the axis, order 3..=8")[..n].to_vec();
-            match (ren_log_zonal(gaunt, &g), ren_log_zonal_reference(&g)) {
-                (Ok(fit), Ok(reference)) => {
-                    let scale = fit.f.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0);
-                    for (a, b) in fit.f.iter().zip(&reference.f) {
-                        residual = residual.max((a - b).abs() / scale);
-                    }
-                    // A non-finite log marks the node unconverged (never written).
-                    let (a, b, norm) = ab_of_pair(&g, &fit.f).unwrap_or_else(|_| {
-                        ok = false;
-                        (f64::NAN, f64::NAN, f64::NAN)
-                    });
-                    for (v, f) in stored.iter_mut().zip(&fit.f) {
-                        *v = f / s;
-                    }
-                    stored[8] = norm / s;
-                    stored[9] = a;
-                    stored[10] = b;
-                    match kink(gaunt, n, theta) {
-                        Ok(Some(k)) => stored[11] = k,
-                        Ok(None) => {}
-                        Err(_) => ok = false,
-                    }
-                }
-                _ => ok = false,
-            }
-        }
-        stored.iter().for_each(|&v| push(v));
-        Fitted {
-            values,
-            residual,
-            iterations: 1,
-            converged: ok && residual <= MAX_RESIDUAL,
-        }
     }
     fn thresholds(&self) -> Vec<Threshold> {
         ALL.iter()
@@ -440,6 +331,118 @@ impl Family for ShExpFamily {
             off += n + 3;
         }
         Ok(Some((got, want)))
+    }
+}
+
+impl Fit for ShExpFamily {
+    fn version(&self) -> u32 {
+        rt::VERSION
+    }
+    fn description(&self) -> String {
+        format!(
+            "SH exponentiation tables (Ren et al. 2006; docs/math.md, shexp) for a spherical-cap blocker of angular \
+             radius theta_b about +z, orders {ORDER_MIN}..{ORDER_MAX}: Ren's log-ZH f (log of the SH product \
+             matrix in the form f = R q(D) R^T (g - 1), q(x) = ln(x)/(x - 1), eigenvalues in q clamped below at \
+             {} x the largest), |f_hat| (f without DC) and \
+             the OL coefficients a, b of exp*(f_hat) ~ a 1 + b f_hat. f and |f_hat| are stored divided by \
+             1 - cos(theta_b). Each value is an f32 hi/lo pair. HYB looks a, b up vs |f_hat| on the \
+             monotone branch of |f_hat|(theta_b) (up to its first maximum).",
+            crate::fits::shexp::exp_log::REN_CLAMP
+        )
+    }
+    fn axes(&self) -> Vec<Axis> {
+        rt::axes()
+    }
+    fn channels(&self) -> Vec<Channel> {
+        rt::channel_names()
+            .into_iter()
+            .map(|name| Channel {
+                description: if name.ends_with("_hi") {
+                    "f32 rounding of the value (f_l and norm divided by 1 - cos theta_b)".into()
+                } else {
+                    "value - hi, rounded to f32".into()
+                },
+                name,
+                unit: "1".into(),
+                encoding: Encoding::Linear,
+            })
+            .collect()
+    }
+    fn method(&self) -> String {
+        "Ren's log via Gaunt m-blocks of M_(g-1), Jacobi eigen-decomposition, q-form; \
+         cross-checked by quadrature-built blocks"
+            .into()
+    }
+    fn settings(&self) -> Vec<(String, String)> {
+        vec![
+            ("ren_clamp".into(), crate::fits::shexp::exp_log::REN_CLAMP.to_string()),
+            (
+                "ren_clamp_form".into(),
+                "inside q: q(max(lambda, clamp)) (g - 1)".into(),
+            ),
+            ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
+            ("jacobi_tol".into(), format!("{:e}", crate::eigen::JACOBI_TOL)),
+        ]
+    }
+    fn residual_meaning(&self) -> &'static str {
+        "max over orders and l of |f (Gaunt blocks, q-form) - f (quadrature blocks, direct log)| / max(|f|, 1)"
+    }
+    fn fit(&self, node: &[f64]) -> Fitted {
+        let (n, theta) = (node[0].round() as usize, node[1]);
+        let s = one_minus_cos(theta);
+        let mut values = Vec::with_capacity(2 * rt::PAIRS);
+        let mut push = |v: f64| {
+            let hi = v as f32;
+            values.push(hi as f64);
+            values.push((v - hi as f64) as f32 as f64);
+        };
+        let mut stored = [0.0; rt::PAIRS];
+        stored[11] = -1.0;
+        let (mut residual, mut ok) = (0.0f64, true);
+        if theta == 0.0 {
+            // Limits: f → g − 1 = −cap, cap_l/(1 − cosθ) → √(π(2l+1)); a, b → 1.
+            for (l, v) in stored.iter_mut().enumerate().take(n) {
+                *v = -(PI * (2 * l + 1) as f64).sqrt();
+            }
+            stored[8] = (PI * (n * n - 1) as f64).sqrt();
+            stored[9] = 1.0;
+            stored[10] = 1.0;
+        } else {
+            let gaunt = Gaunt::cached(n).expect("order in 3..=8");
+            let g = cap_visibility_zh(theta, n).expect("θ_b on the axis, order 3..=8")[..n].to_vec();
+            match (ren_log_zonal(gaunt, &g), ren_log_zonal_reference(&g)) {
+                (Ok(fit), Ok(reference)) => {
+                    let scale = fit.f.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0);
+                    for (a, b) in fit.f.iter().zip(&reference.f) {
+                        residual = residual.max((a - b).abs() / scale);
+                    }
+                    // A non-finite log marks the node unconverged (never written).
+                    let (a, b, norm) = ab_of_pair(&g, &fit.f).unwrap_or_else(|_| {
+                        ok = false;
+                        (f64::NAN, f64::NAN, f64::NAN)
+                    });
+                    for (v, f) in stored.iter_mut().zip(&fit.f) {
+                        *v = f / s;
+                    }
+                    stored[8] = norm / s;
+                    stored[9] = a;
+                    stored[10] = b;
+                    match kink(gaunt, n, theta) {
+                        Ok(Some(k)) => stored[11] = k,
+                        Ok(None) => {}
+                        Err(_) => ok = false,
+                    }
+                }
+                _ => ok = false,
+            }
+        }
+        stored.iter().for_each(|&v| push(v));
+        Fitted {
+            values,
+            residual,
+            iterations: 1,
+            converged: ok && residual <= MAX_RESIDUAL,
+        }
     }
 }
 

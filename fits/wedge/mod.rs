@@ -18,7 +18,7 @@ use lobefit_tables::sh::{eval_basis, MAX_COEFFS, MAX_ORDER};
 use lobefit_tables::wedge::{self as rt, Wedges, CHANNELS, COLS, ROWS, WEDGE_COUNTS};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Family, Fitted, Lookup};
+use crate::family::{Fit, Fitted, Lookup, Query};
 use crate::quad::gauss_kronrod;
 use crate::rng::Rng;
 use crate::tables::error::short;
@@ -214,10 +214,48 @@ impl Lookup for Wedges {
     }
 }
 
-impl Family for WedgeFamily {
+impl Query for WedgeFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
     }
+    fn thresholds(&self) -> Vec<Threshold> {
+        ["grid.max_abs", "offgrid.max_abs"]
+            .iter()
+            .map(|m| Threshold {
+                output: "m".into(),
+                metric: m.to_string(),
+                limit: ACCURACY_ABS,
+            })
+            .collect()
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["W", "row", "col"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["m"]
+    }
+    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
+        vec![vec![node_w(node[0]) as f64, node[1].round(), node[2].round()]]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::WEDGE
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(Wedges::from_table(table)?))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        Ok(vec![reference_m_lin(node_w(x[0]), x[1] as usize, x[2] as usize)?])
+    }
+    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
+        // The table is a set of matrices: "off-grid" points are random entries.
+        let w = WEDGE_COUNTS[(rng.uniform() * 5.0) as usize % 5];
+        let row = (rng.uniform() * ROWS as f64) as u32 % ROWS;
+        let col = (rng.uniform() * COLS as f64) as u32 % COLS;
+        vec![w as f64, row as f64, col as f64]
+    }
+}
+
+impl Fit for WedgeFamily {
     fn version(&self) -> u32 {
         rt::VERSION
     }
@@ -272,41 +310,6 @@ impl Family for WedgeFamily {
             converged: (a - b).abs() <= MAX_RESIDUAL,
         }
     }
-    fn thresholds(&self) -> Vec<Threshold> {
-        ["grid.max_abs", "offgrid.max_abs"]
-            .iter()
-            .map(|m| Threshold {
-                output: "m".into(),
-                metric: m.to_string(),
-                limit: ACCURACY_ABS,
-            })
-            .collect()
-    }
-    fn inputs(&self) -> &'static [&'static str] {
-        &["W", "row", "col"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &["m"]
-    }
-    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
-        vec![vec![node_w(node[0]) as f64, node[1].round(), node[2].round()]]
-    }
-    fn embedded(&self) -> &'static [u8] {
-        lobefit_tables::embedded::WEDGE
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(Wedges::from_table(table)?))
-    }
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        Ok(vec![reference_m_lin(node_w(x[0]), x[1] as usize, x[2] as usize)?])
-    }
-    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
-        // The table is a set of matrices: "off-grid" points are random entries.
-        let w = WEDGE_COUNTS[(rng.uniform() * 5.0) as usize % 5];
-        let row = (rng.uniform() * ROWS as f64) as u32 % ROWS;
-        let col = (rng.uniform() * COLS as f64) as u32 % COLS;
-        vec![w as f64, row as f64, col as f64]
-    }
 }
 
 /// Output columns v0..v7 of the slice view.
@@ -338,33 +341,9 @@ impl Lookup for SliceLookup {
     }
 }
 
-impl Family for WedgeSliceView {
+impl Query for WedgeSliceView {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn version(&self) -> u32 {
-        rt::VERSION
-    }
-    fn description(&self) -> String {
-        WedgeFamily.description()
-    }
-    fn axes(&self) -> Vec<Axis> {
-        WedgeFamily.axes()
-    }
-    fn channels(&self) -> Vec<Channel> {
-        WedgeFamily.channels()
-    }
-    fn method(&self) -> String {
-        WedgeFamily.method()
-    }
-    fn settings(&self) -> Vec<(String, String)> {
-        WedgeFamily.settings()
-    }
-    fn residual_meaning(&self) -> &'static str {
-        WedgeFamily.residual_meaning()
-    }
-    fn fit(&self, node: &[f64]) -> Fitted {
-        WedgeFamily.fit(node)
     }
     fn thresholds(&self) -> Vec<Threshold> {
         WedgeFamily.thresholds()

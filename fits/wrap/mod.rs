@@ -14,7 +14,7 @@ use lobefit_tables::sh::MAX_ORDER;
 use lobefit_tables::wrap::{self as rt, WrapTable, A_MAX, A_MIN, A_NODES, CHANNELS};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Family, Fitted, Lookup};
+use crate::family::{Fit, Fitted, Lookup, Query};
 use crate::quad::{adaptive_simpson, gauss_kronrod};
 use crate::rng::Rng;
 
@@ -161,58 +161,9 @@ impl Lookup for WrapLookup {
     }
 }
 
-impl Family for WrapFamily {
+impl Query for WrapFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn version(&self) -> u32 {
-        rt::VERSION
-    }
-    fn description(&self) -> String {
-        "Wrap-lighting band scalings λ̂_l(a) = 2 ∫_{-a}^{1} ((t+a)/(1+a))^(1+a) P_l(t) dt, l < 8, for \
-         a = 0..1 (129 linear nodes, f32), for texture upload. Convolution: E_lm = π λ̂_l(a) L_lm. The \
-         runtime's closed form (lobefit_tables::wrap::lambda_hat, every band) is exact; use it on the CPU."
-            .into()
-    }
-    fn axes(&self) -> Vec<Axis> {
-        vec![rt::axis(A_NODES)]
-    }
-    fn channels(&self) -> Vec<Channel> {
-        CHANNELS
-            .iter()
-            .enumerate()
-            .map(|(l, n)| Channel {
-                name: n.to_string(),
-                unit: "1".into(),
-                encoding: Encoding::Linear,
-                description: format!("λ̂_{l}(a), Funk–Hecke eigenvalue of the wrap kernel divided by π"),
-            })
-            .collect()
-    }
-    fn method(&self) -> String {
-        "adaptive Simpson of the definition, cross-checked against the closed form".into()
-    }
-    fn settings(&self) -> Vec<(String, String)> {
-        vec![
-            ("fit_tol".into(), format!("{FIT_TOL:e}")),
-            ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
-        ]
-    }
-    fn residual_meaning(&self) -> &'static str {
-        "max over l of |adaptive Simpson − closed form|"
-    }
-    fn fit(&self, node: &[f64]) -> Fitted {
-        let a = node[0];
-        let (v, evals, ok) = simpson_lambda(a);
-        let mut c = [0.0; MAX_ORDER];
-        let closed = rt::lambda_hat(MAX_ORDER, a, &mut c);
-        let residual = v.iter().zip(&c).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
-        Fitted {
-            values: v,
-            residual,
-            iterations: evals,
-            converged: ok && closed.is_ok() && residual <= MAX_RESIDUAL,
-        }
     }
     fn thresholds(&self) -> Vec<Threshold> {
         let mut t = Vec::new();
@@ -283,6 +234,58 @@ impl Family for WrapFamily {
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         vec![rng.range(A_MIN, A_MAX)]
+    }
+}
+
+impl Fit for WrapFamily {
+    fn version(&self) -> u32 {
+        rt::VERSION
+    }
+    fn description(&self) -> String {
+        "Wrap-lighting band scalings λ̂_l(a) = 2 ∫_{-a}^{1} ((t+a)/(1+a))^(1+a) P_l(t) dt, l < 8, for \
+         a = 0..1 (129 linear nodes, f32), for texture upload. Convolution: E_lm = π λ̂_l(a) L_lm. The \
+         runtime's closed form (lobefit_tables::wrap::lambda_hat, every band) is exact; use it on the CPU."
+            .into()
+    }
+    fn axes(&self) -> Vec<Axis> {
+        vec![rt::axis(A_NODES)]
+    }
+    fn channels(&self) -> Vec<Channel> {
+        CHANNELS
+            .iter()
+            .enumerate()
+            .map(|(l, n)| Channel {
+                name: n.to_string(),
+                unit: "1".into(),
+                encoding: Encoding::Linear,
+                description: format!("λ̂_{l}(a), Funk–Hecke eigenvalue of the wrap kernel divided by π"),
+            })
+            .collect()
+    }
+    fn method(&self) -> String {
+        "adaptive Simpson of the definition, cross-checked against the closed form".into()
+    }
+    fn settings(&self) -> Vec<(String, String)> {
+        vec![
+            ("fit_tol".into(), format!("{FIT_TOL:e}")),
+            ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
+        ]
+    }
+    fn residual_meaning(&self) -> &'static str {
+        "max over l of |adaptive Simpson − closed form|"
+    }
+    fn fit(&self, node: &[f64]) -> Fitted {
+        let a = node[0];
+        let (v, evals, ok) = simpson_lambda(a);
+        let mut c = [0.0; MAX_ORDER];
+        let closed = rt::lambda_hat(MAX_ORDER, a, &mut c);
+        let residual = v.iter().zip(&c).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        Fitted {
+            values: v,
+            residual,
+            iterations: evals,
+            converged: ok && closed.is_ok() && residual <= MAX_RESIDUAL,
+        }
     }
 }
 

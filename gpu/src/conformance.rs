@@ -11,7 +11,7 @@ use lobefit::export::families::{self, GpuFamily};
 use lobefit::export::layout::{Filter, Sampler};
 use lobefit::export::run::{errors_of, family_of, offgrid_metrics, sample_points, TextureEntry};
 use lobefit::export::{Storage, Texture};
-use lobefit::family::{Family, Lookup};
+use lobefit::family::{Lookup, Query};
 use lobefit::rng::Rng;
 use lobefit_tables::{LookupError, Mapping};
 
@@ -601,7 +601,7 @@ fn closed_row(
     gpu: &Gpu,
     dummy: &GpuTexture,
     name: &str,
-    family: &dyn Family,
+    family: &dyn Query,
     body: &str,
     cpu: &dyn Fn(&[f64]) -> Vec<f64>,
     samples: usize,

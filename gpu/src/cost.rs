@@ -6,7 +6,7 @@ use std::time::Instant;
 use lobefit::export::layout::Filter;
 use lobefit::export::run::{family_of, sample_points};
 use lobefit::export::Storage;
-use lobefit::family::Family;
+use lobefit::family::Query;
 use lobefit::fits::log_zh::LogZhFamily;
 use lobefit::fits::wrap::WrapFamily;
 use lobefit::rng::Rng;
@@ -160,7 +160,7 @@ pub fn costs(gpu: &Gpu, export: &Export) -> Result<Vec<Cost>, String> {
         format!("    let z = {call};\n    for (var k = 0u; k < 8u; k++) {{\n        Y[o + k] = z[k];\n    }}")
     };
     let li = family_of("lobe-integral").ok_or("lobe-integral: not in the registry")?;
-    let closed: Vec<(&str, Box<dyn Family>, String, usize)> = vec![
+    let closed: Vec<(&str, Box<dyn Query>, String, usize)> = vec![
         ("lobe-integral", li, "    Y[o] = lf_lobe_integral(x0);".into(), 1),
         (
             "wrap (8 bands)",

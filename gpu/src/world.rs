@@ -315,7 +315,7 @@ pub fn samplers(texs: &[(TextureEntry, Texture)], filter: Filter) -> Vec<Sampler
 pub fn check_patch(
     gpu: &Gpu,
     kind: &str,
-    family: &dyn lobefit::family::Family,
+    family: &dyn lobefit::family::Query,
     eval: fn(&[Sampler], &[f32]) -> Vec<f32>,
     texs: &[(TextureEntry, Texture)],
     tex: &GpuTexture,
@@ -438,7 +438,7 @@ fn disk_world(c6: &[f64], rot: [[f64; 3]; 3], radiance: f64, normal: DVec3) -> R
 #[allow(clippy::too_many_arguments)]
 pub fn check_disk_world(
     gpu: &Gpu,
-    family: &dyn lobefit::family::Family,
+    family: &dyn lobefit::family::Query,
     eval: fn(&[Sampler], &[f32]) -> Vec<f32>,
     texs: &[(TextureEntry, Texture)],
     tex: &GpuTexture,

@@ -13,9 +13,9 @@ use lobefit_tables::format::Threshold;
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
 use lobefit_tables::meunier::{check_scene, MaskSettings, Sphere, SphereLight};
-use lobefit_tables::{Axis, CapExponent, Channel, LoadError, LobeProduct, LookupError, Meunier, MeunierError, Table};
+use lobefit_tables::{CapExponent, LoadError, LobeProduct, LookupError, Meunier, MeunierError, Table};
 
-use crate::family::{EvalFlags, Family, Fitted, Lookup};
+use crate::family::{EvalFlags, Lookup, Query};
 use crate::fits::mask_weights::MaskWeightsFamily;
 use crate::pipelines::scene::visible;
 use crate::quad::gauss_kronrod;
@@ -375,33 +375,9 @@ pub fn random_row(rng: &mut Rng) -> [f64; 14] {
     out
 }
 
-impl Family for DirectLightView {
+impl Query for DirectLightView {
     fn kind(&self) -> &'static str {
         MaskWeightsFamily.kind()
-    }
-    fn version(&self) -> u32 {
-        MaskWeightsFamily.version()
-    }
-    fn description(&self) -> String {
-        MaskWeightsFamily.description()
-    }
-    fn axes(&self) -> Vec<Axis> {
-        MaskWeightsFamily.axes()
-    }
-    fn channels(&self) -> Vec<Channel> {
-        MaskWeightsFamily.channels()
-    }
-    fn method(&self) -> String {
-        MaskWeightsFamily.method()
-    }
-    fn settings(&self) -> Vec<(String, String)> {
-        MaskWeightsFamily.settings()
-    }
-    fn residual_meaning(&self) -> &'static str {
-        MaskWeightsFamily.residual_meaning()
-    }
-    fn fit(&self, node: &[f64]) -> Fitted {
-        MaskWeightsFamily.fit(node)
     }
     fn thresholds(&self) -> Vec<Threshold> {
         MaskWeightsFamily.thresholds()

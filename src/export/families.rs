@@ -87,7 +87,7 @@ pub fn find(kind: &str) -> Option<GpuFamily> {
 }
 
 /// A family's runtime lookup as a GPU computes it from exported textures: the checker
-/// runs the family's own comparison (`Family::check_point`) through it.
+/// runs the family's own comparison (`Query::check_point`) through it.
 pub struct Emulated<'a> {
     /// The family's GPU glue.
     pub family: GpuFamily,

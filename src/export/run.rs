@@ -13,7 +13,7 @@ use super::formats;
 use super::layout::{Channel, Filter, Sampler, TexAxis};
 use super::{Format, Storage, Texture};
 use crate::check::{f32_point, metric_value, OutputReport, Stats};
-use crate::family::Family;
+use crate::family::Query;
 use crate::fits::{registry, FitOptions};
 use crate::rng::Rng;
 
@@ -126,15 +126,18 @@ impl ErrorEntry {
 }
 
 /// The registry's family of `kind` (default options).
-pub fn family_of(kind: &str) -> Option<Box<dyn Family>> {
-    registry(FitOptions::default()).into_iter().find(|f| f.kind() == kind)
+pub fn family_of(kind: &str) -> Option<Box<dyn Query>> {
+    registry(FitOptions::default())
+        .into_iter()
+        .find(|f| f.kind() == kind)
+        .map(|f| -> Box<dyn Query> { f })
 }
 
 /// The export error of one texture, per filter: the family's own pointwise check run
 /// through the emulated GPU lookup at seeded off-grid samples (rounded to f32, the
 /// inputs a shader gets), reduced to the family's off-grid threshold metrics.
 pub fn measure(
-    family: &dyn Family,
+    family: &dyn Query,
     gpu: GpuFamily,
     textures: &[(Vec<TexAxis>, Vec<Channel>, super::Texture)],
     samples: usize,
@@ -176,7 +179,7 @@ pub fn measure(
 /// The seeded off-grid samples the export error is measured on: `samples` points of
 /// `family.sample`, each rounded to the f32 inputs a shader gets (staying in the
 /// runtime's domain).
-pub fn sample_points(family: &dyn Family, samples: usize, seed: u64) -> Result<Vec<Vec<f64>>, String> {
+pub fn sample_points(family: &dyn Query, samples: usize, seed: u64) -> Result<Vec<Vec<f64>>, String> {
     let mut rng = Rng::new(seed);
     let points: Vec<Vec<f64>> = (0..samples).map(|_| family.sample(&mut rng)).collect();
     // The CPU runtime only tells which f32 roundings of a sample stay in the domain.
@@ -188,7 +191,7 @@ pub fn sample_points(family: &dyn Family, samples: usize, seed: u64) -> Result<V
 /// The family's off-grid threshold metrics of one output from its pointwise absolute
 /// and relative errors: (metric, measured, limit) for each of `output`'s `offgrid.*`
 /// thresholds, measured the way `lobefit check` measures them.
-pub fn offgrid_metrics(family: &dyn Family, output: &str, abs: Vec<f64>, rel: Vec<f64>) -> Vec<(String, f64, f64)> {
+pub fn offgrid_metrics(family: &dyn Query, output: &str, abs: Vec<f64>, rel: Vec<f64>) -> Vec<(String, f64, f64)> {
     let report = OutputReport {
         output: output.to_string(),
         grid_abs: Stats::of(Vec::new()),
@@ -208,11 +211,11 @@ pub fn offgrid_metrics(family: &dyn Family, output: &str, abs: Vec<f64>, rel: Ve
         .collect()
 }
 
-/// The family's own pointwise check (`Family::check_point`) of `lookup` at `points`
+/// The family's own pointwise check (`Query::check_point`) of `lookup` at `points`
 /// (from [`sample_points`]), reduced to its off-grid threshold metrics: one entry per
 /// threshold, labelled `filter`.
 pub fn errors_of(
-    family: &dyn Family,
+    family: &dyn Query,
     lookup: &dyn crate::family::Lookup,
     points: &[Vec<f64>],
     filter: Filter,

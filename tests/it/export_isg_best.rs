@@ -10,7 +10,7 @@ use lobefit::export::families::{self, Emulated};
 use lobefit::export::layout::{Filter, Sampler};
 use lobefit::export::run::{check_export, export, ExportOptions, Manifest};
 use lobefit::export::{formats, Format, Storage};
-use lobefit::family::Family;
+use lobefit::family::Query;
 use lobefit::fits::{registry, FitOptions};
 
 fn opts(format: Format, storage: Storage) -> ExportOptions {
@@ -91,7 +91,7 @@ fn near_the_axis_the_warp_keeps_its_digits() {
     let m = export(&opts(Format::Raw, Storage::F32), dir.path()).unwrap();
     let t = &m.families[0].textures[0];
     let (texture, _) = formats::read(&dir.path().join(&t.file), Format::Raw).unwrap();
-    let family: Box<dyn Family> = registry(FitOptions::default())
+    let family: Box<dyn Query> = registry(FitOptions::default())
         .into_iter()
         .find(|f| f.kind() == "isg-best")
         .unwrap();
