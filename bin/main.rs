@@ -158,7 +158,7 @@ enum Command {
         json: bool,
     },
     /// Evaluate a family on CSV rows from stdin (a header line naming the input columns, then numbers).
-    #[command(after_help = lobefit::eval::COLUMNS)]
+    #[command(after_help = lobefit::catalog::eval_help())]
     Eval {
         /// Family name.
         #[arg(value_parser = PossibleValuesParser::new(lobefit::catalog::eval_names()))]

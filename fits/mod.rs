@@ -1,5 +1,8 @@
-//! Table families: one module per family (grid, fit, reference, runtime hook), and
-//! the registry that lists them. Adding a family = one module + one line below.
+//! Table families: one module per family (grid, fit, reference, runtime hook, GPU
+//! export, figures), each exporting one [`Entry`], and [`entries`], the only list of
+//! them. Everything that iterates "all families" (build, check, eval, export, the
+//! shader conformance, the tests) goes through it. Adding a family = one module + one
+//! line in [`entries`].
 
 pub mod cap_exponent;
 pub mod disk_light;
@@ -15,6 +18,7 @@ pub mod wrap;
 
 use std::path::{Path, PathBuf};
 
+use crate::export::families::GpuFamily;
 use crate::family::{EvalFlags, Fit, Query};
 
 /// Optimizer backend for families fitted by a 1-D minimiser.
@@ -67,36 +71,52 @@ pub struct FitOptions {
     pub method: Method,
 }
 
-/// Every family, in build order.
-pub fn registry(opts: FitOptions) -> Vec<Box<dyn Fit>> {
-    vec![
-        Box::new(lobe_integral::LobeIntegralFamily),
-        Box::new(cap_exponent::CapExponentFamily {
-            backend: opts.backend,
-            method: opts.method,
-        }),
-        Box::new(isg::IsgFamily {
-            model: isg::IsgModelKind::Refit,
-        }),
-        Box::new(isg::IsgFamily {
-            model: isg::IsgModelKind::Best,
-        }),
-        Box::new(sg_fit::SgFitFamily),
-        Box::new(log_zh::LogZhFamily::default()),
-        Box::new(wedge::WedgeFamily),
-        Box::new(wrap::WrapFamily::default()),
-        Box::new(disk_light::DiskLightFamily),
-        Box::new(shexp::ShExpFamily::default()),
-        Box::new(lobe_product::LobeProductFamily {
-            variant: lobefit_tables::Variant::Energy,
-            method: opts.method,
-        }),
-        Box::new(lobe_product::LobeProductFamily {
-            variant: lobefit_tables::Variant::L2,
-            method: opts.method,
-        }),
-        Box::new(mask_weights::MaskWeightsFamily),
+/// What one `fits/<family>/` folder gives the rest of the tree.
+#[derive(Clone, Copy)]
+pub struct Entry {
+    /// Its tables' builders, one per table kind, in build order.
+    pub tables: fn(FitOptions) -> Vec<Box<dyn Fit>>,
+    /// `lobefit eval NAME [flags]` for its names (its tables' kinds and
+    /// [`Entry::eval_names`]), parsing the flags it takes; `None`: each kind's table as
+    /// built, with no flags.
+    pub eval: Option<EvalFn>,
+    /// `lobefit eval` names beyond its tables' kinds (e.g. `isg --model ...`).
+    pub eval_names: &'static [&'static str],
+    /// Its textured GPU exports (one per exported table kind; empty if none).
+    pub gpu: &'static [GpuFamily],
+    /// A table a shader evaluates in closed form instead, with no texture: (kind,
+    /// the shader's formula).
+    pub closed_form: Option<(&'static str, &'static str)>,
+    /// `lobefit plot NAME`: its figures.
+    pub plot: Option<(&'static str, PlotFn)>,
+    /// Its paragraph of `lobefit eval --help`: names and flags, then each input (`in`)
+    /// and output (`out`) column with its unit and domain.
+    pub eval_help: &'static str,
+}
+
+/// A family's `lobefit eval` query for a name and flags (see [`Entry::eval`]).
+pub type EvalFn = fn(&str, &EvalFlags, FitOptions) -> Result<Box<dyn Query>, String>;
+
+/// Every family, in build order: the only list.
+pub fn entries() -> [Entry; 11] {
+    [
+        lobe_integral::ENTRY,
+        cap_exponent::ENTRY,
+        isg::ENTRY,
+        sg_fit::ENTRY,
+        log_zh::ENTRY,
+        wedge::ENTRY,
+        wrap::ENTRY,
+        disk_light::ENTRY,
+        shexp::ENTRY,
+        lobe_product::ENTRY,
+        mask_weights::ENTRY,
     ]
+}
+
+/// Every table's builder, in build order.
+pub fn registry(opts: FitOptions) -> Vec<Box<dyn Fit>> {
+    entries().iter().flat_map(|e| (e.tables)(opts)).collect()
 }
 
 /// Names of all families.
@@ -109,90 +129,61 @@ pub fn by_name(name: &str, opts: FitOptions) -> Option<Box<dyn Fit>> {
     registry(opts).into_iter().find(|f| f.kind() == name)
 }
 
-/// Names `lobefit eval` accepts. A name may select among several tables
-/// through its flags (e.g. `lobe-product --variant l2`).
+/// Names `lobefit eval` accepts: every table kind, then the families' extra names. A
+/// name may select among several tables through its flags (e.g. `lobe-product
+/// --variant l2`).
 pub fn eval_names() -> Vec<&'static str> {
     let mut v = names();
-    v.push("isg");
+    v.extend(entries().iter().flat_map(|e| e.eval_names.iter().copied()));
     v
 }
 
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
 /// Errors name the flag a family does not take or the value it does not know.
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Query>, String> {
-    match name {
-        "isg" => isg::for_eval(flags),
-        "log-zh" => {
-            if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {
-                return Err("log-zh takes only --kind and --order".into());
-            }
-            Ok(Box::new(log_zh::LogZhFamily::from_flags(
-                flags.kind.as_deref(),
-                flags.order,
-            )?))
-        }
-        "wedge" => {
-            if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() || flags.kind.is_some() {
-                return Err("wedge takes only --order".into());
-            }
-            let order = flags.order.unwrap_or(log_zh::DEFAULT_ORDER);
-            if !(1..=8).contains(&order) {
-                return Err(format!("wedge: --order {order} is outside 1..=8"));
-            }
-            Ok(Box::new(wedge::WedgeSliceView { order }))
-        }
-        "wrap" => {
-            if flags.given().iter().any(|f| *f != "--order") {
-                return Err("wrap takes only --order".into());
-            }
-            let order = flags.order.unwrap_or(wrap::DEFAULT_ORDER);
-            if !(1..=8).contains(&order) {
-                return Err(format!("wrap: --order {order} is outside 1..=8"));
-            }
-            Ok(Box::new(wrap::WrapFamily { order }))
-        }
-        "shexp" => {
-            if flags.variant.is_some() || flags.model.is_some() || flags.kind.is_some() {
-                return Err("shexp takes only --order and --log".into());
-            }
-            Ok(Box::new(shexp::ShExpFamily::from_flags(
-                flags.order,
-                flags.log.as_deref(),
-            )?))
-        }
-        "lobe-product" if flags.given() == ["--variant"] || flags.given().is_empty() => {
-            let variant = match flags.variant.as_deref() {
-                None | Some("energy") => lobefit_tables::Variant::Energy,
-                Some("l2") => lobefit_tables::Variant::L2,
-                Some(v) => return Err(format!("--variant {v}: expected energy or l2")),
-            };
-            Ok(Box::new(lobe_product::LobeProductFamily {
-                variant,
-                method: opts.method,
-            }))
-        }
-        _ => {
-            let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
-            if let Some(flag) = flags.given().first() {
-                return Err(format!("{name} takes no {flag} flag"));
-            }
-            Ok(f)
-        }
+    let owns = |e: &Entry| e.eval_names.contains(&name) || (e.tables)(opts).iter().any(|f| f.kind() == name);
+    let entry = entries()
+        .into_iter()
+        .find(owns)
+        .ok_or_else(|| format!("unknown family {name}"))?;
+    match entry.eval {
+        Some(eval) => eval(name, flags, opts),
+        None => without_flags(name, flags, opts),
     }
+}
+
+/// `name`'s table as built, refusing every flag (the default of [`Entry::eval`]).
+pub fn without_flags(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Query>, String> {
+    let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
+    if let Some(flag) = flags.given().first() {
+        return Err(format!("{name} takes no {flag} flag"));
+    }
+    Ok(f)
+}
+
+/// The families exported as textures, in build order.
+pub fn textured() -> Vec<GpuFamily> {
+    entries().iter().flat_map(|e| e.gpu.iter().copied()).collect()
+}
+
+/// A textured family's GPU export by kind.
+pub fn gpu_family(kind: &str) -> Option<GpuFamily> {
+    textured().into_iter().find(|f| f.kind == kind)
+}
+
+/// Tables a shader evaluates in closed form, with no texture: (kind, formula).
+pub fn closed_form() -> Vec<(&'static str, &'static str)> {
+    entries().iter().filter_map(|e| e.closed_form).collect()
 }
 
 /// A figure generator of `lobefit plot NAME`: writes its PNGs into the directory it is
 /// given and returns their paths.
 pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
-/// Every `lobefit plot` name with its generator.
+/// Every `lobefit plot` name of the families, with its generator (and the export
+/// study, which covers them all).
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![
-        ("disk-light", disk_light::plot),
-        ("export", crate::export::run::plot),
-        ("isg", isg::plot),
-        ("lobe-product", lobe_product::plot),
-        ("log-zh", crate::fits::log_zh::eps_study::plot),
-        ("shexp", crate::fits::shexp::study::plot),
-    ]
+    let mut v: Vec<(&'static str, PlotFn)> = entries().iter().filter_map(|e| e.plot).collect();
+    v.push(("export", crate::export::run::plot));
+    v
 }

@@ -73,9 +73,12 @@ pub struct Pipeline {
 /// A pipeline's query for `lobefit eval NAME [flags]` (the pipeline without images).
 pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn Query>, String>;
 
+/// A pipeline's `lobefit eval` name, its paragraph of `eval --help`, its query.
+pub type EvalView = (&'static str, &'static str, EvalFn);
+
 /// The `lobefit eval` names the pipelines add to the families'.
-pub fn eval_views() -> Vec<(&'static str, EvalFn)> {
-    vec![("direct-light", |flags| {
+pub fn eval_views() -> Vec<EvalView> {
+    vec![("direct-light", meunier::direct_light::EVAL_HELP, |flags| {
         Ok(Box::new(meunier::direct_light::DirectLightView::from_flags(flags)?))
     })]
 }

@@ -10,15 +10,15 @@ use crate::pipelines;
 /// then the pipelines' (`direct-light`).
 pub fn eval_names() -> Vec<&'static str> {
     let mut v = fits::eval_names();
-    v.extend(pipelines::eval_views().into_iter().map(|(n, _)| n));
+    v.extend(pipelines::eval_views().into_iter().map(|(n, _, _)| n));
     v
 }
 
 /// The query `lobefit eval NAME [flags]` runs, configured by its flags; errors name
 /// the flag a query does not take or the value it does not know.
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Query>, String> {
-    match pipelines::eval_views().into_iter().find(|(n, _)| *n == name) {
-        Some((_, view)) => view(flags),
+    match pipelines::eval_views().into_iter().find(|(n, _, _)| *n == name) {
+        Some((_, _, view)) => view(flags),
         None => fits::for_eval(name, flags, opts),
     }
 }
@@ -29,4 +29,17 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
     v.extend(pipelines::plots());
     v.sort_by_key(|(n, _)| *n);
     v
+}
+
+/// `lobefit eval --help`'s text after the usage: the format, then every family's and
+/// pipeline's paragraph (columns, units, domains).
+pub fn eval_help() -> String {
+    let mut s = crate::eval::HELP_HEADER.to_string();
+    for e in fits::entries() {
+        s.push_str(e.eval_help);
+    }
+    for (_, help, _) in pipelines::eval_views() {
+        s.push_str(help);
+    }
+    s
 }

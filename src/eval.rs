@@ -230,92 +230,13 @@ fn number(text: &str) -> Result<f64, String> {
     Ok(v)
 }
 
-/// The columns of every family `lobefit eval` serves, shown by `lobefit eval --help`
-/// (units and meaning; the definitions are in docs/math.md §2). A test checks that
-/// every family's input and output column names appear here.
-pub const COLUMNS: &str = "\
+/// The start of `lobefit eval --help` (the families' and pipelines' paragraphs follow:
+/// `crate::catalog::eval_help`).
+pub const HELP_HEADER: &str = "\
 Input: a header line naming the input columns (any order), then one query per line,
 comma-separated numbers. Output: a header line (the input columns, then the outputs
 below), then one row per query, in order.
 Nothing is printed unless every row succeeds. Angles in rad, solid angles in sr;
 definitions in docs/math.md §2.
 
-lobe-integral
-  in   `e`        lobe exponent, [0, 1e5]
-  out  `integral` ∫ max(a·v, 0)^e dω (sr) = 2π/(e + 1)
-cap-exponent
-  in   `alpha`    half-angle of a spherical cap (rad), [1e-3, π]
-  out  `e_cap`    exponent of the cosine lobe closest (L2 over the sphere) to the
-                  cap's indicator; 0 for alpha ≥ π/2
-lobe-product  [--variant energy|l2]   (energy: the product's integral is kept);
-lobe-product-l2: as --variant l2
-  in   `e1`, `e2` exponents of the two lobes, [0, 1e5]
-       `alpha`    angle between their axes (rad), [0, π]
-  out  `p`        scale of the product lobe for unit-scale lobes (s1·s2·p in general)
-       `t`        where its axis lies on the great arc from axis 1 to axis 2, as a
-                  fraction of alpha (0 = axis 1, 1 = axis 2): the product's peak
-       `e_r`      exponent of the product lobe
-isg  [--model paper|refit|best] (default best); isg-refit, isg-best: that model
-  in   `gamma`    SG sharpness, [0.5, 1e4]
-       `theta`, `phi`  corner of the patch [0, theta] × [0, phi] (rad, each [0, π]):
-                  theta from +y, phi the azimuth about +y from +x; SG axis +z
-  out  `s_hat`    normalised integral S/S(π, π), in [0, 1]
-       `s`        the integral S of exp(gamma (ω·z − 1)) over the patch (sr)
-sg-fit
-  in   `e`        lobe exponent, [0, 1e5]
-  out  `lambda`   sharpness and `mu` amplitude of the spherical Gaussian
-                  mu·exp(lambda (a·v − 1)) closest (L2) to the unit-scale lobe
-log-zh  [--kind diffuse|phong|blocker] (default phong)  [--order N] (1..8, default 4)
-  in   `eps`      clamp ε of the log, [0.01, 0.99]
-       `r`        (phong) normalised Phong exponent, ≥ 1
-       `theta_b`  (blocker) angular radius of a spherical blocker (rad)
-  out  `z0` … `z7`  (the first N) zonal coefficients ∫ ln(max(f, ε)) y_l^0 dω of
-                  the clamped function's log, axis +z
-wedge  [--order N] (1..8, default 4)
-  in   `sigma`    horizon elevation of a height-field slice (rad), [−π/2, π/2]
-       `eps`      log-visibility value ε of blocked directions, [0.01, 0.99]
-  out  `v0` … `v7`  (the first N) the slice's log-visibility vector v_l^log(σ)
-wrap  [--order N] (1..8, default 4)
-  in   `a`        wrap parameter, [0, 1]
-  out  `l0` … `l7`  (the first N) λ̂_l(a): the wrap kernel's Funk–Hecke eigenvalue
-                  per band, divided by π
-disk-light
-  in   `r_over_d` disk radius over the distance to its centre, > 0 (tabulated on
-                  [0.01, 10])
-       `tau`      angle between the disk's normal and the direction from the disk
-                  to the receiver (rad), [0, π]; ≥ π/2 sees the back (zeros)
-  out  `y00`, `y10`, `y11`, `y20`, `y21`, `y22`  the non-zero SH coefficients
-                  ∫ y_lm dω over the disk (receiver at the origin, disk centre on +z,
-                  normal in the xz-plane)
-shexp  [--order N] (3..8, default 4)  [--log ren|naive] (default ren)
-  in   `theta_b`  angular radius of a spherical-cap blocker about +z (rad), [0, π/2]
-       `eps`      (naive) clamp ε of the projected log
-  out  `f0` … `f7`  (the first N) the log-ZH vector f of the cap's visibility
-       `norm`     ‖f̂‖, f without its DC term
-       `a`, `b`   optimal-linear coefficients of exp*(f̂) ≈ a·1 + b·f̂
-mask-weights
-  in   `dist`     the visibility mask's 1/(2 tan α) for a light of half-angle α,
-                  [0.25, 10]
-  out  weights w_l (level l = 1..D) of eq. 39 for masks of maximal depth D,
-       fitted (`fit_`) or by the paper's procedure (`paper_`), aggressive (`agg`)
-       or conservative (`con`):
-       `fit_agg_d1_w1` `fit_agg_d2_w1` `fit_agg_d2_w2` `fit_agg_d3_w1` `fit_agg_d3_w2`
-       `fit_agg_d3_w3` `fit_agg_d4_w1` `fit_agg_d4_w2` `fit_agg_d4_w3` `fit_agg_d4_w4`
-       `fit_agg_d5_w1` `fit_agg_d5_w2` `fit_agg_d5_w3` `fit_agg_d5_w4` `fit_agg_d5_w5`
-       `fit_con_d1_w1` `fit_con_d2_w1` `fit_con_d2_w2` `fit_con_d3_w1` `fit_con_d3_w2`
-       `fit_con_d3_w3` `fit_con_d4_w1` `fit_con_d4_w2` `fit_con_d4_w3` `fit_con_d4_w4`
-       `fit_con_d5_w1` `fit_con_d5_w2` `fit_con_d5_w3` `fit_con_d5_w4` `fit_con_d5_w5`
-       `paper_agg_d1_w1` `paper_agg_d2_w1` `paper_agg_d2_w2` `paper_agg_d3_w1` `paper_agg_d3_w2`
-       `paper_agg_d3_w3` `paper_agg_d4_w1` `paper_agg_d4_w2` `paper_agg_d4_w3` `paper_agg_d4_w4`
-       `paper_agg_d5_w1` `paper_agg_d5_w2` `paper_agg_d5_w3` `paper_agg_d5_w4` `paper_agg_d5_w5`
-       `paper_con_d1_w1` `paper_con_d2_w1` `paper_con_d2_w2` `paper_con_d3_w1` `paper_con_d3_w2`
-       `paper_con_d3_w3` `paper_con_d4_w1` `paper_con_d4_w2` `paper_con_d4_w3` `paper_con_d4_w4`
-       `paper_con_d5_w1` `paper_con_d5_w2` `paper_con_d5_w3` `paper_con_d5_w4` `paper_con_d5_w5`
-direct-light  [--depth N] (1..5, default 5)  [--mask aggressive|conservative]
-              [--weights fitted|paper|one]   (reads the mask-weights table)
-  in   `px`, `py`, `pz`  shading point;  `nx`, `ny`, `nz`  its unit normal
-       `lx`, `ly`, `lz`, `lr`  centre and radius of a spherical light of radiance 1
-       `bx`, `by`, `bz`, `br`  centre and radius of a spherical blocker (br = 0: none)
-  out  `irradiance`  ∫ L V max(n·ω, 0) dω through the lobe pipeline (docs/meunier.md);
-                  --exact: by quadrature with exact ray–sphere visibility
 ";

@@ -8,12 +8,14 @@ use crate::export::layout::Sampler;
 
 /// The export of cap-exponent.
 pub const GPU: GpuFamily = GpuFamily {
-    kind: "cap-exponent",
+    kind: lobefit_tables::cap_exponent::KIND,
     grids: table_grid,
     eval,
     shader: "e_cap = 0 for α ≥ π/2, else q · m(α), q = the texel at α; m(α) = c (1 − ln c) / (2 sin²(α/2)), \
              c = max(cos α, 1e-30)",
     extra: None,
+    kernel: ("    Y[o] = lf_cap_exponent(T, S, P, x0);", 1),
+    plot_export: true,
 };
 
 fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {

@@ -525,6 +525,27 @@ impl Fit for CapExponentFamily {
     }
 }
 
+/// cap-exponent in the list of families (`crate::fits::entries`).
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |o| {
+        vec![Box::new(CapExponentFamily {
+            backend: o.backend,
+            method: o.method,
+        })]
+    },
+    eval: None,
+    eval_names: &[],
+    gpu: &[gpu::GPU],
+    closed_form: None,
+    plot: None,
+    eval_help: "\
+cap-exponent
+  in   `alpha`    half-angle of a spherical cap (rad), [1e-3, π]
+  out  `e_cap`    exponent of the cosine lobe closest (L2 over the sphere) to the
+                  cap's indicator; 0 for alpha ≥ π/2
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

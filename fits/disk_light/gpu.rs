@@ -8,12 +8,18 @@ use crate::export::layout::Sampler;
 
 /// The export of disk-light.
 pub const GPU: GpuFamily = GpuFamily {
-    kind: "disk-light",
+    kind: lobefit_tables::disk_light::KIND,
     grids: table_grid,
     eval,
     shader: "axes: v = (g(R/d) − g(0.01)) / (g(10) − g(0.01)), g(r) = ln r + asinh((r − sin τ) / cos τ), and τ; \
              c00 = exp(layer 0 R); c_lm = c00 · (layer 0 G, B, A, layer 1 R, G) for (1,0), (1,1), (2,0), (2,1), (2,2)",
     extra: None,
+    kernel: (
+        "    let c = lf_disk_canonical(T, S, P, x0, x1);\n    Y[o] = c[0].x;\n    Y[o + 1u] = c[0].y;\n    \
+         Y[o + 2u] = c[0].z;\n    Y[o + 3u] = c[0].w;\n    Y[o + 4u] = c[1].x;\n    Y[o + 5u] = c[1].y;",
+        6,
+    ),
+    plot_export: true,
 };
 
 fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {

@@ -791,6 +791,26 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     )?])
 }
 
+/// disk-light in the list of families (`crate::fits::entries`).
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |_| vec![Box::new(DiskLightFamily)],
+    eval: None,
+    eval_names: &[],
+    gpu: &[gpu::GPU],
+    closed_form: None,
+    plot: Some(("disk-light", plot)),
+    eval_help: "\
+disk-light
+  in   `r_over_d` disk radius over the distance to its centre, > 0 (tabulated on
+                  [0.01, 10])
+       `tau`      angle between the disk's normal and the direction from the disk
+                  to the receiver (rad), [0, π]; ≥ π/2 sees the back (zeros)
+  out  `y00`, `y10`, `y11`, `y20`, `y21`, `y22`  the non-zero SH coefficients
+                  ∫ y_lm dω over the disk (receiver at the origin, disk centre on +z,
+                  normal in the xz-plane)
+",
+};
+
 #[cfg(test)]
 mod tests {
     #[test]

@@ -10,12 +10,17 @@ use crate::export::layout::Sampler;
 
 /// The export of isg-refit.
 pub const REFIT: GpuFamily = GpuFamily {
-    kind: "isg-refit",
+    kind: lobefit_tables::isg::KIND_REFIT,
     grids: table_grid,
     eval: refit,
     shader: "g = exp(R), h = exp(G) at γ; Ŝ = σ(g (θ − π/2)) σ(h (φ − π/2)), σ(t) = 1/(1 + exp(−t)); \
              S = Ŝ · 2π (1 − exp(−γ)) / γ",
     extra: None,
+    kernel: (
+        "    let s = lf_isg_refit(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
+        2,
+    ),
+    plot_export: true,
 };
 
 fn refit(s: &[Sampler], x: &[f32]) -> Vec<f32> {
@@ -31,7 +36,7 @@ fn sigmoid(t: f32) -> f32 {
 
 /// The export of isg-best.
 pub const BEST: GpuFamily = GpuFamily {
-    kind: "isg-best",
+    kind: lobefit_tables::isg::KIND_BEST,
     grids: table_grid,
     eval: best,
     shader: "E(y) = 1 − exp(−y), as y (1 − y/2 (1 − y/3 (1 − y/4 (1 − y/5)))) for y < 1/16 \
@@ -41,6 +46,11 @@ pub const BEST: GpuFamily = GpuFamily {
              B = .g, D = .a; mirror where x > π/2 (d > 0): A → 1 − A, C → −C (B, D likewise \
              for φ); Ŝ = A·B + C·D; S = Ŝ · 2π E(γ) / γ",
     extra: None,
+    kernel: (
+        "    let s = lf_isg_best(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
+        2,
+    ),
+    plot_export: true,
 };
 
 /// Texture rows are (a, b, c, d): θ's factors (A, C) are channels 0 and 2, φ's (B, D)

@@ -923,6 +923,37 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     Ok(files)
 }
 
+/// isg-refit and isg-best in the list of families (`crate::fits::entries`), and
+/// `lobefit eval isg --model paper|refit|best`.
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |_| {
+        vec![
+            Box::new(IsgFamily {
+                model: IsgModelKind::Refit,
+            }),
+            Box::new(IsgFamily {
+                model: IsgModelKind::Best,
+            }),
+        ]
+    },
+    eval: Some(|name, flags, opts| match name {
+        "isg" => for_eval(flags),
+        _ => crate::fits::without_flags(name, flags, opts),
+    }),
+    eval_names: &["isg"],
+    gpu: &[gpu::REFIT, gpu::BEST],
+    closed_form: None,
+    plot: Some(("isg", plot)),
+    eval_help: "\
+isg  [--model paper|refit|best] (default best); isg-refit, isg-best: that model
+  in   `gamma`    SG sharpness, [0.5, 1e4]
+       `theta`, `phi`  corner of the patch [0, theta] × [0, phi] (rad, each [0, π]):
+                  theta from +y, phi the azimuth about +y from +x; SG axis +z
+  out  `s_hat`    normalised integral S/S(π, π), in [0, 1]
+       `s`        the integral S of exp(gamma (ω·z − 1)) over the patch (sr)
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -142,6 +142,21 @@ impl Fit for LobeIntegralFamily {
     }
 }
 
+/// lobe-integral in the list of families (`crate::fits::entries`): a closed form on the GPU.
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |_| vec![Box::new(LobeIntegralFamily)],
+    eval: None,
+    eval_names: &[],
+    gpu: &[],
+    closed_form: Some((lobefit_tables::lobe_integral::KIND, "∫ max(a·v, 0)^e dω = 2π / (e + 1)")),
+    plot: None,
+    eval_help: "\
+lobe-integral
+  in   `e`        lobe exponent, [0, 1e5]
+  out  `integral` ∫ max(a·v, 0)^e dω (sr) = 2π/(e + 1)
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -29,20 +29,30 @@ const SHADER: &str = "channels (c, ρ[, κ]) at (min(e1, 1e5), min(e2, 1e5), α)
 
 /// The export of lobe-product (energy-conserving).
 pub const ENERGY: GpuFamily = GpuFamily {
-    kind: "lobe-product",
+    kind: lobefit_tables::lobe_product::KIND_ENERGY,
     grids,
     eval,
     shader: SHADER,
     extra: None,
+    kernel: (
+        "    let r = lf_lobe_product(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;",
+        3,
+    ),
+    plot_export: false,
 };
 
 /// The export of lobe-product-l2.
 pub const L2: GpuFamily = GpuFamily {
-    kind: "lobe-product-l2",
+    kind: lobefit_tables::lobe_product::KIND_L2,
     grids,
     eval,
     shader: SHADER,
     extra: None,
+    kernel: (
+        "    let r = lf_lobe_product_l2(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;",
+        3,
+    ),
+    plot_export: false,
 };
 
 /// The table's grid, and the ln W residual texture `<kind>-lnw`.

@@ -1093,6 +1093,51 @@ fn domain(x: &[f64]) -> Result<(f64, f64, f64), String> {
     Ok((e1, e2, alpha))
 }
 
+/// lobe-product and lobe-product-l2 in the list of families
+/// (`crate::fits::entries`): `eval lobe-product --variant energy|l2`.
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |o| {
+        vec![
+            Box::new(LobeProductFamily {
+                variant: Variant::Energy,
+                method: o.method,
+            }),
+            Box::new(LobeProductFamily {
+                variant: Variant::L2,
+                method: o.method,
+            }),
+        ]
+    },
+    eval: Some(|name, flags, opts| {
+        if name != lobefit_tables::lobe_product::KIND_ENERGY || !flags.given().iter().all(|f| *f == "--variant") {
+            return crate::fits::without_flags(name, flags, opts);
+        }
+        let variant = match flags.variant.as_deref() {
+            None | Some("energy") => Variant::Energy,
+            Some("l2") => Variant::L2,
+            Some(v) => return Err(format!("--variant {v}: expected energy or l2")),
+        };
+        Ok(Box::new(LobeProductFamily {
+            variant,
+            method: opts.method,
+        }))
+    }),
+    eval_names: &[],
+    gpu: &[gpu::ENERGY, gpu::L2],
+    closed_form: None,
+    plot: Some(("lobe-product", plot)),
+    eval_help: "\
+lobe-product  [--variant energy|l2]   (energy: the product's integral is kept);
+lobe-product-l2: as --variant l2
+  in   `e1`, `e2` exponents of the two lobes, [0, 1e5]
+       `alpha`    angle between their axes (rad), [0, π]
+  out  `p`        scale of the product lobe for unit-scale lobes (s1·s2·p in general)
+       `t`        where its axis lies on the great arc from axis 1 to axis 2, as a
+                  fraction of alpha (0 = axis 1, 1 = axis 2): the product's peak
+       `e_r`      exponent of the product lobe
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -372,6 +372,33 @@ impl Fit for LogZhFamily {
     }
 }
 
+/// log-zh in the list of families (`crate::fits::entries`): `eval log-zh --kind K
+/// --order N`; closed forms on the GPU.
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |_| vec![Box::new(LogZhFamily::default())],
+    eval: Some(|_, flags, _| {
+        if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {
+            return Err("log-zh takes only --kind and --order".into());
+        }
+        Ok(Box::new(LogZhFamily::from_flags(flags.kind.as_deref(), flags.order)?))
+    }),
+    eval_names: &[],
+    gpu: &[],
+    closed_form: Some((
+        lobefit_tables::log_zh::KIND,
+        "diffuse, Phong and blocker log-ZH vectors in closed form (lobefit_tables::log_zh::{diffuse, phong, blocker})",
+    )),
+    plot: Some(("log-zh", eps_study::plot)),
+    eval_help: "\
+log-zh  [--kind diffuse|phong|blocker] (default phong)  [--order N] (1..8, default 4)
+  in   `eps`      clamp ε of the log, [0.01, 0.99]
+       `r`        (phong) normalised Phong exponent, ≥ 1
+       `theta_b`  (blocker) angular radius of a spherical blocker (rad)
+  out  `z0` … `z7`  (the first N) zonal coefficients ∫ ln(max(f, ε)) y_l^0 dω of
+                  the clamped function's log, axis +z
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

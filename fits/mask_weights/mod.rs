@@ -816,6 +816,37 @@ impl Fit for MaskWeightsFamily {
     }
 }
 
+/// mask-weights in the list of families (`crate::fits::entries`); the pipeline that
+/// reads it is `crate::pipelines::meunier`.
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |_| vec![Box::new(MaskWeightsFamily)],
+    eval: None,
+    eval_names: &[],
+    gpu: &[],
+    closed_form: None,
+    plot: None,
+    eval_help: "\
+mask-weights
+  in   `dist`     the visibility mask's 1/(2 tan α) for a light of half-angle α,
+                  [0.25, 10]
+  out  weights w_l (level l = 1..D) of eq. 39 for masks of maximal depth D,
+       fitted (`fit_`) or by the paper's procedure (`paper_`), aggressive (`agg`)
+       or conservative (`con`):
+       `fit_agg_d1_w1` `fit_agg_d2_w1` `fit_agg_d2_w2` `fit_agg_d3_w1` `fit_agg_d3_w2`
+       `fit_agg_d3_w3` `fit_agg_d4_w1` `fit_agg_d4_w2` `fit_agg_d4_w3` `fit_agg_d4_w4`
+       `fit_agg_d5_w1` `fit_agg_d5_w2` `fit_agg_d5_w3` `fit_agg_d5_w4` `fit_agg_d5_w5`
+       `fit_con_d1_w1` `fit_con_d2_w1` `fit_con_d2_w2` `fit_con_d3_w1` `fit_con_d3_w2`
+       `fit_con_d3_w3` `fit_con_d4_w1` `fit_con_d4_w2` `fit_con_d4_w3` `fit_con_d4_w4`
+       `fit_con_d5_w1` `fit_con_d5_w2` `fit_con_d5_w3` `fit_con_d5_w4` `fit_con_d5_w5`
+       `paper_agg_d1_w1` `paper_agg_d2_w1` `paper_agg_d2_w2` `paper_agg_d3_w1` `paper_agg_d3_w2`
+       `paper_agg_d3_w3` `paper_agg_d4_w1` `paper_agg_d4_w2` `paper_agg_d4_w3` `paper_agg_d4_w4`
+       `paper_agg_d5_w1` `paper_agg_d5_w2` `paper_agg_d5_w3` `paper_agg_d5_w4` `paper_agg_d5_w5`
+       `paper_con_d1_w1` `paper_con_d2_w1` `paper_con_d2_w2` `paper_con_d3_w1` `paper_con_d3_w2`
+       `paper_con_d3_w3` `paper_con_d4_w1` `paper_con_d4_w2` `paper_con_d4_w3` `paper_con_d4_w4`
+       `paper_con_d5_w1` `paper_con_d5_w2` `paper_con_d5_w3` `paper_con_d5_w4` `paper_con_d5_w5`
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,11 +5,16 @@ use crate::export::layout::Sampler;
 
 /// The export of sg-fit.
 pub const GPU: GpuFamily = GpuFamily {
-    kind: "sg-fit",
+    kind: lobefit_tables::sg_fit::KIND,
     grids: table_grid,
     eval,
     shader: "λ = exp(R), μ = exp(G) at e (log channels); a lobe of scale s maps to amplitude s μ",
     extra: None,
+    kernel: (
+        "    let v = lf_sg_fit(T, S, P, x0);\n    Y[o] = v.x;\n    Y[o + 1u] = v.y;",
+        2,
+    ),
+    plot_export: true,
 };
 
 fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {

@@ -330,6 +330,22 @@ impl Fit for SgFitFamily {
     }
 }
 
+/// sg-fit in the list of families (`crate::fits::entries`).
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |_| vec![Box::new(SgFitFamily)],
+    eval: None,
+    eval_names: &[],
+    gpu: &[gpu::GPU],
+    closed_form: None,
+    plot: None,
+    eval_help: "\
+sg-fit
+  in   `e`        lobe exponent, [0, 1e5]
+  out  `lambda`   sharpness and `mu` amplitude of the spherical Gaussian
+                  mu·exp(lambda (a·v − 1)) closest (L2) to the unit-scale lobe
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,7 +21,7 @@ use crate::export::{Storage, MAX_1D_2D_EXTENT};
 
 /// The export of shexp.
 pub const GPU: GpuFamily = GpuFamily {
-    kind: "shexp",
+    kind: lobefit_tables::shexp::KIND,
     grids,
     eval,
     shader: "per order n (texture shexp-n<n>): t = θ_b coordinate in texels, i = min(floor(t), count − 2), \
@@ -34,6 +34,12 @@ pub const GPU: GpuFamily = GpuFamily {
              until s = ‖f̂‖/2^k ≤ T_n; (a, b) = exp of the linear sample at s; OL: y₀₀ → a √(4π), \
              the rest × b/2^k; square k times (SH products); × exp(f_0/√(4π))",
     extra: Some(hyb_errors),
+    kernel: (
+        // Per order: `lobefit-gpu` runs shexp_body(n) for n = 3..8, outputs concatenated.
+        "",
+        (3 + 3) + (4 + 3) + (5 + 3) + (6 + 3) + (7 + 3) + (8 + 3),
+    ),
+    plot_export: false,
 };
 
 /// ‖f̂‖ nodes of each order's HYB texture at scale 1: a, b are smooth in ‖f̂‖ on

@@ -555,6 +555,30 @@ fn naive_reference(theta_b: f64, eps: f64, order: usize) -> Result<Vec<f64>, Str
     Ok(v)
 }
 
+/// shexp in the list of families (`crate::fits::entries`): `eval shexp --order N
+/// --log ren|naive`.
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |_| vec![Box::new(ShExpFamily::default())],
+    eval: Some(|_, flags, _| {
+        if flags.variant.is_some() || flags.model.is_some() || flags.kind.is_some() {
+            return Err("shexp takes only --order and --log".into());
+        }
+        Ok(Box::new(ShExpFamily::from_flags(flags.order, flags.log.as_deref())?))
+    }),
+    eval_names: &[],
+    gpu: &[gpu::GPU],
+    closed_form: None,
+    plot: Some(("shexp", study::plot)),
+    eval_help: "\
+shexp  [--order N] (3..8, default 4)  [--log ren|naive] (default ren)
+  in   `theta_b`  angular radius of a spherical-cap blocker about +z (rad), [0, π/2]
+       `eps`      (naive) clamp ε of the projected log
+  out  `f0` … `f7`  (the first N) the log-ZH vector f of the cap's visibility
+       `norm`     ‖f̂‖, f without its DC term
+       `a`, `b`   optimal-linear coefficients of exp*(f̂) ≈ a·1 + b·f̂
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,13 +10,18 @@ use crate::export::Storage;
 
 /// The export of wedge.
 pub const GPU: GpuFamily = GpuFamily {
-    kind: "wedge",
+    kind: lobefit_tables::wedge::KIND,
     grids,
     eval,
     shader: "[M_lin]_{row,col} = texelFetch at (x = col, y = row, z = log2(W) − 2), W ∈ {4, 8, 16, 32, 64}, \
              no filtering; the order-n operator is rows < n², columns j and 8 + j for j < n; \
              V = M_lin [v_k; v_{k+1}] as a mat-vec in the shader",
     extra: None,
+    kernel: (
+        "    let w = u32(round(log2(x0))) - 2u;\n    Y[o] = lf_wedge_entry(T, P, w, u32(x1), u32(x2));",
+        1,
+    ),
+    plot_export: false,
 };
 
 /// The table's axes (W, row, col) with one channel, m = hi + lo rounded once to the

@@ -369,6 +369,32 @@ impl Query for WedgeSliceView {
     }
 }
 
+/// wedge in the list of families (`crate::fits::entries`): `eval wedge --order N`
+/// reads one order's slice.
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |_| vec![Box::new(WedgeFamily)],
+    eval: Some(|_, flags, _| {
+        if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() || flags.kind.is_some() {
+            return Err("wedge takes only --order".into());
+        }
+        let order = flags.order.unwrap_or(crate::fits::log_zh::DEFAULT_ORDER);
+        if !(1..=8).contains(&order) {
+            return Err(format!("wedge: --order {order} is outside 1..=8"));
+        }
+        Ok(Box::new(WedgeSliceView { order }))
+    }),
+    eval_names: &[],
+    gpu: &[gpu::GPU],
+    closed_form: None,
+    plot: None,
+    eval_help: "\
+wedge  [--order N] (1..8, default 4)
+  in   `sigma`    horizon elevation of a height-field slice (rad), [−π/2, π/2]
+       `eps`      log-visibility value ε of blocked directions, [0.01, 0.99]
+  out  `v0` … `v7`  (the first N) the slice's log-visibility vector v_l^log(σ)
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -289,6 +289,35 @@ impl Fit for WrapFamily {
     }
 }
 
+/// wrap in the list of families (`crate::fits::entries`): `eval wrap --order N`;
+/// a closed form on the GPU.
+pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+    tables: |_| vec![Box::new(WrapFamily::default())],
+    eval: Some(|_, flags, _| {
+        if flags.given().iter().any(|f| *f != "--order") {
+            return Err("wrap takes only --order".into());
+        }
+        let order = flags.order.unwrap_or(DEFAULT_ORDER);
+        if !(1..=8).contains(&order) {
+            return Err(format!("wrap: --order {order} is outside 1..=8"));
+        }
+        Ok(Box::new(WrapFamily { order }))
+    }),
+    eval_names: &[],
+    gpu: &[],
+    closed_form: Some((
+        lobefit_tables::wrap::KIND,
+        "λ̂_l(a) closed form (lobefit_tables::wrap::lambda_hat): polynomials in a per band, no texture",
+    )),
+    plot: None,
+    eval_help: "\
+wrap  [--order N] (1..8, default 4)
+  in   `a`        wrap parameter, [0, 1]
+  out  `l0` … `l7`  (the first N) λ̂_l(a): the wrap kernel's Funk–Hecke eigenvalue
+                  per band, divided by π
+",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

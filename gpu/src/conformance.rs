@@ -7,7 +7,7 @@
 use std::collections::HashMap;
 
 use lobefit::check::rel_err;
-use lobefit::export::families::{self, GpuFamily};
+use lobefit::export::families::GpuFamily;
 use lobefit::export::layout::{Filter, Sampler};
 use lobefit::export::run::{errors_of, family_of, offgrid_metrics, sample_points, TextureEntry};
 use lobefit::export::{Storage, Texture};
@@ -171,46 +171,11 @@ pub fn shexp_body(n: usize) -> String {
     )
 }
 
-/// The lobe products' kernel body (main texture `T`, ln W texture `T2`): p, t, e_r.
-pub fn lobe_product_body(kind: &str) -> &'static str {
-    if kind == "lobe-product-l2" {
-        "    let r = lf_lobe_product_l2(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;"
-    } else {
-        "    let r = lf_lobe_product(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;"
-    }
-}
-
-/// The per-family kernel body over the family's inputs (as `lobefit eval` orders them)
-/// and outputs (the runtime lookup's), and its output count.
+/// The family's kernel body over its inputs (as `lobefit eval` orders them) and
+/// outputs (the runtime lookup's), and its output count: the family's own
+/// (`GpuFamily::kernel`, in `fits/<family>/gpu.rs`).
 pub fn textured_body(kind: &str) -> Option<(&'static str, usize)> {
-    Some(match kind {
-        "cap-exponent" => ("    Y[o] = lf_cap_exponent(T, S, P, x0);", 1),
-        "sg-fit" => (
-            "    let v = lf_sg_fit(T, S, P, x0);\n    Y[o] = v.x;\n    Y[o + 1u] = v.y;",
-            2,
-        ),
-        "isg-refit" => (
-            "    let s = lf_isg_refit(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
-            2,
-        ),
-        "isg-best" => (
-            "    let s = lf_isg_best(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
-            2,
-        ),
-        "disk-light" => (
-            "    let c = lf_disk_canonical(T, S, P, x0, x1);\n    Y[o] = c[0].x;\n    Y[o + 1u] = c[0].y;\n    \
-             Y[o + 2u] = c[0].z;\n    Y[o + 3u] = c[0].w;\n    Y[o + 4u] = c[1].x;\n    Y[o + 5u] = c[1].y;",
-            6,
-        ),
-        "wedge" => (
-            "    let w = u32(round(log2(x0))) - 2u;\n    Y[o] = lf_wedge_entry(T, P, w, u32(x1), u32(x2));",
-            1,
-        ),
-        "lobe-product" | "lobe-product-l2" => (lobe_product_body(kind), 3),
-        // Per order (see `shexp_body`); the outputs of n = 3..8 concatenated.
-        "shexp" => ("", (3..=8).map(|n| n + 3).sum()),
-        _ => return None,
-    })
+    lobefit::fits::gpu_family(kind).map(|f| f.kernel)
 }
 
 /// Looks up precomputed GPU outputs by the f32 bits of the input point.
@@ -291,7 +256,8 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
             continue;
         };
         let family = family_of(&f.family).ok_or_else(|| format!("unknown family {:?}", f.family))?;
-        let gpu_family: GpuFamily = families::find(&f.family).ok_or_else(|| format!("{}: no GPU layout", f.family))?;
+        let gpu_family: GpuFamily =
+            lobefit::fits::gpu_family(&f.family).ok_or_else(|| format!("{}: no GPU layout", f.family))?;
         let (entry, tex) = &texs[0];
         let uploaded = gpu.upload(tex, m.storage)?;
         let points = sample_points(family.as_ref(), m.samples, m.seed)?;

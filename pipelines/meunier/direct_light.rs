@@ -26,6 +26,17 @@ pub const INPUTS: [&str; 14] = [
     "px", "py", "pz", "nx", "ny", "nz", "lx", "ly", "lz", "lr", "bx", "by", "bz", "br",
 ];
 
+/// The paragraph of `lobefit eval --help`.
+pub const EVAL_HELP: &str = "\
+direct-light  [--depth N] (1..5, default 5)  [--mask aggressive|conservative]
+              [--weights fitted|paper|one]   (reads the mask-weights table)
+  in   `px`, `py`, `pz`  shading point;  `nx`, `ny`, `nz`  its unit normal
+       `lx`, `ly`, `lz`, `lr`  centre and radius of a spherical light of radiance 1
+       `bx`, `by`, `bz`, `br`  centre and radius of a spherical blocker (br = 0: none)
+  out  `irradiance`  ∫ L V max(n·ω, 0) dω through the lobe pipeline (docs/meunier.md);
+                  --exact: by quadrature with exact ray–sphere visibility
+";
+
 /// Relative tolerance of the reference's nested Gauss–Kronrod.
 pub const EXACT_REL_TOL: f64 = 1e-8;
 

@@ -1,7 +1,7 @@
-//! Which families export how: the textured ones (each family's GPU glue lives in its
-//! folder, `fits/<family>/gpu.rs`: its textures and the f32 formulas a shader applies
-//! to the samples), the ones a shader evaluates in closed form (no texture), and those
-//! whose GPU layout is not built yet.
+//! What a family's GPU export is made of ([`GpuFamily`]): each family's lives in its
+//! folder, `fits/<family>/gpu.rs` (its textures, the f32 formulas a shader applies to
+//! the samples, the conformance kernel's body), and is listed by the family's entry
+//! (`crate::fits::textured`, `crate::fits::closed_form`). This module names no family.
 
 use lobefit_tables::{LookupError, Table};
 
@@ -45,45 +45,19 @@ pub struct GpuFamily {
     /// Errors of textures the family's pointwise check does not cover (shexp's HYB
     /// a, b against ‖f̂‖), measured per filter beside the family's own metrics.
     pub extra: Option<ExtraFn>,
+    /// The GPU conformance kernel's body (WGSL): reads the inputs `x0, x1, ...` (as
+    /// `lobefit eval` orders them), samples the textures through the shader library
+    /// (`T, S, P`; a second texture `T2, P2`), writes the outputs `Y[o + k]`; and the
+    /// output count. An empty body: the conformance runs the family its own way.
+    pub kernel: (&'static str, usize),
+    /// Whether `lobefit plot export` covers it (single-texture families whose bytes
+    /// scale with `--scale` alone).
+    pub plot_export: bool,
 }
 
 /// The default textures: the table's grid as one texture.
 pub fn table_grid(kind: &str, table: &Table, storage: Storage, scale: f64) -> Result<Vec<Grid>, String> {
     Ok(vec![grid_of_table(kind, table, storage, scale)?])
-}
-
-/// The families exported as textures.
-pub fn textured() -> Vec<GpuFamily> {
-    use crate::fits;
-    vec![
-        fits::cap_exponent::gpu::GPU,
-        fits::sg_fit::gpu::GPU,
-        fits::isg::gpu::REFIT,
-        fits::isg::gpu::BEST,
-        fits::disk_light::gpu::GPU,
-        fits::lobe_product::gpu::ENERGY,
-        fits::lobe_product::gpu::L2,
-        fits::wedge::gpu::GPU,
-        fits::shexp::gpu::GPU,
-    ]
-}
-
-/// Families a shader evaluates in closed form, with no texture: (kind, formula).
-pub const CLOSED_FORM: [(&str, &str); 3] = [
-    ("lobe-integral", "∫ max(a·v, 0)^e dω = 2π / (e + 1)"),
-    (
-        "wrap",
-        "λ̂_l(a) closed form (lobefit_tables::wrap::lambda_hat): polynomials in a per band, no texture",
-    ),
-    (
-        "log-zh",
-        "diffuse, Phong and blocker log-ZH vectors in closed form (lobefit_tables::log_zh::{diffuse, phong, blocker})",
-    ),
-];
-
-/// The family by kind.
-pub fn find(kind: &str) -> Option<GpuFamily> {
-    textured().into_iter().find(|f| f.kind == kind)
 }
 
 /// A family's runtime lookup as a GPU computes it from exported textures: the checker

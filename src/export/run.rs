@@ -8,12 +8,13 @@ use lobefit_tables::Table;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::families::{self, Emulated, GpuFamily};
+use super::families::{Emulated, GpuFamily};
 use super::formats;
 use super::layout::{Channel, Filter, Sampler, TexAxis};
 use super::{Format, Storage, Texture};
 use crate::check::{f32_point, metric_value, OutputReport, Stats};
 use crate::family::Query;
+use crate::fits;
 use crate::fits::{registry, FitOptions};
 use crate::rng::Rng;
 
@@ -254,16 +255,16 @@ pub fn errors_of(
 /// `allow_lossy`. Every file is written atomically.
 pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
     let gpu: Vec<GpuFamily> = if opts.only.is_empty() {
-        families::textured()
+        fits::textured()
     } else {
         opts.only
             .iter()
             .map(|k| {
-                families::find(k).ok_or_else(|| {
-                    if let Some((_, f)) = families::CLOSED_FORM.iter().find(|(c, _)| c == k) {
+                fits::gpu_family(k).ok_or_else(|| {
+                    if let Some((_, f)) = fits::closed_form().into_iter().find(|(c, _)| c == k) {
                         format!("{k} needs no texture: a shader evaluates it in closed form ({f})")
                     } else {
-                        let all: Vec<&str> = families::textured().iter().map(|f| f.kind).collect();
+                        let all: Vec<&str> = fits::textured().iter().map(|f| f.kind).collect();
                         format!("unknown family {k:?} (textured families: {})", all.join(", "))
                     }
                 })
@@ -338,7 +339,7 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         samples: SAMPLES,
         seed: SEED,
         families: entries,
-        closed_form: families::CLOSED_FORM.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
+        closed_form: fits::closed_form().iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
     };
     let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
     crate::io::write_atomic(&dir.join(MANIFEST), json.as_bytes())
@@ -428,7 +429,7 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
         let family =
             family_of(&f.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), f.family))?;
         let gpu =
-            families::find(&f.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), f.family))?;
+            fits::gpu_family(&f.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), f.family))?;
         let back: Vec<_> = texs.into_iter().map(|(t, tex)| (t.axes, t.channels, tex)).collect();
         let now = measure(family.as_ref(), gpu, &back, m.samples, m.seed)?;
         for e in &f.error {
@@ -450,10 +451,6 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
 /// Resolutions `lobefit plot export` measures (nodes per axis relative to the tables').
 pub const PLOT_SCALES: [f64; 3] = [0.25, 0.5, 1.0];
 
-/// The families `lobefit plot export` covers (the single-texture 1D and 2D ones, whose
-/// bytes scale with `--scale` alone).
-pub const PLOT_FAMILIES: [&str; 5] = ["cap-exponent", "sg-fit", "isg-refit", "isg-best", "disk-light"];
-
 /// `lobefit plot export`: per family, the export's error against its bytes, f32 and f16,
 /// manual filtering, at [`PLOT_SCALES`]: the error is the largest measured/target ratio
 /// over the family's metrics (1 = at the target). Exports into a temporary directory.
@@ -461,7 +458,7 @@ pub fn plot(out: &Path) -> Result<Vec<std::path::PathBuf>, String> {
     use crate::plot::{line_chart, LineChart, Series};
     let tmp = tempfile::tempdir().map_err(|e| format!("temporary directory: {e}"))?;
     let mut files = Vec::new();
-    for kind in PLOT_FAMILIES {
+    for kind in fits::textured().into_iter().filter(|f| f.plot_export).map(|f| f.kind) {
         let mut series = Vec::new();
         for storage in [Storage::F32, Storage::F16] {
             let mut points = Vec::new();

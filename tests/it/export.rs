@@ -28,7 +28,7 @@ fn manifest(dir: &Path) -> Manifest {
 fn every_textured_family_in_f32_meets_its_targets_with_manual_filtering() {
     let dir = tempfile::tempdir().unwrap();
     let m = export(&opts(&[], Format::Raw, Storage::F32), dir.path()).unwrap();
-    assert_eq!(m.families.len(), lobefit::export::families::textured().len());
+    assert_eq!(m.families.len(), lobefit::fits::textured().len());
     for t in &m.families {
         // wedge's promise (1e-12, what its f32 hi + lo pairs hold) is beyond f32: lossy
         // by design on a GPU, its error recorded.
@@ -225,7 +225,8 @@ fn cli_export_and_check() {
 
 #[test]
 fn every_texture_of_every_family_round_trips_through_the_independent_readers() {
-    use lobefit::export::{families::textured, formats};
+    use lobefit::export::formats;
+    use lobefit::fits::textured;
     use lobefit::tables::Table;
     let dir = tempfile::tempdir().unwrap();
     for g in textured() {

@@ -6,7 +6,7 @@
 use std::f64::consts::FRAC_PI_2;
 use std::path::Path;
 
-use lobefit::export::families::{self, Emulated};
+use lobefit::export::families::Emulated;
 use lobefit::export::layout::{Filter, Sampler};
 use lobefit::export::run::{check_export, export, ExportOptions, Manifest};
 use lobefit::export::{formats, Format, Storage};
@@ -108,7 +108,7 @@ fn near_the_axis_the_warp_keeps_its_digits() {
         filter: Filter::Manual,
     }];
     let emu = Emulated {
-        family: families::find("isg-best").unwrap(),
+        family: lobefit::fits::gpu_family("isg-best").unwrap(),
         samplers: &samplers,
     };
     let mut worst: f64 = 0.0;
