@@ -13,22 +13,12 @@ use lobefit::export::run::{errors_of, family_of, offgrid_metrics, sample_points,
 use lobefit::export::{Storage, Texture};
 use lobefit::family::{Lookup, Query};
 use lobefit::rng::Rng;
-use lobefit_tables::{LookupError, Mapping};
+use lobefit_tables::LookupError;
 
 use crate::device::{wgsl_texture_type, Gpu, GpuTexture};
+pub use crate::kernel::{kernel, kernel_with, lf_tex, LF_TEX_SIZE};
+pub use crate::report::{scaled_diff, vector_diff, Row};
 
-/// GPU against the CPU emulation of the same texture and filter (or, for closed
-/// forms, the runtime's f64 function): largest |gpu − cpu| / max(|cpu|, FLOOR · the
-/// output's largest |cpu| over the samples). The GPU's exp, log, sin, asinh carry a
-/// few f32 ulps (Vulkan allows 3 ulp and more), the mappings amplify them by the
-/// axis's node count (an ulp of a coordinate in [0, n)); 1e-4 bounds that with
-/// margin, while an indexing, packing or formula bug errs by 1e-3 or more.
-pub const TOL_CPU: f64 = 1e-4;
-/// Values below this fraction of an output's range count as that fraction: relative
-/// differences of values near a zero crossing mean nothing (disk-light's c_22 crosses
-/// zero where its texels change fast: an ulp of the GPU's log in the rim coordinate
-/// moves it 1e-6 of its range, 1e-4 of a value at 1e-3 of the range).
-pub const FLOOR: f64 = 1e-2;
 /// How far a GPU's error against the reference may exceed the manifest's promise:
 /// the promise was measured on the CPU emulation, which a GPU matches to ~TOL_CPU
 /// relative in the outputs; lossy entries (promise = the measured error) need that
@@ -44,122 +34,6 @@ pub const PROMISE_SLACK: f64 = 0.02;
 pub const WORLD_SAMPLES: usize = 500;
 /// See [`TOL_CLOSED`]'s use.
 pub const TOL_CLOSED: f64 = 3e-5;
-
-/// One row of the report.
-#[derive(Debug, Clone)]
-pub struct Row {
-    /// Family or function.
-    pub function: String,
-    /// Texel storage ("-" for closed forms).
-    pub storage: String,
-    /// Filter ("-" for closed forms and exact fetches).
-    pub filter: String,
-    /// Samples.
-    pub samples: usize,
-    /// GPU against the CPU emulation / f64 function (see [`TOL_CPU`]).
-    pub vs_cpu: f64,
-    /// What `vs_cpu` compares with.
-    pub cpu_what: &'static str,
-    /// GPU against the reference: (quantity metric, measured, limit).
-    pub vs_ref: Vec<(String, f64, f64)>,
-    /// Reported beside, not held: (quantity metric, measured, the family's f64 target).
-    pub info: Vec<(String, f64, f64)>,
-}
-
-impl Row {
-    /// Whether the row meets its limits.
-    pub fn pass(&self) -> bool {
-        self.vs_cpu <= TOL_CPU && self.vs_ref.iter().all(|(_, m, l)| *m <= *l)
-    }
-}
-
-/// Bytes of the uniform `LfTex` (tables/shaders/common.wgsl): 40 vec4.
-pub const LF_TEX_SIZE: usize = 640;
-
-/// The uniform `LfTex` of a texture (see tables/shaders/common.wgsl), [`LF_TEX_SIZE`]
-/// bytes: 39 vec4 of f32 (axis 0..3, map 3..6, offset 6..9, scale 9..12, trend
-/// 12..36, decode 36..39), then `mode`. Channels named `*_compressed` (lobe-product's
-/// f16 export) get the export's compression width in `decode`.
-pub fn lf_tex(t: &TextureEntry, filter: Filter) -> Vec<u8> {
-    let mut v = [[0f32; 4]; 39];
-    for (k, a) in t.axes.iter().enumerate() {
-        let (kind, p0, p1) = match a.axis.mapping {
-            Mapping::Linear => (0.0, 0.0, 0.0),
-            Mapping::Log => (1.0, 0.0, 0.0),
-            Mapping::Log1p { scale } => (2.0, scale, 0.0),
-            Mapping::Logit { a, b } => (3.0, a, b),
-            Mapping::Asinh { centre, width } => (4.0, centre, width),
-        };
-        v[k] = [a.mapped_lo as f32, a.mapped_hi as f32, a.axis.count as f32, kind];
-        v[3 + k] = [p0 as f32, p1 as f32, 0.0, 0.0];
-    }
-    // Unused channels: offset 0, scale 1.
-    for l in 0..3 {
-        v[9 + l] = [1.0; 4];
-    }
-    for ch in &t.channels {
-        let (l, c) = (ch.layer as usize, ch.component as usize);
-        assert!(
-            l < 3 && c < 4 && ch.trend.len() <= 6,
-            "{}: channel {} (layer {l}, component {c}, {} trend coefficients) does not fit LfTex \
-             (3 layers of 4 channels, quintic trends)",
-            t.file,
-            ch.name,
-            ch.trend.len()
-        );
-        v[6 + l][c] = ch.offset as f32;
-        v[9 + l][c] = ch.scale as f32;
-        let k = 4 * l + c;
-        for (j, coef) in ch.trend.iter().enumerate() {
-            v[12 + 2 * k + j / 4][j % 4] = *coef as f32;
-        }
-        if ch.name.ends_with(lobefit::fits::lobe_product::gpu::COMPRESSED) {
-            v[36 + l][c] = lobefit::fits::lobe_product::gpu::WIDTH as f32;
-        }
-    }
-    let mut bytes: Vec<u8> = bytemuck::cast_slice(&v).to_vec();
-    let mode: [u32; 4] = [if filter == Filter::Hardware { 1 } else { 0 }, 0, 0, 0];
-    bytes.extend_from_slice(bytemuck::cast_slice(&mode));
-    bytes
-}
-
-/// The kernel: the library, the bindings of [`Gpu::run`], and `body` run per item with
-/// inputs `x0 ..` and outputs written to `Y[o + k]`.
-pub fn kernel(tex_type: &str, n_in: usize, n_out: usize, body: &str) -> String {
-    kernel_with(tex_type, None, n_in, n_out, body)
-}
-
-/// [`kernel`] with a second texture of type `tex2_type` (`T2`, its `LfTex` `P2`: the
-/// bindings of [`Gpu::run_with`]).
-pub fn kernel_with(tex_type: &str, tex2_type: Option<&str>, n_in: usize, n_out: usize, body: &str) -> String {
-    let xs: String = (0..n_in)
-        .map(|k| format!("    let x{k} = X[i * {n_in}u + {k}u];\n"))
-        .collect();
-    let second = tex2_type.map_or(String::new(), |t| {
-        format!("@group(0) @binding(6) var<uniform> P2: LfTex;\n@group(0) @binding(7) var T2: {t};\n")
-    });
-    format!(
-        "{lib}
-@group(0) @binding(0) var<uniform> P: LfTex;
-@group(0) @binding(1) var T: {tex_type};
-@group(0) @binding(2) var S: sampler;
-@group(0) @binding(3) var<storage, read> X: array<f32>;
-@group(0) @binding(4) var<storage, read_write> Y: array<f32>;
-@group(0) @binding(5) var<uniform> N: vec4<u32>;
-{second}
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
-    let i = gid.x;
-    if i >= N.x {{
-        return;
-    }}
-    let o = i * {n_out}u;
-{xs}{body}
-}}
-",
-        lib = lobefit_tables::shaders::library()
-    )
-}
 
 /// The kernel body of shexp's order n: f_0..f_{n−1}, ‖f̂‖, a, b at θ_b = x0.
 pub fn shexp_body(n: usize) -> String {
@@ -194,46 +68,6 @@ impl Lookup for Precomputed {
             hi: f64::NAN,
         })
     }
-}
-
-/// Largest scaled difference of `got` against `want` (rows of outputs), see [`TOL_CPU`],
-/// and the output where it occurs.
-pub fn scaled_diff(got: &[Vec<f64>], want: &[Vec<f64>]) -> (f64, usize) {
-    let n = want.first().map_or(0, |w| w.len());
-    let mut worst = (0.0f64, 0);
-    for k in 0..n {
-        let range = want
-            .iter()
-            .map(|w| w[k].abs())
-            .filter(|v| v.is_finite())
-            .fold(0.0, f64::max);
-        for (g, w) in got.iter().zip(want) {
-            let (g, w) = (g[k], w[k]);
-            if g.is_nan() && w.is_nan() {
-                continue;
-            }
-            let d = (g - w).abs() / w.abs().max(FLOOR * range).max(f64::MIN_POSITIVE);
-            let d = if d.is_nan() { f64::INFINITY } else { d };
-            if d > worst.0 {
-                worst = (d, k);
-            }
-        }
-    }
-    worst
-}
-
-/// Largest |got − want| of a row relative to the row's largest |want| (vectors whose
-/// entries share one scale: SH, ZH and eigenvalue vectors).
-pub fn vector_diff(got: &[Vec<f64>], want: &[Vec<f64>]) -> f64 {
-    let mut worst = 0.0f64;
-    for (g, w) in got.iter().zip(want) {
-        let scale = w.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
-        for (a, b) in g.iter().zip(w) {
-            let d = (a - b).abs() / scale;
-            worst = worst.max(if d.is_nan() { f64::INFINITY } else { d });
-        }
-    }
-    worst
 }
 
 pub use lobefit::export::run::{read_export, Export};

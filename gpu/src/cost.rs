@@ -197,7 +197,7 @@ pub fn costs(gpu: &Gpu, export: &Export) -> Result<Vec<Cost>, String> {
             per_second: time(
                 gpu,
                 &src,
-                &[0u8; crate::conformance::LF_TEX_SIZE],
+                &[0u8; crate::kernel::LF_TEX_SIZE],
                 &dummy,
                 None,
                 &points,

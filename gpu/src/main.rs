@@ -6,7 +6,9 @@
 mod conformance;
 mod cost;
 mod device;
+mod kernel;
 mod render;
+mod report;
 mod world;
 
 use std::io::Write;

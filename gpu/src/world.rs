@@ -12,8 +12,9 @@ use lobefit::rng::Rng;
 use lobefit_tables::isg::{IsgModel, PaperIsg, Sg};
 use lobefit_tables::{sh, LookupError};
 
-use crate::conformance::{kernel, lf_tex, scaled_diff, vector_diff, Row};
 use crate::device::{wgsl_texture_type, Gpu, GpuTexture};
+use crate::kernel::{kernel, lf_tex, LF_TEX_SIZE};
+use crate::report::{scaled_diff, vector_diff, Row};
 
 fn unit(rng: &mut Rng) -> DVec3 {
     loop {
@@ -62,7 +63,7 @@ fn row(function: &str, samples: usize, vs_cpu: f64, vs_ref: Vec<(String, f64, f6
     }
 }
 
-const NONE: [u8; crate::conformance::LF_TEX_SIZE] = [0; crate::conformance::LF_TEX_SIZE];
+const NONE: [u8; LF_TEX_SIZE] = [0; LF_TEX_SIZE];
 const WRITE64: &str = "    for (var k = 0u; k < 64u; k++) {\n        Y[o + k] = z[k];\n    }";
 const WRITE9: &str = "    for (var k = 0u; k < 9u; k++) {\n        Y[o + k] = z[k];\n    }";
 

@@ -67,12 +67,9 @@ pub struct CapExponent {
     table: Table,
 }
 
-impl CapExponent {
-    /// Loads and validates a cap-exponent table file held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(CapExponent: KIND, VERSION);
 
+impl CapExponent {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -82,20 +79,6 @@ impl CapExponent {
         )?;
         table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-cap-exponent")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<CapExponent, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::CAP_EXPONENT))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// The stored ratio q(α) = e_cap/m(α) for α ∈ [1e-3, π/2] (rad).

@@ -284,12 +284,9 @@ pub struct DiskLight {
     table: Table,
 }
 
-impl DiskLight {
-    /// Loads and validates a disk-light table file held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(DiskLight: KIND, VERSION);
 
+impl DiskLight {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -306,20 +303,6 @@ impl DiskLight {
         table.expect_layout(&axes(counts.0, counts.1), &chans)?;
         table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-disk-light")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<DiskLight, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::DISK_LIGHT))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// The six canonical coefficients (c_00, c_10, c_11, c_20, c_21, c_22) (sr-weighted,

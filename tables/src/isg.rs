@@ -375,12 +375,9 @@ pub struct RefitIsg {
     table: Table,
 }
 
-impl RefitIsg {
-    /// Loads and validates an `isg-refit` table held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(RefitIsg: KIND_REFIT, VERSION);
 
+impl RefitIsg {
     /// Wraps a loaded table, checking kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND_REFIT, VERSION)?;
@@ -391,20 +388,6 @@ impl RefitIsg {
         )?;
         table.expect_channel_ranges(REFIT_CHANNEL_RANGES)?;
         Ok(Self { table })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-isg-refit")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<RefitIsg, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::ISG_REFIT))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// The slopes (g, h) (1/rad) at γ ∈ [0.5, 10^4].
@@ -442,12 +425,9 @@ pub struct BestIsg {
     n: (usize, usize),
 }
 
-impl BestIsg {
-    /// Loads and validates an `isg-best` table held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(BestIsg: KIND_BEST, VERSION);
 
+impl BestIsg {
     /// Wraps a loaded table, checking kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND_BEST, VERSION)?;
@@ -470,20 +450,6 @@ impl BestIsg {
             table,
             n: (n0 as usize, n1 as usize),
         })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-isg-best")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<BestIsg, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::ISG_BEST))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// Factors (marginal, correction) of axis `k` (0: (A, C) in θ, 1: (B, D) in φ) at

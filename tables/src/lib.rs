@@ -45,6 +45,14 @@
 //! Each family type loads its committed table with `embedded()` (cargo feature
 //! `embedded-<table>`) or any file with `from_bytes` / `from_table`.
 //!
+//! Every family type implements [`TableType`] (`KIND`, `VERSION`, `from_table`,
+//! `table`, `from_bytes`), for code generic over families; the same functions are
+//! inherent methods, so callers need not import the trait. The tables themselves are
+//! one list in this file, in build order ([`KINDS`]): each line generates the
+//! [`embedded`] static and the type's `embedded()`, and a line whose type does not
+//! read its kind fails the build. A family's file writes only its validation
+//! (`from_table`) and its lookups.
+//!
 //! ## Cargo features
 //!
 //! - `embedded` (default): all committed tables compiled in ([`embedded`]).
@@ -141,6 +149,7 @@ pub mod sh;
 pub mod shaders;
 pub mod shexp;
 pub mod table;
+mod table_type;
 pub mod wedge;
 pub mod wrap;
 
@@ -159,50 +168,27 @@ pub use meunier::{Meunier, MeunierError};
 pub use sg_fit::SgFit;
 pub use shexp::ShExp;
 pub use table::Table;
+pub use table_type::TableType;
 pub use wedge::Wedges;
 pub use wrap::WrapTable;
 
-/// The committed default tables (`tables/data/*.lobefit`), compiled in: each behind
-/// its cargo feature `embedded-<table>` (`embedded`, on by default, means all), so a
-/// renderer compiles in only the tables it uses.
-pub mod embedded {
-    #[cfg(feature = "embedded-lobe-integral")]
-    /// `tables/data/lobe-integral.lobefit`.
-    pub static LOBE_INTEGRAL: &[u8] = include_bytes!("../data/lobe-integral.lobefit");
-    #[cfg(feature = "embedded-cap-exponent")]
-    /// `tables/data/cap-exponent.lobefit`.
-    pub static CAP_EXPONENT: &[u8] = include_bytes!("../data/cap-exponent.lobefit");
-    #[cfg(feature = "embedded-isg-refit")]
-    /// `tables/data/isg-refit.lobefit`.
-    pub static ISG_REFIT: &[u8] = include_bytes!("../data/isg-refit.lobefit");
-    #[cfg(feature = "embedded-isg-best")]
-    /// `tables/data/isg-best.lobefit`.
-    pub static ISG_BEST: &[u8] = include_bytes!("../data/isg-best.lobefit");
-    #[cfg(feature = "embedded-sg-fit")]
-    /// `tables/data/sg-fit.lobefit`.
-    pub static SG_FIT: &[u8] = include_bytes!("../data/sg-fit.lobefit");
-    #[cfg(feature = "embedded-log-zh")]
-    /// `tables/data/log-zh.lobefit`.
-    pub static LOG_ZH: &[u8] = include_bytes!("../data/log-zh.lobefit");
-    #[cfg(feature = "embedded-wedge")]
-    /// `tables/data/wedge.lobefit`.
-    pub static WEDGE: &[u8] = include_bytes!("../data/wedge.lobefit");
-    #[cfg(feature = "embedded-shexp")]
-    /// `tables/data/shexp.lobefit`.
-    pub static SHEXP: &[u8] = include_bytes!("../data/shexp.lobefit");
-    #[cfg(feature = "embedded-lobe-product")]
-    /// `tables/data/lobe-product.lobefit` (the `energy` variant).
-    pub static LOBE_PRODUCT: &[u8] = include_bytes!("../data/lobe-product.lobefit");
-    #[cfg(feature = "embedded-lobe-product-l2")]
-    /// `tables/data/lobe-product-l2.lobefit`.
-    pub static LOBE_PRODUCT_L2: &[u8] = include_bytes!("../data/lobe-product-l2.lobefit");
-    #[cfg(feature = "embedded-disk-light")]
-    /// `tables/data/disk-light.lobefit`.
-    pub static DISK_LIGHT: &[u8] = include_bytes!("../data/disk-light.lobefit");
-    #[cfg(feature = "embedded-wrap")]
-    /// `tables/data/wrap.lobefit`.
-    pub static WRAP: &[u8] = include_bytes!("../data/wrap.lobefit");
-    #[cfg(feature = "embedded-mask-weights")]
-    /// `tables/data/mask-weights.lobefit`.
-    pub static MASK_WEIGHTS: &[u8] = include_bytes!("../data/mask-weights.lobefit");
+// The one list of tables: each line generates `embedded::<STATIC>` (behind its cargo
+// feature), the type's `embedded()`-style constructor and an entry of `KINDS`; a new
+// table is one line here, one `embedded-<kind>` feature in Cargo.toml and its
+// family's `impl_table_type!`.
+table_type::table_types! {
+    // kind           => Type::constructor,        static in `embedded`, cargo feature[, note]
+    "lobe-integral"   => LobeIntegral::embedded,   LOBE_INTEGRAL,   "embedded-lobe-integral";
+    "cap-exponent"    => CapExponent::embedded,    CAP_EXPONENT,    "embedded-cap-exponent";
+    "isg-refit"       => RefitIsg::embedded,       ISG_REFIT,       "embedded-isg-refit";
+    "isg-best"        => BestIsg::embedded,        ISG_BEST,        "embedded-isg-best";
+    "sg-fit"          => SgFit::embedded,          SG_FIT,          "embedded-sg-fit";
+    "log-zh"          => LogZh::embedded,          LOG_ZH,          "embedded-log-zh";
+    "wedge"           => Wedges::embedded,         WEDGE,           "embedded-wedge";
+    "wrap"            => WrapTable::embedded,      WRAP,            "embedded-wrap";
+    "disk-light"      => DiskLight::embedded,      DISK_LIGHT,      "embedded-disk-light";
+    "shexp"           => ShExp::embedded,          SHEXP,           "embedded-shexp";
+    "lobe-product"    => LobeProduct::embedded,    LOBE_PRODUCT,    "embedded-lobe-product", "the `energy` variant";
+    "lobe-product-l2" => LobeProduct::embedded_l2, LOBE_PRODUCT_L2, "embedded-lobe-product-l2";
+    "mask-weights"    => MaskWeights::embedded,    MASK_WEIGHTS,    "embedded-mask-weights";
 }

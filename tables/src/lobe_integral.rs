@@ -58,12 +58,9 @@ pub struct LobeIntegral {
     table: Table,
 }
 
-impl LobeIntegral {
-    /// Loads and validates a lobe-integral table file held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(LobeIntegral: KIND, VERSION);
 
+impl LobeIntegral {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -73,20 +70,6 @@ impl LobeIntegral {
         )?;
         table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-lobe-integral")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<LobeIntegral, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::LOBE_INTEGRAL))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// I(e) in steradians from the table, e ∈ [0, 1e5].

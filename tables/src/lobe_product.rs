@@ -394,13 +394,11 @@ pub struct LobeProduct {
     variant: Variant,
 }
 
-impl LobeProduct {
-    /// Loads and validates a lobe-product table (either variant; the kind says which).
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(LobeProduct: KIND_ENERGY, VERSION, kinds = [KIND_ENERGY, KIND_L2]);
 
-    /// Wraps a loaded table, checking kind, version and layout.
+impl LobeProduct {
+    /// Wraps a loaded table of either variant (the kind says which), checking kind,
+    /// version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         let variant = if table.meta().kind == KIND_L2 {
             Variant::L2
@@ -430,32 +428,9 @@ impl LobeProduct {
         Self::from_table(table)
     }
 
-    /// The default `energy` table compiled into this crate.
-    #[cfg(feature = "embedded-lobe-product")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<LobeProduct, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::LOBE_PRODUCT))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The default `l2` table compiled into this crate.
-    #[cfg(feature = "embedded-lobe-product-l2")]
-    pub fn embedded_l2() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<LobeProduct, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::LOBE_PRODUCT_L2))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
     /// Which variant this table holds.
     pub fn variant(&self) -> Variant {
         self.variant
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// Product parameters for exponents e1, e2 ∈ [0, 10⁵] and angle α ∈ [0, π] (rad)

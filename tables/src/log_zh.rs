@@ -319,12 +319,13 @@ pub struct LogZh {
     table: Table,
 }
 
-impl LogZh {
-    /// Loads and validates a log-zh table file held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type! {
+    /// The underlying table (row-major \[r\]\[eps\]\[z0_hi, z0_lo, …, z7_lo\], f32), e.g. for
+    /// GPU upload (a shader that is happy with f32 precision reads the hi channels only).
+    LogZh: KIND, VERSION
+}
 
+impl LogZh {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -338,21 +339,6 @@ impl LogZh {
         }
         table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-log-zh")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<LogZh, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::LOG_ZH))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table (row-major \[r\]\[eps\]\[z0_hi, z0_lo, …, z7_lo\], f32), e.g. for
-    /// GPU upload (a shader that is happy with f32 precision reads the hi channels only).
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// Bilinear interpolation (linear in r and in ln ε) of the stored Phong vectors at

@@ -182,12 +182,9 @@ pub struct MaskWeights {
     table: Table,
 }
 
-impl MaskWeights {
-    /// Loads and validates a mask-weights table file held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(MaskWeights: KIND, VERSION);
 
+impl MaskWeights {
     /// Wraps an already loaded table, checking its kind, version, layout and ranges.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -199,20 +196,6 @@ impl MaskWeights {
             .collect();
         table.expect_channel_ranges(&ranges)?;
         Ok(Self { table })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-mask-weights")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: OnceLock<Result<MaskWeights, LoadError>> = OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::MASK_WEIGHTS))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// The weights w_1 … w_depth (dimensionless) of eq. 39 for masks of maximal depth

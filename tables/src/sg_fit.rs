@@ -51,12 +51,9 @@ pub struct SgFit {
     table: Table,
 }
 
-impl SgFit {
-    /// Loads and validates an `sg-fit` table held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(SgFit: KIND, VERSION);
 
+impl SgFit {
     /// Wraps a loaded table, checking kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -66,20 +63,6 @@ impl SgFit {
         )?;
         table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-sg-fit")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<SgFit, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::SG_FIT))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// (λ(e), μ(e)) for a lobe exponent e ∈ [0, 10^5]: sharpness and amplitude of the

@@ -358,12 +358,13 @@ pub struct ShExp {
     branches: Vec<Branch>,
 }
 
-impl ShExp {
-    /// Loads and validates a shexp table file held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type! {
+    /// The underlying table (row-major \[order\]\[θ_b\], channels of `channel_names`), e.g.
+    /// for GPU upload.
+    ShExp: KIND, VERSION
+}
 
+impl ShExp {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -405,21 +406,6 @@ impl ShExp {
             t.branches.push(br);
         }
         Ok(t)
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-shexp")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<ShExp, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::SHEXP))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table (row-major \[order\]\[θ_b\], channels of `channel_names`), e.g.
-    /// for GPU upload.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     fn node_theta(&self, i: usize) -> f64 {

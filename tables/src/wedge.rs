@@ -137,12 +137,9 @@ pub struct Wedges {
     m: Vec<f64>,
 }
 
-impl Wedges {
-    /// Loads and validates a wedge table file held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(Wedges: KIND, VERSION);
 
+impl Wedges {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -166,20 +163,6 @@ impl Wedges {
             .map(|c| c[0] as f64 + c[1] as f64)
             .collect();
         Ok(Self { table, m })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-wedge")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<Wedges, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::WEDGE))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     fn w_index(w: u32) -> Result<usize, LookupError> {

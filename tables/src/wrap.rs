@@ -228,12 +228,9 @@ pub struct WrapTable {
     table: Table,
 }
 
-impl WrapTable {
-    /// Loads and validates a wrap table file held in memory.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, LoadError> {
-        Self::from_table(Table::from_bytes(bytes)?)
-    }
+crate::table_type::impl_table_type!(WrapTable: KIND, VERSION);
 
+impl WrapTable {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -241,20 +238,6 @@ impl WrapTable {
         table.expect_layout_1d(&axis(table.meta().axes.first().map_or(0, |a| a.count)), &chans)?;
         table.expect_channel_ranges(CHANNEL_RANGES)?;
         Ok(Self { table })
-    }
-
-    /// The default table compiled into this crate.
-    #[cfg(feature = "embedded-wrap")]
-    pub fn embedded() -> Result<&'static Self, LoadError> {
-        static CELL: std::sync::OnceLock<Result<WrapTable, LoadError>> = std::sync::OnceLock::new();
-        CELL.get_or_init(|| Self::from_bytes(crate::embedded::WRAP))
-            .as_ref()
-            .map_err(Clone::clone)
-    }
-
-    /// The underlying table.
-    pub fn table(&self) -> &Table {
-        &self.table
     }
 
     /// λ̂_l(a), l < `order`, from the closed form ([`lambda_hat`]; the accurate path).

@@ -317,12 +317,7 @@ fn encode_reproduces_committed_files_byte_for_byte() {
     }
 }
 
-#[cfg(feature = "embedded")]
-#[test]
-fn embedded_tables_are_the_committed_files() {
-    assert!(lobefit_tables::embedded::LOBE_INTEGRAL == LOBE);
-    assert!(lobefit_tables::embedded::CAP_EXPONENT == CAP);
-}
+// That the embedded tables are the committed files, for every kind: `table_types`.
 
 // ---------------------------------------------------------------------------------
 // 2. Truncation
@@ -1286,34 +1281,43 @@ fn family_loaders_reject_foreign_layouts() {
 // ---------------------------------------------------------------------------------
 
 use lobefit_tables::glam::{DVec3, Vec3};
+use lobefit_tables::mask_weights::{self, MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
 use lobefit_tables::{
     disk_light, embedded, isg, lobe_product, log_zh, sg_fit, shexp, wedge, wrap, BestIsg, DiskLight, IsgModel, Lobe,
-    LobeF32, LobeProduct, RefitIsg, SgFit,
+    LobeF32, LobeProduct, RefitIsg, SgFit, KINDS,
 };
 
-/// A family's declared channel ranges: (channel, lo, hi).
-type Ranges = &'static [(&'static str, f64, f64)];
+use crate::table_types::committed;
 
-/// Every committed table with its family's declared channel ranges.
-fn ranged_tables() -> Vec<(&'static str, &'static [u8], Ranges)> {
-    vec![
-        ("lobe-integral", embedded::LOBE_INTEGRAL, lobe_integral::CHANNEL_RANGES),
-        ("cap-exponent", embedded::CAP_EXPONENT, cap_exponent::CHANNEL_RANGES),
-        ("isg-refit", embedded::ISG_REFIT, isg::REFIT_CHANNEL_RANGES),
-        ("isg-best", embedded::ISG_BEST, isg::BEST_CHANNEL_RANGES),
-        ("sg-fit", embedded::SG_FIT, sg_fit::CHANNEL_RANGES),
-        ("log-zh", embedded::LOG_ZH, log_zh::CHANNEL_RANGES),
-        ("wedge", embedded::WEDGE, wedge::CHANNEL_RANGES),
-        ("shexp", embedded::SHEXP, shexp::CHANNEL_RANGES),
-        ("lobe-product", embedded::LOBE_PRODUCT, lobe_product::CHANNEL_RANGES),
-        (
-            "lobe-product-l2",
-            embedded::LOBE_PRODUCT_L2,
-            lobe_product::CHANNEL_RANGES,
-        ),
-        ("disk-light", embedded::DISK_LIGHT, disk_light::CHANNEL_RANGES),
-        ("wrap", embedded::WRAP, wrap::CHANNEL_RANGES),
-    ]
+/// A family's declared channel ranges: (channel, lo, hi).
+type Ranges = Vec<(&'static str, f64, f64)>;
+
+/// The committed table of `kind` (one of `KINDS`, so every committed table) with its
+/// family's declared channel ranges.
+fn ranged_table(kind: &str) -> (Vec<u8>, Ranges) {
+    let ranges = match kind {
+        "lobe-integral" => lobe_integral::CHANNEL_RANGES.to_vec(),
+        "cap-exponent" => cap_exponent::CHANNEL_RANGES.to_vec(),
+        "isg-refit" => isg::REFIT_CHANNEL_RANGES.to_vec(),
+        "isg-best" => isg::BEST_CHANNEL_RANGES.to_vec(),
+        "sg-fit" => sg_fit::CHANNEL_RANGES.to_vec(),
+        "log-zh" => log_zh::CHANNEL_RANGES.to_vec(),
+        "wedge" => wedge::CHANNEL_RANGES.to_vec(),
+        "shexp" => shexp::CHANNEL_RANGES.to_vec(),
+        "lobe-product" | "lobe-product-l2" => lobe_product::CHANNEL_RANGES.to_vec(),
+        "disk-light" => disk_light::CHANNEL_RANGES.to_vec(),
+        "wrap" => wrap::CHANNEL_RANGES.to_vec(),
+        // One range for every weight channel.
+        "mask-weights" => {
+            let (lo, hi) = mask_weights::WEIGHT_RANGE;
+            mask_weights::channel_names()
+                .iter()
+                .map(|c| (c.as_str(), lo, hi))
+                .collect()
+        }
+        other => panic!("no channel ranges for kind {other}"),
+    };
+    (committed(kind), ranges)
 }
 
 /// (lo, hi) of each channel of `t`, in channel order, from `ranges`.
@@ -1493,6 +1497,21 @@ fn family_lookups(kind: &str, bytes: &[u8]) -> Result<Vec<f64>, LoadError> {
                 put(t.table_lookup(8, a, &mut out).map(|_| out.to_vec()));
             }
         }
+        "mask-weights" => {
+            let t = MaskWeights::from_bytes(bytes)?;
+            let mut out = [0.0; MAX_DEPTH as usize];
+            for set in [WeightSet::Fitted, WeightSet::Paper] {
+                for mode in MaskMode::ALL {
+                    for depth in 1..=MAX_DEPTH {
+                        for dist in [1e-300, 0.25, 1.3, 10.0, f64::MAX] {
+                            put(t
+                                .weights(set, mode, depth, dist, &mut out)
+                                .map(|_| out[..depth as usize].to_vec()));
+                        }
+                    }
+                }
+            }
+        }
         other => panic!("no lookups for kind {other}"),
     }
     Ok(got)
@@ -1503,10 +1522,11 @@ fn family_lookups(kind: &str, bytes: &[u8]) -> Result<Vec<f64>, LoadError> {
 /// (`cargo test -p lobefit-tables --test it loader::committed_tables_lie -- --nocapture`).
 #[test]
 fn committed_tables_lie_inside_their_channel_ranges() {
-    for (kind, file, ranges) in ranged_tables() {
-        let t = table(file);
+    for kind in KINDS {
+        let (file, ranges) = ranged_table(kind);
+        let t = table(&file);
         assert_eq!(t.meta().kind, kind);
-        let bounds = channel_bounds(&t, ranges);
+        let bounds = channel_bounds(&t, &ranges);
         let nc = bounds.len();
         for (c, (ch, &(lo, hi))) in t.meta().channels.iter().zip(&bounds).enumerate() {
             let vals = t.values().iter().skip(c).step_by(nc).map(|&v| v as f64);
@@ -1522,7 +1542,7 @@ fn committed_tables_lie_inside_their_channel_ranges() {
             );
         }
         // The family loader accepts it, and its lookups are finite.
-        let got = family_lookups(kind, file).unwrap_or_else(|e| panic!("{kind}: {e}"));
+        let got = family_lookups(kind, &file).unwrap_or_else(|e| panic!("{kind}: {e}"));
         assert!(got.iter().all(|v| v.is_finite()), "{kind}: non-finite lookup");
     }
 }
@@ -1570,14 +1590,15 @@ fn finite_but_absurd_payload_values_are_refused_naming_channel_and_node() {
     );
     assert!(e.to_string().contains("r10") && e.to_string().contains("[0, 0]"), "{e}");
     // Every family refuses a value just past either end of each channel's range.
-    for (kind, file, ranges) in ranged_tables() {
-        let t = table(file);
-        let bounds = channel_bounds(&t, ranges);
+    for kind in KINDS {
+        let (file, ranges) = ranged_table(kind);
+        let t = table(&file);
+        let bounds = channel_bounds(&t, &ranges);
         let nc = bounds.len();
         let last = t.values().len() / nc - 1;
         for (c, &(lo, hi)) in bounds.iter().enumerate() {
             for v in [lo - 1e-3 * (hi - lo), hi + 1e-3 * (hi - lo)] {
-                let bad = with_value(file, last * nc + c, v as f32);
+                let bad = with_value(&file, last * nc + c, v as f32);
                 match family_lookups(kind, &bad) {
                     Err(LoadError::ImplausibleValue { channel, .. }) => {
                         assert_eq!(channel, t.meta().channels[c].name, "{kind}")
@@ -1626,14 +1647,15 @@ proptest! {
     /// error or finite.
     #[test]
     fn random_finite_payload_values_give_errors_or_finite_lookups(
-        which in 0usize..12,
+        which in 0..KINDS.len(),
         mode in 0u8..3,
         seed in any::<u64>(),
         count in 1usize..8,
     ) {
-        let (kind, file, ranges) = ranged_tables()[which];
-        let t = table(file);
-        let bounds = channel_bounds(&t, ranges);
+        let kind = KINDS[which];
+        let (file, ranges) = ranged_table(kind);
+        let t = table(&file);
+        let bounds = channel_bounds(&t, &ranges);
         let nc = bounds.len();
         let mut s = seed;
         let uniform = |i: usize, s: &mut u64| {
@@ -1666,7 +1688,7 @@ proptest! {
                 }
             }
         }
-        match (family_lookups(kind, &with_payload(file, &values)), first_bad) {
+        match (family_lookups(kind, &with_payload(&file, &values)), first_bad) {
             (Ok(got), None) => {
                 prop_assert!(got.iter().all(|v| v.is_finite()), "{} mode {}: {:?}", kind, mode, got);
             }

@@ -6,4 +6,5 @@ mod files;
 mod loader;
 mod messages;
 mod meta_errors;
+mod table_types;
 mod task_helpers;
