@@ -147,35 +147,13 @@ fn width_breaks(kappa: f64) -> Vec<f64> {
     v
 }
 
-/// Gauss–Legendre nodes and weights on [0, 1] (Newton on P_n, computed once).
+/// Gauss–Legendre nodes and weights on [0, 1] ([`crate::sh::gauss_legendre`] mapped,
+/// computed once).
 fn gauss_legendre() -> &'static [(f64, f64)] {
     static GL: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
     GL.get_or_init(|| {
-        let n = GL_POINTS;
-        let mut out = Vec::with_capacity(n);
-        for i in 0..n {
-            // Chebyshev-like initial guess, then Newton on P_n(x) = 0.
-            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            let mut dp = 1.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let kf = k as f64;
-                    let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-16 {
-                    break;
-                }
-            }
-            let w = 2.0 / ((1.0 - x * x) * dp * dp);
-            out.push((0.5 * (1.0 + x), 0.5 * w));
-        }
-        out
+        let (x, w) = crate::sh::gauss_legendre(GL_POINTS);
+        x.iter().zip(&w).map(|(x, w)| (0.5 * (1.0 + x), 0.5 * w)).collect()
     })
 }
 

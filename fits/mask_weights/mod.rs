@@ -23,7 +23,7 @@
 //! visibility error of the fitted, paper and all-ones weights on held-out
 //! configurations at random `dist` with it.
 
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::f64::consts::{FRAC_PI_2, TAU};
 use std::sync::OnceLock;
 
 use lobefit_tables::format::Threshold;
@@ -111,7 +111,7 @@ impl ConeRule {
 
     /// Gauss–Legendre in θ ∈ [0, α] (weight sin θ) × trapezoid in φ (the checker's).
     pub fn gauss(alpha: f64, (nt, np): (usize, usize)) -> ConeRule {
-        let (x, wx) = gauss_legendre(nt);
+        let (x, wx) = crate::sh::gauss_legendre(nt);
         let mut r = ConeRule {
             dirs: Vec::with_capacity(nt * np),
             weights: Vec::with_capacity(nt * np),
@@ -128,37 +128,6 @@ impl ConeRule {
         }
         r
     }
-}
-
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n from the Chebyshev
-/// guesses).
-pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let (mut x, mut w) = (vec![0.0; n], vec![0.0; n]);
-    for i in 0..n {
-        let mut z = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, z);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * z * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            if n == 1 {
-                p0 = 1.0;
-                p1 = z;
-            }
-            dp = n as f64 * (z * p1 - p0) / (z * z - 1.0);
-            let dz = p1 / dp;
-            z -= dz;
-            if dz.abs() < 1e-15 {
-                break;
-            }
-        }
-        x[i] = z;
-        w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
-    }
-    (x, w)
 }
 
 /// A random blocker configuration around a light cap of half-angle `alpha` about +z:
@@ -852,16 +821,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn gauss_legendre_integrates_polynomials() {
-        let (x, w) = gauss_legendre(8);
-        for k in 0..16 {
-            let q: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(k)).sum();
-            let exact = if k % 2 == 1 { 0.0 } else { 2.0 / (k + 1) as f64 };
-            assert!((q - exact).abs() < 1e-14, "k={k}: {q} vs {exact}");
-        }
-    }
-
-    #[test]
     fn exact_e_cap_is_stationary() {
         for a in [1e-3, 0.01, 0.3, 1.0, 1.5] {
             let e = exact_e_cap(a);
@@ -871,6 +830,5 @@ mod tests {
             );
         }
         assert!((exact_e_cap(0.01) * 1e-4 - 1.9226).abs() < 2e-3);
-        let _ = (PI, TAU);
     }
 }

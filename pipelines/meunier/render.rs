@@ -18,7 +18,6 @@ use lobefit_tables::meunier::{MaskSettings, SphereLight};
 use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
 
-use crate::fits::mask_weights::gauss_legendre;
 use crate::pipelines::estimate::{estimate, Estimate};
 use crate::pipelines::image::{compare, error_map, masked, mean_over, panel, write_pfm};
 use crate::pipelines::scene::{brdf_value, visible, Hit, Scene};
@@ -133,7 +132,7 @@ fn breakdown(
         .acos()
         .max(alpha * 1.001)
         .min(PI / 2.0 + alpha);
-    let (gx, gw) = gauss_legendre(48);
+    let (gx, gw) = crate::sh::gauss_legendre(48);
     let nphi = 160;
     let (u, v) = lcap.axis.any_orthonormal_pair();
     let mut out = [0.0; 5];
