@@ -5,7 +5,7 @@ use divan::black_box;
 use lobefit::sh::{exp_star, Gaunt};
 use lobefit::tables::log_zh::{self, LogZh};
 use lobefit::tables::sh::{self, Rotation};
-use lobefit::tables::wedge::Wedges;
+use lobefit::tables::wedge::Wedge;
 use lobefit::tables::Table;
 
 fn main() {
@@ -72,12 +72,12 @@ fn log_zh_closed_form() -> f64 {
 fn log_zh_table_lookup(bencher: divan::Bencher) {
     let t = LogZh::from_table(table("log-zh")).unwrap();
     let mut z = [0.0; 8];
-    bencher.bench_local(|| t.table_lookup(black_box(0.137), black_box(17.3), 8, &mut z).unwrap());
+    bencher.bench_local(|| t.table_lookup(8, black_box(0.137), black_box(17.3), &mut z).unwrap());
 }
 
 #[divan::bench(args = [8, 32])]
 fn wedge_compose_order4(bencher: divan::Bencher, w: u32) {
-    let wd = Wedges::from_table(table("wedge")).unwrap();
+    let wd = Wedge::from_table(table("wedge")).unwrap();
     let sig: Vec<f64> = (0..w).map(|k| 0.3 * (k as f64).cos().abs()).collect();
     let mut v = [0.0; 16];
     bencher.bench_local(|| wd.compose(black_box(&sig), 0.1, 4, &mut v).unwrap());

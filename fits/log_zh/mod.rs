@@ -210,20 +210,20 @@ impl Lookup for LogZhLookup {
         let mut out = [0.0; MAX_ORDER];
         if self.kind == Kind::Phong && x.len() == 3 && x[2] == TABLE_MODE {
             // The checker's view of the stored table (see `check_point`).
-            self.rt.table_lookup(x[0], x[1], self.order, &mut out)?;
+            self.rt.table_lookup(self.order, x[0], x[1], &mut out)?;
             return Ok(out[..self.order].to_vec());
         }
         let param = if self.kind == Kind::Diffuse { 1.0 } else { x[1] };
-        self.rt.lookup(self.kind, x[0], param, self.order, &mut out)?;
+        self.rt.lookup(self.kind, self.order, x[0], param, &mut out)?;
         Ok(out[..self.order].to_vec())
     }
     fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
         let mut out = [0.0f32; MAX_ORDER];
         let r = if self.kind == Kind::Phong && x.len() == 3 && x[2] == TABLE_MODE {
-            self.rt.table_lookup_f32(x[0] as f32, x[1] as f32, self.order, &mut out)
+            self.rt.table_lookup_f32(self.order, x[0] as f32, x[1] as f32, &mut out)
         } else {
             let param = if self.kind == Kind::Diffuse { 1.0 } else { x[1] as f32 };
-            self.rt.lookup_f32(self.kind, x[0] as f32, param, self.order, &mut out)
+            self.rt.lookup_f32(self.kind, self.order, x[0] as f32, param, &mut out)
         };
         Some(r.map(|()| out[..self.order].iter().map(|&v| v.into()).collect()))
     }

@@ -15,7 +15,7 @@ use std::f64::consts::PI;
 
 use lobefit_tables::format::Threshold;
 use lobefit_tables::sh::{eval_basis, MAX_COEFFS, MAX_ORDER};
-use lobefit_tables::wedge::{self as rt, Wedges, CHANNELS, COLS, ROWS, WEDGE_COUNTS};
+use lobefit_tables::wedge::{self as rt, Wedge, CHANNELS, COLS, ROWS, WEDGE_COUNTS};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use crate::family::{Fit, Fitted, Lookup, Query};
@@ -199,7 +199,7 @@ fn node_w(x: f64) -> u32 {
     x.round() as u32
 }
 
-impl Lookup for Wedges {
+impl Lookup for Wedge {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         Ok(vec![self.m_lin(
             node_w(x[0]),
@@ -241,7 +241,7 @@ impl Query for WedgeFamily {
         lobefit_tables::embedded::WEDGE
     }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(Wedges::from_table(table)?))
+        Ok(Box::new(Wedge::from_table(table)?))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         Ok(vec![reference_m_lin(node_w(x[0]), x[1] as usize, x[2] as usize)?])
@@ -358,7 +358,7 @@ impl Query for WedgeSliceView {
         lobefit_tables::embedded::WEDGE
     }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Wedges::from_table(table)?;
+        Wedge::from_table(table)?;
         Ok(Box::new(SliceLookup { order: self.order }))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {

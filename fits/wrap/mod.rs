@@ -11,7 +11,7 @@
 
 use lobefit_tables::format::Threshold;
 use lobefit_tables::sh::MAX_ORDER;
-use lobefit_tables::wrap::{self as rt, WrapTable, A_MAX, A_MIN, A_NODES, CHANNELS};
+use lobefit_tables::wrap::{self as rt, Wrap, A_MAX, A_MIN, A_NODES, CHANNELS};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use crate::family::{Fit, Fitted, Lookup, Query};
@@ -127,7 +127,7 @@ fn simpson_lambda(a: f64) -> (Vec<f64>, u32, bool) {
 }
 
 struct WrapLookup {
-    rt: WrapTable,
+    rt: Wrap,
     order: usize,
 }
 
@@ -214,7 +214,7 @@ impl Query for WrapFamily {
     }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
         Ok(Box::new(WrapLookup {
-            rt: WrapTable::from_table(table)?,
+            rt: Wrap::from_table(table)?,
             order: self.order,
         }))
     }

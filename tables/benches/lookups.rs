@@ -388,7 +388,7 @@ mod log_zh {
     fn table_lookup_order8(b: Bencher) {
         bench_each(b, &points(), |p| {
             let mut z = [0.0; 8];
-            t().table_lookup(p[0], p[1], 8, &mut z).unwrap();
+            t().table_lookup(8, p[0], p[1], &mut z).unwrap();
             z[0]
         });
     }
@@ -397,7 +397,7 @@ mod log_zh {
     fn lookup_phong_order8(b: Bencher) {
         bench_each(b, &points(), |p| {
             let mut z = [0.0; 8];
-            t().lookup(Kind::Phong, p[0], p[1], 8, &mut z).unwrap();
+            t().lookup(Kind::Phong, 8, p[0], p[1], &mut z).unwrap();
             z[0]
         });
     }
@@ -405,7 +405,7 @@ mod log_zh {
     fn lookup_blocker_order8(b: Bencher) {
         bench_each(b, &points(), |p| {
             let mut z = [0.0; 8];
-            t().lookup(Kind::Blocker, p[0], p[1] / R_TABLE_MAX * 1.5, 8, &mut z)
+            t().lookup(Kind::Blocker, 8, p[0], p[1] / R_TABLE_MAX * 1.5, &mut z)
                 .unwrap();
             z[0]
         });
@@ -415,10 +415,10 @@ mod log_zh {
 mod wedge {
     use super::*;
     use lobefit_tables::wedge::{slice_log, COLS, ROWS};
-    use lobefit_tables::Wedges;
+    use lobefit_tables::Wedge;
 
-    fn t() -> &'static Wedges {
-        Wedges::embedded().unwrap()
+    fn t() -> &'static Wedge {
+        Wedge::embedded().unwrap()
     }
     const ORDERS: [usize; 2] = [4, 8];
     /// Slice log vectors (v_a, v_b) of random horizons.
@@ -470,10 +470,10 @@ mod wedge {
 
 mod wrap {
     use super::*;
-    use lobefit_tables::WrapTable;
+    use lobefit_tables::Wrap;
 
-    fn t() -> &'static WrapTable {
-        WrapTable::embedded().unwrap()
+    fn t() -> &'static Wrap {
+        Wrap::embedded().unwrap()
     }
     fn xs() -> Vec<f64> {
         let mut r = Rng::new(7);
@@ -652,7 +652,7 @@ mod shexp {
 
 mod lobe_product {
     use super::*;
-    use lobefit_tables::{Lobe, LobeF32, LobeProduct};
+    use lobefit_tables::{Lobe, Lobe32, LobeProduct};
     use std::f64::consts::PI;
 
     fn energy() -> &'static LobeProduct {
@@ -702,10 +702,10 @@ mod lobe_product {
     }
     #[divan::bench]
     fn product_f32(b: Bencher) {
-        let xs: Vec<(LobeF32, LobeF32)> = lobes()
+        let xs: Vec<(Lobe32, Lobe32)> = lobes()
             .iter()
             .map(|(a, c)| {
-                let n = |l: &Lobe| LobeF32 {
+                let n = |l: &Lobe| Lobe32 {
                     scale: l.scale as f32,
                     axis: l.axis.as_vec3(),
                     exponent: l.exponent as f32,

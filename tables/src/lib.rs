@@ -34,9 +34,9 @@
 //! | isg-refit, isg-best | [`RefitIsg`], [`BestIsg`] ([`PaperIsg`] needs no table) | SG integrals over spherical rectangles |
 //! | sg-fit | [`SgFit`] | the SG closest to a cosine lobe ([`Sg`]: SG algebra) |
 //! | log-zh | [`LogZh`] | log-space ZH vectors of BRDFs and spherical blockers |
-//! | wedge | [`Wedges`] | height-field wedge visibility in log space |
+//! | wedge | [`Wedge`] | height-field wedge visibility in log space |
 //! | shexp | [`ShExp`] | SH exponentiation (HYB) of summed log-visibility |
-//! | wrap | [`WrapTable`] | per-band scalings of wrap lighting |
+//! | wrap | [`Wrap`] | per-band scalings of wrap lighting |
 //! | disk-light | [`DiskLight`] | SH radiance and irradiance of a disk light |
 //! | mask-weights | [`MaskWeights`] ([`meunier`]: the pipeline) | eq. 39's per-depth weights of visibility-mask leaf lobes; direct lighting with soft shadows from sphere blockers |
 //! | (no table) | [`rigs`], [`sh`], [`gaunt`] | irradiance rigs; SH basis, rotation, products |
@@ -52,6 +52,27 @@
 //! [`embedded`] static and the type's `embedded()`, and a line whose type does not
 //! read its kind fails the build. A family's file writes only its validation
 //! (`from_table`) and its lookups.
+//!
+//! ## Naming rules
+//!
+//! One name for one thing, so a renderer author can guess an API from its neighbours:
+//!
+//! - **Table types** are named after their family in CamelCase ([`CapExponent`],
+//!   [`SgFit`], [`Wedge`], [`Wrap`]); a family with several models prefixes the model
+//!   ([`RefitIsg`], [`BestIsg`]).
+//! - **f32 twins**: a function's twin is `<name>_f32` (f32 in and out, computed in f64
+//!   and rounded once); a value type's twin is `<Type>32` ([`Lobe32`], [`ProductParams32`],
+//!   [`Sg32`], [`meunier::Sphere32`]).
+//! - **`embedded()`** returns `Result<&'static Self, LoadError>`: parsed and validated
+//!   once, shared afterwards ([`Meunier::embedded`] too).
+//! - **Argument order**: the selectors first (which table, kind, order, variant), then
+//!   the continuous inputs in the order of the table's axes, then the output slice:
+//!   `LogZh::lookup(kind, order, eps, param, out)`, `Wrap::lookup(order, a, out)`.
+//! - **Errors**: a lookup's bad input is a [`LookupError`] naming the input; a file's, a
+//!   [`LoadError`]; a pipeline's error carries what a table refused as the lookup's
+//!   error ([`MeunierError::Lookup`]).
+//! - **One quadrature of each kind**: Gauss–Legendre is [`gaunt::gauss_legendre`]
+//!   (feature `writer`), shared by the fitter and its checks.
 //!
 //! ## Cargo features
 //!
@@ -71,7 +92,7 @@
 //! `Into<DVec3>`, so `[f64; 3]` works too), `Vec3` for f32 calls. Every lookup has an
 //! `_f32` twin (`e_cap_f32`, `params_f32`, `product_f32`, `product_sums_f32`,
 //! `triple_product_f32`, `canonical_f32`, `irradiance_f32`, `hyb_f32`,
-//! `hyb_threshold_f32`, `lookup_f32`, `lobe_to_sg_f32`, [`Sg32`], [`LobeF32`], …).
+//! `hyb_threshold_f32`, `lookup_f32`, `lobe_to_sg_f32`, [`Sg32`], [`Lobe32`], …).
 //! A twin takes and returns f32 and computes in f64, rounding once: its result is the
 //! f64 lookup's correctly rounded, so its error is the f64 lookup's plus at most half
 //! an f32 ulp. `lobefit check` measures every twin against the independent references
@@ -102,7 +123,7 @@
 //! assert!(s > 0.0 && s < 1.0);
 //! // Log-ZH of a spherical blocker of angular radius 0.4 rad (order 4, ε = 0.1).
 //! let mut z = [0.0; 4];
-//! LogZh::embedded().unwrap().lookup(log_zh::Kind::Blocker, 0.1, 0.4, 4, &mut z).unwrap();
+//! LogZh::embedded().unwrap().lookup(log_zh::Kind::Blocker, 4, 0.1, 0.4, &mut z).unwrap();
 //! assert!(z[0] < 0.0);
 //! // SH visibility (order 4) at the origin of two sphere blockers (centre, radius),
 //! // by HYB, in one call (log_zh::sphere_cap gives one blocker's direction and angle).
@@ -117,7 +138,7 @@
 //! assert!(i > 0.0 && i < sg.integral());
 //! // Wrap lighting's per-band scalings at a = 0.5.
 //! let mut l = [0.0; 3];
-//! WrapTable::embedded().unwrap().lookup(3, 0.5, &mut l).unwrap();
+//! Wrap::embedded().unwrap().lookup(3, 0.5, &mut l).unwrap();
 //! assert!(l[0] > l[1] && l[1] > l[2]);
 //! // Irradiance at the origin (normal +z) from a disk light 2 m above, facing down.
 //! let e = DiskLight::embedded()
@@ -161,7 +182,7 @@ pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
 pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
 pub use lobe_integral::LobeIntegral;
-pub use lobe_product::{Lobe, LobeF32, LobeProduct, ProductParams, Variant};
+pub use lobe_product::{Lobe, Lobe32, LobeProduct, ProductParams, Variant};
 pub use log_zh::LogZh;
 pub use mask_weights::{MaskMode, MaskWeights, WeightSet};
 pub use meunier::{Meunier, MeunierError};
@@ -169,8 +190,8 @@ pub use sg_fit::SgFit;
 pub use shexp::ShExp;
 pub use table::Table;
 pub use table_type::TableType;
-pub use wedge::Wedges;
-pub use wrap::WrapTable;
+pub use wedge::Wedge;
+pub use wrap::Wrap;
 
 // The one list of tables: each line generates `embedded::<STATIC>` (behind its cargo
 // feature), the type's `embedded()`-style constructor and an entry of `KINDS`; a new
@@ -184,8 +205,8 @@ table_type::table_types! {
     "isg-best"        => BestIsg::embedded,        ISG_BEST,        "embedded-isg-best";
     "sg-fit"          => SgFit::embedded,          SG_FIT,          "embedded-sg-fit";
     "log-zh"          => LogZh::embedded,          LOG_ZH,          "embedded-log-zh";
-    "wedge"           => Wedges::embedded,         WEDGE,           "embedded-wedge";
-    "wrap"            => WrapTable::embedded,      WRAP,            "embedded-wrap";
+    "wedge"           => Wedge::embedded,         WEDGE,           "embedded-wedge";
+    "wrap"            => Wrap::embedded,      WRAP,            "embedded-wrap";
     "disk-light"      => DiskLight::embedded,      DISK_LIGHT,      "embedded-disk-light";
     "shexp"           => ShExp::embedded,          SHEXP,           "embedded-shexp";
     "lobe-product"    => LobeProduct::embedded,    LOBE_PRODUCT,    "embedded-lobe-product", "the `energy` variant";

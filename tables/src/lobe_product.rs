@@ -335,7 +335,7 @@ impl Lobe {
 
 /// [`Lobe`] with an f32 interface (computed in f64, rounded once).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LobeF32 {
+pub struct Lobe32 {
     /// Scale s.
     pub scale: f32,
     /// Unit axis a.
@@ -344,7 +344,7 @@ pub struct LobeF32 {
     pub exponent: f32,
 }
 
-impl LobeF32 {
+impl Lobe32 {
     /// The lobe in f64 (exact).
     pub fn to_lobe(&self) -> Lobe {
         Lobe {
@@ -365,8 +365,8 @@ impl LobeF32 {
     }
 
     /// `l` rounded to f32; an error where the scale or exponent overflows f32.
-    pub fn from_lobe(l: &Lobe) -> Result<LobeF32, LookupError> {
-        Ok(LobeF32 {
+    pub fn from_lobe(l: &Lobe) -> Result<Lobe32, LookupError> {
+        Ok(Lobe32 {
             scale: narrow("scale", l.scale)?,
             axis: l.axis.as_vec3(),
             exponent: narrow("exponent", l.exponent)?,
@@ -376,7 +376,7 @@ impl LobeF32 {
 
 /// [`ProductParams`] in f32 (see [`LobeProduct::params_f32`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ProductParamsF32 {
+pub struct ProductParams32 {
     /// Partial scale p_r.
     pub p: f32,
     /// Fraction t ∈ [0, 1] of the arc from a1 to a2 at which the axis a_r lies.
@@ -567,9 +567,9 @@ impl LobeProduct {
 
     /// [`LobeProduct::products`] in single precision (f64 inside, rounded once), bit for
     /// bit [`LobeProduct::product_f32`].
-    pub fn products_f32(&self, pairs: &[(LobeF32, LobeF32)], out: &mut [LobeF32]) -> Result<(), LookupError> {
+    pub fn products_f32(&self, pairs: &[(Lobe32, Lobe32)], out: &mut [Lobe32]) -> Result<(), LookupError> {
         same_length(pairs.len(), out.len())?;
-        let single = |(a, b): &(LobeF32, LobeF32)| self.product_f32(a, b);
+        let single = |(a, b): &(Lobe32, Lobe32)| self.product_f32(a, b);
         if !pairs.iter().fold(true, |ok, (a, b)| {
             ok & valid_lobe(&a.to_lobe()) & valid_lobe(&b.to_lobe())
         }) {
@@ -577,7 +577,7 @@ impl LobeProduct {
         }
         for (o, (a, b)) in out.iter_mut().zip(pairs) {
             let r = self.product_valid(&a.to_lobe(), &b.to_lobe());
-            *o = LobeF32 {
+            *o = Lobe32 {
                 scale: r.scale as f32,
                 axis: r.axis.as_vec3(),
                 exponent: r.exponent as f32,
@@ -590,14 +590,14 @@ impl LobeProduct {
     }
 
     /// [`LobeProduct::product`] with an f32 interface (computed in f64, rounded once).
-    pub fn product_f32(&self, l1: &LobeF32, l2: &LobeF32) -> Result<LobeF32, LookupError> {
-        LobeF32::from_lobe(&self.product(&l1.to_lobe(), &l2.to_lobe())?)
+    pub fn product_f32(&self, l1: &Lobe32, l2: &Lobe32) -> Result<Lobe32, LookupError> {
+        Lobe32::from_lobe(&self.product(&l1.to_lobe(), &l2.to_lobe())?)
     }
 
     /// [`LobeProduct::params`] with an f32 interface (computed in f64, rounded once).
-    pub fn params_f32(&self, e1: f32, e2: f32, alpha: f32) -> Result<ProductParamsF32, LookupError> {
+    pub fn params_f32(&self, e1: f32, e2: f32, alpha: f32) -> Result<ProductParams32, LookupError> {
         let q = self.params(e1 as f64, e2 as f64, crate::error::angle_f32(alpha))?;
-        Ok(ProductParamsF32 {
+        Ok(ProductParams32 {
             p: narrow("p_r", q.p)?,
             t: narrow("t", q.t)?,
             e_r: narrow("e_r", q.e_r)?,
@@ -606,22 +606,22 @@ impl LobeProduct {
     }
 
     /// [`LobeProduct::product_sums`] with an f32 interface (computed in f64, rounded once).
-    pub fn product_sums_f32(&self, a: &[LobeF32], b: &[LobeF32], threshold: f32) -> Result<Vec<LobeF32>, LookupError> {
-        let wide = |l: &[LobeF32]| l.iter().map(LobeF32::to_lobe).collect::<Vec<_>>();
+    pub fn product_sums_f32(&self, a: &[Lobe32], b: &[Lobe32], threshold: f32) -> Result<Vec<Lobe32>, LookupError> {
+        let wide = |l: &[Lobe32]| l.iter().map(Lobe32::to_lobe).collect::<Vec<_>>();
         let r = self.product_sums(&wide(a), &wide(b), threshold as f64)?;
-        r.iter().map(LobeF32::from_lobe).collect()
+        r.iter().map(Lobe32::from_lobe).collect()
     }
 
     /// [`LobeProduct::triple_product`] with an f32 interface (computed in f64, rounded once).
     pub fn triple_product_f32(
         &self,
-        brdf: &[LobeF32],
-        lighting: &[LobeF32],
-        visibility: &[LobeF32],
+        brdf: &[Lobe32],
+        lighting: &[Lobe32],
+        visibility: &[Lobe32],
         normal: Vec3,
         threshold: f32,
     ) -> Result<f32, LookupError> {
-        let wide = |l: &[LobeF32]| l.iter().map(LobeF32::to_lobe).collect::<Vec<_>>();
+        let wide = |l: &[Lobe32]| l.iter().map(Lobe32::to_lobe).collect::<Vec<_>>();
         let v = self.triple_product(
             &wide(brdf),
             &wide(lighting),

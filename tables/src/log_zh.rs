@@ -345,7 +345,7 @@ impl LogZh {
     /// (ε, r), r ∈ [1, 128]: z_0..z_{n−1} into `out`. Exact to f32 rounding at the
     /// nodes; between them the error is up to a few 1e-3 absolute (measured in the
     /// `lobefit` tests and the README): prefer [`LogZh::lookup`] (closed form).
-    pub fn table_lookup(&self, eps: f64, r: f64, order: usize, out: &mut [f64]) -> Result<(), LookupError> {
+    pub fn table_lookup(&self, order: usize, eps: f64, r: f64, out: &mut [f64]) -> Result<(), LookupError> {
         let n = sh::check_order(order)?;
         finite("eps", eps)?;
         finite("r", r)?;
@@ -365,7 +365,7 @@ impl LogZh {
 
     /// The log-ZH vector of `kind` at ε and `param` (r for Phong, θ_b for the blocker,
     /// ignored for diffuse), by the exact closed form.
-    pub fn lookup(&self, kind: Kind, eps: f64, param: f64, order: usize, out: &mut [f64]) -> Result<(), LookupError> {
+    pub fn lookup(&self, kind: Kind, order: usize, eps: f64, param: f64, out: &mut [f64]) -> Result<(), LookupError> {
         match kind {
             Kind::Diffuse => diffuse(eps, order, out),
             Kind::Phong => phong(eps, param, order, out),
@@ -377,9 +377,9 @@ impl LogZh {
     pub fn lookup_f32(
         &self,
         kind: Kind,
+        order: usize,
         eps: f32,
         param: f32,
-        order: usize,
         out: &mut [f32],
     ) -> Result<(), LookupError> {
         let mut tmp = [0.0; MAX_ORDER];
@@ -387,14 +387,14 @@ impl LogZh {
             Kind::Blocker => crate::error::angle_f32(param),
             _ => param as f64,
         };
-        self.lookup(kind, eps as f64, param, order, &mut tmp)?;
+        self.lookup(kind, order, eps as f64, param, &mut tmp)?;
         narrow_all("z", &tmp[..order], out)
     }
 
     /// [`LogZh::table_lookup`] with an f32 interface (computed in f64, rounded once).
-    pub fn table_lookup_f32(&self, eps: f32, r: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
+    pub fn table_lookup_f32(&self, order: usize, eps: f32, r: f32, out: &mut [f32]) -> Result<(), LookupError> {
         let mut tmp = [0.0; MAX_ORDER];
-        self.table_lookup(eps as f64, r as f64, order, &mut tmp)?;
+        self.table_lookup(order, eps as f64, r as f64, &mut tmp)?;
         narrow_all("z", &tmp[..order], out)
     }
 }

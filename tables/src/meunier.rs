@@ -397,12 +397,17 @@ impl Meunier<'static> {
         feature = "embedded-cap-exponent",
         feature = "embedded-mask-weights"
     ))]
-    pub fn embedded() -> Result<Self, crate::LoadError> {
-        Ok(Meunier {
-            products: LobeProduct::embedded()?,
-            caps: CapExponent::embedded()?,
-            weights: MaskWeights::embedded()?,
+    pub fn embedded() -> Result<&'static Self, crate::LoadError> {
+        static CELL: std::sync::OnceLock<Result<Meunier<'static>, crate::LoadError>> = std::sync::OnceLock::new();
+        CELL.get_or_init(|| {
+            Ok(Meunier {
+                products: LobeProduct::embedded()?,
+                caps: CapExponent::embedded()?,
+                weights: MaskWeights::embedded()?,
+            })
         })
+        .as_ref()
+        .map_err(Clone::clone)
     }
 }
 

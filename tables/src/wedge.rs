@@ -19,7 +19,7 @@
 //! not depend on n. Values are stored as f32 pairs (hi + lo) so the sum carries
 //! ~1e-15 relative precision.
 //!
-//! **Composition** ([`Wedges::compose`]): V = Σ_k Rot_z(V_k, φ_k), the log-SH
+//! **Composition** ([`Wedge::compose`]): V = Σ_k Rot_z(V_k, φ_k), the log-SH
 //! visibility of the whole height field at a point, from its W horizon angles.
 //! All SH conventions are those of [`crate::sh`].
 
@@ -131,15 +131,15 @@ pub fn slice_log_f32(sigma: f32, eps: f32, order: usize, out: &mut [f32]) -> Res
 
 /// The wedge operators M_lin (order 8) for W ∈ {4, 8, 16, 32, 64}.
 #[derive(Debug, Clone)]
-pub struct Wedges {
+pub struct Wedge {
     table: Table,
     /// Decoded operators, [w][row][col] flattened, f64.
     m: Vec<f64>,
 }
 
-crate::table_type::impl_table_type!(Wedges: KIND, VERSION);
+crate::table_type::impl_table_type!(Wedge: KIND, VERSION);
 
-impl Wedges {
+impl Wedge {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -194,7 +194,7 @@ impl Wedges {
         Ok(self.m[(wi * ROWS as usize + row) * COLS as usize + stored_col])
     }
 
-    /// [`Wedges::m_lin`] rounded to f32 (the stored hi + lo pair, summed in f64).
+    /// [`Wedge::m_lin`] rounded to f32 (the stored hi + lo pair, summed in f64).
     pub fn m_lin_f32(&self, w: u32, order: usize, row: usize, col: usize) -> Result<f32, LookupError> {
         crate::error::narrow("M_lin", self.m_lin(w, order, row, col)?)
     }
@@ -271,7 +271,7 @@ impl Wedges {
         Ok(())
     }
 
-    /// [`Wedges::compose`] with an f32 interface (computed in f64, rounded once).
+    /// [`Wedge::compose`] with an f32 interface (computed in f64, rounded once).
     pub fn compose_f32(&self, sigma: &[f32], eps: f32, order: usize, out: &mut [f32]) -> Result<(), LookupError> {
         let n = sh::check_order(order)?;
         let wide: Vec<f64> = sigma.iter().map(|&s| s as f64).collect();

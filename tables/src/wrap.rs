@@ -19,10 +19,10 @@
 //! (erratum E5: at a = 2 the published l = 2 value is 0.15, the truth 0.1185), so
 //! they refuse a > 1 with [`LookupError::OutOfDomain`].
 //!
-//! **Table** ([`WrapTable`], kind `wrap`): λ̂_0…λ̂_7 on 129 nodes a ∈ [0, 1] (linear),
+//! **Table** ([`Wrap`], kind `wrap`): λ̂_0…λ̂_7 on 129 nodes a ∈ [0, 1] (linear),
 //! f32, for renderers that upload a 1-D texture; linear interpolation of it is good to
 //! the checker's `TABLE_INTERP_ABS` (see `lobefit check --only wrap`). The closed form
-//! is what [`WrapTable::lookup`] returns.
+//! is what [`Wrap::lookup`] returns.
 
 use std::f64::consts::PI;
 
@@ -224,13 +224,13 @@ pub fn rewrap_irradiance_f32(irr: &[f32], a: f32, out: &mut [f32]) -> Result<(),
 
 /// The wrap table: λ̂_0 … λ̂_7 against a ∈ [0, 1] (for texture upload).
 #[derive(Debug, Clone)]
-pub struct WrapTable {
+pub struct Wrap {
     table: Table,
 }
 
-crate::table_type::impl_table_type!(WrapTable: KIND, VERSION);
+crate::table_type::impl_table_type!(Wrap: KIND, VERSION);
 
-impl WrapTable {
+impl Wrap {
     /// Wraps an already loaded table, checking its kind, version and layout.
     pub fn from_table(table: Table) -> Result<Self, LoadError> {
         table.expect_kind(KIND, VERSION)?;
@@ -245,12 +245,12 @@ impl WrapTable {
         lambda_hat(order, a, out)
     }
 
-    /// [`WrapTable::lookup`] with an f32 interface (computed in f64, rounded once).
+    /// [`Wrap::lookup`] with an f32 interface (computed in f64, rounded once).
     pub fn lookup_f32(&self, order: usize, a: f32, out: &mut [f32]) -> Result<(), LookupError> {
         lambda_hat_f32(order, a, out)
     }
 
-    /// [`WrapTable::table_lookup`] with an f32 interface (computed in f64, rounded once).
+    /// [`Wrap::table_lookup`] with an f32 interface (computed in f64, rounded once).
     pub fn table_lookup_f32(&self, order: usize, a: f32, out: &mut [f32]) -> Result<(), LookupError> {
         let n = sh::check_order(order)?;
         let mut tmp = [0.0; MAX_ORDER];

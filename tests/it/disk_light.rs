@@ -217,7 +217,7 @@ fn bad_inputs() {
         Err(lobefit::tables::LoadError::WrongKind { .. })
     ));
     assert!(matches!(
-        lobefit::tables::wrap::WrapTable::from_bytes(lobefit::tables::embedded::DISK_LIGHT),
+        lobefit::tables::wrap::Wrap::from_bytes(lobefit::tables::embedded::DISK_LIGHT),
         Err(lobefit::tables::LoadError::WrongKind { .. })
     ));
     let d = table();

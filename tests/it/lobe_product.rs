@@ -7,7 +7,7 @@ use lobefit::fits::lobe_product::{reference_integral, reference_scene, Scene};
 use lobefit::rng::Rng;
 use lobefit::tables::glam::{DVec3, Vec3};
 use lobefit::tables::lobe_product::{lobe_sum_integral, peak_angle, LobeProduct, Variant, KIND_L2};
-use lobefit::tables::{format, LoadError, Lobe, LobeF32, LookupError};
+use lobefit::tables::{format, LoadError, Lobe, Lobe32, LookupError};
 
 fn energy() -> &'static LobeProduct {
     LobeProduct::embedded().expect("committed energy table")
@@ -149,7 +149,7 @@ fn exact_cases() {
 fn single_precision_agrees() {
     let t = energy();
     let (a, b) = (lobe(0.7, unit(0.3, 0.2), 12.0), lobe(1.3, unit(0.9, 2.0), 3.5));
-    let narrow = |l: &Lobe| LobeF32 {
+    let narrow = |l: &Lobe| Lobe32 {
         scale: l.scale as f32,
         axis: Vec3::new(l.axis.x as f32, l.axis.y as f32, l.axis.z as f32),
         exponent: l.exponent as f32,

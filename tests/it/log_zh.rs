@@ -61,7 +61,7 @@ fn runtime_offgrid_matches_quadrature() {
         ] {
             let want = reference_log_zh(kind, eps, p, 8).unwrap();
             let mut got = [0.0; 8];
-            table().lookup(kind, eps, p, 8, &mut got).unwrap();
+            table().lookup(kind, 8, eps, p, &mut got).unwrap();
             let mut g32 = [0f32; 8];
             match kind {
                 Kind::Blocker => rt::blocker_f32(eps as f32, p as f32, 8, &mut g32).unwrap(),
@@ -94,10 +94,10 @@ fn table_interpolation_error_is_as_documented() {
         let ri = r.round();
         let mut a = [0.0; 8];
         let mut b = [0.0; 8];
-        t.table_lookup(eps, r, 8, &mut a).unwrap();
+        t.table_lookup(8, eps, r, &mut a).unwrap();
         rt::phong(eps, r, 8, &mut b).unwrap();
         worst = worst.max(a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max));
-        t.table_lookup(eps, ri, 8, &mut a).unwrap();
+        t.table_lookup(8, eps, ri, &mut a).unwrap();
         rt::phong(eps, ri, 8, &mut b).unwrap();
         worst_int_r = worst_int_r.max(a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max));
     }

@@ -13,7 +13,7 @@ use lobefit_tables::meunier::{MaskSettings, Sphere, Sphere32, SphereLight, Spher
 use lobefit_tables::{format, Meunier, MeunierError, Table};
 
 fn pipeline() -> Meunier<'static> {
-    Meunier::embedded().expect("committed tables")
+    *Meunier::embedded().expect("committed tables")
 }
 
 fn light(c: [f64; 3], r: f64) -> SphereLight {

@@ -6,12 +6,12 @@ use std::f64::consts::PI;
 use lobefit::fits::wedge::reference_m_lin;
 use lobefit::quad::gauss_kronrod;
 use lobefit::tables::sh::{self, eval_basis};
-use lobefit::tables::wedge::{Wedges, WEDGE_COUNTS};
+use lobefit::tables::wedge::{Wedge, WEDGE_COUNTS};
 use lobefit::tables::Table;
 
-fn wedges() -> Wedges {
+fn wedges() -> Wedge {
     let t = Table::from_path(format!("{}/tables/data/wedge.lobefit", env!("CARGO_MANIFEST_DIR"))).unwrap();
-    Wedges::from_table(t).unwrap()
+    Wedge::from_table(t).unwrap()
 }
 
 /// Acceptance: every stored entry (hi + lo pair) vs the checker's GK ≤ 1e-9 relative

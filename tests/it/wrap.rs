@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use lobefit::fits::wrap::{reference_lambda, CLOSED_HIGH_ABS, CLOSED_LOW_ABS};
 use lobefit::quad::gauss_kronrod;
 use lobefit::tables::sh::eval_basis;
-use lobefit::tables::wrap::{self, lambda_hat, published, WrapTable};
+use lobefit::tables::wrap::{self, lambda_hat, published, Wrap};
 use lobefit::tables::LookupError;
 
 /// Acceptance: published form (l ≤ 2) ≤ 1e-12 and every band < 8 ≤ 1e-10 vs GK, on
@@ -108,7 +108,7 @@ fn convolve_matches_direct_integral() {
 /// reference, interpolation stays within the checker's threshold.
 #[test]
 fn committed_table() {
-    let t = WrapTable::embedded().unwrap();
+    let t = Wrap::embedded().unwrap();
     let mut worst: f64 = 0.0;
     for k in 0..=200 {
         let a = k as f64 / 200.0 + 0.0013 * (k % 3) as f64;

@@ -4,7 +4,7 @@
 
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::{
-    BestIsg, CapExponent, IsgModel, Lobe, LobeF32, LobeIntegral, LobeProduct, LookupError, PaperIsg, RefitIsg,
+    BestIsg, CapExponent, IsgModel, Lobe, Lobe32, LobeIntegral, LobeProduct, LookupError, PaperIsg, RefitIsg,
 };
 
 /// A fixed stream of uniform numbers in [0, 1).
@@ -176,12 +176,12 @@ fn lobe_product_batch_is_bitwise_and_refuses_bad_items() {
                 o.axis.to_array().map(f64::to_bits)
             );
         }
-        let narrow = |l: &Lobe| LobeF32 {
+        let narrow = |l: &Lobe| Lobe32 {
             scale: l.scale as f32,
             axis: l.axis.as_vec3(),
             exponent: l.exponent as f32,
         };
-        let p32: Vec<(LobeF32, LobeF32)> = pairs.iter().map(|(a, b)| (narrow(a), narrow(b))).collect();
+        let p32: Vec<(Lobe32, Lobe32)> = pairs.iter().map(|(a, b)| (narrow(a), narrow(b))).collect();
         let mut o32 = vec![narrow(&z(0.0)); p32.len()];
         t.products_f32(&p32, &mut o32).unwrap();
         for ((a, b), o) in p32.iter().zip(&o32) {

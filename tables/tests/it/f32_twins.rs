@@ -24,7 +24,7 @@ fn twins_round_the_f64_lookup_once() {
     rounded(q32.e_r, q.e_r);
     rounded(q32.integral, q.integral);
 
-    let lobe = |s: f32, a: Vec3, e: f32| LobeF32 {
+    let lobe = |s: f32, a: Vec3, e: f32| Lobe32 {
         scale: s,
         axis: a.normalize(),
         exponent: e,
@@ -32,7 +32,7 @@ fn twins_round_the_f64_lookup_once() {
     let brdf = [lobe(1.0, Vec3::Z, 1.0), lobe(0.5, Vec3::new(0.2, 0.0, 1.0), 40.0)];
     let light = [lobe(3.0, Vec3::new(0.0, 0.3, 1.0), 200.0)];
     let vis = [lobe(-0.5, Vec3::new(0.1, 0.3, 1.0), 500.0)];
-    let wide = |l: &[LobeF32]| l.iter().map(LobeF32::to_lobe).collect::<Vec<_>>();
+    let wide = |l: &[Lobe32]| l.iter().map(Lobe32::to_lobe).collect::<Vec<_>>();
     let t = lp
         .triple_product(&wide(&brdf), &wide(&light), &wide(&vis), DVec3::Z, 1e-6)
         .unwrap();
@@ -58,8 +58,8 @@ fn twins_round_the_f64_lookup_once() {
 
     let lz = LogZh::embedded().unwrap();
     let (mut a, mut b) = ([0.0; 6], [0.0f32; 6]);
-    lz.lookup(Kind::Phong, 0.25, 7.5, 6, &mut a).unwrap();
-    lz.lookup_f32(Kind::Phong, 0.25, 7.5, 6, &mut b).unwrap();
+    lz.lookup(Kind::Phong, 6, 0.25, 7.5, &mut a).unwrap();
+    lz.lookup_f32(Kind::Phong, 6, 0.25, 7.5, &mut b).unwrap();
     a.iter().zip(b).for_each(|(a, b)| rounded(b, *a));
     log_zh::diffuse(0.25, 6, &mut a).unwrap();
     log_zh::diffuse_f32(0.25, 6, &mut b).unwrap();
@@ -102,7 +102,7 @@ fn f32_pi_is_pi() {
     log_zh::blocker_f32(0.1, PI32, 3, &mut z).unwrap();
     LogZh::embedded()
         .unwrap()
-        .lookup_f32(Kind::Blocker, 0.1, PI32, 3, &mut z)
+        .lookup_f32(Kind::Blocker, 3, 0.1, PI32, &mut z)
         .unwrap();
     assert!(BestIsg::embedded().unwrap().s_hat_f32(PI32, PI32, 10.0).is_ok());
 }
@@ -110,7 +110,7 @@ fn f32_pi_is_pi() {
 #[test]
 fn twins_report_f32_overflow() {
     let lp = LobeProduct::embedded().unwrap();
-    let big = LobeF32 {
+    let big = Lobe32 {
         scale: 3e38,
         axis: Vec3::Z,
         exponent: 1.0,

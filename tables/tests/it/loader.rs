@@ -1284,7 +1284,7 @@ use lobefit_tables::glam::{DVec3, Vec3};
 use lobefit_tables::mask_weights::{self, MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
 use lobefit_tables::{
     disk_light, embedded, isg, lobe_product, log_zh, sg_fit, shexp, wedge, wrap, BestIsg, DiskLight, IsgModel, Lobe,
-    LobeF32, LobeProduct, RefitIsg, SgFit, KINDS,
+    Lobe32, LobeProduct, RefitIsg, SgFit, KINDS,
 };
 
 use crate::table_types::committed;
@@ -1413,11 +1413,11 @@ fn family_lookups(kind: &str, bytes: &[u8]) -> Result<Vec<f64>, LoadError> {
             let t = log_zh::LogZh::from_bytes(bytes)?;
             let mut out = [0.0; 8];
             for (eps, r) in [(0.01, 1.0), (0.3, 17.5), (0.99, 128.0)] {
-                put(t.table_lookup(eps, r, 8, &mut out).map(|_| out.to_vec()));
+                put(t.table_lookup(8, eps, r, &mut out).map(|_| out.to_vec()));
             }
         }
         "wedge" => {
-            let t = wedge::Wedges::from_bytes(bytes)?;
+            let t = wedge::Wedge::from_bytes(bytes)?;
             let mut out = [0.0; 64];
             put(t.m_lin(16, 8, 63, 15).map(|v| vec![v]));
             put(t.wedge(4, &[f64::MAX; 8], &[1.0; 8], &mut out).map(|_| out.to_vec()));
@@ -1461,7 +1461,7 @@ fn family_lookups(kind: &str, bytes: &[u8]) -> Result<Vec<f64>, LoadError> {
                 .product_sums(&huge, &huge, 0.0)
                 .map(|v| v.iter().flat_map(|l| [l.scale, l.exponent]).collect()));
             put(t.triple_product(&huge, &huge, &huge, z, 0.0).map(|v| vec![v]));
-            let f32_lobe = |s: f32| LobeF32 {
+            let f32_lobe = |s: f32| Lobe32 {
                 scale: s,
                 axis: Vec3::Z,
                 exponent: 4.0,
@@ -1491,7 +1491,7 @@ fn family_lookups(kind: &str, bytes: &[u8]) -> Result<Vec<f64>, LoadError> {
             }
         }
         "wrap" => {
-            let t = wrap::WrapTable::from_bytes(bytes)?;
+            let t = wrap::Wrap::from_bytes(bytes)?;
             let mut out = [0.0; 8];
             for a in [0.0, 0.37, 1.0] {
                 put(t.table_lookup(8, a, &mut out).map(|_| out.to_vec()));
@@ -1739,7 +1739,7 @@ fn assert_overflow<T: std::fmt::Debug>(r: Result<T, LookupError>, what: &str) {
 #[test]
 fn overflowing_results_are_errors_in_f64_and_after_narrowing_to_f32() {
     let lp = LobeProduct::embedded().unwrap();
-    let l = LobeF32 {
+    let l = Lobe32 {
         scale: 1e20,
         axis: Vec3::Z,
         exponent: 2.0,
@@ -1770,7 +1770,7 @@ fn overflowing_results_are_errors_in_f64_and_after_narrowing_to_f32() {
     assert_overflow(sh::rotate_z_f32(&[f32::MAX; 9], 0.7, &mut o32), "rotate_z_f32");
     assert_overflow(sh::rotate_z(&[f64::MAX; 9], 0.7, &mut o), "rotate_z");
     // Moderate inputs still give values.
-    assert!(lp.product_f32(&LobeF32 { scale: 2.0, ..l }, &l).is_ok());
+    assert!(lp.product_f32(&Lobe32 { scale: 2.0, ..l }, &l).is_ok());
     assert!(wrap::convolve_f32(&[1e30; 9], 0.5, &mut o32).is_ok());
 }
 

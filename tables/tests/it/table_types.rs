@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use lobefit_tables::{
     BestIsg, CapExponent, DiskLight, LoadError, LobeIntegral, LobeProduct, LogZh, MaskWeights, RefitIsg, SgFit, ShExp,
-    Table, TableType, Wedges, WrapTable, KINDS,
+    Table, TableType, Wedge, Wrap, KINDS,
 };
 
 fn data_dir() -> PathBuf {
@@ -54,8 +54,8 @@ fn families() -> Vec<Family> {
         family::<BestIsg>(),
         family::<SgFit>(),
         family::<LogZh>(),
-        family::<Wedges>(),
-        family::<WrapTable>(),
+        family::<Wedge>(),
+        family::<Wrap>(),
         family::<DiskLight>(),
         family::<ShExp>(),
         family::<LobeProduct>(),
