@@ -158,6 +158,7 @@ fn any_single_corrupted_node_fails_the_quick_check() {
     let mut rng = Rng::new(0xc0_44_u64);
     for family in registry(FitOptions::default()) {
         let kind = family.kind();
+        let started = std::time::Instant::now();
         let bytes = std::fs::read(format!("tables/data/{kind}.lobefit")).unwrap();
         let table = Table::from_bytes(&bytes).unwrap();
         let control = check_bytes(family.as_ref(), dir.path(), &bytes);
@@ -218,6 +219,8 @@ fn any_single_corrupted_node_fails_the_quick_check() {
                 tried += 1;
             }
         }
+        // Where the sweep's time goes (run with --nocapture); not asserted.
+        println!("{kind}: {:.1} s", started.elapsed().as_secs_f64());
     }
     println!("{tried} single-node corruptions, all caught");
 }

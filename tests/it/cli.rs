@@ -43,8 +43,9 @@ fn build_into(dir: &Path, threads: &str) {
 }
 
 /// Same inputs, same bytes: two builds, 1 vs 2 threads, and the committed tables.
+/// `.ci/run` proves the same with its serial rebuild against the committed tables.
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (a minute in debug): .ci/run's serial rebuild does the same"]
 fn builds_are_byte_identical_and_match_the_committed_tables() {
     let a = tempfile::tempdir().unwrap();
     let b = tempfile::tempdir().unwrap();
@@ -93,7 +94,7 @@ fn check_json_names_each_selected_family_once() {
 }
 
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (a minute in debug): .ci/run's check --quick does the same"]
 fn check_passes_on_the_committed_tables_and_emits_json() {
     let out = run(&["check", "--quick", "--json"], "");
     assert!(out.status.success(), "{}{}", text(&out.stdout), text(&out.stderr));
