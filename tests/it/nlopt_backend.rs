@@ -42,7 +42,7 @@ fn nlopt_reproduces_the_argmin_table() {
 /// (√ε of a flat objective), at every grid node.
 #[test]
 fn minimisers_agree_before_polishing() {
-    use lobefit::family::Query;
+    use lobefit::family::Fit;
     use lobefit::fits::cap_exponent::minimise;
     let fam = CapExponentFamily {
         backend: Backend::Argmin,
