@@ -15,7 +15,7 @@
 pub const COMMON: &str = include_str!("../shaders/common.wgsl");
 /// Real SH basis (any order ≤ 8, order 3 by polynomials), ZH → SH, order-3 rotation.
 pub const SH: &str = include_str!("../shaders/sh.wgsl");
-/// Lobe integral, cap exponent, lobe → SG (sg-fit), SG product, evaluation, integrals.
+/// Lobe integral, cap exponent, lobe → SG, SG product, evaluation, integrals.
 pub const LOBE: &str = include_str!("../shaders/lobe.wgsl");
 /// ISG models: paper (closed form), refit and best (textures); Ŝ, S and the patch integral.
 pub const ISG: &str = include_str!("../shaders/isg.wgsl");

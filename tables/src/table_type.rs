@@ -11,8 +11,8 @@ use crate::table::Table;
 /// A family type: a validated [`Table`] of one kind (or, for [`LobeProduct`](crate::LobeProduct),
 /// of one of its variants' kinds) with the family's typed lookups on top.
 ///
-/// Every family type also has the same functions as inherent methods (`SgFit::from_bytes`,
-/// `x.table()`, `SgFit::embedded()`), so callers need not import this trait; it is for
+/// Every family type also has the same functions as inherent methods (`T::from_bytes`,
+/// `x.table()`, `T::embedded()`), so callers need not import this trait; it is for
 /// code generic over families (a loader keyed by kind, a test over every table). The
 /// trait is about files only: the kind is the string in the file's header and metadata,
 /// the version a family-specific integer; units and domains are those of each family's
@@ -22,13 +22,13 @@ use crate::table::Table;
 /// and `embedded()` keeps it in a `static`.
 ///
 /// ```
-/// use lobefit_tables::{SgFit, TableType};
+/// use lobefit_tables::{LobeIntegral, TableType};
 /// fn load<T: TableType>(bytes: &[u8]) -> Result<T, lobefit_tables::LoadError> {
 ///     T::from_bytes(bytes)
 /// }
-/// # #[cfg(feature = "embedded-sg-fit")] {
-/// let fit: SgFit = load(lobefit_tables::embedded::SG_FIT).unwrap();
-/// assert_eq!(fit.table().meta().kind, SgFit::KIND);
+/// # #[cfg(feature = "embedded-lobe-integral")] {
+/// let t: LobeIntegral = load(lobefit_tables::embedded::LOBE_INTEGRAL).unwrap();
+/// assert_eq!(t.table().meta().kind, LobeIntegral::KIND);
 /// # }
 /// ```
 pub trait TableType: Sized + Send + Sync + 'static {
@@ -60,7 +60,7 @@ pub trait TableType: Sized + Send + Sync + 'static {
 /// hand-written inherent `from_table`, and gives it the inherent `from_bytes` and
 /// `table` that callers use without importing the trait:
 ///
-/// `impl_table_type!(SgFit: KIND, VERSION);`, with doc lines in front for `table()`
+/// `impl_table_type!(LobeIntegral: KIND, VERSION);`, with doc lines in front for `table()`
 /// (default "The underlying table."), `, kinds = [A, B]` after for a type reading
 /// several kinds.
 macro_rules! impl_table_type {
