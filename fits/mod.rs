@@ -180,10 +180,7 @@ pub fn closed_form() -> Vec<(&'static str, &'static str)> {
 /// given and returns their paths.
 pub type PlotFn = fn(&Path) -> Result<Vec<PathBuf>, String>;
 
-/// Every `lobefit plot` name of the families, with its generator (and the export
-/// study, which covers them all).
+/// Every `lobefit plot` name of the families, with its generator.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    let mut v: Vec<(&'static str, PlotFn)> = entries().iter().filter_map(|e| e.plot).collect();
-    v.push(("export", crate::export::run::plot));
-    v
+    entries().iter().filter_map(|e| e.plot).collect()
 }

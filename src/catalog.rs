@@ -23,10 +23,12 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
     }
 }
 
-/// Every `lobefit plot` name with its generator, sorted by name.
+/// Every `lobefit plot` name with its generator, sorted by name: the families', the
+/// pipelines', and the export study over every textured family.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
     let mut v = fits::plots();
     v.extend(pipelines::plots());
+    v.push(("export", crate::export::run::plot));
     v.sort_by_key(|(n, _)| *n);
     v
 }
