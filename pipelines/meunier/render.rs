@@ -215,6 +215,13 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     };
     let hits: Vec<Option<Hit>> = (0..w * h).map(|p| scene.primary(p % w, p / w, w, h)).collect();
     let lit: Vec<bool> = hits.iter().map(Option::is_some).collect();
+    if !lit.contains(&true) {
+        // Every statistic is relative to the reference's mean over these pixels.
+        return Err(format!(
+            "scene {}: no pixel of the {w}×{h} image sees geometry",
+            scene.name
+        ));
+    }
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut sum = Summary::default();
 

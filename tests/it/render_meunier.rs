@@ -128,6 +128,21 @@ fn scene_files_render_and_bad_ones_are_specific_errors() {
     assert_eq!(strip(&mine, "mine"), strip(&builtin, "fig13"));
     assert!(d.path().join("a/meunier-mine-summary.txt").exists());
 
+    // A camera that sees nothing: an error, not NaN statistics.
+    let away = lobefit::pipelines::scene::BUILTIN[0]
+        .1
+        .replace("\"target\": [0.0, 0.0, 0.3]", "\"target\": [0.0, -13.0, 8.7]");
+    let blind = d.path().join("blind.json");
+    std::fs::write(&blind, away).unwrap();
+    let out = d.path().join("blind");
+    let (code, stdout, err) = run(args(blind.to_str().unwrap(), &out));
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        stdout.is_empty() && err.contains("no pixel of the 8×6 image sees geometry"),
+        "{err}"
+    );
+    assert!(!out.exists());
+
     std::fs::write(&file, "{\"version\": 7}").unwrap();
     for (scene, want) in [
         (file.to_str().unwrap().to_string(), "version 7".to_string()),
