@@ -795,5 +795,9 @@ mod tests {
         assert!(load("/nonexistent/scene.json")
             .unwrap_err()
             .contains("/nonexistent/scene.json"));
+        // A directory (or a FIFO) is refused before reading.
+        let dir = tempfile::tempdir().unwrap();
+        let e = load(dir.path().to_str().unwrap()).unwrap_err();
+        assert!(e.contains("is not a regular file"), "{e}");
     }
 }
