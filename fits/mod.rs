@@ -18,7 +18,7 @@ pub mod wrap;
 
 use std::path::{Path, PathBuf};
 
-use crate::export::families::GpuFamily;
+use crate::export::families::{ClosedForm, GpuFamily};
 use crate::family::{EvalFlags, Fit, Query};
 
 /// Optimizer backend for families fitted by a 1-D minimiser.
@@ -84,9 +84,8 @@ pub struct Entry {
     pub eval_names: &'static [&'static str],
     /// Its textured GPU exports (one per exported table kind; empty if none).
     pub gpu: &'static [GpuFamily],
-    /// A table a shader evaluates in closed form instead, with no texture: (kind,
-    /// the shader's formula).
-    pub closed_form: Option<(&'static str, &'static str)>,
+    /// A table a shader evaluates in closed form instead, with no texture.
+    pub closed_form: Option<ClosedForm>,
     /// `lobefit plot NAME`: its figures.
     pub plot: Option<(&'static str, PlotFn)>,
     /// Its paragraph of `lobefit eval --help`: names and flags, then each input (`in`)
@@ -171,8 +170,8 @@ pub fn gpu_family(kind: &str) -> Option<GpuFamily> {
     textured().into_iter().find(|f| f.kind == kind)
 }
 
-/// Tables a shader evaluates in closed form, with no texture: (kind, formula).
-pub fn closed_form() -> Vec<(&'static str, &'static str)> {
+/// Tables a shader evaluates in closed form, with no texture.
+pub fn closed_form() -> Vec<ClosedForm> {
     entries().iter().filter_map(|e| e.closed_form).collect()
 }
 

@@ -6,7 +6,9 @@
 use std::f32::consts::{FRAC_PI_2, PI};
 
 use crate::export::families::{table_grid, GpuFamily};
+use crate::export::gpu_check::{r32, Context, Kernel, Row, Runner};
 use crate::export::layout::Sampler;
+use crate::rng::Rng;
 
 /// The export of isg-refit.
 pub const REFIT: GpuFamily = GpuFamily {
@@ -16,10 +18,17 @@ pub const REFIT: GpuFamily = GpuFamily {
     shader: "g = exp(R), h = exp(G) at γ; Ŝ = σ(g (θ − π/2)) σ(h (φ − π/2)), σ(t) = 1/(1 + exp(−t)); \
              S = Ŝ · 2π (1 − exp(−γ)) / γ",
     extra: None,
-    kernel: (
-        "    let s = lf_isg_refit(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
-        2,
-    ),
+    kernels: |_| {
+        Ok(vec![Kernel::new(
+            lobefit_tables::isg::KIND_REFIT,
+            &[0],
+            "    let s = lf_isg_refit(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
+            2,
+        )])
+    },
+    exact_fetch: false,
+    checks: &[|ctx, runner| patch(ctx, runner, 1, refit).map(|r| vec![r])],
+    timed: None,
     plot_export: true,
 };
 
@@ -46,10 +55,17 @@ pub const BEST: GpuFamily = GpuFamily {
              B = .g, D = .a; mirror where x > π/2 (d > 0): A → 1 − A, C → −C (B, D likewise \
              for φ); Ŝ = A·B + C·D; S = Ŝ · 2π E(γ) / γ",
     extra: None,
-    kernel: (
-        "    let s = lf_isg_best(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
-        2,
-    ),
+    kernels: |_| {
+        Ok(vec![Kernel::new(
+            lobefit_tables::isg::KIND_BEST,
+            &[0],
+            "    let s = lf_isg_best(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
+            2,
+        )])
+    },
+    exact_fetch: false,
+    checks: &[|ctx, runner| patch(ctx, runner, 2, best).map(|r| vec![r])],
+    timed: None,
     plot_export: true,
 };
 
@@ -93,4 +109,59 @@ fn one_minus_exp_neg(y: f32) -> f32 {
     } else {
         1.0 - (-y).exp()
     }
+}
+
+/// The ISG patch integral of a textured model (`lf_isg_patch`, `model` 1 refit or 2
+/// best, `eval` its CPU emulation) at random patches: GPU against the same four
+/// corners through the CPU emulation, and against the family's reference Ŝ at the
+/// corners (limit: 4 × the family's Ŝ limit, in units of the normaliser
+/// 2π(1 − e^{−γ})/γ).
+fn patch(
+    ctx: &Context,
+    runner: &dyn Runner,
+    model: u32,
+    eval: fn(&[Sampler], &[f32]) -> Vec<f32>,
+) -> Result<Row, String> {
+    let samples = crate::export::gpu_check::WORLD_SAMPLES;
+    let mut rng = Rng::new(ctx.seed ^ 0x9a7c);
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|_| {
+            let g = rng.range(0.5f64.ln(), 1e4f64.ln()).exp();
+            let pi = std::f64::consts::PI;
+            let (a, b) = (rng.range(0.0, pi), rng.range(0.0, pi));
+            let (c, d) = (rng.range(0.0, pi), rng.range(0.0, pi));
+            vec![g, a.min(b), a.max(b), c.min(d), c.max(d)]
+                .into_iter()
+                .map(r32)
+                .collect()
+        })
+        .collect();
+    let body = format!("    Y[o] = lf_isg_patch(T, S, P, {model}u, x1, x2, x3, x4, x0) / lf_isg_normaliser(x0);");
+    let kind = ctx.family.kind();
+    let got = runner.run(&Kernel::new(&format!("{kind} patch"), &[0], &body, 1), &inputs)?;
+    let corners = |x: &[f64], f: &dyn Fn(f64, f64, f64) -> Result<f64, String>| -> Result<f64, String> {
+        Ok(f(x[0], x[2], x[4])? - f(x[0], x[1], x[4])? - f(x[0], x[2], x[3])? + f(x[0], x[1], x[3])?)
+    };
+    let smp = ctx.samplers;
+    let emu: Vec<f64> = inputs
+        .iter()
+        .map(|x| corners(x, &|g, t, p| Ok(eval(smp, &[g as f32, t as f32, p as f32])[0] as f64)))
+        .collect::<Result<_, _>>()?;
+    let refs: Vec<f64> = inputs
+        .iter()
+        .map(|x| corners(x, &|g, t, p| Ok(ctx.family.reference(&[g, t, p])?[0])))
+        .collect::<Result<_, _>>()?;
+    let max_abs = |want: &[f64]| got.iter().zip(want).map(|(g, w)| (g[0] - w).abs()).fold(0.0, f64::max);
+    let limit = 4.0 * ctx.offgrid_limit("s_hat").unwrap_or(0.0);
+    // Absolute, in units of the normaliser: the values lie in [−1, 1].
+    Ok(Row {
+        function: format!("{kind} patch"),
+        storage: ctx.storage.to_string(),
+        filter: ctx.filter.name().into(),
+        samples,
+        vs_cpu: max_abs(&emu),
+        cpu_what: "emulation (abs)",
+        vs_ref: vec![("patch / normaliser max_abs".into(), max_abs(&refs), limit)],
+        info: Vec::new(),
+    })
 }

@@ -6,6 +6,8 @@
 //! form 2π/(e+1). Reference (checker): the closed form.
 //! Layout and encoding: see `lobefit_tables::lobe_integral`.
 
+pub mod gpu;
+
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use lobefit_tables::format::Threshold;
@@ -148,7 +150,7 @@ pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
     eval: None,
     eval_names: &[],
     gpu: &[],
-    closed_form: Some((lobefit_tables::lobe_integral::KIND, "∫ max(a·v, 0)^e dω = 2π / (e + 1)")),
+    closed_form: Some(gpu::CLOSED),
     plot: None,
     eval_help: "\
 lobe-integral

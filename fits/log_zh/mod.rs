@@ -9,6 +9,7 @@
 //! Gauss–Kronrod projection of the definition, split at the horizon and at t_ε.
 
 pub mod eps_study;
+pub mod gpu;
 
 use std::f64::consts::PI;
 
@@ -384,10 +385,7 @@ pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
     }),
     eval_names: &[],
     gpu: &[],
-    closed_form: Some((
-        lobefit_tables::log_zh::KIND,
-        "diffuse, Phong and blocker log-ZH vectors in closed form (lobefit_tables::log_zh::{diffuse, phong, blocker})",
-    )),
+    closed_form: Some(gpu::CLOSED),
     plot: Some(("log-zh", eps_study::plot)),
     eval_help: "\
 log-zh  [--kind diffuse|phong|blocker] (default phong)  [--order N] (1..8, default 4)

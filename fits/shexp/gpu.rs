@@ -16,7 +16,9 @@ use lobefit_tables::shexp::{one_minus_cos, ShExp, OL_THRESHOLD, ORDER_MAX, ORDER
 use lobefit_tables::{Axis, Table};
 
 use crate::export::families::{ExtraError, GpuFamily};
+use crate::export::gpu_check::{scaled_diff, Context, Kernel, Row, Runner};
 use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler, MAX_SCALE};
+use crate::export::run::TextureEntry;
 use crate::export::{Storage, MAX_1D_2D_EXTENT};
 
 /// The export of shexp.
@@ -34,11 +36,18 @@ pub const GPU: GpuFamily = GpuFamily {
              until s = ‖f̂‖/2^k ≤ T_n; (a, b) = exp of the linear sample at s; OL: y₀₀ → a √(4π), \
              the rest × b/2^k; square k times (SH products); × exp(f_0/√(4π))",
     extra: Some(hyb_errors),
-    kernel: (
-        // Per order: `lobefit-gpu` runs shexp_body(n) for n = 3..8, outputs concatenated.
-        "",
-        (3 + 3) + (4 + 3) + (5 + 3) + (6 + 3) + (7 + 3) + (8 + 3),
-    ),
+    kernels: |textures| (ORDER_MIN..=ORDER_MAX).map(|n| order_kernel(textures, n)).collect(),
+    exact_fetch: false,
+    checks: &[hyb_check],
+    timed: Some(|textures, points| {
+        let norms: Vec<Vec<f64>> = (0..points.len())
+            .map(|i| vec![OL_THRESHOLD[ORDER_MAX - ORDER_MIN] * i as f64 / (points.len() - 1).max(1) as f64])
+            .collect();
+        Ok(vec![
+            (order_kernel(textures, ORDER_MAX)?, points.to_vec()),
+            (hyb_kernel(textures, ORDER_MAX)?, norms),
+        ])
+    }),
     plot_export: false,
 };
 
@@ -261,4 +270,105 @@ fn sample(s: &Sampler, theta: f32, k: usize) -> Vec<f32> {
     // The line through texels j, j + 1, at x texels from j.
     let (a, b) = (s.fetch(&[j]), s.fetch(&[j + 1]));
     (0..k).map(|c| a[c] + x * (b[c] - a[c])).collect()
+}
+
+/// The index of the texture with file stem `stem`.
+fn texture(textures: &[TextureEntry], stem: &str) -> Result<usize, String> {
+    textures
+        .iter()
+        .position(|e| e.file.split('.').next() == Some(stem))
+        .ok_or_else(|| format!("shexp: the export lacks texture {stem}"))
+}
+
+/// Order n's lookup: f_0..f_{n−1}, ‖f̂‖, a, b at θ_b = x0 from texture `shexp-n<n>`.
+fn order_kernel(textures: &[TextureEntry], n: usize) -> Result<Kernel, String> {
+    let body = format!(
+        "    let r = lf_shexp(T, S, P, {n}u, x0);\n    for (var l = 0u; l < {n}u; l++) {{\n        Y[o + l] = r.f[l];\n    }}\n    \
+         Y[o + {n}u] = r.norm;\n    Y[o + {}u] = r.a;\n    Y[o + {}u] = r.b;",
+        n + 1,
+        n + 2
+    );
+    let t = texture(textures, &format!("shexp-n{n}"))?;
+    Ok(Kernel::new(&format!("shexp order {n}"), &[t], &body, n + 3))
+}
+
+/// Order n's HYB a, b at ‖f̂‖ = x0 from texture `shexp-hyb-n<n>`.
+fn hyb_kernel(textures: &[TextureEntry], n: usize) -> Result<Kernel, String> {
+    let t = texture(textures, &format!("shexp-hyb-n{n}"))?;
+    Ok(Kernel::new(
+        "shexp HYB a, b",
+        &[t],
+        "    let ab = lf_shexp_hyb_ab(T, S, P, x0);\n    Y[o] = ab.x;\n    Y[o + 1u] = ab.y;",
+        2,
+    ))
+}
+
+/// shexp's HYB textures on the GPU (`lf_shexp_hyb_ab`): per order, caps whose
+/// reference ‖f̂‖ is at most T_n (θ_b half uniform, half log-uniform down to 1e-4 rad,
+/// as the export measures them), looked up at the reference ‖f̂‖ rounded to f32;
+/// against the CPU emulation of the texture and against the reference (a, b), held to
+/// the manifest's promise for `n<n>_a(norm)`, `n<n>_b(norm)`.
+fn hyb_check(ctx: &Context, runner: &dyn Runner) -> Result<Vec<Row>, String> {
+    let per_order = ctx.samples / (ORDER_MAX - ORDER_MIN + 1);
+    let (mut worst_cpu, mut vs_ref) = (0.0f64, Vec::new());
+    for n in ORDER_MIN..=ORDER_MAX {
+        let top = OL_THRESHOLD[n - ORDER_MIN];
+        // θ_b where the reference ‖f̂‖ reaches T_n (monotone below it).
+        let (mut lo, mut hi) = (0.0, lobefit_tables::shexp::THETA_MAX);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if super::reference_point(mid, n)?.1 <= top {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let mut rng = crate::rng::Rng::new(ctx.seed ^ (0x4750_4859 + n as u64));
+        let refs: Vec<(f64, f64, f64)> = (0..per_order)
+            .map(|k| {
+                let t = if k % 2 == 0 {
+                    rng.range(0.0, lo)
+                } else {
+                    rng.range(1e-4f64.ln(), lo.ln()).exp()
+                };
+                super::reference_point(t, n).map(|(_, norm, a, b)| (norm, a, b))
+            })
+            .collect::<Result<_, _>>()?;
+        let inputs: Vec<Vec<f64>> = refs
+            .iter()
+            .map(|r| vec![f64::from((r.0 as f32).min(top as f32))])
+            .collect();
+        let kernel = hyb_kernel(ctx.textures, n)?;
+        let got = runner.run(&kernel, &inputs)?;
+        let sampler = &ctx.samplers[kernel.textures[0]];
+        let emu: Vec<Vec<f64>> = inputs
+            .iter()
+            .map(|x| sampler.sample(&[x[0] as f32]).iter().map(|&v| f64::from(v)).collect())
+            .collect();
+        worst_cpu = worst_cpu.max(scaled_diff(&got, &emu).0);
+        for (k, q) in ["a", "b"].iter().enumerate() {
+            let output = format!("n{n}_{q}(norm)");
+            let measured = got
+                .iter()
+                .zip(&refs)
+                .map(|(g, r)| crate::check::rel_err(g[k], if k == 0 { r.1 } else { r.2 }))
+                .fold(0.0, f64::max);
+            let promise = ctx.promise(&output, "offgrid.max_rel").unwrap_or(super::OFFGRID_REL);
+            vs_ref.push((
+                format!("{output} max_rel"),
+                measured,
+                promise * (1.0 + crate::export::gpu_check::PROMISE_SLACK),
+            ));
+        }
+    }
+    Ok(vec![Row {
+        function: "shexp HYB a, b at |f|".into(),
+        storage: ctx.storage.to_string(),
+        filter: ctx.filter.name().into(),
+        samples: per_order * (ORDER_MAX - ORDER_MIN + 1),
+        vs_cpu: worst_cpu,
+        cpu_what: "emulation",
+        vs_ref,
+        info: Vec::new(),
+    }])
 }

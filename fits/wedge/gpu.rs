@@ -5,6 +5,7 @@ use lobefit_tables::wedge::WEDGE_COUNTS;
 use lobefit_tables::Table;
 
 use crate::export::families::GpuFamily;
+use crate::export::gpu_check::{r32, vector_diff, Context, Kernel, Row, Runner, WORLD_SAMPLES};
 use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler};
 use crate::export::Storage;
 
@@ -17,10 +18,17 @@ pub const GPU: GpuFamily = GpuFamily {
              no filtering; the order-n operator is rows < n², columns j and 8 + j for j < n; \
              V = M_lin [v_k; v_{k+1}] as a mat-vec in the shader",
     extra: None,
-    kernel: (
-        "    let w = u32(round(log2(x0))) - 2u;\n    Y[o] = lf_wedge_entry(T, P, w, u32(x1), u32(x2));",
-        1,
-    ),
+    kernels: |_| {
+        Ok(vec![Kernel::new(
+            lobefit_tables::wedge::KIND,
+            &[0],
+            "    let w = u32(round(log2(x0))) - 2u;\n    Y[o] = lf_wedge_entry(T, P, w, u32(x1), u32(x2));",
+            1,
+        )])
+    },
+    exact_fetch: true,
+    checks: &[apply],
+    timed: None,
     plot_export: false,
 };
 
@@ -51,4 +59,48 @@ fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {
         // No such operator: the runtime answers an error, a shader has no entry.
         None => vec![f32::NAN],
     }
+}
+
+/// `lf_wedge_apply` (order 8, every W) against the same mat-vec in f64 over the CPU's
+/// fetch of the exported entries; vector-relative (see [`vector_diff`]).
+fn apply(ctx: &Context, runner: &dyn Runner) -> Result<Vec<Row>, String> {
+    let mut rng = crate::rng::Rng::new(ctx.seed ^ 0x3ed6e);
+    let inputs: Vec<Vec<f64>> = (0..WORLD_SAMPLES)
+        .map(|k| {
+            let mut x = vec![(k % 5) as f64];
+            x.extend((0..16).map(|_| r32(rng.range(-5.0, 0.0))));
+            x
+        })
+        .collect();
+    let body = "    var va: array<f32, 8>;\n    var vb: array<f32, 8>;\n    for (var k = 0u; k < 8u; k++) {\n        \
+                va[k] = X[i * 17u + 1u + k];\n        vb[k] = X[i * 17u + 9u + k];\n    }\n    \
+                let z = lf_wedge_apply(T, P, u32(x0), 8u, va, vb);\n    for (var k = 0u; k < 64u; k++) {\n        Y[o + k] = z[k];\n    }";
+    let got = runner.run(&Kernel::new("wedge apply n8", &[0], body, 64), &inputs)?;
+    let smp = &ctx.samplers[0];
+    let want: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| {
+            let w = x[0] as usize;
+            (0..64)
+                .map(|row| {
+                    (0..8)
+                        .map(|j| {
+                            smp.fetch(&[w, row, j])[0] as f64 * x[1 + j]
+                                + smp.fetch(&[w, row, 8 + j])[0] as f64 * x[9 + j]
+                        })
+                        .sum()
+                })
+                .collect()
+        })
+        .collect();
+    Ok(vec![Row {
+        function: "wedge apply n8".into(),
+        storage: ctx.storage.to_string(),
+        filter: "fetch".into(),
+        samples: WORLD_SAMPLES,
+        vs_cpu: vector_diff(&got, &want),
+        cpu_what: "emulation, f64",
+        vs_ref: Vec::new(),
+        info: Vec::new(),
+    }])
 }

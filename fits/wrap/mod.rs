@@ -9,6 +9,8 @@
 //! (checker): the definition by adaptive Gauss–Kronrod, valid for any a ≥ 0 (so it
 //! also shows erratum E5: the published form is wrong for a > 1).
 
+pub mod gpu;
+
 use lobefit_tables::format::Threshold;
 use lobefit_tables::sh::MAX_ORDER;
 use lobefit_tables::wrap::{self as rt, Wrap, A_MAX, A_MIN, A_NODES, CHANNELS};
@@ -305,10 +307,7 @@ pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
     }),
     eval_names: &[],
     gpu: &[],
-    closed_form: Some((
-        lobefit_tables::wrap::KIND,
-        "λ̂_l(a) closed form (lobefit_tables::wrap::lambda_hat): polynomials in a per band, no texture",
-    )),
+    closed_form: Some(gpu::CLOSED),
     plot: None,
     eval_help: "\
 wrap  [--order N] (1..8, default 4)

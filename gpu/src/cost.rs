@@ -3,17 +3,14 @@
 
 use std::time::Instant;
 
+use lobefit::export::gpu_check::Kernel;
 use lobefit::export::layout::Filter;
-use lobefit::export::run::{family_of, sample_points};
+use lobefit::export::run::{family_of, sample_points, TextureEntry};
 use lobefit::export::Storage;
-use lobefit::family::Query;
-use lobefit::fits::log_zh::LogZhFamily;
-use lobefit::fits::wrap::WrapFamily;
-use lobefit::rng::Rng;
-use lobefit_tables::log_zh::Kind;
 
-use crate::conformance::{dummy_texture, kernel, kernel_with, lf_tex, shexp_body, textured_body, Export};
-use crate::device::{wgsl_texture_type, Gpu};
+use crate::conformance::{dummy_texture, Export};
+use crate::device::{Gpu, GpuTexture};
+use crate::kernel::Bound;
 
 /// Items per timed dispatch.
 pub const ITEMS: usize = 1 << 18;
@@ -53,8 +50,8 @@ fn time(
     gpu: &Gpu,
     src: &str,
     params: &[u8],
-    tex: &crate::device::GpuTexture,
-    second: Option<(&[u8], &crate::device::GpuTexture)>,
+    tex: &GpuTexture,
+    second: Option<(&[u8], &GpuTexture)>,
     points: &[Vec<f64>],
     n_out: usize,
 ) -> Result<f64, String> {
@@ -80,130 +77,71 @@ fn time(
     Ok(3.0 * ITEMS as f64 / (t4 - t1).max(1e-9))
 }
 
-/// The costs of the textured families of `export` (manual filtering) and the closed forms.
+/// Sample points per timed function.
+const POINTS: usize = 2000;
+
+/// The costs of the textured families of `export` (manual filtering: what each family
+/// times, `GpuFamily::timed`) and of the closed forms.
 pub fn costs(gpu: &Gpu, export: &Export) -> Result<Vec<Cost>, String> {
     let m = &export.manifest;
+    let dummy = gpu.upload(&dummy_texture(), Storage::F32)?;
     let mut out = Vec::new();
     for (f, texs) in m.families.iter().zip(&export.textures) {
-        let Some((body, n_out)) = textured_body(&f.family) else {
-            continue;
-        };
+        let gpu_family = lobefit::fits::gpu_family(&f.family).ok_or_else(|| format!("{}: no GPU layout", f.family))?;
         let family = family_of(&f.family).ok_or_else(|| format!("unknown family {:?}", f.family))?;
-        let points = sample_points(family.as_ref(), 2000, m.seed)?;
-        let by_name = |name: &str| {
-            texs.iter()
-                .find(|(e, _)| e.file.split('.').next() == Some(name))
-                .ok_or_else(|| format!("{}: the export lacks texture {name}", f.family))
+        let points = sample_points(family.as_ref(), POINTS, m.seed)?;
+        let entries: Vec<TextureEntry> = texs.iter().map(|(e, _)| e.clone()).collect();
+        let timed = match gpu_family.timed {
+            Some(timed) => timed(&entries, &points)?,
+            None => (gpu_family.kernels)(&entries)?
+                .into_iter()
+                .map(|k| (k, points.clone()))
+                .collect(),
         };
-        if f.family == "shexp" {
-            // Order 8, the largest: f_0..f_7, ‖f̂‖, a, b at θ_b.
-            let (entry, tex) = by_name("shexp-n8")?;
-            let up = gpu.upload(tex, m.storage)?;
-            let src = kernel(wgsl_texture_type(tex), 1, 11, &shexp_body(8));
-            out.push(Cost {
-                function: format!("shexp order 8 ({})", m.storage),
-                spirv: spirv_instructions(&src)?,
-                per_second: time(gpu, &src, &lf_tex(entry, Filter::Manual), &up, None, &points, 11)?,
-            });
-            let (entry, tex) = by_name("shexp-hyb-n8")?;
-            let up = gpu.upload(tex, m.storage)?;
-            let src = kernel(
-                wgsl_texture_type(tex),
-                1,
-                2,
-                "    let ab = lf_shexp_hyb_ab(T, S, P, x0);\n    Y[o] = ab.x;\n    Y[o + 1u] = ab.y;",
-            );
-            let norms: Vec<Vec<f64>> = (0..2000).map(|i| vec![0.015625 * i as f64 / 1999.0]).collect();
-            out.push(Cost {
-                function: format!("shexp HYB a, b ({})", m.storage),
-                spirv: spirv_instructions(&src)?,
-                per_second: time(gpu, &src, &lf_tex(entry, Filter::Manual), &up, None, &norms, 2)?,
-            });
-            continue;
+        let uploaded: Vec<GpuTexture> = texs
+            .iter()
+            .map(|(_, t)| gpu.upload(t, m.storage))
+            .collect::<Result<_, _>>()?;
+        let bound = Bound {
+            gpu,
+            entries: &entries,
+            uploaded: &uploaded,
+            dummy: &dummy,
+            filter: Filter::Manual,
+        };
+        for (k, inputs) in timed {
+            out.push(cost(&bound, &k, &inputs, &format!("{} ({})", k.name, m.storage))?);
         }
-        let (entry, tex) = &texs[0];
-        let up = gpu.upload(tex, m.storage)?;
-        // The lobe products' ln W texture rides along.
-        let second = if f.family.starts_with("lobe-product") {
-            let (e2, t2) = by_name(&format!("{}-lnw", f.family))?;
-            Some((
-                lf_tex(e2, Filter::Manual),
-                gpu.upload(t2, m.storage)?,
-                wgsl_texture_type(t2),
-            ))
-        } else {
-            None
-        };
-        let src = kernel_with(
-            wgsl_texture_type(tex),
-            second.as_ref().map(|s| s.2),
-            family.inputs().len(),
-            n_out,
-            body,
-        );
-        out.push(Cost {
-            function: format!("{} ({})", f.family, m.storage),
-            spirv: spirv_instructions(&src)?,
-            per_second: time(
-                gpu,
-                &src,
-                &lf_tex(entry, Filter::Manual),
-                &up,
-                second.as_ref().map(|s| (s.0.as_slice(), &s.1)),
-                &points,
-                n_out,
-            )?,
-        });
     }
-    let dummy = gpu.upload(&dummy_texture(), Storage::F32)?;
-    let eight = |call: &str| {
-        format!("    let z = {call};\n    for (var k = 0u; k < 8u; k++) {{\n        Y[o + k] = z[k];\n    }}")
+    let bound = Bound {
+        gpu,
+        entries: &[],
+        uploaded: &[],
+        dummy: &dummy,
+        filter: Filter::Manual,
     };
-    let li = family_of("lobe-integral").ok_or("lobe-integral: not in the registry")?;
-    let closed: Vec<(&str, Box<dyn Query>, String, usize)> = vec![
-        ("lobe-integral", li, "    Y[o] = lf_lobe_integral(x0);".into(), 1),
-        (
-            "wrap (8 bands)",
-            Box::new(WrapFamily::default()),
-            eight("lf_wrap_lambda_hat(8u, x0)"),
-            8,
-        ),
-        (
-            "log-zh phong (n 8)",
-            Box::new(LogZhFamily {
-                kind: Kind::Phong,
-                order: 8,
-            }),
-            eight("lf_log_zh_phong(x0, x1, 8u)"),
-            8,
-        ),
-        (
-            "log-zh blocker (n 8)",
-            Box::new(LogZhFamily {
-                kind: Kind::Blocker,
-                order: 8,
-            }),
-            eight("lf_log_zh_blocker(x0, x1, 8u)"),
-            8,
-        ),
-    ];
-    for (name, fam, body, n_out) in closed {
-        let mut rng = Rng::new(m.seed);
-        let points: Vec<Vec<f64>> = (0..2000).map(|_| fam.sample(&mut rng)).collect();
-        let src = kernel("texture_2d<f32>", fam.inputs().len(), n_out, &body);
-        out.push(Cost {
-            function: name.into(),
-            spirv: spirv_instructions(&src)?,
-            per_second: time(
-                gpu,
-                &src,
-                &[0u8; crate::kernel::LF_TEX_SIZE],
-                &dummy,
-                None,
-                &points,
-                n_out,
-            )?,
-        });
+    for c in lobefit::fits::closed_form() {
+        for (k, inputs) in (c.timed)(POINTS, m.seed) {
+            out.push(cost(&bound, &k, &inputs, &k.name)?);
+        }
     }
     Ok(out)
+}
+
+/// The cost row of kernel `k` over `inputs`, its textures bound by `bound`.
+fn cost(bound: &Bound, k: &Kernel, inputs: &[Vec<f64>], function: &str) -> Result<Cost, String> {
+    let p = bound.prepare(k, inputs.first().map_or(1, |x| x.len()))?;
+    Ok(Cost {
+        function: function.into(),
+        spirv: spirv_instructions(&p.source)?,
+        per_second: time(
+            bound.gpu,
+            &p.source,
+            &p.params,
+            p.texture,
+            p.second.as_ref().map(|(b, t)| (b.as_slice(), *t)),
+            inputs,
+            k.n_out,
+        )?,
+    })
 }

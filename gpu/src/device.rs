@@ -23,6 +23,8 @@ pub struct GpuTexture {
     view: wgpu::TextureView,
     view_dimension: wgpu::TextureViewDimension,
     filterable: bool,
+    /// The WGSL type a kernel declares for it ([`wgsl_texture_type`]).
+    pub wgsl_type: &'static str,
 }
 
 /// The WGSL type a kernel declares for a texture of `t` (see [`Gpu::upload`]).
@@ -122,6 +124,7 @@ impl Gpu {
         });
         Ok(GpuTexture {
             _texture: texture,
+            wgsl_type: wgsl_texture_type(t),
             view,
             view_dimension,
             filterable: storage == Storage::F16 || self.float32_filterable,

@@ -1,9 +1,13 @@
 //! Kernel plumbing: the `LfTex` uniform of a texture and the compute kernel around a
-//! family's or function's body (the shader library, the bindings of `Gpu::run`).
+//! family's or function's body (the shader library, the bindings of `Gpu::run`), and
+//! the conformance's [`Runner`] on a device.
 
+use lobefit::export::gpu_check::{Kernel, Runner};
 use lobefit::export::layout::Filter;
 use lobefit::export::run::TextureEntry;
 use lobefit_tables::Mapping;
+
+use crate::device::{Gpu, GpuTexture};
 
 /// Bytes of the uniform `LfTex` (tables/shaders/common.wgsl): 40 vec4.
 pub const LF_TEX_SIZE: usize = 640;
@@ -91,4 +95,200 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
 ",
         lib = lobefit_tables::shaders::library()
     )
+}
+
+/// Runs the conformance's kernels ([`Kernel`]) on `gpu` with a family's uploaded
+/// textures bound under one filter; a kernel naming no texture gets `dummy`.
+pub struct Bound<'a> {
+    /// The device.
+    pub gpu: &'a Gpu,
+    /// The family's textures as exported, in `grids` order.
+    pub entries: &'a [TextureEntry],
+    /// The same, uploaded.
+    pub uploaded: &'a [GpuTexture],
+    /// A texture for kernels that sample nothing.
+    pub dummy: &'a GpuTexture,
+    /// The filter (`LfTex.mode`).
+    pub filter: Filter,
+}
+
+/// A kernel ready to dispatch: its WGSL source, `LfTex` bytes and texture, and a
+/// second texture with its `LfTex`.
+pub struct Prepared<'a> {
+    /// WGSL source.
+    pub source: String,
+    /// The first texture's `LfTex` (zeros for none).
+    pub params: Vec<u8>,
+    /// The first texture (the dummy for none).
+    pub texture: &'a GpuTexture,
+    /// The second texture and its `LfTex`.
+    pub second: Option<(Vec<u8>, &'a GpuTexture)>,
+}
+
+impl<'a> Bound<'a> {
+    /// `k` over points of `n_in` inputs, with its textures bound.
+    pub fn prepare(&self, k: &Kernel, n_in: usize) -> Result<Prepared<'a>, String> {
+        let tex = |i: usize| -> Result<(&TextureEntry, &'a GpuTexture), String> {
+            match (self.entries.get(i), self.uploaded.get(i)) {
+                (Some(e), Some(t)) => Ok((e, t)),
+                _ => Err(format!("{}: no texture {i} in this export", k.name)),
+            }
+        };
+        Ok(match *k.textures.as_slice() {
+            [] => Prepared {
+                source: kernel("texture_2d<f32>", n_in, k.n_out, &k.body),
+                params: vec![0u8; LF_TEX_SIZE],
+                texture: self.dummy,
+                second: None,
+            },
+            [a] => {
+                let (e, t) = tex(a)?;
+                Prepared {
+                    source: kernel(t.wgsl_type, n_in, k.n_out, &k.body),
+                    params: lf_tex(e, self.filter),
+                    texture: t,
+                    second: None,
+                }
+            }
+            [a, b] => {
+                let ((e, t), (e2, t2)) = (tex(a)?, tex(b)?);
+                Prepared {
+                    source: kernel_with(t.wgsl_type, Some(t2.wgsl_type), n_in, k.n_out, &k.body),
+                    params: lf_tex(e, self.filter),
+                    texture: t,
+                    second: Some((lf_tex(e2, self.filter), t2)),
+                }
+            }
+            _ => return Err(format!("{}: a kernel binds at most two textures", k.name)),
+        })
+    }
+}
+
+impl Runner for Bound<'_> {
+    fn run(&self, k: &Kernel, inputs: &[Vec<f64>]) -> Result<Vec<Vec<f64>>, String> {
+        let Some(n_in) = inputs.first().map(|x| x.len()) else {
+            return Ok(Vec::new());
+        };
+        let p = self.prepare(k, n_in)?;
+        let flat: Vec<f32> = inputs.iter().flat_map(|x| x.iter().map(|&v| v as f32)).collect();
+        let out = self.gpu.run_with(
+            &p.source,
+            &p.params,
+            p.texture,
+            p.second.as_ref().map(|(b, t)| (b.as_slice(), *t)),
+            &flat,
+            inputs.len(),
+            k.n_out,
+        )?;
+        Ok(out
+            .chunks(k.n_out)
+            .map(|c| c.iter().map(|&v| f64::from(v)).collect())
+            .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use lobefit::export::Storage;
+
+    use super::*;
+
+    fn tempdir() -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!(
+            "lobefit-gpu-test-{}-{:?}",
+            std::process::id(),
+            std::thread::current().id()
+        ));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// `lf_tex` writes the bytes where the WGSL struct `LfTex` has its members (the
+    /// struct's layout as naga lays it out for a uniform).
+    #[test]
+    fn lf_tex_matches_the_wgsl_struct() {
+        let (module, _) = lobefit::export::shaders::module().unwrap();
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        let (h, ty) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some("LfTex"))
+            .unwrap();
+        assert_eq!(layouter[h].size as usize, LF_TEX_SIZE);
+        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!("LfTex is not a struct")
+        };
+        let offsets: Vec<(String, u32)> = members.iter().map(|m| (m.name.clone().unwrap(), m.offset)).collect();
+        let want = [
+            ("axis", 0),
+            ("map", 48),
+            ("offset", 96),
+            ("scale", 144),
+            ("trend", 192),
+            ("decode", 576),
+            ("mode", 624),
+        ];
+        for ((name, off), (wn, wo)) in offsets.iter().zip(want) {
+            assert_eq!((name.as_str(), *off), (wn, wo));
+        }
+        // A texture entry's axis constants land in axis[0], its mode in `mode`.
+        let dir = tempdir();
+        let opts = lobefit::export::run::ExportOptions {
+            only: vec!["cap-exponent".into()],
+            format: lobefit::export::Format::Raw,
+            storage: Storage::F32,
+            scale: 1.0,
+            allow_lossy: false,
+        };
+        let m = lobefit::export::run::export(&opts, &dir).unwrap();
+        let t = &m.families[0].textures[0];
+        let b = lf_tex(t, Filter::Hardware);
+        assert_eq!(b.len(), LF_TEX_SIZE);
+        let f = |off: usize| f32::from_le_bytes(b[off..off + 4].try_into().unwrap());
+        assert_eq!(f(0), t.axes[0].mapped_lo as f32);
+        assert_eq!(f(4), t.axes[0].mapped_hi as f32);
+        assert_eq!(f(8), t.axes[0].axis.count as f32);
+        assert_eq!(f(12), 3.0, "cap-exponent's axis is logit");
+        assert_eq!(u32::from_le_bytes(b[624..628].try_into().unwrap()), 1);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// f16 lobe-product: every `*_compressed` channel gets the export's width in
+    /// `decode` (vec4 36 + layer), the others 0; the 1D ln W texture's six trend
+    /// coefficients land at vec4 12 + 2k (c0..c3) and 13 + 2k (c4, c5).
+    #[test]
+    fn lf_tex_carries_compression_and_quintic_trends() {
+        let dir = tempdir().join("lp16");
+        let opts = lobefit::export::run::ExportOptions {
+            only: vec!["lobe-product-l2".into()],
+            format: lobefit::export::Format::Raw,
+            storage: Storage::F16,
+            scale: 0.25,
+            allow_lossy: true,
+        };
+        let m = lobefit::export::run::export(&opts, &dir).unwrap();
+        let texs = &m.families[0].textures;
+        let f = |b: &[u8], vec4: usize, c: usize| {
+            let off = 16 * vec4 + 4 * c;
+            f32::from_le_bytes(b[off..off + 4].try_into().unwrap())
+        };
+        let main = &texs[0];
+        assert_eq!(main.channels.len(), 3, "c, ρ, κ");
+        let b = lf_tex(main, Filter::Manual);
+        for ch in &main.channels {
+            assert!(ch.name.ends_with("_compressed"), "{}", ch.name);
+            assert_eq!(f(&b, 36 + ch.layer as usize, ch.component as usize), 0.5);
+        }
+        assert_eq!(f(&b, 36, 3), 0.0, "an unused channel is not decoded");
+        let lnw = &texs[1];
+        let ch = &lnw.channels[0];
+        assert_eq!(ch.trend.len(), 6, "f16 1D textures carry a quintic trend");
+        let b = lf_tex(lnw, Filter::Manual);
+        for (j, want) in ch.trend.iter().enumerate() {
+            assert_eq!(f(&b, 12 + j / 4, j % 4), *want as f32, "coefficient {j}");
+        }
+        assert_eq!(f(&b, 36, 0), 0.0, "ln W is stored as is");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -8,7 +8,6 @@ mod cost;
 mod device;
 mod kernel;
 mod render;
-mod report;
 mod world;
 
 use std::io::Write;

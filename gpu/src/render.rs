@@ -14,8 +14,9 @@ use lobefit::export::layout::Filter;
 use lobefit_tables::disk_light::DiskLight;
 use lobefit_tables::lobe_product::LobeProduct;
 
-use crate::conformance::{kernel, kernel_with, lf_tex, Export};
+use crate::conformance::Export;
 use crate::device::{wgsl_texture_type, Gpu};
+use crate::kernel::{kernel, kernel_with, lf_tex};
 
 /// Image side (pixels).
 pub const SIZE: usize = 256;
@@ -141,7 +142,7 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64),
     let k = m
         .families
         .iter()
-        .position(|f| f.family == "disk-light")
+        .position(|f| f.family == lobefit_tables::disk_light::KIND)
         .ok_or("the export has no disk-light texture (export it: --only disk-light)")?;
     let (entry, tex) = &export.textures[k][0];
     let up = gpu.upload(tex, m.storage)?;
@@ -151,7 +152,7 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64),
     let texs = m
         .families
         .iter()
-        .position(|f| f.family == "lobe-product")
+        .position(|f| f.family == lobefit_tables::lobe_product::KIND_ENERGY)
         .map(|k| &export.textures[k])
         .ok_or("the export has no lobe-product texture (export it: --only disk-light,lobe-product)")?;
     let [(e_main, t_main), (e_lnw, t_lnw)] = &texs[..] else {

@@ -5,7 +5,9 @@
 
 use lobefit_tables::{LookupError, Table};
 
+use super::gpu_check::{ClosedCheck, Kernel, TexturedCheck};
 use super::layout::{grid_of_table, Grid, Sampler};
+use super::run::TextureEntry;
 use super::Storage;
 use crate::family::Lookup;
 
@@ -29,6 +31,15 @@ pub struct ExtraError {
 /// `grids` order, samples, seed) → errors against the family's independent reference.
 pub type ExtraFn = fn(&[Sampler], usize, u64) -> Result<Vec<ExtraError>, String>;
 
+/// The lookup's kernels, given the export's textures (see [`GpuFamily::kernels`]).
+pub type KernelsFn = fn(&[TextureEntry]) -> Result<Vec<Kernel>, String>;
+
+/// A kernel with the inputs it is timed at.
+pub type Timed = (Kernel, Vec<Vec<f64>>);
+
+/// What `lobefit-gpu cost` times (see [`GpuFamily::timed`]).
+pub type TimedFn = fn(&[TextureEntry], &[Vec<f64>]) -> Result<Vec<Timed>, String>;
+
 /// A family's GPU export.
 #[derive(Debug, Clone, Copy)]
 pub struct GpuFamily {
@@ -45,14 +56,33 @@ pub struct GpuFamily {
     /// Errors of textures the family's pointwise check does not cover (shexp's HYB
     /// a, b against ‖f̂‖), measured per filter beside the family's own metrics.
     pub extra: Option<ExtraFn>,
-    /// The GPU conformance kernel's body (WGSL): reads the inputs `x0, x1, ...` (as
-    /// `lobefit eval` orders them), samples the textures through the shader library
-    /// (`T, S, P`; a second texture `T2, P2`), writes the outputs `Y[o + k]`; and the
-    /// output count. An empty body: the conformance runs the family its own way.
-    pub kernel: (&'static str, usize),
+    /// The lookup's conformance kernels: outputs concatenated per point in the
+    /// lookup's order (one kernel for most families; shexp runs one per order).
+    pub kernels: KernelsFn,
+    /// Entries are exact fetches (no filter to vary): checked once, reported as `fetch`.
+    pub exact_fetch: bool,
+    /// Checks beyond the lookup, run per filter on the device (world-space functions,
+    /// second textures): `fits/<family>/gpu.rs`.
+    pub checks: &'static [TexturedCheck],
+    /// What `lobefit-gpu cost` times, as (kernel, inputs), given the textures and the
+    /// family's sample points; `None`: the lookup's kernels at those points.
+    pub timed: Option<TimedFn>,
     /// Whether `lobefit plot export` covers it (single-texture families whose bytes
     /// scale with `--scale` alone).
     pub plot_export: bool,
+}
+
+/// A table a shader evaluates in closed form, with no texture.
+#[derive(Clone, Copy)]
+pub struct ClosedForm {
+    /// Table kind.
+    pub kind: &'static str,
+    /// The shader's formula in words, for the manifest.
+    pub formula: &'static str,
+    /// Its GPU conformance rows.
+    pub checks: ClosedCheck,
+    /// What `lobefit-gpu cost` times: (points, seed) → (kernel, inputs).
+    pub timed: fn(usize, u64) -> Vec<Timed>,
 }
 
 /// The default textures: the table's grid as one texture.

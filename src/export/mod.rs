@@ -4,6 +4,7 @@
 
 pub mod families;
 pub mod formats;
+pub mod gpu_check;
 pub mod layout;
 pub mod run;
 pub mod shaders;

@@ -261,8 +261,11 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             .iter()
             .map(|k| {
                 fits::gpu_family(k).ok_or_else(|| {
-                    if let Some((_, f)) = fits::closed_form().into_iter().find(|(c, _)| c == k) {
-                        format!("{k} needs no texture: a shader evaluates it in closed form ({f})")
+                    if let Some(c) = fits::closed_form().into_iter().find(|c| c.kind == k) {
+                        format!(
+                            "{k} needs no texture: a shader evaluates it in closed form ({})",
+                            c.formula
+                        )
                     } else {
                         let all: Vec<&str> = fits::textured().iter().map(|f| f.kind).collect();
                         format!("unknown family {k:?} (textured families: {})", all.join(", "))
@@ -339,7 +342,10 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         samples: SAMPLES,
         seed: SEED,
         families: entries,
-        closed_form: fits::closed_form().iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
+        closed_form: fits::closed_form()
+            .iter()
+            .map(|c| (c.kind.to_string(), c.formula.to_string()))
+            .collect(),
     };
     let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
     crate::io::write_atomic(&dir.join(MANIFEST), json.as_bytes())
