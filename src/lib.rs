@@ -18,6 +18,7 @@ pub mod eval;
 pub mod export;
 pub mod family;
 pub mod io;
+pub mod memo;
 pub mod plot;
 pub mod quad;
 pub mod rng;

@@ -286,6 +286,12 @@ fn disk_integral<const N: usize>(
 /// Checker reference: the six canonical coefficients by nested GK over the disk.
 /// τ ≥ π/2 gives zeros (back side).
 pub fn reference_canonical(r: f64, tau: f64) -> Result<[f64; 6], String> {
+    static MEMO: crate::memo::Memo<2, [f64; 6]> = crate::memo::Memo::new();
+    MEMO.get([r, tau], || reference_canonical_computed(r, tau))
+}
+
+/// [`reference_canonical`], computed.
+fn reference_canonical_computed(r: f64, tau: f64) -> Result<[f64; 6], String> {
     if !(r.is_finite() && r > 0.0) {
         return Err(format!("r_over_d = {r} must be a finite number > 0", r = short(r)));
     }
@@ -325,6 +331,12 @@ pub fn reference_canonical(r: f64, tau: f64) -> Result<[f64; 6], String> {
 /// references agree to 1e-11 (measured 5e-14; test
 /// `direction_reference_matches_area_reference`).
 pub fn reference_canonical_directions(r: f64, tau: f64) -> Result<[f64; 6], String> {
+    static MEMO: crate::memo::Memo<2, [f64; 6]> = crate::memo::Memo::new();
+    MEMO.get([r, tau], || reference_canonical_directions_computed(r, tau))
+}
+
+/// [`reference_canonical_directions`], computed.
+fn reference_canonical_directions_computed(r: f64, tau: f64) -> Result<[f64; 6], String> {
     if !(r.is_finite() && r > 0.0) {
         return Err(format!("r_over_d = {r} must be a finite number > 0"));
     }

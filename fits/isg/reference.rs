@@ -75,6 +75,12 @@ pub fn check_domain(theta: f64, phi: f64, gamma: f64) -> Result<(), String> {
 /// reference), to absolute accuracy ~[`REFERENCE_TOL`]. Errors name an input outside
 /// the domain or a quadrature that did not converge.
 pub fn s_hat_reference(theta: f64, phi: f64, gamma: f64) -> Result<f64, String> {
+    static MEMO: crate::memo::Memo<3, f64> = crate::memo::Memo::new();
+    MEMO.get([theta, phi, gamma], || s_hat_reference_computed(theta, phi, gamma))
+}
+
+/// [`s_hat_reference`], computed.
+fn s_hat_reference_computed(theta: f64, phi: f64, gamma: f64) -> Result<f64, String> {
     check_domain(theta, phi, gamma)?;
     reference_unchecked(theta, phi, gamma)
 }

@@ -387,6 +387,12 @@ pub fn ref_ln_product(lobes: &[(f64, f64)]) -> Result<f64, String> {
 
 /// Reference ∫Ψ1Ψ2 dω (sr).
 pub fn reference_integral(e1: f64, e2: f64, alpha: f64) -> Result<f64, String> {
+    static MEMO: crate::memo::Memo<3, f64> = crate::memo::Memo::new();
+    MEMO.get([e1, e2, alpha], || reference_integral_computed(e1, e2, alpha))
+}
+
+/// [`reference_integral`], computed.
+fn reference_integral_computed(e1: f64, e2: f64, alpha: f64) -> Result<f64, String> {
     Ok(ref_ln_product(&[(e1, 0.0), (e2, alpha)])?.exp())
 }
 
@@ -404,6 +410,14 @@ pub fn reference_residual(e1: f64, e2: f64, alpha: f64, p: f64, s_r: f64, e: f64
 /// peak: golden-section search over ln(1 + e) on Gauss–Kronrod residuals.
 /// Returns (relative residual, e_r).
 pub fn reference_optimum(variant: Variant, e1: f64, e2: f64, alpha: f64) -> Result<(f64, f64), String> {
+    static MEMO: crate::memo::Memo<4, (f64, f64)> = crate::memo::Memo::new();
+    MEMO.get([f64::from(variant as u8), e1, e2, alpha], || {
+        reference_optimum_computed(variant, e1, e2, alpha)
+    })
+}
+
+/// [`reference_optimum`], computed.
+fn reference_optimum_computed(variant: Variant, e1: f64, e2: f64, alpha: f64) -> Result<(f64, f64), String> {
     let s_r = peak_angle(e1, e2, alpha);
     let ln_a = ref_ln_product(&[(e1, 0.0), (e2, alpha)])?;
     let ln_c = ref_ln_product(&[(2.0 * e1, 0.0), (2.0 * e2, alpha)])?;

@@ -618,22 +618,15 @@ impl Query for MaskWeightsFamily {
         if !(DIST_MIN..=DIST_MAX).contains(&dist) {
             return Err(format!("dist = {dist} is outside [{DIST_MIN}, {DIST_MAX}]"));
         }
-        // A pure function of dist, costly (a least squares over the training set):
-        // memoised for processes that check several files (the corruption test).
-        static CACHE: OnceLock<std::sync::Mutex<std::collections::HashMap<u64, Vec<f64>>>> = OnceLock::new();
-        let cache = CACHE.get_or_init(Default::default);
-        if let Some(v) = cache.lock().map_err(|e| e.to_string())?.get(&dist.to_bits()) {
-            return Ok(v.clone());
-        }
-        let s = solve(dist, |a| ConeRule::gauss(a, REF_RULE));
-        if !s.ok {
-            return Err(format!("reference least squares failed at dist = {dist}"));
-        }
-        cache
-            .lock()
-            .map_err(|e| e.to_string())?
-            .insert(dist.to_bits(), s.values.clone());
-        Ok(s.values)
+        // A pure function of dist, costly (a least squares over the training set).
+        static MEMO: crate::memo::Memo<1, Vec<f64>> = crate::memo::Memo::new();
+        MEMO.get([dist], || {
+            let s = solve(dist, |a| ConeRule::gauss(a, REF_RULE));
+            if !s.ok {
+                return Err(format!("reference least squares failed at dist = {dist}"));
+            }
+            Ok(s.values)
+        })
     }
     fn checked(&self) -> &'static [&'static str] {
         checked_names()

@@ -106,6 +106,12 @@ impl ShExpFamily {
 
 /// (f, ‖f̂‖, a, b) of order n by the reference at θ_b.
 pub fn reference_point(theta_b: f64, order: usize) -> Result<(Vec<f64>, f64, f64, f64), String> {
+    static MEMO: crate::memo::Memo<2, (Vec<f64>, f64, f64, f64)> = crate::memo::Memo::new();
+    MEMO.get([theta_b, order as f64], || reference_point_computed(theta_b, order))
+}
+
+/// [`reference_point`], computed.
+fn reference_point_computed(theta_b: f64, order: usize) -> Result<(Vec<f64>, f64, f64, f64), String> {
     if !(0.0..=rt::THETA_MAX).contains(&theta_b) {
         return Err(format!(
             "theta_b = {theta_b} is outside [0, π/2]",
