@@ -127,7 +127,7 @@ fn an_incomparable_baseline_is_a_clear_error() {
 /// The corruptions an attack on the checker found, each of which `check` passed:
 /// now `check --quick` fails on every one, naming the quantity.
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (seconds to tens of seconds each): .ci/run runs the ignored tests"]
 fn the_corruptions_that_once_passed_fail_the_quick_check() {
     let dir = tempfile::tempdir().unwrap();
     let t = dir.path().to_str().unwrap();

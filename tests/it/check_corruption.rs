@@ -151,7 +151,7 @@ fn check_bytes(family: &dyn Query, dir: &Path, bytes: &[u8]) -> FamilyReport {
 }
 
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (seconds to tens of seconds each): .ci/run runs the ignored tests"]
 fn any_single_corrupted_node_fails_the_quick_check() {
     let dir = tempfile::tempdir().unwrap();
     let mut tried = 0;
@@ -263,7 +263,7 @@ fn moved_kink_error(table: &Table, node: usize, d: f64) -> f64 {
 /// the off-grid promise (lookups next to it off by more than 1e-4); where it does not,
 /// nothing is promised to catch it.
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (seconds to tens of seconds each): .ci/run runs the ignored tests"]
 fn a_moved_kink_that_breaks_the_promise_fails_the_quick_check() {
     use lobefit::fits::shexp::{ShExpFamily, OFFGRID_REL};
     let bytes = std::fs::read("tables/data/shexp.lobefit").unwrap();

@@ -466,7 +466,7 @@ fn nearly_head_on() {
 
 /// The checker fails on a disk-light table that is valid but wrong at one node.
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (seconds to tens of seconds each): .ci/run runs the ignored tests"]
 fn check_fails_on_a_regressed_table() {
     use lobefit::tables::{format, Table};
     let dir = tempfile::tempdir().unwrap();

@@ -24,7 +24,7 @@ fn manifest(dir: &Path) -> Manifest {
 }
 
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (seconds to tens of seconds each): .ci/run runs the ignored tests"]
 fn every_textured_family_in_f32_meets_its_targets_with_manual_filtering() {
     let dir = tempfile::tempdir().unwrap();
     let m = export(&opts(&[], Format::Raw, Storage::F32), dir.path()).unwrap();
@@ -70,7 +70,7 @@ const F16_OK: [&str; 8] = [
 ];
 
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (seconds to tens of seconds each): .ci/run runs the ignored tests"]
 fn f16_with_trend_and_scale_meets_the_targets_of_the_textured_families() {
     let dir = tempfile::tempdir().unwrap();
     // Refused families would be an error here (no --allow-lossy).
@@ -100,7 +100,7 @@ fn f16_that_misses_its_target_is_refused_unless_lossy_is_allowed() {
 }
 
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (seconds to tens of seconds each): .ci/run runs the ignored tests"]
 fn every_format_and_precision_round_trips_and_checks() {
     for format in Format::ALL {
         for storage in [Storage::F32, Storage::F16] {
@@ -115,7 +115,7 @@ fn every_format_and_precision_round_trips_and_checks() {
 }
 
 #[test]
-#[ignore = "heavy (tens of seconds in debug): .ci/run runs it in release"]
+#[ignore = "heavy (seconds to tens of seconds each): .ci/run runs the ignored tests"]
 fn exports_are_byte_identical_run_to_run() {
     for format in Format::ALL {
         let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());

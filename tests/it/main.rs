@@ -1,6 +1,6 @@
 //! The `lobefit` crate's integration tests: one binary (one link of the crate),
-//! one module per subject. Heavy sweeps are `#[ignore]`d here and run in release
-//! from `.ci/run` (`cargo test --release --test it -- --ignored`).
+//! one module per subject. Heavy sweeps are `#[ignore]`d here and run from `.ci/run`
+//! (`cargo test --test it -- --ignored`, reusing this build).
 
 mod check_ci;
 mod check_corruption;
@@ -23,7 +23,6 @@ mod isg;
 mod lobe_product;
 mod log_zh;
 mod meunier;
-mod nlopt_backend;
 mod render_meunier;
 mod rigs;
 mod shexp;
