@@ -119,22 +119,16 @@ pub fn row(x: &[f64]) -> Row {
     }
 }
 
-/// A [`MeunierError`] as the [`LookupError`] `eval` reports (the message keeps what
-/// is wrong).
+/// A [`MeunierError`] as the [`LookupError`] `eval` reports: a lookup error as it is,
+/// the scene's own refusals (geometry) as the domain they leave (the message keeps
+/// what is wrong).
 pub fn to_lookup(e: MeunierError) -> LookupError {
     match e {
         MeunierError::Lookup(e) => e,
-        MeunierError::NotFinite { name, value } => LookupError::NotFinite { name, value },
         MeunierError::BadRadius { what, radius } => LookupError::OutOfDomain {
             name: format!("{what} radius (must be > 0)"),
             value: radius,
             lo: f64::MIN_POSITIVE,
-            hi: f64::INFINITY,
-        },
-        MeunierError::Negative { name, value } => LookupError::OutOfDomain {
-            name,
-            value,
-            lo: 0.0,
             hi: f64::INFINITY,
         },
         MeunierError::NotUnit { name, length } => LookupError::OutOfDomain {
@@ -318,10 +312,11 @@ pub fn exact_irradiance(x: DVec3, n: DVec3, light: &SphereLight, blockers: &[Sph
         400,
     );
     if !(ok && outer.converged && outer.value.is_finite()) {
-        return Err(MeunierError::NotFinite {
+        return Err(LookupError::NotFinite {
             name: "exact irradiance (quadrature did not converge)".into(),
             value: outer.value,
-        });
+        }
+        .into());
     }
     Ok(light.radiance * outer.value.max(0.0))
 }

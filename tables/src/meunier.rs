@@ -190,14 +190,6 @@ impl Default for MaskSettings {
 /// Why a direct-lighting query was refused.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum MeunierError {
-    /// An input holds a NaN or an infinity.
-    #[error("{name} is not a finite number ({value})")]
-    NotFinite {
-        /// What it is.
-        name: String,
-        /// The value.
-        value: f64,
-    },
     /// A radius is zero or negative.
     #[error("{what} has radius {radius}; radii must be > 0")]
     BadRadius {
@@ -205,14 +197,6 @@ pub enum MeunierError {
         what: String,
         /// The radius.
         radius: f64,
-    },
-    /// A quantity that must be ≥ 0 is negative.
-    #[error("{name} = {value} is negative")]
-    Negative {
-        /// What it is.
-        name: String,
-        /// The value.
-        value: f64,
     },
     /// A direction is not of unit length (within 1e-3) or is zero.
     #[error("{name} has length {length}, expected a unit vector")]
@@ -250,7 +234,10 @@ pub enum MeunierError {
         /// Index of the blocker.
         blocker: usize,
     },
-    /// A table lookup failed (depth out of range, an overflowing product, …).
+    /// A value the query refuses as a table lookup would: not finite
+    /// ([`LookupError::NotFinite`]), negative where it must be ≥ 0
+    /// ([`LookupError::OutOfDomain`] with bounds 0 and ∞); or a table lookup that
+    /// failed (depth out of range, an overflowing product, …).
     #[error(transparent)]
     Lookup(#[from] LookupError),
     /// Item `index` (0-based) of a batch was refused for the reason `error` (what the
@@ -268,19 +255,23 @@ fn finite(name: &str, value: f64) -> Result<f64, MeunierError> {
     if value.is_finite() {
         Ok(value)
     } else {
-        Err(MeunierError::NotFinite {
+        Err(LookupError::NotFinite {
             name: name.into(),
             value,
-        })
+        }
+        .into())
     }
 }
 
 fn nonneg(name: &str, value: f64) -> Result<f64, MeunierError> {
     if finite(name, value)? < 0.0 {
-        return Err(MeunierError::Negative {
+        return Err(LookupError::OutOfDomain {
             name: name.into(),
             value,
-        });
+            lo: 0.0,
+            hi: f64::INFINITY,
+        }
+        .into());
     }
     Ok(value)
 }
