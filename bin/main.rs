@@ -545,7 +545,11 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                     worst_errors(&f.error)
                 );
             }
-            let _ = writeln!(s, "manifest: {}", out.join(lobefit::export::run::MANIFEST).display());
+            let _ = writeln!(
+                s,
+                "manifest: {}",
+                out.join(lobefit::export::manifest::MANIFEST).display()
+            );
             emit(&s)?;
         }
         Command::Eval {
@@ -674,7 +678,7 @@ fn parse() -> Result<Cli, ExitCode> {
 }
 
 /// The largest measured error per filter of one texture, relative to its target.
-fn worst_errors(errors: &[lobefit::export::run::ErrorEntry]) -> String {
+fn worst_errors(errors: &[lobefit::export::manifest::ErrorEntry]) -> String {
     let mut parts = Vec::new();
     for f in Filter::ALL {
         if let Some(e) = errors

@@ -491,6 +491,29 @@ fn pair_report(output: String, grid: &[(f64, f64)], offgrid: &[(f64, f64)]) -> O
     }
 }
 
+/// The family's off-grid threshold metrics of one output from its pointwise absolute
+/// and relative errors: (metric, measured, limit) for each of `output`'s `offgrid.*`
+/// thresholds, measured the way `lobefit check` measures them.
+pub fn offgrid_metrics(family: &dyn Query, output: &str, abs: Vec<f64>, rel: Vec<f64>) -> Vec<(String, f64, f64)> {
+    let report = OutputReport {
+        output: output.to_string(),
+        grid_abs: Stats::of(Vec::new()),
+        grid_rel: Stats::of(Vec::new()),
+        offgrid_abs: Stats::of(abs),
+        offgrid_rel: Stats::of(rel),
+        worst_offgrid_input: Vec::new(),
+    };
+    family
+        .thresholds()
+        .into_iter()
+        .filter(|t| t.output == output && t.metric.starts_with("offgrid."))
+        .map(|t| {
+            let measured = metric_value(&report, &t.metric).unwrap_or(f64::NAN);
+            (t.metric, measured, t.limit)
+        })
+        .collect()
+}
+
 /// Value of a metric such as `offgrid.max_rel` in an output report.
 pub fn metric_value(o: &OutputReport, metric: &str) -> Option<f64> {
     let (set, rest) = metric.split_once('.')?;

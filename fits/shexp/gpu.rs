@@ -18,7 +18,7 @@ use lobefit_tables::{Axis, Table};
 use crate::export::families::{ExtraError, GpuFamily};
 use crate::export::gpu_check::{scaled_diff, Context, Kernel, Row, Runner};
 use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler, MAX_SCALE};
-use crate::export::run::TextureEntry;
+use crate::export::manifest::TextureEntry;
 use crate::export::{Storage, MAX_1D_2D_EXTENT};
 
 /// The export of shexp.

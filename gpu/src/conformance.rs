@@ -10,7 +10,8 @@ use lobefit::export::families::GpuFamily;
 pub use lobefit::export::gpu_check::Row;
 use lobefit::export::gpu_check::{scaled_diff, Context, Runner, PROMISE_SLACK};
 use lobefit::export::layout::{Filter, Sampler};
-use lobefit::export::run::{errors_of, family_of, sample_points, TextureEntry};
+use lobefit::export::manifest::TextureEntry;
+use lobefit::export::run::{errors_of, family_of, sample_points};
 use lobefit::export::{Storage, Texture};
 use lobefit::family::Lookup;
 use lobefit_tables::LookupError;
@@ -297,7 +298,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let e = read_export(&dir).err().unwrap();
         assert!(e.contains("cannot read") && e.contains("manifest.json"), "{e}");
-        std::fs::write(dir.join(lobefit::export::run::MANIFEST), "{\"version\": 99}").unwrap();
+        std::fs::write(dir.join(lobefit::export::manifest::MANIFEST), "{\"version\": 99}").unwrap();
         let e = read_export(&dir).err().unwrap();
         assert!(e.contains("not a lobefit export manifest"), "{e}");
         let _ = std::fs::remove_dir_all(dir.parent().unwrap());

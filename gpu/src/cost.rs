@@ -5,7 +5,8 @@ use std::time::Instant;
 
 use lobefit::export::gpu_check::Kernel;
 use lobefit::export::layout::Filter;
-use lobefit::export::run::{family_of, sample_points, TextureEntry};
+use lobefit::export::manifest::TextureEntry;
+use lobefit::export::run::{family_of, sample_points};
 use lobefit::export::Storage;
 
 use crate::conformance::{dummy_texture, Export};

@@ -4,7 +4,7 @@
 
 use lobefit::export::gpu_check::{Kernel, Runner};
 use lobefit::export::layout::Filter;
-use lobefit::export::run::TextureEntry;
+use lobefit::export::manifest::TextureEntry;
 use lobefit_tables::Mapping;
 
 use crate::device::{Gpu, GpuTexture};

@@ -7,7 +7,7 @@ use lobefit_tables::{LookupError, Table};
 
 use super::gpu_check::{ClosedCheck, Kernel, TexturedCheck};
 use super::layout::{grid_of_table, Grid, Sampler};
-use super::run::TextureEntry;
+use super::manifest::TextureEntry;
 use super::Storage;
 use crate::family::Lookup;
 

@@ -5,8 +5,9 @@
 //! own checks live in `fits/<family>/gpu.rs` beside its textures; the GPU crate runs
 //! whatever the entries list and names no family.
 
+use crate::check::offgrid_metrics;
 use crate::export::layout::{Filter, Sampler};
-use crate::export::run::{offgrid_metrics, FamilyEntry, TextureEntry};
+use crate::export::manifest::{FamilyEntry, TextureEntry};
 use crate::export::Storage;
 use crate::family::Query;
 use crate::rng::Rng;

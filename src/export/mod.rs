@@ -6,6 +6,7 @@ pub mod families;
 pub mod formats;
 pub mod gpu_check;
 pub mod layout;
+pub mod manifest;
 pub mod run;
 pub mod shaders;
 

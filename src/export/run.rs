@@ -6,22 +6,19 @@ use std::path::Path;
 
 use lobefit_tables::Table;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::families::{Emulated, GpuFamily};
 use super::formats;
 use super::layout::{Channel, Filter, Sampler, TexAxis};
+use super::manifest::{ErrorEntry, FamilyEntry, Manifest, TextureEntry, MANIFEST, MANIFEST_VERSION};
 use super::{Format, Storage, Texture};
-use crate::check::{f32_point, metric_value, OutputReport, Stats};
+use crate::check::{f32_point, offgrid_metrics};
 use crate::family::Query;
 use crate::fits;
 use crate::fits::{registry, FitOptions};
 use crate::rng::Rng;
 
-/// Manifest file name in an export directory.
-pub const MANIFEST: &str = "manifest.json";
-/// Manifest layout version.
-pub const MANIFEST_VERSION: u32 = 1;
 /// Off-grid samples per family the export error is measured on.
 pub const SAMPLES: usize = 2000;
 /// Their seed (the checker's).
@@ -41,89 +38,6 @@ pub struct ExportOptions {
     /// Export an f16 texture that misses its family's target (its measured error is
     /// in the manifest) instead of refusing it.
     pub allow_lossy: bool,
-}
-
-/// The manifest: everything a renderer needs to sample the textures, and the
-/// measured error of these very files.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Manifest {
-    /// [`MANIFEST_VERSION`].
-    pub version: u32,
-    /// Container format of every texture here.
-    pub format: Format,
-    /// Texel precision.
-    pub storage: Storage,
-    /// Nodes per axis relative to the tables' (`--scale`).
-    pub scale: f64,
-    /// The texture-coordinate convention, in words.
-    pub convention: String,
-    /// Off-grid samples (seeded) behind each measured error.
-    pub samples: usize,
-    /// Their seed.
-    pub seed: u64,
-    /// One entry per exported family.
-    pub families: Vec<FamilyEntry>,
-    /// Families a shader evaluates in closed form: (kind, formula).
-    pub closed_form: Vec<(String, String)>,
-}
-
-/// One exported family: its textures, the shader's formulas, the measured error.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FamilyEntry {
-    /// Table kind.
-    pub family: String,
-    /// The family's inputs (as `lobefit eval` names them).
-    pub inputs: Vec<String>,
-    /// What the shader computes from the samples.
-    pub shader: String,
-    /// The textures.
-    pub textures: Vec<TextureEntry>,
-    /// Measured error per filter, quantity and metric.
-    pub error: Vec<ErrorEntry>,
-}
-
-/// One exported texture.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TextureEntry {
-    /// File name in the export directory.
-    pub file: String,
-    /// File size (bytes).
-    pub bytes: u64,
-    /// 1, 2 or 3.
-    pub dimension: u8,
-    /// Texels along x, y, z; array layers; channels per texel.
-    pub extent: [u32; 5],
-    /// The texture axes (slowest first) and their coordinate formulas.
-    pub axes: Vec<TexAxis>,
-    /// The formula of each axis's texture coordinate.
-    pub axis_formulas: Vec<String>,
-    /// Channel packing.
-    pub channels: Vec<Channel>,
-}
-
-/// One measured error of an exported texture.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ErrorEntry {
-    /// `manual` or `hardware`.
-    pub filter: Filter,
-    /// Quantity (the family's checked output).
-    pub output: String,
-    /// Metric, e.g. `offgrid.max_rel`.
-    pub metric: String,
-    /// Measured on this file.
-    pub measured: f64,
-    /// The family's own limit (its `check` threshold).
-    pub target: f64,
-    /// What `check --export` holds the file to: the target where met, else the
-    /// measured value (a lossy export).
-    pub promise: f64,
-}
-
-impl ErrorEntry {
-    /// Whether the measured error meets the family's target.
-    pub fn meets_target(&self) -> bool {
-        self.measured <= self.target
-    }
 }
 
 /// The registry's family of `kind` (default options).
@@ -187,29 +101,6 @@ pub fn sample_points(family: &dyn Query, samples: usize, seed: u64) -> Result<Ve
     let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", family.kind()))?;
     let cpu = family.runtime(table).map_err(|e| format!("{}: {e}", family.kind()))?;
     Ok(points.iter().map(|x| f32_point(cpu.as_ref(), x)).collect())
-}
-
-/// The family's off-grid threshold metrics of one output from its pointwise absolute
-/// and relative errors: (metric, measured, limit) for each of `output`'s `offgrid.*`
-/// thresholds, measured the way `lobefit check` measures them.
-pub fn offgrid_metrics(family: &dyn Query, output: &str, abs: Vec<f64>, rel: Vec<f64>) -> Vec<(String, f64, f64)> {
-    let report = OutputReport {
-        output: output.to_string(),
-        grid_abs: Stats::of(Vec::new()),
-        grid_rel: Stats::of(Vec::new()),
-        offgrid_abs: Stats::of(abs),
-        offgrid_rel: Stats::of(rel),
-        worst_offgrid_input: Vec::new(),
-    };
-    family
-        .thresholds()
-        .into_iter()
-        .filter(|t| t.output == output && t.metric.starts_with("offgrid."))
-        .map(|t| {
-            let measured = metric_value(&report, &t.metric).unwrap_or(f64::NAN);
-            (t.metric, measured, t.limit)
-        })
-        .collect()
 }
 
 /// The family's own pointwise check (`Query::check_point`) of `lookup` at `points`

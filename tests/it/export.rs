@@ -6,7 +6,8 @@ use crate::common;
 use std::path::Path;
 
 use lobefit::export::layout::Filter;
-use lobefit::export::run::{check_export, export, ExportOptions, Manifest, MANIFEST};
+use lobefit::export::manifest::{Manifest, MANIFEST};
+use lobefit::export::run::{check_export, export, ExportOptions};
 use lobefit::export::{Format, Storage};
 
 fn opts(only: &[&str], format: Format, storage: Storage) -> ExportOptions {

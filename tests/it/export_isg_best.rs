@@ -8,7 +8,8 @@ use std::path::Path;
 
 use lobefit::export::families::Emulated;
 use lobefit::export::layout::{Filter, Sampler};
-use lobefit::export::run::{check_export, export, ExportOptions, Manifest};
+use lobefit::export::manifest::Manifest;
+use lobefit::export::run::{check_export, export, ExportOptions};
 use lobefit::export::{formats, Format, Storage};
 use lobefit::family::Query;
 use lobefit::fits::{registry, FitOptions};

@@ -5,7 +5,8 @@
 //! target in f32 and f16.
 
 use lobefit::export::layout::Filter;
-use lobefit::export::run::{check_export, export, ErrorEntry, ExportOptions, Manifest};
+use lobefit::export::manifest::{ErrorEntry, Manifest};
+use lobefit::export::run::{check_export, export, ExportOptions};
 use lobefit::export::{Format, Storage};
 
 fn opts(format: Format, storage: Storage, scale: f64, allow_lossy: bool) -> ExportOptions {

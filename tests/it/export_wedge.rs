@@ -3,7 +3,8 @@
 //! that), so both storages export as lossy promises of their measured error.
 
 use lobefit::export::layout::Filter;
-use lobefit::export::run::{check_export, export, ExportOptions, Manifest};
+use lobefit::export::manifest::Manifest;
+use lobefit::export::run::{check_export, export, ExportOptions};
 use lobefit::export::{Format, Storage};
 
 fn opts(format: Format, storage: Storage, allow_lossy: bool) -> ExportOptions {

@@ -1,0 +1,95 @@
+//! The export manifest (`manifest.json`): what a renderer needs to sample the
+//! textures, and the measured error of these very files. Plain data: the export
+//! driver (`run`) writes it, readers and the GPU conformance read it.
+
+use serde::{Deserialize, Serialize};
+
+use super::layout::{Channel, Filter, TexAxis};
+use super::{Format, Storage};
+
+/// Manifest file name in an export directory.
+pub const MANIFEST: &str = "manifest.json";
+/// Manifest layout version.
+pub const MANIFEST_VERSION: u32 = 1;
+/// The manifest: everything a renderer needs to sample the textures, and the
+/// measured error of these very files.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// [`MANIFEST_VERSION`].
+    pub version: u32,
+    /// Container format of every texture here.
+    pub format: Format,
+    /// Texel precision.
+    pub storage: Storage,
+    /// Nodes per axis relative to the tables' (`--scale`).
+    pub scale: f64,
+    /// The texture-coordinate convention, in words.
+    pub convention: String,
+    /// Off-grid samples (seeded) behind each measured error.
+    pub samples: usize,
+    /// Their seed.
+    pub seed: u64,
+    /// One entry per exported family.
+    pub families: Vec<FamilyEntry>,
+    /// Families a shader evaluates in closed form: (kind, formula).
+    pub closed_form: Vec<(String, String)>,
+}
+
+/// One exported family: its textures, the shader's formulas, the measured error.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FamilyEntry {
+    /// Table kind.
+    pub family: String,
+    /// The family's inputs (as `lobefit eval` names them).
+    pub inputs: Vec<String>,
+    /// What the shader computes from the samples.
+    pub shader: String,
+    /// The textures.
+    pub textures: Vec<TextureEntry>,
+    /// Measured error per filter, quantity and metric.
+    pub error: Vec<ErrorEntry>,
+}
+
+/// One exported texture.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TextureEntry {
+    /// File name in the export directory.
+    pub file: String,
+    /// File size (bytes).
+    pub bytes: u64,
+    /// 1, 2 or 3.
+    pub dimension: u8,
+    /// Texels along x, y, z; array layers; channels per texel.
+    pub extent: [u32; 5],
+    /// The texture axes (slowest first) and their coordinate formulas.
+    pub axes: Vec<TexAxis>,
+    /// The formula of each axis's texture coordinate.
+    pub axis_formulas: Vec<String>,
+    /// Channel packing.
+    pub channels: Vec<Channel>,
+}
+
+/// One measured error of an exported texture.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorEntry {
+    /// `manual` or `hardware`.
+    pub filter: Filter,
+    /// Quantity (the family's checked output).
+    pub output: String,
+    /// Metric, e.g. `offgrid.max_rel`.
+    pub metric: String,
+    /// Measured on this file.
+    pub measured: f64,
+    /// The family's own limit (its `check` threshold).
+    pub target: f64,
+    /// What `check --export` holds the file to: the target where met, else the
+    /// measured value (a lossy export).
+    pub promise: f64,
+}
+
+impl ErrorEntry {
+    /// Whether the measured error meets the family's target.
+    pub fn meets_target(&self) -> bool {
+        self.measured <= self.target
+    }
+}
