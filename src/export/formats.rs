@@ -454,6 +454,11 @@ fn encode_dds(tex: &Texture, storage: Storage) -> Result<Vec<u8>, String> {
         },
     })
     .map_err(|e| format!("texture {}: DDS header: {e}", tex.name))?;
+    // The DX10 extension alone names the format: DDS_PIXELFORMAT carries only
+    // DDPF_FOURCC "DX10", no RGB flag or bit count (ddsfile sets both, and readers
+    // that honour them decode a 128-bit float texel as 8-bit RGB: zeros).
+    dds.header.spf.flags = ddsfile::PixelFormatFlags::FOURCC;
+    dds.header.spf.rgb_bit_count = None;
     if dds.data.len() != texels.len() {
         return Err(format!(
             "texture {}: ddsfile sized the data {} bytes, not {}",

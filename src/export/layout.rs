@@ -258,9 +258,11 @@ pub fn grid_of_values(
     // Texture x = the fastest axis (the table's last), then y, then z.
     let count = |k: usize| table_axes.get(naxes.wrapping_sub(1 + k)).map_or(1, |a| a.count);
     let (width, height, depth) = (count(0), count(1), count(2));
+    // A one-axis table is a 2D texture of height 1 in every file: what the shader
+    // library binds (`texture_2d`), so a loader that follows the file's header binds it.
     let texture = Texture {
         name: name.to_string(),
-        dimension: naxes as u8,
+        dimension: naxes.max(2) as u8,
         width,
         height,
         depth,

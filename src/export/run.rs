@@ -165,17 +165,18 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             })
             .collect::<Result<_, _>>()?
     };
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    // All or nothing: every texture is written and measured in a hidden staging
+    // directory (removed on any error); only then do the files move into `dir`.
+    let stage = Stage::new(dir)?;
     let mut entries = Vec::new();
     for g in gpu {
         let family = family_of(g.kind).ok_or_else(|| format!("{}: not in the registry", g.kind))?;
         let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", g.kind))?;
         let grids = (g.grids)(g.kind, &table, opts.storage, opts.scale)?;
-        let mut written = Vec::new();
         let mut back = Vec::new();
         let mut tex_entries = Vec::new();
         for grid in grids {
-            let path = formats::write(&grid.texture, opts.format, opts.storage, dir)?;
+            let path = formats::write(&grid.texture, opts.format, opts.storage, stage.path())?;
             // Measure the file as a reader sees it, through the independent reader.
             let (tex, _) = formats::read(&path, opts.format)?;
             let t = &grid.texture;
@@ -192,20 +193,14 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
                 channels: grid.channels.clone(),
             });
             back.push((grid.axes, grid.channels, tex));
-            written.push(path);
         }
         let error = measure(family.as_ref(), g, &back, SAMPLES, SEED)?;
         if opts.storage == Storage::F16 && !opts.allow_lossy {
             if let Some(e) = error.iter().find(|e| e.filter == Filter::Manual && !e.meets_target()) {
-                for p in &written {
-                    let _ = std::fs::remove_file(p);
-                    if opts.format == Format::Raw {
-                        let _ = std::fs::remove_file(p.with_extension("json"));
-                    }
-                }
                 return Err(format!(
                     "{}: f16 misses the target: {} {} = {:.3e} against {:.1e} (manual filtering); \
-                     use --storage f32, or --allow-lossy to export it with that error recorded",
+                     nothing was written; use --storage f32, leave it out (--only), or --allow-lossy \
+                     to export it with that error recorded",
                     g.kind, e.output, e.metric, e.measured, e.target
                 ));
             }
@@ -239,9 +234,79 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             .collect(),
     };
     let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
-    crate::io::write_atomic(&dir.join(MANIFEST), json.as_bytes())
+    crate::io::write_atomic(&stage.path().join(MANIFEST), json.as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", dir.join(MANIFEST).display()))?;
+    stage.commit()?;
     Ok(manifest)
+}
+
+/// The staging directory of an export (see [`export`]): a new `dir` is staged beside
+/// it and renamed into place whole; into an existing `dir` the staged files move one
+/// by one, the manifest last (a reader goes by the manifest). Dropped uncommitted, it
+/// is removed with everything in it.
+struct Stage {
+    tmp: tempfile::TempDir,
+    dir: std::path::PathBuf,
+    fresh: bool,
+}
+
+impl Stage {
+    fn new(dir: &Path) -> Result<Stage, String> {
+        let cannot = |e: std::io::Error| format!("cannot create {}: {e}", dir.display());
+        let fresh = !dir.exists();
+        let parent = if fresh {
+            let parent = dir
+                .parent()
+                .filter(|p| !p.as_os_str().is_empty())
+                .unwrap_or(Path::new("."));
+            std::fs::create_dir_all(parent).map_err(cannot)?;
+            parent
+        } else if dir.is_dir() {
+            dir
+        } else {
+            return Err(format!("{} exists and is not a directory", dir.display()));
+        };
+        let tmp = tempfile::Builder::new()
+            .prefix(".lobefit-export.")
+            .tempdir_in(parent)
+            .map_err(cannot)?;
+        Ok(Stage {
+            tmp,
+            dir: dir.to_path_buf(),
+            fresh,
+        })
+    }
+
+    fn path(&self) -> &Path {
+        self.tmp.path()
+    }
+
+    fn commit(self) -> Result<(), String> {
+        let moved = |from: &Path, to: &Path, e: std::io::Error| {
+            format!("cannot move {} to {}: {e}", from.display(), to.display())
+        };
+        if self.fresh {
+            let from = self.tmp.keep();
+            // A directory that appeared meanwhile is not replaced (rename refuses a
+            // non-empty one); its staging copy is removed.
+            return std::fs::rename(&from, &self.dir).map_err(|e| {
+                let _ = std::fs::remove_dir_all(&from);
+                moved(&from, &self.dir, e)
+            });
+        }
+        let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(self.path())
+            .map_err(|e| format!("cannot read {}: {e}", self.path().display()))?
+            .map(|d| d.map(|d| d.file_name()))
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("cannot read {}: {e}", self.path().display()))?;
+        // The manifest last.
+        names.sort_by_key(|n| n == MANIFEST);
+        for n in names {
+            let (from, to) = (self.path().join(&n), self.dir.join(&n));
+            std::fs::rename(&from, &to).map_err(|e| moved(&from, &to, e))?;
+        }
+        Ok(())
+    }
 }
 
 /// One re-measured error of `check --export`.

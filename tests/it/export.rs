@@ -301,3 +301,40 @@ fn cli_bad_export_arguments_are_specific_errors() {
     assert_eq!(code, Some(1), "{stderr}");
     assert!(stderr.contains("manifest.json"), "{stderr}");
 }
+
+/// An export is all or nothing: a family refused late (wedge in f16, after the
+/// families before it were written and measured) leaves a new directory absent and an
+/// existing one as it was; an accepted export appears whole, with no staging
+/// directory left behind.
+#[test]
+fn a_refused_export_writes_nothing() {
+    let root = tempfile::tempdir().unwrap();
+    let fresh = root.path().join("fresh");
+    let refused = opts(&["cap-exponent", "wedge"], Format::Ktx2, Storage::F16);
+    let e = export(&refused, &fresh).unwrap_err();
+    assert!(e.contains("wedge") && e.contains("nothing was written"), "{e}");
+    assert!(!fresh.exists());
+    let names = |d: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    assert!(names(root.path()).is_empty(), "{:?}", names(root.path()));
+    let existing = root.path().join("existing");
+    std::fs::create_dir(&existing).unwrap();
+    std::fs::write(existing.join("mine.txt"), b"x").unwrap();
+    export(&refused, &existing).unwrap_err();
+    assert_eq!(names(&existing), ["mine.txt"]);
+    let m = export(&opts(&["cap-exponent"], Format::Ktx2, Storage::F16), &existing).unwrap();
+    assert_eq!(names(&existing), ["cap-exponent.ktx2", MANIFEST, "mine.txt"]);
+    assert_eq!(names(root.path()), ["existing"]);
+    // One-axis tables are 2D textures of height 1, in the manifest and the file header
+    // (KTX2 pixelHeight at byte 24): what the shader library binds.
+    let t = &m.families[0].textures[0];
+    assert_eq!((t.dimension, t.extent[1]), (2, 1));
+    let bytes = std::fs::read(existing.join("cap-exponent.ktx2")).unwrap();
+    assert_eq!(u32::from_le_bytes(bytes[24..28].try_into().unwrap()), 1);
+}

@@ -248,6 +248,10 @@ fn dds_dx10_header_fields_match_the_specification() {
                 assert_eq!(u32_at(&f, 4), 124, "dwSize {what}");
                 assert_eq!((u32_at(&f, 12), u32_at(&f, 16)), (h, w), "height, width {what}");
                 assert_eq!(&f[84..88], b"DX10", "ddspf.dwFourCC {what}");
+                // DDPF_FOURCC alone: no DDPF_RGB, no bit count (readers that honour
+                // them decode float texels as 8-bit RGB, all zeros).
+                assert_eq!(u32_at(&f, 80), 0x4, "ddspf.dwFlags {what}");
+                assert_eq!(u32_at(&f, 88), 0, "ddspf.dwRGBBitCount {what}");
                 assert_eq!(u32_at(&f, 128), dxgi(channels, storage), "dxgiFormat {what}");
                 assert_eq!(u32_at(&f, 132), d as u32 + 1, "resourceDimension {what}");
                 assert_eq!(u32_at(&f, 136), 0, "miscFlag (no cube) {what}");
