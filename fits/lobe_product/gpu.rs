@@ -103,9 +103,6 @@ fn grids(kind: &str, table: &Table, storage: Storage, scale: f64) -> Result<Vec<
 /// Width w of the f16 compression (see [`compressed`]).
 pub const WIDTH: f64 = 0.5;
 
-/// Suffix of a compressed channel's name (f16 exports).
-pub const COMPRESSED: &str = "_compressed";
-
 /// The f16 main texture: every channel x stored as v = sign(x) ln(1 + |x|/w), w =
 /// [`WIDTH`]; the shader inverts it after filtering, x = sign(v) w (exp(|v|) − 1).
 /// c spans [−10.5, 0.07] (large only where the model fails: α near π, unequal
@@ -130,7 +127,7 @@ fn compressed(kind: &str, table: &Table, scale: f64) -> Result<Grid, String> {
         .channels
         .iter()
         .map(|ch| ChannelSpec {
-            name: format!("{}{COMPRESSED}", ch.name),
+            name: ch.name.clone(),
             meaning: format!(
                 "v = sign(x) ln(1 + |x| / {WIDTH:?}) of x = {}; after filtering x = sign(v) · {WIDTH:?} · (exp(|v|) − 1)",
                 ch.meaning
@@ -138,7 +135,11 @@ fn compressed(kind: &str, table: &Table, scale: f64) -> Result<Grid, String> {
             log: ch.log,
         })
         .collect();
-    grid_of_values(kind, &axes, &specs, &values, Storage::F16)
+    let mut grid = grid_of_values(kind, &axes, &specs, &values, Storage::F16)?;
+    for ch in &mut grid.channels {
+        ch.compression = WIDTH;
+    }
+    Ok(grid)
 }
 
 /// ln max(cos x, 0)^e in a form exact for small x in f32: ln cos x = −2 atanh(tan²(x/2))
@@ -164,12 +165,8 @@ fn peak_angle(e1: f32, e2: f32, alpha: f32, s: f32) -> f32 {
 fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {
     let (e1, e2, alpha) = (x[0], x[1], x[2].min(PI));
     let emax = E_MAX as f32;
-    let mut ch = s[0].sample(&[e1.min(emax), e2.min(emax), alpha]);
-    for (v, spec) in ch.iter_mut().zip(&s[0].channels) {
-        if spec.name.ends_with(COMPRESSED) {
-            *v = v.signum() * WIDTH as f32 * v.abs().exp_m1();
-        }
-    }
+    // (The sampler inverts the f16 compression: `Channel::compression`.)
+    let ch = s[0].sample(&[e1.min(emax), e2.min(emax), alpha]);
     let e = e1 + e2;
     let lnw = s[1].sample(&[e])[0] + 0.5 * (TAU / (e + 1.5)).ln();
     let (sin_a, chord) = (alpha.sin(), 2.0 * (0.5 * alpha).sin());

@@ -300,6 +300,9 @@ mod tests {
         assert!(e.contains("cannot read") && e.contains("manifest.json"), "{e}");
         std::fs::write(dir.join(lobefit::export::manifest::MANIFEST), "{\"version\": 99}").unwrap();
         let e = read_export(&dir).err().unwrap();
+        assert!(e.contains("manifest version 99"), "{e}");
+        std::fs::write(dir.join(lobefit::export::manifest::MANIFEST), "[1, 2]").unwrap();
+        let e = read_export(&dir).err().unwrap();
         assert!(e.contains("not a lobefit export manifest"), "{e}");
         let _ = std::fs::remove_dir_all(dir.parent().unwrap());
     }

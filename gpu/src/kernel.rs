@@ -5,58 +5,15 @@
 use lobefit::export::gpu_check::{Kernel, Runner};
 use lobefit::export::layout::Filter;
 use lobefit::export::manifest::TextureEntry;
-use lobefit_tables::Mapping;
 
 use crate::device::{Gpu, GpuTexture};
 
-/// Bytes of the uniform `LfTex` (tables/shaders/common.wgsl): 40 vec4.
-pub const LF_TEX_SIZE: usize = 640;
+pub use lobefit_tables::uniform::LF_TEX_SIZE;
 
-/// The uniform `LfTex` of a texture (see tables/shaders/common.wgsl), [`LF_TEX_SIZE`]
-/// bytes: 39 vec4 of f32 (axis 0..3, map 3..6, offset 6..9, scale 9..12, trend
-/// 12..36, decode 36..39), then `mode`. Channels named `*_compressed` (lobe-product's
-/// f16 export) get the export's compression width in `decode`.
-pub fn lf_tex(t: &TextureEntry, filter: Filter) -> Vec<u8> {
-    let mut v = [[0f32; 4]; 39];
-    for (k, a) in t.axes.iter().enumerate() {
-        let (kind, p0, p1) = match a.axis.mapping {
-            Mapping::Linear => (0.0, 0.0, 0.0),
-            Mapping::Log => (1.0, 0.0, 0.0),
-            Mapping::Log1p { scale } => (2.0, scale, 0.0),
-            Mapping::Logit { a, b } => (3.0, a, b),
-            Mapping::Asinh { centre, width } => (4.0, centre, width),
-        };
-        v[k] = [a.mapped_lo as f32, a.mapped_hi as f32, a.axis.count as f32, kind];
-        v[3 + k] = [p0 as f32, p1 as f32, 0.0, 0.0];
-    }
-    // Unused channels: offset 0, scale 1.
-    for l in 0..3 {
-        v[9 + l] = [1.0; 4];
-    }
-    for ch in &t.channels {
-        let (l, c) = (ch.layer as usize, ch.component as usize);
-        assert!(
-            l < 3 && c < 4 && ch.trend.len() <= 6,
-            "{}: channel {} (layer {l}, component {c}, {} trend coefficients) does not fit LfTex \
-             (3 layers of 4 channels, quintic trends)",
-            t.file,
-            ch.name,
-            ch.trend.len()
-        );
-        v[6 + l][c] = ch.offset as f32;
-        v[9 + l][c] = ch.scale as f32;
-        let k = 4 * l + c;
-        for (j, coef) in ch.trend.iter().enumerate() {
-            v[12 + 2 * k + j / 4][j % 4] = *coef as f32;
-        }
-        if ch.name.ends_with(lobefit::fits::lobe_product::gpu::COMPRESSED) {
-            v[36 + l][c] = lobefit::fits::lobe_product::gpu::WIDTH as f32;
-        }
-    }
-    let mut bytes: Vec<u8> = bytemuck::cast_slice(&v).to_vec();
-    let mode: [u32; 4] = [if filter == Filter::Hardware { 1 } else { 0 }, 0, 0, 0];
-    bytes.extend_from_slice(bytemuck::cast_slice(&mode));
-    bytes
+/// The uniform `LfTex` of a texture as bytes (`lobefit_tables::uniform::LfTex`, built
+/// from the manifest entry).
+pub fn lf_tex(t: &TextureEntry, filter: Filter) -> Result<Vec<u8>, String> {
+    Ok(t.lf_tex(filter)?.to_bytes().to_vec())
 }
 
 /// The kernel: the library, the bindings of [`Gpu::run`], and `body` run per item with
@@ -145,7 +102,7 @@ impl<'a> Bound<'a> {
                 let (e, t) = tex(a)?;
                 Prepared {
                     source: kernel(t.wgsl_type, n_in, k.n_out, &k.body),
-                    params: lf_tex(e, self.filter),
+                    params: lf_tex(e, self.filter)?,
                     texture: t,
                     second: None,
                 }
@@ -154,9 +111,9 @@ impl<'a> Bound<'a> {
                 let ((e, t), (e2, t2)) = (tex(a)?, tex(b)?);
                 Prepared {
                     source: kernel_with(t.wgsl_type, Some(t2.wgsl_type), n_in, k.n_out, &k.body),
-                    params: lf_tex(e, self.filter),
+                    params: lf_tex(e, self.filter)?,
                     texture: t,
-                    second: Some((lf_tex(e2, self.filter), t2)),
+                    second: Some((lf_tex(e2, self.filter)?, t2)),
                 }
             }
             _ => return Err(format!("{}: a kernel binds at most two textures", k.name)),
@@ -203,35 +160,10 @@ mod tests {
         d
     }
 
-    /// `lf_tex` writes the bytes where the WGSL struct `LfTex` has its members (the
-    /// struct's layout as naga lays it out for a uniform).
+    /// `lf_tex` of an export's texture entry: the axis constants in axis[0], the mode
+    /// in `mode` (the struct's layout against the WGSL: tests/it/export_shaders.rs).
     #[test]
-    fn lf_tex_matches_the_wgsl_struct() {
-        let (module, _) = lobefit::export::shaders::module().unwrap();
-        let mut layouter = naga::proc::Layouter::default();
-        layouter.update(module.to_ctx()).unwrap();
-        let (h, ty) = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some("LfTex"))
-            .unwrap();
-        assert_eq!(layouter[h].size as usize, LF_TEX_SIZE);
-        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-            panic!("LfTex is not a struct")
-        };
-        let offsets: Vec<(String, u32)> = members.iter().map(|m| (m.name.clone().unwrap(), m.offset)).collect();
-        let want = [
-            ("axis", 0),
-            ("map", 48),
-            ("offset", 96),
-            ("scale", 144),
-            ("trend", 192),
-            ("decode", 576),
-            ("mode", 624),
-        ];
-        for ((name, off), (wn, wo)) in offsets.iter().zip(want) {
-            assert_eq!((name.as_str(), *off), (wn, wo));
-        }
+    fn lf_tex_of_an_export_entry() {
         // A texture entry's axis constants land in axis[0], its mode in `mode`.
         let dir = tempdir();
         let opts = lobefit::export::run::ExportOptions {
@@ -243,7 +175,7 @@ mod tests {
         };
         let m = lobefit::export::run::export(&opts, &dir).unwrap();
         let t = &m.families[0].textures[0];
-        let b = lf_tex(t, Filter::Hardware);
+        let b = lf_tex(t, Filter::Hardware).unwrap();
         assert_eq!(b.len(), LF_TEX_SIZE);
         let f = |off: usize| f32::from_le_bytes(b[off..off + 4].try_into().unwrap());
         assert_eq!(f(0), t.axes[0].mapped_lo as f32);
@@ -254,7 +186,7 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
-    /// f16 lobe-product: every `*_compressed` channel gets the export's width in
+    /// f16 lobe-product: every compressed channel gets the export's width in
     /// `decode` (vec4 36 + layer), the others 0; the 1D ln W texture's six trend
     /// coefficients land at vec4 12 + 2k (c0..c3) and 13 + 2k (c4, c5).
     #[test]
@@ -275,16 +207,16 @@ mod tests {
         };
         let main = &texs[0];
         assert_eq!(main.channels.len(), 3, "c, ρ, κ");
-        let b = lf_tex(main, Filter::Manual);
+        let b = lf_tex(main, Filter::Manual).unwrap();
         for ch in &main.channels {
-            assert!(ch.name.ends_with("_compressed"), "{}", ch.name);
+            assert_eq!(ch.compression, 0.5, "{}", ch.name);
             assert_eq!(f(&b, 36 + ch.layer as usize, ch.component as usize), 0.5);
         }
         assert_eq!(f(&b, 36, 3), 0.0, "an unused channel is not decoded");
         let lnw = &texs[1];
         let ch = &lnw.channels[0];
         assert_eq!(ch.trend.len(), 6, "f16 1D textures carry a quintic trend");
-        let b = lf_tex(lnw, Filter::Manual);
+        let b = lf_tex(lnw, Filter::Manual).unwrap();
         for (j, want) in ch.trend.iter().enumerate() {
             assert_eq!(f(&b, 12 + j / 4, j % 4), *want as f32, "coefficient {j}");
         }

@@ -148,7 +148,7 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64),
     let up = gpu.upload(tex, m.storage)?;
     let n = SIZE * SIZE;
     let src = kernel(wgsl_texture_type(tex), 0, 1, BODY);
-    let mut img = gpu.run(&src, &lf_tex(entry, Filter::Manual), &up, &[], n, 1)?;
+    let mut img = gpu.run(&src, &lf_tex(entry, Filter::Manual)?, &up, &[], n, 1)?;
     let texs = m
         .families
         .iter()
@@ -166,10 +166,10 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64),
         1,
         &glossy_body(),
     );
-    let lnw_params = lf_tex(e_lnw, Filter::Manual);
+    let lnw_params = lf_tex(e_lnw, Filter::Manual)?;
     let gloss = gpu.run_with(
         &src,
-        &lf_tex(e_main, Filter::Manual),
+        &lf_tex(e_main, Filter::Manual)?,
         &up_main,
         Some((&lnw_params, &up_lnw)),
         &[],

@@ -57,6 +57,10 @@ pub struct Channel {
     /// residual from the trend leaves f16 a narrow range to resolve.
     #[serde(default)]
     pub trend: Vec<f64>,
+    /// Width w of a compression: 0, the value is stored as is; w > 0, the texel holds
+    /// v = sign(x) ln(1 + |x|/w), and x = sign(v) w (exp(|v|) − 1) after filtering and
+    /// unpacking (lobe-product's f16 export).
+    pub compression: f64,
     /// Array layer holding the channel.
     pub layer: u32,
     /// Component within the texel: 0 = R, 1 = G, 2 = B, 3 = A.
@@ -76,6 +80,11 @@ pub struct TexAxis {
     pub mapped_hi: f64,
     /// Texture axis: `x` (fastest) or `y`.
     pub texture_axis: String,
+    /// The mapping's kind as shaders number it (`lobefit_tables::uniform::mapping_kind`:
+    /// 0 linear, 1 log, 2 log1p, 3 logit, 4 asinh).
+    pub mapping_kind: u32,
+    /// Its two constants: log1p (scale, 0), logit (a, b), asinh (centre, width), else 0.
+    pub mapping_constants: [f64; 2],
 }
 
 impl TexAxis {
@@ -83,11 +92,14 @@ impl TexAxis {
         if axis.placement != Placement::Endpoints {
             return Err(format!("axis {}: only node-on-endpoint axes export", axis.name));
         }
+        let (mapping_kind, mapping_constants) = axis.mapping.shader_code();
         Ok(TexAxis {
             mapped_lo: axis.mapping.forward(axis.lo),
             mapped_hi: axis.mapping.forward(axis.hi),
             axis: axis.clone(),
             texture_axis: texture_axis.into(),
+            mapping_kind,
+            mapping_constants,
         })
     }
 
@@ -240,6 +252,7 @@ pub fn grid_of_values(
             offset,
             scale,
             trend,
+            compression: 0.0,
             layer: (c / 4) as u32,
             component: (c % 4) as u32,
         });
@@ -464,12 +477,18 @@ impl Sampler {
     }
 }
 
-/// trend + offset + scale · texel, then exp for log channels (f32, as the shader).
+/// trend + offset + scale · texel, the compression's inverse, then exp for log
+/// channels (f32, as the shader).
 fn unpack(ch: &Channel, texel: f32, trend: f32) -> f32 {
     let v = if ch.offset == 0.0 && ch.scale == 1.0 && ch.trend.is_empty() {
         texel
     } else {
         trend + ch.offset as f32 + ch.scale as f32 * texel
+    };
+    let v = if ch.compression > 0.0 {
+        v.signum() * ch.compression as f32 * v.abs().exp_m1()
+    } else {
+        v
     };
     if ch.log {
         v.exp()

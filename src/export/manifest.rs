@@ -4,13 +4,15 @@
 
 use serde::{Deserialize, Serialize};
 
+use lobefit_tables::uniform::{Filtering, LfTex, UniformAxis, UniformChannel};
+
 use super::layout::{Channel, Filter, TexAxis};
 use super::{Format, Storage};
 
 /// Manifest file name in an export directory.
 pub const MANIFEST: &str = "manifest.json";
 /// Manifest layout version.
-pub const MANIFEST_VERSION: u32 = 1;
+pub const MANIFEST_VERSION: u32 = 2;
 /// The manifest: everything a renderer needs to sample the textures, and the
 /// measured error of these very files.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -29,6 +31,9 @@ pub struct Manifest {
     pub samples: usize,
     /// Their seed.
     pub seed: u64,
+    /// The C header (in this directory) declaring the uniform `LobefitLfTex` and each
+    /// texture's initializers, for manual and hardware filtering.
+    pub uniforms_header: String,
     /// One entry per exported family.
     pub families: Vec<FamilyEntry>,
     /// Families a shader evaluates in closed form: (kind, formula).
@@ -91,5 +96,39 @@ impl ErrorEntry {
     /// Whether the measured error meets the family's target.
     pub fn meets_target(&self) -> bool {
         self.measured <= self.target
+    }
+}
+
+impl TextureEntry {
+    /// The uniform the shader library's textured functions take for this texture,
+    /// filtered as `filter` says (`lobefit_tables::uniform::LfTex`).
+    pub fn lf_tex(&self, filter: Filter) -> Result<LfTex, String> {
+        let axes: Vec<UniformAxis> = self
+            .axes
+            .iter()
+            .map(|a| UniformAxis {
+                mapping: a.axis.mapping,
+                mapped_lo: a.mapped_lo,
+                mapped_hi: a.mapped_hi,
+                count: a.axis.count,
+            })
+            .collect();
+        let channels: Vec<UniformChannel> = self
+            .channels
+            .iter()
+            .map(|c| UniformChannel {
+                layer: c.layer,
+                component: c.component,
+                offset: c.offset,
+                scale: c.scale,
+                trend: c.trend.clone(),
+                compression: c.compression,
+            })
+            .collect();
+        let filtering = match filter {
+            Filter::Manual => Filtering::Manual,
+            Filter::Hardware => Filtering::Hardware,
+        };
+        LfTex::new(&axes, &channels, filtering).map_err(|e| format!("{}: {e}", self.file))
     }
 }

@@ -227,12 +227,21 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             .into(),
         samples: SAMPLES,
         seed: SEED,
+        uniforms_header: formats::UNIFORMS_HEADER.into(),
         families: entries,
         closed_form: fits::closed_form()
             .iter()
             .map(|c| (c.kind.to_string(), c.formula.to_string()))
             .collect(),
     };
+    let mut uniforms = Vec::new();
+    for t in manifest.families.iter().flat_map(|f| &f.textures) {
+        let name = t.file.split('.').next().unwrap_or_default().to_string();
+        uniforms.push((name, t.lf_tex(Filter::Manual)?, t.lf_tex(Filter::Hardware)?));
+    }
+    let header = stage.path().join(formats::UNIFORMS_HEADER);
+    crate::io::write_atomic(&header, formats::uniforms_header(&uniforms).as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", dir.join(formats::UNIFORMS_HEADER).display()))?;
     let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
     crate::io::write_atomic(&stage.path().join(MANIFEST), json.as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", dir.join(MANIFEST).display()))?;
@@ -343,15 +352,21 @@ pub fn read_export(dir: &Path) -> Result<Export, String> {
     }
     let path = dir.join(MANIFEST);
     let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let manifest: Manifest =
+    // The version first: an older layout is named as such, not as malformed.
+    let value: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
-    if manifest.version != MANIFEST_VERSION {
-        return Err(format!(
-            "{}: manifest version {} (this lobefit reads {MANIFEST_VERSION})",
-            path.display(),
-            manifest.version
-        ));
+    match value.get("version").and_then(|v| v.as_u64()) {
+        Some(v) if v == u64::from(MANIFEST_VERSION) => {}
+        Some(v) => {
+            return Err(format!(
+                "{}: manifest version {v} (this lobefit reads {MANIFEST_VERSION}; export again)",
+                path.display()
+            ))
+        }
+        None => return Err(format!("{}: not a lobefit export manifest: no version", path.display())),
     }
+    let manifest: Manifest =
+        serde_json::from_value(value).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
     let mut textures = Vec::new();
     for f in &manifest.families {
         let mut ts = Vec::new();

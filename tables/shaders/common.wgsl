@@ -5,10 +5,13 @@
 // Conventions (the export manifest, manifest.json, states them per texture):
 // - Node i of an axis with n nodes sits at the centre of texel i: texture coordinate
 //   u = (s + 0.5) / n, s = (map(x) - map(lo)) / (map(hi) - map(lo)) * (n - 1).
-// - 1D tables are bound as 2D textures of height 1 (GLSL ES has no 1D textures);
-//   tables with more than 4 channels as 2D array textures (RGBA per layer).
+// - One-axis tables are 2D textures of height 1 (in the exported files too; GLSL ES
+//   has no 1D textures); tables with more than 4 channels 2D array textures (RGBA per
+//   layer).
 // - A channel's value is trend(t) + offset + scale * texel (t = s / (n - 1); trend a
-//   cubic, zero unless the manifest gives one), then exp() for log channels.
+//   quintic, zero unless the manifest gives one), the compression's inverse where the
+//   manifest gives a width, then exp() for log channels.
+// - `LfTex` is lobefit_tables::uniform::LfTex (Rust), built from a manifest entry.
 // - Angles in radians; directions unit vectors.
 
 // One texture's parameters, filled from its manifest entry (at most 12 channels:
@@ -29,7 +32,7 @@ struct LfTex {
     trend: array<vec4<f32>, 24>,
     // Channel k's compression width w at [k / 4][k % 4]: 0, stored as is; w > 0, the
     // texel holds v = sign(x) ln(1 + |x| / w) and x = sign(v) w (exp(|v|) - 1) after
-    // filtering and unpacking (manifest channels named `*_compressed`).
+    // filtering and unpacking (the manifest channel's `compression`).
     decode: array<vec4<f32>, 3>,
     // .x: 0 = manual filtering (textureLoad, f32 interpolation), 1 = hardware
     // filtering (a linear, clamp-to-edge sampler; 32-bit float textures then need

@@ -171,6 +171,7 @@ pub mod shaders;
 pub mod shexp;
 pub mod table;
 mod table_type;
+pub mod uniform;
 pub mod wedge;
 pub mod wrap;
 

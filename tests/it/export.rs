@@ -187,10 +187,14 @@ fn bad_requests_are_specific_errors() {
     let e = check_export(&dir.path().join("missing")).unwrap_err();
     assert!(e.contains("no such export directory"), "{e}");
     assert!(check_export(dir.path()).unwrap_err().contains(MANIFEST));
-    std::fs::write(dir.path().join(MANIFEST), b"{\"version\": 1}").unwrap();
+    std::fs::write(dir.path().join(MANIFEST), b"{\"version\": 2}").unwrap();
     assert!(check_export(dir.path())
         .unwrap_err()
         .contains("not a lobefit export manifest"));
+    // An older layout is named as such.
+    std::fs::write(dir.path().join(MANIFEST), b"{\"version\": 1, \"format\": \"ktx2\"}").unwrap();
+    let e = check_export(dir.path()).unwrap_err();
+    assert!(e.contains("manifest version 1") && e.contains("reads 2"), "{e}");
 }
 
 #[test]
@@ -329,7 +333,10 @@ fn a_refused_export_writes_nothing() {
     export(&refused, &existing).unwrap_err();
     assert_eq!(names(&existing), ["mine.txt"]);
     let m = export(&opts(&["cap-exponent"], Format::Ktx2, Storage::F16), &existing).unwrap();
-    assert_eq!(names(&existing), ["cap-exponent.ktx2", MANIFEST, "mine.txt"]);
+    assert_eq!(
+        names(&existing),
+        ["cap-exponent.ktx2", "lobefit_uniforms.h", MANIFEST, "mine.txt"]
+    );
     assert_eq!(names(root.path()), ["existing"]);
     // One-axis tables are 2D textures of height 1, in the manifest and the file header
     // (KTX2 pixelHeight at byte 24): what the shader library binds.

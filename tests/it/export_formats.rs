@@ -506,3 +506,84 @@ fn the_c_header_compiles_as_c99_and_cpp11_and_holds_the_exact_values() {
     want.extend(b.data.iter().map(|&v| format!("{:04x}", f16::from_f32(v).to_bits())));
     assert_eq!(lines, want);
 }
+
+/// The export's C header of uniforms compiles as C99 and C++11 (warnings as errors),
+/// and the compiler's reading of each initializer is, byte for byte, the uniform the
+/// runtime builds from the manifest (`TextureEntry::lf_tex`): a C renderer needs no
+/// code to fill it.
+#[test]
+fn the_uniforms_header_compiles_and_holds_the_manifest_uniforms() {
+    use lobefit::export::layout::Filter;
+    use lobefit::export::run::{export, ExportOptions};
+    if !Command::new("cc")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        println!("note: no `cc` on PATH; the uniforms header check is skipped");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let opts = ExportOptions {
+        only: vec!["cap-exponent".into(), "lobe-product".into()],
+        format: Format::Inc,
+        storage: Storage::F16,
+        scale: 0.25,
+        allow_lossy: true,
+    };
+    let m = export(&opts, d).unwrap();
+    assert_eq!(m.uniforms_header, formats::UNIFORMS_HEADER);
+    let textures: Vec<_> = m.families.iter().flat_map(|f| &f.textures).collect();
+    let mut body = String::new();
+    for t in &textures {
+        let id = c_identifier(t.file.split('.').next().unwrap());
+        for what in ["MANUAL", "HARDWARE"] {
+            body += &format!("    dump(&{id}_LFTEX_{what});\n");
+        }
+    }
+    let src = format!(
+        "#include <stdio.h>\n#include \"{h}\"\n#include \"{h}\"\n\
+         static void dump(const LobefitLfTex *u) {{\n\
+           const unsigned char *b = (const unsigned char *)u; unsigned long i;\n\
+           for (i = 0; i < sizeof *u; i++) printf(\"%02x\", b[i]);\n\
+           printf(\"\\n\");\n\
+         }}\n\
+         int main(void) {{\n{body}    return 0;\n}}\n",
+        h = formats::UNIFORMS_HEADER
+    );
+    std::fs::write(d.join("u.c"), &src).unwrap();
+    std::fs::write(d.join("u.cpp"), &src).unwrap();
+    let warn = ["-Wall", "-Wextra", "-pedantic", "-Werror"];
+    let run = |cmd: &mut Command| {
+        let o = cmd.current_dir(d).output().unwrap();
+        assert!(o.status.success(), "{cmd:?}: {}", String::from_utf8_lossy(&o.stderr));
+        o
+    };
+    if Command::new("c++")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        run(Command::new("c++")
+            .args(["-std=c++11", "-fsyntax-only"])
+            .args(warn)
+            .arg("u.cpp"));
+    }
+    run(Command::new("cc").args(["-std=c99", "-o", "u"]).args(warn).arg("u.c"));
+    let out = String::from_utf8(run(&mut Command::new(d.join("u"))).stdout).unwrap();
+    let mut lines = out.lines();
+    for t in &textures {
+        for filter in [Filter::Manual, Filter::Hardware] {
+            let want: String = t
+                .lf_tex(filter)
+                .unwrap()
+                .to_bytes()
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect();
+            assert_eq!(lines.next(), Some(want.as_str()), "{} {filter:?}", t.file);
+        }
+    }
+    assert_eq!(lines.next(), None);
+}

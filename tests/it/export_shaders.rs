@@ -42,3 +42,41 @@ fn bad_shader_requests_are_specific_errors() {
     assert_eq!(code, Some(2), "{stderr}");
     assert!(stderr.contains("--format"), "{stderr}");
 }
+
+/// `lobefit_tables::uniform::LfTex` is the WGSL struct `LfTex`, member for member: the
+/// Rust field offsets (`repr(C)`) and size equal those naga lays out for the uniform.
+#[test]
+fn the_rust_uniform_has_the_wgsl_layout() {
+    use lobefit_tables::uniform::{LfTex, LF_TEX_SIZE};
+    use std::mem::{offset_of, size_of};
+    let (module, _) = lobefit::export::shaders::module().unwrap();
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let (h, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("LfTex"))
+        .unwrap();
+    assert_eq!(layouter[h].size as usize, LF_TEX_SIZE);
+    assert_eq!(size_of::<LfTex>(), LF_TEX_SIZE);
+    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+        panic!("LfTex is not a struct")
+    };
+    let wgsl: Vec<(String, usize)> = members
+        .iter()
+        .map(|m| (m.name.clone().unwrap(), m.offset as usize))
+        .collect();
+    let rust = [
+        ("axis", offset_of!(LfTex, axis)),
+        ("map", offset_of!(LfTex, map)),
+        ("offset", offset_of!(LfTex, offset)),
+        ("scale", offset_of!(LfTex, scale)),
+        ("trend", offset_of!(LfTex, trend)),
+        ("decode", offset_of!(LfTex, decode)),
+        ("mode", offset_of!(LfTex, mode)),
+    ];
+    assert_eq!(wgsl.len(), rust.len());
+    for ((wn, wo), (rn, ro)) in wgsl.iter().zip(rust) {
+        assert_eq!((wn.as_str(), *wo), (rn, ro));
+    }
+}
