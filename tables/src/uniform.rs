@@ -28,6 +28,22 @@ pub mod mapping_kind {
 }
 
 impl Mapping {
+    /// The mapping of kind number `kind` ([`mapping_kind`]) with constants `c` (the
+    /// inverse of [`Mapping::shader_code`]); `None` for an unknown kind.
+    pub fn from_shader_code(kind: u32, c: [f64; 2]) -> Option<Mapping> {
+        Some(match kind {
+            mapping_kind::LINEAR => Mapping::Linear,
+            mapping_kind::LOG => Mapping::Log,
+            mapping_kind::LOG1P => Mapping::Log1p { scale: c[0] },
+            mapping_kind::LOGIT => Mapping::Logit { a: c[0], b: c[1] },
+            mapping_kind::ASINH => Mapping::Asinh {
+                centre: c[0],
+                width: c[1],
+            },
+            _ => return None,
+        })
+    }
+
     /// The mapping's kind number ([`mapping_kind`]) and its two constants, as shaders
     /// read them.
     pub fn shader_code(&self) -> (u32, [f64; 2]) {
@@ -91,6 +107,9 @@ pub enum UniformError {
     /// a value that is not finite.
     #[error("the texture does not fit LfTex: {0}")]
     DoesNotFit(String),
+    /// The manifest cannot be read, or does not describe the texture.
+    #[error("{0}")]
+    Manifest(String),
 }
 
 /// The uniform (see the module doc). Fields as in common.wgsl.
@@ -168,6 +187,28 @@ impl LfTex {
         Ok(u)
     }
 
+    /// The uniform of texture `texture` (its file stem, e.g. `"cap-exponent"`) of an
+    /// export whose `manifest.json` text is `manifest` (feature `manifest`).
+    ///
+    /// ```
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// # let manifest = r#"{"version": 2, "families": [{"textures": [{"file": "cap-exponent.ktx2",
+    /// #   "axes": [{"axis": {"count": 1000}, "mapped_lo": -5.0, "mapped_hi": 5.0,
+    /// #             "mapping_kind": 3, "mapping_constants": [-0.01, 1.58]}],
+    /// #   "channels": [{"layer": 0, "component": 0, "offset": 0.0, "scale": 1.0,
+    /// #                 "trend": [], "compression": 0.0}]}]}]}"#;
+    /// use lobefit_tables::uniform::{Filtering, LfTex};
+    /// // let manifest = std::fs::read_to_string("export/manifest.json")?;
+    /// let u = LfTex::from_manifest(&manifest, "cap-exponent", Filtering::Manual)?;
+    /// let bytes = u.to_bytes(); // the uniform buffer's contents
+    /// # assert_eq!(u.axis[0][2], 1000.0);
+    /// # Ok(()) }
+    /// ```
+    #[cfg(feature = "manifest")]
+    pub fn from_manifest(manifest: &str, texture: &str, filtering: Filtering) -> Result<LfTex, UniformError> {
+        manifest::lf_tex(manifest, texture, filtering)
+    }
+
     /// The 640 bytes to upload (little-endian, the struct's layout).
     pub fn to_bytes(&self) -> [u8; LF_TEX_SIZE] {
         let mut out = [0u8; LF_TEX_SIZE];
@@ -191,6 +232,92 @@ impl LfTex {
             at += 4;
         }
         out
+    }
+}
+
+/// The part of an export manifest (version 2) the uniform needs.
+#[cfg(feature = "manifest")]
+mod manifest {
+    use serde::Deserialize;
+
+    use super::{Filtering, LfTex, Mapping, UniformAxis, UniformChannel, UniformError};
+
+    #[derive(Deserialize)]
+    struct Manifest {
+        version: u32,
+        families: Vec<Family>,
+    }
+    #[derive(Deserialize)]
+    struct Family {
+        textures: Vec<Texture>,
+    }
+    #[derive(Deserialize)]
+    struct Texture {
+        file: String,
+        axes: Vec<Axis>,
+        channels: Vec<Channel>,
+    }
+    #[derive(Deserialize)]
+    struct Axis {
+        axis: Count,
+        mapped_lo: f64,
+        mapped_hi: f64,
+        mapping_kind: u32,
+        mapping_constants: [f64; 2],
+    }
+    #[derive(Deserialize)]
+    struct Count {
+        count: u32,
+    }
+    #[derive(Deserialize)]
+    struct Channel {
+        layer: u32,
+        component: u32,
+        offset: f64,
+        scale: f64,
+        #[serde(default)]
+        trend: Vec<f64>,
+        compression: f64,
+    }
+
+    pub(super) fn lf_tex(text: &str, texture: &str, filtering: Filtering) -> Result<LfTex, UniformError> {
+        let bad = |what: String| UniformError::Manifest(what);
+        let m: Manifest = serde_json::from_str(text).map_err(|e| bad(format!("not an export manifest: {e}")))?;
+        if m.version != 2 {
+            return Err(bad(format!("manifest version {} (this reads 2)", m.version)));
+        }
+        let t = m
+            .families
+            .iter()
+            .flat_map(|f| &f.textures)
+            .find(|t| t.file.split('.').next() == Some(texture))
+            .ok_or_else(|| bad(format!("no texture {texture:?} in the manifest")))?;
+        let axes = t
+            .axes
+            .iter()
+            .map(|a| {
+                Ok(UniformAxis {
+                    mapping: Mapping::from_shader_code(a.mapping_kind, a.mapping_constants)
+                        .ok_or_else(|| bad(format!("unknown mapping kind {}", a.mapping_kind)))?,
+                    mapped_lo: a.mapped_lo,
+                    mapped_hi: a.mapped_hi,
+                    count: a.axis.count,
+                })
+            })
+            .collect::<Result<Vec<_>, UniformError>>()?;
+        let channels: Vec<UniformChannel> = t
+            .channels
+            .iter()
+            .map(|c| UniformChannel {
+                layer: c.layer,
+                component: c.component,
+                offset: c.offset,
+                scale: c.scale,
+                trend: c.trend.clone(),
+                compression: c.compression,
+            })
+            .collect();
+        LfTex::new(&axes, &channels, filtering)
     }
 }
 

@@ -345,3 +345,36 @@ fn a_refused_export_writes_nothing() {
     let bytes = std::fs::read(existing.join("cap-exponent.ktx2")).unwrap();
     assert_eq!(u32::from_le_bytes(bytes[24..28].try_into().unwrap()), 1);
 }
+
+/// The runtime crate's manifest reader (`LfTex::from_manifest`, what a renderer
+/// calls) gives every texture of an export the same uniform as the exporter's own
+/// (`TextureEntry::lf_tex`), for both filters.
+#[test]
+fn the_runtime_reads_the_uniform_from_the_manifest() {
+    use lobefit_tables::uniform::{Filtering, LfTex};
+    let dir = tempfile::tempdir().unwrap();
+    let m = export(
+        &opts(&["cap-exponent", "lobe-product", "shexp"], Format::Raw, Storage::F16),
+        dir.path(),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(dir.path().join(MANIFEST)).unwrap();
+    let mut n = 0;
+    for t in m.families.iter().flat_map(|f| &f.textures) {
+        let stem = t.file.split('.').next().unwrap();
+        for (f, g) in [
+            (Filter::Manual, Filtering::Manual),
+            (Filter::Hardware, Filtering::Hardware),
+        ] {
+            assert_eq!(
+                LfTex::from_manifest(&text, stem, g).unwrap(),
+                t.lf_tex(f).unwrap(),
+                "{stem}"
+            );
+            n += 1;
+        }
+    }
+    assert_eq!(n, 2 * (1 + 2 + 12));
+    let e = LfTex::from_manifest(&text, "nonesuch", Filtering::Manual).unwrap_err();
+    assert!(e.to_string().contains("nonesuch"), "{e}");
+}
