@@ -97,6 +97,20 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
         Command::GpuCheck { export } => {
+            // The manifest's promises become this check's limits: they are verified
+            // first (`lobefit check --export`: texels rebuilt, errors re-measured).
+            let failed: Vec<String> = lobefit::export::run::check_export(&export)?
+                .into_iter()
+                .filter(|c| !c.pass)
+                .map(|c| format!("{} {} {}", c.family, c.entry.output, c.entry.metric))
+                .collect();
+            if !failed.is_empty() {
+                return Err(format!(
+                    "{}: the export fails `lobefit check --export` ({}); its promises are no limits",
+                    export.display(),
+                    failed.join("; ")
+                ));
+            }
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
             out!(

@@ -96,9 +96,10 @@ fn decode(path: &Path, bytes: &[u8], format: Format, name: String) -> Result<(Te
             name,
         ),
         Format::Raw => {
+            // A sidecar is a few hundred bytes: a regular file of at most 64 KiB.
             let side = path.with_extension("json");
-            let json = std::fs::read(&side).map_err(|e| format!("cannot read sidecar {}: {e}", side.display()))?;
-            read_raw(bytes, &json, name)
+            let json = crate::io::read_text(&side, 1 << 16).map_err(|e| format!("sidecar: {e}"))?;
+            read_raw(bytes, json.as_bytes(), name)
         }
     }
 }

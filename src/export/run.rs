@@ -2,7 +2,7 @@
 //! textures written, read back with independent readers, and sampled as a GPU
 //! samples them, against the families' independent references.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use lobefit_tables::Table;
 use rayon::prelude::*;
@@ -351,7 +351,7 @@ pub fn read_export(dir: &Path) -> Result<Export, String> {
         ));
     }
     let path = dir.join(MANIFEST);
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let text = crate::io::read_text(&path, MAX_MANIFEST_BYTES)?;
     // The version first: an older layout is named as such, not as malformed.
     let value: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
@@ -371,7 +371,7 @@ pub fn read_export(dir: &Path) -> Result<Export, String> {
     for f in &manifest.families {
         let mut ts = Vec::new();
         for t in &f.textures {
-            let file = dir.join(&t.file);
+            let file = texture_path(dir, &t.file, manifest.format, manifest.storage, &t.extent)?;
             let (tex, storage) = formats::read(&file, manifest.format)?;
             if storage != manifest.storage {
                 return Err(format!(
@@ -396,29 +396,144 @@ pub fn read_export(dir: &Path) -> Result<Export, String> {
     Ok(Export { manifest, textures })
 }
 
-/// `lobefit check --export DIR`: reads the manifest and every texture (independent
-/// readers), re-measures each error and compares it with the manifest's promise.
+/// Largest manifest `read_export` reads (an export's is tens of kilobytes).
+pub const MAX_MANIFEST_BYTES: u64 = 16 << 20;
+
+/// The path of texture `file` in export `dir`, refused unless it is a plain file name
+/// in `dir` (no directory part, not hidden) with the format's extension, naming a
+/// regular file (not a FIFO, device or directory) no larger than its manifest extent
+/// needs plus a header.
+fn texture_path(
+    dir: &Path,
+    file: &str,
+    format: Format,
+    storage: Storage,
+    extent: &[u32; 5],
+) -> Result<PathBuf, String> {
+    let plain = !file.is_empty()
+        && !file.starts_with('.')
+        && !file.contains(['/', '\\', '\0'])
+        && Path::new(file).extension().and_then(|e| e.to_str()) == Some(format.extension());
+    if !plain {
+        return Err(format!(
+            "{}: texture file {file:?} is not a plain .{} file name in the export directory",
+            dir.join(MANIFEST).display(),
+            format.extension()
+        ));
+    }
+    let path = dir.join(file);
+    let meta = std::fs::symlink_metadata(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    if !meta.is_file() {
+        return Err(format!("{} is not a regular file", path.display()));
+    }
+    let texels: u64 = extent.iter().map(|&n| u64::from(n)).product();
+    // The C header spells each value in up to ~16 characters.
+    let per_value = if format == Format::Inc {
+        24
+    } else {
+        storage.bytes() as u64
+    };
+    let limit = texels.saturating_mul(per_value).saturating_add(1 << 16);
+    if meta.len() > limit {
+        return Err(format!(
+            "{}: {} bytes, more than its manifest extent {extent:?} needs",
+            path.display(),
+            meta.len()
+        ));
+    }
+    Ok(path)
+}
+
+/// `lobefit check --export DIR`: trusts nothing the manifest says. It reads the
+/// manifest and every texture (independent readers); rebuilds each family's textures
+/// from this lobefit's tables as the manifest's storage and scale say and compares
+/// them with the files, layout and every texel (any changed texel fails); re-measures
+/// every error at the export's own sample count and seed; and holds each measurement
+/// to the promise an export of these files records (the family's target where met,
+/// else the measured error of a lossy export) — a manifest that lacks a measurement
+/// or promises more than that fails.
 pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
     let Export { manifest: m, textures } = read_export(dir)?;
     let path = dir.join(MANIFEST);
+    if m.families.is_empty() {
+        return Err(format!("{}: the manifest lists no family", path.display()));
+    }
+    if (m.samples, m.seed) != (SAMPLES, SEED) {
+        return Err(format!(
+            "{}: measured at {} samples, seed {:#x}; exports are measured at {SAMPLES}, seed {SEED:#x}",
+            path.display(),
+            m.samples,
+            m.seed
+        ));
+    }
     let mut out = Vec::new();
     for (f, texs) in m.families.iter().zip(textures) {
         let family =
             family_of(&f.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), f.family))?;
         let gpu =
             fits::gpu_family(&f.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), f.family))?;
-        let back: Vec<_> = texs.into_iter().map(|(t, tex)| (t.axes, t.channels, tex)).collect();
-        let now = measure(family.as_ref(), gpu, &back, m.samples, m.seed)?;
-        for e in &f.error {
-            let v = now
+        let fail = |what: String, count: f64| ExportCheck {
+            family: f.family.clone(),
+            entry: ErrorEntry {
+                filter: Filter::Manual,
+                output: what,
+                metric: "differs from a fresh export".into(),
+                measured: count,
+                target: 0.0,
+                promise: 0.0,
+            },
+            now: count,
+            pass: false,
+        };
+        let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", f.family))?;
+        let fresh = (gpu.grids)(gpu.kind, &table, m.storage, m.scale)?;
+        if fresh.len() != texs.len() {
+            out.push(fail(format!("{} textures (want {})", texs.len(), fresh.len()), 1.0));
+            continue;
+        }
+        let mut intact = true;
+        for (g, (t, tex)) in fresh.iter().zip(&texs) {
+            if g.axes != t.axes || g.channels != t.channels || t.file.split('.').next() != Some(&g.texture.name) {
+                out.push(fail(format!("layout of {}", t.file), 1.0));
+                intact = false;
+                continue;
+            }
+            let stored = |v: f32| match m.storage {
+                Storage::F32 => v,
+                Storage::F16 => half::f16::from_f32(v).to_f32(),
+            };
+            let differing = g
+                .texture
+                .data
                 .iter()
-                .find(|n| n.filter == e.filter && n.output == e.output && n.metric == e.metric)
-                .map_or(f64::NAN, |n| n.measured);
+                .zip(&tex.data)
+                .filter(|(a, b)| stored(**a).to_bits() != b.to_bits())
+                .count();
+            if differing > 0 || g.texture.data.len() != tex.data.len() {
+                out.push(fail(format!("texels of {}", t.file), differing as f64));
+                intact = false;
+            }
+        }
+        if !intact {
+            continue;
+        }
+        let back: Vec<_> = texs.into_iter().map(|(t, tex)| (t.axes, t.channels, tex)).collect();
+        for n in measure(family.as_ref(), gpu, &back, SAMPLES, SEED)? {
+            let recorded = f
+                .error
+                .iter()
+                .find(|e| e.filter == n.filter && e.output == n.output && e.metric == n.metric);
+            // The promise is what this export would record, whatever the file says.
+            let pass = recorded.is_some_and(|e| e.promise == n.promise && e.target == n.target);
             out.push(ExportCheck {
                 family: f.family.clone(),
-                entry: e.clone(),
-                now: v,
-                pass: v <= e.promise * (1.0 + 1e-12),
+                entry: recorded.cloned().unwrap_or(ErrorEntry {
+                    measured: f64::NAN,
+                    promise: f64::NAN,
+                    ..n.clone()
+                }),
+                now: n.measured,
+                pass: pass && n.measured <= n.promise,
             });
         }
     }

@@ -378,3 +378,182 @@ fn the_runtime_reads_the_uniform_from_the_manifest() {
     let e = LfTex::from_manifest(&text, "nonesuch", Filtering::Manual).unwrap_err();
     assert!(e.to_string().contains("nonesuch"), "{e}");
 }
+
+/// `check --export` trusts nothing the manifest says (the attacks that once passed):
+/// inflated promises over scaled texels, dropped measurements, no families, fewer
+/// samples, one changed texel, texture paths outside the directory, and a FIFO.
+#[test]
+fn check_export_trusts_nothing_the_manifest_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    export(&opts(&["cap-exponent"], Format::Raw, Storage::F32), d).unwrap();
+    let text = std::fs::read_to_string(d.join(MANIFEST)).unwrap();
+    let tex = d.join("cap-exponent.bin");
+    let texels = std::fs::read(&tex).unwrap();
+    let with = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        edit(&mut v);
+        std::fs::write(d.join(MANIFEST), v.to_string()).unwrap();
+    };
+    let fails = || !check_export(d).unwrap().iter().all(|c| c.pass);
+    assert!(!fails(), "the untouched export passes");
+    // Every promise 1e300 and every texel × 1.5.
+    let scaled: Vec<u8> = texels
+        .chunks(4)
+        .flat_map(|b| (f32::from_le_bytes(b.try_into().unwrap()) * 1.5).to_le_bytes())
+        .collect();
+    std::fs::write(&tex, &scaled).unwrap();
+    with(&|v| {
+        for e in v["families"][0]["error"].as_array_mut().unwrap() {
+            e["promise"] = 1e300.into();
+        }
+    });
+    assert!(fails(), "inflated promises over scaled texels");
+    std::fs::write(&tex, &texels).unwrap();
+    with(&|v| {
+        for e in v["families"][0]["error"].as_array_mut().unwrap() {
+            e["promise"] = 1e300.into();
+        }
+    });
+    assert!(fails(), "inflated promises alone");
+    with(&|v| v["families"][0]["error"] = serde_json::json!([]));
+    assert!(fails(), "no measurements recorded");
+    with(&|v| v["families"] = serde_json::json!([]));
+    assert!(check_export(d).unwrap_err().contains("no family"));
+    with(&|v| v["samples"] = 1.into());
+    assert!(check_export(d).unwrap_err().contains("samples"));
+    with(&|_| {});
+    assert!(!fails());
+    // One texel (981) set to 0.
+    let mut one = texels.clone();
+    one[981 * 4..982 * 4].copy_from_slice(&0f32.to_le_bytes());
+    std::fs::write(&tex, &one).unwrap();
+    let checks = check_export(d).unwrap();
+    assert!(
+        checks
+            .iter()
+            .any(|c| !c.pass && c.entry.output.contains("texels") && c.now == 1.0),
+        "{checks:?}"
+    );
+    std::fs::write(&tex, &texels).unwrap();
+    for file in [
+        "../cap-exponent.bin",
+        "/etc/passwd",
+        ".hidden.bin",
+        "sub/x.bin",
+        "cap-exponent.ktx2",
+    ] {
+        with(&|v| v["families"][0]["textures"][0]["file"] = file.into());
+        let e = check_export(d).unwrap_err();
+        assert!(e.contains("not a plain"), "{file}: {e}");
+    }
+    #[cfg(unix)]
+    {
+        with(&|v| v["families"][0]["textures"][0]["file"] = "fifo.bin".into());
+        let fifo = d.join("fifo.bin");
+        assert!(std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success());
+        let e = check_export(d).unwrap_err();
+        assert!(e.contains("not a regular file"), "{e}");
+    }
+}
+
+/// Any single changed texel fails `check --export`: per textured family (f16, raw
+/// files), a seeded random texel of each texture moved by one f16 step.
+#[test]
+fn any_single_changed_texel_fails_check_export() {
+    let mut rng = lobefit::rng::Rng::new(0x7e_c5e1);
+    for g in lobefit::fits::textured() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut o = opts(&[g.kind], Format::Raw, Storage::F16);
+        o.allow_lossy = true;
+        let m = export(&o, dir.path()).unwrap();
+        for t in &m.families[0].textures {
+            let file = dir.path().join(&t.file);
+            let clean = std::fs::read(&file).unwrap();
+            let i = (rng.next_u64() % (clean.len() / 2) as u64) as usize;
+            let mut bytes = clean.clone();
+            let bits = u16::from_le_bytes([bytes[2 * i], bytes[2 * i + 1]]) ^ 1;
+            bytes[2 * i..2 * i + 2].copy_from_slice(&bits.to_le_bytes());
+            std::fs::write(&file, &bytes).unwrap();
+            let checks = check_export(dir.path()).unwrap();
+            assert!(
+                checks
+                    .iter()
+                    .any(|c| !c.pass && c.entry.output == format!("texels of {}", t.file)),
+                "{}: texel {i} of {} changed, check passes",
+                g.kind,
+                t.file
+            );
+            std::fs::write(&file, &clean).unwrap();
+        }
+    }
+}
+
+/// Malformed manifests (the variants that once panicked `check --export`) are errors
+/// or failing rows, never panics.
+#[test]
+fn malformed_manifests_never_panic_check_export() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut o = opts(
+        &["cap-exponent", "disk-light", "lobe-product"],
+        Format::Raw,
+        Storage::F16,
+    );
+    o.scale = 0.25;
+    o.allow_lossy = true;
+    export(&o, d).unwrap();
+    let text = std::fs::read_to_string(d.join(MANIFEST)).unwrap();
+    type Edit = fn(&mut serde_json::Value);
+    let edits: [(&str, Edit); 12] = [
+        ("textures: []", |v| v["families"][0]["textures"] = serde_json::json!([])),
+        ("channels: []", |v| {
+            v["families"][0]["textures"][0]["channels"] = serde_json::json!([])
+        }),
+        ("layer 5", |v| {
+            v["families"][1]["textures"][0]["channels"][0]["layer"] = 5.into()
+        }),
+        ("axis count 0", |v| {
+            v["families"][0]["textures"][0]["axes"][0]["axis"]["count"] = 0.into()
+        }),
+        ("axis count 4e9", |v| {
+            v["families"][0]["textures"][0]["axes"][0]["axis"]["count"] = 4_000_000_000u64.into()
+        }),
+        ("axes: []", |v| {
+            v["families"][1]["textures"][0]["axes"] = serde_json::json!([])
+        }),
+        ("axes × 4", |v| {
+            let a = v["families"][1]["textures"][0]["axes"][0].clone();
+            v["families"][1]["textures"][0]["axes"] = serde_json::json!([a.clone(), a.clone(), a.clone(), a]);
+        }),
+        ("family renamed", |v| v["families"][0]["family"] = "sg-fit".into()),
+        ("family unknown", |v| v["families"][0]["family"] = "nonesuch".into()),
+        ("lobe-product without ln W", |v| {
+            v["families"][2]["textures"].as_array_mut().unwrap().truncate(1)
+        }),
+        ("channels and axes swapped", |v| {
+            let t = &mut v["families"][1]["textures"][0];
+            let (a, c) = (t["axes"].clone(), t["channels"].clone());
+            t["axes"] = c;
+            t["channels"] = a;
+        }),
+        ("extent changed", |v| {
+            v["families"][0]["textures"][0]["extent"][0] = 7.into()
+        }),
+    ];
+    for (what, edit) in edits {
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        edit(&mut v);
+        std::fs::write(d.join(MANIFEST), v.to_string()).unwrap();
+        let r = std::panic::catch_unwind(|| check_export(d));
+        match r {
+            Err(_) => panic!("{what}: check --export panicked"),
+            Ok(Ok(checks)) => assert!(checks.iter().any(|c| !c.pass), "{what}: passes"),
+            Ok(Err(_)) => {}
+        }
+    }
+}
