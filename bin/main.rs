@@ -119,7 +119,7 @@ enum Command {
         /// independent readers, sample it as a GPU does (manual and 8-bit hardware
         /// filtering, f32 arithmetic) against the references, and compare with the
         /// errors its manifest promises.
-        #[arg(long, value_name = "DIR", conflicts_with_all = ["baseline", "junit", "only", "points", "seed"])]
+        #[arg(long, value_name = "DIR", conflicts_with_all = ["baseline", "junit", "only", "points", "seed", "quick", "json", "tables"])]
         export: Option<PathBuf>,
     },
     /// Write the tables as GPU textures with a manifest (mappings, packing, measured error).

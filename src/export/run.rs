@@ -195,13 +195,15 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             back.push((grid.axes, grid.channels, tex));
         }
         let error = measure(family.as_ref(), g, &back, SAMPLES, SEED)?;
-        if opts.storage == Storage::F16 && !opts.allow_lossy {
+        // Whatever the cause (f16, a coarse --scale, a target beyond f32 arithmetic),
+        // an export that misses its target is the user's explicit choice.
+        if !opts.allow_lossy {
             if let Some(e) = error.iter().find(|e| e.filter == Filter::Manual && !e.meets_target()) {
                 return Err(format!(
-                    "{}: f16 misses the target: {} {} = {:.3e} against {:.1e} (manual filtering); \
-                     nothing was written; use --storage f32, leave it out (--only), or --allow-lossy \
-                     to export it with that error recorded",
-                    g.kind, e.output, e.metric, e.measured, e.target
+                    "{}: {} at scale {} misses the target: {} {} = {:.3e} against {:.1e} (manual filtering); \
+                     nothing was written; leave it out (--only), use --storage f32 or a finer --scale \
+                     where that helps, or --allow-lossy to export it with that error recorded",
+                    g.kind, opts.storage, opts.scale, e.output, e.metric, e.measured, e.target
                 ));
             }
         }

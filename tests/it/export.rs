@@ -28,7 +28,10 @@ fn manifest(dir: &Path) -> Manifest {
 #[ignore = "heavy (seconds to tens of seconds each): .ci/run runs the ignored tests"]
 fn every_textured_family_in_f32_meets_its_targets_with_manual_filtering() {
     let dir = tempfile::tempdir().unwrap();
-    let m = export(&opts(&[], Format::Raw, Storage::F32), dir.path()).unwrap();
+    // Lossy allowed: wedge's 1e-12 (below) is beyond f32.
+    let mut o = opts(&[], Format::Raw, Storage::F32);
+    o.allow_lossy = true;
+    let m = export(&o, dir.path()).unwrap();
     assert_eq!(m.families.len(), lobefit::fits::textured().len());
     for t in &m.families {
         // wedge's promise (1e-12, what its f32 hi + lo pairs hold) is beyond f32: lossy
@@ -86,7 +89,9 @@ fn f16_that_misses_its_target_is_refused_unless_lossy_is_allowed() {
     let mut o = opts(&["wedge"], Format::Raw, Storage::F16);
     let e = export(&o, dir.path()).unwrap_err();
     assert!(
-        e.contains("wedge: f16 misses the target") && e.contains(" m offgrid.") && e.contains("--allow-lossy"),
+        e.contains("wedge: f16 at scale 1 misses the target")
+            && e.contains(" m offgrid.")
+            && e.contains("--allow-lossy"),
         "{e}"
     );
     assert!(
@@ -555,5 +560,24 @@ fn malformed_manifests_never_panic_check_export() {
             Ok(Ok(checks)) => assert!(checks.iter().any(|c| !c.pass), "{what}: passes"),
             Ok(Err(_)) => {}
         }
+    }
+}
+
+/// Flags that do not apply to `check --export` are errors, not ignored.
+#[test]
+fn check_export_refuses_flags_it_does_not_use() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    for flag in [
+        &["--quick"][..],
+        &["--json"],
+        &["--tables", "tables/data"],
+        &["--points", "5"],
+    ] {
+        let mut args = vec!["check", "--export", d];
+        args.extend_from_slice(flag);
+        let (code, _, stderr) = common::run_text(&args, "");
+        assert_eq!(code, Some(2), "{flag:?}: {stderr}");
+        assert!(stderr.contains("cannot be used with"), "{flag:?}: {stderr}");
     }
 }

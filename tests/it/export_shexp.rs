@@ -67,8 +67,9 @@ fn f32_at_twice_the_nodes_meets_every_target() {
 #[test]
 fn f32_at_the_table_nodes_meets_a_and_b() {
     let dir = tempfile::tempdir().unwrap();
-    // Scale 0.5: the table's own 2049 θ_b nodes.
-    let m = export(&opts(Format::Raw, Storage::F32, 0.5, false), dir.path()).unwrap();
+    // Scale 0.5: the table's own 2049 θ_b nodes (lossy allowed: ‖f̂‖ of order 4 misses,
+    // below).
+    let m = export(&opts(Format::Raw, Storage::F32, 0.5, true), dir.path()).unwrap();
     for e in errors(&m) {
         // ‖f̂‖ of order 4 misses (measured 1.15e-4): extrapolation over a kink interval.
         if e.output.ends_with("_norm") {
