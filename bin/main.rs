@@ -190,7 +190,7 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
         /// Image width in pixels (height 3/4 of it).
-        #[arg(long, default_value_t = 160, value_parser = clap::value_parser!(u32).range(4..=4096))]
+        #[arg(long, default_value_t = 160, value_parser = clap::value_parser!(u32).range(4..=2048))]
         width: u32,
         /// Reference light samples per pixel.
         #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
@@ -611,6 +611,34 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 spp: spp as usize,
                 breakdown_stride: breakdown_stride as usize,
             };
+            // Bounded work, and an output directory that takes files, before any of it.
+            let samples = u64::from(width) * u64::from(width * 3 / 4) * u64::from(spp);
+            if samples > lobefit::pipelines::MAX_SAMPLES {
+                return Err(format!(
+                    "--width {width} --spp {spp}: {samples} Monte Carlo samples per image, more than the {} \
+                     a render may take; lower --width or --spp",
+                    lobefit::pipelines::MAX_SAMPLES
+                ));
+            }
+            // (A missing --out is made only by a render that succeeds: probe its nearest
+            // existing ancestor.)
+            let existing = out
+                .ancestors()
+                .find(|a| a.exists())
+                .unwrap_or(std::path::Path::new("."));
+            let probe = if existing.as_os_str().is_empty() {
+                std::path::Path::new(".")
+            } else {
+                existing
+            };
+            if !probe.is_dir() {
+                return Err(format!(
+                    "--out {}: {} is not a directory",
+                    out.display(),
+                    probe.display()
+                ));
+            }
+            tempfile::tempfile_in(probe).map_err(|e| format!("--out {}: cannot write there: {e}", out.display()))?;
             let mut text = String::new();
             for scene in scenes {
                 let rows = (opts.width * 3 / 4).max(3) as u64;

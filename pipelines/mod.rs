@@ -27,6 +27,10 @@ use std::path::{Path, PathBuf};
 use crate::family::{EvalFlags, Query};
 use crate::fits::PlotFn;
 
+/// Most Monte Carlo samples (pixels × samples per pixel) one image may take: 14 times
+/// the default 160 × 120 × 1024 (a render scales linearly in it).
+pub const MAX_SAMPLES: u64 = 1 << 28;
+
 /// Options every `lobefit render` takes.
 #[derive(Debug, Clone)]
 pub struct RenderOptions {

@@ -98,15 +98,21 @@ fn atomic_png(
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| err(dir, e))?;
     let name = path.file_name().ok_or_else(|| err(path, "not a file name"))?;
-    // plotters picks the encoder from the extension, so the temporary name ends in .png.
-    let tmp = dir.join(format!(".{}.tmp.png", name.to_string_lossy()));
+    // An unpredictable temporary, created exclusively (a planted symlink is never
+    // followed) and removed on any error; plotters picks the encoder from the
+    // extension, so its name ends in .png.
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{}.", name.to_string_lossy()))
+        .suffix(".tmp.png")
+        .tempfile_in(dir)
+        .map_err(|e| err(dir, e))?;
     {
-        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+        let root = BitMapBackend::new(tmp.path(), size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(path, e))?;
         draw(&root)?;
         root.present().map_err(|e| err(path, e))?;
     }
-    std::fs::rename(&tmp, path).map_err(|e| err(path, e))?;
+    tmp.persist(path).map_err(|e| err(path, e.error))?;
     Ok(path.to_path_buf())
 }
 

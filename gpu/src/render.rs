@@ -213,12 +213,14 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64),
         .iter()
         .map(|&g| ((g as f64 / peak).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8)
         .collect();
-    let file = std::fs::File::create(out).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), SIZE as u32, SIZE as u32);
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, SIZE as u32, SIZE as u32);
     enc.set_color(png::ColorType::Grayscale);
     enc.set_depth(png::BitDepth::Eight);
     enc.write_header()
         .and_then(|mut w| w.write_image_data(&pixels))
         .map_err(|e| format!("{}: {e}", out.display()))?;
+    // Atomically: a symlink planted at `out` is replaced, never followed.
+    lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
     Ok((max, rms, gloss_max))
 }

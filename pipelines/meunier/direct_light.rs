@@ -534,7 +534,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     }
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let txt = dir.join("meunier-direct-light.txt");
-    std::fs::write(&txt, &text).map_err(|e| format!("{}: {e}", txt.display()))?;
+    crate::io::write_atomic(&txt, text.as_bytes()).map_err(|e| format!("{}: {e}", txt.display()))?;
     let png = line_chart(
         &dir.join("meunier-direct-light.png"),
         &LineChart {

@@ -158,3 +158,68 @@ fn scene_files_render_and_bad_ones_are_specific_errors() {
         assert!(!out.exists(), "{scene}: wrote {}", out.display());
     }
 }
+
+/// Work and output are checked before the render starts: more samples than a render may
+/// take, and an `--out` that cannot take files, are errors at once; the outputs are
+/// written atomically (a symlink planted at an output name is replaced, not followed).
+#[test]
+fn bounds_and_outputs_are_checked_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let (code, _, err) = common::run_text(
+        &["render", "meunier", "--width", "2048", "--spp", "1000000", "--out", out],
+        "",
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("Monte Carlo samples") && err.contains("--spp"), "{err}");
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let (code, _, err) = common::run_text(
+        &[
+            "render",
+            "meunier",
+            "--width",
+            "8",
+            "--spp",
+            "4",
+            "--out",
+            file.to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("--out"), "{err}");
+    // Neither started a render: no output was written.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "only a-file");
+    #[cfg(unix)]
+    {
+        let victim = dir.path().join("victim.txt");
+        std::fs::write(&victim, b"keep").unwrap();
+        let target = dir.path().join("meunier-fig13-summary.txt");
+        std::os::unix::fs::symlink(&victim, &target).unwrap();
+        let (code, _, err) = common::run_text(
+            &[
+                "render",
+                "meunier",
+                "--scene",
+                "fig13",
+                "--width",
+                "8",
+                "--spp",
+                "4",
+                "--breakdown-stride",
+                "4",
+                "--out",
+                out,
+            ],
+            "",
+        );
+        assert_eq!(code, Some(0), "{err}");
+        assert_eq!(
+            std::fs::read(&victim).unwrap(),
+            b"keep",
+            "the symlink's target is untouched"
+        );
+        assert!(!std::fs::symlink_metadata(&target).unwrap().file_type().is_symlink());
+    }
+}
