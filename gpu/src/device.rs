@@ -94,6 +94,21 @@ impl Gpu {
                 .flat_map(|&v| half::f16::from_f32(v).to_bits().to_le_bytes())
                 .collect(),
         };
+        // The device's limits before the upload (wgpu would panic past them).
+        let limits = self.device.limits();
+        let (max_extent, what) = if t.dimension == 3 {
+            (limits.max_texture_dimension_3d, "3D")
+        } else {
+            (limits.max_texture_dimension_2d, "2D")
+        };
+        let largest = t.width.max(t.height).max(if t.dimension == 3 { t.depth } else { 1 });
+        if largest > max_extent || t.layers > limits.max_texture_array_layers {
+            return Err(format!(
+                "texture {}: {}×{}×{} with {} layers exceeds this device's limits ({what} extent {max_extent}, \
+                 {} array layers); export it at a smaller --scale",
+                t.name, t.width, t.height, t.depth, t.layers, limits.max_texture_array_layers
+            ));
+        }
         let (dimension, depth_or_array_layers, view_dimension) = match (t.dimension, t.layers) {
             (3, _) => (wgpu::TextureDimension::D3, t.depth, wgpu::TextureViewDimension::D3),
             (_, 1) => (wgpu::TextureDimension::D2, 1, wgpu::TextureViewDimension::D2),

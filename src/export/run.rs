@@ -305,6 +305,18 @@ impl Stage {
                 moved(&from, &self.dir, e)
             });
         }
+        // One committer at a time per directory: concurrent exports into one
+        // directory each leave a manifest that describes its own files (the last one
+        // wins whole). The lock is released when the file closes, also on a crash.
+        let lock_path = self.dir.join(".lobefit-export.lock");
+        let lock = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock_path)
+            .map_err(|e| format!("cannot lock {}: {e}", lock_path.display()))?;
+        lock.lock()
+            .map_err(|e| format!("cannot lock {}: {e}", lock_path.display()))?;
         let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(self.path())
             .map_err(|e| format!("cannot read {}: {e}", self.path().display()))?
             .map(|d| d.map(|d| d.file_name()))

@@ -340,7 +340,13 @@ fn a_refused_export_writes_nothing() {
     let m = export(&opts(&["cap-exponent"], Format::Ktx2, Storage::F16), &existing).unwrap();
     assert_eq!(
         names(&existing),
-        ["cap-exponent.ktx2", "lobefit_uniforms.h", MANIFEST, "mine.txt"]
+        [
+            ".lobefit-export.lock",
+            "cap-exponent.ktx2",
+            "lobefit_uniforms.h",
+            MANIFEST,
+            "mine.txt"
+        ]
     );
     assert_eq!(names(root.path()), ["existing"]);
     // One-axis tables are 2D textures of height 1, in the manifest and the file header
@@ -580,4 +586,38 @@ fn check_export_refuses_flags_it_does_not_use() {
         assert_eq!(code, Some(2), "{flag:?}: {stderr}");
         assert!(stderr.contains("cannot be used with"), "{flag:?}: {stderr}");
     }
+}
+
+/// Commits into one existing directory take turns: while another holds the directory's
+/// export lock, an export that has staged everything waits, and writes nothing into the
+/// directory until the lock is released (so concurrent exports leave one export whole,
+/// its manifest describing the files beside it).
+#[test]
+fn an_export_commits_only_under_the_directory_lock() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_path_buf();
+    let lock = std::fs::File::create(d.join(".lobefit-export.lock")).unwrap();
+    lock.lock().unwrap();
+    let writer = {
+        let d = d.clone();
+        std::thread::spawn(move || export(&opts(&["cap-exponent"], Format::Ktx2, Storage::F32), &d).map(|_| ()))
+    };
+    // Wait until the writer has staged its manifest (it then only commits).
+    let staged = || {
+        std::fs::read_dir(&d).unwrap().flatten().any(|e| {
+            e.file_name().to_string_lossy().starts_with(".lobefit-export.")
+                && e.path().is_dir()
+                && e.path().join(MANIFEST).exists()
+        })
+    };
+    while !staged() {
+        assert!(!writer.is_finished(), "the writer ended before staging");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    // Give a writer that ignored the lock ample time to move its files in.
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    assert!(!d.join(MANIFEST).exists() && !d.join("cap-exponent.ktx2").exists());
+    lock.unlock().unwrap();
+    writer.join().unwrap().unwrap();
+    assert!(check_export(&d).unwrap().iter().all(|c| c.pass));
 }
