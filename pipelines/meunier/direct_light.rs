@@ -99,10 +99,17 @@ pub struct Row {
 }
 
 /// Reads a row of [`INPUTS`]. `br = 0` is "no blocker"; every other radius is passed
-/// on (so ≤ 0 is the pipeline's specific error).
-pub fn row(x: &[f64]) -> Row {
+/// on (so ≤ 0 is the pipeline's specific error). Every column must be finite, the
+/// unused blocker columns of `br = 0` too.
+pub fn row(x: &[f64]) -> Result<Row, LookupError> {
+    if let Some((name, &value)) = INPUTS.iter().zip(x).find(|(_, v)| !v.is_finite()) {
+        return Err(LookupError::NotFinite {
+            name: (*name).into(),
+            value,
+        });
+    }
     let v = |i: usize| DVec3::new(x[i], x[i + 1], x[i + 2]);
-    Row {
+    Ok(Row {
         x: v(0),
         n: v(3),
         light: SphereLight {
@@ -116,7 +123,7 @@ pub fn row(x: &[f64]) -> Row {
             centre: v(10),
             radius: x[13],
         }),
-    }
+    })
 }
 
 /// A [`MeunierError`] as the [`LookupError`] `eval` reports: a lookup error as it is,
@@ -155,10 +162,10 @@ pub fn to_lookup(e: MeunierError) -> LookupError {
             index,
             error: Box::new(to_lookup(*error)),
         },
-        MeunierError::LightInsideBlocker { .. } => LookupError::OutOfDomain {
+        MeunierError::LightInsideBlocker { margin, .. } => LookupError::OutOfDomain {
             name: "the light lies inside the blocker: (distance between centres + light radius) − blocker radius"
                 .into(),
-            value: 0.0,
+            value: margin,
             lo: f64::MIN_POSITIVE,
             hi: f64::INFINITY,
         },
@@ -186,7 +193,7 @@ impl DirectLookup {
 
 impl Lookup for DirectLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        let r = row(x);
+        let r = row(x)?;
         let blockers: Vec<Sphere> = r.blocker.into_iter().collect();
         let e = self
             .pipeline()?
@@ -404,7 +411,7 @@ impl Query for DirectLightView {
         }))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let r = row(x);
+        let r = row(x).map_err(|e| e.to_string())?;
         let blockers: Vec<Sphere> = r.blocker.into_iter().collect();
         exact_irradiance(r.x, r.n, &r.light, &blockers)
             .map(|e| vec![e])
@@ -452,7 +459,7 @@ pub fn study(n: usize, seed: u64, settings: &MaskSettings, weights: &MaskWeights
     };
     rows.par_iter()
         .map(|x| {
-            let r = row(x);
+            let r = row(x).map_err(|e| e.to_string())?;
             let blockers: Vec<Sphere> = r.blocker.into_iter().collect();
             let lobes = m
                 .irradiance(r.x, r.n, &[r.light], &blockers, settings)

@@ -227,12 +227,15 @@ pub enum MeunierError {
         radius: f64,
     },
     /// A light sphere lies entirely inside a blocker sphere.
-    #[error("light {light} lies inside blocker {blocker}")]
+    #[error("light {light} lies inside blocker {blocker} ((distance between centres + light radius) − blocker radius = {margin:e} ≤ 0)")]
     LightInsideBlocker {
         /// Index of the light.
         light: usize,
         /// Index of the blocker.
         blocker: usize,
+        /// (Distance between the centres + the light's radius) − the blocker's radius:
+        /// how far inside (≤ 0).
+        margin: f64,
     },
     /// A value the query refuses as a table lookup would: not finite
     /// ([`LookupError::NotFinite`]), negative where it must be ≥ 0
@@ -338,8 +341,13 @@ pub fn check_scene(x: DVec3, lights: &[SphereLight], blockers: &[Sphere]) -> Res
             });
         }
         for (j, b) in blockers.iter().enumerate() {
-            if (l.sphere.centre - b.centre).length() + l.sphere.radius <= b.radius {
-                return Err(MeunierError::LightInsideBlocker { light: i, blocker: j });
+            let margin = (l.sphere.centre - b.centre).length() + l.sphere.radius - b.radius;
+            if margin <= 0.0 {
+                return Err(MeunierError::LightInsideBlocker {
+                    light: i,
+                    blocker: j,
+                    margin,
+                });
             }
         }
     }
@@ -402,6 +410,10 @@ impl Meunier<'static> {
     }
 }
 
+/// The smallest light half-angle (rad) whose own lobe exponent the pipeline uses (see
+/// [`Meunier::light_lobe`]).
+pub const LIGHT_HALF_ANGLE_MIN: f64 = 1e-4;
+
 impl Meunier<'_> {
     /// Cap exponent for any half-angle in (0, π): the table from 1 mrad on, the
     /// small-cap limit e ∝ 1/β² below.
@@ -414,11 +426,15 @@ impl Meunier<'_> {
     }
 
     /// The lobe standing for `light` seen from `x` (outside it), scaled so that its
-    /// integral is L·Ω_cap; and the light's cap.
+    /// integral is L·Ω_cap; and the light's cap. A light smaller than
+    /// [`LIGHT_HALF_ANGLE_MIN`] gets that size's exponent (its integral stays L·Ω_cap):
+    /// sharper lobes only lose digits in the products' closed forms (measured: 0.6 %
+    /// at 1 µrad, wrong by orders of magnitude below 0.1 µrad), while a lobe of
+    /// width ~1e-4 rad in place of a smaller light changes what it lights by O(1e-8).
     pub fn light_lobe(&self, x: DVec3, light: &SphereLight) -> Result<(Lobe, Cap), MeunierError> {
         check_scene(x, std::slice::from_ref(light), &[])?;
         let cap = cap_of(x, &light.sphere);
-        let e = self.cap_exponent(cap.half_angle)?;
+        let e = self.cap_exponent(cap.half_angle.max(LIGHT_HALF_ANGLE_MIN))?;
         let s = (0.5 * cap.half_angle).sin();
         let omega = 4.0 * std::f64::consts::PI * s * s;
         Ok((

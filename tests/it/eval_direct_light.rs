@@ -66,6 +66,8 @@ fn bad_rows_and_flags_are_specific_errors() {
         ("0,0,0,0,0,0,0,0,4,1,0,0,0,0", "|normal| (must be a unit vector)"),
         ("nan,0,0,0,0,1,0,0,4,1,0,0,0,0", "not a finite number"),
         ("0,0,0,0,0,1,0,0,inf,1,0,0,0,0", "not a finite number"),
+        // The unused blocker columns of br = 0 too.
+        ("0,0,0,0,0,1,0,0,4,1,nan,0,0,0", "not a finite number"),
     ];
     for exact in [false, true] {
         for (r, msg) in cases {
