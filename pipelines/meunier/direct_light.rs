@@ -263,6 +263,26 @@ pub fn exact_irradiance(x: DVec3, n: DVec3, light: &SphereLight, blockers: &[Sph
         });
     }
     let n = n / len;
+    // Irradiance depends on directions alone: the scene moved to the point and scaled
+    // by the light's largest coordinate offset keeps every square finite (at 1e155 the
+    // squares overflowed and the answer was 0).
+    let m = (light.sphere.centre - x).abs().max_element();
+    let at = |c: DVec3| (c - x) / m;
+    let light = &SphereLight {
+        sphere: Sphere {
+            centre: at(light.sphere.centre),
+            radius: light.sphere.radius / m,
+        },
+        radiance: light.radiance,
+    };
+    let blockers: &[Sphere] = &blockers
+        .iter()
+        .map(|b| Sphere {
+            centre: at(b.centre),
+            radius: b.radius / m,
+        })
+        .collect::<Vec<_>>();
+    let x = DVec3::ZERO;
     let to = light.sphere.centre - x;
     let d = to.length();
     let w = to / d;

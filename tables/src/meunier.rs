@@ -320,7 +320,7 @@ pub fn check_scene(x: DVec3, lights: &[SphereLight], blockers: &[Sphere]) -> Res
     point("shading point", x)?;
     for (i, b) in blockers.iter().enumerate() {
         check_sphere(&format!("blocker {i}"), b)?;
-        let distance = (b.centre - x).length();
+        let distance = dist(b.centre, x);
         if distance <= b.radius {
             return Err(MeunierError::PointInsideBlocker {
                 index: i,
@@ -332,7 +332,7 @@ pub fn check_scene(x: DVec3, lights: &[SphereLight], blockers: &[Sphere]) -> Res
     for (i, l) in lights.iter().enumerate() {
         check_sphere(&format!("light {i}"), &l.sphere)?;
         nonneg(&format!("light {i} radiance"), l.radiance)?;
-        let distance = (l.sphere.centre - x).length();
+        let distance = dist(l.sphere.centre, x);
         if distance <= l.sphere.radius {
             return Err(MeunierError::PointInsideLight {
                 index: i,
@@ -341,7 +341,7 @@ pub fn check_scene(x: DVec3, lights: &[SphereLight], blockers: &[Sphere]) -> Res
             });
         }
         for (j, b) in blockers.iter().enumerate() {
-            let margin = (l.sphere.centre - b.centre).length() + l.sphere.radius - b.radius;
+            let margin = dist(l.sphere.centre, b.centre) + l.sphere.radius - b.radius;
             if margin <= 0.0 {
                 return Err(MeunierError::LightInsideBlocker {
                     light: i,
@@ -357,10 +357,21 @@ pub fn check_scene(x: DVec3, lights: &[SphereLight], blockers: &[Sphere]) -> Res
 /// The cap of sphere `s` seen from `x` (outside it).
 fn cap_of(x: DVec3, s: &Sphere) -> Cap {
     let to = s.centre - x;
-    let d = to.length();
+    let d = dist(s.centre, x);
     Cap {
         axis: to / d,
         half_angle: (s.radius / d).asin(),
+    }
+}
+
+/// |a − b| without overflowing the squares (scenes at coordinates beyond 1e154).
+fn dist(a: DVec3, b: DVec3) -> f64 {
+    let d = a - b;
+    let m = d.abs().max_element();
+    if m > 0.0 && m.is_finite() {
+        m * (d / m).length()
+    } else {
+        d.length()
     }
 }
 
@@ -460,10 +471,10 @@ impl Meunier<'_> {
         check_scene(x, std::slice::from_ref(light), blockers)?;
         check_depth(settings.depth)?;
         let lcap = cap_of(x, &light.sphere);
-        let light_dist = (light.sphere.centre - x).length();
+        let light_dist = dist(light.sphere.centre, x);
         let caps: Vec<Cap> = blockers
             .iter()
-            .filter(|b| (b.centre - x).length() - b.radius < light_dist)
+            .filter(|b| dist(b.centre, x) - b.radius < light_dist)
             .map(|b| cap_of(x, b))
             .collect();
         let mask = build_mask(lcap, &caps, settings.depth)?;
