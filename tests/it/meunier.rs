@@ -521,3 +521,34 @@ fn tiny_lights_match_the_closed_form() {
     // The pipeline's own error for small caps (the cap-exponent lobe): 1.6e-5 measured.
     assert!(worst < 1e-4, "worst relative error {worst:e}");
 }
+
+/// A scene at coordinates ≈ 1e155 (squares beyond f64) lights the point as the same
+/// scene near the origin does, through the pipeline and through the exact reference
+/// (before: the pipeline refused it and the reference returned 0).
+#[test]
+fn huge_coordinates_light_as_the_scene_near_the_origin() {
+    let m = pipeline();
+    let lit = |s: f64| {
+        let x = DVec3::new(1.0, 1.0, 1.0) * s;
+        let l = SphereLight {
+            sphere: Sphere {
+                centre: DVec3::new(1.0, 1.0, 2.0) * s,
+                radius: 0.1 * s,
+            },
+            radiance: 1.0,
+        };
+        let b = Sphere {
+            centre: DVec3::new(1.03, 1.0, 1.5) * s,
+            radius: 0.05 * s,
+        };
+        (
+            m.irradiance(x, DVec3::Z, &[l], &[b], &MaskSettings::default()).unwrap(),
+            exact_irradiance(x, DVec3::Z, &l, &[b]).unwrap(),
+        )
+    };
+    let (p1, e1) = lit(1.0);
+    let (p, e) = lit(1e155);
+    assert!(e1 > 0.0 && p1 > 0.0);
+    assert!((p / p1 - 1.0).abs() < 1e-9, "pipeline {p} vs {p1}");
+    assert!((e / e1 - 1.0).abs() < 1e-6, "exact {e} vs {e1}");
+}
