@@ -11,6 +11,10 @@ use super::{Format, Storage};
 
 /// Manifest file name in an export directory.
 pub const MANIFEST: &str = "manifest.json";
+/// The manifest's JSON Schema (draft 2020-12), written beside it by every export.
+pub const MANIFEST_SCHEMA: &str = include_str!("manifest.schema.json");
+/// Its file name in an export directory.
+pub const MANIFEST_SCHEMA_FILE: &str = "manifest.schema.json";
 /// Manifest layout version.
 pub const MANIFEST_VERSION: u32 = 2;
 /// The manifest: everything a renderer needs to sample the textures, and the

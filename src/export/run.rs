@@ -11,7 +11,9 @@ use serde::Serialize;
 use super::families::{Emulated, GpuFamily};
 use super::formats;
 use super::layout::{Channel, Filter, Sampler, TexAxis};
-use super::manifest::{ErrorEntry, FamilyEntry, Manifest, TextureEntry, MANIFEST, MANIFEST_VERSION};
+use super::manifest::{
+    ErrorEntry, FamilyEntry, Manifest, TextureEntry, MANIFEST, MANIFEST_SCHEMA, MANIFEST_SCHEMA_FILE, MANIFEST_VERSION,
+};
 use super::{Format, Storage, Texture};
 use crate::check::{f32_point, offgrid_metrics};
 use crate::family::Query;
@@ -244,6 +246,8 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
     let header = stage.path().join(formats::UNIFORMS_HEADER);
     crate::io::write_atomic(&header, formats::uniforms_header(&uniforms).as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", dir.join(formats::UNIFORMS_HEADER).display()))?;
+    crate::io::write_atomic(&stage.path().join(MANIFEST_SCHEMA_FILE), MANIFEST_SCHEMA.as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", dir.join(MANIFEST_SCHEMA_FILE).display()))?;
     let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
     crate::io::write_atomic(&stage.path().join(MANIFEST), json.as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", dir.join(MANIFEST).display()))?;
