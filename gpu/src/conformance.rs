@@ -171,6 +171,55 @@ pub fn samplers(texs: &[(TextureEntry, Texture)], filter: Filter) -> Vec<Sampler
         .collect()
 }
 
+/// The export's baked uniforms (`lobefit_uniforms.wgsl`, the constant functions
+/// `lf_tex_<texture>_manual()` / `_hardware()`) compiled for the device with the
+/// library: every one of the 160 words each returns, read back on the GPU, against
+/// the uniform the manifest gives (`TextureEntry::lf_tex`), bit for bit. The row's
+/// "vs CPU" is the number of differing words.
+pub fn check_baked(gpu: &Gpu, dir: &std::path::Path, export: &Export) -> Result<Vec<Row>, String> {
+    let m = &export.manifest;
+    let path = dir.join(&m.uniforms_wgsl);
+    let baked = lobefit::io::read_text(&path, 16 << 20)?;
+    let dummy = gpu.upload(&dummy_texture(), Storage::F32)?;
+    let body = |f: &str| {
+        format!(
+            "    var u = {f}();\n\
+             for (var k = 0u; k < 3u; k++) {{\n        for (var c = 0u; c < 4u; c++) {{\n\
+                         Y[o + 4u * k + c] = u.axis[k][c];\n            Y[o + 12u + 4u * k + c] = u.map[k][c];\n\
+                         Y[o + 24u + 4u * k + c] = u.offset[k][c];\n            Y[o + 36u + 4u * k + c] = u.scale[k][c];\n\
+                         Y[o + 144u + 4u * k + c] = u.decode[k][c];\n        }}\n    }}\n\
+             for (var k = 0u; k < 24u; k++) {{\n        for (var c = 0u; c < 4u; c++) {{\n\
+                         Y[o + 48u + 4u * k + c] = u.trend[k][c];\n        }}\n    }}\n\
+             for (var c = 0u; c < 4u; c++) {{\n        Y[o + 156u + c] = bitcast<f32>(u.mode[c]);\n    }}"
+        )
+    };
+    let (mut differing, mut count) = (0usize, 0usize);
+    for t in m.families.iter().flat_map(|f| &f.textures) {
+        let id = lobefit::export::shaders::wgsl_identifier(t.file.split('.').next().unwrap_or_default());
+        for (what, filter) in [("manual", Filter::Manual), ("hardware", Filter::Hardware)] {
+            let src = kernel("texture_2d<f32>", 1, 160, &body(&format!("lf_tex_{id}_{what}"))) + &baked;
+            let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &[0.0], 1, 160)?;
+            let want = t.lf_tex(filter)?.to_bytes();
+            differing += got
+                .iter()
+                .zip(want.chunks(4))
+                .filter(|(g, w)| g.to_bits() != u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+                .count();
+            count += 1;
+        }
+    }
+    Ok(vec![Row {
+        function: "baked uniforms".into(),
+        storage: m.storage.to_string(),
+        filter: "-".into(),
+        samples: count,
+        vs_cpu: differing as f64,
+        cpu_what: "manifest (bits)",
+        vs_ref: Vec::new(),
+        info: Vec::new(),
+    }])
+}
+
 /// The closed forms (tables a shader evaluates with no texture): each entry's checks.
 pub fn check_closed(gpu: &Gpu, samples: usize, seed: u64) -> Result<Vec<Row>, String> {
     let dummy = gpu.upload(&dummy_texture(), Storage::F32)?;

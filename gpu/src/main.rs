@@ -139,6 +139,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 }
             );
             let mut rows = conformance::check_textured(&gpu, &ex, bits)?;
+            rows.extend(conformance::check_baked(&gpu, &export, &ex)?);
             rows.extend(conformance::check_closed(&gpu, ex.manifest.samples, ex.manifest.seed)?);
             let dummy = gpu.upload(&conformance::dummy_texture(), lobefit::export::Storage::F32)?;
             rows.extend(world::check_closed_world(

@@ -38,6 +38,10 @@ pub struct Manifest {
     /// The C header (in this directory) declaring the uniform `LobefitLfTex` and each
     /// texture's initializers, for manual and hardware filtering.
     pub uniforms_header: String,
+    /// The WGSL file (in this directory) of each texture's uniform as constant
+    /// functions `lf_tex_<texture>_manual()` / `_hardware()`, to concatenate after
+    /// the library.
+    pub uniforms_wgsl: String,
     /// One entry per exported family.
     pub families: Vec<FamilyEntry>,
     /// Families a shader evaluates in closed form: (kind, formula).

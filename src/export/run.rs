@@ -232,6 +232,7 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         samples: SAMPLES,
         seed: SEED,
         uniforms_header: formats::UNIFORMS_HEADER.into(),
+        uniforms_wgsl: super::shaders::BAKED_UNIFORMS.into(),
         families: entries,
         closed_form: fits::closed_form()
             .iter()
@@ -243,6 +244,21 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         let name = t.file.split('.').next().unwrap_or_default().to_string();
         uniforms.push((name, t.lf_tex(Filter::Manual)?, t.lf_tex(Filter::Hardware)?));
     }
+    // The same uniforms as WGSL constants, validated with the library by naga.
+    let baked = super::shaders::baked_uniforms(&uniforms);
+    super::shaders::module_of(&format!(
+        "{}\n{baked}{}",
+        lobefit_tables::shaders::library(),
+        super::shaders::STUB
+    ))
+    .map_err(|e| format!("{}: {e}", super::shaders::BAKED_UNIFORMS))?;
+    let path = stage.path().join(super::shaders::BAKED_UNIFORMS);
+    crate::io::write_atomic(&path, baked.as_bytes()).map_err(|e| {
+        format!(
+            "cannot write {}: {e}",
+            dir.join(super::shaders::BAKED_UNIFORMS).display()
+        )
+    })?;
     let header = stage.path().join(formats::UNIFORMS_HEADER);
     crate::io::write_atomic(&header, formats::uniforms_header(&uniforms).as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", dir.join(formats::UNIFORMS_HEADER).display()))?;
@@ -485,6 +501,37 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
         ));
     }
     let mut out = Vec::new();
+    // The uniforms files are what an export of these textures writes, byte for byte
+    // (their layout is compared with a fresh export's below).
+    let mut uniforms = Vec::new();
+    for t in m.families.iter().flat_map(|f| &f.textures) {
+        let name = t.file.split('.').next().unwrap_or_default().to_string();
+        uniforms.push((name, t.lf_tex(Filter::Manual)?, t.lf_tex(Filter::Hardware)?));
+    }
+    for (file, want) in [
+        (formats::UNIFORMS_HEADER, formats::uniforms_header(&uniforms)),
+        (
+            super::shaders::BAKED_UNIFORMS,
+            super::shaders::baked_uniforms(&uniforms),
+        ),
+    ] {
+        let got = crate::io::read_text(&dir.join(file), 64 << 20).unwrap_or_default();
+        if got != want {
+            out.push(ExportCheck {
+                family: "-".into(),
+                entry: ErrorEntry {
+                    filter: Filter::Manual,
+                    output: file.into(),
+                    metric: "differs from a fresh export".into(),
+                    measured: 1.0,
+                    target: 0.0,
+                    promise: 0.0,
+                },
+                now: 1.0,
+                pass: false,
+            });
+        }
+    }
     for (f, texs) in m.families.iter().zip(textures) {
         let family =
             family_of(&f.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), f.family))?;

@@ -10,6 +10,8 @@
 
 use std::path::{Path, PathBuf};
 
+use lobefit_tables::uniform::LfTex;
+
 use lobefit_tables::shaders;
 
 /// A shading language `export --shaders` writes.
@@ -45,7 +47,8 @@ impl ShaderLang {
 
 /// The stub entry point appended for translation; its lines are removed afterwards.
 const STUB_NAME: &str = "lf_library_stub";
-const STUB: &str = "\n@fragment\nfn lf_library_stub() -> @location(0) vec4<f32> {\n    return vec4<f32>(0.0);\n}\n";
+pub(crate) const STUB: &str =
+    "\n@fragment\nfn lf_library_stub() -> @location(0) vec4<f32> {\n    return vec4<f32>(0.0);\n}\n";
 
 /// The library parsed and validated by naga (with the stub entry point).
 pub fn module() -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
@@ -146,6 +149,67 @@ fn strip_function<'a>(lines: &[&'a str], marker: &str) -> Vec<&'a str> {
         out.push(l);
     }
     out
+}
+
+/// WGSL function name suffix of texture `name`: lower case, every character other than
+/// ASCII letters and digits `_` (`lobe-product-lnw` → `lobe_product_lnw`).
+pub fn wgsl_identifier(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// File name of an export's baked uniforms ([`baked_uniforms`]).
+pub const BAKED_UNIFORMS: &str = "lobefit_uniforms.wgsl";
+
+/// The uniforms of an export's textures as WGSL constants: per texture
+/// `fn lf_tex_<name>_manual() -> LfTex` and `_hardware()` (`<name>` by
+/// [`wgsl_identifier`]), to concatenate after the library. A shader then passes
+/// `lf_tex_cap_exponent_manual()` where the library takes an `LfTex`: no uniform
+/// buffer, the constants known to the compiler. `textures`: (name, manual, hardware).
+pub fn baked_uniforms(textures: &[(String, LfTex, LfTex)]) -> String {
+    use std::fmt::Write as _;
+    // f32 literals (suffix f): parsed as f32 directly, the shortest digits round trip.
+    let f = |v: f32| format!("{v:e}f");
+    let rows = |r: &[[f32; 4]]| {
+        let v: Vec<String> = r
+            .iter()
+            .map(|q| format!("vec4<f32>({})", q.iter().map(|&x| f(x)).collect::<Vec<_>>().join(", ")))
+            .collect();
+        format!("array<vec4<f32>, {}>({})", r.len(), v.join(", "))
+    };
+    let mut s = format!(
+        "// lobefit export: the LfTex of every texture here as constants (lobefit {}).\n\
+         // Concatenate after the shader library; pass lf_tex_<texture>_manual() (or\n\
+         // _hardware()) where a function takes an LfTex. Generated; do not edit.\n",
+        env!("CARGO_PKG_VERSION")
+    );
+    for (name, manual, hardware) in textures {
+        let id = wgsl_identifier(name);
+        for (what, u) in [("manual", manual), ("hardware", hardware)] {
+            let _ = write!(
+                s,
+                "\nfn lf_tex_{id}_{what}() -> LfTex {{\n    return LfTex(\n        {},\n        {},\n        {},\n        {},\n        {},\n        {},\n        vec4<u32>({}u, {}u, {}u, {}u),\n    );\n}}\n",
+                rows(&u.axis),
+                rows(&u.map),
+                rows(&u.offset),
+                rows(&u.scale),
+                rows(&u.trend),
+                rows(&u.decode),
+                u.mode[0],
+                u.mode[1],
+                u.mode[2],
+                u.mode[3]
+            );
+        }
+    }
+    s
 }
 
 /// The header of every written file: what it is and where it comes from.

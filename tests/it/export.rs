@@ -344,6 +344,7 @@ fn a_refused_export_writes_nothing() {
             ".lobefit-export.lock",
             "cap-exponent.ktx2",
             "lobefit_uniforms.h",
+            "lobefit_uniforms.wgsl",
             MANIFEST,
             "manifest.schema.json",
             "mine.txt"
