@@ -217,7 +217,7 @@ fn header(comment: &str, what: &str) -> String {
     format!(
         "{comment} lobefit shader library ({what}), lobefit {}.\n{comment} Generated from the WGSL in lobefit-tables \
          (tables/shaders) by `lobefit export --shaders`; do not edit.\n{comment} Textures are function arguments; \
-         fill each LfTex from the export's manifest.json.\n\n",
+         each LfTex comes from an export (lobefit_uniforms.wgsl, lobefit_uniforms.h, or the manifest).\n\n",
         env!("CARGO_PKG_VERSION")
     )
 }
