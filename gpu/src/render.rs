@@ -224,3 +224,131 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64),
     lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
     Ok((max, rms, gloss_max))
 }
+
+/// Scene renders: image width (height 3/4 of it).
+pub const SCENE_WIDTH: usize = 128;
+
+/// What [`render_scene`] measured.
+pub struct SceneRender {
+    /// Pixels that see geometry.
+    pub pixels: usize,
+    /// Largest and RMS |GPU − CPU| / the CPU image's peak.
+    pub max: f64,
+    /// See `max`.
+    pub rms: f64,
+    /// Largest |CPU / exact − 1| where every light is whole above the horizon (the
+    /// disk table's order-3 SH against π L sin²α cos β), and at how many pixels.
+    pub vs_exact: (f64, usize),
+}
+
+/// A scene file (or built-in scene, `lobefit::pipelines::scene`) through the shader
+/// library: camera, spheres and planes from the scene; each spherical light as the
+/// disk of the same solid angle facing the point (radius R d / √(d² − R²)), its
+/// unshadowed irradiance by `lf_disk_irradiance` on the exported disk-light texture.
+/// Primary visibility is traced on the CPU (the scene layer's BVH); the GPU shades
+/// every visible pixel; the CPU computes the same with `DiskLight::irradiance` (f64,
+/// the committed table). Writes `out` (PNG, E / peak, gamma 1/2.2).
+pub fn render_scene(gpu: &Gpu, export: &Export, scene: &str, out: &Path) -> Result<SceneRender, String> {
+    let sc = lobefit::pipelines::scene::load(scene)?;
+    let m = &export.manifest;
+    let k = m
+        .families
+        .iter()
+        .position(|f| f.family == lobefit_tables::disk_light::KIND)
+        .ok_or("the export has no disk-light texture (export it: --only disk-light)")?;
+    let (entry, tex) = &export.textures[k][0];
+    let up = gpu.upload(tex, m.storage)?;
+    let (w, h) = (SCENE_WIDTH, SCENE_WIDTH * 3 / 4);
+    let hits: Vec<Option<lobefit::pipelines::scene::Hit>> =
+        (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let visible: Vec<&lobefit::pipelines::scene::Hit> = hits.iter().flatten().collect();
+    if visible.is_empty() {
+        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
+    }
+    let f = |v: f64| format!("{:e}", v as f32);
+    let lights: String = sc
+        .lights
+        .iter()
+        .map(|l| {
+            let c = l.sphere.centre;
+            format!(
+                "    {{\n        let c = vec3<f32>({}, {}, {});\n        let to = c - p;\n        let d = length(to);\n        \
+                 let r = {};\n        let rho = r * d / sqrt(max(d * d - r * r, 1e-30));\n        \
+                 e += lf_disk_irradiance(T, S, P, p, n, c, -to / d, rho, {});\n    }}\n",
+                f(c.x),
+                f(c.y),
+                f(c.z),
+                f(l.sphere.radius),
+                f(l.radiance)
+            )
+        })
+        .collect();
+    let body = format!(
+        "    let p = vec3<f32>(x0, x1, x2);\n    let n = vec3<f32>(x3, x4, x5);\n    var e = 0.0;\n{lights}    Y[o] = e;"
+    );
+    let inputs: Vec<f32> = visible
+        .iter()
+        .flat_map(|h| [h.x.x, h.x.y, h.x.z, h.n.x, h.n.y, h.n.z].map(|v| v as f32))
+        .collect();
+    let src = kernel(wgsl_texture_type(tex), 6, 1, &body);
+    let got = gpu.run(&src, &lf_tex(entry, Filter::Manual)?, &up, &inputs, visible.len(), 1)?;
+    let disk = DiskLight::embedded().map_err(|e| e.to_string())?;
+    let (mut cpu, mut worst_exact, mut exact_n) = (Vec::with_capacity(visible.len()), 0.0f64, 0);
+    for h in &visible {
+        // The same f32 inputs the GPU got.
+        let p = h.x.as_vec3().as_dvec3();
+        let n = h.n.as_vec3().as_dvec3();
+        let mut e = 0.0;
+        let mut exact = Some(0.0);
+        for l in &sc.lights {
+            let c = l.sphere.centre.as_vec3().as_dvec3();
+            let r = f64::from(l.sphere.radius as f32);
+            let to = c - p;
+            let d = to.length();
+            let rho = r * d / (d * d - r * r).max(1e-30).sqrt();
+            e += disk
+                .irradiance(p, n, c, -to / d, rho, f64::from(l.radiance as f32))
+                .map_err(|err| format!("CPU disk irradiance: {err}"))?;
+            exact = exact
+                .zip(lobefit::pipelines::meunier::direct_light::unoccluded_closed_form(
+                    p, n, l,
+                ))
+                .map(|(a, b)| a + b);
+        }
+        if let Some(x) = exact.filter(|&x| x > 0.0) {
+            worst_exact = worst_exact.max((e / x - 1.0).abs());
+            exact_n += 1;
+        }
+        cpu.push(e);
+    }
+    let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
+    let (mut max, mut sum) = (0.0f64, 0.0);
+    for (g, c) in got.iter().zip(&cpu) {
+        let d = (f64::from(*g) - c).abs() / peak;
+        max = max.max(d);
+        sum += d * d;
+    }
+    let rms = (sum / cpu.len() as f64).sqrt();
+    let mut image = vec![0u8; w * h];
+    let mut it = got.iter();
+    for (px, hit) in image.iter_mut().zip(&hits) {
+        if hit.is_some() {
+            let v = f64::from(*it.next().unwrap_or(&0.0)) / peak;
+            *px = (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
+        }
+    }
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, w as u32, h as u32);
+    enc.set_color(png::ColorType::Grayscale);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header()
+        .and_then(|mut wr| wr.write_image_data(&image))
+        .map_err(|e| format!("{}: {e}", out.display()))?;
+    lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+    Ok(SceneRender {
+        pixels: visible.len(),
+        max,
+        rms,
+        vs_exact: (worst_exact, exact_n),
+    })
+}
