@@ -313,43 +313,52 @@ impl Stage {
     }
 
     fn commit(self) -> Result<(), String> {
-        let moved = |from: &Path, to: &Path, e: std::io::Error| {
-            format!("cannot move {} to {}: {e}", from.display(), to.display())
-        };
         if self.fresh {
             let from = self.tmp.keep();
-            // A directory that appeared meanwhile is not replaced (rename refuses a
-            // non-empty one); its staging copy is removed.
-            return std::fs::rename(&from, &self.dir).map_err(|e| {
-                let _ = std::fs::remove_dir_all(&from);
-                moved(&from, &self.dir, e)
-            });
+            match std::fs::rename(&from, &self.dir) {
+                Ok(()) => return Ok(()),
+                // Another export created the directory meanwhile: join it as an
+                // export into an existing directory does.
+                Err(_) if self.dir.is_dir() => {
+                    let r = move_in(&from, &self.dir);
+                    let _ = std::fs::remove_dir_all(&from);
+                    return r;
+                }
+                Err(e) => {
+                    let _ = std::fs::remove_dir_all(&from);
+                    return Err(format!("cannot move {} to {}: {e}", from.display(), self.dir.display()));
+                }
+            }
         }
-        // One committer at a time per directory: concurrent exports into one
-        // directory each leave a manifest that describes its own files (the last one
-        // wins whole). The lock is released when the file closes, also on a crash.
-        let lock_path = self.dir.join(".lobefit-export.lock");
-        let lock = std::fs::OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&lock_path)
-            .map_err(|e| format!("cannot lock {}: {e}", lock_path.display()))?;
-        lock.lock()
-            .map_err(|e| format!("cannot lock {}: {e}", lock_path.display()))?;
-        let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(self.path())
-            .map_err(|e| format!("cannot read {}: {e}", self.path().display()))?
-            .map(|d| d.map(|d| d.file_name()))
-            .collect::<Result<_, _>>()
-            .map_err(|e| format!("cannot read {}: {e}", self.path().display()))?;
-        // The manifest last.
-        names.sort_by_key(|n| n == MANIFEST);
-        for n in names {
-            let (from, to) = (self.path().join(&n), self.dir.join(&n));
-            std::fs::rename(&from, &to).map_err(|e| moved(&from, &to, e))?;
-        }
-        Ok(())
+        move_in(self.path(), &self.dir)
     }
+}
+
+/// Moves every file of `stage` into `dir`, the manifest last, holding `dir`'s export
+/// lock: concurrent exports into one directory each leave a manifest that describes
+/// its own files (the last one wins whole). The lock is released when the file
+/// closes, also on a crash.
+fn move_in(stage: &Path, dir: &Path) -> Result<(), String> {
+    let lock_path = dir.join(".lobefit-export.lock");
+    let lock = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&lock_path)
+        .map_err(|e| format!("cannot lock {}: {e}", lock_path.display()))?;
+    lock.lock()
+        .map_err(|e| format!("cannot lock {}: {e}", lock_path.display()))?;
+    let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(stage)
+        .map_err(|e| format!("cannot read {}: {e}", stage.display()))?
+        .map(|d| d.map(|d| d.file_name()))
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("cannot read {}: {e}", stage.display()))?;
+    names.sort_by_key(|n| n == MANIFEST);
+    for n in names {
+        let (from, to) = (stage.join(&n), dir.join(&n));
+        std::fs::rename(&from, &to).map_err(|e| format!("cannot move {} to {}: {e}", from.display(), to.display()))?;
+    }
+    Ok(())
 }
 
 /// One re-measured error of `check --export`.

@@ -732,3 +732,28 @@ fn the_manifest_satisfies_its_schema() {
         }
     }
 }
+
+/// Concurrent exports into a directory that does not exist yet: one creates it whole,
+/// the others join it under its lock; none fails, and what is left checks.
+#[test]
+fn concurrent_exports_into_a_new_directory_all_succeed() {
+    let root = tempfile::tempdir().unwrap();
+    let d = root.path().join("new");
+    std::thread::scope(|s| {
+        for k in 0..4 {
+            let d = d.clone();
+            s.spawn(move || {
+                let storage = if k % 2 == 0 { Storage::F32 } else { Storage::F16 };
+                let mut o = opts(&["cap-exponent"], Format::Ktx2, storage);
+                o.allow_lossy = true;
+                export(&o, &d).unwrap();
+            });
+        }
+    });
+    assert!(check_export(&d).unwrap().iter().all(|c| c.pass));
+    let left: Vec<String> = std::fs::read_dir(root.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left, ["new"], "no staging directory left beside it");
+}
