@@ -3,8 +3,7 @@
 
 use std::f32::consts::FRAC_PI_2;
 
-use crate::export::families::{table_grid, GpuFamily};
-use crate::export::gpu_check::Kernel;
+use crate::export::families::{table_grid, GpuFamily, Kernels};
 use crate::export::layout::Sampler;
 
 /// The export of cap-exponent.
@@ -15,13 +14,10 @@ pub const GPU: GpuFamily = GpuFamily {
     shader: "e_cap = 0 for α ≥ π/2, else q · m(α), q = the texel at α; m(α) = c (1 − ln c) / (2 sin²(α/2)), \
              c = max(cos α, 1e-30)",
     extra: None,
-    kernels: |_| {
-        Ok(vec![Kernel::new(
-            lobefit_tables::cap_exponent::KIND,
-            &[0],
-            "    Y[o] = lf_cap_exponent(T, S, P, x0);",
-            1,
-        )])
+    kernels: Kernels::One {
+        textures: &[0],
+        body: "    Y[o] = lf_cap_exponent(T, S, P, x0);",
+        n_out: 1,
     },
     exact_fetch: false,
     checks: &[],

@@ -5,7 +5,7 @@ use lobefit_tables::disk_light::{R_MAX, R_MIN};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::sh;
 
-use crate::export::families::{table_grid, GpuFamily};
+use crate::export::families::{table_grid, GpuFamily, Kernels};
 use crate::export::gpu_check::{r32, scaled_diff, unit, vector_diff, Context, Kernel, Row, Runner, WORLD_SAMPLES};
 use crate::export::layout::Sampler;
 use crate::export::Storage;
@@ -23,7 +23,11 @@ pub const GPU: GpuFamily = GpuFamily {
     shader: "axes: v = (g(R/d) − g(0.01)) / (g(10) − g(0.01)), g(r) = ln r + asinh((r − sin τ) / cos τ), and τ; \
              c00 = exp(layer 0 R); c_lm = c00 · (layer 0 G, B, A, layer 1 R, G) for (1,0), (1,1), (2,0), (2,1), (2,2)",
     extra: None,
-    kernels: |_| Ok(vec![Kernel::new(lobefit_tables::disk_light::KIND, &[0], CANONICAL, 6)]),
+    kernels: Kernels::One {
+        textures: &[0],
+        body: CANONICAL,
+        n_out: 6,
+    },
     exact_fetch: false,
     checks: &[world, extensions],
     timed: None,

@@ -5,7 +5,7 @@
 
 use std::f32::consts::{FRAC_PI_2, PI};
 
-use crate::export::families::{table_grid, GpuFamily};
+use crate::export::families::{table_grid, GpuFamily, Kernels};
 use crate::export::gpu_check::{r32, Context, Kernel, Row, Runner};
 use crate::export::layout::Sampler;
 use crate::rng::Rng;
@@ -18,13 +18,11 @@ pub const REFIT: GpuFamily = GpuFamily {
     shader: "g = exp(R), h = exp(G) at γ; Ŝ = σ(g (θ − π/2)) σ(h (φ − π/2)), σ(t) = 1/(1 + exp(−t)); \
              S = Ŝ · 2π (1 − exp(−γ)) / γ",
     extra: None,
-    kernels: |_| {
-        Ok(vec![Kernel::new(
-            lobefit_tables::isg::KIND_REFIT,
-            &[0],
+    kernels: Kernels::One {
+        textures: &[0],
+        body:
             "    let s = lf_isg_refit(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
-            2,
-        )])
+        n_out: 2,
     },
     exact_fetch: false,
     checks: &[|ctx, runner| patch(ctx, runner, 1, refit).map(|r| vec![r])],
@@ -55,13 +53,11 @@ pub const BEST: GpuFamily = GpuFamily {
              B = .g, D = .a; mirror where x > π/2 (d > 0): A → 1 − A, C → −C (B, D likewise \
              for φ); Ŝ = A·B + C·D; S = Ŝ · 2π E(γ) / γ",
     extra: None,
-    kernels: |_| {
-        Ok(vec![Kernel::new(
-            lobefit_tables::isg::KIND_BEST,
-            &[0],
+    kernels: Kernels::One {
+        textures: &[0],
+        body:
             "    let s = lf_isg_best(T, S, P, x1, x2, x0);\n    Y[o] = s;\n    Y[o + 1u] = s * lf_isg_normaliser(x0);",
-            2,
-        )])
+        n_out: 2,
     },
     exact_fetch: false,
     checks: &[|ctx, runner| patch(ctx, runner, 2, best).map(|r| vec![r])],

@@ -9,8 +9,7 @@ use lobefit_tables::format::{Axis, Mapping, Placement};
 use lobefit_tables::lobe_product::{ln_w, E_MAX};
 use lobefit_tables::Table;
 
-use crate::export::families::GpuFamily;
-use crate::export::gpu_check::Kernel;
+use crate::export::families::{GpuFamily, Kernels};
 use crate::export::layout::{grid_of_table, grid_of_values, ChannelSpec, Grid, Sampler};
 use crate::export::Storage;
 
@@ -35,13 +34,10 @@ pub const ENERGY: GpuFamily = GpuFamily {
     eval,
     shader: SHADER,
     extra: None,
-    kernels: |_| {
-        Ok(vec![Kernel::new(
-            lobefit_tables::lobe_product::KIND_ENERGY,
-            &[0, 1],
-            "    let r = lf_lobe_product(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;",
-            3,
-        )])
+    kernels: Kernels::One {
+        textures: &[0, 1],
+        body: "    let r = lf_lobe_product(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;",
+        n_out: 3,
     },
     exact_fetch: false,
     checks: &[],
@@ -56,13 +52,10 @@ pub const L2: GpuFamily = GpuFamily {
     eval,
     shader: SHADER,
     extra: None,
-    kernels: |_| {
-        Ok(vec![Kernel::new(
-            lobefit_tables::lobe_product::KIND_L2,
-            &[0, 1],
-            "    let r = lf_lobe_product_l2(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;",
-            3,
-        )])
+    kernels: Kernels::One {
+        textures: &[0, 1],
+        body: "    let r = lf_lobe_product_l2(T, S, P, T2, P2, x0, x1, x2);\n    Y[o] = r.p;\n    Y[o + 1u] = r.t;\n    Y[o + 2u] = r.e_r;",
+        n_out: 3,
     },
     exact_fetch: false,
     checks: &[],

@@ -1,7 +1,6 @@
 //! sg-fit on the GPU: ln λ, ln μ on log(1 + e) as a 1D RG texture.
 
-use crate::export::families::{table_grid, GpuFamily};
-use crate::export::gpu_check::Kernel;
+use crate::export::families::{table_grid, GpuFamily, Kernels};
 use crate::export::layout::Sampler;
 
 /// The export of sg-fit.
@@ -11,13 +10,10 @@ pub const GPU: GpuFamily = GpuFamily {
     eval,
     shader: "λ = exp(R), μ = exp(G) at e (log channels); a lobe of scale s maps to amplitude s μ",
     extra: None,
-    kernels: |_| {
-        Ok(vec![Kernel::new(
-            lobefit_tables::sg_fit::KIND,
-            &[0],
-            "    let v = lf_sg_fit(T, S, P, x0);\n    Y[o] = v.x;\n    Y[o + 1u] = v.y;",
-            2,
-        )])
+    kernels: Kernels::One {
+        textures: &[0],
+        body: "    let v = lf_sg_fit(T, S, P, x0);\n    Y[o] = v.x;\n    Y[o + 1u] = v.y;",
+        n_out: 2,
     },
     exact_fetch: false,
     checks: &[],

@@ -4,7 +4,7 @@
 use lobefit_tables::wedge::WEDGE_COUNTS;
 use lobefit_tables::Table;
 
-use crate::export::families::GpuFamily;
+use crate::export::families::{GpuFamily, Kernels};
 use crate::export::gpu_check::{r32, vector_diff, Context, Kernel, Row, Runner, WORLD_SAMPLES};
 use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler};
 use crate::export::Storage;
@@ -18,13 +18,10 @@ pub const GPU: GpuFamily = GpuFamily {
              no filtering; the order-n operator is rows < n², columns j and 8 + j for j < n; \
              V = M_lin [v_k; v_{k+1}] as a mat-vec in the shader",
     extra: None,
-    kernels: |_| {
-        Ok(vec![Kernel::new(
-            lobefit_tables::wedge::KIND,
-            &[0],
-            "    let w = u32(round(log2(x0))) - 2u;\n    Y[o] = lf_wedge_entry(T, P, w, u32(x1), u32(x2));",
-            1,
-        )])
+    kernels: Kernels::One {
+        textures: &[0],
+        body: "    let w = u32(round(log2(x0))) - 2u;\n    Y[o] = lf_wedge_entry(T, P, w, u32(x1), u32(x2));",
+        n_out: 1,
     },
     exact_fetch: true,
     checks: &[apply],

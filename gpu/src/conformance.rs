@@ -58,7 +58,7 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
         let gpu_family: GpuFamily =
             lobefit::fits::gpu_family(&f.family).ok_or_else(|| format!("{}: no GPU layout", f.family))?;
         let entries: Vec<TextureEntry> = texs.iter().map(|(e, _)| e.clone()).collect();
-        let kernels = (gpu_family.kernels)(&entries)?;
+        let kernels = gpu_family.kernels(&entries)?;
         let uploaded: Vec<GpuTexture> = texs
             .iter()
             .map(|(_, t)| gpu.upload(t, m.storage))
@@ -326,16 +326,6 @@ pub fn check_glslang() -> Result<Vec<Row>, String> {
 mod tests {
     use super::*;
 
-    fn tempdir() -> std::path::PathBuf {
-        let d = std::env::temp_dir().join(format!(
-            "lobefit-gpu-test-{}-{:?}",
-            std::process::id(),
-            std::thread::current().id()
-        ));
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    }
-
     /// Bad export directories: missing, no manifest, a manifest of another version.
     #[test]
     fn bad_exports_have_specific_errors() {
@@ -343,7 +333,8 @@ mod tests {
             .err()
             .unwrap();
         assert!(e.contains("no such export directory"), "{e}");
-        let dir = tempdir().join("bad");
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("bad");
         std::fs::create_dir_all(&dir).unwrap();
         let e = read_export(&dir).err().unwrap();
         assert!(e.contains("cannot read") && e.contains("manifest.json"), "{e}");
@@ -353,6 +344,5 @@ mod tests {
         std::fs::write(dir.join(lobefit::export::manifest::MANIFEST), "[1, 2]").unwrap();
         let e = read_export(&dir).err().unwrap();
         assert!(e.contains("not a lobefit export manifest"), "{e}");
-        let _ = std::fs::remove_dir_all(dir.parent().unwrap());
     }
 }

@@ -94,7 +94,8 @@ pub fn costs(gpu: &Gpu, export: &Export) -> Result<Vec<Cost>, String> {
         let entries: Vec<TextureEntry> = texs.iter().map(|(e, _)| e.clone()).collect();
         let timed = match gpu_family.timed {
             Some(timed) => timed(&entries, &points)?,
-            None => (gpu_family.kernels)(&entries)?
+            None => gpu_family
+                .kernels(&entries)?
                 .into_iter()
                 .map(|k| (k, points.clone()))
                 .collect(),

@@ -40,6 +40,23 @@ pub type Timed = (Kernel, Vec<Vec<f64>>);
 /// What `lobefit-gpu cost` times (see [`GpuFamily::timed`]).
 pub type TimedFn = fn(&[TextureEntry], &[Vec<f64>]) -> Result<Vec<Timed>, String>;
 
+/// The lookup's conformance kernels (see [`GpuFamily::kernels`]).
+#[derive(Debug, Clone, Copy)]
+pub enum Kernels {
+    /// One kernel named after the family: `body` over the `textures` (indices in
+    /// `grids` order), `n_out` outputs per point.
+    One {
+        /// Textures bound (`T, S, P`; a second as `T2, P2`).
+        textures: &'static [usize],
+        /// WGSL body (see [`Kernel`]).
+        body: &'static str,
+        /// Outputs per point.
+        n_out: usize,
+    },
+    /// The family's own, given the export's textures (shexp: one kernel per order).
+    Own(KernelsFn),
+}
+
 /// A family's GPU export.
 #[derive(Debug, Clone, Copy)]
 pub struct GpuFamily {
@@ -58,7 +75,7 @@ pub struct GpuFamily {
     pub extra: Option<ExtraFn>,
     /// The lookup's conformance kernels: outputs concatenated per point in the
     /// lookup's order (one kernel for most families; shexp runs one per order).
-    pub kernels: KernelsFn,
+    pub kernels: Kernels,
     /// Entries are exact fetches (no filter to vary): checked once, reported as `fetch`.
     pub exact_fetch: bool,
     /// Checks beyond the lookup, run per filter on the device (world-space functions,
@@ -83,6 +100,20 @@ pub struct ClosedForm {
     pub checks: ClosedCheck,
     /// What `lobefit-gpu cost` times: (points, seed) → (kernel, inputs).
     pub timed: fn(usize, u64) -> Vec<Timed>,
+}
+
+impl GpuFamily {
+    /// The lookup's kernels for an export whose textures are `textures`.
+    pub fn kernels(&self, textures: &[TextureEntry]) -> Result<Vec<Kernel>, String> {
+        match self.kernels {
+            Kernels::One {
+                textures: t,
+                body,
+                n_out,
+            } => Ok(vec![Kernel::new(self.kind, t, body, n_out)]),
+            Kernels::Own(f) => f(textures),
+        }
+    }
 }
 
 /// The default textures: the table's grid as one texture.
