@@ -15,7 +15,7 @@ use lobefit_tables::format::{Mapping, Placement};
 use lobefit_tables::shexp::{one_minus_cos, ShExp, OL_THRESHOLD, ORDER_MAX, ORDER_MIN};
 use lobefit_tables::{Axis, Table};
 
-use crate::export::families::{ExtraError, GpuFamily};
+use crate::export::families::{ExtraError, GpuFamily, Kernels};
 use crate::export::gpu_check::{scaled_diff, Context, Kernel, Row, Runner};
 use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler, MAX_SCALE};
 use crate::export::manifest::TextureEntry;
@@ -36,7 +36,7 @@ pub const GPU: GpuFamily = GpuFamily {
              until s = ‖f̂‖/2^k ≤ T_n; (a, b) = exp of the linear sample at s; OL: y₀₀ → a √(4π), \
              the rest × b/2^k; square k times (SH products); × exp(f_0/√(4π))",
     extra: Some(hyb_errors),
-    kernels: |textures| (ORDER_MIN..=ORDER_MAX).map(|n| order_kernel(textures, n)).collect(),
+    kernels: Kernels::Own(|textures| (ORDER_MIN..=ORDER_MAX).map(|n| order_kernel(textures, n)).collect()),
     exact_fetch: false,
     checks: &[hyb_check],
     timed: Some(|textures, points| {
@@ -180,6 +180,22 @@ fn hyb_grid(kind: &str, rt: &ShExp, n: usize, storage: Storage, scale: f64) -> R
     grid_of_values(&format!("{kind}-hyb-n{n}"), &[axis], &specs, &values, storage)
 }
 
+/// θ_b where order n's reference ‖f̂‖ reaches its OL threshold T_n (monotone below
+/// it: bisection to 2⁻⁴⁰ of the range): the caps HYB's a, b are measured on.
+fn theta_at_threshold(n: usize) -> Result<f64, String> {
+    let top = OL_THRESHOLD[n - ORDER_MIN];
+    let (mut lo, mut hi) = (0.0, lobefit_tables::shexp::THETA_MAX);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if super::reference_point(mid, n)?.1 <= top {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(lo)
+}
+
 /// The HYB textures against the reference: per order, caps with ‖f̂‖ ≤ T_n (θ_b half
 /// uniform, half log-uniform down to 1e-4 rad), each looked up at its reference ‖f̂‖
 /// rounded to f32; max relative error of a and b, held to the family's a, b limit.
@@ -190,16 +206,7 @@ fn hyb_errors(s: &[Sampler], samples: usize, seed: u64) -> Result<Vec<ExtraError
     for n in ORDER_MIN..=ORDER_MAX {
         let sampler = &s[orders + n - ORDER_MIN];
         let top = OL_THRESHOLD[n - ORDER_MIN];
-        // θ_b where the reference ‖f̂‖ reaches T_n (monotone below: bisection).
-        let (mut lo, mut hi) = (0.0, lobefit_tables::shexp::THETA_MAX);
-        for _ in 0..40 {
-            let mid = 0.5 * (lo + hi);
-            if super::reference_point(mid, n)?.1 <= top {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
+        let lo = theta_at_threshold(n)?;
         let mut rng = crate::rng::Rng::new(seed ^ (0x4879_6200 + n as u64));
         let thetas: Vec<f64> = (0..samples / orders)
             .map(|_| {
@@ -313,16 +320,7 @@ fn hyb_check(ctx: &Context, runner: &dyn Runner) -> Result<Vec<Row>, String> {
     let (mut worst_cpu, mut vs_ref) = (0.0f64, Vec::new());
     for n in ORDER_MIN..=ORDER_MAX {
         let top = OL_THRESHOLD[n - ORDER_MIN];
-        // θ_b where the reference ‖f̂‖ reaches T_n (monotone below it).
-        let (mut lo, mut hi) = (0.0, lobefit_tables::shexp::THETA_MAX);
-        for _ in 0..40 {
-            let mid = 0.5 * (lo + hi);
-            if super::reference_point(mid, n)?.1 <= top {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
+        let lo = theta_at_threshold(n)?;
         let mut rng = crate::rng::Rng::new(ctx.seed ^ (0x4750_4859 + n as u64));
         let refs: Vec<(f64, f64, f64)> = (0..per_order)
             .map(|k| {

@@ -150,22 +150,13 @@ mod tests {
 
     use super::*;
 
-    fn tempdir() -> std::path::PathBuf {
-        let d = std::env::temp_dir().join(format!(
-            "lobefit-gpu-test-{}-{:?}",
-            std::process::id(),
-            std::thread::current().id()
-        ));
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    }
-
     /// `lf_tex` of an export's texture entry: the axis constants in axis[0], the mode
     /// in `mode` (the struct's layout against the WGSL: tests/it/export_shaders.rs).
     #[test]
     fn lf_tex_of_an_export_entry() {
         // A texture entry's axis constants land in axis[0], its mode in `mode`.
-        let dir = tempdir();
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
         let opts = lobefit::export::run::ExportOptions {
             only: vec!["cap-exponent".into()],
             format: lobefit::export::Format::Raw,
@@ -173,7 +164,7 @@ mod tests {
             scale: 1.0,
             allow_lossy: false,
         };
-        let m = lobefit::export::run::export(&opts, &dir).unwrap();
+        let m = lobefit::export::run::export(&opts, dir).unwrap();
         let t = &m.families[0].textures[0];
         let b = lf_tex(t, Filter::Hardware).unwrap();
         assert_eq!(b.len(), LF_TEX_SIZE);
@@ -183,7 +174,6 @@ mod tests {
         assert_eq!(f(8), t.axes[0].axis.count as f32);
         assert_eq!(f(12), 3.0, "cap-exponent's axis is logit");
         assert_eq!(u32::from_le_bytes(b[624..628].try_into().unwrap()), 1);
-        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// f16 lobe-product: every compressed channel gets the export's width in
@@ -191,7 +181,8 @@ mod tests {
     /// coefficients land at vec4 12 + 2k (c0..c3) and 13 + 2k (c4, c5).
     #[test]
     fn lf_tex_carries_compression_and_quintic_trends() {
-        let dir = tempdir().join("lp16");
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("lp16");
         let opts = lobefit::export::run::ExportOptions {
             only: vec!["lobe-product-l2".into()],
             format: lobefit::export::Format::Raw,
@@ -221,6 +212,5 @@ mod tests {
             assert_eq!(f(&b, 12 + j / 4, j % 4), *want as f32, "coefficient {j}");
         }
         assert_eq!(f(&b, 36, 0), 0.0, "ln W is stored as is");
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

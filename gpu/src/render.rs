@@ -14,6 +14,9 @@ use lobefit::export::layout::Filter;
 use lobefit_tables::disk_light::DiskLight;
 use lobefit_tables::lobe_product::LobeProduct;
 
+use lobefit::export::manifest::TextureEntry;
+use lobefit::export::Texture;
+
 use crate::conformance::Export;
 use crate::device::{wgsl_texture_type, Gpu};
 use crate::kernel::{kernel, kernel_with, lf_tex};
@@ -139,12 +142,7 @@ fn glossy_cpu(lp: &LobeProduct, i: usize, j: usize) -> Result<f64, String> {
 /// glossy pass's own max |gpu − cpu| / its peak.
 pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64), String> {
     let m = &export.manifest;
-    let k = m
-        .families
-        .iter()
-        .position(|f| f.family == lobefit_tables::disk_light::KIND)
-        .ok_or("the export has no disk-light texture (export it: --only disk-light)")?;
-    let (entry, tex) = &export.textures[k][0];
+    let (entry, tex) = disk_texture(export)?;
     let up = gpu.upload(tex, m.storage)?;
     let n = SIZE * SIZE;
     let src = kernel(wgsl_texture_type(tex), 0, 1, BODY);
@@ -209,19 +207,8 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64),
         .zip(&cpu_gloss)
         .map(|(g, c)| (*g as f64 - c).abs() / gloss_peak)
         .fold(0.0, f64::max);
-    let pixels: Vec<u8> = img
-        .iter()
-        .map(|&g| ((g as f64 / peak).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8)
-        .collect();
-    let mut bytes = Vec::new();
-    let mut enc = png::Encoder::new(&mut bytes, SIZE as u32, SIZE as u32);
-    enc.set_color(png::ColorType::Grayscale);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header()
-        .and_then(|mut w| w.write_image_data(&pixels))
-        .map_err(|e| format!("{}: {e}", out.display()))?;
-    // Atomically: a symlink planted at `out` is replaced, never followed.
-    lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+    let pixels: Vec<u8> = img.iter().map(|&g| grey(g as f64 / peak)).collect();
+    write_grey_png(out, SIZE, SIZE, &pixels)?;
     Ok((max, rms, gloss_max))
 }
 
@@ -251,12 +238,7 @@ pub struct SceneRender {
 pub fn render_scene(gpu: &Gpu, export: &Export, scene: &str, out: &Path) -> Result<SceneRender, String> {
     let sc = lobefit::pipelines::scene::load(scene)?;
     let m = &export.manifest;
-    let k = m
-        .families
-        .iter()
-        .position(|f| f.family == lobefit_tables::disk_light::KIND)
-        .ok_or("the export has no disk-light texture (export it: --only disk-light)")?;
-    let (entry, tex) = &export.textures[k][0];
+    let (entry, tex) = disk_texture(export)?;
     let up = gpu.upload(tex, m.storage)?;
     let (w, h) = (SCENE_WIDTH, SCENE_WIDTH * 3 / 4);
     let hits: Vec<Option<lobefit::pipelines::scene::Hit>> =
@@ -333,22 +315,44 @@ pub fn render_scene(gpu: &Gpu, export: &Export, scene: &str, out: &Path) -> Resu
     let mut it = got.iter();
     for (px, hit) in image.iter_mut().zip(&hits) {
         if hit.is_some() {
-            let v = f64::from(*it.next().unwrap_or(&0.0)) / peak;
-            *px = (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
+            *px = grey(f64::from(*it.next().unwrap_or(&0.0)) / peak);
         }
     }
-    let mut bytes = Vec::new();
-    let mut enc = png::Encoder::new(&mut bytes, w as u32, h as u32);
-    enc.set_color(png::ColorType::Grayscale);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header()
-        .and_then(|mut wr| wr.write_image_data(&image))
-        .map_err(|e| format!("{}: {e}", out.display()))?;
-    lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+    write_grey_png(out, w, h, &image)?;
     Ok(SceneRender {
         pixels: visible.len(),
         max,
         rms,
         vs_exact: (worst_exact, exact_n),
     })
+}
+
+/// The export's disk-light texture (the first of its family).
+fn disk_texture(export: &Export) -> Result<(&TextureEntry, &Texture), String> {
+    let k = export
+        .manifest
+        .families
+        .iter()
+        .position(|f| f.family == lobefit_tables::disk_light::KIND)
+        .ok_or("the export has no disk-light texture (export it: --only disk-light)")?;
+    let (entry, tex) = &export.textures[k][0];
+    Ok((entry, tex))
+}
+
+/// An 8-bit grey level of `v` in [0, 1] (clamped), gamma 1/2.2.
+fn grey(v: f64) -> u8 {
+    (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8
+}
+
+/// Writes a w × h 8-bit grey PNG atomically (a symlink planted at `out` is replaced,
+/// never followed).
+fn write_grey_png(out: &Path, w: usize, h: usize, pixels: &[u8]) -> Result<(), String> {
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, w as u32, h as u32);
+    enc.set_color(png::ColorType::Grayscale);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header()
+        .and_then(|mut wr| wr.write_image_data(pixels))
+        .map_err(|e| format!("{}: {e}", out.display()))?;
+    lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))
 }
