@@ -390,6 +390,23 @@ fn the_runtime_reads_the_uniform_from_the_manifest() {
     assert_eq!(n, 2 * (1 + 2 + 12));
     let e = LfTex::from_manifest(&text, "nonesuch", Filtering::Manual).unwrap_err();
     assert!(e.to_string().contains("nonesuch"), "{e}");
+    // Not JSON, another version, an unknown mapping kind: specific errors.
+    let e = LfTex::from_manifest("{", "cap-exponent", Filtering::Manual).unwrap_err();
+    assert!(e.to_string().contains("not an export manifest"), "{e}");
+    let e = LfTex::from_manifest(
+        &text.replacen("\"version\": 2", "\"version\": 1", 1),
+        "cap-exponent",
+        Filtering::Manual,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("manifest version 1"), "{e}");
+    let e = LfTex::from_manifest(
+        &text.replacen("\"mapping_kind\": 3", "\"mapping_kind\": 9", 1),
+        "cap-exponent",
+        Filtering::Manual,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("unknown mapping kind 9"), "{e}");
 }
 
 /// `check --export` trusts nothing the manifest says (the attacks that once passed):
