@@ -9,7 +9,7 @@ use lobefit_tables::format::{Axis, Mapping, Placement};
 use lobefit_tables::lobe_product::{ln_w, E_MAX};
 use lobefit_tables::Table;
 
-use crate::export::families::{GpuFamily, Kernels};
+use crate::export::families::{Baked, GpuFamily, Kernels};
 use crate::export::layout::{grid_of_table, grid_of_values, ChannelSpec, Grid, Sampler};
 use crate::export::Storage;
 
@@ -43,6 +43,9 @@ pub const ENERGY: GpuFamily = GpuFamily {
     checks: &[],
     timed: None,
     plot_export: false,
+    baked: &[
+        Baked { wrapper: "lf_lobe_product_baked", function: "lf_lobe_product", textures: &["lobe-product", "lobe-product-lnw"], fixed: &[] },
+    ],
 };
 
 /// The export of lobe-product-l2.
@@ -61,6 +64,9 @@ pub const L2: GpuFamily = GpuFamily {
     checks: &[],
     timed: None,
     plot_export: false,
+    baked: &[
+        Baked { wrapper: "lf_lobe_product_l2_baked", function: "lf_lobe_product_l2", textures: &["lobe-product-l2", "lobe-product-l2-lnw"], fixed: &[] },
+    ],
 };
 
 /// The table's grid, and the ln W residual texture `<kind>-lnw`.

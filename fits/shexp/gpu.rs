@@ -15,7 +15,7 @@ use lobefit_tables::format::{Mapping, Placement};
 use lobefit_tables::shexp::{one_minus_cos, ShExp, OL_THRESHOLD, ORDER_MAX, ORDER_MIN};
 use lobefit_tables::{Axis, Table};
 
-use crate::export::families::{ExtraError, GpuFamily, Kernels};
+use crate::export::families::{Baked, ExtraError, GpuFamily, Kernels};
 use crate::export::gpu_check::{scaled_diff, Context, Kernel, Row, Runner};
 use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler, MAX_SCALE};
 use crate::export::manifest::TextureEntry;
@@ -49,6 +49,20 @@ pub const GPU: GpuFamily = GpuFamily {
         ])
     }),
     plot_export: false,
+    baked: &[
+        Baked { wrapper: "lf_shexp_n3_baked", function: "lf_shexp", textures: &["shexp-n3"], fixed: &[("n", "3u")] },
+        Baked { wrapper: "lf_shexp_n4_baked", function: "lf_shexp", textures: &["shexp-n4"], fixed: &[("n", "4u")] },
+        Baked { wrapper: "lf_shexp_n5_baked", function: "lf_shexp", textures: &["shexp-n5"], fixed: &[("n", "5u")] },
+        Baked { wrapper: "lf_shexp_n6_baked", function: "lf_shexp", textures: &["shexp-n6"], fixed: &[("n", "6u")] },
+        Baked { wrapper: "lf_shexp_n7_baked", function: "lf_shexp", textures: &["shexp-n7"], fixed: &[("n", "7u")] },
+        Baked { wrapper: "lf_shexp_n8_baked", function: "lf_shexp", textures: &["shexp-n8"], fixed: &[("n", "8u")] },
+        Baked { wrapper: "lf_shexp_hyb_ab_n3_baked", function: "lf_shexp_hyb_ab", textures: &["shexp-hyb-n3"], fixed: &[] },
+        Baked { wrapper: "lf_shexp_hyb_ab_n4_baked", function: "lf_shexp_hyb_ab", textures: &["shexp-hyb-n4"], fixed: &[] },
+        Baked { wrapper: "lf_shexp_hyb_ab_n5_baked", function: "lf_shexp_hyb_ab", textures: &["shexp-hyb-n5"], fixed: &[] },
+        Baked { wrapper: "lf_shexp_hyb_ab_n6_baked", function: "lf_shexp_hyb_ab", textures: &["shexp-hyb-n6"], fixed: &[] },
+        Baked { wrapper: "lf_shexp_hyb_ab_n7_baked", function: "lf_shexp_hyb_ab", textures: &["shexp-hyb-n7"], fixed: &[] },
+        Baked { wrapper: "lf_shexp_hyb_ab_n8_baked", function: "lf_shexp_hyb_ab", textures: &["shexp-hyb-n8"], fixed: &[] },
+    ],
 };
 
 /// ‖f̂‖ nodes of each order's HYB texture at scale 1: a, b are smooth in ‖f̂‖ on

@@ -4,7 +4,7 @@
 use lobefit_tables::wedge::WEDGE_COUNTS;
 use lobefit_tables::Table;
 
-use crate::export::families::{GpuFamily, Kernels};
+use crate::export::families::{Baked, GpuFamily, Kernels};
 use crate::export::gpu_check::{r32, vector_diff, Context, Kernel, Row, Runner, WORLD_SAMPLES};
 use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler};
 use crate::export::Storage;
@@ -27,6 +27,10 @@ pub const GPU: GpuFamily = GpuFamily {
     checks: &[apply],
     timed: None,
     plot_export: false,
+    baked: &[
+        Baked { wrapper: "lf_wedge_entry_baked", function: "lf_wedge_entry", textures: &["wedge"], fixed: &[] },
+        Baked { wrapper: "lf_wedge_apply_baked", function: "lf_wedge_apply", textures: &["wedge"], fixed: &[] },
+    ],
 };
 
 /// The table's axes (W, row, col) with one channel, m = hi + lo rounded once to the

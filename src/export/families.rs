@@ -57,6 +57,24 @@ pub enum Kernels {
     Own(KernelsFn),
 }
 
+/// A library function an export bakes for one family: the export's shader
+/// (`lobefit_baked.wgsl` and its translations) gains `<wrapper>(…)` (manual
+/// filtering) and `<wrapper>_hw(…)` (hardware filtering), the function's
+/// arguments without its `LfTex` ones, which become the export's constants for the
+/// named textures. A renderer binds the texture and calls the wrapper.
+#[derive(Debug, Clone, Copy)]
+pub struct Baked {
+    /// The wrapper's name (manual filtering; `_hw` appended for hardware filtering).
+    pub wrapper: &'static str,
+    /// The library function it calls.
+    pub function: &'static str,
+    /// The texture (file stem) of each `LfTex` argument of `function`, in order.
+    pub textures: &'static [&'static str],
+    /// Arguments the texture fixes (name, WGSL literal), left out of the wrapper
+    /// (shexp's order `n` for texture `shexp-n<n>`).
+    pub fixed: &'static [(&'static str, &'static str)],
+}
+
 /// A family's GPU export.
 #[derive(Debug, Clone, Copy)]
 pub struct GpuFamily {
@@ -87,6 +105,8 @@ pub struct GpuFamily {
     /// Whether `lobefit plot export` covers it (single-texture families whose bytes
     /// scale with `--scale` alone).
     pub plot_export: bool,
+    /// The functions the export's baked shader wraps for this family.
+    pub baked: &'static [Baked],
 }
 
 /// A table a shader evaluates in closed form, with no texture.

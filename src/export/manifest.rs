@@ -16,7 +16,7 @@ pub const MANIFEST_SCHEMA: &str = include_str!("manifest.schema.json");
 /// Its file name in an export directory.
 pub const MANIFEST_SCHEMA_FILE: &str = "manifest.schema.json";
 /// Manifest layout version.
-pub const MANIFEST_VERSION: u32 = 2;
+pub const MANIFEST_VERSION: u32 = 3;
 /// The manifest: everything a renderer needs to sample the textures, and the
 /// measured error of these very files.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -42,6 +42,10 @@ pub struct Manifest {
     /// functions `lf_tex_<texture>_manual()` / `_hardware()`, to concatenate after
     /// the library.
     pub uniforms_wgsl: String,
+    /// The baked shader (in this directory): the library with this export's
+    /// constants and per family `<function>_baked` wrappers that take the texture
+    /// and the query alone; WGSL, GLSL 450, GLSL ES 3.0, HLSL 5.1.
+    pub baked_shaders: Vec<String>,
     /// One entry per exported family.
     pub families: Vec<FamilyEntry>,
     /// Families a shader evaluates in closed form: (kind, formula).

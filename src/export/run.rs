@@ -170,6 +170,7 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
     // All or nothing: every texture is written and measured in a hidden staging
     // directory (removed on any error); only then do the files move into `dir`.
     let stage = Stage::new(dir)?;
+    let baked: Vec<super::families::Baked> = gpu.iter().flat_map(|g| g.baked.iter().copied()).collect();
     let mut entries = Vec::new();
     for g in gpu {
         let family = family_of(g.kind).ok_or_else(|| format!("{}: not in the registry", g.kind))?;
@@ -233,6 +234,7 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         seed: SEED,
         uniforms_header: formats::UNIFORMS_HEADER.into(),
         uniforms_wgsl: super::shaders::BAKED_UNIFORMS.into(),
+        baked_shaders: super::shaders::BAKED_SHADERS.iter().map(|s| s.to_string()).collect(),
         families: entries,
         closed_form: fits::closed_form()
             .iter()
@@ -245,20 +247,28 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         uniforms.push((name, t.lf_tex(Filter::Manual)?, t.lf_tex(Filter::Hardware)?));
     }
     // The same uniforms as WGSL constants, validated with the library by naga.
-    let baked = super::shaders::baked_uniforms(&uniforms);
+    let uniforms_wgsl = super::shaders::baked_uniforms(&uniforms);
     super::shaders::module_of(&format!(
-        "{}\n{baked}{}",
+        "{}\n{uniforms_wgsl}{}",
         lobefit_tables::shaders::library(),
         super::shaders::STUB
     ))
     .map_err(|e| format!("{}: {e}", super::shaders::BAKED_UNIFORMS))?;
     let path = stage.path().join(super::shaders::BAKED_UNIFORMS);
-    crate::io::write_atomic(&path, baked.as_bytes()).map_err(|e| {
+    crate::io::write_atomic(&path, uniforms_wgsl.as_bytes()).map_err(|e| {
         format!(
             "cannot write {}: {e}",
             dir.join(super::shaders::BAKED_UNIFORMS).display()
         )
     })?;
+    // The library specialised to this export, in every shading language.
+    for (name, text) in super::shaders::BAKED_SHADERS
+        .iter()
+        .zip(super::shaders::baked_shader(&uniforms_wgsl, &baked)?)
+    {
+        crate::io::write_atomic(&stage.path().join(name), text.as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", dir.join(name).display()))?;
+    }
     let header = stage.path().join(formats::UNIFORMS_HEADER);
     crate::io::write_atomic(&header, formats::uniforms_header(&uniforms).as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", dir.join(formats::UNIFORMS_HEADER).display()))?;

@@ -67,7 +67,12 @@ pub fn module_of(src: &str) -> Result<(naga::Module, naga::valid::ModuleInfo), S
 /// GLSL of the library: `es` selects ES 3.0 (else 450 core). No `#version` line (the
 /// including shader has one) and no entry point.
 pub fn glsl(es: bool) -> Result<String, String> {
-    let (module, info) = module()?;
+    glsl_of(&shaders::library(), es)
+}
+
+/// GLSL of a WGSL function library `src` (no entry point of its own), as [`glsl`].
+pub fn glsl_of(src: &str, es: bool) -> Result<String, String> {
+    let (module, info) = module_of(&format!("{src}{STUB}"))?;
     let version = if es {
         naga::back::glsl::Version::Embedded {
             version: 300,
@@ -113,7 +118,12 @@ pub fn glsl(es: bool) -> Result<String, String> {
 
 /// HLSL (shader model 5.1) of the library, without the entry point.
 pub fn hlsl() -> Result<String, String> {
-    let (module, info) = module()?;
+    hlsl_of(&shaders::library())
+}
+
+/// HLSL of a WGSL function library `src` (no entry point of its own), as [`hlsl`].
+pub fn hlsl_of(src: &str) -> Result<String, String> {
+    let (module, info) = module_of(&format!("{src}{STUB}"))?;
     let options = naga::back::hlsl::Options {
         shader_model: naga::back::hlsl::ShaderModel::V5_1,
         ..Default::default()
@@ -210,6 +220,137 @@ pub fn baked_uniforms(textures: &[(String, LfTex, LfTex)]) -> String {
         }
     }
     s
+}
+
+/// File names of an export's baked shader (see [`baked_shader`]): WGSL, GLSL 450,
+/// GLSL ES 3.0, HLSL 5.1.
+pub const BAKED_SHADERS: [&str; 4] = [
+    "lobefit_baked.wgsl",
+    "lobefit_baked.glsl",
+    "lobefit_baked.es.glsl",
+    "lobefit_baked.hlsl",
+];
+
+/// The wrappers of `baked` (see `Baked`) over the function library `library`:
+/// per entry `<wrapper>(…)` calling the function with its `LfTex` arguments replaced
+/// by the export's `lf_tex_<texture>_manual()`, and `<wrapper>_hw(…)` with
+/// `_hardware()`; the other arguments and the return type as the function declares
+/// them (its one-line header in the library).
+pub fn baked_wrappers(library: &str, baked: &[super::families::Baked]) -> Result<String, String> {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    for b in baked {
+        let head = format!("fn {}(", b.function);
+        let line = library
+            .lines()
+            .find(|l| l.starts_with(&head))
+            .ok_or_else(|| format!("{}: no function {} in the shader library", b.wrapper, b.function))?;
+        let open = head.len();
+        let close = matching_paren(line, open - 1).ok_or_else(|| format!("{}: cannot read its header", b.function))?;
+        let ret = line[close + 1..].trim().trim_end_matches('{').trim();
+        let params = split_top_level(&line[open..close]);
+        let lf = params.iter().filter(|p| p.split_once(':').is_some_and(|(_, t)| t.trim() == "LfTex")).count();
+        if lf != b.textures.len() {
+            return Err(format!(
+                "{}: {} takes {lf} LfTex arguments, {} textures named",
+                b.wrapper,
+                b.function,
+                b.textures.len()
+            ));
+        }
+        // An exact fetch takes no sampler: one filter, one wrapper.
+        let sampled = params.iter().any(|p| p.split_once(':').is_some_and(|(_, t)| t.trim() == "sampler"));
+        let filters: &[(&str, &str)] = if sampled {
+            &[("", "manual"), ("_hw", "hardware")]
+        } else {
+            &[("", "manual")]
+        };
+        for &(suffix, filter) in filters {
+            let mut kept = Vec::new();
+            let mut args = Vec::new();
+            let mut tex = b.textures.iter();
+            for p in &params {
+                let (name, ty) = p.split_once(':').ok_or_else(|| format!("{}: cannot read {p:?}", b.function))?;
+                if let Some((_, value)) = b.fixed.iter().find(|(n, _)| *n == name.trim()) {
+                    args.push(value.to_string());
+                } else if ty.trim() == "LfTex" {
+                    let t = tex.next().map(|t| wgsl_identifier(t)).unwrap_or_default();
+                    args.push(format!("lf_tex_{t}_{filter}()"));
+                } else {
+                    kept.push(p.trim().to_string());
+                    args.push(name.trim().to_string());
+                }
+            }
+            let _ = write!(
+                out,
+                "\nfn {}{suffix}({}) {ret} {{\n    return {}({});\n}}\n",
+                b.wrapper,
+                kept.join(", "),
+                b.function,
+                args.join(", ")
+            );
+        }
+    }
+    Ok(out)
+}
+
+/// The index of the `)` closing the `(` at byte `open` of `s`.
+fn matching_paren(s: &str, open: usize) -> Option<usize> {
+    let mut depth = 0usize;
+    for (i, c) in s.char_indices().skip_while(|&(i, _)| i < open) {
+        match c {
+            '(' => depth += 1,
+            ')' => {
+                depth -= 1;
+                if depth == 0 {
+                    return Some(i);
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+/// `s` split at the commas outside `<…>` and `(…)` (WGSL parameter lists).
+fn split_top_level(s: &str) -> Vec<&str> {
+    let (mut depth, mut start, mut out) = (0i32, 0usize, Vec::new());
+    for (i, c) in s.char_indices() {
+        match c {
+            '<' | '(' => depth += 1,
+            '>' | ')' => depth -= 1,
+            ',' if depth == 0 => {
+                out.push(&s[start..i]);
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    if !s[start..].trim().is_empty() {
+        out.push(&s[start..]);
+    }
+    out
+}
+
+/// An export's baked shader: the library, the export's uniforms as constants
+/// (`uniforms`, from [`baked_uniforms`]) and the wrappers of `baked`, in WGSL
+/// (validated by naga) and translated by naga like the library: one file per name
+/// of [`BAKED_SHADERS`], in that order, each with its header.
+pub fn baked_shader(uniforms: &str, baked: &[super::families::Baked]) -> Result<Vec<String>, String> {
+    let lib = shaders::library();
+    let wrappers = baked_wrappers(&lib, baked)?;
+    let src = format!(
+        "{lib}\n// The export's uniforms as constants.\n{uniforms}\n// Per family: the library's functions with this export's constants.\n{wrappers}"
+    );
+    module_of(&format!("{src}{STUB}")).map_err(|e| format!("{}: {e}", BAKED_SHADERS[0]))?;
+    let what = "baked for one export: call the `_baked` functions (manual filtering) or `_baked_hw` \
+                (hardware filtering) with the texture bound";
+    Ok(vec![
+        header("//", &format!("WGSL, {what}")) + &src,
+        header("//", &format!("GLSL 450 after `#version 450`, {what}")) + &glsl_of(&src, false)?,
+        header("//", &format!("GLSL ES 3.0 after `#version 300 es`, {what}")) + &glsl_of(&src, true)?,
+        header("//", &format!("HLSL, shader model 5.1, {what}")) + &hlsl_of(&src)?,
+    ])
 }
 
 /// The header of every written file: what it is and where it comes from.
