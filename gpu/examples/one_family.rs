@@ -1,8 +1,9 @@
 //! A renderer's use of one exported table on the GPU, as a renderer author outside
 //! this project writes it: wgpu, the `ktx2` crate, and the runtime crate
-//! `lobefit-tables` (features `manifest`, `bytemuck`); no type of the `lobefit` crate.
-//! It evaluates the shader library's `lf_cap_exponent` at 4096 cap half-angles on the
-//! device and compares with the runtime's f64 lookup.
+//! `lobefit-tables` (for the CPU comparison only); no type of the `lobefit` crate. It
+//! evaluates the export's baked `lf_cap_exponent_baked` (`lobefit_baked.wgsl`: the
+//! library with this export's constants, so no uniform to fill or bind) at 4096 cap
+//! half-angles on the device and compares with the runtime's f64 lookup.
 //!
 //!     cargo run -p lobefit -- export --format ktx2 --only cap-exponent --out /tmp/ex
 //!     cargo run -p lobefit-gpu --example one_family -- /tmp/ex
@@ -12,7 +13,6 @@
 
 use std::borrow::Cow;
 
-use lobefit_tables::uniform::{Filtering, LfTex};
 use lobefit_tables::CapExponent;
 use wgpu::util::DeviceExt;
 
@@ -27,24 +27,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let adapter = pollster::block_on(instance.request_adapter(&Default::default()))?;
     let (device, queue) = pollster::block_on(adapter.request_device(&Default::default()))?;
 
-    // glue: the texture, its uniform, the library.
-    let uniform = LfTex::from_manifest(
-        &std::fs::read_to_string(dir.join("manifest.json"))?,
-        "cap-exponent",
-        Filtering::Manual,
-    )?;
+    // glue: the texture's texels and size, the baked shader.
     let bytes = std::fs::read(dir.join("cap-exponent.ktx2"))?;
     let ktx = ktx2::Reader::new(&bytes[..])?;
     let (w, h) = (ktx.header().pixel_width, ktx.header().pixel_height.max(1));
     let texels = ktx.levels().next().ok_or("no level")?.data;
-    let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: None,
-        contents: bytemuck::bytes_of(&uniform),
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
     // Manual filtering: a non-filtering sampler (the default; it is never sampled).
     let sampler = device.create_sampler(&Default::default());
-    let source = format!("{}\n{KERNEL}", lobefit_tables::shaders::library());
+    let source = std::fs::read_to_string(dir.join("lobefit_baked.wgsl"))? + KERNEL;
     // end of glue
 
     // The renderer's own texture setup (an R32Float 2D texture of the KTX2's size).
@@ -108,7 +98,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: None,
         entries: &[
-            entry(0, buffer(wgpu::BufferBindingType::Uniform)),
             entry(
                 1,
                 wgpu::BindingType::Texture {
@@ -140,10 +129,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         label: None,
         layout: &layout,
         entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: params.as_entire_binding(),
-            },
             wgpu::BindGroupEntry {
                 binding: 1,
                 resource: wgpu::BindingResource::TextureView(&view),
@@ -191,9 +176,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// The renderer's kernel: bindings, and a call of the library function.
+/// The renderer's kernel: bindings, and a call of the baked function.
 const KERNEL: &str = "
-@group(0) @binding(0) var<uniform> P: LfTex;
 @group(0) @binding(1) var T: texture_2d<f32>;
 @group(0) @binding(2) var S: sampler;
 @group(0) @binding(3) var<storage, read> X: array<f32>;
@@ -201,6 +185,6 @@ const KERNEL: &str = "
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    Y[gid.x] = lf_cap_exponent(T, S, P, X[gid.x]);
+    Y[gid.x] = lf_cap_exponent_baked(T, S, X[gid.x]);
 }
 ";

@@ -6,9 +6,9 @@
 
 use std::collections::HashMap;
 
-use lobefit::export::families::GpuFamily;
+use lobefit::export::families::{Baked, GpuFamily};
 pub use lobefit::export::gpu_check::Row;
-use lobefit::export::gpu_check::{scaled_diff, Context, Runner, PROMISE_SLACK};
+use lobefit::export::gpu_check::{scaled_diff, Context, Kernel, Runner, PROMISE_SLACK};
 use lobefit::export::layout::{Filter, Sampler};
 use lobefit::export::manifest::TextureEntry;
 use lobefit::export::run::{errors_of, family_of, sample_points};
@@ -42,7 +42,11 @@ pub use lobefit::export::run::{read_export, Export};
 /// Every textured family of the export, per filter: its lookup's kernels on the GPU
 /// against the CPU emulation and against the reference, then the family's own checks
 /// (`GpuFamily::checks`).
-pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Vec<Row>, String> {
+///
+/// `baked`: the export's baked WGSL (`lobefit_baked.wgsl`); each kernel is run a
+/// second time through its `_baked` wrapper from that file, and the row
+/// `<family> baked` counts the output words that differ from the uniform path's.
+pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str) -> Result<Vec<Row>, String> {
     let m = &export.manifest;
     // The device's hardware filter is emulated as it weights: 8-bit emulation where it
     // rounds weights to 1/256, exact (f32) weights where the probe found ≥ 12 bits.
@@ -85,11 +89,36 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
                 filter,
             };
             let mut got = vec![Vec::new(); points.len()];
+            let (mut differing, mut wrapped) = (0usize, Vec::new());
             for k in &kernels {
-                for (g, out) in got.iter_mut().zip(runner.run(k, &points)?) {
+                let out = runner.run(k, &points)?;
+                if let Some((name, body)) = baked_call(k, gpu_family.baked, &entries, filter) {
+                    let via = run_baked(&runner, k, &body, baked, &points)?;
+                    for (a, b) in out.iter().flatten().zip(via.iter().flatten()) {
+                        differing += usize::from((*a as f32).to_bits() != (*b as f32).to_bits());
+                    }
+                    wrapped.push(name);
+                } else {
+                    return Err(format!("{}: no baked wrapper covers kernel {}", f.family, k.name));
+                }
+                for (g, out) in got.iter_mut().zip(out) {
                     g.extend(out);
                 }
             }
+            rows.push(Row {
+                function: match wrapped.as_slice() {
+                    [one] => format!("{} baked: {one}", f.family),
+                    [first, ..] => format!("{} baked: {first} and {} more", f.family, wrapped.len() - 1),
+                    [] => format!("{} baked", f.family),
+                },
+                storage: m.storage.to_string(),
+                filter: filter.name().into(),
+                samples: points.len(),
+                vs_cpu: differing as f64,
+                cpu_what: "uniform path (words)",
+                vs_ref: Vec::new(),
+                info: Vec::new(),
+            });
             let emu_filter = if filter == Filter::Hardware {
                 hw_emulation
             } else {
@@ -157,6 +186,69 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32) -> Result<Ve
         }
     }
     Ok(rows)
+}
+
+/// The call of kernel `k` rewritten to the export's baked wrapper (`GpuFamily::baked`):
+/// the wrapper whose function `k` calls with the same textures; its `LfTex` arguments
+/// (`P`, `P2`) and fixed arguments dropped, `_hw` for hardware filtering. Returns
+/// (wrapper, body), or `None` when no wrapper covers the call.
+pub fn baked_call(
+    k: &Kernel,
+    baked: &[Baked],
+    entries: &[TextureEntry],
+    filter: Filter,
+) -> Option<(String, String)> {
+    let stems: Vec<&str> = k
+        .textures
+        .iter()
+        .map(|&i| entries.get(i).map_or("", |e| e.file.split('.').next().unwrap_or_default()))
+        .collect();
+    let b = baked
+        .iter()
+        .find(|b| b.textures == stems.as_slice() && k.body.contains(&format!("{}(", b.function)))?;
+    for (from, to) in [("T, S, P, T2, P2, ", "T, S, T2, "), ("T, S, P, ", "T, S, "), ("T, P, ", "T, ")] {
+        let call = format!("{}({from}", b.function);
+        if k.body.contains(&call) {
+            let hw = filter == Filter::Hardware && to.contains('S');
+            let name = format!("{}{}", b.wrapper, if hw { "_hw" } else { "" });
+            let mut new = format!("{name}({to}");
+            let mut body = k.body.replace(&call, &new);
+            for (_, value) in b.fixed {
+                let with = format!("{new}{value}, ");
+                body = body.replace(&with, &new);
+                new = format!("{name}({to}");
+            }
+            return Some((name, body));
+        }
+    }
+    None
+}
+
+/// Kernel `k` with body `body`, its library replaced by the baked shader `baked`.
+fn run_baked(runner: &Bound, k: &Kernel, body: &str, baked: &str, points: &[Vec<f64>]) -> Result<Vec<Vec<f64>>, String> {
+    let n_in = points.first().map_or(0, |x| x.len());
+    let with = Kernel::new(&k.name, &k.textures, body, k.n_out);
+    let p = runner.prepare(&with, n_in)?;
+    let lib = lobefit_tables::shaders::library();
+    let rest = p
+        .source
+        .strip_prefix(lib.as_str())
+        .ok_or("a kernel's source does not start with the library")?;
+    let source = format!("{baked}\n{rest}");
+    let flat: Vec<f32> = points.iter().flat_map(|x| x.iter().map(|&v| v as f32)).collect();
+    let out = runner.gpu.run_with(
+        &source,
+        &p.params,
+        p.texture,
+        p.second.as_ref().map(|(b, t)| (b.as_slice(), *t)),
+        &flat,
+        points.len(),
+        k.n_out,
+    )?;
+    Ok(out
+        .chunks(k.n_out)
+        .map(|c| c.iter().map(|&v| f64::from(v)).collect())
+        .collect())
 }
 
 /// Samplers of a family's textures for the CPU emulation.
@@ -278,12 +370,21 @@ pub fn dummy_texture() -> Texture {
 /// (as Vulkan GLSL to SPIR-V, `-V`) and GLSL ES 3.0, each in a fragment shader that
 /// includes the library. Rows pass when glslang accepts the source; a missing
 /// glslangValidator is a miss (Debian package glslang-tools).
-pub fn check_glslang() -> Result<Vec<Row>, String> {
+pub fn check_glslang(export: &std::path::Path, baked: &[String]) -> Result<Vec<Row>, String> {
     let dir = std::env::temp_dir().join(format!("lobefit-gpu-glslang-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut rows = Vec::new();
-    for (name, es) in [("glsl 450 (glslang -V)", false), ("glsl es 300 (glslang)", true)] {
-        let lib = lobefit::export::shaders::glsl(es)?;
+    let mut sources = vec![
+        ("glsl 450 (glslang -V)".to_string(), false, lobefit::export::shaders::glsl(false)?),
+        ("glsl es 300 (glslang)".to_string(), true, lobefit::export::shaders::glsl(true)?),
+    ];
+    // The export's baked GLSL files, as written.
+    for f in baked.iter().filter(|f| f.ends_with(".glsl")) {
+        let es = f.ends_with(".es.glsl");
+        let text = lobefit::io::read_text(&export.join(f), 64 << 20)?;
+        sources.push((format!("{f} (glslang{})", if es { "" } else { " -V" }), es, text));
+    }
+    for (name, es, lib) in sources {
         let src = if es {
             format!(
                 "#version 300 es\n{lib}\nlayout(location = 0) out highp vec4 o;\nvoid main() {{ o = vec4(0.0); }}\n"
@@ -308,7 +409,7 @@ pub fn check_glslang() -> Result<Vec<Row>, String> {
             eprintln!("{name}: {msg}");
         }
         rows.push(Row {
-            function: name.into(),
+            function: name,
             storage: "-".into(),
             filter: "-".into(),
             samples: 0,

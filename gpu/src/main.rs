@@ -176,7 +176,9 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                     "; emulated with 8-bit weights"
                 }
             );
-            let mut rows = conformance::check_textured(&gpu, &ex, bits)?;
+            let baked_path = export.join(ex.manifest.baked_shaders.first().ok_or("the manifest lists no baked shader")?);
+            let baked = lobefit::io::read_text(&baked_path, 64 << 20)?;
+            let mut rows = conformance::check_textured(&gpu, &ex, bits, &baked)?;
             rows.extend(conformance::check_baked(&gpu, &export, &ex)?);
             rows.extend(conformance::check_closed(&gpu, ex.manifest.samples, ex.manifest.seed)?);
             let dummy = gpu.upload(&conformance::dummy_texture(), lobefit::export::Storage::F32)?;
@@ -186,7 +188,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 ex.manifest.samples,
                 ex.manifest.seed,
             )?);
-            rows.extend(conformance::check_glslang()?);
+            rows.extend(conformance::check_glslang(&export, &ex.manifest.baked_shaders)?);
             let mut failed = 0;
             out!(
                 "{:<16} {:<4} {:<8} {:>5} {:>9} {:<14} | vs reference: quantity metric measured (limit)",

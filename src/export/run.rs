@@ -527,13 +527,31 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
         let name = t.file.split('.').next().unwrap_or_default().to_string();
         uniforms.push((name, t.lf_tex(Filter::Manual)?, t.lf_tex(Filter::Hardware)?));
     }
-    for (file, want) in [
+    let uniforms_wgsl = super::shaders::baked_uniforms(&uniforms);
+    let baked: Vec<super::families::Baked> = m
+        .families
+        .iter()
+        .filter_map(|f| fits::gpu_family(&f.family))
+        .flat_map(|g| g.baked.iter().copied())
+        .collect();
+    let mut expected = vec![
         (formats::UNIFORMS_HEADER, formats::uniforms_header(&uniforms)),
-        (
-            super::shaders::BAKED_UNIFORMS,
-            super::shaders::baked_uniforms(&uniforms),
-        ),
-    ] {
+        (super::shaders::BAKED_UNIFORMS, uniforms_wgsl.clone()),
+    ];
+    expected.extend(
+        super::shaders::BAKED_SHADERS
+            .into_iter()
+            .zip(super::shaders::baked_shader(&uniforms_wgsl, &baked)?),
+    );
+    if m.baked_shaders != super::shaders::BAKED_SHADERS {
+        return Err(format!(
+            "{}: baked_shaders lists {:?}; an export writes {:?}",
+            path.display(),
+            m.baked_shaders,
+            super::shaders::BAKED_SHADERS
+        ));
+    }
+    for (file, want) in expected {
         let got = crate::io::read_text(&dir.join(file), 64 << 20).unwrap_or_default();
         if got != want {
             out.push(ExportCheck {
