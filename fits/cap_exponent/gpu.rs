@@ -3,7 +3,7 @@
 
 use std::f32::consts::FRAC_PI_2;
 
-use crate::export::families::{Baked, table_grid, GpuFamily, Kernels};
+use crate::export::families::{table_grid, Baked, GpuFamily, Kernels};
 use crate::export::layout::Sampler;
 
 /// The export of cap-exponent.
@@ -23,9 +23,12 @@ pub const GPU: GpuFamily = GpuFamily {
     checks: &[],
     timed: None,
     plot_export: true,
-    baked: &[
-        Baked { wrapper: "lf_cap_exponent_baked", function: "lf_cap_exponent", textures: &["cap-exponent"], fixed: &[] },
-    ],
+    baked: &[Baked {
+        wrapper: "lf_cap_exponent_baked",
+        function: "lf_cap_exponent",
+        textures: &["cap-exponent"],
+        fixed: &[],
+    }],
 };
 
 fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {

@@ -5,7 +5,7 @@ use lobefit_tables::disk_light::{R_MAX, R_MIN};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::sh;
 
-use crate::export::families::{Baked, table_grid, GpuFamily, Kernels};
+use crate::export::families::{table_grid, Baked, GpuFamily, Kernels};
 use crate::export::gpu_check::{r32, scaled_diff, unit, vector_diff, Context, Kernel, Row, Runner, WORLD_SAMPLES};
 use crate::export::layout::Sampler;
 use crate::export::Storage;
@@ -33,10 +33,30 @@ pub const GPU: GpuFamily = GpuFamily {
     timed: None,
     plot_export: true,
     baked: &[
-        Baked { wrapper: "lf_disk_irradiance_baked", function: "lf_disk_irradiance", textures: &["disk-light"], fixed: &[] },
-        Baked { wrapper: "lf_disk_irradiance_sh_baked", function: "lf_disk_irradiance_sh", textures: &["disk-light"], fixed: &[] },
-        Baked { wrapper: "lf_disk_radiance_sh_baked", function: "lf_disk_radiance_sh", textures: &["disk-light"], fixed: &[] },
-        Baked { wrapper: "lf_disk_canonical_baked", function: "lf_disk_canonical", textures: &["disk-light"], fixed: &[] },
+        Baked {
+            wrapper: "lf_disk_irradiance_baked",
+            function: "lf_disk_irradiance",
+            textures: &["disk-light"],
+            fixed: &[],
+        },
+        Baked {
+            wrapper: "lf_disk_irradiance_sh_baked",
+            function: "lf_disk_irradiance_sh",
+            textures: &["disk-light"],
+            fixed: &[],
+        },
+        Baked {
+            wrapper: "lf_disk_radiance_sh_baked",
+            function: "lf_disk_radiance_sh",
+            textures: &["disk-light"],
+            fixed: &[],
+        },
+        Baked {
+            wrapper: "lf_disk_canonical_baked",
+            function: "lf_disk_canonical",
+            textures: &["disk-light"],
+            fixed: &[],
+        },
     ],
 };
 

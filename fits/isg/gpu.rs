@@ -5,7 +5,7 @@
 
 use std::f32::consts::{FRAC_PI_2, PI};
 
-use crate::export::families::{Baked, table_grid, GpuFamily, Kernels};
+use crate::export::families::{table_grid, Baked, GpuFamily, Kernels};
 use crate::export::gpu_check::{r32, Context, Kernel, Row, Runner};
 use crate::export::layout::Sampler;
 use crate::rng::Rng;
@@ -28,9 +28,12 @@ pub const REFIT: GpuFamily = GpuFamily {
     checks: &[|ctx, runner| patch(ctx, runner, 1, refit).map(|r| vec![r])],
     timed: None,
     plot_export: true,
-    baked: &[
-        Baked { wrapper: "lf_isg_refit_baked", function: "lf_isg_refit", textures: &["isg-refit"], fixed: &[] },
-    ],
+    baked: &[Baked {
+        wrapper: "lf_isg_refit_baked",
+        function: "lf_isg_refit",
+        textures: &["isg-refit"],
+        fixed: &[],
+    }],
 };
 
 fn refit(s: &[Sampler], x: &[f32]) -> Vec<f32> {
@@ -66,9 +69,12 @@ pub const BEST: GpuFamily = GpuFamily {
     checks: &[|ctx, runner| patch(ctx, runner, 2, best).map(|r| vec![r])],
     timed: None,
     plot_export: true,
-    baked: &[
-        Baked { wrapper: "lf_isg_best_baked", function: "lf_isg_best", textures: &["isg-best"], fixed: &[] },
-    ],
+    baked: &[Baked {
+        wrapper: "lf_isg_best_baked",
+        function: "lf_isg_best",
+        textures: &["isg-best"],
+        fixed: &[],
+    }],
 };
 
 /// Texture rows are (a, b, c, d): θ's factors (A, C) are channels 0 and 2, φ's (B, D)

@@ -758,10 +758,16 @@ impl Query for LobeProductFamily {
             ],
             Variant::L2 => Vec::new(),
         };
+        if self.variant == Variant::Energy {
+            v.extend([t("p", "offgrid.max_rel", 5e-2), t("e_r", "offgrid.max_rel", 5e-2)]);
+        }
         // Max-type promises, both variants: off-grid, the looked-up lobe's residual
         // within 5 % of the optimum's; at the nodes (every one, see `node_sections`)
         // the stored values are fits, so far tighter limits hold there.
         v.extend([
+            t("p", "offgrid.p99_rel", 1e-2),
+            t("t", "offgrid.max_abs", 1e-5),
+            t("e_r", "offgrid.p99_rel", 1e-2),
             t("l2_residual", "offgrid.max_rel", L2_RESIDUAL_MAX_REL),
             t("l2_residual", "grid.max_rel", NODE_RESIDUAL_MAX_REL),
             t("l2_residual_diagonal", "grid.max_rel", NODE_RESIDUAL_MAX_REL),
@@ -818,7 +824,7 @@ impl Query for LobeProductFamily {
         Ok(vec![p, rt::peak_fraction(e1, e2, alpha), f.e_r])
     }
     fn checked(&self) -> &'static [&'static str] {
-        &["integral", "l2_residual"]
+        &["integral", "l2_residual", "p", "t", "e_r"]
     }
     fn nodes_in_extras(&self) -> bool {
         // The full check (a golden-section optimum by quadrature) costs ~1.5 ms a node:
@@ -836,9 +842,10 @@ impl Query for LobeProductFamily {
         let got_i = p * TAU / (e_r + 1.0);
         let got_r = reference_residual(e1, e2, alpha, p, t * alpha, e_r)?;
         let (want_r, _) = reference_optimum(self.variant, e1, e2, alpha)?;
+        let want = self.reference(x)?;
         Ok(Some((
-            vec![got_i, got_r.max(RESIDUAL_FLOOR)],
-            vec![want_i, want_r.max(RESIDUAL_FLOOR)],
+            vec![got_i, got_r.max(RESIDUAL_FLOOR), p, t, e_r + 1.0],
+            vec![want_i, want_r.max(RESIDUAL_FLOOR), want[0], want[1], want[2] + 1.0],
         )))
     }
     fn extra_checks(&self, table: &Table, count: usize, seed: u64) -> Vec<(String, Result<Extra, String>)> {

@@ -1,6 +1,6 @@
 //! sg-fit on the GPU: ln λ, ln μ on log(1 + e) as a 1D RG texture.
 
-use crate::export::families::{Baked, table_grid, GpuFamily, Kernels};
+use crate::export::families::{table_grid, Baked, GpuFamily, Kernels};
 use crate::export::layout::Sampler;
 
 /// The export of sg-fit.
@@ -20,8 +20,18 @@ pub const GPU: GpuFamily = GpuFamily {
     timed: None,
     plot_export: true,
     baked: &[
-        Baked { wrapper: "lf_sg_fit_baked", function: "lf_sg_fit", textures: &["sg-fit"], fixed: &[] },
-        Baked { wrapper: "lf_lobe_to_sg_baked", function: "lf_lobe_to_sg", textures: &["sg-fit"], fixed: &[] },
+        Baked {
+            wrapper: "lf_sg_fit_baked",
+            function: "lf_sg_fit",
+            textures: &["sg-fit"],
+            fixed: &[],
+        },
+        Baked {
+            wrapper: "lf_lobe_to_sg_baked",
+            function: "lf_lobe_to_sg",
+            textures: &["sg-fit"],
+            fixed: &[],
+        },
     ],
 };
 

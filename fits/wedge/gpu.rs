@@ -28,8 +28,18 @@ pub const GPU: GpuFamily = GpuFamily {
     timed: None,
     plot_export: false,
     baked: &[
-        Baked { wrapper: "lf_wedge_entry_baked", function: "lf_wedge_entry", textures: &["wedge"], fixed: &[] },
-        Baked { wrapper: "lf_wedge_apply_baked", function: "lf_wedge_apply", textures: &["wedge"], fixed: &[] },
+        Baked {
+            wrapper: "lf_wedge_entry_baked",
+            function: "lf_wedge_entry",
+            textures: &["wedge"],
+            fixed: &[],
+        },
+        Baked {
+            wrapper: "lf_wedge_apply_baked",
+            function: "lf_wedge_apply",
+            textures: &["wedge"],
+            fixed: &[],
+        },
     ],
 };
 

@@ -192,21 +192,24 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
 /// the wrapper whose function `k` calls with the same textures; its `LfTex` arguments
 /// (`P`, `P2`) and fixed arguments dropped, `_hw` for hardware filtering. Returns
 /// (wrapper, body), or `None` when no wrapper covers the call.
-pub fn baked_call(
-    k: &Kernel,
-    baked: &[Baked],
-    entries: &[TextureEntry],
-    filter: Filter,
-) -> Option<(String, String)> {
+pub fn baked_call(k: &Kernel, baked: &[Baked], entries: &[TextureEntry], filter: Filter) -> Option<(String, String)> {
     let stems: Vec<&str> = k
         .textures
         .iter()
-        .map(|&i| entries.get(i).map_or("", |e| e.file.split('.').next().unwrap_or_default()))
+        .map(|&i| {
+            entries
+                .get(i)
+                .map_or("", |e| e.file.split('.').next().unwrap_or_default())
+        })
         .collect();
     let b = baked
         .iter()
         .find(|b| b.textures == stems.as_slice() && k.body.contains(&format!("{}(", b.function)))?;
-    for (from, to) in [("T, S, P, T2, P2, ", "T, S, T2, "), ("T, S, P, ", "T, S, "), ("T, P, ", "T, ")] {
+    for (from, to) in [
+        ("T, S, P, T2, P2, ", "T, S, T2, "),
+        ("T, S, P, ", "T, S, "),
+        ("T, P, ", "T, "),
+    ] {
         let call = format!("{}({from}", b.function);
         if k.body.contains(&call) {
             let hw = filter == Filter::Hardware && to.contains('S');
@@ -225,7 +228,13 @@ pub fn baked_call(
 }
 
 /// Kernel `k` with body `body`, its library replaced by the baked shader `baked`.
-fn run_baked(runner: &Bound, k: &Kernel, body: &str, baked: &str, points: &[Vec<f64>]) -> Result<Vec<Vec<f64>>, String> {
+fn run_baked(
+    runner: &Bound,
+    k: &Kernel,
+    body: &str,
+    baked: &str,
+    points: &[Vec<f64>],
+) -> Result<Vec<Vec<f64>>, String> {
     let n_in = points.first().map_or(0, |x| x.len());
     let with = Kernel::new(&k.name, &k.textures, body, k.n_out);
     let p = runner.prepare(&with, n_in)?;
@@ -375,8 +384,16 @@ pub fn check_glslang(export: &std::path::Path, baked: &[String]) -> Result<Vec<R
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut rows = Vec::new();
     let mut sources = vec![
-        ("glsl 450 (glslang -V)".to_string(), false, lobefit::export::shaders::glsl(false)?),
-        ("glsl es 300 (glslang)".to_string(), true, lobefit::export::shaders::glsl(true)?),
+        (
+            "glsl 450 (glslang -V)".to_string(),
+            false,
+            lobefit::export::shaders::glsl(false)?,
+        ),
+        (
+            "glsl es 300 (glslang)".to_string(),
+            true,
+            lobefit::export::shaders::glsl(true)?,
+        ),
     ];
     // The export's baked GLSL files, as written.
     for f in baked.iter().filter(|f| f.ends_with(".glsl")) {

@@ -176,7 +176,12 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                     "; emulated with 8-bit weights"
                 }
             );
-            let baked_path = export.join(ex.manifest.baked_shaders.first().ok_or("the manifest lists no baked shader")?);
+            let baked_path = export.join(
+                ex.manifest
+                    .baked_shaders
+                    .first()
+                    .ok_or("the manifest lists no baked shader")?,
+            );
             let baked = lobefit::io::read_text(&baked_path, 64 << 20)?;
             let mut rows = conformance::check_textured(&gpu, &ex, bits, &baked)?;
             rows.extend(conformance::check_baked(&gpu, &export, &ex)?);

@@ -249,7 +249,10 @@ pub fn baked_wrappers(library: &str, baked: &[super::families::Baked]) -> Result
         let close = matching_paren(line, open - 1).ok_or_else(|| format!("{}: cannot read its header", b.function))?;
         let ret = line[close + 1..].trim().trim_end_matches('{').trim();
         let params = split_top_level(&line[open..close]);
-        let lf = params.iter().filter(|p| p.split_once(':').is_some_and(|(_, t)| t.trim() == "LfTex")).count();
+        let lf = params
+            .iter()
+            .filter(|p| p.split_once(':').is_some_and(|(_, t)| t.trim() == "LfTex"))
+            .count();
         if lf != b.textures.len() {
             return Err(format!(
                 "{}: {} takes {lf} LfTex arguments, {} textures named",
@@ -259,7 +262,9 @@ pub fn baked_wrappers(library: &str, baked: &[super::families::Baked]) -> Result
             ));
         }
         // An exact fetch takes no sampler: one filter, one wrapper.
-        let sampled = params.iter().any(|p| p.split_once(':').is_some_and(|(_, t)| t.trim() == "sampler"));
+        let sampled = params
+            .iter()
+            .any(|p| p.split_once(':').is_some_and(|(_, t)| t.trim() == "sampler"));
         let filters: &[(&str, &str)] = if sampled {
             &[("", "manual"), ("_hw", "hardware")]
         } else {
@@ -270,7 +275,9 @@ pub fn baked_wrappers(library: &str, baked: &[super::families::Baked]) -> Result
             let mut args = Vec::new();
             let mut tex = b.textures.iter();
             for p in &params {
-                let (name, ty) = p.split_once(':').ok_or_else(|| format!("{}: cannot read {p:?}", b.function))?;
+                let (name, ty) = p
+                    .split_once(':')
+                    .ok_or_else(|| format!("{}: cannot read {p:?}", b.function))?;
                 if let Some((_, value)) = b.fixed.iter().find(|(n, _)| *n == name.trim()) {
                     args.push(value.to_string());
                 } else if ty.trim() == "LfTex" {
@@ -396,6 +403,41 @@ pub fn write(langs: &[ShaderLang], dir: &Path) -> Result<Vec<PathBuf>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::export::families::Baked;
+
+    /// Wrappers drop the `LfTex` arguments (and fixed ones), keep the rest in order,
+    /// and get a `_hw` twin only when the function samples; a wrong function or a
+    /// wrong number of textures is an error naming the wrapper.
+    #[test]
+    fn baked_wrappers_keep_the_signature_without_uniforms() {
+        let lib = "fn f(tex: texture_2d<f32>, smp: sampler, p: LfTex, n: u32, v: array<f32, 8>) -> f32 {\n}\n\
+                   fn g(tex: texture_3d<f32>, p: LfTex, tex2: texture_2d<f32>, p2: LfTex, x: f32) -> vec2<f32> {\n}\n";
+        let b = |wrapper, function, textures, fixed| Baked {
+            wrapper,
+            function,
+            textures,
+            fixed,
+        };
+        let w = baked_wrappers(lib, &[b("f_b", "f", &["a-b"], &[("n", "4u")])]).unwrap();
+        assert!(
+            w.contains("fn f_b(tex: texture_2d<f32>, smp: sampler, v: array<f32, 8>) -> f32 {\n    return f(tex, smp, lf_tex_a_b_manual(), 4u, v);"),
+            "{w}"
+        );
+        assert!(
+            w.contains("fn f_b_hw(") && w.contains("lf_tex_a_b_hardware(), 4u, v)"),
+            "{w}"
+        );
+        let w = baked_wrappers(lib, &[b("g_b", "g", &["t", "u"], &[])]).unwrap();
+        assert!(
+            w.contains("fn g_b(tex: texture_3d<f32>, tex2: texture_2d<f32>, x: f32) -> vec2<f32> {\n    return g(tex, lf_tex_t_manual(), tex2, lf_tex_u_manual(), x);"),
+            "{w}"
+        );
+        assert!(!w.contains("g_b_hw"), "no sampler, no hardware twin: {w}");
+        let e = baked_wrappers(lib, &[b("h_b", "h", &["t"], &[])]).unwrap_err();
+        assert!(e.contains("h_b") && e.contains("no function h"), "{e}");
+        let e = baked_wrappers(lib, &[b("g_b", "g", &["t"], &[])]).unwrap_err();
+        assert!(e.contains("takes 2 LfTex arguments, 1 textures named"), "{e}");
+    }
 
     /// Every WGSL file parses and validates (with those it needs before it), and the
     /// whole library translates to GLSL 450, GLSL ES 3.0 and HLSL without error.

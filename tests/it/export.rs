@@ -192,7 +192,7 @@ fn bad_requests_are_specific_errors() {
     let e = check_export(&dir.path().join("missing")).unwrap_err();
     assert!(e.contains("no such export directory"), "{e}");
     assert!(check_export(dir.path()).unwrap_err().contains(MANIFEST));
-    std::fs::write(dir.path().join(MANIFEST), b"{\"version\": 2}").unwrap();
+    std::fs::write(dir.path().join(MANIFEST), b"{\"version\": 3}").unwrap();
     assert!(check_export(dir.path())
         .unwrap_err()
         .contains("not a lobefit export manifest"));
@@ -343,6 +343,10 @@ fn a_refused_export_writes_nothing() {
         [
             ".lobefit-export.lock",
             "cap-exponent.ktx2",
+            "lobefit_baked.es.glsl",
+            "lobefit_baked.glsl",
+            "lobefit_baked.hlsl",
+            "lobefit_baked.wgsl",
             "lobefit_uniforms.h",
             "lobefit_uniforms.wgsl",
             MANIFEST,
@@ -394,7 +398,7 @@ fn the_runtime_reads_the_uniform_from_the_manifest() {
     let e = LfTex::from_manifest("{", "cap-exponent", Filtering::Manual).unwrap_err();
     assert!(e.to_string().contains("not an export manifest"), "{e}");
     let e = LfTex::from_manifest(
-        &text.replacen("\"version\": 2", "\"version\": 1", 1),
+        &text.replacen("\"version\": 3", "\"version\": 1", 1),
         "cap-exponent",
         Filtering::Manual,
     )
@@ -452,6 +456,24 @@ fn check_export_trusts_nothing_the_manifest_says() {
     assert!(check_export(d).unwrap_err().contains("no family"));
     with(&|v| v["samples"] = 1.into());
     assert!(check_export(d).unwrap_err().contains("samples"));
+    with(&|_| {});
+    assert!(!fails());
+    // Each baked shader file changed by one character, and a manifest naming others.
+    for file in lobefit::export::shaders::BAKED_SHADERS {
+        let path = d.join(file);
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(&path, text.replacen("1.", "2.", 1)).unwrap();
+        assert!(
+            check_export(d)
+                .unwrap()
+                .iter()
+                .any(|c| !c.pass && c.entry.output == file),
+            "{file} changed"
+        );
+        std::fs::write(&path, text).unwrap();
+    }
+    with(&|v| v["baked_shaders"][1] = "../x.glsl".into());
+    assert!(check_export(d).unwrap_err().contains("baked_shaders"));
     with(&|_| {});
     assert!(!fails());
     // One texel (981) set to 0.
