@@ -17,6 +17,7 @@
 
 pub mod estimate;
 pub mod image;
+pub mod isg;
 pub mod meunier;
 pub mod rigs;
 pub mod scene;
@@ -94,7 +95,7 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
 
 /// Every pipeline `lobefit render` knows.
 pub fn registry() -> Vec<Pipeline> {
-    vec![meunier::PIPELINE]
+    vec![meunier::PIPELINE, isg::PIPELINE]
 }
 
 /// The pipeline called `name`.

@@ -15,6 +15,7 @@ use std::f64::consts::{PI, TAU};
 use std::path::Path;
 
 use lobefit_tables::glam::DVec3;
+pub use lobefit_tables::isg::Sg;
 pub use lobefit_tables::meunier::{Brdf, LafortuneLobe, Sphere, SphereLight};
 use serde::Deserialize;
 
@@ -350,6 +351,9 @@ pub struct Scene {
     pub materials: Vec<Brdf>,
     /// Spherical lights (not seen by primary rays).
     pub lights: Vec<SphereLight>,
+    /// Distant lighting L(ω) = Σ a_k exp(λ_k (μ_k·ω − 1)) (radiance; not seen by
+    /// primary rays): the file's `environment.sgs`, empty if it has none.
+    pub environment: Vec<Sg>,
     /// The camera.
     pub camera: Camera,
     bvh: Bvh,
@@ -413,6 +417,12 @@ impl Scene {
             .collect()
     }
 
+    /// Whether a sphere other than the one `h` lies on meets the ray from `h` in
+    /// direction `v` (unit): exact visibility of a distant direction, through the BVH.
+    pub fn occluded(&self, h: &Hit, v: DVec3) -> bool {
+        self.bvh.occluded(&self.spheres, h.x, v, f64::INFINITY, h.sphere)
+    }
+
     /// Whether the ray from hit `h` in direction `v` reaches sphere light `light`
     /// before any sphere (the BVH; equal to [`visible`] with [`Scene::blockers`]).
     pub fn light_visible(&self, h: &Hit, v: DVec3, light: &Sphere) -> bool {
@@ -424,9 +434,11 @@ impl Scene {
 }
 
 /// The built-in scenes: (name, JSON text).
-pub const BUILTIN: [(&str, &str); 2] = [
+pub const BUILTIN: [(&str, &str); 4] = [
     ("meunier-fig13", include_str!("scenes/meunier-fig13.json")),
     ("meunier-glossy", include_str!("scenes/meunier-glossy.json")),
+    ("isg-fig12", include_str!("scenes/isg-fig12.json")),
+    ("isg-fig12-diffuse", include_str!("scenes/isg-fig12-diffuse.json")),
 ];
 
 /// The built-in scene `name`, parsed.
@@ -459,7 +471,26 @@ struct File {
     spheres: Vec<FileSphere>,
     #[serde(default)]
     planes: Vec<FilePlane>,
+    #[serde(default)]
     lights: Vec<FileLight>,
+    /// Distant lighting as spherical Gaussians (optional; a scene needs lights, an
+    /// environment or both).
+    #[serde(default)]
+    environment: Option<FileEnvironment>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileEnvironment {
+    sgs: Vec<FileSg>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileSg {
+    axis: [f64; 3],
+    sharpness: f64,
+    amplitude: f64,
 }
 
 #[derive(Deserialize)]
@@ -619,8 +650,21 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         });
         plane_materials.push(material(&what, p.material)?);
     }
-    if f.lights.is_empty() {
-        return Err(err("no lights".into()));
+    if f.lights.is_empty() && f.environment.as_ref().is_none_or(|e| e.sgs.is_empty()) {
+        return Err(err("no lights and no environment".into()));
+    }
+    let mut environment = Vec::new();
+    for (k, g) in f.environment.map(|e| e.sgs).unwrap_or_default().into_iter().enumerate() {
+        let what = format!("environment.sgs[{k}]");
+        let axis = vec3(&format!("{what}.axis"), g.axis)?;
+        if axis.length() == 0.0 {
+            return Err(err(format!("{what}.axis is the zero vector")));
+        }
+        let sharpness = positive(&format!("{what}.sharpness"), g.sharpness)?;
+        if !(g.amplitude.is_finite() && g.amplitude >= 0.0) {
+            return Err(err(format!("{what}.amplitude {} must be finite and ≥ 0", g.amplitude)));
+        }
+        environment.push(Sg::new(axis.normalize(), sharpness, g.amplitude).map_err(|e| err(format!("{what}: {e}")))?);
     }
     let mut lights = Vec::new();
     for (k, l) in f.lights.into_iter().enumerate() {
@@ -667,6 +711,7 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         plane_materials,
         materials,
         lights,
+        environment,
         camera: Camera {
             eye,
             target,
