@@ -72,6 +72,18 @@ pub fn compare(img: &[f64], reference: &[f64], mask: &[bool]) -> ErrorStats {
     }
 }
 
+/// The relative RMSE with the reference's own noise taken out: a pixel's squared
+/// difference from a Monte Carlo reference has expectation e² + σ² (e the image's
+/// error, σ the reference's standard error `se`), so
+/// √(max(0, mean (img − ref)² − mean σ²)) / mean ref estimates the error against
+/// the noise-free reference. NaN for an empty mask.
+pub fn noise_free_rel_rmse(img: &[f64], reference: &[f64], se: &[f64], mask: &[bool]) -> f64 {
+    let mean_ref = mean_over(reference, mask);
+    let d2: Vec<f64> = img.iter().zip(reference).map(|(a, b)| (a - b) * (a - b)).collect();
+    let s2: Vec<f64> = se.iter().map(|s| s * s).collect();
+    (mean_over(&d2, mask) - mean_over(&s2, mask)).max(0.0).sqrt() / mean_ref
+}
+
 /// (img − ref) / `scale` per pixel, NaN outside the mask: the signed error map.
 pub fn error_map(img: &[f64], reference: &[f64], mask: &[bool], scale: f64) -> Vec<f64> {
     img.iter()
@@ -134,6 +146,14 @@ pub fn write_pfm(path: &Path, w: usize, h: usize, values: &[f64]) -> Result<Path
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// By hand: differences 0.3 and 0.4 (mean square 0.125), standard errors 0.1 and
+    /// 0.2 (mean square 0.025), mean reference 1: √0.1.
+    #[test]
+    fn noise_free_rmse_by_hand() {
+        let r = noise_free_rel_rmse(&[1.3, 0.6], &[1.0, 1.0], &[0.1, 0.2], &[true, true]);
+        assert!((r - 0.1f64.sqrt()).abs() < 1e-12, "{r}");
+    }
 
     /// Against values worked by hand: reference mean 2 over the mask, errors 0, 1,
     /// 2 (relative 0, 0.5, 1), the unmasked pixel ignored.

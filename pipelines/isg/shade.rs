@@ -318,22 +318,52 @@ fn visible_with(
     };
     let k = s.patches.per_side(gamma, cone);
     let (lo, step) = (FRAC_PI_2 - cone, 2.0 * cone / k as f64);
+    let edge = |i: usize| (lo + i as f64 * step).clamp(0.0, PI);
+    // Patch centres' sines and cosines, shared by rows and columns.
+    let trig: Vec<(f64, f64)> = (0..k).map(|i| (lo + (i as f64 + 0.5) * step).sin_cos()).collect();
+    // Ŝ at the patch corners, each evaluated once (NaN: not yet), from the model.
+    let mut corner = vec![f64::NAN; (k + 1) * (k + 1)];
+    let mut s_hat = |i: usize, j: usize| -> Result<f64, String> {
+        let c = &mut corner[i * (k + 1) + j];
+        if c.is_nan() {
+            *c = model.s_hat(edge(i), edge(j), gamma).map_err(|e| e.to_string())?;
+        }
+        Ok(*c)
+    };
     let mut hidden = 0.0;
     for i in 0..k {
-        let (t1, t2) = (lo + i as f64 * step, lo + (i + 1) as f64 * step);
+        let (st, ct) = trig[i];
         for j in 0..k {
-            let (p1, p2) = (lo + j as f64 * step, lo + (j + 1) as f64 * step);
+            let (sp, cp) = trig[j];
             if s.binary {
-                let w = weight(dir(0.5 * (t1 + t2), 0.5 * (p1 + p2)));
-                if w != 0.0 {
-                    hidden += w * patch_integral(model, s.model, t1, t2, p1, p2, g.sharpness, gamma)?;
+                let w = weight(xa * (st * cp) + y * ct + z * (st * sp));
+                if w == 0.0 {
+                    continue;
                 }
+                hidden += w * if s.model == Model::Quadrature {
+                    gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |_, _| 1.0)
+                } else {
+                    (s_hat(i + 1, j + 1)? - s_hat(i, j + 1)? - s_hat(i + 1, j)? + s_hat(i, j)?) * isg_normaliser(gamma)
+                };
             } else {
-                hidden += gauss_patch(t1, t2, p1, p2, g.sharpness, |th, ph| weight(dir(th, ph)));
+                hidden += gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |th, ph| {
+                    weight(dir(th, ph))
+                });
             }
         }
     }
-    Ok(total - g.amplitude * hidden)
+    let v = total - g.amplitude * hidden;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("visible integral {v} of an SG of sharpness {}", g.sharpness))
+    }
+}
+
+/// S(π, π; γ) = 2π/γ (1 − e^{−γ}) sr, Ŝ's normaliser: the unit SG's integral over the
+/// hemisphere about its axis.
+fn isg_normaliser(gamma: f64) -> f64 {
+    std::f64::consts::TAU / gamma * -(-gamma).exp_m1()
 }
 
 /// ∫ exp(λ(μ·ω − 1)) max(n·ω, 0) dω (sr) of the unit-amplitude SG `l` (its amplitude
@@ -396,29 +426,6 @@ fn bessel_i0e(z: f64) -> f64 {
 /// product and differ by model.
 pub fn cone_of(lambda: f64, eps: f64) -> f64 {
     (1.0 + eps.ln() / lambda).clamp(0.0, 1.0).acos()
-}
-
-/// Integral of the unit-amplitude SG of sharpness `lambda` over the patch: the model's
-/// four corners (at `gamma`, λ clamped to the ISG's domain), or quadrature for
-/// [`Model::Quadrature`].
-#[allow(clippy::too_many_arguments)]
-fn patch_integral(
-    model: &dyn IsgModel,
-    which: Model,
-    t1: f64,
-    t2: f64,
-    p1: f64,
-    p2: f64,
-    lambda: f64,
-    gamma: f64,
-) -> Result<f64, String> {
-    if which == Model::Quadrature {
-        return Ok(gauss_patch(t1, t2, p1, p2, lambda, |_, _| 1.0));
-    }
-    let c = |v: f64| v.clamp(0.0, PI);
-    model
-        .patch(c(t1), c(t2), c(p1), c(p2), gamma)
-        .map_err(|e| e.to_string())
 }
 
 /// 8-point Gauss–Legendre nodes and weights on [−1, 1].
@@ -564,7 +571,7 @@ mod patch_tests {
             for i in 0..k {
                 for j in 0..k {
                     let (t1, p1) = (lo + i as f64 * step, lo + j as f64 * step);
-                    let m = patch_integral(t.best, Model::Best, t1, t1 + step, p1, p1 + step, lambda, lambda).unwrap();
+                    let m = t.best.patch(t1, t1 + step, p1, p1 + step, lambda).unwrap();
                     let q = gauss_patch(t1, t1 + step, p1, p1 + step, lambda, |_, _| 1.0);
                     worst = worst.max((m - q).abs());
                 }
