@@ -21,7 +21,7 @@ use shade::Phong;
 pub const PIPELINE: Pipeline = Pipeline {
     name: "isg",
     about: "Iwasaki et al. 2012: spheres under an SG environment, ISG shadows (docs/isg-render.md)",
-    scenes: &["fig12", "fig12-diffuse"],
+    scenes: &["fig12", "fig12-diffuse", "sweep"],
     render: render::render,
 };
 
