@@ -240,6 +240,12 @@ struct EvalFlagArgs {
     /// direct-light: fitted | paper | one (default fitted).
     #[arg(long)]
     weights: Option<String>,
+    /// isg-shade: the scene file (environment, spheres, top-level brdf).
+    #[arg(long)]
+    scene: Option<String>,
+    /// isg-shade: N × N patches per product SG (default adaptive).
+    #[arg(long)]
+    patches: Option<usize>,
 }
 
 fn backend(b: BackendArg) -> Result<Backend, String> {
@@ -568,6 +574,8 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 depth: flags.depth.map(usize::from),
                 mask: flags.mask,
                 weights: flags.weights,
+                scene: flags.scene,
+                patches: flags.patches,
             };
             let f = lobefit::catalog::for_eval(&family, &flags, FitOptions::default())?;
             let runtime = if exact {

@@ -83,9 +83,14 @@ pub type EvalView = (&'static str, &'static str, EvalFn);
 
 /// The `lobefit eval` names the pipelines add to the families'.
 pub fn eval_views() -> Vec<EvalView> {
-    vec![("direct-light", meunier::direct_light::EVAL_HELP, |flags| {
-        Ok(Box::new(meunier::direct_light::DirectLightView::from_flags(flags)?))
-    })]
+    vec![
+        ("direct-light", meunier::direct_light::EVAL_HELP, |flags| {
+            Ok(Box::new(meunier::direct_light::DirectLightView::from_flags(flags)?))
+        }),
+        ("isg-shade", isg::eval::EVAL_HELP, |flags| {
+            Ok(Box::new(isg::eval::IsgShadeView::from_flags(flags)?))
+        }),
+    ]
 }
 
 /// The `lobefit plot` figure sets of the pipelines.

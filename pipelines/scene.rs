@@ -19,6 +19,9 @@ pub use lobefit_tables::isg::Sg;
 pub use lobefit_tables::meunier::{Brdf, LafortuneLobe, Sphere, SphereLight};
 use serde::Deserialize;
 
+/// The camera of a file without one: (eye, target, vertical field of view in rad).
+pub const DEFAULT_CAMERA: ([f64; 3], [f64; 3], f64) = ([0.0, -8.0, 5.0], [0.0, 0.0, 0.5], 0.75);
+
 /// Version of the scene file format this build reads.
 pub const SCENE_VERSION: u32 = 1;
 /// Longest scene file read (bytes): far above any hand-written scene, and a bound on
@@ -354,6 +357,8 @@ pub struct Scene {
     /// Distant lighting L(ω) = Σ a_k exp(λ_k (μ_k·ω − 1)) (radiance; not seen by
     /// primary rays): the file's `environment.sgs`, empty if it has none.
     pub environment: Vec<Sg>,
+    /// The file's top-level `brdf`: the material of points `eval isg-shade` shades.
+    pub brdf: Option<Brdf>,
     /// The camera.
     pub camera: Camera,
     bvh: Bvh,
@@ -466,7 +471,12 @@ struct File {
     /// Checked before the rest is parsed (see `parse`).
     #[serde(rename = "version")]
     _version: u32,
-    camera: FileCamera,
+    /// Optional for `eval` (which has no image): default [`DEFAULT_CAMERA`].
+    #[serde(default)]
+    camera: Option<FileCamera>,
+    /// The material of points `eval isg-shade` shades (optional).
+    #[serde(default)]
+    brdf: Option<FileMaterial>,
     #[serde(default)]
     spheres: Vec<FileSphere>,
     #[serde(default)]
@@ -582,16 +592,21 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         }
         Ok(d)
     };
-    let eye = vec3("camera.eye", f.camera.eye)?;
-    let target = vec3("camera.target", f.camera.target)?;
+    let camera = f.camera.unwrap_or(FileCamera {
+        eye: DEFAULT_CAMERA.0,
+        target: DEFAULT_CAMERA.1,
+        fov: DEFAULT_CAMERA.2,
+    });
+    let eye = vec3("camera.eye", camera.eye)?;
+    let target = vec3("camera.target", camera.target)?;
     let dir = target - eye;
     if dir.length() == 0.0 || dir.normalize().cross(DVec3::Z).length() < 1e-6 {
         return Err(err(
             "camera: eye and target must differ and not lie on one vertical line".into(),
         ));
     }
-    if !(f.camera.fov > 0.0 && f.camera.fov < PI) {
-        return Err(err(format!("camera.fov {} must lie in (0, π)", f.camera.fov)));
+    if !(camera.fov > 0.0 && camera.fov < PI) {
+        return Err(err(format!("camera.fov {} must lie in (0, π)", camera.fov)));
     }
     let mut materials: Vec<FileMaterial> = Vec::new();
     let mut material = |what: &str, m: FileMaterial| -> Result<usize, String> {
@@ -620,6 +635,7 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
             }
         })
     };
+    let brdf = f.brdf.map(|m| material("brdf", m)).transpose()?;
     let mut spheres = Vec::new();
     let mut sphere_materials = Vec::new();
     for (k, s) in f.spheres.into_iter().enumerate() {
@@ -685,7 +701,7 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
             radiance,
         });
     }
-    let materials = materials
+    let materials: Vec<Brdf> = materials
         .into_iter()
         .map(|m| match m {
             FileMaterial::Lambert { albedo } => Brdf::Lambert { albedo },
@@ -702,6 +718,7 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
             },
         })
         .collect();
+    let brdf = brdf.map(|i| materials[i].clone());
     let bvh = Bvh::new(&spheres);
     Ok(Scene {
         name: name.into(),
@@ -712,10 +729,11 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         materials,
         lights,
         environment,
+        brdf,
         camera: Camera {
             eye,
             target,
-            fov: f.camera.fov,
+            fov: camera.fov,
         },
         bvh,
     })

@@ -28,6 +28,10 @@ pub struct EvalFlags {
     pub mask: Option<String>,
     /// `--weights` (direct-light: `fitted` | `paper` | `one`).
     pub weights: Option<String>,
+    /// `--scene` (isg-shade: a scene file).
+    pub scene: Option<String>,
+    /// `--patches` (isg-shade: patches per side).
+    pub patches: Option<usize>,
 }
 
 impl EvalFlags {
@@ -57,6 +61,12 @@ impl EvalFlags {
         }
         if self.weights.is_some() {
             v.push("--weights");
+        }
+        if self.scene.is_some() {
+            v.push("--scene");
+        }
+        if self.patches.is_some() {
+            v.push("--patches");
         }
         v
     }

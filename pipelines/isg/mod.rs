@@ -3,6 +3,7 @@
 //! occluded patches (docs/isg-render.md). [`shade`] is the pipeline at one point,
 //! [`reference`] its Monte Carlo reference with exact visibility, `render` the images.
 
+pub mod eval;
 pub mod render;
 pub mod shade;
 

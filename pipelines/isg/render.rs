@@ -115,7 +115,12 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
 }
 
 /// Renders `scene` into `dir`.
-fn render_scene(scene: &Scene, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
+fn render_scene(
+    scene: &Scene,
+    opts: &RenderOptions,
+    dir: &Path,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Summary, String> {
     let tag = scene.name.strip_prefix("isg-").unwrap_or(&scene.name).to_string();
     let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
     let tables = Tables::embedded()?;
@@ -292,9 +297,7 @@ fn render_scene(scene: &Scene, opts: &RenderOptions, dir: &Path, progress: &(dyn
         }
         sum.lines.push(format!(
             "{tag}:   {label:<18}: relative RMSE {:.4} ({nf:.4} without the reference's noise), p99 {:.4}, max {:.4}",
-            st.rel_rmse,
-            st.p99,
-            st.max
+            st.rel_rmse, st.p99, st.max
         ));
     }
     let names = [

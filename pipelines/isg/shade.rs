@@ -124,26 +124,29 @@ impl Default for Settings {
 
 /// The tables the pipeline reads.
 pub struct Tables {
-    refit: &'static RefitIsg,
-    best: &'static BestIsg,
-    sg_fit: &'static SgFit,
+    /// isg-refit.
+    pub refit: RefitIsg,
+    /// isg-best.
+    pub best: BestIsg,
+    /// sg-fit (the cosine and the Phong lobe as SGs).
+    pub sg_fit: SgFit,
 }
 
 impl Tables {
     /// The tables compiled into this build.
     pub fn embedded() -> Result<Tables, String> {
         Ok(Tables {
-            refit: RefitIsg::embedded().map_err(|e| e.to_string())?,
-            best: BestIsg::embedded().map_err(|e| e.to_string())?,
-            sg_fit: SgFit::embedded().map_err(|e| e.to_string())?,
+            refit: RefitIsg::embedded().map_err(|e| e.to_string())?.clone(),
+            best: BestIsg::embedded().map_err(|e| e.to_string())?.clone(),
+            sg_fit: SgFit::embedded().map_err(|e| e.to_string())?.clone(),
         })
     }
 
     fn model(&self, m: Model) -> &dyn IsgModel {
         match m {
             Model::Paper | Model::Quadrature => &PaperIsg,
-            Model::Refit => self.refit,
-            Model::Best => self.best,
+            Model::Refit => &self.refit,
+            Model::Best => &self.best,
         }
     }
 }

@@ -23,6 +23,7 @@ mod isg;
 mod lobe_product;
 mod log_zh;
 mod meunier;
+mod render_isg;
 mod render_meunier;
 mod rigs;
 mod shexp;

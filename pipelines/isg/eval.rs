@@ -1,0 +1,238 @@
+//! `lobefit eval isg-shade --scene FILE [--model paper|refit|best] [--patches N]
+//! [--exact]`: the ISG pipeline at given points (no image). The scene file gives the
+//! environment, the spheres (every sphere occludes) and the top-level `brdf`.
+
+use lobefit_tables::glam::DVec3;
+use lobefit_tables::isg::Sg;
+use lobefit_tables::meunier::Sphere;
+use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
+
+use super::shade::{radiance, Model, Patches, Phong, Settings, Tables};
+use crate::family::{EvalFlags, Lookup, Query};
+use crate::pipelines::scene::{Bvh, Hit};
+use crate::rng::Rng;
+use lobefit_tables::format::Threshold;
+
+/// `eval --help`'s paragraph.
+pub const EVAL_HELP: &str = "
+isg-shade  (a pipeline: Iwasaki et al.'s shading of points, docs/isg-render.md)
+  flags    --scene FILE (required: environment SGs, spheres, top-level brdf), --model paper|refit|best
+           (default best), --patches N (N × N patches per product SG, 1..=64; default adaptive, 10 to 20)
+  in   `px`,`py`,`pz`  the point (scene units); `nx`,`ny`,`nz` its unit normal; `vx`,`vy`,`vz` the unit
+                       direction towards the viewer
+  out  `radiance`      outgoing radiance (the environment's units): the environment's SGs times the BRDF
+                       (k_d/π + k_s (n+2)/(2π) max(r·ω,0)^n) and the clamped cosine, visible where no sphere
+                       blocks; --exact: Monte Carlo with exact ray-sphere visibility, run until its standard
+                       error is at most 1e-3 of the estimate (at most 2^24 samples, else an error)
+";
+
+/// Standard error `--exact` reaches, relative to its estimate.
+pub const EXACT_REL_SE: f64 = 1e-3;
+/// Most samples `--exact` takes.
+pub const EXACT_MAX_SAMPLES: usize = 1 << 24;
+
+/// The `eval isg-shade` view.
+#[derive(Clone)]
+pub struct IsgShadeView {
+    settings: Settings,
+    env: Vec<Sg>,
+    brdf: Phong,
+    spheres: Vec<Sphere>,
+    bvh: Bvh,
+}
+
+impl IsgShadeView {
+    /// From `eval`'s flags (`--scene` required, `--model`, `--patches`).
+    pub fn from_flags(flags: &EvalFlags) -> Result<Self, String> {
+        if let Some(f) = flags
+            .given()
+            .into_iter()
+            .find(|f| !["--scene", "--model", "--patches"].contains(f))
+        {
+            return Err(format!(
+                "isg-shade takes no {f} flag (only --scene, --model, --patches)"
+            ));
+        }
+        let path = flags.scene.as_deref().ok_or("isg-shade needs --scene FILE")?;
+        let scene = crate::pipelines::scene::load(path)?;
+        if scene.environment.is_empty() {
+            return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name));
+        }
+        let brdf = scene
+            .brdf
+            .as_ref()
+            .ok_or_else(|| format!("scene {}: isg-shade needs the top-level brdf", scene.name))?;
+        let brdf = Phong::of(brdf).map_err(|e| format!("scene {}: brdf: {e}", scene.name))?;
+        let model = flags.model.as_deref().map_or(Ok(Model::Best), Model::parse)?;
+        let patches = match flags.patches {
+            None => Patches::Adaptive,
+            Some(n) if (1..=64).contains(&n) => Patches::Grid(n),
+            Some(n) => return Err(format!("--patches {n} is outside 1..=64")),
+        };
+        Ok(IsgShadeView {
+            settings: Settings {
+                model,
+                patches,
+                ..Settings::default()
+            },
+            env: scene.environment.clone(),
+            brdf,
+            bvh: Bvh::new(&scene.spheres),
+            spheres: scene.spheres,
+        })
+    }
+
+    /// The row as a hit, and the sphere the point lies on (within 1e-9 of its radius,
+    /// relative): that one does not occlude it.
+    fn hit(&self, x: &[f64]) -> Result<(Hit, Option<usize>), LookupError> {
+        if x.len() != 9 {
+            return Err(LookupError::Arity {
+                expected: 9,
+                got: x.len(),
+            });
+        }
+        for (name, &v) in INPUTS.iter().zip(x) {
+            if !v.is_finite() {
+                return Err(LookupError::NotFinite {
+                    name: (*name).into(),
+                    value: v,
+                });
+            }
+        }
+        let v3 = |i: usize| DVec3::new(x[i], x[i + 1], x[i + 2]);
+        let unit = |name: &str, d: DVec3| {
+            if (d.length() - 1.0).abs() <= 1e-6 {
+                Ok(d.normalize())
+            } else {
+                Err(LookupError::OutOfDomain {
+                    name: format!("|{name}| (unit within 1e-6)"),
+                    value: d.length(),
+                    lo: 1.0,
+                    hi: 1.0,
+                })
+            }
+        };
+        let (p, n, wo) = (v3(0), unit("n", v3(3))?, unit("v", v3(6))?);
+        let own = self
+            .spheres
+            .iter()
+            .position(|s| ((p - s.centre).length() - s.radius).abs() <= 1e-9 * s.radius.max(1.0));
+        Ok((
+            Hit {
+                x: p,
+                n,
+                t: n.any_orthonormal_vector(),
+                wo,
+                sphere: own,
+                material: 0,
+            },
+            own,
+        ))
+    }
+}
+
+/// Input columns.
+pub const INPUTS: [&str; 9] = ["px", "py", "pz", "nx", "ny", "nz", "vx", "vy", "vz"];
+
+struct ShadeLookup {
+    view: IsgShadeView,
+    tables: Tables,
+}
+
+impl Lookup for ShadeLookup {
+    fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
+        let (h, own) = self.view.hit(x)?;
+        let blockers: Vec<Sphere> = self
+            .view
+            .spheres
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| Some(*i) != own)
+            .map(|(_, s)| *s)
+            .collect();
+        radiance(
+            &self.tables,
+            &self.view.settings,
+            &self.view.env,
+            &self.view.brdf,
+            &blockers,
+            &h,
+        )
+        .map(|r| vec![r])
+        .map_err(|e| LookupError::Overflow {
+            name: format!("radiance ({e})"),
+            value: f64::NAN,
+        })
+    }
+}
+
+impl Query for IsgShadeView {
+    fn kind(&self) -> &'static str {
+        match self.settings.model {
+            Model::Refit => lobefit_tables::isg::KIND_REFIT,
+            _ => lobefit_tables::isg::KIND_BEST,
+        }
+    }
+    fn thresholds(&self) -> Vec<Threshold> {
+        Vec::new()
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &INPUTS
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["radiance"]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        match self.settings.model {
+            Model::Refit => lobefit_tables::embedded::ISG_REFIT,
+            _ => lobefit_tables::embedded::ISG_BEST,
+        }
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        let mut tables = Tables::embedded().map_err(LoadError::BadMetadata)?;
+        match self.settings.model {
+            Model::Refit => tables.refit = RefitIsg::from_table(table)?,
+            _ => tables.best = BestIsg::from_table(table)?,
+        }
+        Ok(Box::new(ShadeLookup {
+            view: self.clone(),
+            tables,
+        }))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let (h, own) = self.hit(x).map_err(|e| e.to_string())?;
+        // Seeded by the row, so the same row gives the same answer.
+        let seed = x.iter().fold(0x5eed_15c0_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
+        let occluded = |v: DVec3| self.bvh.occluded(&self.spheres, h.x, v, f64::INFINITY, own);
+        let mut n = 1 << 14;
+        loop {
+            let e = super::reference(&self.env, &self.brdf, occluded, &h, n, seed);
+            if e.std_error <= EXACT_REL_SE * e.mean.abs() || (e.mean == 0.0 && e.std_error == 0.0) {
+                return Ok(vec![e.mean]);
+            }
+            if n >= EXACT_MAX_SAMPLES {
+                return Err(format!(
+                    "the Monte Carlo reference did not reach a standard error of {EXACT_REL_SE:e} of its estimate \
+                     within {EXACT_MAX_SAMPLES} samples ({:.4e} ± {:.1e})",
+                    e.mean, e.std_error
+                ));
+            }
+            n *= 4;
+        }
+    }
+    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
+        // A point on the ground below the spheres, seen from above.
+        let a = rng.range(0.0, std::f64::consts::TAU);
+        vec![
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+            0.0,
+            0.0,
+            0.0,
+            1.0,
+            0.6 * a.cos(),
+            0.6 * a.sin(),
+            0.8,
+        ]
+    }
+}
