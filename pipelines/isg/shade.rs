@@ -335,10 +335,8 @@ fn visible_with(
         Ok(*c)
     };
     let mut hidden = 0.0;
-    for i in 0..k {
-        let (st, ct) = trig[i];
-        for j in 0..k {
-            let (sp, cp) = trig[j];
+    for (i, &(st, ct)) in trig.iter().enumerate() {
+        for (j, &(sp, cp)) in trig.iter().enumerate() {
             if s.binary {
                 let w = weight(xa * (st * cp) + y * ct + z * (st * sp));
                 if w == 0.0 {

@@ -104,7 +104,8 @@ fn eval_isg_shade_against_its_exact_reference() {
 fn bad_scenes_flags_and_rows_are_specific_errors() {
     let dir = tempfile::tempdir().unwrap();
     let row = "px,py,pz,nx,ny,nz,vx,vy,vz\n0,0,0,0,0,1,0,0,1\n";
-    let cases: Vec<(Box<dyn Fn(&mut serde_json::Value)>, &str)> = vec![
+    type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+    let cases: Vec<(Edit, &str)> = vec![
         (
             Box::new(|v| v["environment"]["sgs"][1]["sharpness"] = (-1.0).into()),
             "environment.sgs[1].sharpness",
