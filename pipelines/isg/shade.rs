@@ -273,7 +273,7 @@ pub fn visible(t: &Tables, s: &Settings, g: &Sg, n: DVec3, blockers: &[Sphere], 
 /// clamped cosine over the SG one at its centre (its nodes, for exact coverage), and
 /// patches below the horizon count nothing (`total` excludes them).
 #[allow(clippy::too_many_arguments)]
-fn visible_with(
+pub fn visible_with(
     t: &Tables,
     s: &Settings,
     g: &Sg,
@@ -307,7 +307,7 @@ fn visible_with(
             let beta = (b.radius / d).asin();
             let u = w / d;
             let off = u.dot(z).clamp(-1.0, 1.0).acos();
-            (off <= cone + beta).then_some((u, beta.cos()))
+            (off <= cone + beta).then_some((u, (1.0 - (b.radius / d).powi(2)).sqrt()))
         })
         .collect();
     let blocked = |d: DVec3| caps.iter().any(|&(u, c)| u.dot(d) >= c);
@@ -427,7 +427,13 @@ fn bessel_i0e(z: f64) -> f64 {
 /// for every model: the models' own marginal thresholds (§4.1) cost a bisection per
 /// product and differ by model.
 pub fn cone_of(lambda: f64, eps: f64) -> f64 {
-    (1.0 + eps.ln() / lambda).clamp(0.0, 1.0).acos()
+    // 1 − cos Γ = 2 sin²(Γ/2) = −ln ε / λ: the half-angle form, as the shader computes it.
+    let h = -eps.ln() / lambda;
+    if h >= 1.0 {
+        FRAC_PI_2
+    } else {
+        2.0 * (0.5 * h).sqrt().asin()
+    }
 }
 
 /// 8-point Gauss–Legendre nodes and weights on [−1, 1].

@@ -83,3 +83,4 @@ fn lf_isg_patch(tex: texture_2d<f32>, smp: sampler, p: LfTex, model: u32, t1: f3
     }
     return (s.x - s.y - s.z + s.w) * lf_isg_normaliser(gamma);
 }
+

@@ -31,9 +31,12 @@ pub const WEDGE: &str = include_str!("../shaders/wedge.wgsl");
 pub const LOBE_PRODUCT: &str = include_str!("../shaders/lobe_product.wgsl");
 /// shexp: f, ‖f̂‖, a, b at θ_b (kink-aware); HYB's a, b at ‖f̂‖.
 pub const SHEXP: &str = include_str!("../shaders/shexp.wgsl");
+/// Shading with the ISG: the limiting cone, the ISG frame's pole, the clamped-cosine
+/// integral of an SG (Iwasaki et al.'s pipeline).
+pub const ISG_SHADE: &str = include_str!("../shaders/isg_shade.wgsl");
 
 /// Every file of the library as (file name, source), in dependency order.
-pub const FILES: [(&str, &str); 10] = [
+pub const FILES: [(&str, &str); 11] = [
     ("common.wgsl", COMMON),
     ("sh.wgsl", SH),
     ("lobe.wgsl", LOBE),
@@ -44,6 +47,7 @@ pub const FILES: [(&str, &str); 10] = [
     ("wedge.wgsl", WEDGE),
     ("lobe_product.wgsl", LOBE_PRODUCT),
     ("shexp.wgsl", SHEXP),
+    ("isg_shade.wgsl", ISG_SHADE),
 ];
 
 /// The whole library as one WGSL source (the files of [`FILES`] concatenated).
