@@ -564,7 +564,36 @@ fn eval_help_lists_every_column() {
     use lobefit::fits::FitOptions;
     let (code, help, _) = common::run_text(&["eval", "--help"], "");
     assert_eq!(code, Some(0));
-    let mut combos: Vec<(&str, EvalFlags)> = eval_names().into_iter().map(|n| (n, EvalFlags::default())).collect();
+    // isg-shade needs a scene file with a brdf.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("isg.json");
+    let mut v: serde_json::Value = serde_json::from_str(
+        lobefit::pipelines::scene::BUILTIN
+            .iter()
+            .find(|(n, _)| *n == "isg-fig12")
+            .unwrap()
+            .1,
+    )
+    .unwrap();
+    v["brdf"] = serde_json::json!({"lambert": {"albedo": 0.5}});
+    std::fs::write(&scene, v.to_string()).unwrap();
+    let with_scene = EvalFlags {
+        scene: Some(scene.to_str().unwrap().into()),
+        ..Default::default()
+    };
+    let mut combos: Vec<(&str, EvalFlags)> = eval_names()
+        .into_iter()
+        .map(|n| {
+            (
+                n,
+                if n == "isg-shade" {
+                    with_scene.clone()
+                } else {
+                    EvalFlags::default()
+                },
+            )
+        })
+        .collect();
     for kind in ["diffuse", "phong", "blocker"] {
         combos.push((
             "log-zh",
