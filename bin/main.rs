@@ -596,8 +596,17 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 Some(f.runtime(t).map_err(|e| format!("{source}: {e}"))?)
             };
             let stdout = std::io::stdout();
-            lobefit::eval::eval_csv(f.as_ref(), runtime.as_deref(), std::io::stdin().lock(), stdout.lock())
+            let done = lobefit::eval::eval_csv(f.as_ref(), runtime.as_deref(), std::io::stdin().lock(), stdout.lock())
                 .map_err(|e| e.to_string())?;
+            for c in done.caveats {
+                eprintln!(
+                    "warning: {} row{} (the first on line {}): {}",
+                    c.rows,
+                    if c.rows == 1 { "" } else { "s" },
+                    c.first_line,
+                    c.what
+                );
+            }
         }
         Command::Render {
             name,

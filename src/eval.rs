@@ -62,7 +62,7 @@ pub fn eval_csv(
     lookup: Option<&dyn Lookup>,
     input: impl Read,
     mut output: impl Write,
-) -> Result<usize, EvalError> {
+) -> Result<Evaluated, EvalError> {
     let expected = family.inputs().join(", ");
     let mut lines = Lines::new(input);
     let Some((hline, header)) = lines.next_nonblank()? else {
@@ -105,6 +105,7 @@ pub fn eval_csv(
         .collect();
     writeln!(spool, "{}", head.join(",")).map_err(EvalError::Output)?;
     let mut count = 0;
+    let mut caveats: Vec<Caveat> = Vec::new();
     let mut x = vec![0.0; family.inputs().len()];
     while let Some((line, l)) = lines.next_nonblank()? {
         let row = fields(&l, line)?;
@@ -126,6 +127,18 @@ pub fn eval_csv(
         }
         .map_err(|message| EvalError::Row { line, message })?;
         write_row(&mut spool, &row, &y).map_err(EvalError::Output)?;
+        if lookup.is_some() {
+            if let Some(what) = family.caveat(&x) {
+                match caveats.iter_mut().find(|c| c.what == what) {
+                    Some(c) => c.rows += 1,
+                    None => caveats.push(Caveat {
+                        what,
+                        first_line: line,
+                        rows: 1,
+                    }),
+                }
+            }
+        }
         count += 1;
     }
     // Every row succeeded: only now does anything reach `output`.
@@ -133,7 +146,28 @@ pub fn eval_csv(
     spool.rewind().map_err(EvalError::Output)?;
     std::io::copy(&mut spool, &mut output).map_err(EvalError::Output)?;
     output.flush().map_err(EvalError::Output)?;
-    Ok(count)
+    Ok(Evaluated { rows: count, caveats })
+}
+
+/// What [`eval_csv`] did: rows written, and the caveats of rows where the family's
+/// answer is known to be less accurate ([`Query::caveat`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Evaluated {
+    /// Rows evaluated.
+    pub rows: usize,
+    /// One entry per distinct caveat.
+    pub caveats: Vec<Caveat>,
+}
+
+/// Rows sharing one caveat.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Caveat {
+    /// The caveat.
+    pub what: &'static str,
+    /// Line of the first such row.
+    pub first_line: u64,
+    /// How many rows.
+    pub rows: usize,
 }
 
 /// One output row: the input fields as given, then the outputs in shortest

@@ -146,6 +146,12 @@ pub trait Query: Sync {
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String>;
     /// A random input point of the domain, for the checker's off-grid test.
     fn sample(&self, rng: &mut Rng) -> Vec<f64>;
+    /// A caveat `lobefit eval` prints (to stderr, once per kind, with the number of
+    /// rows) where the lookup at `x` is known to be less accurate than the family's
+    /// promise, e.g. outside the range its error was measured on. Default: none.
+    fn caveat(&self, _x: &[f64]) -> Option<&'static str> {
+        None
+    }
     /// `lobefit eval --exact`: the reference, or the fit run at exactly `x`.
     fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         self.reference(x)

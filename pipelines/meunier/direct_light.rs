@@ -440,7 +440,35 @@ impl Query for DirectLightView {
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         random_row(rng).to_vec()
     }
+    fn caveat(&self, x: &[f64]) -> Option<&'static str> {
+        let r = row(x).ok()?;
+        let to = r.light.sphere.centre - r.x;
+        let d = to.length();
+        let n = r.n.length();
+        if !(d > r.light.sphere.radius && n > 0.0) {
+            return None;
+        }
+        let alpha = (r.light.sphere.radius / d).asin();
+        let beta = (r.n.dot(to) / (n * d)).clamp(-1.0, 1.0).acos();
+        if beta + alpha > FRAC_PI_2 {
+            Some(LIGHT_ACROSS_HORIZON)
+        } else if alpha > LIGHT_ALPHA_MEASURED {
+            Some(LIGHT_TOO_LARGE)
+        } else {
+            None
+        }
+    }
 }
+
+/// Largest light half-angle (rad) the light lobe's error was measured at (docs/meunier.md).
+pub const LIGHT_ALPHA_MEASURED: f64 = 0.85;
+/// [`Query::caveat`] of a light that crosses the point's horizon.
+pub const LIGHT_ACROSS_HORIZON: &str = "the light crosses the horizon: its single cosine lobe is least accurate \
+     there (a light tilted 1 rad from the normal: unoccluded irradiance 15 % low at a half-angle of 0.55 rad, \
+     28 % at 0.85; docs/meunier.md)";
+/// [`Query::caveat`] of a light wider than the measured range.
+pub const LIGHT_TOO_LARGE: &str = "the light's half-angle exceeds 0.85 rad, beyond the range the light lobe's \
+     error was measured on (8 to 13.5 % low at 0.73 to 0.85 rad; docs/meunier.md)";
 
 /// One row of [`study`]: the pipeline's and the reference's irradiance and the
 /// unoccluded reference.

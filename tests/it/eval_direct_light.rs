@@ -112,3 +112,32 @@ fn bad_rows_and_flags_are_specific_errors() {
     assert_eq!(code, Some(1));
     assert!(err.contains("missing column 'nx'"), "{err}");
 }
+
+/// Lights across the horizon and lights wider than the measured range get one warning
+/// each on stderr, with their number of rows and first line; the output is as without.
+#[test]
+fn lights_where_the_light_lobe_errs_are_warned_about() {
+    let rows = "px,py,pz,nx,ny,nz,lx,ly,lz,lr,bx,by,bz,br\n\
+                0,0,0,0,0,1,0,0,5,1,0,0,0,0\n\
+                0,0,0,0,0,1,3,0,0.2,1,0,0,0,0\n\
+                0,0,0,0,0,1,0,0,2,1.9,0,0,0,0\n\
+                0,0,0,0,0,1,3,0,0.1,1,0,0,0,0\n";
+    let (code, out, err) = common::run_text(&["eval", "direct-light"], rows);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(values(&out).len(), 4);
+    assert!(
+        err.contains("warning: 2 rows (the first on line 3): the light crosses the horizon"),
+        "{err}"
+    );
+    assert!(
+        err.contains("warning: 1 row (the first on line 4): the light's half-angle exceeds 0.85 rad"),
+        "{err}"
+    );
+    let (_, _, err) = common::run_text(
+        &["eval", "direct-light"],
+        "px,py,pz,nx,ny,nz,lx,ly,lz,lr,bx,by,bz,br\n0,0,0,0,0,1,0,0,5,1,0,0,0,0\n",
+    );
+    assert!(!err.contains("warning"), "{err}");
+    let (_, _, err) = common::run_text(&["eval", "direct-light", "--exact"], rows);
+    assert!(!err.contains("warning"), "--exact has no caveat: {err}");
+}

@@ -104,7 +104,9 @@ fn eval_memory_is_bounded_and_output_waits_for_the_last_row() {
         next: 0,
         pending: Vec::new(),
     };
-    let n = lobefit::eval::eval_csv(family.as_ref(), Some(lookup.as_ref()), input, &mut sink).unwrap();
+    let n = lobefit::eval::eval_csv(family.as_ref(), Some(lookup.as_ref()), input, &mut sink)
+        .unwrap()
+        .rows;
     let rise = PEAK.load(Ordering::SeqCst) - base;
     assert_eq!(n, ROWS);
     assert!(sink.0 > 20_000_000, "{} output bytes", sink.0);
