@@ -72,6 +72,50 @@ pub fn compare(img: &[f64], reference: &[f64], mask: &[bool]) -> ErrorStats {
     }
 }
 
+/// What a render writes for an image against its reference: `<stem>-images.png` (the
+/// two side by side), `<stem>-error.png` ((img − ref) / `mean_ref`) and the float
+/// images `<stem>-<img_name>.pfm`, `<stem>-reference.pfm`, `<stem>-error.pfm`.
+/// `labels`: the two panels' titles. Returns the files and the error map.
+#[allow(clippy::too_many_arguments)]
+pub fn write_comparison(
+    dir: &Path,
+    stem: &str,
+    labels: [&str; 2],
+    img_name: &str,
+    (w, h): (usize, usize),
+    img: &[f64],
+    reference: &[f64],
+    mask: &[bool],
+    mean_ref: f64,
+) -> Result<(Vec<PathBuf>, Vec<f64>), String> {
+    use crate::plot::heatmaps;
+    let mut files = vec![heatmaps(
+        &dir.join(format!("{stem}-images.png")),
+        &[
+            panel(labels[0].into(), w, h, &masked(img, mask), "radiance"),
+            panel(labels[1].into(), w, h, &masked(reference, mask), "radiance"),
+        ],
+        2,
+    )?];
+    let rel = error_map(img, reference, mask, mean_ref);
+    let tag = stem.split_once('-').map_or(stem, |(_, t)| t);
+    files.push(heatmaps(
+        &dir.join(format!("{stem}-error.png")),
+        &[panel(
+            format!("{tag}: ({img_name} − reference) / mean reference"),
+            w,
+            h,
+            &rel,
+            "relative error",
+        )],
+        1,
+    )?);
+    for (what, v) in [(img_name, img), ("reference", reference), ("error", &rel)] {
+        files.push(write_pfm(&dir.join(format!("{stem}-{what}.pfm")), w, h, v)?);
+    }
+    Ok((files, rel))
+}
+
 /// The relative RMSE with the reference's own noise taken out: a pixel's squared
 /// difference from a Monte Carlo reference has expectation e² + σ² (e the image's
 /// error, σ the reference's standard error `se`), so

@@ -121,26 +121,40 @@ impl<'a> Bound<'a> {
     }
 }
 
+impl Bound<'_> {
+    /// Dispatches `p` with `source` (its own, or a variant of it) over `inputs`
+    /// (rounded to f32): `n_out` outputs per point, widened to f64.
+    pub fn dispatch(
+        &self,
+        p: &Prepared,
+        source: &str,
+        inputs: &[Vec<f64>],
+        n_out: usize,
+    ) -> Result<Vec<Vec<f64>>, String> {
+        let flat: Vec<f32> = inputs.iter().flat_map(|x| x.iter().map(|&v| v as f32)).collect();
+        let out = self.gpu.run_with(
+            source,
+            &p.params,
+            p.texture,
+            p.second.as_ref().map(|(b, t)| (b.as_slice(), *t)),
+            &flat,
+            inputs.len(),
+            n_out,
+        )?;
+        Ok(out
+            .chunks(n_out)
+            .map(|c| c.iter().map(|&v| f64::from(v)).collect())
+            .collect())
+    }
+}
+
 impl Runner for Bound<'_> {
     fn run(&self, k: &Kernel, inputs: &[Vec<f64>]) -> Result<Vec<Vec<f64>>, String> {
         let Some(n_in) = inputs.first().map(|x| x.len()) else {
             return Ok(Vec::new());
         };
         let p = self.prepare(k, n_in)?;
-        let flat: Vec<f32> = inputs.iter().flat_map(|x| x.iter().map(|&v| v as f32)).collect();
-        let out = self.gpu.run_with(
-            &p.source,
-            &p.params,
-            p.texture,
-            p.second.as_ref().map(|(b, t)| (b.as_slice(), *t)),
-            &flat,
-            inputs.len(),
-            k.n_out,
-        )?;
-        Ok(out
-            .chunks(k.n_out)
-            .map(|c| c.iter().map(|&v| f64::from(v)).collect())
-            .collect())
+        self.dispatch(&p, &p.source, inputs, k.n_out)
     }
 }
 

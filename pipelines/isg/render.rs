@@ -14,11 +14,10 @@ use rayon::prelude::*;
 use super::shade::{radiance, Model, Patches, Phong, Settings, Specular, Tables};
 use super::{reference, PIPELINE};
 use crate::pipelines::estimate::{estimate, Estimate};
-use crate::pipelines::image::{compare, error_map, masked, mean_over, noise_free_rel_rmse, panel, write_pfm};
+use crate::pipelines::image::{compare, mean_over, noise_free_rel_rmse, write_comparison};
 use crate::pipelines::scene::{Hit, Scene};
 use crate::pipelines::timing::{timed, EqualError};
 use crate::pipelines::{RenderOptions, Summary};
-use crate::plot::heatmaps;
 
 /// The breakdown subset's reference takes this many times the image's samples.
 pub const PRECISE_FACTOR: usize = 64;
@@ -334,42 +333,21 @@ fn render_scene(
         eq.ratio
     ));
 
-    sum.files.push(heatmaps(
-        &dir.join(format!("isg-{tag}-images.png")),
-        &[
-            panel(
-                format!("{tag}: ISG pipeline (best model)"),
-                w,
-                h,
-                &masked(&best_img, &lit),
-                "radiance",
-            ),
-            panel(
-                format!("{tag}: Monte Carlo reference ({} spp)", opts.spp),
-                w,
-                h,
-                &masked(&reference_img, &lit),
-                "radiance",
-            ),
+    let (files, _) = write_comparison(
+        dir,
+        &format!("isg-{tag}"),
+        [
+            &format!("{tag}: ISG pipeline (best model)"),
+            &format!("{tag}: Monte Carlo reference ({} spp)", opts.spp),
         ],
-        2,
-    )?);
-    let rel = error_map(&best_img, &reference_img, &lit, mean_ref);
-    sum.files.push(heatmaps(
-        &dir.join(format!("isg-{tag}-error.png")),
-        &[panel(
-            format!("{tag}: (ISG − reference) / mean reference"),
-            w,
-            h,
-            &rel,
-            "relative error",
-        )],
-        1,
-    )?);
-    for (what, img) in [("isg", &best_img), ("reference", &reference_img), ("error", &rel)] {
-        sum.files
-            .push(write_pfm(&dir.join(format!("isg-{tag}-{what}.pfm")), w, h, img)?);
-    }
+        "isg",
+        (w, h),
+        &best_img,
+        &reference_img,
+        &lit,
+        mean_ref,
+    )?;
+    sum.files.extend(files);
     sum.rel_rmse = rmse_best;
     sum.ref_rel_se = ref_rel_se;
     let text: String = sum.lines.iter().map(|l| format!("{l}\n")).collect();

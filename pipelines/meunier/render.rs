@@ -19,7 +19,7 @@ use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
 
 use crate::pipelines::estimate::{estimate, Estimate};
-use crate::pipelines::image::{compare, error_map, masked, mean_over, panel, write_pfm};
+use crate::pipelines::image::{compare, masked, mean_over, panel, write_comparison};
 use crate::pipelines::scene::{brdf_value, visible, Hit, Scene};
 use crate::pipelines::timing::{timed, EqualError};
 use crate::pipelines::{RenderOptions, Summary};
@@ -300,42 +300,21 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     ));
 
     // Images: PNG panels, and the float images for other tools.
-    sum.files.push(heatmaps(
-        &dir.join(format!("meunier-{tag}-images.png")),
-        &[
-            panel(
-                format!("{tag}: lobe pipeline (depth 5, fitted)"),
-                w,
-                h,
-                &masked(&lobes, &lit),
-                "radiance",
-            ),
-            panel(
-                format!("{tag}: Monte Carlo reference ({} spp)", opts.spp),
-                w,
-                h,
-                &masked(&reference_img, &lit),
-                "radiance",
-            ),
+    let (files, _) = write_comparison(
+        dir,
+        &format!("meunier-{tag}"),
+        [
+            &format!("{tag}: lobe pipeline (depth 5, fitted)"),
+            &format!("{tag}: Monte Carlo reference ({} spp)", opts.spp),
         ],
-        2,
-    )?);
-    let rel = error_map(&lobes, &reference_img, &lit, mean_ref);
-    sum.files.push(heatmaps(
-        &dir.join(format!("meunier-{tag}-error.png")),
-        &[panel(
-            format!("{tag}: (lobes − reference) / mean reference"),
-            w,
-            h,
-            &rel,
-            "relative error",
-        )],
-        1,
-    )?);
-    for (what, img) in [("lobes", &lobes), ("reference", &reference_img), ("error", &rel)] {
-        sum.files
-            .push(write_pfm(&dir.join(format!("meunier-{tag}-{what}.pfm")), w, h, img)?);
-    }
+        "lobes",
+        (w, h),
+        &lobes,
+        &reference_img,
+        &lit,
+        mean_ref,
+    )?;
+    sum.files.extend(files);
     // Figure 10: aggressive and conservative × depth 2, 3, 5.
     let mut fig10 = Vec::new();
     for mode in MaskMode::ALL {
