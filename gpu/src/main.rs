@@ -6,6 +6,7 @@
 mod conformance;
 mod cost;
 mod device;
+mod isg;
 mod kernel;
 mod render;
 mod world;
@@ -56,6 +57,22 @@ enum Command {
         /// against the CPU. Without it: the fixed test scene (disk light + glossy pass).
         #[arg(long, value_name = "NAME|FILE")]
         scene: Option<String>,
+    },
+    /// Iwasaki et al.'s ISG pipeline per pixel on the GPU (the exported isg-best and
+    /// sg-fit textures) against the CPU pipeline's image (docs/isg-render.md).
+    RenderIsg {
+        /// A `lobefit export` directory with isg-best and sg-fit.
+        #[arg(long, value_name = "DIR")]
+        export: PathBuf,
+        /// A built-in ISG scene (fig12, fig12-diffuse) or a scene file.
+        #[arg(long, default_value = "fig12")]
+        scene: String,
+        /// Image width (height 3/4 of it).
+        #[arg(long, default_value_t = isg::WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+        width: u32,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
     },
     /// Per shader function: SPIR-V instructions of its kernel (naga) and GPU
     /// evaluations per second on this device.
@@ -115,6 +132,31 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             out!("image: {}", out.display());
             if rms > render::RMS_LIMIT {
                 out!("render FAILED");
+                return Ok(ExitCode::from(1));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::RenderIsg {
+            export,
+            scene,
+            width,
+            out,
+        } => {
+            let ex = conformance::read_export(&export)?;
+            let gpu = device::Gpu::new()?;
+            let r = isg::render_isg(&gpu, &ex, &scene, width as usize, &out)?;
+            out!(
+                "render-isg {scene}: {} pixels see geometry, on {}; GPU against the CPU pipeline, relative to the \
+                 peak: max {:.2e}, RMS {:.2e} (limit {:.0e} RMS)",
+                r.pixels,
+                gpu.info.name,
+                r.max,
+                r.rms,
+                render::RMS_LIMIT
+            );
+            out!("image: {}", out.display());
+            if r.rms > render::RMS_LIMIT {
+                out!("render-isg FAILED");
                 return Ok(ExitCode::from(1));
             }
             Ok(ExitCode::SUCCESS)

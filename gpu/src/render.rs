@@ -340,13 +340,13 @@ fn disk_texture(export: &Export) -> Result<(&TextureEntry, &Texture), String> {
 }
 
 /// An 8-bit grey level of `v` in [0, 1] (clamped), gamma 1/2.2.
-fn grey(v: f64) -> u8 {
+pub(crate) fn grey(v: f64) -> u8 {
     (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8
 }
 
 /// Writes a w × h 8-bit grey PNG atomically (a symlink planted at `out` is replaced,
 /// never followed).
-fn write_grey_png(out: &Path, w: usize, h: usize, pixels: &[u8]) -> Result<(), String> {
+pub(crate) fn write_grey_png(out: &Path, w: usize, h: usize, pixels: &[u8]) -> Result<(), String> {
     let mut bytes = Vec::new();
     let mut enc = png::Encoder::new(&mut bytes, w as u32, h as u32);
     enc.set_color(png::ColorType::Grayscale);

@@ -1,0 +1,263 @@
+//! `lobefit-gpu render-isg`: Iwasaki et al.'s pipeline (`lobefit::pipelines::isg`) as
+//! one compute kernel per pixel, on the exported isg-best and sg-fit textures, against
+//! the CPU pipeline's image (docs/isg-render.md).
+//!
+//! The kernel is the CPU's `shade::radiance` with its default settings (best model,
+//! adaptive patches, ε = 0.01, binary occlusion, every lighting SG times the BRDF SG,
+//! the exact clamped cosine) in f32: the library's `lf_isg_best`, `lf_lobe_to_sg`,
+//! `lf_sg_product`, `lf_sg_clamped_cosine`, `lf_isg_cone`, `lf_any_orthonormal`, and
+//! the patch loop. The scene's spheres and SGs follow the pixels in the input buffer;
+//! the per-patch blocker test is unrolled over the spheres (their values as literals):
+//! llvmpipe ends a loop after 65 535 iterations of an invocation, which a loop over
+//! the blockers inside the patch loop exceeded at busy pixels (they lost their
+//! specular term, and more of them when invocations diverged).
+
+use std::path::Path;
+
+use lobefit::export::layout::Filter;
+use lobefit::export::{manifest::TextureEntry, Texture};
+use lobefit::pipelines::isg::shade::{radiance, Phong, Settings, Tables};
+use lobefit::pipelines::scene::Hit;
+
+use crate::conformance::Export;
+use crate::device::Gpu;
+use crate::kernel::{kernel_with, lf_tex};
+use crate::render::{grey, write_grey_png, SceneRender};
+
+/// Default image width (height 3/4 of it).
+pub const WIDTH: u32 = 64;
+
+/// The export's first texture of family `kind`.
+fn texture<'a>(export: &'a Export, kind: &str) -> Result<(&'a TextureEntry, &'a Texture), String> {
+    let k = export
+        .manifest
+        .families
+        .iter()
+        .position(|f| f.family == kind)
+        .ok_or_else(|| format!("the export has no {kind} texture (export it: --only isg-best,sg-fit)"))?;
+    let (e, t) = &export.textures[k][0];
+    Ok((e, t))
+}
+
+/// The kernel's per-product visible integral (the CPU's `visible_with`) and its body.
+fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(String, String), String> {
+    if scene.spheres.is_empty() {
+        return Err(format!("scene {}: render-isg needs at least one sphere", scene.name));
+    }
+    // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
+    // pixels' inputs in the input buffer X: storage, not constant arrays, which a
+    // kernel would index dynamically.
+    let (ns, ne) = (scene.spheres.len(), scene.environment.len());
+    let base = 13 * count;
+    let consts = format!(
+        "const NS = {ns}u;\nconst NW = {}u;\nconst NE = {ne}u;\nconst SPH0 = {base}u;\nconst ENV0 = {}u;\n\
+         fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
+         fn env(e: u32) -> LfSg {{\n    let k = ENV0 + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n",
+        ns.div_ceil(32),
+        base + 4 * ns
+    );
+    let functions = r#"
+// Whether the cap of sphere s (centre, radius) seen from x covers the direction d.
+fn isg_covers(s: vec4<f32>, x: vec3<f32>, d: vec3<f32>) -> bool {
+    let w = s.xyz - x;
+    return dot(w, d) >= sqrt(max(dot(w, w) - s.w * s.w, 0.0));
+}
+
+// The visible integral of g: `total` minus g over the occluded patches of its cone;
+// with `cosine`, each occluded patch weighted by max(n.d, 0) / cs(d) and patches below
+// the horizon not counted (the CPU's visible_with).
+fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec3<f32>, own: i32) -> f32 {
+    if g.amplitude == 0.0 {
+        return 0.0;
+    }
+    let gamma = clamp(g.sharpness, 0.5, 1e4);
+    let cone = lf_isg_cone(g.sharpness, 0.01);
+    let z = g.axis;
+    let y = lf_any_orthonormal(z);
+    let xa = cross(y, z);
+    // The blockers whose cap meets the cone, as a bit mask. (llvmpipe ends any loop
+    // after 65 535 iterations of an invocation: a loop over these blockers inside the
+    // patch loop went past that at busy pixels, so the test per patch is unrolled.)
+    var mask = array<u32, NW>();
+    for (var b = 0u; b < NS; b++) {
+        let s = sph(b);
+        let w = s.xyz - x;
+        let d = length(w);
+        if i32(b) != own && d > s.w {
+            if lf_angle_between(w / d, z) <= cone + lf_asin(s.w / d) {
+                mask[b / 32u] |= 1u << (b % 32u);
+            }
+        }
+    }
+    let k = u32(clamp(ceil(2.0 * cone * sqrt(gamma) * 3.0), 10.0, 20.0));
+    let lo = 0.5 * LF_PI - cone;
+    let step = 2.0 * cone / f32(k);
+    let norm = lf_isg_normaliser(gamma);
+    var hidden = 0.0;
+    for (var i = 0u; i < k; i++) {
+        let th = lo + (f32(i) + 0.5) * step;
+        let st = sin(th);
+        let ct = cos(th);
+        for (var j = 0u; j < k; j++) {
+            let ph = lo + (f32(j) + 0.5) * step;
+            let d = xa * (st * cos(ph)) + y * ct + z * (st * sin(ph));
+            let c = dot(n, d);
+            var blocked = false;
+BLOCKED_TESTS            var wgt = 0.0;
+            if cosine {
+                if c > 0.0 && blocked {
+                    wgt = c / lf_sg_eval(cs, d);
+                }
+            } else if c <= 0.0 || blocked {
+                wgt = 1.0;
+            }
+            if wgt != 0.0 {
+                let t1 = clamp(lo + f32(i) * step, 0.0, LF_PI);
+                let t2 = clamp(lo + f32(i + 1u) * step, 0.0, LF_PI);
+                let p1 = clamp(lo + f32(j) * step, 0.0, LF_PI);
+                let p2 = clamp(lo + f32(j + 1u) * step, 0.0, LF_PI);
+                let sh = lf_isg_best(T, S, P, t2, p2, gamma) - lf_isg_best(T, S, P, t1, p2, gamma)
+                    - lf_isg_best(T, S, P, t2, p1, gamma) + lf_isg_best(T, S, P, t1, p1, gamma);
+                hidden += wgt * sh * norm;
+            }
+        }
+    }
+    return total - g.amplitude * hidden;
+}
+"#;
+    let body = "    let p = vec3<f32>(x0, x1, x2);
+    let n = vec3<f32>(x3, x4, x5);
+    let wo = vec3<f32>(x6, x7, x8);
+    let own = i32(x12);
+    let cs = lf_lobe_to_sg(T2, S, P2, n, 1.0, 1.0);
+    let r = normalize(2.0 * dot(n, wo) * n - wo);
+    let lobe = lf_lobe_to_sg(T2, S, P2, r, x11, x10 * (x11 + 2.0) / (2.0 * LF_PI));
+    var diffuse = 0.0;
+    var specular = 0.0;
+    for (var e = 0u; e < NE; e++) {
+        let l = env(e);
+        if x9 > 0.0 {
+            let t = l.amplitude * lf_sg_clamped_cosine(l, n);
+            diffuse += isg_visible(lf_sg_product(l, cs), t, cs, true, n, p, own);
+        }
+        if x10 > 0.0 {
+            let g = lf_sg_product(l, lobe);
+            specular += isg_visible(g, lf_sg_integral(g), lobe, false, n, p, own);
+        }
+    }
+    Y[o] = x9 / LF_PI * diffuse + max(dot(n, r), 0.0) * specular;"
+        .to_string();
+    let f = |v: f64| format!("{:e}", v as f32);
+    let tests: String = scene
+        .spheres
+        .iter()
+        .enumerate()
+        .map(|(b, sp)| {
+            format!(
+                "            blocked = blocked || ((mask[{}u] & {}u) != 0u && isg_covers(vec4<f32>({}, {}, {}, {}), x, d));\n",
+                b / 32,
+                1u32 << (b % 32),
+                f(sp.centre.x),
+                f(sp.centre.y),
+                f(sp.centre.z),
+                f(sp.radius)
+            )
+        })
+        .collect();
+    Ok((consts + &functions.replace("BLOCKED_TESTS", &tests), body))
+}
+
+/// Renders `scene` (a built-in ISG scene or file) at `width` on the GPU and the CPU;
+/// writes `out` (PNG, radiance / peak, gamma 1/2.2).
+pub fn render_isg(gpu: &Gpu, export: &Export, scene: &str, width: usize, out: &Path) -> Result<SceneRender, String> {
+    let sc = lobefit::pipelines::isg::render::scene(scene)?;
+    let m = &export.manifest;
+    let (best_e, best_t) = texture(export, lobefit_tables::isg::KIND_BEST)?;
+    let (fit_e, fit_t) = texture(export, lobefit_tables::sg_fit::KIND)?;
+    let (best_up, fit_up) = (gpu.upload(best_t, m.storage)?, gpu.upload(fit_t, m.storage)?);
+    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let visible: Vec<&Hit> = hits.iter().flatten().collect();
+    if visible.is_empty() {
+        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
+    }
+    // Inputs: point, normal, view, k_d, k_s, Phong n, own sphere (−1: none), as f32.
+    let mut inputs = Vec::with_capacity(visible.len() * 13);
+    let mut brdfs = Vec::with_capacity(visible.len());
+    for hit in &visible {
+        let b = Phong::of(sc.brdf(hit))?;
+        inputs.extend(
+            [
+                hit.x.x, hit.x.y, hit.x.z, hit.n.x, hit.n.y, hit.n.z, hit.wo.x, hit.wo.y, hit.wo.z,
+            ]
+            .map(|v| v as f32),
+        );
+        inputs.extend([
+            b.diffuse as f32,
+            b.specular as f32,
+            b.exponent as f32,
+            hit.sphere.map_or(-1.0, |i| i as f32),
+        ]);
+        brdfs.push(b);
+    }
+    for s in &sc.spheres {
+        inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
+    }
+    for g in &sc.environment {
+        inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
+    }
+    let (extra, body) = source(&sc, visible.len())?;
+    let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), 13, 1, &body) + &extra;
+    let got = gpu.run_with(
+        &src,
+        &lf_tex(best_e, Filter::Manual)?,
+        &best_up,
+        Some((&lf_tex(fit_e, Filter::Manual)?, &fit_up)),
+        &inputs,
+        visible.len(),
+        1,
+    )?;
+    // The CPU pipeline (f64, the committed tables) at the same f32 inputs.
+    let tables = Tables::embedded()?;
+    let settings = Settings::default();
+    let mut cpu = Vec::with_capacity(visible.len());
+    for (k, (hit, b)) in visible.iter().zip(&brdfs).enumerate() {
+        let v = |i: usize| f64::from(inputs[13 * k + i]);
+        let at = Hit {
+            x: lobefit_tables::glam::DVec3::new(v(0), v(1), v(2)),
+            n: lobefit_tables::glam::DVec3::new(v(3), v(4), v(5)).normalize(),
+            wo: lobefit_tables::glam::DVec3::new(v(6), v(7), v(8)).normalize(),
+            ..**hit
+        };
+        cpu.push(radiance(
+            &tables,
+            &settings,
+            &sc.environment,
+            b,
+            &sc.blockers(hit),
+            &at,
+        )?);
+    }
+    let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
+    let (mut max, mut sum) = (0.0f64, 0.0);
+    for (g, c) in got.iter().zip(&cpu) {
+        let d = (f64::from(*g) - c).abs() / peak;
+        max = max.max(d);
+        sum += d * d;
+    }
+    let rms = (sum / cpu.len() as f64).sqrt();
+    let mut image = vec![0u8; w * h];
+    let mut it = got.iter();
+    for (px, hit) in image.iter_mut().zip(&hits) {
+        if hit.is_some() {
+            *px = grey(f64::from(*it.next().unwrap_or(&0.0)) / peak);
+        }
+    }
+    write_grey_png(out, w, h, &image)?;
+    Ok(SceneRender {
+        pixels: visible.len(),
+        max,
+        rms,
+        vs_exact: (f64::NAN, 0),
+    })
+}
