@@ -220,6 +220,34 @@ impl Bvh {
         best
     }
 
+    /// Calls `visit` with every sphere whose node the cone of unit `axis` and half-angle
+    /// `cone` (rad) from `x` may meet: a node is skipped when the sphere around its box,
+    /// seen from `x`, lies wholly outside the cone (so every sphere in it does too).
+    /// A superset of the spheres whose caps meet the cone; the caller tests each.
+    pub fn in_cone(&self, x: DVec3, axis: DVec3, cone: f64, mut visit: impl FnMut(usize)) {
+        let mut stack = Stack::new();
+        while let Some(k) = stack.pop() {
+            let Some(n) = self.nodes.get(k) else { continue };
+            let (c, rho) = (0.5 * (n.lo + n.hi), 0.5 * (n.hi - n.lo).length());
+            let w = c - x;
+            let d = w.length();
+            if d > rho {
+                let off = (w / d).dot(axis).clamp(-1.0, 1.0).acos();
+                if off > cone + (rho / d).asin() {
+                    continue;
+                }
+            }
+            if n.count == 0 {
+                stack.push(n.first);
+                stack.push(n.first + 1);
+                continue;
+            }
+            for &i in &self.order[n.first..n.first + n.count] {
+                visit(i);
+            }
+        }
+    }
+
     /// Whether some sphere other than `skip` meets x + t·v for t < `t_max`.
     pub fn occluded(&self, spheres: &[Sphere], x: DVec3, v: DVec3, t_max: f64, skip: Option<usize>) -> bool {
         let inv = v.recip();
@@ -420,6 +448,11 @@ impl Scene {
             .filter(|(i, _)| Some(*i) != h.sphere)
             .map(|(_, s)| *s)
             .collect()
+    }
+
+    /// The hierarchy over [`Scene::spheres`].
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
     }
 
     /// Whether a sphere other than the one `h` lies on meets the ray from `h` in

@@ -234,7 +234,7 @@ pub fn render_isg(gpu: &Gpu, export: &Export, scene: &str, width: usize, out: &P
             &settings,
             &sc.environment,
             b,
-            &sc.blockers(hit),
+            &lobefit::pipelines::isg::render::blockers_of(&sc, hit),
             &at,
         )?);
     }

@@ -7,7 +7,7 @@ use lobefit_tables::isg::Sg;
 use lobefit_tables::meunier::Sphere;
 use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 
-use super::shade::{radiance, Model, Patches, Phong, Settings, Tables};
+use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Tables};
 use crate::family::{EvalFlags, Lookup, Query};
 use crate::pipelines::scene::{Bvh, Hit};
 use crate::rng::Rng;
@@ -142,14 +142,11 @@ struct ShadeLookup {
 impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         let (h, own) = self.view.hit(x)?;
-        let blockers: Vec<Sphere> = self
-            .view
-            .spheres
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| Some(*i) != own)
-            .map(|(_, s)| *s)
-            .collect();
+        let blockers = Blockers {
+            spheres: &self.view.spheres,
+            bvh: Some(&self.view.bvh),
+            own,
+        };
         radiance(
             &self.tables,
             &self.view.settings,

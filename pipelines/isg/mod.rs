@@ -179,7 +179,15 @@ mod unoccluded {
                     sphere: None,
                     material: 0,
                 };
-                let p = radiance(&t, &Settings::default(), &scene.environment, &brdf, &[], &h).unwrap();
+                let p = radiance(
+                    &t,
+                    &Settings::default(),
+                    &scene.environment,
+                    &brdf,
+                    &shade::Blockers::all(&[]),
+                    &h,
+                )
+                .unwrap();
                 let r = reference(&scene.environment, &brdf, |_| false, &h, 400_000, 3);
                 assert!(
                     (p - r.mean).abs() < 4.0 * r.std_error + 5e-3 * r.mean,
@@ -187,5 +195,45 @@ mod unoccluded {
                 );
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod bvh_cull {
+    use super::*;
+    use crate::pipelines::isg::shade::{radiance, Blockers, Settings, Tables};
+
+    /// Culling the blockers against each product's cone through the BVH (§4.2) gives
+    /// the very radiance the scan over every sphere gives, at every pixel of a small
+    /// image of the 306-sphere sweep scene (both exclude the hit's own sphere).
+    #[test]
+    fn the_bvh_cull_equals_the_scan() {
+        let scene = crate::pipelines::isg::render::sweep_scene(306).unwrap();
+        let t = Tables::embedded().unwrap();
+        let (w, h) = (24, 18);
+        let mut seen = 0;
+        for p in 0..w * h {
+            let Some(hit) = scene.primary(p % w, p / w, w, h) else {
+                continue;
+            };
+            let brdf = Phong::of(scene.brdf(&hit)).unwrap();
+            let scan = Blockers {
+                bvh: None,
+                ..crate::pipelines::isg::render::blockers_of(&scene, &hit)
+            };
+            let a = radiance(&t, &Settings::default(), &scene.environment, &brdf, &scan, &hit).unwrap();
+            let b = radiance(
+                &t,
+                &Settings::default(),
+                &scene.environment,
+                &brdf,
+                &crate::pipelines::isg::render::blockers_of(&scene, &hit),
+                &hit,
+            )
+            .unwrap();
+            assert_eq!(a.to_bits(), b.to_bits(), "pixel {p}");
+            seen += 1;
+        }
+        assert!(seen > 200, "{seen} pixels see geometry");
     }
 }

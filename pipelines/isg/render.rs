@@ -11,7 +11,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::shade::{radiance, Model, Patches, Phong, Settings, Specular, Tables};
+use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Specular, Tables};
 use super::{reference, PIPELINE};
 use crate::pipelines::estimate::{estimate, Estimate};
 use crate::pipelines::image::{compare, mean_over, noise_free_rel_rmse, write_comparison};
@@ -48,6 +48,15 @@ pub fn scene(name: &str) -> Result<Scene, String> {
     Ok(scene)
 }
 
+/// The blockers of a hit: the scene's spheres but the hit's own, through its BVH.
+pub fn blockers_of<'a>(scene: &'a Scene, h: &Hit) -> Blockers<'a> {
+    Blockers {
+        spheres: &scene.spheres,
+        bvh: Some(scene.bvh()),
+        own: h.sphere,
+    }
+}
+
 /// The pipeline's radiance at every hit with `s` (0 for background).
 fn image(t: &Tables, s: &Settings, scene: &Scene, hits: &[Option<Hit>]) -> Result<Vec<f64>, String> {
     hits.par_iter()
@@ -55,7 +64,7 @@ fn image(t: &Tables, s: &Settings, scene: &Scene, hits: &[Option<Hit>]) -> Resul
             None => Ok(0.0),
             Some(h) => {
                 let brdf = Phong::of(scene.brdf(h))?;
-                radiance(t, s, &scene.environment, &brdf, &scene.blockers(h), h)
+                radiance(t, s, &scene.environment, &brdf, &blockers_of(scene, h), h)
             }
         })
         .collect()
@@ -253,7 +262,7 @@ fn render_scene(
         .map(|&p| {
             let hit = hits[p].expect("lit");
             let brdf = Phong::of(scene.brdf(&hit))?;
-            let blockers = scene.blockers(&hit);
+            let blockers = blockers_of(scene, &hit);
             let mut v = stages
                 .iter()
                 .map(|s| radiance(&tables, s, &scene.environment, &brdf, &blockers, &hit))

@@ -16,7 +16,7 @@ use lobefit_tables::isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, GAMMA_MAX, 
 use lobefit_tables::meunier::{Brdf, Sphere};
 use lobefit_tables::SgFit;
 
-use crate::pipelines::scene::Hit;
+use crate::pipelines::scene::{Bvh, Hit};
 
 /// Which ISG model integrates the patches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -151,6 +151,44 @@ impl Tables {
     }
 }
 
+/// The spheres that may occlude a point: all of `spheres` but `own` (the one the
+/// point lies on), culled against each product's cone through `bvh` (§4.2) when given,
+/// else by a scan.
+#[derive(Clone, Copy)]
+pub struct Blockers<'a> {
+    /// The spheres.
+    pub spheres: &'a [Sphere],
+    /// A hierarchy over `spheres`.
+    pub bvh: Option<&'a Bvh>,
+    /// The sphere the point lies on (not a blocker).
+    pub own: Option<usize>,
+}
+
+impl<'a> Blockers<'a> {
+    /// Every sphere of `spheres`, scanned.
+    pub fn all(spheres: &'a [Sphere]) -> Blockers<'a> {
+        Blockers {
+            spheres,
+            bvh: None,
+            own: None,
+        }
+    }
+
+    /// Calls `visit` with every blocker (but `own`) the cone of `axis`, half-angle
+    /// `cone`, from `x` may meet: a superset of those whose caps meet it.
+    fn candidates(&self, x: DVec3, axis: DVec3, cone: f64, mut visit: impl FnMut(usize)) {
+        let mut keep = |i: usize| {
+            if Some(i) != self.own {
+                visit(i);
+            }
+        };
+        match self.bvh {
+            Some(b) => b.in_cone(x, axis, cone, keep),
+            None => (0..self.spheres.len()).for_each(&mut keep),
+        }
+    }
+}
+
 /// The BRDF as the pipeline takes it: k_d/π + k_s (n + 2)/(2π) max(r·ω, 0)^n.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Phong {
@@ -200,7 +238,7 @@ pub fn radiance(
     s: &Settings,
     env: &[Sg],
     brdf: &Phong,
-    blockers: &[Sphere],
+    blockers: &Blockers,
     h: &Hit,
 ) -> Result<f64, String> {
     let n = h.n;
@@ -264,7 +302,7 @@ pub fn radiance(
 /// ∫ G V dω (sr × G's unit): G's integral over the sphere minus its integral over the
 /// patches of its cone that are occluded (a blocker, or the surface below the
 /// tangent plane of normal `n`, covers them).
-pub fn visible(t: &Tables, s: &Settings, g: &Sg, n: DVec3, blockers: &[Sphere], x: DVec3) -> Result<f64, String> {
+pub fn visible(t: &Tables, s: &Settings, g: &Sg, n: DVec3, blockers: &Blockers, x: DVec3) -> Result<f64, String> {
     visible_with(t, s, g, g.integral(), None, n, blockers, x)
 }
 
@@ -280,7 +318,7 @@ pub fn visible_with(
     total: f64,
     cosine: Option<&Sg>,
     n: DVec3,
-    blockers: &[Sphere],
+    blockers: &Blockers,
     x: DVec3,
 ) -> Result<f64, String> {
     if g.amplitude == 0.0 {
@@ -295,10 +333,15 @@ pub fn visible_with(
     let y = z.any_orthonormal_vector();
     let xa = y.cross(z);
     let dir = |theta: f64, phi: f64| xa * theta.sin() * phi.cos() + y * theta.cos() + z * theta.sin() * phi.sin();
-    // Blockers whose cap meets the cone.
-    let caps: Vec<(DVec3, f64)> = blockers
-        .iter()
-        .filter_map(|b| {
+    // Blockers whose cap meets the cone (§4.2: through the BVH where there is one),
+    // in index order, whatever the traversal's.
+    let mut near = Vec::new();
+    blockers.candidates(x, z, cone, |i| near.push(i));
+    near.sort_unstable();
+    let caps: Vec<(DVec3, f64)> = near
+        .into_iter()
+        .filter_map(|i| {
+            let b = &blockers.spheres[i];
             let w = b.centre - x;
             let d = w.length();
             if d <= b.radius {
@@ -484,7 +527,7 @@ mod tests {
                 model,
                 ..Settings::default()
             };
-            let v = visible(&t, &s, &g, DVec3::Z, &[], DVec3::ZERO).unwrap();
+            let v = visible(&t, &s, &g, DVec3::Z, &Blockers::all(&[]), DVec3::ZERO).unwrap();
             assert!((v / g.integral() - 1.0).abs() < 1e-12, "{model:?}: {v}");
         }
     }
@@ -523,7 +566,7 @@ mod tests {
             patches: Patches::Grid(20),
             ..Settings::default()
         };
-        let got = visible(&t, &s, &g, DVec3::Z, &[b], DVec3::ZERO).unwrap();
+        let got = visible(&t, &s, &g, DVec3::Z, &Blockers::all(&[b]), DVec3::ZERO).unwrap();
         assert!((got / want - 1.0).abs() < 1e-2, "{got} vs {want}");
     }
 }
