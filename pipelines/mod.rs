@@ -12,15 +12,18 @@
 //!   maps) and image output (PNG panels and a PFM float image generic tools read);
 //! - [`timing`]: the cost of the reference at the pipeline's error (equal-error timing).
 //!
-//! Each pipeline is one module ([`meunier`], [`rigs`]) and one entry of [`registry`],
+//! Each pipeline is one module ([`meunier`], [`isg`], [`shexp`], [`rigs`]) and one entry of [`registry`],
 //! which `lobefit render NAME` lists.
 
 pub mod estimate;
+pub mod heightfield;
 pub mod image;
 pub mod isg;
 pub mod meunier;
 pub mod rigs;
 pub mod scene;
+pub mod shexp;
+pub mod sky;
 pub mod timing;
 
 use std::path::{Path, PathBuf};
@@ -90,6 +93,9 @@ pub fn eval_views() -> Vec<EvalView> {
         ("isg-shade", isg::eval::EVAL_HELP, |flags| {
             Ok(Box::new(isg::eval::IsgShadeView::from_flags(flags)?))
         }),
+        ("shexp-shade", shexp::eval::EVAL_HELP, |flags| {
+            Ok(Box::new(shexp::eval::ShExpShadeView::from_flags(flags)?))
+        }),
     ]
 }
 
@@ -100,7 +106,7 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
 
 /// Every pipeline `lobefit render` knows.
 pub fn registry() -> Vec<Pipeline> {
-    vec![meunier::PIPELINE, isg::PIPELINE]
+    vec![meunier::PIPELINE, isg::PIPELINE, shexp::PIPELINE]
 }
 
 /// The pipeline called `name`.

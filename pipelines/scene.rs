@@ -19,8 +19,14 @@ pub use lobefit_tables::isg::Sg;
 pub use lobefit_tables::meunier::{Brdf, LafortuneLobe, Sphere, SphereLight};
 use serde::Deserialize;
 
+pub use super::heightfield::HeightField;
+
 /// The camera of a file without one: (eye, target, vertical field of view in rad).
 pub const DEFAULT_CAMERA: ([f64; 3], [f64; 3], f64) = ([0.0, -8.0, 5.0], [0.0, 0.0, 0.5], 0.75);
+
+/// Where shadow rays from a hit start, in units of the height field's extent: far
+/// above the rounding of a hit on it (≈ 1e-16 of the extent), far below any feature.
+pub const TERRAIN_T_MIN: f64 = 1e-9;
 
 /// Version of the scene file format this build reads.
 pub const SCENE_VERSION: u32 = 1;
@@ -385,6 +391,11 @@ pub struct Scene {
     /// Distant lighting L(ω) = Σ a_k exp(λ_k (μ_k·ω − 1)) (radiance; not seen by
     /// primary rays): the file's `environment.sgs`, empty if it has none.
     pub environment: Vec<Sg>,
+    /// Distant lighting as an SH function L(ω) = Σ c_i y_i(ω) (radiance; the file's
+    /// `sh_environment.coefficients`, n² of them for its order n), if given.
+    pub sh_environment: Option<Vec<f64>>,
+    /// A height field (visible and a blocker), with its index into `materials`.
+    pub heightfield: Option<(HeightField, usize)>,
     /// The file's top-level `brdf`: the material of points `eval isg-shade` shades.
     pub brdf: Option<Brdf>,
     /// The camera.
@@ -430,6 +441,25 @@ impl Scene {
                 }
             }
         }
+        if let Some((hf, material)) = &self.heightfield {
+            let limit = best.as_ref().map_or(f64::INFINITY, |b| b.0);
+            if let Some(t) = hf.intersect(eye, d, 0.0, limit) {
+                let x = eye + t * d;
+                if let Some(n) = hf.normal(x.x, x.y) {
+                    best = Some((
+                        t,
+                        Hit {
+                            x,
+                            n,
+                            t: n.any_orthonormal_vector(),
+                            wo: -d,
+                            sphere: None,
+                            material: *material,
+                        },
+                    ));
+                }
+            }
+        }
         best.map(|b| b.1)
     }
 
@@ -458,7 +488,16 @@ impl Scene {
     /// Whether a sphere other than the one `h` lies on meets the ray from `h` in
     /// direction `v` (unit): exact visibility of a distant direction, through the BVH.
     pub fn occluded(&self, h: &Hit, v: DVec3) -> bool {
-        self.bvh.occluded(&self.spheres, h.x, v, f64::INFINITY, h.sphere)
+        self.bvh.occluded(&self.spheres, h.x, v, f64::INFINITY, h.sphere) || self.terrain_occludes(h, v, f64::INFINITY)
+    }
+
+    /// Whether the height field (if any) meets the ray from `h` in direction `v` before
+    /// `t_max`; the ray starts [`TERRAIN_T_MIN`] × the field's extent away, so a point
+    /// on the terrain does not shadow itself.
+    fn terrain_occludes(&self, h: &Hit, v: DVec3, t_max: f64) -> bool {
+        self.heightfield
+            .as_ref()
+            .is_some_and(|(hf, _)| hf.occluded(h.x, v, TERRAIN_T_MIN * hf.extent(), t_max))
     }
 
     /// Whether the ray from hit `h` in direction `v` reaches sphere light `light`
@@ -467,16 +506,19 @@ impl Scene {
         let Some(tl) = ray_sphere(h.x, v, light) else {
             return false;
         };
-        !self.bvh.occluded(&self.spheres, h.x, v, tl, h.sphere)
+        !self.bvh.occluded(&self.spheres, h.x, v, tl, h.sphere) && !self.terrain_occludes(h, v, tl)
     }
 }
 
 /// The built-in scenes: (name, JSON text).
-pub const BUILTIN: [(&str, &str); 4] = [
+pub const BUILTIN: [(&str, &str); 7] = [
     ("meunier-fig13", include_str!("scenes/meunier-fig13.json")),
     ("meunier-glossy", include_str!("scenes/meunier-glossy.json")),
     ("isg-fig12", include_str!("scenes/isg-fig12.json")),
     ("isg-fig12-diffuse", include_str!("scenes/isg-fig12-diffuse.json")),
+    ("shexp-whale", include_str!("scenes/shexp-whale.json")),
+    ("shexp-whale-diffuse", include_str!("scenes/shexp-whale-diffuse.json")),
+    ("shexp-wrecking", include_str!("scenes/shexp-wrecking.json")),
 ];
 
 /// The built-in scene `name`, parsed.
@@ -520,6 +562,42 @@ struct File {
     /// environment or both).
     #[serde(default)]
     environment: Option<FileEnvironment>,
+    /// Distant lighting as SH coefficients (optional; not with `environment`).
+    #[serde(default)]
+    sh_environment: Option<FileShEnvironment>,
+    /// A height field (optional).
+    #[serde(default)]
+    heightfield: Option<FileHeightField>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileShEnvironment {
+    order: usize,
+    coefficients: Vec<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileHeightField {
+    /// Samples per side.
+    size: usize,
+    /// Side of the square (centred on the origin).
+    extent: f64,
+    /// size² heights, row-major (y rows of x samples); or `procedural`.
+    #[serde(default)]
+    heights: Option<Vec<f64>>,
+    #[serde(default)]
+    procedural: Option<FileTerrain>,
+    material: FileMaterial,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileTerrain {
+    amplitude: f64,
+    octaves: u32,
+    seed: u64,
 }
 
 #[derive(Deserialize)]
@@ -699,9 +777,46 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         });
         plane_materials.push(material(&what, p.material)?);
     }
-    if f.lights.is_empty() && f.environment.as_ref().is_none_or(|e| e.sgs.is_empty()) {
+    if f.lights.is_empty() && f.environment.as_ref().is_none_or(|e| e.sgs.is_empty()) && f.sh_environment.is_none() {
         return Err(err("no lights and no environment".into()));
     }
+    if f.environment.is_some() && f.sh_environment.is_some() {
+        return Err(err(
+            "environment and sh_environment: give one distant light, not both".into()
+        ));
+    }
+    let sh_environment = match f.sh_environment {
+        None => None,
+        Some(e) => {
+            if !(1..=8).contains(&e.order) {
+                return Err(err(format!("sh_environment.order {} must lie in 1..=8", e.order)));
+            }
+            if e.coefficients.len() != e.order * e.order {
+                return Err(err(format!(
+                    "sh_environment.coefficients has {} values, order {} needs {}",
+                    e.coefficients.len(),
+                    e.order,
+                    e.order * e.order
+                )));
+            }
+            if let Some(k) = e.coefficients.iter().position(|c| !c.is_finite()) {
+                return Err(err(format!("sh_environment.coefficients[{k}] is not finite")));
+            }
+            Some(e.coefficients)
+        }
+    };
+    let heightfield = match f.heightfield {
+        None => None,
+        Some(h) => {
+            let hf = match (h.heights, h.procedural) {
+                (Some(heights), None) => HeightField::new(h.size, h.extent, heights),
+                (None, Some(p)) => HeightField::procedural(h.size, h.extent, p.amplitude, p.octaves, p.seed),
+                _ => Err("give exactly one of heights and procedural".into()),
+            }
+            .map_err(|e| err(format!("heightfield: {e}")))?;
+            Some((hf, material("heightfield", h.material)?))
+        }
+    };
     let mut environment = Vec::new();
     for (k, g) in f.environment.map(|e| e.sgs).unwrap_or_default().into_iter().enumerate() {
         let what = format!("environment.sgs[{k}]");
@@ -762,6 +877,8 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         materials,
         lights,
         environment,
+        sh_environment,
+        heightfield,
         brdf,
         camera: Camera {
             eye,

@@ -58,6 +58,12 @@ impl IsgShadeView {
         if scene.environment.is_empty() {
             return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name));
         }
+        if scene.heightfield.is_some() {
+            return Err(format!(
+                "scene {}: isg-shade's blockers are spheres (a height field is shexp-shade's)",
+                scene.name
+            ));
+        }
         let brdf = scene
             .brdf
             .as_ref()

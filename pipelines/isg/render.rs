@@ -42,6 +42,12 @@ pub fn scene(name: &str) -> Result<Scene, String> {
             scene.name
         ));
     }
+    if scene.heightfield.is_some() {
+        return Err(format!(
+            "scene {}: the ISG pipeline's blockers are spheres (a height field is the shexp pipeline's)",
+            scene.name
+        ));
+    }
     for m in &scene.materials {
         Phong::of(m).map_err(|e| format!("scene {}: {e}", scene.name))?;
     }

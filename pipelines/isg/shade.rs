@@ -13,10 +13,11 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, GAMMA_MAX, GAMMA_MIN};
-use lobefit_tables::meunier::{Brdf, Sphere};
+use lobefit_tables::meunier::Sphere;
 use lobefit_tables::SgFit;
 
 use crate::pipelines::scene::{Bvh, Hit};
+pub use crate::pipelines::sky::Phong;
 
 /// Which ISG model integrates the patches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -185,48 +186,6 @@ impl<'a> Blockers<'a> {
         match self.bvh {
             Some(b) => b.in_cone(x, axis, cone, keep),
             None => (0..self.spheres.len()).for_each(&mut keep),
-        }
-    }
-}
-
-/// The BRDF as the pipeline takes it: k_d/π + k_s (n + 2)/(2π) max(r·ω, 0)^n.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Phong {
-    /// Diffuse albedo k_d.
-    pub diffuse: f64,
-    /// Specular reflectance k_s (0: diffuse only).
-    pub specular: f64,
-    /// Phong exponent n.
-    pub exponent: f64,
-}
-
-impl Phong {
-    /// The scene material as Phong: Lambert, or Lafortune with at most one lobe of
-    /// c = (−1, −1, 1) (the mirror direction).
-    pub fn of(b: &Brdf) -> Result<Phong, String> {
-        match b {
-            Brdf::Lambert { albedo } => Ok(Phong {
-                diffuse: *albedo,
-                specular: 0.0,
-                exponent: 0.0,
-            }),
-            Brdf::Lafortune { albedo, lobes } => match lobes[..] {
-                [] => Ok(Phong {
-                    diffuse: *albedo,
-                    specular: 0.0,
-                    exponent: 0.0,
-                }),
-                [l] if l.c == DVec3::new(-1.0, -1.0, 1.0) => Ok(Phong {
-                    diffuse: *albedo,
-                    specular: l.rho * std::f64::consts::TAU / (l.exponent + 2.0),
-                    exponent: l.exponent,
-                }),
-                _ => Err(
-                    "the ISG pipeline shades Lambert or Phong materials (a Lafortune material with one \
-                          lobe of c = [-1, -1, 1])"
-                        .into(),
-                ),
-            },
         }
     }
 }

@@ -196,6 +196,13 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             )
         })?,
     };
+    if scene.heightfield.is_some() || scene.sh_environment.is_some() || !scene.environment.is_empty() {
+        return Err(format!(
+            "render meunier: scene {} has a height field or a distant light; the pipeline's blockers are \
+             spheres and its lights spherical",
+            scene.name
+        ));
+    }
     let light = match scene.lights[..] {
         [l] => l,
         _ => {

@@ -1,0 +1,208 @@
+//! `lobefit eval shexp-shade --scene FILE [--order N] [--exact]`: the SH-exponentiation
+//! pipeline at given points (no image). The scene file gives the distant light
+//! (`environment` SGs or `sh_environment`), the blockers (spheres and an optional
+//! height field) and the top-level `brdf`.
+
+use lobefit_tables::format::Threshold;
+use lobefit_tables::glam::DVec3;
+use lobefit_tables::{LoadError, LookupError, ShExp, Table};
+
+use super::shade::{radiance, Settings, Tables};
+use crate::family::{EvalFlags, Lookup, Query};
+use crate::pipelines::isg::eval::{EXACT_MAX_SAMPLES, EXACT_REL_SE, INPUTS};
+use crate::pipelines::scene::{Hit, Scene};
+use crate::pipelines::sky::Phong;
+use crate::rng::Rng;
+
+/// `eval --help`'s paragraph.
+pub const EVAL_HELP: &str = "
+shexp-shade  (a pipeline: Ren / Giraud's SH-exponentiation shading of points, docs/shexp-render.md)
+  flags    --scene FILE (required: environment SGs or sh_environment, spheres and/or heightfield, top-level
+           brdf), --order N (SH order 3..=8, default 4)
+  in   `px`,`py`,`pz`  the point (scene units); `nx`,`ny`,`nz` its unit normal; `vx`,`vy`,`vz` the unit
+                       direction towards the viewer
+  out  `radiance`      outgoing radiance (the light's units): the light times the BRDF (k_d/π + k_s (n+2)/(2π)
+                       max(r·ω,0)^n) and the clamped cosine, visible where no sphere and no terrain blocks;
+                       --exact: Monte Carlo with exact visibility (ray-sphere, and the bilinear height field
+                       exactly per cell), run until its standard error is at most 1e-3 of the estimate (at
+                       most 2^24 samples, else an error)
+";
+
+/// The `eval shexp-shade` view.
+#[derive(Clone)]
+pub struct ShExpShadeView {
+    settings: Settings,
+    scene: Scene,
+    brdf: Phong,
+    light: Vec<f64>,
+}
+
+impl ShExpShadeView {
+    /// From `eval`'s flags (`--scene` required, `--order`).
+    pub fn from_flags(flags: &EvalFlags) -> Result<Self, String> {
+        if let Some(f) = flags.given().into_iter().find(|f| !["--scene", "--order"].contains(f)) {
+            return Err(format!("shexp-shade takes no {f} flag (only --scene, --order)"));
+        }
+        let path = flags.scene.as_deref().ok_or("shexp-shade needs --scene FILE")?;
+        let scene = crate::pipelines::scene::load(path)?;
+        if scene.environment.is_empty() && scene.sh_environment.is_none() {
+            return Err(format!(
+                "scene {}: shexp-shade needs a distant light (environment or sh_environment)",
+                scene.name
+            ));
+        }
+        let brdf = scene
+            .brdf
+            .as_ref()
+            .ok_or_else(|| format!("scene {}: shexp-shade needs the top-level brdf", scene.name))?;
+        let brdf = Phong::of(brdf).map_err(|e| format!("scene {}: brdf: {e}", scene.name))?;
+        let settings = Settings {
+            order: flags.order.unwrap_or(Settings::default().order),
+            ..Settings::default()
+        };
+        settings.validate().map_err(|e| format!("--order: {e}"))?;
+        let light = super::light_sh(&scene, settings.order)?;
+        Ok(ShExpShadeView {
+            settings,
+            scene,
+            brdf,
+            light,
+        })
+    }
+
+    /// The row as a hit; the sphere the point lies on (within 1e-9 of its radius,
+    /// relative) does not occlude it.
+    fn hit(&self, x: &[f64]) -> Result<Hit, LookupError> {
+        if x.len() != 9 {
+            return Err(LookupError::Arity {
+                expected: 9,
+                got: x.len(),
+            });
+        }
+        for (name, &v) in INPUTS.iter().zip(x) {
+            if !v.is_finite() {
+                return Err(LookupError::NotFinite {
+                    name: (*name).into(),
+                    value: v,
+                });
+            }
+        }
+        let v3 = |i: usize| DVec3::new(x[i], x[i + 1], x[i + 2]);
+        let unit = |name: &str, d: DVec3| {
+            if (d.length() - 1.0).abs() <= 1e-6 {
+                Ok(d.normalize())
+            } else {
+                Err(LookupError::OutOfDomain {
+                    name: format!("|{name}| (unit within 1e-6)"),
+                    value: d.length(),
+                    lo: 1.0,
+                    hi: 1.0,
+                })
+            }
+        };
+        let (p, n, wo) = (v3(0), unit("n", v3(3))?, unit("v", v3(6))?);
+        let own = self
+            .scene
+            .spheres
+            .iter()
+            .position(|s| ((p - s.centre).length() - s.radius).abs() <= 1e-9 * s.radius.max(1.0));
+        if let Some(k) = self
+            .scene
+            .spheres
+            .iter()
+            .enumerate()
+            .position(|(i, s)| Some(i) != own && (p - s.centre).length() <= s.radius)
+        {
+            return Err(LookupError::OutOfDomain {
+                name: format!("the point's distance to sphere {k}'s centre over its radius"),
+                value: (p - self.scene.spheres[k].centre).length() / self.scene.spheres[k].radius,
+                lo: 1.0,
+                hi: f64::INFINITY,
+            });
+        }
+        Ok(Hit {
+            x: p,
+            n,
+            t: n.any_orthonormal_vector(),
+            wo,
+            sphere: own,
+            material: 0,
+        })
+    }
+}
+
+struct ShadeLookup {
+    view: ShExpShadeView,
+    tables: Tables,
+}
+
+impl Lookup for ShadeLookup {
+    fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
+        let h = self.view.hit(x)?;
+        let v = &self.view;
+        radiance(&self.tables, &v.settings, &v.light, &v.brdf, &v.scene, &h)
+            .map(|r| vec![r])
+            .map_err(|e| LookupError::Overflow {
+                name: format!("radiance ({e})"),
+                value: f64::NAN,
+            })
+    }
+}
+
+impl Query for ShExpShadeView {
+    fn kind(&self) -> &'static str {
+        lobefit_tables::shexp::KIND
+    }
+    fn thresholds(&self) -> Vec<Threshold> {
+        Vec::new()
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &INPUTS
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["radiance"]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::SHEXP
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        let mut tables = Tables::embedded().map_err(LoadError::BadMetadata)?;
+        tables.shexp = ShExp::from_table(table)?;
+        Ok(Box::new(ShadeLookup {
+            view: self.clone(),
+            tables,
+        }))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let h = self.hit(x).map_err(|e| e.to_string())?;
+        // Seeded by the row, so the same row gives the same answer.
+        let seed = x.iter().fold(0x5eed_5e40_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
+        let scene = &self.scene;
+        let mut n = 1 << 14;
+        loop {
+            let e = super::reference(scene, |w| super::light(scene, w), &self.brdf, &h, n, seed);
+            if e.std_error <= EXACT_REL_SE * e.mean.abs() || (e.mean == 0.0 && e.std_error == 0.0) {
+                return Ok(vec![e.mean]);
+            }
+            if n >= EXACT_MAX_SAMPLES {
+                return Err(format!(
+                    "the Monte Carlo reference did not reach a standard error of {EXACT_REL_SE:e} of its estimate \
+                     within {EXACT_MAX_SAMPLES} samples ({:.4e} ± {:.1e})",
+                    e.mean, e.std_error
+                ));
+            }
+            n *= 4;
+        }
+    }
+    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
+        // A point on the terrain (or the z = 0 plane without one), seen from above.
+        let (x, y) = (rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
+        let (z, n) = match &self.scene.heightfield {
+            Some((hf, _)) => (hf.height(x, y).unwrap_or(0.0), hf.normal(x, y).unwrap_or(DVec3::Z)),
+            None => (0.0, DVec3::Z),
+        };
+        let a = rng.range(0.0, std::f64::consts::TAU);
+        let v = DVec3::new(0.6 * a.cos(), 0.6 * a.sin(), 0.8);
+        vec![x, y, z, n.x, n.y, n.z, v.x, v.y, v.z]
+    }
+}
