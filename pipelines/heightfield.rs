@@ -590,15 +590,20 @@ impl HeightField {
                 continue;
             }
             let zi = lift.map_or(z, |l| level.sample(x, y, half) + l);
-            omega[i] = ((level.sample(qx, qy, half) - zi) / tau).atan();
+            // The slope; atan (monotonic) only where the spline needs angles, below.
+            omega[i] = (level.sample(qx, qy, half) - zi) / tau;
             first = first.min(i);
             last = i;
         }
         if first == usize::MAX {
             return -FRAC_PI_2;
         }
+        let b = (first..=last).fold(first, |b, i| if omega[i] > omega[b] { i } else { b });
+        for w in &mut omega[b.saturating_sub(2).max(first)..=(b + 2).min(last)] {
+            *w = w.atan();
+        }
         let run = &omega[first..=last];
-        let b = (0..run.len()).fold(0, |b, i| if run[i] > run[b] { i } else { b });
+        let b = b - first;
         let at = |i: isize| run[i.clamp(0, run.len() as isize - 1) as usize];
         let b = b as isize;
         let mut sigma = run[b as usize];

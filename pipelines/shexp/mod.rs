@@ -50,3 +50,199 @@ pub fn light_sh(scene: &Scene, order: usize) -> Result<Vec<f64>, String> {
 pub fn reference(scene: &Scene, light: impl Fn(DVec3) -> f64, brdf: &Phong, h: &Hit, n: usize, seed: u64) -> Estimate {
     reference_with(&scene.environment, light, brdf, |v| scene.occluded(h, v), h, n, seed)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::PI;
+
+    use lobefit_tables::glam::DVec3;
+
+    use super::shade::{radiance, sh_value, Settings, Tables};
+    use super::*;
+    use crate::pipelines::scene::parse;
+
+    /// A scene with the whale's sky, `spheres` and `heightfield` (JSON), diffuse.
+    fn scene_with(spheres: &str, heightfield: Option<&str>) -> Scene {
+        let whale: serde_json::Value = serde_json::from_str(
+            crate::pipelines::scene::BUILTIN
+                .iter()
+                .find(|(n, _)| *n == "shexp-whale")
+                .unwrap()
+                .1,
+        )
+        .unwrap();
+        let hf = heightfield.map_or(String::new(), |h| format!(",\"heightfield\":{h}"));
+        let text = format!(
+            "{{\"version\":1,\"environment\":{},\"spheres\":{spheres},\"brdf\":{{\"lambert\":{{\"albedo\":1.0}}}}{hf}}}",
+            whale["environment"]
+        );
+        parse("test", &text).unwrap()
+    }
+
+    fn hit(x: DVec3, n: DVec3) -> Hit {
+        Hit {
+            x,
+            n,
+            t: n.any_orthonormal_vector(),
+            wo: n,
+            sphere: None,
+            material: 0,
+        }
+    }
+
+    /// ∫ L₄(ω) max(n·ω, 0)/π dω by Funk–Hecke, with 2π ∫₀¹ t P_l(t) dt by Simpson's rule
+    /// (exact for these polynomials) and P_l by its recurrence: independent of the SH
+    /// routines but for the light's coefficients.
+    fn diffuse_closed_form(light: &[f64], n: DVec3) -> f64 {
+        let order = (light.len() as f64).sqrt() as usize;
+        let legendre = |l: usize, t: f64| {
+            let (mut p0, mut p1) = (1.0, t);
+            if l == 0 {
+                return 1.0;
+            }
+            for k in 1..l {
+                let p2 = ((2 * k + 1) as f64 * t * p1 - k as f64 * p0) / (k + 1) as f64;
+                (p0, p1) = (p1, p2);
+            }
+            p1
+        };
+        let steps = 2000;
+        let mut total = 0.0;
+        for l in 0..order {
+            let h = 1.0 / steps as f64;
+            let f = |t: f64| t * legendre(l, t);
+            let simpson: f64 = (0..steps)
+                .map(|k| {
+                    let a = k as f64 * h;
+                    h / 6.0 * (f(a) + 4.0 * f(a + h / 2.0) + f(a + h))
+                })
+                .sum();
+            let kernel = 2.0 * PI * simpson / PI;
+            // The band's part of L₄ at n: Σ_m L_lm y_lm(n) = (L₄ restricted to band l)(n).
+            let mut band = vec![0.0; light.len()];
+            band[l * l..(l + 1) * (l + 1)].copy_from_slice(&light[l * l..(l + 1) * (l + 1)]);
+            total += kernel * sh_value(&band, n);
+        }
+        total
+    }
+
+    /// The SH-ideal render (the shared estimator with the light at order 4) at an
+    /// unoccluded Lambertian point equals the closed form within 4 standard errors.
+    #[test]
+    fn sh_ideal_matches_funk_hecke() {
+        let scene = scene_with("[]", None);
+        let light = light_sh(&scene, 4).unwrap();
+        let brdf = Phong::of(scene.brdf.as_ref().unwrap()).unwrap();
+        for n in [
+            DVec3::Z,
+            DVec3::new(0.6, 0.0, 0.8),
+            DVec3::new(-0.3, 0.5, 0.81).normalize(),
+        ] {
+            let h = hit(DVec3::ZERO, n);
+            let e = reference(&scene, |w| sh_value(&light, w), &brdf, &h, 40_000, 11);
+            let want = diffuse_closed_form(&light, n);
+            assert!(
+                (e.mean - want).abs() < 4.0 * e.std_error && e.std_error < 0.01 * want,
+                "n {n}: {e:?} vs {want}"
+            );
+        }
+    }
+
+    /// Without blockers the pipeline's only approximation is the log-space diffuse lobe
+    /// (HYB of the ε-floored log of max(cos, 0)/π, ε = 0.01, turned to the normal):
+    /// within 8 % of the closed form at order 4 (measured: −2.5 %, +0.7 %, −6.2 % at
+    /// the three normals — the lobe's bands 2–3 are off, which a light away from the
+    /// normal sees).
+    #[test]
+    fn unoccluded_pipeline_against_funk_hecke() {
+        let scene = scene_with("[]", None);
+        let light = light_sh(&scene, 4).unwrap();
+        let brdf = Phong::of(scene.brdf.as_ref().unwrap()).unwrap();
+        let t = Tables::embedded().unwrap();
+        for n in [
+            DVec3::Z,
+            DVec3::new(0.6, 0.0, 0.8),
+            DVec3::new(-0.3, 0.5, 0.81).normalize(),
+        ] {
+            let h = hit(DVec3::ZERO, n);
+            let p = radiance(&t, &Settings::default(), &light, &brdf, &scene, &h).unwrap();
+            let want = diffuse_closed_form(&light, n);
+            assert!((p / want - 1.0).abs() < 0.08, "n {n}: {p} vs {want}");
+        }
+    }
+
+    /// One sphere blocker (angular radius 23.6°) between the point and the sun: the
+    /// pipeline at its defaults against the SH-ideal render (exact visibility) within
+    /// 10 % of the unoccluded radiance (measured: 8.6 %, attenuation under-darkens a
+    /// near blocker; mirrored 1.4 %), and the blocker on the sun's side at least 10 %
+    /// darker than mirrored away from it (measured 13 %; the SH-ideal 23 %): a wrongly
+    /// turned blocker fails.
+    #[test]
+    fn one_blocker_against_exact_visibility() {
+        let sun = DVec3::new(0.5, -0.35, 0.79).normalize();
+        let t = Tables::embedded().unwrap();
+        let mut got = Vec::new();
+        for side in [1.0, -1.0] {
+            let c = DVec3::new(side * sun.x, side * sun.y, sun.z) * 2.0;
+            let scene = scene_with(
+                &format!(
+                    "[{{\"centre\":[{},{},{}],\"radius\":0.8,\"material\":{{\"lambert\":{{\"albedo\":0.5}}}}}}]",
+                    c.x, c.y, c.z
+                ),
+                None,
+            );
+            let light = light_sh(&scene, 4).unwrap();
+            let brdf = Phong::of(scene.brdf.as_ref().unwrap()).unwrap();
+            let h = hit(DVec3::ZERO, DVec3::Z);
+            let p = radiance(&t, &Settings::default(), &light, &brdf, &scene, &h).unwrap();
+            let e = reference(&scene, |w| sh_value(&light, w), &brdf, &h, 40_000, 5);
+            got.push((p, e.mean));
+        }
+        let open = diffuse_closed_form(&light_sh(&scene_with("[]", None), 4).unwrap(), DVec3::Z);
+        for (p, ideal) in &got {
+            assert!((p - ideal).abs() < 0.10 * open, "{got:?}, open {open}");
+        }
+        assert!(got[1].0 - got[0].0 > 0.10 * open, "{got:?}, open {open}");
+    }
+
+    /// A height field with a wall on the sun's side (x > 0.5 rises to 3, a horizon of
+    /// 80°), the pipeline at the foot of the wall with ε = 0.1 for the terrain (the
+    /// default 0.5, chosen on the shipped gentle terrain, under-darkens a wall: 1.24 vs
+    /// 0.79): against the SH-ideal render within 8 % of the unoccluded radiance
+    /// (measured: 1.6 % on the sun's side, 6.0 % with the wall opposite), and the
+    /// sun-side wall at least 25 % darker (measured 34 %): the wedges' frame.
+    #[test]
+    fn terrain_wall_against_exact_visibility() {
+        let t = Tables::embedded().unwrap();
+        let n = 33;
+        let settings = Settings {
+            eps_terrain: 0.1,
+            ..Settings::default()
+        };
+        let mut got = Vec::new();
+        for side in [1.0, -1.0] {
+            let heights: Vec<String> = (0..n * n)
+                .map(|k| {
+                    let x = -4.0 + 8.0 * (k % n) as f64 / (n - 1) as f64;
+                    format!("{}", if side * x > 0.5 { 3.0 } else { 0.0 })
+                })
+                .collect();
+            let hf = format!(
+                "{{\"size\":{n},\"extent\":8.0,\"heights\":[{}],\"material\":{{\"lambert\":{{\"albedo\":0.5}}}}}}",
+                heights.join(",")
+            );
+            let scene = scene_with("[]", Some(&hf));
+            let light = light_sh(&scene, 4).unwrap();
+            let brdf = Phong::of(scene.brdf.as_ref().unwrap()).unwrap();
+            let h = hit(DVec3::ZERO, DVec3::Z);
+            let p = radiance(&t, &settings, &light, &brdf, &scene, &h).unwrap();
+            let e = reference(&scene, |w| sh_value(&light, w), &brdf, &h, 40_000, 5);
+            got.push((p, e.mean));
+        }
+        let open = diffuse_closed_form(&light_sh(&scene_with("[]", None), 4).unwrap(), DVec3::Z);
+        for (p, ideal) in &got {
+            assert!((p - ideal).abs() < 0.08 * open, "{got:?}, open {open}");
+        }
+        assert!(got[1].0 - got[0].0 > 0.25 * open, "{got:?}, open {open}");
+    }
+}

@@ -183,6 +183,13 @@ fn render_scene(
             },
         ),
         one(
+            "terrain above tangent",
+            Settings {
+                terrain_above_tangent: true,
+                ..default
+            },
+        ),
+        one(
             "no attenuation",
             Settings {
                 attenuation: false,

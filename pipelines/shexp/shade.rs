@@ -8,9 +8,10 @@
 //! horizon), the wedge count, HYB (→ exp* by its Taylor series), the log-space BRDF
 //! (→ the triple product of exp*(visibility) with the BRDF × cosine projected exactly).
 
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use lobefit_tables::glam::DVec3;
+use lobefit_tables::wedge::slice_log;
 use lobefit_tables::{log_zh, sh as rt, ShExp, Wedge};
 
 use crate::pipelines::scene::{Hit, Scene};
@@ -70,6 +71,10 @@ pub struct Settings {
     pub eps_vis: f64,
     /// Floor ε of the height field's log visibility (the wedges).
     pub eps_terrain: f64,
+    /// The height field blocks only between the point's tangent plane and its horizon
+    /// in each azimuth (below the tangent plane the BRDF's own log lobe is already
+    /// ln ε); off: everything below the horizon (Giraud).
+    pub terrain_above_tangent: bool,
     /// Floor ε of the log-ZH BRDF lobes.
     pub eps_brdf: f64,
     /// Blocker logs.
@@ -92,6 +97,7 @@ impl Default for Settings {
             horizon: Horizon::Pyramid,
             eps_vis: 0.1,
             eps_terrain: 0.5,
+            terrain_above_tangent: false,
             eps_brdf: 0.01,
             blocker_log: BlockerLog::Eps,
             attenuation: true,
@@ -181,18 +187,28 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
     let nc = n * n;
     let mut f = vec![0.0; nc];
     if let Some((hf, _)) = &scene.heightfield {
-        let sigma: Vec<f64> = (0..s.wedges)
-            .map(|k| {
-                let phi = TAU * k as f64 / s.wedges as f64;
-                match s.horizon {
-                    Horizon::Exact => hf.horizon_exact(h.x.x, h.x.y, h.x.z, phi),
-                    Horizon::Pyramid => hf.horizon_pyramid(h.x.x, h.x.y, h.x.z, phi),
-                }
-            })
-            .collect();
-        t.wedge
-            .compose(&sigma, s.eps_terrain, n, &mut f)
-            .map_err(|e| e.to_string())?;
+        let w = s.wedges as usize;
+        let mut slices = vec![0.0; w * n];
+        let mut low = [0.0; 8];
+        for (k, slice) in slices.chunks_exact_mut(n).enumerate() {
+            let phi = TAU * k as f64 / w as f64;
+            let sigma = match s.horizon {
+                Horizon::Exact => hf.horizon_exact(h.x.x, h.x.y, h.x.z, phi),
+                Horizon::Pyramid => hf.horizon_pyramid(h.x.x, h.x.y, h.x.z, phi),
+            };
+            if s.terrain_above_tangent {
+                // The tangent plane's elevation in this azimuth: n·d = 0 for
+                // d = (cos e cos φ, cos e sin φ, sin e).
+                let (sp, cp) = phi.sin_cos();
+                let beta = (-(h.n.x * cp + h.n.y * sp)).atan2(h.n.z).clamp(-FRAC_PI_2, FRAC_PI_2);
+                slice_log(sigma.max(beta), s.eps_terrain, n, slice).map_err(|e| e.to_string())?;
+                slice_log(beta, s.eps_terrain, n, &mut low).map_err(|e| e.to_string())?;
+                slice.iter_mut().zip(&low).for_each(|(a, b)| *a -= b);
+            } else {
+                slice_log(sigma, s.eps_terrain, n, slice).map_err(|e| e.to_string())?;
+            }
+        }
+        t.wedge.compose_slices(&slices, n, &mut f).map_err(|e| e.to_string())?;
     }
     let mut zh = [0.0; 8];
     let mut turned = [0.0; rt::MAX_COEFFS];

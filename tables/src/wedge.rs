@@ -20,7 +20,10 @@
 //! ~1e-15 relative precision.
 //!
 //! **Composition** ([`Wedge::compose`]): V = Σ_k Rot_z(V_k, φ_k), the log-SH
-//! visibility of the whole height field at a point, from its W horizon angles.
+//! visibility of the whole height field at a point, from its W horizon angles. It is
+//! linear in the slices: V = Σ_k C_k v_k with C_k = Rot_z(φ_k) M_a + Rot_z(φ_{k−1}) M_b
+//! (M_a, M_b the halves of M_lin), so the W operators C_k (n² × n each) are built once
+//! per (W, n) and a composition is W small matrix–vector products, no trigonometry.
 //! All SH conventions are those of [`crate::sh`].
 
 use std::f64::consts::PI;
@@ -135,6 +138,9 @@ pub struct Wedge {
     table: Table,
     /// Decoded operators, [w][row][col] flattened, f64.
     m: Vec<f64>,
+    /// The composition's per-slice operators C_k for each (W index, order − 1), built on
+    /// first use: [k][row][j] flattened (W × n² × n).
+    composed: [[std::sync::OnceLock<Vec<f64>>; MAX_ORDER]; WEDGE_COUNTS.len()],
 }
 
 crate::table_type::impl_table_type!(Wedge: KIND, VERSION);
@@ -162,7 +168,38 @@ impl Wedge {
             .chunks_exact(2)
             .map(|c| c[0] as f64 + c[1] as f64)
             .collect();
-        Ok(Self { table, m })
+        Ok(Self {
+            table,
+            m,
+            composed: Default::default(),
+        })
+    }
+
+    /// The per-slice operators C_k of the composition for W = `w` (index `wi`) at order
+    /// `n`: C_k = Rot_z(φ_k) M_a + Rot_z(φ_{k−1}) M_b, [k][row][j] flattened.
+    fn slice_operators(&self, wi: usize, w: usize, n: usize) -> Result<&[f64], LookupError> {
+        if let Some(c) = self.composed[wi][n - 1].get() {
+            return Ok(c);
+        }
+        let nc = n * n;
+        let dphi = 2.0 * PI / w as f64;
+        // Rot_z(φ) applied to a column of M_a or M_b.
+        let mut built = vec![0.0; w * nc * n];
+        let (mut col, mut turned) = ([0.0; sh::MAX_COEFFS], [0.0; sh::MAX_COEFFS]);
+        for k in 0..w {
+            for (half, wedge) in [(0, k), (MAX_ORDER, (k + w - 1) % w)] {
+                for j in 0..n {
+                    for (row, c) in col.iter_mut().take(nc).enumerate() {
+                        *c = self.m[(wi * ROWS as usize + row) * COLS as usize + half + j];
+                    }
+                    sh::rotate_z(&col[..nc], wedge as f64 * dphi, &mut turned[..nc])?;
+                    for row in 0..nc {
+                        built[(k * nc + row) * n + j] += turned[row];
+                    }
+                }
+            }
+        }
+        Ok(self.composed[wi][n - 1].get_or_init(|| built))
     }
 
     fn w_index(w: u32) -> Result<usize, LookupError> {
@@ -249,26 +286,54 @@ impl Wedge {
                 what: "SH coefficients",
             });
         }
-        let mut slices = Vec::with_capacity(sigma.len());
-        for &s in sigma {
+        let mut slices = [0.0; 64 * MAX_ORDER];
+        for (k, &s) in sigma.iter().enumerate() {
             finite("sigma", s)?;
-            let mut v = [0.0; MAX_ORDER];
-            slice_log(s, eps, n, &mut v)?;
-            slices.push(v);
+            slice_log(s, eps, n, &mut slices[k * n..(k + 1) * n])?;
         }
-        out[..n * n].iter_mut().for_each(|o| *o = 0.0);
-        let dphi = 2.0 * PI / w as f64;
-        let mut canon = [0.0; sh::MAX_COEFFS];
-        let mut turned = [0.0; sh::MAX_COEFFS];
-        for k in 0..sigma.len() {
-            let next = (k + 1) % sigma.len();
-            self.wedge(w, &slices[k][..n], &slices[next][..n], &mut canon[..n * n])?;
-            sh::rotate_z(&canon[..n * n], k as f64 * dphi, &mut turned[..n * n])?;
-            for (o, t) in out.iter_mut().zip(&turned[..n * n]) {
-                *o += t;
+        self.compose_slices(&slices[..sigma.len() * n], n, out)
+    }
+
+    /// [`Wedge::compose`] from the W slice vectors themselves (`slices[k·n..(k+1)·n]` is
+    /// slice k's NLP vector, W = `slices.len()`/n ∈ {4, …, 64}): any log-visibility
+    /// that is a function of the elevation in each azimuth, e.g. [`slice_log`] of the
+    /// horizon minus [`slice_log`] of a lower bound (blocked only between the two).
+    pub fn compose_slices(&self, slices: &[f64], order: usize, out: &mut [f64]) -> Result<(), LookupError> {
+        let n = sh::check_order(order)?;
+        let w = slices.len() / n;
+        let wi = Self::w_index(w as u32)?;
+        if slices.len() != w * n {
+            return Err(LookupError::Coefficients {
+                name: "slices",
+                got: slices.len(),
+                expected: format!("W × {n} (W wedges, {n} per slice)"),
+            });
+        }
+        if out.len() < n * n {
+            return Err(LookupError::Output {
+                got: out.len(),
+                needed: n * n,
+                what: "SH coefficients",
+            });
+        }
+        for &v in slices {
+            finite("slice coefficient", v)?;
+        }
+        let c = self.slice_operators(wi, w, n)?;
+        let nc = n * n;
+        out[..nc].iter_mut().for_each(|o| *o = 0.0);
+        for (k, v) in slices.chunks_exact(n).enumerate() {
+            let ck = &c[k * nc * n..(k + 1) * nc * n];
+            for (row, o) in out.iter_mut().take(nc).enumerate() {
+                *o += ck[row * n..(row + 1) * n]
+                    .iter()
+                    .zip(v)
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>();
             }
         }
-        Ok(())
+        // Huge finite slices can overflow the sums.
+        crate::error::finite_results("V (log-SH visibility)", &out[..nc])
     }
 
     /// [`Wedge::compose`] with an f32 interface (computed in f64, rounded once).
