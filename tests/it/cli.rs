@@ -586,7 +586,7 @@ fn eval_help_lists_every_column() {
         .map(|n| {
             (
                 n,
-                if n == "isg-shade" {
+                if n == "isg-shade" || n == "shexp-shade" {
                     with_scene.clone()
                 } else {
                     EvalFlags::default()

@@ -1,0 +1,201 @@
+//! The SH-exponentiation pipeline end to end: `render shexp` on a tiny image (figures,
+//! summary, thread independence), `eval shexp-shade` against its own `--exact` Monte
+//! Carlo reference, and specific errors for bad scenes and flags.
+
+use crate::common;
+
+fn render(dir: &std::path::Path, threads: &str) -> String {
+    let (code, stdout, err) = common::run_text(
+        &[
+            "render",
+            "shexp",
+            "--scene",
+            "whale",
+            "--width",
+            "16",
+            "--spp",
+            "16",
+            "--breakdown-stride",
+            "4",
+            "--threads",
+            threads,
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    stdout
+}
+
+#[test]
+fn tiny_render_writes_figures_and_is_thread_independent() {
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    let keep = |s: &str| -> Vec<String> {
+        s.lines()
+            .filter(|l| !l.contains("µs") && !l.starts_with('/'))
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(keep(&render(a.path(), "1")), keep(&render(b.path(), "2")));
+    for fig in ["images", "error"] {
+        let bytes = std::fs::read(a.path().join(format!("shexp-whale-{fig}.png"))).unwrap();
+        assert_eq!(&bytes[..4], b"\x89PNG");
+    }
+    for img in ["shexp", "reference", "error", "sh-ideal"] {
+        let bytes = std::fs::read(a.path().join(format!("shexp-whale-{img}.pfm"))).unwrap();
+        assert!(bytes.starts_with(b"Pf\n16 12\n-1.0\n") && bytes.len() == 14 + 16 * 12 * 4);
+    }
+    let summary = std::fs::read_to_string(a.path().join("shexp-whale-summary.txt")).unwrap();
+    for what in [
+        "SH-ideal",
+        "8 wedges",
+        "exact horizon",
+        "Ren's blocker log",
+        "exact exp*",
+        "error breakdown",
+        "the band limit",
+        "ratio reference/pipeline",
+    ] {
+        assert!(summary.contains(what), "{what}: {summary}");
+    }
+}
+
+/// The whale scene with a small terrain (33², for debug speed) and `edit` applied.
+fn scene_file(dir: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) -> String {
+    let text = lobefit::pipelines::scene::BUILTIN
+        .iter()
+        .find(|(n, _)| *n == "shexp-whale")
+        .unwrap()
+        .1;
+    let mut v: serde_json::Value = serde_json::from_str(text).unwrap();
+    v["heightfield"]["size"] = 33.into();
+    edit(&mut v);
+    let p = dir.join("scene.json");
+    std::fs::write(&p, v.to_string()).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+/// Points on the terrain under and away from the whale: the pipeline within 20 % of
+/// the Monte Carlo reference (exact visibility, standard error ≤ 1e-3 of the estimate;
+/// independent code but for the light and BRDF definitions). The pipeline's own error
+/// with the band limit is several per cent on average and up to tens of per cent at
+/// single points (docs/shexp-render.md): measured here −11.0 %, −0.0 %, −14.3 % on this
+/// coarse 33² terrain. A bound that catches a broken pipeline, not a promise.
+#[test]
+fn eval_shexp_shade_against_its_exact_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(dir.path(), |_| {});
+    let hf = lobefit::pipelines::scene::load(&scene).unwrap().heightfield.unwrap().0;
+    let mut rows = String::from("px,py,pz,nx,ny,nz,vx,vy,vz\n");
+    for (x, y) in [(-0.5, 0.1), (1.2, -0.4), (-2.5, 2.0)] {
+        let (z, n) = (hf.height(x, y).unwrap(), hf.normal(x, y).unwrap());
+        rows += &format!("{x},{y},{z},{},{},{},0,-0.6,0.8\n", n.x, n.y, n.z);
+    }
+    let col = |out: &str| -> Vec<f64> {
+        out.lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let (c1, fast, e1) = common::run_text(&["eval", "shexp-shade", "--scene", &scene], &rows);
+    let (c2, exact, e2) = common::run_text(&["eval", "shexp-shade", "--scene", &scene, "--exact"], &rows);
+    assert_eq!((c1, c2), (Some(0), Some(0)), "{e1}{e2}");
+    for (p, r) in col(&fast).into_iter().zip(col(&exact)) {
+        assert!((p / r - 1.0).abs() < 0.20, "pipeline {p} vs reference {r}");
+    }
+}
+
+/// Bad scenes name the key; bad flags and rows are specific errors.
+#[test]
+fn bad_scenes_flags_and_rows_are_specific_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let row = "px,py,pz,nx,ny,nz,vx,vy,vz\n0,0,3,0,0,1,0,0,1\n";
+    type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+    let cases: Vec<(Edit, &str)> = vec![
+        (Box::new(|v| v["heightfield"]["size"] = 1.into()), "heightfield"),
+        (
+            Box::new(|v| v["heightfield"]["heights"] = serde_json::json!([0.0, 1.0])),
+            "exactly one of heights and procedural",
+        ),
+        (
+            Box::new(|v| {
+                v["heightfield"]["procedural"] = serde_json::Value::Null;
+                v["heightfield"]["heights"] = serde_json::json!([0.0, 1.0, 2.0]);
+            }),
+            "heightfield",
+        ),
+        (
+            Box::new(|v| v["heightfield"]["procedural"]["amplitude"] = (-1.0).into()),
+            "amplitude",
+        ),
+        (Box::new(|v| v["heightfield"]["colour"] = 1.into()), "colour"),
+        (
+            Box::new(|v| v["sh_environment"] = serde_json::json!({"order": 2, "coefficients": [1.0, 0.0, 0.0, 0.0]})),
+            "environment and sh_environment",
+        ),
+        (
+            Box::new(|v| {
+                v.as_object_mut().unwrap().remove("environment");
+                v["sh_environment"] = serde_json::json!({"order": 2, "coefficients": [1.0, 0.0]});
+            }),
+            "sh_environment.coefficients has 2 values, order 2 needs 4",
+        ),
+        (
+            Box::new(|v| {
+                v.as_object_mut().unwrap().remove("environment");
+                v["sh_environment"] = serde_json::json!({"order": 9, "coefficients": []});
+            }),
+            "sh_environment.order 9",
+        ),
+        (
+            Box::new(|v| v["spheres"][3]["radius"] = (-0.2).into()),
+            "spheres[3].radius",
+        ),
+    ];
+    for (edit, want) in cases {
+        let scene = scene_file(dir.path(), edit);
+        let (code, _, err) = common::run_text(&["eval", "shexp-shade", "--scene", &scene], row);
+        assert_eq!(code, Some(1), "{want}");
+        assert!(err.contains(want), "{want}: {err}");
+    }
+    let scene = scene_file(dir.path(), |_| {});
+    for (args, rows, want) in [
+        (vec!["eval", "shexp-shade"], row, "needs --scene"),
+        (
+            vec!["eval", "shexp-shade", "--scene", &scene, "--order", "2"],
+            row,
+            "--order",
+        ),
+        (
+            vec!["eval", "shexp-shade", "--scene", &scene, "--patches", "3"],
+            row,
+            "no --patches",
+        ),
+        (
+            vec!["eval", "shexp-shade", "--scene", &scene],
+            "px,py,pz,nx,ny,nz,vx,vy,vz\n0,0,3,0,0,2,0,0,1\n",
+            "|n|",
+        ),
+        (
+            vec!["eval", "shexp-shade", "--scene", &scene],
+            "px,py,pz,nx,ny,nz,vx,vy,vz\nNaN,0,3,0,0,1,0,0,1\n",
+            "px",
+        ),
+        (
+            // Inside the whale's first sphere.
+            vec!["eval", "shexp-shade", "--scene", &scene],
+            "px,py,pz,nx,ny,nz,vx,vy,vz\n-1.8,0,3.1,0,0,1,0,0,1\n",
+            "sphere 0",
+        ),
+    ] {
+        let (code, _, err) = common::run_text(&args, rows);
+        assert_eq!(code, Some(1), "{want}");
+        assert!(err.contains(want), "{want}: {err}");
+    }
+    // The ISG pipeline refuses a height field by name.
+    let (code, _, err) = common::run_text(&["eval", "isg-shade", "--scene", &scene], row);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("height field"), "{err}");
+}
