@@ -26,6 +26,9 @@ use crate::pipelines::{RenderOptions, Summary};
 /// The breakdown subset's reference takes this many times the image's samples.
 pub const PRECISE_FACTOR: usize = 64;
 
+/// Orders besides the default the breakdown's pixels are also shaded at.
+pub const HIGHER_ORDERS: [usize; 2] = [6, 8];
+
 /// Seed of the reference's per-pixel samples.
 pub const MC_SEED: u64 = 0x5eed_0025;
 
@@ -304,6 +307,13 @@ fn render_scene(
         ..exact_exp
     });
     let ns = stages.len();
+    let higher: Vec<(Settings, Vec<f64>)> = HIGHER_ORDERS
+        .iter()
+        .map(|&order| {
+            let s = Settings { order, ..default };
+            light_sh(scene, order).map(|l| (s, l))
+        })
+        .collect::<Result<_, _>>()?;
     let parts: Vec<Vec<f64>> = picks
         .par_iter()
         .map(|&p| {
@@ -318,6 +328,12 @@ fn render_scene(
             let ideal = reference(scene, banded, &brdf, &hit, n, seed);
             let precise = reference(scene, full, &brdf, &hit, n, seed);
             v.extend([ideal.mean, precise.mean, precise.std_error, ideal.std_error]);
+            // Higher orders: the pipeline (defaults) and SH-ideal at each.
+            for (s, light) in &higher {
+                v.push(radiance(&tables, s, light, &brdf, scene, &hit)?);
+                let e = reference(scene, |w| sh_value(light, w), &brdf, &hit, n, seed);
+                v.extend([e.mean, e.std_error]);
+            }
             Ok(v)
         })
         .collect::<Result<_, String>>()?;
@@ -352,6 +368,18 @@ fn render_scene(
         st_ideal.rel_rmse,
         if vs_ideal <= st_ideal.rel_rmse { "met" } else { "not met" }
     ));
+    for (k, (s, _)) in higher.iter().enumerate() {
+        let base = ns + 4 + 3 * k;
+        let (pipe, ideal, ideal_se) = (col(base), col(base + 1), col(base + 2));
+        let band = compare(&ideal, &precise, &sub_mask);
+        sum.lines.push(format!(
+            "{tag}:   order {}: pipeline against the reference {:.4}, SH-ideal against the reference (band limit) {:.4}, pipeline against SH-ideal {:.4}",
+            s.order,
+            compare(&pipe, &precise, &sub_mask).rel_rmse,
+            band.rel_rmse,
+            noise_free_rel_rmse(&pipe, &ideal, &ideal_se, &sub_mask)
+        ));
+    }
     let names = [
         "pyramid horizon (→ the exact horizon)",
         "16 wedges (→ 64)",
