@@ -245,4 +245,34 @@ mod tests {
         }
         assert!(got[1].0 - got[0].0 > 0.25 * open, "{got:?}, open {open}");
     }
+
+    /// A scene whose light is given as SH coefficients (`sh_environment`, the whale's
+    /// sky projected to order 4) shades and references exactly as the SG scene's
+    /// band-limited light: the same pipeline radiance, and the reference with the SH
+    /// light equal to the SG scene's SH-ideal render sample for sample.
+    #[test]
+    fn an_sh_environment_is_the_projected_light() {
+        let sgs = scene_with("[]", None);
+        let light = light_sh(&sgs, 4).unwrap();
+        let coefficients: Vec<String> = light.iter().map(|c| format!("{c:e}")).collect();
+        let text = format!(
+            "{{\"version\":1,\"sh_environment\":{{\"order\":4,\"coefficients\":[{}]}},\"brdf\":{{\"lambert\":{{\"albedo\":1.0}}}}}}",
+            coefficients.join(",")
+        );
+        let sh = parse("sh", &text).unwrap();
+        assert_eq!(light_sh(&sh, 4).unwrap(), light);
+        let brdf = Phong::of(sh.brdf.as_ref().unwrap()).unwrap();
+        let t = Tables::embedded().unwrap();
+        let h = hit(DVec3::ZERO, DVec3::new(0.6, 0.0, 0.8));
+        let a = radiance(&t, &Settings::default(), &light_sh(&sh, 4).unwrap(), &brdf, &sh, &h).unwrap();
+        let b = radiance(&t, &Settings::default(), &light, &brdf, &sgs, &h).unwrap();
+        assert_eq!(a, b);
+        let ra = reference(&sh, |w| super::light(&sh, w), &brdf, &h, 2000, 3);
+        let rb = crate::pipelines::sky::reference_with(&[], |w| sh_value(&light, w), &brdf, |_| false, &h, 2000, 3);
+        assert_eq!(ra.mean, rb.mean);
+        // Truncated to order 3 and padded to 5.
+        assert_eq!(light_sh(&sh, 3).unwrap(), light[..9].to_vec());
+        assert_eq!(light_sh(&sh, 5).unwrap()[..16], light[..]);
+        assert!(light_sh(&sh, 5).unwrap()[16..].iter().all(|&c| c == 0.0));
+    }
 }
