@@ -175,6 +175,26 @@ impl Gpu {
         count: usize,
         n_out: usize,
     ) -> Result<Vec<f32>, String> {
+        let mut textures = vec![(params, texture)];
+        textures.extend(second);
+        self.run_textures(source, &textures, inputs, count, n_out)
+    }
+
+    /// [`Gpu::run`] with any number of textures (at least one), each with its uniform
+    /// parameters: the first at bindings 0 and 1, texture k ≥ 1 at 4 + 2k (the uniform)
+    /// and 5 + 2k (the texture); all of one filterability (one sampler).
+    pub fn run_textures(
+        &self,
+        source: &str,
+        textures: &[(&[u8], &GpuTexture)],
+        inputs: &[f32],
+        count: usize,
+        n_out: usize,
+    ) -> Result<Vec<f32>, String> {
+        let Some(&(params, texture)) = textures.first() else {
+            return Err("run_textures: no texture".into());
+        };
+        let extra = &textures[1..];
         let d = &self.device;
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -229,12 +249,12 @@ impl Gpu {
             entry(4, storage(false)),
             entry(5, uniform),
         ];
-        if let Some((_, t2)) = second {
-            if t2.filterable != texture.filterable {
-                return Err("run_with: the two textures differ in filterability".into());
+        for (k, (_, t)) in (1u32..).zip(extra) {
+            if t.filterable != texture.filterable {
+                return Err("run_textures: the textures differ in filterability".into());
             }
-            layout_entries.push(entry(6, uniform));
-            layout_entries.push(entry(7, tex_entry(t2)));
+            layout_entries.push(entry(4 + 2 * k, uniform));
+            layout_entries.push(entry(5 + 2 * k, tex_entry(t)));
         }
         let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: None,
@@ -298,13 +318,16 @@ impl Gpu {
             contents: bytemuck::cast_slice(&[count as u32, 0, 0, 0]),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let params2_buf = second.map(|(p2, _)| {
-            d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: None,
-                contents: p2,
-                usage: wgpu::BufferUsages::UNIFORM,
+        let extra_bufs: Vec<wgpu::Buffer> = extra
+            .iter()
+            .map(|(p, _)| {
+                d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: None,
+                    contents: p,
+                    usage: wgpu::BufferUsages::UNIFORM,
+                })
             })
-        });
+            .collect();
         let mut bind_entries = vec![
             wgpu::BindGroupEntry {
                 binding: 0,
@@ -331,14 +354,14 @@ impl Gpu {
                 resource: count_buf.as_entire_binding(),
             },
         ];
-        if let (Some((_, t2)), Some(buf)) = (second, &params2_buf) {
+        for ((k, (_, t)), buf) in (1u32..).zip(extra).zip(&extra_bufs) {
             bind_entries.push(wgpu::BindGroupEntry {
-                binding: 6,
+                binding: 4 + 2 * k,
                 resource: buf.as_entire_binding(),
             });
             bind_entries.push(wgpu::BindGroupEntry {
-                binding: 7,
-                resource: wgpu::BindingResource::TextureView(&t2.view),
+                binding: 5 + 2 * k,
+                resource: wgpu::BindingResource::TextureView(&t.view),
             });
         }
         let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -25,12 +25,31 @@ pub fn kernel(tex_type: &str, n_in: usize, n_out: usize, body: &str) -> String {
 /// [`kernel`] with a second texture of type `tex2_type` (`T2`, its `LfTex` `P2`: the
 /// bindings of [`Gpu::run_with`]).
 pub fn kernel_with(tex_type: &str, tex2_type: Option<&str>, n_in: usize, n_out: usize, body: &str) -> String {
+    let mut types = vec![tex_type];
+    types.extend(tex2_type);
+    kernel_textures(&types, n_in, n_out, body)
+}
+
+/// [`kernel`] with the textures of `tex_types` (at least one): the first `T` (its
+/// `LfTex` `P`), texture k ≥ 1 `T{k+1}` (`P{k+1}`), the bindings of
+/// [`Gpu::run_textures`].
+pub fn kernel_textures(tex_types: &[&str], n_in: usize, n_out: usize, body: &str) -> String {
     let xs: String = (0..n_in)
         .map(|k| format!("    let x{k} = X[i * {n_in}u + {k}u];\n"))
         .collect();
-    let second = tex2_type.map_or(String::new(), |t| {
-        format!("@group(0) @binding(6) var<uniform> P2: LfTex;\n@group(0) @binding(7) var T2: {t};\n")
-    });
+    let tex_type = tex_types.first().copied().unwrap_or("texture_2d<f32>");
+    let second: String = (1..tex_types.len())
+        .map(|k| {
+            format!(
+                "@group(0) @binding({}) var<uniform> P{}: LfTex;\n@group(0) @binding({}) var T{}: {};\n",
+                4 + 2 * k,
+                k + 1,
+                5 + 2 * k,
+                k + 1,
+                tex_types[k]
+            )
+        })
+        .collect();
     format!(
         "{lib}
 @group(0) @binding(0) var<uniform> P: LfTex;

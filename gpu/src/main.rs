@@ -9,6 +9,7 @@ mod device;
 mod isg;
 mod kernel;
 mod render;
+mod shexp;
 mod world;
 
 use std::io::Write;
@@ -70,6 +71,27 @@ enum Command {
         /// Image width (height 3/4 of it).
         #[arg(long, default_value_t = isg::WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
         width: u32,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The SH-exponentiation pipeline per pixel on the GPU (the exported wedge and
+    /// shexp textures; hits and horizon angles from the CPU) against the CPU
+    /// pipeline's image at its default settings (docs/shexp-render.md).
+    RenderShexp {
+        /// A `lobefit export` directory with wedge and shexp.
+        #[arg(long, value_name = "DIR")]
+        export: PathBuf,
+        /// A built-in shexp scene (whale, whale-diffuse, wrecking) or a scene file.
+        #[arg(long, default_value = "whale")]
+        scene: String,
+        /// Image width (height 3/4 of it).
+        #[arg(long, default_value_t = shexp::WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+        width: u32,
+        /// The sphere blockers' log: the ε-floored closed form or Ren's (the shexp-n4
+        /// texture); default: the CPU pipeline's default.
+        #[arg(long, value_parser = ["eps", "ren"])]
+        blocker_log: Option<String>,
         /// Output PNG.
         #[arg(long)]
         out: PathBuf,
@@ -157,6 +179,40 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             out!("image: {}", out.display());
             if r.rms > render::RMS_LIMIT {
                 out!("render-isg FAILED");
+                return Ok(ExitCode::from(1));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::RenderShexp {
+            export,
+            scene,
+            width,
+            blocker_log,
+            out,
+        } => {
+            use lobefit::pipelines::shexp::shade::{BlockerLog, Settings};
+            let mut settings = Settings::default();
+            match blocker_log.as_deref() {
+                Some("eps") => settings.blocker_log = BlockerLog::Eps,
+                Some("ren") => settings.blocker_log = BlockerLog::Ren,
+                _ => {}
+            }
+            let ex = conformance::read_export(&export)?;
+            let gpu = device::Gpu::new()?;
+            let r = shexp::render_shexp(&gpu, &ex, &scene, width as usize, &settings, &out)?;
+            out!(
+                "render-shexp {scene} ({:?} blocker log): {} pixels see geometry, on {}; GPU against the CPU \
+                 pipeline, relative to the peak: max {:.2e}, RMS {:.2e} (limit {:.0e} RMS)",
+                settings.blocker_log,
+                r.pixels,
+                gpu.info.name,
+                r.max,
+                r.rms,
+                render::RMS_LIMIT
+            );
+            out!("image: {}", out.display());
+            if r.rms > render::RMS_LIMIT {
+                out!("render-shexp FAILED");
                 return Ok(ExitCode::from(1));
             }
             Ok(ExitCode::SUCCESS)

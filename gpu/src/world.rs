@@ -1,5 +1,6 @@
 //! Shader functions of the runtime beyond any table: SH basis, ZH → SH, order-3
-//! rotation, SG algebra, the paper's ISG model. Each runs on the GPU at seeded random
+//! rotation, rotation about z, the truncated SH product, the wedge slice vector, SG
+//! algebra, the paper's ISG model. Each runs on the GPU at seeded random
 //! inputs against the runtime's f64 functions. (The families' world-space functions,
 //! ISG patches, disk lights, the wedge mat-vec, are checked by their own
 //! `fits/<family>/gpu.rs`.)
@@ -276,5 +277,88 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
         vector_diff(&got, &want),
         Vec::new(),
     ));
+    rows.extend(check_sh_algebra(gpu, dummy, samples, &mut rng)?);
+    Ok(rows)
+}
+
+/// Rotation about z (order 8), the wedge slice vector (order 8) and the truncated SH
+/// product (orders 4 and 3, the prefix of the Gaunt table): GPU against f64.
+fn check_sh_algebra(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) -> Result<Vec<Row>, String> {
+    let t2 = "texture_2d<f32>";
+    let map = |e: LookupError| e.to_string();
+    let mut rows = Vec::new();
+
+    // Angles up to ±2π (the wedges' φ_k), 64 coefficients.
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|_| {
+            let mut x = vec![r32(rng.range(-std::f64::consts::TAU, std::f64::consts::TAU))];
+            x.extend((0..64).map(|_| r32(rng.range(-1.0, 1.0))));
+            x
+        })
+        .collect();
+    let body = format!(
+        "    var c: array<f32, 64>;\n    for (var k = 0u; k < 64u; k++) {{\n        c[k] = X[i * 65u + 1u + k];\n    }}\n    \
+         let z = lf_sh_rotate_z(8u, c, x0);\n{WRITE64}"
+    );
+    let got = run_rows(gpu, dummy, &NONE, t2, &inputs, 64, &body)?;
+    let want: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| {
+            let mut o = vec![0.0; 64];
+            sh::rotate_z(&x[1..], x[0], &mut o).map(|_| o)
+        })
+        .collect::<Result<_, _>>()
+        .map_err(map)?;
+    rows.push(row("sh rotate z n8", samples, vector_diff(&got, &want), Vec::new()));
+
+    // Horizon elevations over [−π/2, π/2], floors over [0.01, 0.99].
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|_| {
+            let h = std::f64::consts::FRAC_PI_2;
+            vec![r32(rng.range(-h, h)), r32(rng.range(0.01, 0.99))]
+        })
+        .collect();
+    let got = run_rows(
+        gpu,
+        dummy,
+        &NONE,
+        t2,
+        &inputs,
+        8,
+        "    let z = lf_wedge_slice(x0, x1, 8u);\n    for (var k = 0u; k < 8u; k++) {\n        Y[o + k] = z[k];\n    }",
+    )?;
+    let want: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| {
+            let mut o = vec![0.0; 8];
+            lobefit_tables::wedge::slice_log(x[0], x[1], 8, &mut o).map(|_| o)
+        })
+        .collect::<Result<_, _>>()
+        .map_err(map)?;
+    rows.push(row("wedge slice n8", samples, vector_diff(&got, &want), Vec::new()));
+
+    // Two order-4 vectors; the order-3 product of their first 9 coefficients after.
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|_| (0..32).map(|_| r32(rng.range(-1.0, 1.0))).collect())
+        .collect();
+    let body = "    var f: array<f32, 16>;\n    var g: array<f32, 16>;\n    for (var k = 0u; k < 16u; k++) {\n        \
+                f[k] = X[i * 32u + k];\n        g[k] = X[i * 32u + 16u + k];\n    }\n    let z4 = lf_sh_product(4u, f, g);\n    \
+                let z3 = lf_sh_product(3u, f, g);\n    for (var k = 0u; k < 16u; k++) {\n        Y[o + k] = z4[k];\n        \
+                Y[o + 16u + k] = z3[k];\n    }";
+    let got = run_rows(gpu, dummy, &NONE, t2, &inputs, 32, body)?;
+    let (g4, g3) = (
+        lobefit_tables::gaunt::Gaunt::cached(4).map_err(map)?,
+        lobefit_tables::gaunt::Gaunt::cached(3).map_err(map)?,
+    );
+    let want: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| {
+            let mut o = g4.product(&x[..16], &x[16..]);
+            o.extend(g3.product(&x[..9], &x[16..25]));
+            o.resize(32, 0.0);
+            o
+        })
+        .collect();
+    rows.push(row("sh product n4, n3", samples, vector_diff(&got, &want), Vec::new()));
     Ok(rows)
 }

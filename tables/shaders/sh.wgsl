@@ -101,3 +101,69 @@ fn lf_sh9_rotate(c: array<f32, 9>, r: mat3x3<f32>) -> array<f32, 9> {
         2.0 * w[0][1] / c2a, -2.0 * w[1][2] / c2a, w[2][2] / (2.0 * c2b), -2.0 * w[0][2] / c2a, (w[0][0] - w[1][1]) / (2.0 * c2c),
     );
 }
+
+// An SH vector c (n^2 coefficients, n <= 8) rotated by alpha (rad) about +z,
+// counter-clockwise seen from +z: out(theta, phi) = c(theta, phi - alpha), as
+// lobefit_tables::sh::rotate_z. Band l's pair (m, -m)
+// turns by m alpha: out_lm = c_lm cos(m alpha) - c_l-m sin(m alpha), out_l-m =
+// c_lm sin(m alpha) + c_l-m cos(m alpha); cos, sin of m alpha by the angle-addition
+// recurrence (no large arguments to cos, sin). Entries from n^2 on: 0.
+fn lf_sh_rotate_z(order: u32, c: array<f32, 64>, alpha: f32) -> array<f32, 64> {
+    var out: array<f32, 64>;
+    var cs: array<f32, 8>;
+    var sn: array<f32, 8>;
+    cs[0] = 1.0;
+    let c1 = cos(alpha);
+    let s1 = sin(alpha);
+    for (var m = 1u; m < order; m++) {
+        cs[m] = cs[m - 1u] * c1 - sn[m - 1u] * s1;
+        sn[m] = sn[m - 1u] * c1 + cs[m - 1u] * s1;
+    }
+    for (var l = 0u; l < order; l++) {
+        let base = l * (l + 1u);
+        out[base] = c[base];
+        for (var m = 1u; m <= l; m++) {
+            let a = c[base + m];
+            let b = c[base - m];
+            out[base + m] = a * cs[m] - b * sn[m];
+            out[base - m] = a * sn[m] + b * cs[m];
+        }
+    }
+    return out;
+}
+
+// The truncated SH product of order n <= 4: (f * g)_i = sum_jk Gamma_ijk f_j g_k for
+// i < n^2 (f, g: n^2 coefficients, entries from n^2 on ignored; outputs from n^2 on:
+// 0), the projection of the product of the two functions onto bands l < n. By the
+// unique Gaunt entries of gaunt.wgsl, each applied to its distinct orderings (as
+// lobefit_tables::gaunt::Gaunt::product).
+fn lf_sh_product(order: u32, f: array<f32, 16>, g: array<f32, 16>) -> array<f32, 16> {
+    var ijk = LF_GAUNT4_IJK;
+    var val = LF_GAUNT4_VALUE;
+    var counts = LF_GAUNT4_COUNT;
+    var a = f;
+    var b = g;
+    var out: array<f32, 16>;
+    let count = counts[min(order, 4u)];
+    for (var e = 0u; e < count; e++) {
+        let t = ijk[e];
+        let i = t & 255u;
+        let j = (t >> 8u) & 255u;
+        let k = t >> 16u;
+        let v = val[e];
+        if i == j && j == k {
+            out[i] += v * a[i] * b[i];
+        } else if i == j {
+            out[i] += v * (a[i] * b[k] + a[k] * b[i]);
+            out[k] += v * a[i] * b[i];
+        } else if j == k {
+            out[i] += v * a[j] * b[j];
+            out[j] += v * (a[i] * b[j] + a[j] * b[i]);
+        } else {
+            out[i] += v * (a[j] * b[k] + a[k] * b[j]);
+            out[j] += v * (a[i] * b[k] + a[k] * b[i]);
+            out[k] += v * (a[i] * b[j] + a[j] * b[i]);
+        }
+    }
+    return out;
+}

@@ -1,5 +1,6 @@
 // lobefit shader library: shexp, the log-ZH vector of a cap blocker and the OL
-// coefficients of its SH exponential (needs common.wgsl).
+// coefficients of its SH exponential, and HYB's SH exponential (needs common.wgsl and
+// sh.wgsl).
 // Per order n = 3..8 a 1D texture `shexp-n<n>` over theta_b (2D array, RGBA layers):
 // channels f_0..f_{n-1} and ||f^|| divided by 1 - cos theta_b, ln ||f^|| / (1 - cos
 // theta_b), ln a, ln b, and the position of a clamp kink within each interval (-1:
@@ -84,4 +85,46 @@ fn lf_shexp(tex: texture_2d_array<f32>, smp: sampler, p: LfTex, n: u32, theta_b:
 // HYB halves f^ until its norm is at most T_n before asking).
 fn lf_shexp_hyb_ab(tex: texture_2d<f32>, smp: sampler, p: LfTex, norm: f32) -> vec2<f32> {
     return exp(lf_sample_1d(tex, smp, p, min(norm, p.axis[0].y)).xy);
+}
+
+// HYB's SH exponential exp*(f) of an SH vector f of order n in {3, 4} (n^2 coefficients,
+// the rest ignored; outputs from n^2 on: 0), with texture shexp-hyb-n<n> (T_n its upper
+// end), as lobefit_tables::shexp::ShExp::hyb: the DC term isolated (f^ = f without
+// f_0), f^ halved k times until s = ||f^|| / 2^k <= T_n, OL at s (a 1 + b f^ / 2^k with
+// (a, b) = lf_shexp_hyb_ab at s), k truncated SH squarings (lf_sh_product), times
+// e^(f_0 / sqrt(4 pi)). At most 64 halvings (the runtime's MAX_SQUARINGS; a norm
+// beyond T_n 2^64 is not finite in f32 anyway).
+fn lf_shexp_hyb(tex: texture_2d<f32>, smp: sampler, p: LfTex, order: u32, f: array<f32, 16>) -> array<f32, 16> {
+    let n2 = order * order;
+    let sqrt4pi = sqrt(4.0 * LF_PI);
+    var g = f;
+    var norm2 = 0.0;
+    for (var i = 1u; i < n2; i++) {
+        norm2 += g[i] * g[i];
+    }
+    let t = p.axis[0].y;
+    var s = sqrt(norm2);
+    var k = 0u;
+    // 2^-k, exactly (GLSL ES 3.0 has no ldexp; exp2 need not be exact).
+    var half_k = 1.0;
+    while s > t && k < 64u {
+        s *= 0.5;
+        half_k *= 0.5;
+        k++;
+    }
+    let ab = lf_shexp_hyb_ab(tex, smp, p, s);
+    let scale = ab.y * half_k;
+    var out: array<f32, 16>;
+    for (var i = 1u; i < n2; i++) {
+        out[i] = scale * g[i];
+    }
+    out[0] = ab.x * sqrt4pi;
+    for (var r = 0u; r < k; r++) {
+        out = lf_sh_product(order, out, out);
+    }
+    let e = exp(g[0] / sqrt4pi);
+    for (var i = 0u; i < n2; i++) {
+        out[i] *= e;
+    }
+    return out;
 }

@@ -1,0 +1,348 @@
+//! `lobefit-gpu render-shexp`: the SH-exponentiation pipeline (`lobefit::pipelines::shexp`)
+//! as one compute kernel per pixel, on the exported wedge and shexp textures, against
+//! the CPU pipeline's image (docs/shexp-render.md).
+//!
+//! The CPU finds each pixel's hit and its W horizon elevations (the pyramid march or
+//! the exact horizon, per `Settings::horizon`) and passes them in the input buffer with
+//! the material's Phong parameters; the kernel does the rest of the CPU's
+//! `shade::radiance` in f32: the height field's wedges (`lf_wedge_compose`), every
+//! sphere blocker but the hit's own (`lf_log_zh_blocker`, or Ren's log `lf_shexp`,
+//! turned by `lf_zh_to_sh`), per BRDF term its log-ZH lobe (`lf_log_zh_diffuse`,
+//! `lf_log_zh_phong`), HYB (`lf_shexp_hyb`) and the dot product with the light's SH
+//! vector. The settings' values become the kernel's constants, read from
+//! `Settings::default()` at run time. The spheres and the light follow the pixels in
+//! the input buffer; the loops are bounded by the sphere count (at most a few hundred
+//! iterations each: llvmpipe ends a loop after 65 535 iterations of an invocation).
+
+use std::f64::consts::TAU;
+use std::path::Path;
+
+use lobefit::export::layout::Filter;
+use lobefit::export::{manifest::TextureEntry, Texture};
+use lobefit::pipelines::scene::{Hit, Scene};
+use lobefit::pipelines::shexp::light_sh;
+use lobefit::pipelines::shexp::shade::{radiance, BlockerLog, BrdfMode, Exp, Horizon, Settings, Tables};
+use lobefit::pipelines::sky::Phong;
+use lobefit_tables::glam::DVec3;
+
+use crate::conformance::Export;
+use crate::device::Gpu;
+use crate::kernel::{kernel_textures, lf_tex};
+use crate::render::{grey, write_grey_png, SceneRender};
+
+/// Default image width (height 3/4 of it).
+pub const WIDTH: u32 = 64;
+
+/// The SH order the kernel supports (the library's SH product is order ≤ 4).
+const ORDER: usize = 4;
+
+/// Per pixel before the horizon angles: point, normal, view, k_d, k_s, Phong
+/// exponent, own sphere (−1: none).
+const HIT_INPUTS: usize = 13;
+
+/// The export's texture of family `kind` whose file is `stem`.<extension>.
+fn texture<'a>(export: &'a Export, kind: &str, stem: &str) -> Result<(&'a TextureEntry, &'a Texture), String> {
+    let k = export
+        .manifest
+        .families
+        .iter()
+        .position(|f| f.family == kind)
+        .ok_or_else(|| format!("the export has no {kind} texture (export it: --only wedge,shexp --allow-lossy)"))?;
+    export.textures[k]
+        .iter()
+        .find(|(e, _)| e.file.split('.').next() == Some(stem))
+        .map(|(e, t)| (e, t))
+        .ok_or_else(|| format!("the export's {kind} family has no texture {stem}"))
+}
+
+/// What of `s` the kernel does not do, as an error.
+fn supported(s: &Settings) -> Result<(), String> {
+    s.validate()?;
+    if s.order != ORDER {
+        return Err(format!(
+            "render-shexp runs SH order {ORDER} only (the shader library's SH product); the settings ask for {}",
+            s.order
+        ));
+    }
+    if s.exp != Exp::Hyb {
+        return Err("render-shexp exponentiates by HYB only; the settings ask for exact exp*".into());
+    }
+    if s.brdf != BrdfMode::Log {
+        return Err("render-shexp adds the BRDF as log-ZH lobes only; the settings ask for the triple product".into());
+    }
+    Ok(())
+}
+
+/// The kernel's constants and functions, and its body, for `scene` at `count` pixels.
+fn source(scene: &Scene, s: &Settings, count: usize) -> String {
+    let ns = scene.spheres.len();
+    let w = s.wedges as usize;
+    let n_in = HIT_INPUTS + w;
+    let base = n_in * count;
+    let f = |v: f64| format!("{:e}", v as f32);
+    let blocker = match s.blocker_log {
+        BlockerLog::Eps => "lf_log_zh_blocker(EPS_VIS, theta, 4u)",
+        BlockerLog::Ren => "lf_shexp(T3, S, P3, 4u, theta).f",
+    };
+    let consts = format!(
+        "const N_IN = {n_in}u;\nconst NW = {w}u;\nconst W_INDEX = {}u;\nconst NS = {ns}u;\nconst SPH0 = {base}u;\n\
+         const LIGHT0 = {}u;\nconst HEIGHT_FIELD = {};\nconst TERRAIN_ABOVE_TANGENT = {};\nconst ATTENUATION = {};\nconst EPS_VIS: f32 = {};\n\
+         const EPS_TERRAIN: f32 = {};\nconst EPS_BRDF: f32 = {};\n\
+         fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n",
+        s.wedges.trailing_zeros() - 2,
+        base + 4 * ns,
+        scene.heightfield.is_some(),
+        s.terrain_above_tangent,
+        s.attenuation,
+        f(s.eps_vis),
+        f(s.eps_terrain),
+        f(s.eps_brdf)
+    );
+    let functions = r#"
+// One BRDF term: exp* (HYB) of the log visibility f plus the term's log-ZH lobe z
+// about `axis`, dotted with the light's SH vector.
+fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
+    let t = lf_zh_to_sh(4u, z, axis);
+    var g: array<f32, 16>;
+    for (var i = 0u; i < 16u; i++) {
+        g[i] = f[i] + t[i];
+    }
+    let e = lf_shexp_hyb(T2, S, P2, 4u, g);
+    var sum = 0.0;
+    for (var i = 0u; i < 16u; i++) {
+        sum += e[i] * X[LIGHT0 + i];
+    }
+    return sum;
+}
+"#;
+    let body = format!(
+        "    let p = vec3<f32>(x0, x1, x2);
+    let n = vec3<f32>(x3, x4, x5);
+    let wo = vec3<f32>(x6, x7, x8);
+    let own = i32(x12);
+    var f: array<f32, 16>;
+    if HEIGHT_FIELD {{
+        var sigma: array<f32, 64>;
+        for (var k = 0u; k < NW; k++) {{
+            sigma[k] = X[i * N_IN + {HIT_INPUTS}u + k];
+        }}
+        var v: array<f32, 64>;
+        if TERRAIN_ABOVE_TANGENT {{
+            // The tangent plane's elevation per azimuth (n.d = 0).
+            var lower: array<f32, 64>;
+            for (var k = 0u; k < NW; k++) {{
+                let phi = 2.0 * LF_PI * f32(k) / f32(NW);
+                lower[k] = clamp(atan2(-(n.x * cos(phi) + n.y * sin(phi)), n.z), -0.5 * LF_PI, 0.5 * LF_PI);
+            }}
+            v = lf_wedge_compose_between(T, P, W_INDEX, 4u, EPS_TERRAIN, lower, sigma);
+        }} else {{
+            v = lf_wedge_compose(T, P, W_INDEX, 4u, EPS_TERRAIN, sigma);
+        }}
+        for (var k = 0u; k < 16u; k++) {{
+            f[k] = v[k];
+        }}
+    }}
+    for (var b = 0u; b < NS; b++) {{
+        let s = sph(b);
+        let w = s.xyz - p;
+        let d = length(w);
+        let dir = w / d;
+        // sin theta_b; a cap wholly below the tangent plane cannot shadow the point.
+        let sb = s.w / d;
+        if i32(b) == own || dot(n, dir) < -sb {{
+            continue;
+        }}
+        let theta = lf_asin(sb);
+        var zh = {blocker};
+        if ATTENUATION {{
+            for (var l = 0u; l < 4u; l++) {{
+                zh[l] *= sb;
+            }}
+        }}
+        let t = lf_zh_to_sh(4u, zh, dir);
+        for (var k = 0u; k < 16u; k++) {{
+            f[k] += t[k];
+        }}
+    }}
+    var total = 0.0;
+    if x9 > 0.0 {{
+        total += x9 * shexp_term(f, lf_log_zh_diffuse(EPS_BRDF, 4u), n);
+    }}
+    if x10 > 0.0 {{
+        let m = normalize(2.0 * dot(n, wo) * n - wo);
+        let weight = x10 * (x11 + 2.0) / (x11 + 1.0) * max(dot(n, m), 0.0);
+        if weight > 0.0 {{
+            total += weight * shexp_term(f, lf_log_zh_phong(EPS_BRDF, x11, 4u), m);
+        }}
+    }}
+    Y[o] = total;"
+    );
+    // T: wedge, T2: shexp-hyb-n4, T3: shexp-n4 (Ren's log only).
+    let mut textures = vec!["texture_3d<f32>", "texture_2d<f32>"];
+    if s.blocker_log == BlockerLog::Ren {
+        textures.push("texture_2d_array<f32>");
+    }
+    kernel_textures(&textures, n_in, 1, &body) + &consts + functions
+}
+
+/// The W horizon elevations (rad) at `h` as the CPU pipeline finds them.
+fn horizons(scene: &Scene, s: &Settings, h: &Hit) -> Vec<f64> {
+    let Some((hf, _)) = &scene.heightfield else {
+        return vec![0.0; s.wedges as usize];
+    };
+    (0..s.wedges)
+        .map(|k| {
+            let phi = TAU * k as f64 / s.wedges as f64;
+            match s.horizon {
+                Horizon::Exact => hf.horizon_exact(h.x.x, h.x.y, h.x.z, phi),
+                Horizon::Pyramid => hf.horizon_pyramid(h.x.x, h.x.y, h.x.z, phi),
+            }
+        })
+        .collect()
+}
+
+/// Renders `scene` (a built-in shexp scene or file) at `width` on the GPU and the CPU
+/// with the pipeline's settings `s`; writes `out` (PNG, radiance / peak, gamma 1/2.2).
+pub fn render_shexp(
+    gpu: &Gpu,
+    export: &Export,
+    scene: &str,
+    width: usize,
+    s: &Settings,
+    out: &Path,
+) -> Result<SceneRender, String> {
+    supported(s)?;
+    let sc = lobefit::pipelines::shexp::render::scene(scene)?;
+    let m = &export.manifest;
+    let storage = m.storage;
+    let (wedge_e, wedge_t) = texture(export, lobefit_tables::wedge::KIND, "wedge")?;
+    let (hyb_e, hyb_t) = texture(export, lobefit_tables::shexp::KIND, &format!("shexp-hyb-n{ORDER}"))?;
+    let mut uploads = vec![
+        (lf_tex(wedge_e, Filter::Manual)?, gpu.upload(wedge_t, storage)?),
+        (lf_tex(hyb_e, Filter::Manual)?, gpu.upload(hyb_t, storage)?),
+    ];
+    if s.blocker_log == BlockerLog::Ren {
+        let (e, t) = texture(export, lobefit_tables::shexp::KIND, &format!("shexp-n{ORDER}"))?;
+        uploads.push((lf_tex(e, Filter::Manual)?, gpu.upload(t, storage)?));
+    }
+    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let visible: Vec<&Hit> = hits.iter().flatten().collect();
+    if visible.is_empty() {
+        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
+    }
+    let light = light_sh(&sc, ORDER)?;
+    // Inputs per pixel: point, normal, view, k_d, k_s, Phong exponent, own sphere
+    // (−1: none), the W horizon angles, as f32; the CPU shades the same rounded hit.
+    let n_in = HIT_INPUTS + s.wedges as usize;
+    let mut inputs = Vec::with_capacity(visible.len() * n_in + 4 * sc.spheres.len() + light.len());
+    let mut at_hits = Vec::with_capacity(visible.len());
+    let mut brdfs = Vec::with_capacity(visible.len());
+    let r32 = |v: DVec3| DVec3::new(f64::from(v.x as f32), f64::from(v.y as f32), f64::from(v.z as f32));
+    for hit in &visible {
+        let b = Phong::of(sc.brdf(hit))?;
+        let at = Hit {
+            x: r32(hit.x),
+            n: r32(hit.n).normalize(),
+            wo: r32(hit.wo).normalize(),
+            ..**hit
+        };
+        inputs.extend(
+            [
+                at.x.x, at.x.y, at.x.z, at.n.x, at.n.y, at.n.z, at.wo.x, at.wo.y, at.wo.z, b.diffuse, b.specular,
+                b.exponent,
+            ]
+            .map(|v| v as f32),
+        );
+        inputs.push(hit.sphere.map_or(-1.0, |i| i as f32));
+        inputs.extend(horizons(&sc, s, &at).into_iter().map(|v| v as f32));
+        at_hits.push(at);
+        brdfs.push(b);
+    }
+    for b in &sc.spheres {
+        inputs.extend([b.centre.x, b.centre.y, b.centre.z, b.radius].map(|v| v as f32));
+    }
+    inputs.extend(light.iter().map(|&v| v as f32));
+    let src = source(&sc, s, visible.len());
+    let textures: Vec<(&[u8], &crate::device::GpuTexture)> = uploads.iter().map(|(p, t)| (p.as_slice(), t)).collect();
+    let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 1)?;
+    // The CPU pipeline (f64, the committed tables) at the same f32-rounded hits.
+    let tables = Tables::embedded()?;
+    let cpu: Vec<f64> = at_hits
+        .iter()
+        .zip(&brdfs)
+        .map(|(at, b)| radiance(&tables, s, &light, b, &sc, at))
+        .collect::<Result<_, _>>()?;
+    let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
+    let (mut max, mut sum) = (0.0f64, 0.0);
+    for (g, c) in got.iter().zip(&cpu) {
+        // A non-finite GPU value fails the comparison (NaN would pass unseen).
+        let d = if g.is_finite() {
+            (f64::from(*g) - c).abs() / peak
+        } else {
+            f64::INFINITY
+        };
+        max = max.max(d);
+        sum += d * d;
+    }
+    let rms = (sum / cpu.len() as f64).sqrt();
+    let mut image = vec![0u8; w * h];
+    let mut it = got.iter();
+    for (px, hit) in image.iter_mut().zip(&hits) {
+        if hit.is_some() {
+            *px = grey(f64::from(*it.next().unwrap_or(&0.0)) / peak);
+        }
+    }
+    write_grey_png(out, w, h, &image)?;
+    Ok(SceneRender {
+        pixels: visible.len(),
+        max,
+        rms,
+        vs_exact: (f64::NAN, 0),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The kernel of a built-in scene parses and validates (naga) with either blocker
+    /// log and any wedge count; the settings it cannot run are errors naming them.
+    #[test]
+    fn kernel_validates_and_unsupported_settings_are_errors() {
+        let sc = lobefit::pipelines::shexp::render::scene("whale").unwrap();
+        for (blocker_log, wedges, terrain_above_tangent) in [
+            (BlockerLog::Eps, 16, false),
+            (BlockerLog::Ren, 64, true),
+            (BlockerLog::Eps, 4, true),
+        ] {
+            let s = Settings {
+                blocker_log,
+                wedges,
+                terrain_above_tangent,
+                ..Settings::default()
+            };
+            supported(&s).unwrap();
+            let src = source(&sc, &s, 7);
+            if let Err(e) = lobefit::export::shaders::module_of(&src) {
+                panic!("{blocker_log:?}, {wedges} wedges: {e}");
+            }
+        }
+        let d = Settings::default();
+        for (s, what) in [
+            (Settings { order: 5, ..d }, "order 4 only"),
+            (Settings { exp: Exp::Exact, ..d }, "HYB only"),
+            (
+                Settings {
+                    brdf: BrdfMode::Triple,
+                    ..d
+                },
+                "log-ZH lobes only",
+            ),
+            (Settings { wedges: 5, ..d }, "wedge count 5"),
+        ] {
+            let e = supported(&s).unwrap_err();
+            assert!(e.contains(what), "{e}");
+        }
+    }
+}
