@@ -6,7 +6,8 @@ use std::f64::consts::{PI, TAU};
 
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::isg::Sg;
-use lobefit_tables::meunier::Brdf;
+use lobefit_tables::meunier::{Brdf, Sphere};
+use lobefit_tables::LookupError;
 
 use super::estimate::{estimate, Estimate};
 use super::scene::Hit;
@@ -162,6 +163,91 @@ pub fn reference_with(
         }
         light(w) * f_r(w) * c / pdf
     })
+}
+
+/// Input columns of the environment pipelines' `eval` views (`isg-shade`,
+/// `shexp-shade`): the point, its unit normal, the unit direction towards the viewer.
+pub const POINT_INPUTS: [&str; 9] = ["px", "py", "pz", "nx", "ny", "nz", "vx", "vy", "vz"];
+
+/// Standard error `eval --exact` reaches, relative to its estimate.
+pub const EXACT_REL_SE: f64 = 1e-3;
+/// Most samples `eval --exact` takes.
+pub const EXACT_MAX_SAMPLES: usize = 1 << 24;
+
+/// A row of [`POINT_INPUTS`] as a hit among `spheres`: the sphere the point lies on
+/// (within 1e-9 of its radius, relative) is the hit's own and does not occlude it; a
+/// point inside another sphere is out of the domain. Errors name the column.
+pub fn hit_of_row(x: &[f64], spheres: &[Sphere]) -> Result<Hit, LookupError> {
+    if x.len() != POINT_INPUTS.len() {
+        return Err(LookupError::Arity {
+            expected: POINT_INPUTS.len(),
+            got: x.len(),
+        });
+    }
+    if let Some((name, &value)) = POINT_INPUTS.iter().zip(x).find(|(_, v)| !v.is_finite()) {
+        return Err(LookupError::NotFinite {
+            name: (*name).into(),
+            value,
+        });
+    }
+    let v3 = |i: usize| DVec3::new(x[i], x[i + 1], x[i + 2]);
+    let unit = |name: &str, d: DVec3| {
+        if (d.length() - 1.0).abs() <= 1e-6 {
+            Ok(d.normalize())
+        } else {
+            Err(LookupError::OutOfDomain {
+                name: format!("|{name}| (unit within 1e-6)"),
+                value: d.length(),
+                lo: 1.0,
+                hi: 1.0,
+            })
+        }
+    };
+    let (p, n, wo) = (v3(0), unit("n", v3(3))?, unit("v", v3(6))?);
+    let own = spheres
+        .iter()
+        .position(|s| ((p - s.centre).length() - s.radius).abs() <= 1e-9 * s.radius.max(1.0));
+    if let Some((k, s)) = spheres
+        .iter()
+        .enumerate()
+        .find(|(i, s)| Some(*i) != own && (p - s.centre).length() <= s.radius)
+    {
+        return Err(LookupError::OutOfDomain {
+            name: format!("the point's distance to sphere {k}'s centre over its radius"),
+            value: (p - s.centre).length() / s.radius,
+            lo: 1.0,
+            hi: f64::INFINITY,
+        });
+    }
+    Ok(Hit {
+        x: p,
+        n,
+        t: n.any_orthonormal_vector(),
+        wo,
+        sphere: own,
+        material: 0,
+    })
+}
+
+/// `eval --exact`'s Monte Carlo run: `run(n)` from 16 384 samples, ×4 until its standard
+/// error is at most [`EXACT_REL_SE`] of its estimate (or both are 0), at most
+/// [`EXACT_MAX_SAMPLES`], else an error with the last estimate.
+pub fn exact_estimate(mut run: impl FnMut(usize) -> Estimate) -> Result<f64, String> {
+    let mut n = 1 << 14;
+    loop {
+        let e = run(n);
+        if e.std_error <= EXACT_REL_SE * e.mean.abs() || (e.mean == 0.0 && e.std_error == 0.0) {
+            return Ok(e.mean);
+        }
+        if n >= EXACT_MAX_SAMPLES {
+            return Err(format!(
+                "the Monte Carlo reference did not reach a standard error of {EXACT_REL_SE:e} of its estimate \
+                 within {EXACT_MAX_SAMPLES} samples ({:.4e} ± {:.1e})",
+                e.mean, e.std_error
+            ));
+        }
+        n *= 4;
+    }
 }
 
 #[cfg(test)]

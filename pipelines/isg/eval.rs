@@ -9,7 +9,8 @@ use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Tables};
 use crate::family::{EvalFlags, Lookup, Query};
-use crate::pipelines::scene::{Bvh, Hit};
+use crate::pipelines::scene::Bvh;
+use crate::pipelines::sky::{exact_estimate, hit_of_row, POINT_INPUTS};
 use crate::rng::Rng;
 use lobefit_tables::format::Threshold;
 
@@ -25,11 +26,6 @@ isg-shade  (a pipeline: Iwasaki et al.'s shading of points, docs/isg-render.md)
                        blocks; --exact: Monte Carlo with exact ray-sphere visibility, run until its standard
                        error is at most 1e-3 of the estimate (at most 2^24 samples, else an error)
 ";
-
-/// Standard error `--exact` reaches, relative to its estimate.
-pub const EXACT_REL_SE: f64 = 1e-3;
-/// Most samples `--exact` takes.
-pub const EXACT_MAX_SAMPLES: usize = 1 << 24;
 
 /// The `eval isg-shade` view.
 #[derive(Clone)]
@@ -87,58 +83,7 @@ impl IsgShadeView {
             spheres: scene.spheres,
         })
     }
-
-    /// The row as a hit, and the sphere the point lies on (within 1e-9 of its radius,
-    /// relative): that one does not occlude it.
-    fn hit(&self, x: &[f64]) -> Result<(Hit, Option<usize>), LookupError> {
-        if x.len() != 9 {
-            return Err(LookupError::Arity {
-                expected: 9,
-                got: x.len(),
-            });
-        }
-        for (name, &v) in INPUTS.iter().zip(x) {
-            if !v.is_finite() {
-                return Err(LookupError::NotFinite {
-                    name: (*name).into(),
-                    value: v,
-                });
-            }
-        }
-        let v3 = |i: usize| DVec3::new(x[i], x[i + 1], x[i + 2]);
-        let unit = |name: &str, d: DVec3| {
-            if (d.length() - 1.0).abs() <= 1e-6 {
-                Ok(d.normalize())
-            } else {
-                Err(LookupError::OutOfDomain {
-                    name: format!("|{name}| (unit within 1e-6)"),
-                    value: d.length(),
-                    lo: 1.0,
-                    hi: 1.0,
-                })
-            }
-        };
-        let (p, n, wo) = (v3(0), unit("n", v3(3))?, unit("v", v3(6))?);
-        let own = self
-            .spheres
-            .iter()
-            .position(|s| ((p - s.centre).length() - s.radius).abs() <= 1e-9 * s.radius.max(1.0));
-        Ok((
-            Hit {
-                x: p,
-                n,
-                t: n.any_orthonormal_vector(),
-                wo,
-                sphere: own,
-                material: 0,
-            },
-            own,
-        ))
-    }
 }
-
-/// Input columns.
-pub const INPUTS: [&str; 9] = ["px", "py", "pz", "nx", "ny", "nz", "vx", "vy", "vz"];
 
 struct ShadeLookup {
     view: IsgShadeView,
@@ -147,7 +92,8 @@ struct ShadeLookup {
 
 impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        let (h, own) = self.view.hit(x)?;
+        let h = hit_of_row(x, &self.view.spheres)?;
+        let own = h.sphere;
         let blockers = Blockers {
             spheres: &self.view.spheres,
             bvh: Some(&self.view.bvh),
@@ -180,7 +126,7 @@ impl Query for IsgShadeView {
         Vec::new()
     }
     fn inputs(&self) -> &'static [&'static str] {
-        &INPUTS
+        &POINT_INPUTS
     }
     fn outputs(&self) -> &'static [&'static str] {
         &["radiance"]
@@ -203,25 +149,11 @@ impl Query for IsgShadeView {
         }))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let (h, own) = self.hit(x).map_err(|e| e.to_string())?;
+        let h = hit_of_row(x, &self.spheres).map_err(|e| e.to_string())?;
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_15c0_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
-        let occluded = |v: DVec3| self.bvh.occluded(&self.spheres, h.x, v, f64::INFINITY, own);
-        let mut n = 1 << 14;
-        loop {
-            let e = super::reference(&self.env, &self.brdf, occluded, &h, n, seed);
-            if e.std_error <= EXACT_REL_SE * e.mean.abs() || (e.mean == 0.0 && e.std_error == 0.0) {
-                return Ok(vec![e.mean]);
-            }
-            if n >= EXACT_MAX_SAMPLES {
-                return Err(format!(
-                    "the Monte Carlo reference did not reach a standard error of {EXACT_REL_SE:e} of its estimate \
-                     within {EXACT_MAX_SAMPLES} samples ({:.4e} ± {:.1e})",
-                    e.mean, e.std_error
-                ));
-            }
-            n *= 4;
-        }
+        let occluded = |v: DVec3| self.bvh.occluded(&self.spheres, h.x, v, f64::INFINITY, h.sphere);
+        exact_estimate(|n| super::reference(&self.env, &self.brdf, occluded, &h, n, seed)).map(|m| vec![m])
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         // A point on the ground below the spheres, seen from above.

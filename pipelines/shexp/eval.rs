@@ -9,9 +9,8 @@ use lobefit_tables::{LoadError, LookupError, ShExp, Table};
 
 use super::shade::{radiance, Settings, Tables};
 use crate::family::{EvalFlags, Lookup, Query};
-use crate::pipelines::isg::eval::{EXACT_MAX_SAMPLES, EXACT_REL_SE, INPUTS};
-use crate::pipelines::scene::{Hit, Scene};
-use crate::pipelines::sky::Phong;
+use crate::pipelines::scene::Scene;
+use crate::pipelines::sky::{exact_estimate, hit_of_row, Phong, POINT_INPUTS};
 use crate::rng::Rng;
 
 /// `eval --help`'s paragraph.
@@ -69,66 +68,6 @@ impl ShExpShadeView {
             light,
         })
     }
-
-    /// The row as a hit; the sphere the point lies on (within 1e-9 of its radius,
-    /// relative) does not occlude it.
-    fn hit(&self, x: &[f64]) -> Result<Hit, LookupError> {
-        if x.len() != 9 {
-            return Err(LookupError::Arity {
-                expected: 9,
-                got: x.len(),
-            });
-        }
-        for (name, &v) in INPUTS.iter().zip(x) {
-            if !v.is_finite() {
-                return Err(LookupError::NotFinite {
-                    name: (*name).into(),
-                    value: v,
-                });
-            }
-        }
-        let v3 = |i: usize| DVec3::new(x[i], x[i + 1], x[i + 2]);
-        let unit = |name: &str, d: DVec3| {
-            if (d.length() - 1.0).abs() <= 1e-6 {
-                Ok(d.normalize())
-            } else {
-                Err(LookupError::OutOfDomain {
-                    name: format!("|{name}| (unit within 1e-6)"),
-                    value: d.length(),
-                    lo: 1.0,
-                    hi: 1.0,
-                })
-            }
-        };
-        let (p, n, wo) = (v3(0), unit("n", v3(3))?, unit("v", v3(6))?);
-        let own = self
-            .scene
-            .spheres
-            .iter()
-            .position(|s| ((p - s.centre).length() - s.radius).abs() <= 1e-9 * s.radius.max(1.0));
-        if let Some(k) = self
-            .scene
-            .spheres
-            .iter()
-            .enumerate()
-            .position(|(i, s)| Some(i) != own && (p - s.centre).length() <= s.radius)
-        {
-            return Err(LookupError::OutOfDomain {
-                name: format!("the point's distance to sphere {k}'s centre over its radius"),
-                value: (p - self.scene.spheres[k].centre).length() / self.scene.spheres[k].radius,
-                lo: 1.0,
-                hi: f64::INFINITY,
-            });
-        }
-        Ok(Hit {
-            x: p,
-            n,
-            t: n.any_orthonormal_vector(),
-            wo,
-            sphere: own,
-            material: 0,
-        })
-    }
 }
 
 struct ShadeLookup {
@@ -138,7 +77,7 @@ struct ShadeLookup {
 
 impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        let h = self.view.hit(x)?;
+        let h = hit_of_row(x, &self.view.scene.spheres)?;
         let v = &self.view;
         radiance(&self.tables, &v.settings, &v.light, &v.brdf, &v.scene, &h)
             .map(|r| vec![r])
@@ -157,7 +96,7 @@ impl Query for ShExpShadeView {
         Vec::new()
     }
     fn inputs(&self) -> &'static [&'static str] {
-        &INPUTS
+        &POINT_INPUTS
     }
     fn outputs(&self) -> &'static [&'static str] {
         &["radiance"]
@@ -174,25 +113,12 @@ impl Query for ShExpShadeView {
         }))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let h = self.hit(x).map_err(|e| e.to_string())?;
+        let h = hit_of_row(x, &self.scene.spheres).map_err(|e| e.to_string())?;
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_5e40_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         let scene = &self.scene;
-        let mut n = 1 << 14;
-        loop {
-            let e = super::reference(scene, |w| super::light(scene, w), &self.brdf, &h, n, seed);
-            if e.std_error <= EXACT_REL_SE * e.mean.abs() || (e.mean == 0.0 && e.std_error == 0.0) {
-                return Ok(vec![e.mean]);
-            }
-            if n >= EXACT_MAX_SAMPLES {
-                return Err(format!(
-                    "the Monte Carlo reference did not reach a standard error of {EXACT_REL_SE:e} of its estimate \
-                     within {EXACT_MAX_SAMPLES} samples ({:.4e} ± {:.1e})",
-                    e.mean, e.std_error
-                ));
-            }
-            n *= 4;
-        }
+        exact_estimate(|n| super::reference(scene, |w| super::light(scene, w), &self.brdf, &h, n, seed))
+            .map(|m| vec![m])
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         // A point on the terrain (or the z = 0 plane without one), seen from above.
