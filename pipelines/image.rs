@@ -187,6 +187,27 @@ pub fn write_pfm(path: &Path, w: usize, h: usize, values: &[f64]) -> Result<Path
     Ok(path.to_path_buf())
 }
 
+/// The error breakdown's lines: `parts` holds per pixel the values of successive
+/// configurations, each with one approximation more made exact, the last column the
+/// reference (`names.len()` + 1 columns used); each step's RMS and mean change over
+/// `mean` (the reference's mean on those pixels), after a headline with the total.
+pub fn breakdown(tag: &str, from: &str, names: &[&str], parts: &[Vec<f64>], mean: f64, stride: usize) -> Vec<String> {
+    let n = parts.len().max(1) as f64;
+    let rms_of = |d: &[f64]| (d.iter().map(|x| x * x).sum::<f64>() / n).sqrt() / mean;
+    let total: Vec<f64> = parts.iter().map(|p| p[0] - p[names.len()]).collect();
+    let mut lines = vec![format!(
+        "{tag}: error breakdown over {} pixels (every {stride}th), from {from}: total RMS {:.4} of the mean reference; each switch to exact, in order:",
+        parts.len(),
+        rms_of(&total)
+    )];
+    for (k, name) in names.iter().enumerate() {
+        let d: Vec<f64> = parts.iter().map(|p| p[k] - p[k + 1]).collect();
+        let bias = d.iter().sum::<f64>() / n / mean;
+        lines.push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
+    }
+    lines
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -61,6 +61,17 @@ pub struct Summary {
     pub ref_rel_se: f64,
 }
 
+impl Summary {
+    /// Writes the lines to `dir/<stem>-summary.txt` (atomically) and records the file.
+    pub fn write(&mut self, dir: &Path, stem: &str) -> Result<(), String> {
+        let text: String = self.lines.iter().map(|l| format!("{l}\n")).collect();
+        let path = dir.join(format!("{stem}-summary.txt"));
+        crate::io::write_atomic(&path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
+        self.files.push(path);
+        Ok(())
+    }
+}
+
 /// Renders one scene (a [`Pipeline::scenes`] name or a scene file's path) into a
 /// directory; `progress` is called once per finished image row of the reference.
 pub type RenderFn = fn(&str, &RenderOptions, &Path, &(dyn Fn() + Sync)) -> Result<Summary, String>;

@@ -33,6 +33,28 @@ pub struct EqualError {
 }
 
 impl EqualError {
+    /// [`EqualError::new`] with σ² the mean per-sample variance of the reference's
+    /// estimates over the `mask`ed pixels (`pixels` of them).
+    pub fn from_estimates(
+        pipeline_s: f64,
+        reference_s: f64,
+        refs: &[crate::pipelines::estimate::Estimate],
+        mask: &[bool],
+        spp: usize,
+        rmse: f64,
+    ) -> Self {
+        let var: Vec<f64> = refs.iter().map(|e| e.per_sample_variance()).collect();
+        let pixels = mask.iter().filter(|&&m| m).count();
+        Self::new(
+            pipeline_s,
+            reference_s,
+            pixels,
+            spp,
+            crate::pipelines::image::mean_over(&var, mask),
+            rmse,
+        )
+    }
+
     /// From the measurements: the pipeline's time over `pixels` pixels, the
     /// reference's time over the same pixels at `spp` samples each, the reference's
     /// mean per-sample variance σ² and the pipeline's RMS error ε (absolute, in the

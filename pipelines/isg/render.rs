@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Specular, Tables};
 use super::{reference, PIPELINE};
 use crate::pipelines::estimate::{estimate, Estimate};
-use crate::pipelines::image::{compare, mean_over, noise_free_rel_rmse, write_comparison};
+use crate::pipelines::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_comparison};
 use crate::pipelines::scene::{Hit, Scene};
 use crate::pipelines::timing::{timed, EqualError};
 use crate::pipelines::{RenderOptions, Summary};
@@ -320,25 +320,16 @@ fn render_scene(
         "eq. 9 (→ every lighting SG times the BRDF SG)",
         "Phong as one SG, the limiting cone, patch resolution (→ the precise Monte Carlo reference)",
     ];
-    let total: Vec<f64> = parts.iter().map(|p| p[0] - p[4]).collect();
-    let rms_of = |d: &[f64]| (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt() / mean_sub;
-    sum.lines.push(format!(
-        "{tag}: error breakdown over {} pixels (every {stride}th), from the paper's configuration (best model, binary, eq. 9): total RMS {:.4} of the mean reference; each switch to exact, in order:",
-        parts.len(),
-        rms_of(&total)
+    sum.lines.extend(breakdown(
+        &tag,
+        "the paper's configuration (best model, binary, eq. 9)",
+        &names,
+        &parts,
+        mean_sub,
+        stride,
     ));
-    for (k, name) in names.iter().enumerate() {
-        let d: Vec<f64> = parts.iter().map(|p| p[k] - p[k + 1]).collect();
-        let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_sub;
-        sum.lines
-            .push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
-    }
 
-    let var_per_sample = mean_over(
-        &refs.iter().map(Estimate::per_sample_variance).collect::<Vec<_>>(),
-        &lit,
-    );
-    let eq = EqualError::new(t_best, t_ref, pixels, opts.spp, var_per_sample, rmse_best * mean_ref);
+    let eq = EqualError::from_estimates(t_best, t_ref, &refs, &lit, opts.spp, rmse_best * mean_ref);
     sum.lines.push(format!(
         "{tag}: time per pixel: ISG (best) {:.2} µs; reference {:.3} µs per sample, {:.0} samples for the ISG's RMSE against the precise reference → {:.0} µs; ratio reference/ISG {:.0} (at least: that RMSE includes the precise reference's noise; one run, same process, the same BVH)",
         1e6 * eq.pipeline_per_pixel,
@@ -365,9 +356,6 @@ fn render_scene(
     sum.files.extend(files);
     sum.rel_rmse = rmse_best;
     sum.ref_rel_se = ref_rel_se;
-    let text: String = sum.lines.iter().map(|l| format!("{l}\n")).collect();
-    let path = dir.join(format!("isg-{tag}-summary.txt"));
-    crate::io::write_atomic(&path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
-    sum.files.push(path);
+    sum.write(dir, &format!("isg-{tag}"))?;
     Ok(sum)
 }

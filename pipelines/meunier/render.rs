@@ -292,11 +292,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             st.max
         ));
     }
-    let var_per_sample = mean_over(
-        &refs.iter().map(Estimate::per_sample_variance).collect::<Vec<_>>(),
-        &lit,
-    );
-    let eq = EqualError::new(t_lobe, t_ref, pixels, opts.spp, var_per_sample, rmse_default * mean_ref);
+    let eq = EqualError::from_estimates(t_lobe, t_ref, &refs, &lit, opts.spp, rmse_default * mean_ref);
     sum.lines.push(format!(
         "{tag}: shading time per pixel: lobes {:.2} µs; reference {:.3} µs per sample, {:.1} samples for the lobes' RMSE → {:.2} µs; ratio reference/lobes {:.2} (one run, same process)",
         1e6 * eq.pipeline_per_pixel,
@@ -477,9 +473,6 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     ));
     sum.rel_rmse = rmse_default;
     sum.ref_rel_se = ref_rel_se;
-    let text: String = sum.lines.iter().map(|l| format!("{l}\n")).collect();
-    let path = dir.join(format!("meunier-{tag}-summary.txt"));
-    crate::io::write_atomic(&path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
-    sum.files.push(path);
+    sum.write(dir, &format!("meunier-{tag}"))?;
     Ok(sum)
 }

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, Exp, Horizon, Settings, Tables};
 use super::{light, light_sh, reference, PIPELINE};
 use crate::pipelines::estimate::{estimate, Estimate};
-use crate::pipelines::image::{compare, mean_over, noise_free_rel_rmse, write_comparison};
+use crate::pipelines::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_comparison};
 use crate::pipelines::scene::{Hit, Scene};
 use crate::pipelines::sky::Phong;
 use crate::pipelines::timing::{timed, EqualError};
@@ -388,25 +388,10 @@ fn render_scene(
         "log visibility: ε floor, truncated exp*, wedge interpolation (→ SH-ideal)",
         "the band limit (→ the precise reference)",
     ];
-    let rms_of = |d: &[f64]| (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt() / mean_sub;
-    let total: Vec<f64> = parts.iter().map(|p| p[0] - p[ns + 1]).collect();
-    sum.lines.push(format!(
-        "{tag}: error breakdown over {} pixels (every {stride}th), from the defaults: total RMS {:.4} of the mean reference; each switch to exact, in order:",
-        parts.len(),
-        rms_of(&total)
-    ));
-    for (k, name) in names.iter().enumerate() {
-        let d: Vec<f64> = parts.iter().map(|p| p[k] - p[k + 1]).collect();
-        let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_sub;
-        sum.lines
-            .push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
-    }
+    sum.lines
+        .extend(breakdown(&tag, "the defaults", &names, &parts, mean_sub, stride));
 
-    let var_per_sample = mean_over(
-        &refs.iter().map(Estimate::per_sample_variance).collect::<Vec<_>>(),
-        &lit,
-    );
-    let eq = EqualError::new(t_pipe, t_ref, pixels, opts.spp, var_per_sample, rmse_pipe * mean_ref);
+    let eq = EqualError::from_estimates(t_pipe, t_ref, &refs, &lit, opts.spp, rmse_pipe * mean_ref);
     sum.lines.push(format!(
         "{tag}: time per pixel: pipeline {:.2} µs; reference {:.3} µs per sample, {:.0} samples for the pipeline's RMSE against the precise reference → {:.0} µs; ratio reference/pipeline {:.1} (one run, same process, the same BVH)",
         1e6 * eq.pipeline_per_pixel,
@@ -436,9 +421,6 @@ fn render_scene(
         .push(crate::pipelines::image::write_pfm(&ideal_pfm, w, h, &ideal_img)?);
     sum.rel_rmse = rmse_pipe;
     sum.ref_rel_se = ref_rel_se;
-    let text: String = sum.lines.iter().map(|l| format!("{l}\n")).collect();
-    let path = dir.join(format!("shexp-{tag}-summary.txt"));
-    crate::io::write_atomic(&path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
-    sum.files.push(path);
+    sum.write(dir, &format!("shexp-{tag}"))?;
     Ok(sum)
 }
