@@ -117,7 +117,12 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
 
 /// Every pipeline `lobefit render` knows.
 pub fn registry() -> Vec<Pipeline> {
-    vec![meunier::PIPELINE, isg::PIPELINE, shexp::PIPELINE]
+    vec![
+        meunier::PIPELINE,
+        isg::PIPELINE,
+        shexp::PIPELINE,
+        rigs::render::PIPELINE,
+    ]
 }
 
 /// The pipeline called `name`.

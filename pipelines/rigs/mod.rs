@@ -21,6 +21,8 @@ use lobefit_tables::sh::eval_basis;
 use rayon::prelude::*;
 
 use crate::quad::gauss_kronrod;
+
+pub mod render;
 use crate::rng::Rng;
 
 /// Half extents of the car-sized box (m): 4.5 × 1.8 × 1.5.
@@ -192,10 +194,28 @@ fn exact_field(lights: &[Light], receivers: &[Receiver]) -> Result<Vec<f64>, Str
 
 /// Exact irradiance ∫ L max(N·ω, 0) dω of one light at receiver r.
 pub fn exact_irradiance(light: &Light, r: &Receiver) -> Result<f64, String> {
+    exact_with_kernel(light, r, |t| t.max(0.0))
+}
+
+/// Exact wrapped irradiance ∫ L f(N·ω | a) dω of one light at receiver r, with the wrap
+/// kernel f(t | a) = ((t + a)/(1 + a))^{1+a} for t > −a (docs/math.md, wrap).
+pub fn exact_wrapped(light: &Light, r: &Receiver, a: f64) -> Result<f64, String> {
+    exact_with_kernel(light, r, |t| {
+        if t > -a {
+            ((t + a) / (1.0 + a)).powf(1.0 + a)
+        } else {
+            0.0
+        }
+    })
+}
+
+/// ∫ L k(N·ω) dω of one light at receiver r for a kernel k of the cosine (closed form
+/// for point lights, nested Gauss–Kronrod over the cap or the disk otherwise).
+fn exact_with_kernel(light: &Light, r: &Receiver, k: impl Fn(f64) -> f64) -> Result<f64, String> {
     match *light {
         Light::Point { position, intensity } => {
             let d = position - r.p;
-            Ok(intensity * (r.n.dot(d) / d.length()).max(0.0) / d.length_squared())
+            Ok(intensity * k(r.n.dot(d) / d.length()) / d.length_squared())
         }
         Light::Sphere {
             centre,
@@ -212,7 +232,7 @@ pub fn exact_irradiance(light: &Light, r: &Receiver) -> Result<f64, String> {
             let scale = PI * tb * tb;
             let q = nested(0.0, tb, 0.0, 2.0 * PI, EXACT_REL_TOL * scale, |th, ph| {
                 let dir = th.cos() * w + th.sin() * (ph.cos() * u + ph.sin() * v);
-                r.n.dot(dir).max(0.0) * th.sin()
+                k(r.n.dot(dir)) * th.sin()
             })?;
             Ok(radiance * q)
         }
@@ -231,7 +251,7 @@ pub fn exact_irradiance(light: &Light, r: &Receiver) -> Result<f64, String> {
                 let x = centre + rho * (ph.cos() * u + ph.sin() * v) - r.p;
                 let l = x.length();
                 let emit = (-n.dot(x) / l).max(0.0);
-                r.n.dot(x / l).max(0.0) * emit * rho / (l * l)
+                k(r.n.dot(x / l)) * emit * rho / (l * l)
             })?;
             Ok(radiance * q)
         }

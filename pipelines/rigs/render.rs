@@ -1,0 +1,308 @@
+//! `lobefit render rigs`: Yuan et al. 2012's Figure 1 as images — the car-sized box of
+//! the rig harness under its seven lights, shaded with the exact irradiance (the ground
+//! truth), the per-point SH irradiance, and the constant, gradient, mixed and lattice
+//! rigs (least-squares fits), with error maps and the cost of each (docs/rigs.md).
+//!
+//! Irradiance, not radiance: every panel is E(p, N) = ∫ L max(N·ω, 0) dω at the
+//! surface point a pixel sees (the underside is never seen), unshadowed, as in the
+//! paper's figure.
+
+use std::path::Path;
+
+use lobefit_tables::disk_light::DiskLight;
+use lobefit_tables::glam::DVec3;
+use lobefit_tables::rigs::{select_direct, Light, Rig, RigModel, COEFFS};
+use lobefit_tables::wrap::rewrap_irradiance;
+use rayon::prelude::*;
+
+use super::{car_box, exact_wrapped, field, rig_configs, scene_lights, shade, surface_points, Receiver};
+use super::{CAR_HALF, FIT_POINTS, RIDGE, TEST_POINTS};
+use crate::pipelines::image::{compare, mean_over, panel, write_pfm};
+use crate::pipelines::scene::Camera;
+use crate::pipelines::timing::timed;
+use crate::pipelines::{Pipeline, RenderOptions, Summary};
+
+/// `lobefit render rigs`.
+pub const PIPELINE: Pipeline = Pipeline {
+    name: "rigs",
+    about: "Yuan et al. 2012, Figure 1: irradiance rigs on a car-sized box against exact irradiance (docs/rigs.md)",
+    scenes: &["fig1"],
+    render: render,
+};
+
+/// The camera: a three-quarter view from above the car's front left.
+pub const CAMERA: Camera = Camera {
+    eye: DVec3::new(5.5, -6.5, 4.0),
+    target: DVec3::new(0.0, 0.0, 0.0),
+    fov: 0.62,
+};
+
+/// The rigs of Figure 1: indices into [`rig_configs`] (constant, gradient, mixed,
+/// lattice 3 × 2 × 2).
+pub const FIGURE_RIGS: [usize; 4] = [0, 1, 2, 4];
+
+/// The wrap parameter of the second set of panels (the paper applies wrap shading on
+/// top of the rigs).
+pub const WRAP_A: f64 = 0.5;
+
+/// The error-driven split's tolerance (a light whose own mixed-rig error exceeds this
+/// fraction of the field's RMS is evaluated per point; the harness's first choice).
+pub const SPLIT_TOLERANCE: f64 = 0.05;
+
+/// Irradiance at normal `n` from an order-3 SH irradiance vector, with wrap `a`
+/// (0: Lambert; the vector re-wrapped band by band, λ̂_l(a)/λ̂_l(0)).
+pub fn shade_wrapped(l: &[f64; COEFFS], n: DVec3, a: f64) -> Result<f64, String> {
+    let mut w = [0.0; COEFFS];
+    rewrap_irradiance(l, a, &mut w).map_err(|e| e.to_string())?;
+    Ok(shade(&w, n))
+}
+
+/// A label as a file-name part: lower-case alphanumerics, runs of anything else as
+/// one '-', none at the ends.
+fn slug(label: &str) -> String {
+    let mut out = String::new();
+    for c in label.chars() {
+        if c.is_ascii_alphanumeric() {
+            out.push(c.to_ascii_lowercase());
+        } else if !out.ends_with('-') {
+            out.push('-');
+        }
+    }
+    out.trim_matches('-').to_string()
+}
+
+/// The rigs of Figure 1 fitted by least squares to every light's SH irradiance at the
+/// harness's fit points: (short label, rig, fit time in s).
+pub fn figure_rigs(lights: &[Light], disks: &DiskLight) -> Result<Vec<(String, Rig, f64)>, String> {
+    let fit = surface_points(FIT_POINTS, 0xf17);
+    let configs = rig_configs();
+    FIGURE_RIGS
+        .iter()
+        .map(|&k| {
+            let (label, model) = configs[k];
+            let (rig, t) = timed(|| fit_rig(model, lights, disks, &fit));
+            let short = label.split(':').next().unwrap_or(label).trim().to_string();
+            Ok((short, rig?, t))
+        })
+        .collect()
+}
+
+/// A least-squares rig of `model` for `lights`, fitted at the receivers `fit`.
+fn fit_rig(model: RigModel, lights: &[Light], disks: &DiskLight, fit: &[Receiver]) -> Result<Rig, String> {
+    let samples: Vec<(DVec3, [f64; COEFFS])> = fit
+        .par_iter()
+        .map(|r| Ok((r.p, field(lights, disks, r.p)?)))
+        .collect::<Result<_, String>>()?;
+    Rig::fit_least_squares(model, car_box(), &samples, RIDGE).map_err(|e| e.to_string())
+}
+
+/// What the primary ray from `eye` in direction `d` sees of the box: the nearest
+/// face point with the face's outward normal (slab method); `None` for a miss or the
+/// underside.
+pub fn hit_box(eye: DVec3, d: DVec3) -> Option<Receiver> {
+    let h = DVec3::from_array(CAR_HALF);
+    let (mut t0, mut t1, mut axis) = (0.0f64, f64::INFINITY, None);
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if eye[k].abs() > h[k] {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((-h[k] - eye[k]) / d[k], (h[k] - eye[k]) / d[k]);
+        let (near, far) = (a.min(b), a.max(b));
+        if near > t0 {
+            t0 = near;
+            axis = Some(k);
+        }
+        t1 = t1.min(far);
+    }
+    let k = axis?;
+    if t0 > t1 || t0 <= 0.0 {
+        return None;
+    }
+    let mut n = DVec3::ZERO;
+    n[k] = -d[k].signum();
+    (n.z >= 0.0).then_some(Receiver { p: eye + t0 * d, n })
+}
+
+/// Renders Figure 1 into `dir`.
+pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
+    if name != "fig1" {
+        return Err(format!(
+            "render rigs: unknown scene {name} (the pipeline has one: fig1, the car of Figure 1)"
+        ));
+    }
+    let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
+    let disks = DiskLight::embedded().map_err(|e| e.to_string())?;
+    let lights: Vec<Light> = scene_lights().iter().map(|l| l.1).collect();
+    let hits: Vec<Option<Receiver>> = (0..w * h)
+        .map(|p| hit_box(CAMERA.eye, CAMERA.ray(p % w, p / w, w, h)))
+        .collect();
+    let lit: Vec<bool> = hits.iter().map(Option::is_some).collect();
+    let pixels = lit.iter().filter(|&&l| l).count();
+    if pixels == 0 {
+        return Err(format!("render rigs: no pixel of the {w}×{h} image sees the car"));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut sum = Summary::default();
+
+    // Every panel's SH irradiance vector per pixel (order 3), with its time: the
+    // per-point evaluation of every light, and each rig's fit and reconstruction.
+    let fit = surface_points(FIT_POINTS, 0xf17);
+    let test = surface_points(TEST_POINTS, 0x7e57);
+    let per_pixel = |f: &(dyn Fn(DVec3) -> Result<[f64; COEFFS], String> + Sync)| {
+        timed(|| -> Result<Vec<[f64; COEFFS]>, String> {
+            hits.par_iter()
+                .map(|r| r.as_ref().map_or(Ok([0.0; COEFFS]), |r| f(r.p)))
+                .collect()
+        })
+    };
+    // (label, SH vectors, fit time s, per-pixel time s)
+    let mut panels: Vec<(String, Vec<[f64; COEFFS]>, f64, f64)> = Vec::new();
+    let (v, t) = per_pixel(&|p| field(&lights, disks, p));
+    panels.push(("per-point SH".into(), v?, 0.0, t));
+    for (label, rig, t_fit) in figure_rigs(&lights, disks)? {
+        let (v, t) = per_pixel(&|p| rig.eval(p).map_err(|e| e.to_string()));
+        panels.push((label, v?, t_fit, t));
+    }
+    // The mixed rig with the error-driven split: lights whose own rig error exceeds
+    // SPLIT_TOLERANCE of the field's RMS are evaluated per point, the rest through the
+    // rig (select_direct, as the harness).
+    let mixed = rig_configs()[FIGURE_RIGS[2]].1;
+    let fit_p: Vec<DVec3> = fit.iter().map(|r| r.p).collect();
+    let test_p: Vec<DVec3> = test.iter().map(|r| r.p).collect();
+    let (chosen, t_select) = timed(|| {
+        select_direct(
+            mixed,
+            car_box(),
+            &lights,
+            disks,
+            &fit_p,
+            &test_p,
+            SPLIT_TOLERANCE,
+            RIDGE,
+        )
+        .map_err(|e| e.to_string())
+    });
+    let direct: Vec<usize> = chosen?.iter().map(|c| c.0).collect();
+    let rig_lights: Vec<Light> = (0..lights.len())
+        .filter(|i| !direct.contains(i))
+        .map(|i| lights[i])
+        .collect();
+    let direct_lights: Vec<Light> = direct.iter().map(|&i| lights[i]).collect();
+    let (rig, t_fit) = timed(|| fit_rig(mixed, &rig_lights, disks, &fit));
+    let rig = rig?;
+    let (v, t) = per_pixel(&|p| {
+        let mut v = rig.eval(p).map_err(|e| e.to_string())?;
+        let d = field(&direct_lights, disks, p)?;
+        v.iter_mut().zip(d).for_each(|(a, b)| *a += b);
+        Ok(v)
+    });
+    panels.push((
+        format!("mixed + {} light(s) per point", direct.len()),
+        v?,
+        t_fit + t_select,
+        t,
+    ));
+
+    sum.lines.push(format!(
+        "fig1: {w}×{h}, {pixels} pixels see the car ({} lights); error-driven split at {SPLIT_TOLERANCE}: {} per point ({})",
+        lights.len(),
+        direct.len(),
+        direct.iter().map(|&i| scene_lights()[i].0).collect::<Vec<_>>().join("; ")
+    ));
+    let mut first = f64::NAN;
+    for a in [0.0, WRAP_A] {
+        let tag = if a == 0.0 {
+            "fig1".to_string()
+        } else {
+            format!("fig1, wrap a = {a}")
+        };
+        // Ground truth: the exact (wrapped) irradiance of every light (nested
+        // Gauss–Kronrod for the sphere and disk lights), one image row at a time.
+        let exact: Vec<f64> = (0..h)
+            .into_par_iter()
+            .map(|j| {
+                let row = (0..w)
+                    .map(|i| match &hits[j * w + i] {
+                        None => Ok(0.0),
+                        Some(r) => lights
+                            .iter()
+                            .map(|l| exact_wrapped(l, r, a))
+                            .sum::<Result<f64, String>>(),
+                    })
+                    .collect::<Result<Vec<f64>, String>>();
+                progress();
+                row
+            })
+            .collect::<Result<Vec<_>, _>>()?
+            .concat();
+        let mean = mean_over(&exact, &lit);
+        sum.lines.push(format!("{tag}: mean exact irradiance {mean:.4}"));
+        let mut images = vec![("exact".to_string(), exact.clone())];
+        for (label, v, t_fit, t) in &panels {
+            let img: Vec<f64> = hits
+                .iter()
+                .zip(v)
+                .map(|(r, l)| r.as_ref().map_or(Ok(0.0), |r| shade_wrapped(l, r.n, a)))
+                .collect::<Result<_, String>>()?;
+            let vs_exact = compare(&img, &exact, &lit);
+            // images[1] is the per-point SH image once it exists (the first panel).
+            let vs_sh = compare(&img, images.get(1).map_or(&img, |x| &x.1), &lit);
+            sum.lines.push(format!(
+                "{tag}: {label:<28}: against exact relative RMSE {:.4}, p99 {:.4}, max {:.4}; against per-point SH {:.4}; fit {:.2} ms, per point {:.3} µs",
+                vs_exact.rel_rmse,
+                vs_exact.p99,
+                vs_exact.max,
+                vs_sh.rel_rmse,
+                1e3 * t_fit,
+                1e6 * t / pixels as f64
+            ));
+            if first.is_nan() {
+                first = vs_exact.rel_rmse;
+            }
+            images.push((label.clone(), img));
+        }
+        let stem = if a == 0.0 {
+            "rigs-fig1".to_string()
+        } else {
+            "rigs-fig1-wrap".to_string()
+        };
+        let masked = |v: &[f64]| crate::pipelines::image::masked(v, &lit);
+        let shown: Vec<_> = images
+            .iter()
+            .map(|(label, v)| panel(format!("{tag}: {label}"), w, h, &masked(v), "irradiance"))
+            .collect();
+        sum.files.push(crate::plot::heatmaps(
+            &dir.join(format!("{stem}-images.png")),
+            &shown,
+            4,
+        )?);
+        let errors: Vec<_> = images[1..]
+            .iter()
+            .map(|(label, v)| {
+                panel(
+                    format!("{tag}: ({label} − exact) / mean exact"),
+                    w,
+                    h,
+                    &crate::pipelines::image::error_map(v, &exact, &lit, mean),
+                    "relative error",
+                )
+            })
+            .collect();
+        sum.files.push(crate::plot::heatmaps(
+            &dir.join(format!("{stem}-error.png")),
+            &errors,
+            4,
+        )?);
+        for (label, v) in &images {
+            let name = slug(label);
+            sum.files
+                .push(write_pfm(&dir.join(format!("{stem}-{name}.pfm")), w, h, v)?);
+        }
+    }
+    sum.rel_rmse = first;
+    sum.write(dir, "rigs-fig1")?;
+    Ok(sum)
+}
