@@ -27,7 +27,7 @@ pub const PIPELINE: Pipeline = Pipeline {
     name: "rigs",
     about: "Yuan et al. 2012, Figure 1: irradiance rigs on a car-sized box against exact irradiance (docs/rigs.md)",
     scenes: &["fig1"],
-    render: render,
+    render,
 };
 
 /// The camera: a three-quarter view from above the car's front left.
