@@ -26,7 +26,7 @@ use crate::pipelines::{Pipeline, RenderOptions, Summary};
 pub const PIPELINE: Pipeline = Pipeline {
     name: "rigs",
     about: "Yuan et al. 2012, Figure 1: irradiance rigs on a car-sized box against exact irradiance (docs/rigs.md)",
-    scenes: &["fig1"],
+    scenes: &["fig1", "drive"],
     render,
 };
 
@@ -87,10 +87,11 @@ pub fn figure_rigs(lights: &[Light], disks: &DiskLight) -> Result<Vec<(String, R
         .collect()
 }
 
-/// A least-squares rig of `model` for `lights`, fitted at the receivers `fit`.
+/// A least-squares rig of `model` for `lights`, fitted at the receivers `fit` (on one
+/// thread: its time is compared with per-point costs measured on one thread).
 fn fit_rig(model: RigModel, lights: &[Light], disks: &DiskLight, fit: &[Receiver]) -> Result<Rig, String> {
     let samples: Vec<(DVec3, [f64; COEFFS])> = fit
-        .par_iter()
+        .iter()
         .map(|r| Ok((r.p, field(lights, disks, r.p)?)))
         .collect::<Result<_, String>>()?;
     Rig::fit_least_squares(model, car_box(), &samples, RIDGE).map_err(|e| e.to_string())
@@ -128,10 +129,14 @@ pub fn hit_box(eye: DVec3, d: DVec3) -> Option<Receiver> {
 
 /// Renders Figure 1 into `dir`.
 pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
-    if name != "fig1" {
-        return Err(format!(
-            "render rigs: unknown scene {name} (the pipeline has one: fig1, the car of Figure 1)"
-        ));
+    match name {
+        "fig1" => {}
+        "drive" => return drive(dir, progress),
+        _ => {
+            return Err(format!(
+                "render rigs: unknown scene {name} (fig1: Figure 1's panels; drive: the animated pass)"
+            ))
+        }
     }
     let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
     let disks = DiskLight::embedded().map_err(|e| e.to_string())?;
@@ -304,5 +309,198 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     }
     sum.rel_rmse = first;
     sum.write(dir, "rigs-fig1")?;
+    Ok(sum)
+}
+
+/// Frames of the animated pass.
+pub const FRAMES: usize = 24;
+/// The car's x over the pass: from −`DRIVE_X` to +`DRIVE_X` m (past all three lamps).
+pub const DRIVE_X: f64 = 9.0;
+
+/// The scene's lights seen from a car whose centre is at `x` along the street: the
+/// rig box stays at the origin, so the world moves by −x.
+pub fn lights_at(x: f64) -> Vec<Light> {
+    let shift = DVec3::new(-x, 0.0, 0.0);
+    scene_lights()
+        .into_iter()
+        .map(|(_, l)| match l {
+            Light::Point { position, intensity } => Light::Point {
+                position: position + shift,
+                intensity,
+            },
+            Light::Sphere {
+                centre,
+                radius,
+                radiance,
+            } => Light::Sphere {
+                centre: centre + shift,
+                radius,
+                radiance,
+            },
+            Light::Disk {
+                centre,
+                normal,
+                radius,
+                radiance,
+            } => Light::Disk {
+                centre: centre + shift,
+                normal,
+                radius,
+                radiance,
+            },
+        })
+        .collect()
+}
+
+/// The animated pass: the car drives from x = −9 to +9 m past the lamps in
+/// [`FRAMES`] frames; per frame every Figure 1 rig is refitted and the error-driven
+/// split re-chosen, each measured against the exact irradiance on the harness's 800
+/// test points, and timed (fit per frame; per point: reconstruction, the split's
+/// per-point lights, and every light per point).
+fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let disks = DiskLight::embedded().map_err(|e| e.to_string())?;
+    let fit = surface_points(FIT_POINTS, 0xf17);
+    let test = surface_points(TEST_POINTS, 0x7e57);
+    let fit_p: Vec<DVec3> = fit.iter().map(|r| r.p).collect();
+    let test_p: Vec<DVec3> = test.iter().map(|r| r.p).collect();
+    let names: Vec<&str> = scene_lights().iter().map(|l| l.0).collect();
+    let mixed = rig_configs()[FIGURE_RIGS[2]].1;
+    let mut sum = Summary::default();
+    // Per method: (label, per-frame errors, total fit s, total per-point s).
+    let mut methods: Vec<(String, Vec<f64>, f64, f64)> = Vec::new();
+    let mut add = |k: usize, label: &str, err: f64, t_fit: f64, t_point: f64| {
+        if methods.len() <= k {
+            methods.push((label.to_string(), Vec::new(), 0.0, 0.0));
+        }
+        let m = &mut methods[k];
+        m.1.push(err);
+        m.2 += t_fit;
+        m.3 += t_point;
+    };
+    for frame in 0..FRAMES {
+        let x = -DRIVE_X + 2.0 * DRIVE_X * frame as f64 / (FRAMES - 1) as f64;
+        let lights = lights_at(x);
+        let exact: Vec<f64> = test
+            .par_iter()
+            .map(|r| {
+                lights
+                    .iter()
+                    .map(|l| exact_wrapped(l, r, 0.0))
+                    .sum::<Result<f64, String>>()
+            })
+            .collect::<Result<_, String>>()?;
+        let shade_all = |f: &(dyn Fn(DVec3) -> Result<[f64; COEFFS], String> + Sync)| {
+            timed(|| -> Result<Vec<f64>, String> { test.iter().map(|r| Ok(shade(&f(r.p)?, r.n))).collect() })
+        };
+        let rel = |img: &[f64]| crate::pipelines::image::compare(img, &exact, &vec![true; exact.len()]).rel_rmse;
+        // Every light per point: the per-point SH baseline.
+        let (img, t) = shade_all(&|p| field(&lights, disks, p));
+        add(0, "every light per point (SH)", rel(&img?), 0.0, t);
+        for (k, (label, rig, t_fit)) in figure_rigs(&lights, disks)?.into_iter().enumerate() {
+            let (img, t) = shade_all(&|p| rig.eval(p).map_err(|e| e.to_string()));
+            add(1 + k, &label, rel(&img?), t_fit, t);
+        }
+        let (chosen, t_select) = timed(|| {
+            select_direct(
+                mixed,
+                car_box(),
+                &lights,
+                disks,
+                &fit_p,
+                &test_p,
+                SPLIT_TOLERANCE,
+                RIDGE,
+            )
+            .map_err(|e| e.to_string())
+        });
+        let direct: Vec<usize> = chosen?.iter().map(|c| c.0).collect();
+        let rig_lights: Vec<Light> = (0..lights.len())
+            .filter(|i| !direct.contains(i))
+            .map(|i| lights[i])
+            .collect();
+        let direct_lights: Vec<Light> = direct.iter().map(|&i| lights[i]).collect();
+        let (rig, t_fit) = timed(|| fit_rig(mixed, &rig_lights, disks, &fit));
+        let rig = rig?;
+        let (img, t) = shade_all(&|p| {
+            let mut v = rig.eval(p).map_err(|e| e.to_string())?;
+            let d = field(&direct_lights, disks, p)?;
+            v.iter_mut().zip(d).for_each(|(a, b)| *a += b);
+            Ok(v)
+        });
+        let err = rel(&img?);
+        add(
+            1 + FIGURE_RIGS.len(),
+            "mixed + error-driven split",
+            err,
+            t_fit + t_select,
+            t,
+        );
+        sum.lines.push(format!(
+            "drive: frame {frame:>2}, car at x = {x:+.2} m: per point: {}; mixed + split {err:.4}",
+            if direct.is_empty() {
+                "none".to_string()
+            } else {
+                direct.iter().map(|&i| names[i]).collect::<Vec<_>>().join("; ")
+            }
+        ));
+        progress();
+    }
+    let points = TEST_POINTS as f64 * FRAMES as f64;
+    sum.lines.push(format!(
+        "drive: {FRAMES} frames, {TEST_POINTS} points a frame; relative RMSE against exact irradiance over the frames (min, median, max), fit ms per frame, µs per point (one thread, one run, same process):"
+    ));
+    let mut series = Vec::new();
+    let mut scatter = Vec::new();
+    for (label, errs, t_fit, t_point) in &methods {
+        let mut sorted = errs.clone();
+        sorted.sort_by(f64::total_cmp);
+        let per_point = 1e6 * (t_point + t_fit) / points;
+        sum.lines.push(format!(
+            "drive:   {label:<30}: {:.4} {:.4} {:.4}; fit {:.2} ms/frame; {:.3} µs/point per frame (fit shared over {TEST_POINTS} points: {:.3} µs/point with it)",
+            sorted[0],
+            sorted[sorted.len() / 2],
+            sorted[sorted.len() - 1],
+            1e3 * t_fit / FRAMES as f64,
+            1e6 * t_point / points,
+            per_point
+        ));
+        series.push(crate::plot::Series {
+            name: label.clone(),
+            points: errs.iter().enumerate().map(|(f, &e)| (f as f64, e)).collect(),
+        });
+        scatter.push(crate::plot::Series {
+            name: label.clone(),
+            points: vec![(per_point, sorted[sorted.len() / 2])],
+        });
+    }
+    sum.files.push(crate::plot::line_chart(
+        &dir.join("rigs-drive-error.png"),
+        &crate::plot::LineChart {
+            title: "irradiance rigs: error per frame as the car drives past the lamps".into(),
+            x_label: "frame".into(),
+            y_label: "relative RMSE against exact irradiance".into(),
+            log_x: false,
+            log_y: true,
+            series,
+        },
+    )?);
+    sum.files.push(crate::plot::line_chart(
+        &dir.join("rigs-drive-cost.png"),
+        &crate::plot::LineChart {
+            title: "irradiance rigs: median error against cost (fit shared over the points)".into(),
+            x_label: "µs per point per frame".into(),
+            y_label: "median relative RMSE".into(),
+            log_x: true,
+            log_y: true,
+            series: scatter,
+        },
+    )?);
+    sum.rel_rmse = methods.get(3).map_or(f64::NAN, |m| {
+        let mut s = m.1.clone();
+        s.sort_by(f64::total_cmp);
+        s[s.len() / 2]
+    });
+    sum.write(dir, "rigs-drive")?;
     Ok(sum)
 }
