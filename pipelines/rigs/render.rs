@@ -504,3 +504,69 @@ fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
     sum.write(dir, "rigs-drive")?;
     Ok(sum)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rays by hand: straight down onto the roof, onto the +x bumper face, from below
+    /// (the underside is not shaded), and past the box.
+    #[test]
+    fn hit_box_by_hand() {
+        let r = hit_box(DVec3::new(0.3, 0.2, 5.0), -DVec3::Z).unwrap();
+        assert_eq!((r.p, r.n), (DVec3::new(0.3, 0.2, 0.75), DVec3::Z));
+        let r = hit_box(DVec3::new(10.0, 0.1, 0.2), -DVec3::X).unwrap();
+        assert_eq!((r.p, r.n), (DVec3::new(2.25, 0.1, 0.2), DVec3::X));
+        assert!(hit_box(DVec3::new(0.0, 0.0, -5.0), DVec3::Z).is_none());
+        assert!(hit_box(DVec3::new(0.0, 3.0, 5.0), -DVec3::Z).is_none());
+        // Inside the box: no hit (t0 ≤ 0).
+        assert!(hit_box(DVec3::ZERO, DVec3::X).is_none());
+    }
+
+    /// The wrapped exact irradiance of a tiny sphere light is that of a point light of
+    /// intensity L πr² (closed form), for normals facing it, grazing and behind within
+    /// the wrap: the quadrature with the wrap kernel against a hand-written formula.
+    #[test]
+    fn wrapped_sphere_light_is_a_point_light_when_tiny() {
+        let (c, radius, radiance) = (DVec3::new(0.0, 0.0, 5.0), 1e-3, 2.0e4);
+        let sphere = Light::Sphere {
+            centre: c,
+            radius,
+            radiance,
+        };
+        for (a, n) in [
+            (0.0, DVec3::Z),
+            (0.5, DVec3::Z),
+            (0.5, DVec3::X),
+            (0.5, DVec3::new(0.0, 0.9, -0.2).normalize()),
+        ] {
+            let r = Receiver { p: DVec3::ZERO, n };
+            let t = n.dot(c.normalize());
+            let kernel = if t > -a {
+                ((t + a) / (1.0 + a)).powf(1.0 + a)
+            } else {
+                0.0
+            };
+            let want = radiance * std::f64::consts::PI * radius * radius * kernel / c.length_squared();
+            let got = exact_wrapped(&sphere, &r, a).unwrap();
+            assert!(
+                (got - want).abs() <= 1e-4 * want.max(1e-6),
+                "a {a}, n {n}: {got} vs {want}"
+            );
+        }
+    }
+
+    /// The pass's lights move with −x and keep everything else.
+    #[test]
+    fn lights_at_shifts_the_world() {
+        let base = scene_lights();
+        for (moved, (_, orig)) in lights_at(2.5).iter().zip(&base) {
+            let pos = |l: &Light| match *l {
+                Light::Point { position, .. } => position,
+                Light::Sphere { centre, .. } | Light::Disk { centre, .. } => centre,
+            };
+            assert_eq!(pos(moved), pos(orig) - DVec3::new(2.5, 0.0, 0.0));
+        }
+        assert_eq!(lights_at(0.0), base.iter().map(|l| l.1).collect::<Vec<_>>());
+    }
+}

@@ -25,6 +25,7 @@ mod log_zh;
 mod meunier;
 mod render_isg;
 mod render_meunier;
+mod render_rigs;
 mod render_shexp;
 mod rigs;
 mod shexp;
