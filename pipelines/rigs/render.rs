@@ -156,9 +156,10 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     // per-point evaluation of every light, and each rig's fit and reconstruction.
     let fit = surface_points(FIT_POINTS, 0xf17);
     let test = surface_points(TEST_POINTS, 0x7e57);
+    // On one thread, as the animated pass's costs.
     let per_pixel = |f: &(dyn Fn(DVec3) -> Result<[f64; COEFFS], String> + Sync)| {
         timed(|| -> Result<Vec<[f64; COEFFS]>, String> {
-            hits.par_iter()
+            hits.iter()
                 .map(|r| r.as_ref().map_or(Ok([0.0; COEFFS]), |r| f(r.p)))
                 .collect()
         })
