@@ -181,9 +181,9 @@ enum Command {
         /// The pipeline (`lobefit render --help` lists them; docs/pipelines.md).
         #[arg(value_parser = PossibleValuesParser::new(lobefit::pipelines::registry().iter().map(|p| p.name)))]
         name: String,
-        /// Scene: one of the pipeline's built-in scenes (meunier: fig13, the paper's
-        /// Figure 13, diffuse; glossy, a Lafortune plane), all of them, or the path of a
-        /// scene file (docs/pipelines.md).
+        /// Scene: one of the pipeline's built-in scenes (meunier: fig13, glossy; isg:
+        /// fig12, fig12-diffuse, sweep; shexp: whale, whale-diffuse, wrecking; rigs: fig1,
+        /// drive), all of them, or the path of a scene file (docs/pipelines.md).
         #[arg(long, default_value = "all")]
         scene: String,
         /// Output directory.
