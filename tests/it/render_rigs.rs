@@ -63,3 +63,16 @@ fn tiny_fig1_writes_every_panel() {
     assert_eq!(code, Some(1));
     assert!(err.contains("unknown scene nope"), "{err}");
 }
+
+/// `render --help` names every pipeline and each of its built-in scenes.
+#[test]
+fn render_help_lists_every_pipeline_and_scene() {
+    let (code, help, _) = common::run_text(&["render", "--help"], "");
+    assert_eq!(code, Some(0));
+    for p in lobefit::pipelines::registry() {
+        assert!(help.contains(p.name), "{}", p.name);
+        for s in p.scenes {
+            assert!(help.contains(s), "{}: {s}: {help}", p.name);
+        }
+    }
+}
