@@ -97,6 +97,53 @@ fn fit_rig(model: RigModel, lights: &[Light], disks: &DiskLight, fit: &[Receiver
     Rig::fit_least_squares(model, car_box(), &samples, RIDGE).map_err(|e| e.to_string())
 }
 
+/// The mixed rig with the error-driven split: the lights whose own mixed-rig error
+/// exceeds [`SPLIT_TOLERANCE`] of the field's RMS (`select_direct`, as the harness)
+/// are evaluated per point, the rest through one rig.
+pub struct Split {
+    /// Indices of the lights evaluated per point.
+    pub direct: Vec<usize>,
+    direct_lights: Vec<Light>,
+    rig: Rig,
+    /// Time of the choice and the fit (s).
+    pub fit_s: f64,
+}
+
+impl Split {
+    /// Chooses and fits at the harness's fit and test points.
+    pub fn new(lights: &[Light], disks: &DiskLight) -> Result<Split, String> {
+        let fit = surface_points(FIT_POINTS, 0xf17);
+        let fit_p: Vec<DVec3> = fit.iter().map(|r| r.p).collect();
+        let test_p: Vec<DVec3> = surface_points(TEST_POINTS, 0x7e57).iter().map(|r| r.p).collect();
+        let mixed = rig_configs()[FIGURE_RIGS[2]].1;
+        let (split, fit_s) = timed(|| -> Result<(Vec<usize>, Rig), String> {
+            let chosen = select_direct(mixed, car_box(), lights, disks, &fit_p, &test_p, SPLIT_TOLERANCE, RIDGE)
+                .map_err(|e| e.to_string())?;
+            let direct: Vec<usize> = chosen.iter().map(|c| c.0).collect();
+            let rig_lights: Vec<Light> = (0..lights.len())
+                .filter(|i| !direct.contains(i))
+                .map(|i| lights[i])
+                .collect();
+            Ok((direct, fit_rig(mixed, &rig_lights, disks, &fit)?))
+        });
+        let (direct, rig) = split?;
+        Ok(Split {
+            direct_lights: direct.iter().map(|&i| lights[i]).collect(),
+            direct,
+            rig,
+            fit_s,
+        })
+    }
+
+    /// The SH irradiance at `p`: the rig plus the direct lights.
+    pub fn eval(&self, p: DVec3, disks: &DiskLight) -> Result<[f64; COEFFS], String> {
+        let mut v = self.rig.eval(p).map_err(|e| e.to_string())?;
+        let d = field(&self.direct_lights, disks, p)?;
+        v.iter_mut().zip(d).for_each(|(a, b)| *a += b);
+        Ok(v)
+    }
+}
+
 /// What the primary ray from `eye` in direction `d` sees of the box: the nearest
 /// face point with the face's outward normal (slab method); `None` for a miss or the
 /// underside.
@@ -154,8 +201,6 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
 
     // Every panel's SH irradiance vector per pixel (order 3), with its time: the
     // per-point evaluation of every light, and each rig's fit and reconstruction.
-    let fit = surface_points(FIT_POINTS, 0xf17);
-    let test = surface_points(TEST_POINTS, 0x7e57);
     // On one thread, as the animated pass's costs.
     let per_pixel = |f: &(dyn Fn(DVec3) -> Result<[f64; COEFFS], String> + Sync)| {
         timed(|| -> Result<Vec<[f64; COEFFS]>, String> {
@@ -172,43 +217,13 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         let (v, t) = per_pixel(&|p| rig.eval(p).map_err(|e| e.to_string()));
         panels.push((label, v?, t_fit, t));
     }
-    // The mixed rig with the error-driven split: lights whose own rig error exceeds
-    // SPLIT_TOLERANCE of the field's RMS are evaluated per point, the rest through the
-    // rig (select_direct, as the harness).
-    let mixed = rig_configs()[FIGURE_RIGS[2]].1;
-    let fit_p: Vec<DVec3> = fit.iter().map(|r| r.p).collect();
-    let test_p: Vec<DVec3> = test.iter().map(|r| r.p).collect();
-    let (chosen, t_select) = timed(|| {
-        select_direct(
-            mixed,
-            car_box(),
-            &lights,
-            disks,
-            &fit_p,
-            &test_p,
-            SPLIT_TOLERANCE,
-            RIDGE,
-        )
-        .map_err(|e| e.to_string())
-    });
-    let direct: Vec<usize> = chosen?.iter().map(|c| c.0).collect();
-    let rig_lights: Vec<Light> = (0..lights.len())
-        .filter(|i| !direct.contains(i))
-        .map(|i| lights[i])
-        .collect();
-    let direct_lights: Vec<Light> = direct.iter().map(|&i| lights[i]).collect();
-    let (rig, t_fit) = timed(|| fit_rig(mixed, &rig_lights, disks, &fit));
-    let rig = rig?;
-    let (v, t) = per_pixel(&|p| {
-        let mut v = rig.eval(p).map_err(|e| e.to_string())?;
-        let d = field(&direct_lights, disks, p)?;
-        v.iter_mut().zip(d).for_each(|(a, b)| *a += b);
-        Ok(v)
-    });
+    let split = Split::new(&lights, disks)?;
+    let direct = split.direct.clone();
+    let (v, t) = per_pixel(&|p| split.eval(p, disks));
     panels.push((
         format!("mixed + {} light(s) per point", direct.len()),
         v?,
-        t_fit + t_select,
+        split.fit_s,
         t,
     ));
 
@@ -361,12 +376,8 @@ pub fn lights_at(x: f64) -> Vec<Light> {
 fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let disks = DiskLight::embedded().map_err(|e| e.to_string())?;
-    let fit = surface_points(FIT_POINTS, 0xf17);
     let test = surface_points(TEST_POINTS, 0x7e57);
-    let fit_p: Vec<DVec3> = fit.iter().map(|r| r.p).collect();
-    let test_p: Vec<DVec3> = test.iter().map(|r| r.p).collect();
     let names: Vec<&str> = scene_lights().iter().map(|l| l.0).collect();
-    let mixed = rig_configs()[FIGURE_RIGS[2]].1;
     let mut sum = Summary::default();
     // Per method: (label, per-frame errors, total fit s, total per-point s).
     let mut methods: Vec<(String, Vec<f64>, f64, f64)> = Vec::new();
@@ -402,41 +413,11 @@ fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
             let (img, t) = shade_all(&|p| rig.eval(p).map_err(|e| e.to_string()));
             add(1 + k, &label, rel(&img?), t_fit, t);
         }
-        let (chosen, t_select) = timed(|| {
-            select_direct(
-                mixed,
-                car_box(),
-                &lights,
-                disks,
-                &fit_p,
-                &test_p,
-                SPLIT_TOLERANCE,
-                RIDGE,
-            )
-            .map_err(|e| e.to_string())
-        });
-        let direct: Vec<usize> = chosen?.iter().map(|c| c.0).collect();
-        let rig_lights: Vec<Light> = (0..lights.len())
-            .filter(|i| !direct.contains(i))
-            .map(|i| lights[i])
-            .collect();
-        let direct_lights: Vec<Light> = direct.iter().map(|&i| lights[i]).collect();
-        let (rig, t_fit) = timed(|| fit_rig(mixed, &rig_lights, disks, &fit));
-        let rig = rig?;
-        let (img, t) = shade_all(&|p| {
-            let mut v = rig.eval(p).map_err(|e| e.to_string())?;
-            let d = field(&direct_lights, disks, p)?;
-            v.iter_mut().zip(d).for_each(|(a, b)| *a += b);
-            Ok(v)
-        });
+        let split = Split::new(&lights, disks)?;
+        let direct = &split.direct;
+        let (img, t) = shade_all(&|p| split.eval(p, disks));
         let err = rel(&img?);
-        add(
-            1 + FIGURE_RIGS.len(),
-            "mixed + error-driven split",
-            err,
-            t_fit + t_select,
-            t,
-        );
+        add(1 + FIGURE_RIGS.len(), "mixed + error-driven split", err, split.fit_s, t);
         sum.lines.push(format!(
             "drive: frame {frame:>2}, car at x = {x:+.2} m: per point: {}; mixed + split {err:.4}",
             if direct.is_empty() {
