@@ -9,6 +9,7 @@ mod device;
 mod isg;
 mod kernel;
 mod render;
+mod rigs;
 mod shexp;
 mod world;
 
@@ -93,6 +94,23 @@ enum Command {
         #[arg(long, value_parser = ["eps", "ren"])]
         blocker_log: Option<String>,
         /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The irradiance-rig pipeline per pixel on the GPU (the library's rig
+    /// reconstruction and wrap shading; points, normals and the least-squares rigs of
+    /// Figure 1 from the CPU) against the CPU's `shade_wrapped` (docs/rigs.md); exit 1
+    /// when a rig's RMS difference exceeds 1e-4 of its CPU image's peak. No export: the
+    /// rigs need no texture.
+    RenderRigs {
+        /// Image width (height 3/4 of it).
+        #[arg(long, default_value_t = rigs::WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+        width: u32,
+        /// Only this wrap parameter a in [0, 1]; default: a = 0 (Lambert) and the CPU
+        /// pipeline's WRAP_A.
+        #[arg(long, value_name = "A")]
+        wrap: Option<f64>,
+        /// Output PNG (a row of panels per wrap, a column per rig).
         #[arg(long)]
         out: PathBuf,
     },
@@ -213,6 +231,43 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             out!("image: {}", out.display());
             if r.rms > render::RMS_LIMIT {
                 out!("render-shexp FAILED");
+                return Ok(ExitCode::from(1));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::RenderRigs { width, wrap, out } => {
+            let wraps = match wrap {
+                Some(a) if (0.0..=1.0).contains(&a) => vec![a],
+                Some(a) => return Err(format!("--wrap {a}: the wrap parameter lies in [0, 1]")),
+                None => vec![0.0, lobefit::pipelines::rigs::render::WRAP_A],
+            };
+            let gpu = device::Gpu::new()?;
+            let (pixels, rows) = rigs::render_rigs(&gpu, width as usize, &wraps, &out)?;
+            out!(
+                "render-rigs: {}x{} ({pixels} pixels see the car) on {}; GPU against the CPU, relative to each \
+                 image's peak (limit {:.0e} RMS):",
+                width,
+                (width * 3 / 4).max(3),
+                gpu.info.name,
+                render::RMS_LIMIT
+            );
+            let mut failed = 0;
+            for r in &rows {
+                let pass = r.rms <= render::RMS_LIMIT;
+                failed += usize::from(!pass);
+                out!(
+                    "  {:<10} {:>3} vectors  wrap a = {:<4}  max {:.2e}  RMS {:.2e}{}",
+                    r.label,
+                    r.vectors,
+                    r.wrap,
+                    r.max,
+                    r.rms,
+                    if pass { "" } else { "  FAIL" }
+                );
+            }
+            out!("image: {}", out.display());
+            if failed > 0 {
+                out!("render-rigs FAILED: {failed} of {} rows", rows.len());
                 return Ok(ExitCode::from(1));
             }
             Ok(ExitCode::SUCCESS)

@@ -38,9 +38,12 @@ pub const SHEXP: &str = include_str!("../shaders/shexp.wgsl");
 /// Shading with the ISG: the limiting cone, the ISG frame's pole, the clamped-cosine
 /// integral of an SG (Iwasaki et al.'s pipeline).
 pub const ISG_SHADE: &str = include_str!("../shaders/isg_shade.wgsl");
+/// Irradiance rigs: the non-zero basis terms at a point and the reconstruction of an
+/// order-3 SH irradiance vector; its re-wrap and wrapped shading; needs [`SH`], [`WRAP`].
+pub const RIGS: &str = include_str!("../shaders/rigs.wgsl");
 
 /// Every file of the library as (file name, source), in dependency order.
-pub const FILES: [(&str, &str); 12] = [
+pub const FILES: [(&str, &str); 13] = [
     ("common.wgsl", COMMON),
     ("gaunt.wgsl", GAUNT),
     ("sh.wgsl", SH),
@@ -53,6 +56,7 @@ pub const FILES: [(&str, &str); 12] = [
     ("lobe_product.wgsl", LOBE_PRODUCT),
     ("shexp.wgsl", SHEXP),
     ("isg_shade.wgsl", ISG_SHADE),
+    ("rigs.wgsl", RIGS),
 ];
 
 /// The whole library as one WGSL source (the files of [`FILES`] concatenated).
