@@ -256,7 +256,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 let pass = r.rms <= render::RMS_LIMIT;
                 failed += usize::from(!pass);
                 out!(
-                    "  {:<10} {:>3} vectors  wrap a = {:<4}  max {:.2e}  RMS {:.2e}{}",
+                    "  {:<20} {:>3} vectors  wrap a = {:<4}  max {:.2e}  RMS {:.2e}{}",
                     r.label,
                     r.vectors,
                     r.wrap,

@@ -1,7 +1,7 @@
 //! Shader functions of the runtime beyond any table: SH basis, ZH → SH, order-3
 //! rotation, rotation about z, the truncated SH product, the wedge slice vector, SG
-//! algebra, the paper's ISG model. Each runs on the GPU at seeded random
-//! inputs against the runtime's f64 functions. (The families' world-space functions,
+//! algebra, the paper's ISG model, rig reconstruction and wrap shading. Each runs on
+//! the GPU at seeded random inputs against the runtime's f64 functions. (The families' world-space functions,
 //! ISG patches, disk lights, the wedge mat-vec, are checked by their own
 //! `fits/<family>/gpu.rs`.)
 
@@ -278,7 +278,84 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
         Vec::new(),
     ));
     rows.extend(check_sh_algebra(gpu, dummy, samples, &mut rng)?);
+    rows.push(check_rigs(gpu, dummy, samples, &mut rng)?);
     Ok(rows)
+}
+
+/// Rig reconstruction (`lf_rig_eval`, every model kind, up to its 64 vectors), the
+/// re-wrap (`lf_rewrap_irradiance9`) and wrapped shading (`lf_irradiance9_wrapped`) at
+/// random points, normals and a in [0, 1]: GPU against the runtime's `Rig::eval`,
+/// `wrap::rewrap_irradiance` and the rig pipeline's `shade_wrapped`. The rigs are
+/// least-squares fits to random vectors at random points of random boxes.
+fn check_rigs(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) -> Result<Row, String> {
+    use lobefit_tables::rigs::{AxisModel, Rig, RigBox, RigModel, COEFFS};
+    const MAX: usize = 64;
+    let map = |e: lobefit_tables::rigs::RigError| e.to_string();
+    let models = [
+        RigModel::CONSTANT,
+        RigModel::Gradient,
+        RigModel::Tensor([AxisModel::Lattice(3), AxisModel::Gradient, AxisModel::Constant]),
+        RigModel::lattice(3, 2, 2),
+        RigModel::Tensor([AxisModel::Gradient, AxisModel::Lattice(5), AxisModel::Gradient]),
+        RigModel::lattice(4, 4, 4),
+    ];
+    let mut rigs = Vec::new();
+    for m in models {
+        let bbox = RigBox::new(
+            DVec3::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)),
+            DVec3::new(rng.range(0.2, 3.0), rng.range(0.2, 3.0), rng.range(0.2, 3.0)),
+        )
+        .map_err(map)?;
+        let fit: Vec<(DVec3, [f64; COEFFS])> = (0..400)
+            .map(|_| {
+                let t = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                (bbox.point(t), std::array::from_fn(|_| rng.range(-1.0, 1.0)))
+            })
+            .collect();
+        rigs.push((Rig::fit_least_squares(m, bbox, &fit, 1e-6).map_err(map)?, bbox));
+    }
+    let mut inputs = Vec::with_capacity(samples);
+    for s in 0..samples {
+        let (rig, bbox) = &rigs[s % rigs.len()];
+        let (kind, nodes) = crate::rigs::model_code(rig.model());
+        let t = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        let p = crate::rigs::inside32(bbox, bbox.point(t));
+        let mut x: Vec<f64> = kind.into_iter().chain(nodes).map(f64::from).collect();
+        x.extend(bbox.centre.to_array().into_iter().chain(bbox.half.to_array()).map(r32));
+        x.extend(p.to_array());
+        x.extend(unit(rng).to_array().map(r32));
+        x.push(r32(rng.uniform()));
+        let mut v: Vec<f64> = rig.vectors().iter().flatten().map(|&c| r32(c)).collect();
+        v.resize(COEFFS * MAX, 0.0);
+        x.extend(v);
+        inputs.push(x);
+    }
+    let n_in = 19 + COEFFS * MAX;
+    let body = format!(
+        "    var c: array<f32, {}>;\n    for (var k = 0u; k < {}u; k++) {{\n        c[k] = X[i * {n_in}u + 19u + k];\n    }}\n    \
+         let l = lf_rig_eval(vec3<u32>(u32(x0), u32(x1), u32(x2)), vec3<u32>(u32(x3), u32(x4), u32(x5)), \
+         vec3<f32>(x6, x7, x8), vec3<f32>(x9, x10, x11), vec3<f32>(x12, x13, x14), c);\n    \
+         let w = lf_rewrap_irradiance9(l, x18);\n    for (var k = 0u; k < 9u; k++) {{\n        Y[o + k] = l[k];\n        \
+         Y[o + 9u + k] = w[k];\n    }}\n    Y[o + 18u] = lf_irradiance9_wrapped(l, vec3<f32>(x15, x16, x17), x18);",
+        COEFFS * MAX,
+        COEFFS * MAX
+    );
+    let got = run_rows(gpu, dummy, &NONE, "texture_2d<f32>", &inputs, 19, &body)?;
+    let want: Vec<Vec<f64>> = inputs
+        .iter()
+        .enumerate()
+        .map(|(s, x)| {
+            let l = rigs[s % rigs.len()]
+                .0
+                .eval(DVec3::from_slice(&x[12..15]))
+                .map_err(map)?;
+            let mut w = [0.0; COEFFS];
+            lobefit_tables::wrap::rewrap_irradiance(&l, x[18], &mut w).map_err(|e| e.to_string())?;
+            let e = lobefit::pipelines::rigs::render::shade_wrapped(&l, DVec3::from_slice(&x[15..18]), x[18])?;
+            Ok(l.into_iter().chain(w).chain([e]).collect())
+        })
+        .collect::<Result<_, String>>()?;
+    Ok(row("rig eval, wrap", samples, vector_diff(&got, &want), Vec::new()))
 }
 
 /// Rotation about z (order 8), the wedge slice vector (order 8) and the truncated SH

@@ -1,0 +1,255 @@
+//! `lobefit-gpu render-rigs`: the irradiance-rig pipeline's reconstruction and wrap
+//! shading (`lobefit render rigs`, docs/rigs.md) as one compute kernel per pixel,
+//! against the CPU at the same f32-rounded inputs.
+//!
+//! The CPU finds each pixel's point and normal on the car box (`hit_box`) and fits the
+//! rigs of Figure 1 (`figure_rigs`: constant, gradient, mixed, lattice 3 × 2 × 2, least
+//! squares); the kernel reconstructs every rig at every visible pixel from its vectors
+//! (`lf_rig_terms`, the vectors gathered from the input buffer) and shades it with wrap
+//! a (`lf_irradiance9_wrapped`), against the CPU's `shade_wrapped(rig.eval(p), n, a)`.
+//! The rigs need no texture: the kernel binds the dummy texture, and the command takes
+//! no export.
+
+use std::path::Path;
+
+use lobefit::export::Storage;
+use lobefit::pipelines::rigs::render::{figure_rigs, hit_box, shade_wrapped, CAMERA};
+use lobefit::pipelines::rigs::{car_box, scene_lights, Receiver};
+use lobefit_tables::disk_light::DiskLight;
+use lobefit_tables::glam::DVec3;
+use lobefit_tables::rigs::{AxisModel, Light, RigBox, RigModel, COEFFS};
+
+use crate::conformance::dummy_texture;
+use crate::device::Gpu;
+use crate::kernel::{kernel, LF_TEX_SIZE};
+use crate::render::{grey, write_grey_png};
+
+/// Default image width (height 3/4 of it).
+pub const WIDTH: u32 = 64;
+
+/// Per pixel: point, normal.
+const N_IN: usize = 6;
+
+/// A rig model as the library's (kind, nodes) per axis (rigs.wgsl: 0 constant,
+/// 1 gradient, 2 lattice of `nodes`; 3 on x: the 4-vector gradient rig).
+pub fn model_code(m: RigModel) -> ([u32; 3], [u32; 3]) {
+    match m {
+        RigModel::Gradient => ([3, 0, 0], [0; 3]),
+        RigModel::Tensor(axes) => {
+            let code = |a: AxisModel| match a {
+                AxisModel::Constant => (0, 0),
+                AxisModel::Gradient => (1, 0),
+                AxisModel::Lattice(n) => (2, n),
+            };
+            let c = axes.map(code);
+            (c.map(|c| c.0), c.map(|c| c.1))
+        }
+    }
+}
+
+/// `p` rounded to f32, nudged toward the box's centre (by f32 ulps) until the runtime
+/// accepts it (a face point may round outside by more than its 1e-9 slack).
+pub fn inside32(bbox: &RigBox, p: DVec3) -> DVec3 {
+    let mut q = p.to_array().map(|v| v as f32);
+    for (k, qk) in q.iter_mut().enumerate() {
+        let (c, h) = (bbox.centre[k], bbox.half[k]);
+        for _ in 0..8 {
+            let v = f64::from(*qk);
+            if ((v - c) / h).abs() <= 1.0 {
+                break;
+            }
+            *qk = if v > c { qk.next_down() } else { qk.next_up() };
+        }
+    }
+    DVec3::from_array(q.map(f64::from))
+}
+
+/// A vec3<f32> literal.
+fn vec3(v: [f64; 3]) -> String {
+    format!("vec3<f32>({:e}, {:e}, {:e})", v[0] as f32, v[1] as f32, v[2] as f32)
+}
+
+/// The kernel over `count` pixels for rigs of `models` (their vectors after the
+/// pixels, in order) in `bbox`, shaded at each wrap of `wraps`: output (rig r, wrap w)
+/// at r · |wraps| + w.
+fn source(models: &[RigModel], bbox: &RigBox, wraps: &[f64], count: usize) -> Result<String, String> {
+    let n_out = models.len() * wraps.len();
+    let mut offset = N_IN * count;
+    let mut body = String::from("    let p = vec3<f32>(x0, x1, x2);\n    let n = vec3<f32>(x3, x4, x5);\n");
+    for (r, m) in models.iter().enumerate() {
+        let (kind, nodes) = model_code(*m);
+        body += &format!(
+            "    let l{r} = rig_at(vec3<u32>({}u, {}u, {}u), vec3<u32>({}u, {}u, {}u), {offset}u, p);\n",
+            kind[0], kind[1], kind[2], nodes[0], nodes[1], nodes[2]
+        );
+        for (w, a) in wraps.iter().enumerate() {
+            body += &format!(
+                "    Y[o + {}u] = lf_irradiance9_wrapped(l{r}, n, {:e});\n",
+                r * wraps.len() + w,
+                *a as f32
+            );
+        }
+        offset += COEFFS * m.parameter_count().map_err(|e| e.to_string())?;
+    }
+    let functions = format!(
+        "
+const CENTRE = {};
+const HALF = {};
+
+// Rig l(p) from its vectors at X[off + 9k ..] (lf_rig_terms' accessor convention).
+fn rig_at(kind: vec3<u32>, nodes: vec3<u32>, off: u32, p: vec3<f32>) -> array<f32, 9> {{
+    let r = lf_rig_terms(kind, nodes, CENTRE, HALF, p);
+    var l: array<f32, 9>;
+    for (var j = 0u; j < r.count; j++) {{
+        let k = off + 9u * r.index[j];
+        for (var i = 0u; i < 9u; i++) {{
+            l[i] += r.weight[j] * X[k + i];
+        }}
+    }}
+    return l;
+}}
+",
+        vec3(bbox.centre.to_array()),
+        vec3(bbox.half.to_array())
+    );
+    Ok(kernel("texture_2d<f32>", N_IN, n_out, &body) + &functions)
+}
+
+/// One rig's comparison at one wrap.
+pub struct RigRow {
+    /// The rig's label (`figure_rigs`).
+    pub label: String,
+    /// Its number of vectors.
+    pub vectors: usize,
+    /// Wrap parameter a.
+    pub wrap: f64,
+    /// GPU against CPU relative to the CPU image's peak: max, RMS.
+    pub max: f64,
+    /// See `max`.
+    pub rms: f64,
+}
+
+/// Renders the rigs of Figure 1 at `width` (height 3/4 of it) per wrap of `wraps` on
+/// the GPU and the CPU; writes `out` (PNG: a row of panels per wrap, a column per rig,
+/// irradiance / the row's CPU peak, gamma 1/2.2). Returns the visible pixels and the
+/// rows.
+pub fn render_rigs(gpu: &Gpu, width: usize, wraps: &[f64], out: &Path) -> Result<(usize, Vec<RigRow>), String> {
+    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    let hits: Vec<Option<Receiver>> = (0..w * h)
+        .map(|p| hit_box(CAMERA.eye, CAMERA.ray(p % w, p / w, w, h)))
+        .collect();
+    let bbox = car_box();
+    // The GPU's inputs, rounded to f32; the CPU shades the same rounded point.
+    let visible: Vec<(DVec3, DVec3)> = hits.iter().flatten().map(|r| (inside32(&bbox, r.p), r.n)).collect();
+    if visible.is_empty() {
+        return Err(format!("render-rigs: no pixel of the {w}×{h} image sees the car"));
+    }
+    let disks = DiskLight::embedded().map_err(|e| e.to_string())?;
+    let lights: Vec<Light> = scene_lights().iter().map(|l| l.1).collect();
+    let rigs = figure_rigs(&lights, disks)?;
+    let mut inputs: Vec<f32> = Vec::new();
+    for (p, n) in &visible {
+        inputs.extend(p.to_array().into_iter().chain(n.to_array()).map(|v| v as f32));
+    }
+    for (_, rig, _) in &rigs {
+        inputs.extend(rig.vectors().iter().flatten().map(|&v| v as f32));
+    }
+    let models: Vec<RigModel> = rigs.iter().map(|r| r.1.model()).collect();
+    let src = source(&models, &bbox, wraps, visible.len())?;
+    let dummy = gpu.upload(&dummy_texture(), Storage::F32)?;
+    let n_out = models.len() * wraps.len();
+    let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, visible.len(), n_out)?;
+
+    let mut rows = Vec::new();
+    let mut image = vec![0u8; w * models.len() * h * wraps.len()];
+    let stride = w * models.len();
+    for (wi, &a) in wraps.iter().enumerate() {
+        // The CPU image of every rig at this wrap; the row's panels share its peak.
+        let mut cpus = Vec::new();
+        for (_, rig, _) in &rigs {
+            let cpu: Vec<f64> = visible
+                .iter()
+                .map(|(p, n)| shade_wrapped(&rig.eval(*p).map_err(|e| e.to_string())?, *n, a))
+                .collect::<Result<_, String>>()?;
+            cpus.push(cpu);
+        }
+        let row_peak = cpus
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, v| m.max(v.abs()))
+            .max(f64::MIN_POSITIVE);
+        for (r, ((label, rig, _), cpu)) in rigs.iter().zip(&cpus).enumerate() {
+            let peak = cpu.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(f64::MIN_POSITIVE);
+            let c = r * wraps.len() + wi;
+            let (mut max, mut sum) = (0.0f64, 0.0);
+            for (k, want) in cpu.iter().enumerate() {
+                let g = got[k * n_out + c];
+                // A non-finite GPU value fails the comparison (NaN would pass unseen).
+                let d = if g.is_finite() {
+                    (f64::from(g) - want).abs() / peak
+                } else {
+                    f64::INFINITY
+                };
+                max = max.max(d);
+                sum += d * d;
+            }
+            rows.push(RigRow {
+                label: label.clone(),
+                vectors: rig.vectors().len(),
+                wrap: a,
+                max,
+                rms: (sum / cpu.len() as f64).sqrt(),
+            });
+            let mut k = 0;
+            for (px, hit) in hits.iter().enumerate() {
+                if hit.is_some() {
+                    let (i, j) = (px % w, px / w);
+                    let g = f64::from(got[k * n_out + c]);
+                    image[(wi * h + j) * stride + r * w + i] = grey(g / row_peak);
+                    k += 1;
+                }
+            }
+        }
+    }
+    write_grey_png(out, stride, h * wraps.len(), &image)?;
+    Ok((visible.len(), rows))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The kernel of Figure 1's rig models (and the other models' codes) parses and
+    /// validates (naga); the model codes follow rigs.wgsl.
+    #[test]
+    fn kernel_validates_and_models_are_coded() {
+        let models = [
+            RigModel::CONSTANT,
+            RigModel::Gradient,
+            RigModel::Tensor([AxisModel::Lattice(3), AxisModel::Gradient, AxisModel::Constant]),
+            RigModel::lattice(3, 2, 2),
+        ];
+        let src = source(&models, &car_box(), &[0.0, 0.5], 7).unwrap();
+        if let Err(e) = lobefit::export::shaders::module_of(&src) {
+            panic!("{e}");
+        }
+        assert_eq!(model_code(models[0]), ([0, 0, 0], [0, 0, 0]));
+        assert_eq!(model_code(models[1]).0[0], 3);
+        assert_eq!(model_code(models[2]), ([2, 1, 0], [3, 0, 0]));
+        assert_eq!(model_code(models[3]), ([2, 2, 2], [3, 2, 2]));
+    }
+
+    /// Rounding to f32 keeps a face point inside the box the runtime accepts.
+    #[test]
+    fn rounded_points_stay_in_the_box() {
+        let b = car_box();
+        for p in [
+            DVec3::new(2.25 + 1e-12, 0.9 + 1e-12, -0.75 - 1e-12),
+            DVec3::new(-2.2499999999, 0.899999999, 0.0),
+        ] {
+            let q = inside32(&b, p);
+            assert!(b.normalised(q).is_ok(), "{q:?}");
+            assert_eq!(q.to_array().map(|v| v as f32 as f64), q.to_array());
+        }
+    }
+}
