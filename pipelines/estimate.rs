@@ -64,6 +64,33 @@ pub fn estimate(n: usize, seed: u64, mut sample: impl FnMut(&mut Rng) -> f64) ->
     acc.estimate()
 }
 
+/// Per-pixel estimates of a `w`-wide image, one row at a time in parallel: `sample(hit,
+/// pixel)` for each pixel that sees geometry (an empty estimate elsewhere); `progress` is
+/// called once per finished row. The pixel index lets callers seed per pixel, so the
+/// result does not depend on the thread count.
+pub fn per_pixel<H: Sync>(
+    hits: &[Option<H>],
+    w: usize,
+    sample: impl Fn(&H, usize) -> Result<Estimate, String> + Sync,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Vec<Estimate>, String> {
+    use rayon::prelude::*;
+    let rows: Vec<Result<Vec<Estimate>, String>> = (0..hits.len() / w)
+        .into_par_iter()
+        .map(|j| {
+            let row = (j * w..(j + 1) * w)
+                .map(|p| match &hits[p] {
+                    None => Ok(estimate(0, 0, |_| 0.0)),
+                    Some(hit) => sample(hit, p),
+                })
+                .collect();
+            progress();
+            row
+        })
+        .collect();
+    Ok(rows.into_iter().collect::<Result<Vec<_>, _>>()?.concat())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -463,6 +463,20 @@ impl Scene {
         best.map(|b| b.1)
     }
 
+    /// What every pixel of a w × h image sees, and the mask of those that see
+    /// geometry; an error naming the scene when none does.
+    pub fn primary_hits(&self, w: usize, h: usize) -> Result<(Vec<Option<Hit>>, Vec<bool>), String> {
+        let hits: Vec<Option<Hit>> = (0..w * h).map(|p| self.primary(p % w, p / w, w, h)).collect();
+        let lit: Vec<bool> = hits.iter().map(Option::is_some).collect();
+        if !lit.contains(&true) {
+            return Err(format!(
+                "scene {}: no pixel of the {w}×{h} image sees geometry",
+                self.name
+            ));
+        }
+        Ok((hits, lit))
+    }
+
     /// The BRDF at a hit.
     pub fn brdf(&self, h: &Hit) -> &Brdf {
         &self.materials[h.material]

@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Specular, Tables};
 use super::{reference, PIPELINE};
-use crate::pipelines::estimate::{estimate, Estimate};
+use crate::pipelines::estimate::per_pixel;
 use crate::pipelines::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_comparison};
 use crate::pipelines::scene::{Hit, Scene};
 use crate::pipelines::timing::{timed, EqualError};
@@ -138,42 +138,27 @@ fn render_scene(
     let tag = scene.name.strip_prefix("isg-").unwrap_or(&scene.name).to_string();
     let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
     let tables = Tables::embedded()?;
-    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| scene.primary(p % w, p / w, w, h)).collect();
-    let lit: Vec<bool> = hits.iter().map(Option::is_some).collect();
-    if !lit.contains(&true) {
-        return Err(format!(
-            "scene {}: no pixel of the {w}×{h} image sees geometry",
-            scene.name
-        ));
-    }
+    let (hits, lit) = scene.primary_hits(w, h)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut sum = Summary::default();
 
-    let (refs, t_ref) = timed(|| -> Result<Vec<Estimate>, String> {
-        let rows: Vec<Result<Vec<Estimate>, String>> = (0..h)
-            .into_par_iter()
-            .map(|j| {
-                let row = (0..w)
-                    .map(|i| match &hits[j * w + i] {
-                        None => Ok(estimate(0, 0, |_| 0.0)),
-                        Some(hit) => {
-                            let brdf = Phong::of(scene.brdf(hit))?;
-                            Ok(reference(
-                                &scene.environment,
-                                &brdf,
-                                |v| scene.occluded(hit, v),
-                                hit,
-                                opts.spp,
-                                MC_SEED ^ (j * w + i) as u64,
-                            ))
-                        }
-                    })
-                    .collect();
-                progress();
-                row
-            })
-            .collect();
-        Ok(rows.into_iter().collect::<Result<Vec<_>, _>>()?.concat())
+    let (refs, t_ref) = timed(|| {
+        per_pixel(
+            &hits,
+            w,
+            |hit, p| {
+                let brdf = Phong::of(scene.brdf(hit))?;
+                Ok(reference(
+                    &scene.environment,
+                    &brdf,
+                    |v| scene.occluded(hit, v),
+                    hit,
+                    opts.spp,
+                    MC_SEED ^ p as u64,
+                ))
+            },
+            progress,
+        )
     });
     let refs = refs?;
     let reference_img: Vec<f64> = refs.iter().map(|r| r.mean).collect();

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, Exp, Horizon, Settings, Tables};
 use super::{light, light_sh, reference, PIPELINE};
-use crate::pipelines::estimate::{estimate, Estimate};
+use crate::pipelines::estimate::{per_pixel, Estimate};
 use crate::pipelines::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_comparison};
 use crate::pipelines::scene::{Hit, Scene};
 use crate::pipelines::sky::Phong;
@@ -91,28 +91,21 @@ fn estimates(
     light_of: &(dyn Fn(lobefit_tables::glam::DVec3) -> f64 + Sync),
     progress: &(dyn Fn() + Sync),
 ) -> Result<Vec<Estimate>, String> {
-    let h = hits.len() / w;
-    let rows: Vec<Result<Vec<Estimate>, String>> = (0..h)
-        .into_par_iter()
-        .map(|j| {
-            let row = (0..w)
-                .map(|i| match &hits[j * w + i] {
-                    None => Ok(estimate(0, 0, |_| 0.0)),
-                    Some(hit) => Ok(reference(
-                        scene,
-                        light_of,
-                        &Phong::of(scene.brdf(hit))?,
-                        hit,
-                        spp,
-                        seed ^ (j * w + i) as u64,
-                    )),
-                })
-                .collect();
-            progress();
-            row
-        })
-        .collect();
-    Ok(rows.into_iter().collect::<Result<Vec<_>, _>>()?.concat())
+    per_pixel(
+        hits,
+        w,
+        |hit, p| {
+            Ok(reference(
+                scene,
+                light_of,
+                &Phong::of(scene.brdf(hit))?,
+                hit,
+                spp,
+                seed ^ p as u64,
+            ))
+        },
+        progress,
+    )
 }
 
 /// Renders one scene into `dir`.
@@ -132,14 +125,7 @@ fn render_scene(
     let tables = Tables::embedded()?;
     let default = Settings::default();
     let light_n = light_sh(scene, default.order)?;
-    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| scene.primary(p % w, p / w, w, h)).collect();
-    let lit: Vec<bool> = hits.iter().map(Option::is_some).collect();
-    if !lit.contains(&true) {
-        return Err(format!(
-            "scene {}: no pixel of the {w}×{h} image sees geometry",
-            scene.name
-        ));
-    }
+    let (hits, lit) = scene.primary_hits(w, h)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut sum = Summary::default();
     let pixels = lit.iter().filter(|&&l| l).count();
