@@ -240,6 +240,9 @@ struct EvalFlagArgs {
     /// direct-light: fitted | paper | one (default fitted).
     #[arg(long)]
     weights: Option<String>,
+    /// direct-light: lobe | cap, how the light enters (default cap).
+    #[arg(long)]
+    light: Option<String>,
     /// isg-shade: the scene file (environment, spheres, top-level brdf).
     #[arg(long)]
     scene: Option<String>,
@@ -574,6 +577,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 depth: flags.depth.map(usize::from),
                 mask: flags.mask,
                 weights: flags.weights,
+                light: flags.light,
                 scene: flags.scene,
                 patches: flags.patches,
             };

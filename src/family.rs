@@ -28,6 +28,8 @@ pub struct EvalFlags {
     pub mask: Option<String>,
     /// `--weights` (direct-light: `fitted` | `paper` | `one`).
     pub weights: Option<String>,
+    /// `--light` (direct-light: `lobe` | `cap`).
+    pub light: Option<String>,
     /// `--scene` (isg-shade: a scene file).
     pub scene: Option<String>,
     /// `--patches` (isg-shade: patches per side).
@@ -61,6 +63,9 @@ impl EvalFlags {
         }
         if self.weights.is_some() {
             v.push("--weights");
+        }
+        if self.light.is_some() {
+            v.push("--light");
         }
         if self.scene.is_some() {
             v.push("--scene");

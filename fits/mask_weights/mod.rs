@@ -350,6 +350,12 @@ fn ridge_solve(g: &[f64], rhs: &[f64], n: usize) -> Option<Vec<f64>> {
         a[i * n + i] += lambda;
         b[i] += lambda;
     }
+    gauss_solve(a, b, n)
+}
+
+/// Solves the n × n system `a` x = `b` (row-major) by Gaussian elimination with
+/// partial pivoting; `None` when singular or not finite.
+pub fn gauss_solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize) -> Option<Vec<f64>> {
     for k in 0..n {
         let p = (k..n).max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))?;
         if a[p * n + k] == 0.0 {

@@ -12,7 +12,7 @@ use std::f64::consts::{FRAC_PI_2, TAU};
 use lobefit_tables::format::Threshold;
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
-use lobefit_tables::meunier::{check_scene, MaskSettings, Sphere, SphereLight};
+use lobefit_tables::meunier::{check_scene, LightModel, MaskSettings, Sphere, SphereLight};
 use lobefit_tables::{CapExponent, LoadError, LobeProduct, LookupError, Meunier, MeunierError, Table};
 
 use crate::family::{EvalFlags, Lookup, Query};
@@ -54,10 +54,10 @@ impl DirectLightView {
         if let Some(f) = flags
             .given()
             .into_iter()
-            .find(|f| !["--depth", "--mask", "--weights"].contains(f))
+            .find(|f| !["--depth", "--mask", "--weights", "--light"].contains(f))
         {
             return Err(format!(
-                "direct-light takes no {f} flag (only --depth, --mask, --weights)"
+                "direct-light takes no {f} flag (only --depth, --mask, --weights, --light)"
             ));
         }
         let depth = flags.depth.unwrap_or(MAX_DEPTH as usize);
@@ -75,12 +75,20 @@ impl DirectLightView {
             Some("one") => WeightSet::Ones,
             Some(w) => return Err(format!("--weights {w}: expected fitted, paper or one")),
         };
+        let light = match flags.light.as_deref() {
+            None => MaskSettings::default().light,
+            Some(l) => LightModel::ALL
+                .into_iter()
+                .find(|m| m.name() == l)
+                .ok_or_else(|| format!("--light {l}: expected lobe or cap"))?,
+        };
         Ok(DirectLightView {
             settings: MaskSettings {
                 depth: depth as u32,
                 mode,
                 weights,
                 threshold: 0.0,
+                light,
             },
         })
     }
@@ -441,6 +449,10 @@ impl Query for DirectLightView {
         random_row(rng).to_vec()
     }
     fn caveat(&self, x: &[f64]) -> Option<&'static str> {
+        // The light's cap is exact unoccluded at any size and tilt; the lobe is not.
+        if self.settings.light != LightModel::Lobe {
+            return None;
+        }
         let r = row(x).ok()?;
         let to = r.light.sphere.centre - r.x;
         let d = to.length();
@@ -552,7 +564,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
                 depth,
                 mode,
                 weights: set,
-                threshold: 0.0,
+                ..MaskSettings::default()
             };
             let rows = study(STUDY_ROWS, STUDY_SEED, &s, weights)?;
             let partial: Vec<&StudyRow> = rows

@@ -5,6 +5,7 @@
 //! cap-exponent, mask-weights) are fitted in `fits/`.
 
 pub mod direct_light;
+pub mod light_fit;
 pub mod render;
 
 use super::Pipeline;

@@ -14,10 +14,11 @@ use std::path::Path;
 
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{build_mask, Cap, MaskMode, WeightSet};
-use lobefit_tables::meunier::{MaskSettings, SphereLight};
+use lobefit_tables::meunier::{LightModel, MaskSettings, SphereLight};
 use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
 
+use super::light_fit;
 use crate::pipelines::estimate::{estimate, Estimate};
 use crate::pipelines::image::{compare, masked, mean_over, panel, write_comparison};
 use crate::pipelines::scene::{brdf_value, visible, Hit, Scene};
@@ -79,12 +80,24 @@ fn lobe_image(
         .collect()
 }
 
+/// What [`breakdown`] returns at one hit, each by the same product rule.
+#[derive(Debug, Clone, Copy)]
+struct Parts {
+    /// The settings' light model with every lobe integrated exactly (E1).
+    model: f64,
+    /// The light's cap, with the leaf lobes (E2), the leaves' bounding caps (E3), the
+    /// union of the leaf cells (E4), exact visibility (E5).
+    exact: [f64; 4],
+    /// The studied fitted coaxial lobes (1..=3 per light) with the leaf lobes.
+    fitted: [f64; light_fit::MAX_LOBES],
+}
+
 /// The error breakdown at one hit, switching one approximation to exact at a time:
-/// the lobe algebra (E1: quadrature of the same lobe sums), the light lobe (E2: the
-/// light's cap instead, still with the leaf lobes), the leaf cap → lobe fit (E3: each
-/// leaf's bounding cap itself, same weights), the weights (E4: the union of the leaf
-/// cells, where no overlap needs correcting), the mask's depth and aggressive choice
-/// (E5: exact ray–sphere visibility, the reference), all by one product rule
+/// the lobe algebra (E1: quadrature of the same lobe sums), the light (E2: the light's
+/// cap instead, still with the leaf lobes), the leaf cap → lobe fit (E3: each leaf's
+/// bounding cap itself, same weights), the weights (E4: the union of the leaf cells,
+/// where no overlap needs correcting), the mask's depth and aggressive choice (E5:
+/// exact ray–sphere visibility, the reference), all by one product rule
 /// (Gauss–Legendre in θ split at the cap's edge, uniform in φ) about the light's axis.
 fn breakdown(
     m: &Meunier<'_>,
@@ -92,13 +105,23 @@ fn breakdown(
     light: &SphereLight,
     h: &Hit,
     settings: &MaskSettings,
-) -> Result<[f64; 5], String> {
+) -> Result<Parts, String> {
     let blockers = scene.blockers(h);
     let brdf = scene.brdf(h);
     let (llobe, lcap) = m.light_lobe(h.x, light).map_err(|e| e.to_string())?;
+    let lobe_settings = MaskSettings {
+        light: LightModel::Lobe,
+        ..*settings
+    };
     let vis = m
+        .visibility(h.x, h.n, light, &blockers, &lobe_settings)
+        .map_err(|e| e.to_string())?;
+    let vis_model = m
         .visibility(h.x, h.n, light, &blockers, settings)
         .map_err(|e| e.to_string())?;
+    let fitted: Vec<Vec<(f64, f64)>> = (1..=light_fit::MAX_LOBES)
+        .map(|k| light_fit::fit(m.caps, lcap.half_angle, k))
+        .collect::<Result<_, _>>()?;
     let light_dist = (light.sphere.centre - h.x).length();
     let caps: Vec<Cap> = blockers
         .iter()
@@ -135,12 +158,24 @@ fn breakdown(
     let (gx, gw) = crate::sh::gauss_legendre(48);
     let nphi = 160;
     let (u, v) = lcap.axis.any_orthonormal_pair();
-    let mut out = [0.0; 5];
+    let mut out = Parts {
+        model: 0.0,
+        exact: [0.0; 4],
+        fitted: [0.0; light_fit::MAX_LOBES],
+    };
+    if vis.fully_blocked {
+        // Every estimate but the exact one sees no light (the runtime's short cut);
+        // the exact one (E5) is 0 too.
+        return Ok(out);
+    }
+    let big_l = light.radiance;
     for (lo, hi) in [(0.0, alpha), (alpha, theta_max)] {
         for (x, wx) in gx.iter().zip(&gw) {
             let th = lo + 0.5 * (hi - lo) * (x + 1.0);
             let (st, ct) = th.sin_cos();
             let wt = 0.5 * (hi - lo) * wx * st * TAU / nphi as f64;
+            let inside = th <= alpha;
+            let profiles: Vec<f64> = fitted.iter().map(|f| big_l * light_fit::eval(f, th)).collect();
             for k in 0..nphi {
                 let phi = TAU * (k as f64 + 0.5) / nphi as f64;
                 let dir = ct * lcap.axis + st * (phi.cos() * u + phi.sin() * v);
@@ -148,33 +183,40 @@ fn breakdown(
                 if c <= 0.0 {
                     continue;
                 }
-                let f = brdf_value(brdf, h, dir) * c * wt;
+                let b = brdf_value(brdf, h, dir);
+                let f = b * c * wt;
                 if f == 0.0 {
                     continue;
                 }
-                let lv = llobe.eval(dir);
-                if vis.fully_blocked {
-                    // Every estimate but the exact one sees no light (the runtime's
-                    // short cut); the exact one (E4) is 0 too.
-                    continue;
-                }
                 let v_lobes: f64 = vis.lobes.iter().map(|l: &Lobe| l.eval(dir)).sum();
-                out[0] += f * lv * v_lobes;
-                if th <= alpha {
-                    let l = f * light.radiance;
-                    out[1] += l * v_lobes;
+                out.model += match settings.light {
+                    LightModel::Lobe => f * llobe.eval(dir) * v_lobes,
+                    LightModel::Cap => {
+                        // The runtime's split: the unoccluded light is the cap, the
+                        // leaves (their share inside the cap folded in) darken the
+                        // uniform light.
+                        let shadow: f64 = vis_model.lobes.iter().map(|l: &Lobe| l.eval(dir)).sum();
+                        f * big_l * (f64::from(u8::from(inside)) + shadow)
+                    }
+                };
+                for (o, p) in out.fitted.iter_mut().zip(&profiles) {
+                    *o += f * p * v_lobes;
+                }
+                if inside {
+                    let l = f * big_l;
+                    out.exact[0] += l * v_lobes;
                     let v_caps: f64 = 1.0
                         - bounding
                             .iter()
                             .filter(|(a, c, _)| a.dot(dir) >= *c)
                             .map(|(_, _, wd)| wd)
                             .sum::<f64>();
-                    out[2] += l * v_caps;
+                    out.exact[1] += l * v_caps;
                     if !leaves.iter().any(|c| c.contains(dir)) {
-                        out[3] += l;
+                        out.exact[2] += l;
                     }
                     if visible(h.x, dir, &light.sphere, &blockers) {
-                        out[4] += l;
+                        out.exact[3] += l;
                     }
                 }
             }
@@ -260,41 +302,61 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         .fold(0.0, f64::max)
         / mean_ref;
 
-    // Lobe pipeline, three weight sets, timed (default set).
+    // Lobe pipeline: both light models × three weight sets, each light's default
+    // weights timed.
     let default = MaskSettings::default();
-    let (lobes, t_lobe) = timed(|| lobe_image(&m, &scene, &light, &hits, &default));
-    let lobes = lobes?;
     let pixels = lit.iter().filter(|&&l| l).count();
     sum.lines.push(format!(
         "{tag}: {w}×{h}, {pixels} lit pixels; reference {} light samples/pixel, standard error mean {:.2e}, max {:.2e} (of the mean radiance {:.4})",
         opts.spp, ref_rel_se, max_se, mean_ref
     ));
+    let mut lobes = Vec::new();
+    let mut t_lobe = 0.0;
     let mut rmse_default = f64::NAN;
-    for set in [WeightSet::Fitted, WeightSet::Paper, WeightSet::Ones] {
-        let s = MaskSettings {
-            weights: set,
+    for light_model in LightModel::ALL {
+        let base = MaskSettings {
+            light: light_model,
             ..default
         };
-        let img = if set == WeightSet::Fitted {
-            lobes.clone()
-        } else {
-            lobe_image(&m, &scene, &light, &hits, &s)?
-        };
+        let (img, t) = timed(|| lobe_image(&m, &scene, &light, &hits, &base));
+        let img = img?;
         let st = compare(&img, &reference_img, &lit);
-        if set == WeightSet::Fitted {
-            rmse_default = st.rel_rmse;
-        }
+        let eq = EqualError::from_estimates(t, t_ref, &refs, &lit, opts.spp, st.rel_rmse * mean_ref);
         sum.lines.push(format!(
-            "{tag}: weights {:<6} depth 5 aggressive: relative RMSE {:.4}, p99 {:.4}, max {:.4}",
-            set.name(),
-            st.rel_rmse,
-            st.p99,
-            st.max
+            "{tag}: light {}: shading time per pixel {:.2} µs; the reference reaches its RMSE with {:.1} samples → {:.2} µs; ratio reference/lobes {:.2} (one run, same process)",
+            light_model.name(),
+            1e6 * eq.pipeline_per_pixel,
+            eq.samples,
+            1e6 * eq.reference_per_pixel,
+            eq.ratio
         ));
+        for set in [WeightSet::Fitted, WeightSet::Paper, WeightSet::Ones] {
+            let s = MaskSettings { weights: set, ..base };
+            let other = if set == WeightSet::Fitted {
+                None
+            } else {
+                Some(lobe_image(&m, &scene, &light, &hits, &s)?)
+            };
+            let st = compare(other.as_ref().unwrap_or(&img), &reference_img, &lit);
+            sum.lines.push(format!(
+                "{tag}: light {} weights {:<6} depth 5 aggressive: relative RMSE {:.4}, p99 {:.4}, max {:.4}",
+                light_model.name(),
+                set.name(),
+                st.rel_rmse,
+                st.p99,
+                st.max
+            ));
+        }
+        if light_model == default.light {
+            rmse_default = st.rel_rmse;
+            t_lobe = t;
+            lobes = img;
+        }
     }
     let eq = EqualError::from_estimates(t_lobe, t_ref, &refs, &lit, opts.spp, rmse_default * mean_ref);
     sum.lines.push(format!(
-        "{tag}: shading time per pixel: lobes {:.2} µs; reference {:.3} µs per sample, {:.1} samples for the lobes' RMSE → {:.2} µs; ratio reference/lobes {:.2} (one run, same process)",
+        "{tag}: shading time per pixel (default light {}): lobes {:.2} µs; reference {:.3} µs per sample, {:.1} samples for the lobes' RMSE → {:.2} µs; ratio reference/lobes {:.2} (one run, same process)",
+        default.light.name(),
         1e6 * eq.pipeline_per_pixel,
         1e6 * eq.reference_per_sample,
         eq.samples,
@@ -396,47 +458,82 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         },
     )?);
 
-    // Breakdown on a strided subset of pixels.
+    // Breakdown on a strided subset of pixels, for each light model.
     let stride = opts.breakdown_stride.max(1);
     let picks: Vec<usize> = (0..h)
         .step_by(stride)
         .flat_map(|j| (0..w).step_by(stride).map(move |i| j * w + i))
         .filter(|&p| lit[p])
         .collect();
-    let parts: Vec<[f64; 6]> = picks
-        .par_iter()
-        .map(|&p| {
-            let hit = hits[p].expect("lit");
-            let b = breakdown(&m, &scene, &light, &hit, &default)?;
-            Ok([lobes[p], b[0], b[1], b[2], b[3], b[4]])
-        })
-        .collect::<Result<_, String>>()?;
-    let names = [
-        "lobe-product algebra (tables → quadrature of the lobe sums)",
-        "light lobe (→ the light's cap)",
-        "leaf cap → lobe fit (→ the leaves' bounding caps, same weights)",
-        "weights / overlaps (weighted bounding caps → the leaf cells' union)",
-        "mask depth / aggressive (→ exact visibility)",
-    ];
-    let total_rms =
-        (parts.iter().map(|p| (p[0] - p[5]).powi(2)).sum::<f64>() / parts.len().max(1) as f64).sqrt() / mean_ref;
-    sum.lines.push(format!(
-        "{tag}: error breakdown over {} pixels (every {stride}th): total RMS {total_rms:.4} of the mean reference (quadrature, not MC); each switch to exact, in order:",
-        parts.len()
-    ));
-    for (k, name) in names.iter().enumerate() {
-        let d: Vec<f64> = parts.iter().map(|p| p[k] - p[k + 1]).collect();
-        let rms = (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt() / mean_ref;
-        let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_ref;
-        sum.lines
-            .push(format!("{tag}:   {name}: RMS {rms:.4}, mean {bias:+.4}"));
+    let rms_of = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt() / mean_ref;
+    let mut parts: Vec<Parts> = Vec::new();
+    for light_model in LightModel::ALL {
+        let s = MaskSettings {
+            light: light_model,
+            ..default
+        };
+        let run: Vec<(f64, Parts)> = picks
+            .par_iter()
+            .map(|&p| {
+                let hit = hits[p].expect("lit");
+                let pipeline = m
+                    .radiance(
+                        hit.x,
+                        hit.n,
+                        hit.t,
+                        hit.wo,
+                        scene.brdf(&hit),
+                        &[light],
+                        &scene.blockers(&hit),
+                        &s,
+                    )
+                    .map_err(|e| e.to_string())?;
+                Ok((pipeline, breakdown(&m, &scene, &light, &hit, &s)?))
+            })
+            .collect::<Result<_, String>>()?;
+        let chain: Vec<[f64; 6]> = run
+            .iter()
+            .map(|(p, q)| [*p, q.model, q.exact[0], q.exact[1], q.exact[2], q.exact[3]])
+            .collect();
+        let total_rms = rms_of(&chain.iter().map(|c| c[0] - c[5]).collect::<Vec<_>>());
+        sum.lines.push(format!(
+            "{tag}: light {}: error breakdown over {} pixels (every {stride}th): total RMS {total_rms:.4} of the mean reference (quadrature, not MC); each switch to exact, in order:",
+            light_model.name(),
+            chain.len()
+        ));
+        let names = [
+            "lobe-product algebra (tables → quadrature of the same sums)",
+            "light (→ the light's cap)",
+            "leaf cap → lobe fit (→ the leaves' bounding caps, same weights)",
+            "weights / overlaps (weighted bounding caps → the leaf cells' union)",
+            "mask depth / aggressive (→ exact visibility)",
+        ];
+        for (k, name) in names.iter().enumerate() {
+            let d: Vec<f64> = chain.iter().map(|c| c[k] - c[k + 1]).collect();
+            let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_ref;
+            sum.lines
+                .push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
+        }
+        if light_model == LightModel::Lobe {
+            // The studied fitted coaxial lobes in place of the paper's, by the same rule.
+            for k in 0..light_fit::MAX_LOBES {
+                let term = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[0]).collect::<Vec<_>>());
+                let total = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[3]).collect::<Vec<_>>());
+                sum.lines.push(format!(
+                    "{tag}:   studied: {} fitted coaxial lobe(s) per light: light term RMS {term:.4}, total (exact algebra) {total:.4}",
+                    k + 1
+                ));
+            }
+        }
+        if light_model == default.light {
+            parts = run.into_iter().map(|(_, q)| q).collect();
+        }
     }
     // The mask's lobes under the light's exact cap (E2 − E5), for each weight set: what
-    // the weights do once the light lobe's own error is out of the way.
-    let rms_of = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt() / mean_ref;
+    // the weights do once the light's own error is out of the way.
     let mut per_set = vec![(
         WeightSet::Fitted,
-        rms_of(&parts.iter().map(|p| p[2] - p[5]).collect::<Vec<_>>()),
+        rms_of(&parts.iter().map(|p| p.exact[0] - p.exact[3]).collect::<Vec<_>>()),
     )];
     for set in [WeightSet::Paper, WeightSet::Ones] {
         let s = MaskSettings {
@@ -447,7 +544,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             .par_iter()
             .map(|&p| {
                 let b = breakdown(&m, &scene, &light, &hits[p].expect("lit"), &s)?;
-                Ok(b[1] - b[4])
+                Ok(b.exact[0] - b.exact[3])
             })
             .collect::<Result<_, String>>()?;
         per_set.push((set, rms_of(&d)));
@@ -463,7 +560,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     let quad_vs_mc = (picks
         .iter()
         .zip(&parts)
-        .map(|(&p, q)| (q[5] - reference_img[p]).powi(2))
+        .map(|(&p, q)| (q.exact[3] - reference_img[p]).powi(2))
         .sum::<f64>()
         / parts.len().max(1) as f64)
         .sqrt()

@@ -113,8 +113,9 @@ fn bad_rows_and_flags_are_specific_errors() {
     assert!(err.contains("missing column 'nx'"), "{err}");
 }
 
-/// Lights across the horizon and lights wider than the measured range get one warning
-/// each on stderr, with their number of rows and first line; the output is as without.
+/// With the paper's light lobe, lights across the horizon and lights wider than the
+/// measured range get one warning each on stderr, with their number of rows and first
+/// line; the output is as without.
 #[test]
 fn lights_where_the_light_lobe_errs_are_warned_about() {
     let rows = "px,py,pz,nx,ny,nz,lx,ly,lz,lr,bx,by,bz,br\n\
@@ -122,7 +123,7 @@ fn lights_where_the_light_lobe_errs_are_warned_about() {
                 0,0,0,0,0,1,3,0,0.2,1,0,0,0,0\n\
                 0,0,0,0,0,1,0,0,2,1.9,0,0,0,0\n\
                 0,0,0,0,0,1,3,0,0.1,1,0,0,0,0\n";
-    let (code, out, err) = common::run_text(&["eval", "direct-light"], rows);
+    let (code, out, err) = common::run_text(&["eval", "direct-light", "--light", "lobe"], rows);
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(values(&out).len(), 4);
     assert!(
@@ -140,4 +141,11 @@ fn lights_where_the_light_lobe_errs_are_warned_about() {
     assert!(!err.contains("warning"), "{err}");
     let (_, _, err) = common::run_text(&["eval", "direct-light", "--exact"], rows);
     assert!(!err.contains("warning"), "--exact has no caveat: {err}");
+    // The light's cap (the default) is exact there: no caveat; a bad --light is named.
+    let (code, _, err) = common::run_text(&["eval", "direct-light"], rows);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!err.contains("warning"), "the cap has no caveat: {err}");
+    let (code, _, err) = common::run_text(&["eval", "direct-light", "--light", "disk"], rows);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("--light disk: expected lobe or cap"), "{err}");
 }
