@@ -550,20 +550,23 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     let weights = MaskWeights::embedded().map_err(|e| e.to_string())?;
     let mut text = format!(
         "|E − E_exact| / E_unoccluded over {STUDY_ROWS} seeded scenes (seed {STUDY_SEED}; docs/meunier.md)\n\
-         settings                     rows  full/partial/none   median     p90     max | partial: median     p90\n"
+         settings                               rows  full/partial/none   median     p90     max | partial: median     p90\n"
     );
     let mut series = Vec::new();
     let q = |v: &[f64], p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
-    for (mode, depth) in [
-        (MaskMode::Aggressive, 5),
-        (MaskMode::Conservative, 5),
-        (MaskMode::Aggressive, 3),
-    ] {
+    for (light, mode, depth) in LightModel::ALL.into_iter().flat_map(|l| {
+        [
+            (l, MaskMode::Aggressive, 5),
+            (l, MaskMode::Conservative, 5),
+            (l, MaskMode::Aggressive, 3),
+        ]
+    }) {
         for set in [WeightSet::Fitted, WeightSet::Paper, WeightSet::Ones] {
             let s = MaskSettings {
                 depth,
                 mode,
                 weights: set,
+                light,
                 ..MaskSettings::default()
             };
             let rows = study(STUDY_ROWS, STUDY_SEED, &s, weights)?;
@@ -576,9 +579,9 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
             let mut ep: Vec<f64> = partial.iter().map(|r| r.error()).collect();
             e.sort_by(f64::total_cmp);
             ep.sort_by(f64::total_cmp);
-            let name = format!("{} depth {depth}, {}", mode.name(), set.name());
+            let name = format!("{} light, {} depth {depth}, {}", light.name(), mode.name(), set.name());
             text.push_str(&format!(
-                "{name:<28} {:>5}  {:>4}/{:>4}/{:>4}   {:.4}  {:.4}  {:.4} |          {:.4}  {:.4}\n",
+                "{name:<38} {:>5}  {:>4}/{:>4}/{:>4}   {:.4}  {:.4}  {:.4} |          {:.4}  {:.4}\n",
                 e.len(),
                 full,
                 ep.len(),
