@@ -80,6 +80,41 @@ fn lobe_image(
         .collect()
 }
 
+/// The thresholds t_i (sr) `render meunier` sweeps; the paper's is 0.001.
+pub const THRESHOLDS: [f64; 5] = [0.0, 1e-5, 1e-4, 1e-3, 1e-2];
+
+/// How many lobe products survive the threshold at one hit: the final stage (× the
+/// cosine) of eq. 22's triple products as [`Meunier::shade`] forms them.
+fn products_kept(m: &Meunier<'_>, scene: &Scene, light: &SphereLight, h: &Hit, s: &MaskSettings) -> Result<usize, String> {
+    let err = |e: lobefit_tables::LookupError| e.to_string();
+    let brdf = scene.brdf(h).lobes(h.n, h.t, h.wo).map_err(|e| e.to_string())?;
+    let vis = m
+        .visibility(h.x, h.n, light, &scene.blockers(h), s)
+        .map_err(|e| e.to_string())?;
+    if vis.fully_blocked {
+        return Ok(0);
+    }
+    let (lobe, _) = m.light_lobe(h.x, light).map_err(|e| e.to_string())?;
+    let cosine = [Lobe {
+        scale: 1.0,
+        axis: h.n,
+        exponent: 1.0,
+    }];
+    let first = match s.light {
+        LightModel::Lobe => lobe,
+        LightModel::Cap => Lobe {
+            scale: light.radiance,
+            axis: h.n,
+            exponent: 0.0,
+        },
+    };
+    let bl = m.products.product_sums(&brdf, &[first], s.threshold).map_err(err)?;
+    let blv = m.products.product_sums(&bl, &vis.lobes, s.threshold).map_err(err)?;
+    let all = m.products.product_sums(&blv, &cosine, s.threshold).map_err(err)?;
+    // The cap's unoccluded terms: one per BRDF lobe, never thresholded.
+    Ok(all.len() + if s.light == LightModel::Cap { brdf.len() } else { 0 })
+}
+
 /// What [`breakdown`] returns at one hit, each by the same product rule.
 #[derive(Debug, Clone, Copy)]
 struct Parts {
@@ -363,6 +398,31 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         1e6 * eq.reference_per_pixel,
         eq.ratio
     ));
+
+    // The threshold t_i (§5.4): products kept, time and error, per light model.
+    for light_model in LightModel::ALL {
+        for t in THRESHOLDS {
+            let s = MaskSettings {
+                light: light_model,
+                threshold: t,
+                ..default
+            };
+            let (img, secs) = timed(|| lobe_image(&m, &scene, &light, &hits, &s));
+            let st = compare(&img?, &reference_img, &lit);
+            let kept: Vec<usize> = hits
+                .par_iter()
+                .flatten()
+                .map(|h| products_kept(&m, &scene, &light, h, &s))
+                .collect::<Result<_, String>>()?;
+            sum.lines.push(format!(
+                "{tag}: light {} t_i {t:.0e}: products kept per pixel {:.1}, shading {:.2} µs/pixel, relative RMSE {:.4}",
+                light_model.name(),
+                kept.iter().sum::<usize>() as f64 / pixels as f64,
+                1e6 * secs / pixels as f64,
+                st.rel_rmse
+            ));
+        }
+    }
 
     // Images: PNG panels, and the float images for other tools.
     let (files, _) = write_comparison(
