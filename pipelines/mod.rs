@@ -112,7 +112,11 @@ pub fn eval_views() -> Vec<EvalView> {
 
 /// The `lobefit plot` figure sets of the pipelines.
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![("meunier", meunier::direct_light::plot), ("rigs", rigs::plot)]
+    vec![
+        ("meunier", meunier::direct_light::plot),
+        ("meunier-scaling", meunier::scaling::plot),
+        ("rigs", rigs::plot),
+    ]
 }
 
 /// Every pipeline `lobefit render` knows.

@@ -7,6 +7,7 @@
 pub mod direct_light;
 pub mod light_fit;
 pub mod render;
+pub mod scaling;
 
 use super::Pipeline;
 

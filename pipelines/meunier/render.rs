@@ -32,6 +32,12 @@ pub const MC_SEED: u64 = 0x5eed_0013;
 /// Reference radiance at a hit: `n` light samples uniform in the light's cap, with
 /// exact ray–sphere visibility through the scene's BVH.
 pub fn reference(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, seed: u64) -> Estimate {
+    reference_with(scene, light, h, n, seed, true)
+}
+
+/// [`reference`], its visibility through the scene's BVH (`bvh`) or by testing every
+/// sphere (the same answers, another cost).
+pub fn reference_with(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, seed: u64, bvh: bool) -> Estimate {
     let to = light.sphere.centre - h.x;
     let d = to.length();
     let w = to / d;
@@ -39,13 +45,21 @@ pub fn reference(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, seed: u6
     let omega = TAU * (1.0 - cos_a);
     let (u, v) = w.any_orthonormal_pair();
     let brdf = scene.brdf(h);
+    let blockers = if bvh { Vec::new() } else { scene.blockers(h) };
     estimate(n, seed, |rng| {
         let mu = 1.0 - rng.uniform() * (1.0 - cos_a);
         let phi = rng.range(0.0, TAU);
         let st = (1.0 - mu * mu).max(0.0).sqrt();
         let dir = mu * w + st * (phi.cos() * u + phi.sin() * v);
         let c = h.n.dot(dir);
-        if c > 0.0 && scene.light_visible(h, dir, &light.sphere) {
+        let lit = || {
+            if bvh {
+                scene.light_visible(h, dir, &light.sphere)
+            } else {
+                visible(h.x, dir, &light.sphere, &blockers)
+            }
+        };
+        if c > 0.0 && lit() {
             brdf_value(brdf, h, dir) * light.radiance * c * omega
         } else {
             0.0
@@ -85,7 +99,13 @@ pub const THRESHOLDS: [f64; 5] = [0.0, 1e-5, 1e-4, 1e-3, 1e-2];
 
 /// How many lobe products survive the threshold at one hit: the final stage (× the
 /// cosine) of eq. 22's triple products as [`Meunier::shade`] forms them.
-fn products_kept(m: &Meunier<'_>, scene: &Scene, light: &SphereLight, h: &Hit, s: &MaskSettings) -> Result<usize, String> {
+fn products_kept(
+    m: &Meunier<'_>,
+    scene: &Scene,
+    light: &SphereLight,
+    h: &Hit,
+    s: &MaskSettings,
+) -> Result<usize, String> {
     let err = |e: lobefit_tables::LookupError| e.to_string();
     let brdf = scene.brdf(h).lobes(h.n, h.t, h.wo).map_err(|e| e.to_string())?;
     let vis = m

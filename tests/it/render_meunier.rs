@@ -223,3 +223,28 @@ fn bounds_and_outputs_are_checked_first() {
         assert!(!std::fs::symlink_metadata(&target).unwrap().file_type().is_symlink());
     }
 }
+
+/// The scaling study's scenes: the requested number of spheres, none overlapping (a hit
+/// point inside another sphere would be refused), and the BVH-culled blockers give the
+/// same lobe image as every sphere (the mask drops what misses the light's cone).
+#[test]
+fn scaling_scenes_are_valid_and_culling_changes_nothing() {
+    use lobefit::pipelines::meunier::scaling::{cluster, torus};
+    for s in [
+        cluster(1).unwrap(),
+        cluster(64).unwrap(),
+        torus(1).unwrap(),
+        torus(64).unwrap(),
+    ] {
+        assert!(!s.spheres.is_empty());
+        for (i, a) in s.spheres.iter().enumerate() {
+            for b in &s.spheres[i + 1..] {
+                assert!((a.centre - b.centre).length() > a.radius + b.radius, "{}", s.name);
+            }
+        }
+    }
+    assert_eq!(cluster(64).unwrap().spheres.len(), 64);
+    let r = lobefit::pipelines::meunier::scaling::measure(&cluster(16).unwrap(), 16, 64).unwrap();
+    assert_eq!(r.cull_diff, 0.0);
+    assert!(r.rmse.is_finite() && r.rmse > 0.0 && r.samples > 0.0);
+}
