@@ -1,6 +1,7 @@
 //! Speed of the Meunier pipeline against its references, side by side:
 //! `cargo bench --bench meunier`. One point in a penumbra (light of radius 1 at
-//! distance 4, a blocker half-way, off-centre): the lobe pipeline at depths 2 and 5,
+//! distance 4, a blocker half-way, off-centre): the lobe pipeline at depths 2 and 5
+//! (the light's cap) and at depth 5 with the paper's light lobe,
 //! the mask alone, the quadrature reference, and 64 Monte Carlo light samples.
 //! Wall-clock numbers live here (and in `lobefit render meunier`'s summary), never in
 //! tests.
@@ -10,7 +11,7 @@ use lobefit::pipelines::meunier::direct_light::exact_irradiance;
 use lobefit::pipelines::scene::visible;
 use lobefit::tables::glam::DVec3;
 use lobefit::tables::mask_weights::{build_mask, Cap};
-use lobefit::tables::meunier::{MaskSettings, Sphere, SphereLight};
+use lobefit::tables::meunier::{LightModel, MaskSettings, Sphere, SphereLight};
 use lobefit::tables::Meunier;
 
 fn main() {
@@ -40,6 +41,18 @@ fn lobes_irradiance(depth: u32) -> f64 {
     let (l, b) = scene();
     let s = MaskSettings {
         depth,
+        ..Default::default()
+    };
+    m.irradiance(black_box(DVec3::ZERO), DVec3::Z, &[l], &b, &s).unwrap()
+}
+
+/// Depth 5 with the paper's light lobe instead of the light's cap (the default).
+#[divan::bench]
+fn lobes_irradiance_paper_light() -> f64 {
+    let m = Meunier::embedded().unwrap();
+    let (l, b) = scene();
+    let s = MaskSettings {
+        light: LightModel::Lobe,
         ..Default::default()
     };
     m.irradiance(black_box(DVec3::ZERO), DVec3::Z, &[l], &b, &s).unwrap()
