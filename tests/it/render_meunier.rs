@@ -32,7 +32,7 @@ fn run(dir: &std::path::Path, threads: &str) -> String {
 fn results(stdout: &str) -> Vec<String> {
     stdout
         .lines()
-        .filter(|l| !l.contains("shading time") && !l.ends_with(".png") && !l.ends_with(".txt") && !l.ends_with(".pfm"))
+        .filter(|l| !l.contains("µs") && !l.ends_with(".png") && !l.ends_with(".txt") && !l.ends_with(".pfm"))
         .map(str::to_string)
         .collect()
 }
