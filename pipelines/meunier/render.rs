@@ -143,7 +143,8 @@ struct Parts {
     /// The light's cap, with the leaf lobes (E2), the leaves' bounding caps (E3), the
     /// union of the leaf cells (E4), exact visibility (E5).
     exact: [f64; 4],
-    /// The studied fitted coaxial lobes (1..=3 per light) with the leaf lobes.
+    /// The studied fitted coaxial lobes (1..=3 per light) with the leaf lobes (0 unless
+    /// the settings' light is the paper's lobe).
     fitted: [f64; light_fit::MAX_LOBES],
 }
 
@@ -174,9 +175,14 @@ fn breakdown(
     let vis_model = m
         .visibility(h.x, h.n, light, &blockers, settings)
         .map_err(|e| e.to_string())?;
-    let fitted: Vec<Vec<(f64, f64)>> = (1..=light_fit::MAX_LOBES)
-        .map(|k| light_fit::fit(m.caps, lcap.half_angle, k))
-        .collect::<Result<_, _>>()?;
+    // The studied lobes are reported beside the paper's light only: fit them there.
+    let fitted: Vec<Vec<(f64, f64)>> = if settings.light == LightModel::Lobe {
+        (1..=light_fit::MAX_LOBES)
+            .map(|k| light_fit::fit(m.caps, lcap.half_angle, k))
+            .collect::<Result<_, _>>()?
+    } else {
+        Vec::new()
+    };
     let light_dist = (light.sphere.centre - h.x).length();
     let caps: Vec<Cap> = blockers
         .iter()
