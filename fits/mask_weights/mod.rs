@@ -23,6 +23,8 @@
 //! visibility error of the fitted, paper and all-ones weights on held-out
 //! configurations at random `dist` with it.
 
+pub mod gpu;
+
 use std::f64::consts::{FRAC_PI_2, TAU};
 use std::sync::OnceLock;
 
@@ -790,7 +792,7 @@ pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
     tables: |_| vec![Box::new(MaskWeightsFamily)],
     eval: None,
     eval_names: &[],
-    gpu: &[],
+    gpu: &[gpu::GPU],
     closed_form: None,
     plot: None,
     eval_help: "\

@@ -141,7 +141,16 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
                     (gpu_family.eval)(&samplers, &x32).into_iter().map(f64::from).collect()
                 })
                 .collect();
-            let lookup = Precomputed(points.iter().map(|x| key(x)).zip(got.iter().cloned()).collect());
+            // Keyed by the lookup's inputs: a sample may carry more (mask-weights' seed of
+            // a held-out configuration), which the family's check does not look up.
+            let n_in = family.inputs().len();
+            let lookup = Precomputed(
+                points
+                    .iter()
+                    .map(|x| key(&x[..n_in.min(x.len())]))
+                    .zip(got.iter().cloned())
+                    .collect(),
+            );
             let errs = errors_of(family.as_ref(), &lookup, &points, filter)?;
             let vs_ref = errs
                 .iter()

@@ -279,6 +279,63 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
     ));
     rows.extend(check_sh_algebra(gpu, dummy, samples, &mut rng)?);
     rows.push(check_rigs(gpu, dummy, samples, &mut rng)?);
+    rows.extend(check_meunier(gpu, dummy, samples, &mut rng)?);
+    Ok(rows)
+}
+
+/// The Meunier pipeline's closed forms: a sphere light's irradiance across the
+/// horizon (`lf_sphere_cap_irradiance`, sin α in [0.01, 0.99], cos β in [−1, 1]) and a
+/// lobe's share of a cap (`lf_lobe_fraction_in_cap`, e log-uniform in [1, 10⁵], α in
+/// [1 mrad, 1.2], γ in [0, 3α]): GPU against the runtime's `cap_irradiance` and
+/// `lobe_fraction_in_cap`, relative to each output's largest value.
+fn check_meunier(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) -> Result<Vec<Row>, String> {
+    use lobefit_tables::meunier::{cap_irradiance, lobe_fraction_in_cap};
+    let t2 = "texture_2d<f32>";
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|_| vec![r32(rng.range(0.01, 0.99)), r32(rng.range(-1.0, 1.0))])
+        .collect();
+    let got = run_rows(
+        gpu,
+        dummy,
+        &NONE,
+        t2,
+        &inputs,
+        1,
+        "    Y[o] = lf_sphere_cap_irradiance(x0, x1);",
+    )?;
+    let want: Vec<Vec<f64>> = inputs.iter().map(|x| vec![cap_irradiance(x[0], x[1])]).collect();
+    let mut rows = vec![row(
+        "sphere cap irradiance",
+        samples,
+        scaled_diff(&got, &want).0,
+        Vec::new(),
+    )];
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|_| {
+            let alpha = rng.range(1e-3f64.ln(), 1.2f64.ln()).exp();
+            let e = rng.range(0.0, 1e5f64.ln()).exp();
+            vec![r32(3.0 * alpha * rng.uniform()), r32(alpha), r32(e)]
+        })
+        .collect();
+    let got = run_rows(
+        gpu,
+        dummy,
+        &NONE,
+        t2,
+        &inputs,
+        1,
+        "    Y[o] = lf_lobe_fraction_in_cap(x0, x1, x2);",
+    )?;
+    let want: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| vec![lobe_fraction_in_cap(x[0], x[1], x[2])])
+        .collect();
+    rows.push(row(
+        "lobe share of a cap",
+        samples,
+        scaled_diff(&got, &want).0,
+        Vec::new(),
+    ));
     Ok(rows)
 }
 

@@ -41,9 +41,13 @@ pub const ISG_SHADE: &str = include_str!("../shaders/isg_shade.wgsl");
 /// Irradiance rigs: the non-zero basis terms at a point and the reconstruction of an
 /// order-3 SH irradiance vector; its re-wrap and wrapped shading; needs [`SH`], [`WRAP`].
 pub const RIGS: &str = include_str!("../shaders/rigs.wgsl");
+/// Direct lighting with cosine lobes (Meunier et al.): the mask's per-depth weights
+/// (texture), a sphere light's irradiance across the horizon, a lobe's share of a cap,
+/// the cap exponent below the table's 1 mrad; needs [`LOBE`], [`LOBE_PRODUCT`].
+pub const MEUNIER: &str = include_str!("../shaders/meunier.wgsl");
 
 /// Every file of the library as (file name, source), in dependency order.
-pub const FILES: [(&str, &str); 13] = [
+pub const FILES: [(&str, &str); 14] = [
     ("common.wgsl", COMMON),
     ("gaunt.wgsl", GAUNT),
     ("sh.wgsl", SH),
@@ -57,6 +61,7 @@ pub const FILES: [(&str, &str); 13] = [
     ("shexp.wgsl", SHEXP),
     ("isg_shade.wgsl", ISG_SHADE),
     ("rigs.wgsl", RIGS),
+    ("meunier.wgsl", MEUNIER),
 ];
 
 /// The whole library as one WGSL source (the files of [`FILES`] concatenated).
