@@ -8,6 +8,7 @@ mod cost;
 mod device;
 mod isg;
 mod kernel;
+mod meunier;
 mod render;
 mod rigs;
 mod shexp;
@@ -93,6 +94,30 @@ enum Command {
         /// texture); default: the CPU pipeline's default.
         #[arg(long, value_parser = ["eps", "ren"])]
         blocker_log: Option<String>,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Meunier et al.'s direct lighting per pixel on the GPU (mask quad-tree, leaf
+    /// lobes, eq. 22 on the exported lobe-product, cap-exponent and mask-weights
+    /// textures) against the CPU pipeline's image (docs/meunier.md); exit 1 when the
+    /// RMS difference exceeds 1e-4 of the CPU image's peak.
+    RenderMeunier {
+        /// A `lobefit export` directory with lobe-product, cap-exponent and mask-weights.
+        #[arg(long, value_name = "DIR")]
+        export: PathBuf,
+        /// A built-in Meunier scene (fig13, glossy) or a scene file.
+        #[arg(long, default_value = "fig13")]
+        scene: String,
+        /// Image width (height 3/4 of it).
+        #[arg(long, default_value_t = meunier::WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+        width: u32,
+        /// How the light enters: its exact cap (the default) or the paper's lobe.
+        #[arg(long, default_value = "cap", value_parser = ["cap", "lobe"])]
+        light: String,
+        /// Eq. 39's weights: fitted (the default), the paper's procedure, or all ones.
+        #[arg(long, default_value = "fitted", value_parser = ["fitted", "paper", "one"])]
+        weights: String,
         /// Output PNG.
         #[arg(long)]
         out: PathBuf,
@@ -231,6 +256,50 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             out!("image: {}", out.display());
             if r.rms > render::RMS_LIMIT {
                 out!("render-shexp FAILED");
+                return Ok(ExitCode::from(1));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::RenderMeunier {
+            export,
+            scene,
+            width,
+            light,
+            weights,
+            out,
+        } => {
+            use lobefit_tables::mask_weights::WeightSet;
+            use lobefit_tables::meunier::{LightModel, MaskSettings};
+            let settings = MaskSettings {
+                light: if light == "lobe" {
+                    LightModel::Lobe
+                } else {
+                    LightModel::Cap
+                },
+                weights: match weights.as_str() {
+                    "paper" => WeightSet::Paper,
+                    "one" => WeightSet::Ones,
+                    _ => WeightSet::Fitted,
+                },
+                ..MaskSettings::default()
+            };
+            let ex = conformance::read_export(&export)?;
+            let gpu = device::Gpu::new()?;
+            let r = meunier::render_meunier(&gpu, &ex, &scene, width as usize, &settings, &out)?;
+            out!(
+                "render-meunier {scene} (light {light}, weights {weights}, depth {} {}): {} pixels see geometry, on \
+                 {}; GPU against the CPU pipeline, relative to the peak: max {:.2e}, RMS {:.2e} (limit {:.0e} RMS)",
+                settings.depth,
+                settings.mode.name(),
+                r.pixels,
+                gpu.info.name,
+                r.max,
+                r.rms,
+                render::RMS_LIMIT
+            );
+            out!("image: {}", out.display());
+            if r.rms > render::RMS_LIMIT {
+                out!("render-meunier FAILED");
                 return Ok(ExitCode::from(1));
             }
             Ok(ExitCode::SUCCESS)

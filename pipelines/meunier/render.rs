@@ -67,6 +67,29 @@ pub fn reference_with(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, see
     })
 }
 
+/// The scene `name`: a built-in of the pipeline (`fig13`, `glossy`) or a scene file;
+/// refused when it holds what the pipeline does not shade (a height field, distant
+/// light).
+pub fn scene(name: &str) -> Result<Scene, String> {
+    let scene = match crate::pipelines::scene::builtin(&format!("meunier-{name}")) {
+        Some(s) => s?,
+        None => crate::pipelines::scene::load(name).map_err(|e| {
+            format!(
+                "{e} (not a built-in scene of meunier either: {})",
+                super::PIPELINE.scenes.join(", ")
+            )
+        })?,
+    };
+    if scene.heightfield.is_some() || scene.sh_environment.is_some() || !scene.environment.is_empty() {
+        return Err(format!(
+            "render meunier: scene {} has a height field or a distant light; the pipeline's blockers are \
+             spheres and its lights spherical",
+            scene.name
+        ));
+    }
+    Ok(scene)
+}
+
 /// The lobe pipeline over the whole image with `settings`; `None` for background.
 fn lobe_image(
     m: &Meunier<'_>,
@@ -290,22 +313,7 @@ fn breakdown(
 /// file's path) and writes its figures into `dir`. `progress` is called once per
 /// finished image row of the reference.
 pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
-    let scene = match crate::pipelines::scene::builtin(&format!("meunier-{name}")) {
-        Some(s) => s?,
-        None => crate::pipelines::scene::load(name).map_err(|e| {
-            format!(
-                "{e} (not a built-in scene of meunier either: {})",
-                super::PIPELINE.scenes.join(", ")
-            )
-        })?,
-    };
-    if scene.heightfield.is_some() || scene.sh_environment.is_some() || !scene.environment.is_empty() {
-        return Err(format!(
-            "render meunier: scene {} has a height field or a distant light; the pipeline's blockers are \
-             spheres and its lights spherical",
-            scene.name
-        ));
-    }
+    let scene = scene(name)?;
     let light = match scene.lights[..] {
         [l] => l,
         _ => {

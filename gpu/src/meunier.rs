@@ -1,0 +1,560 @@
+//! `lobefit-gpu render-meunier`: Meunier et al.'s direct lighting
+//! (`lobefit_tables::meunier`, `lobefit render meunier`) as one compute kernel per
+//! pixel on the exported lobe-product, cap-exponent and mask-weights textures, against
+//! the CPU pipeline's image (docs/meunier.md, "On the GPU").
+//!
+//! The kernel is the runtime's `Meunier::radiance` in f32: the BRDF's lobes at the
+//! pixel (Lambert + Lafortune, eq. 30), per light the blockers' caps (clipped behind
+//! the light, a cap hiding the whole light skipping it), the visibility mask's
+//! quad-tree walked depth first on a stack (cells tested exactly against the caps:
+//! corners and great-circle edges), each shadow leaf's bounding cap as a lobe of the
+//! cap-exponent texture weighted by eq. 39's weight of its depth (the mask-weights
+//! texture), and the shading integral eq. 22 in the order of §5.4 through the
+//! lobe-product textures — with the light's exact cap (`LightModel::Cap`: the sphere
+//! light's irradiance in closed form, each leaf's share of the cap) or the paper's
+//! light lobe. Every leaf is shaded as the walk reaches it, so the kernel keeps no
+//! list of lobes.
+//!
+//! llvmpipe ends an invocation's loops after 65 535 iterations in all (loops of a
+//! constant count are unrolled and do not count): the kernel counts its own
+//! iterations and flags a pixel that could have reached the limit, as it flags one
+//! with more blockers meeting a light than its cap array holds; a flagged pixel is an
+//! error, never a silently wrong value.
+
+use std::path::Path;
+
+use lobefit::export::layout::Filter;
+use lobefit::export::{manifest::TextureEntry, Texture};
+use lobefit::pipelines::scene::{Hit, Scene};
+use lobefit_tables::glam::DVec3;
+use lobefit_tables::mask_weights::{MaskMode, WeightSet};
+use lobefit_tables::meunier::{Brdf, LafortuneLobe, LightModel, MaskSettings, Sphere, SphereLight};
+use lobefit_tables::{CapExponent, LobeProduct, MaskWeights, Meunier};
+
+use crate::conformance::Export;
+use crate::device::Gpu;
+use crate::kernel::{kernel_textures, lf_tex};
+use crate::render::{grey, write_grey_png, SceneRender};
+
+/// Default image width (height 3/4 of it).
+pub const WIDTH: u32 = 96;
+/// Blockers meeting one light's cap the kernel holds.
+pub const MAX_BLOCKERS: usize = 64;
+/// Lafortune lobes per material the kernel holds (besides the Lambertian term).
+pub const MAX_LOBES: usize = 3;
+/// Loop iterations per pixel beyond which the kernel flags the pixel (llvmpipe stops
+/// at 65 535).
+const ITERATION_BUDGET: u32 = 60_000;
+
+/// The export's first texture of family `kind`, and its `k`-th.
+fn texture<'a>(export: &'a Export, kind: &str, k: usize) -> Result<(&'a TextureEntry, &'a Texture), String> {
+    let f = export
+        .manifest
+        .families
+        .iter()
+        .position(|f| f.family == kind)
+        .ok_or_else(|| {
+            format!("the export has no {kind} texture (export it: --only lobe-product,cap-exponent,mask-weights)")
+        })?;
+    let (e, t) = export.textures[f]
+        .get(k)
+        .ok_or_else(|| format!("{kind}: the export lacks its texture {k}"))?;
+    Ok((e, t))
+}
+
+/// A value as a WGSL f32 literal.
+fn lit(v: f64) -> String {
+    format!("{:e}", v as f32)
+}
+
+/// The kernel's functions and constants for `scene` under `settings` (the spheres,
+/// lights and materials follow the `count` pixels' inputs in the buffer X).
+fn source(scene: &Scene, settings: &MaskSettings, count: usize) -> String {
+    let (ns, nl, nm) = (scene.spheres.len(), scene.lights.len(), scene.materials.len());
+    let sph0 = N_IN * count;
+    let lgt0 = sph0 + 4 * ns;
+    let mat0 = lgt0 + 5 * nl;
+    let set = match settings.weights {
+        WeightSet::Fitted => 0,
+        WeightSet::Paper => 1,
+        WeightSet::Ones => 2,
+    };
+    let mode = u32::from(settings.mode == MaskMode::Conservative);
+    format!(
+        "const NS = {ns}u;\nconst NL = {nl}u;\nconst NM = {nm}u;\nconst SPH0 = {sph0}u;\nconst LGT0 = {lgt0}u;\n\
+         const MAT0 = {mat0}u;\nconst MAT_SIZE = {}u;\nconst MAXB = {MAX_BLOCKERS}u;\nconst MAXL = {}u;\n\
+         const DEPTH = {}u;\nconst MODE = {mode}u;\nconst WSET = {set}u;\nconst THRESH = {};\nconst CAP_LIGHT = {};\n\
+         const BUDGET = {ITERATION_BUDGET}u;\n{FUNCTIONS}",
+        2 + 5 * MAX_LOBES,
+        MAX_LOBES + 1,
+        settings.depth,
+        lit(settings.threshold),
+        settings.light == LightModel::Cap,
+    )
+}
+
+/// Inputs per pixel: point, normal, tangent, direction to the eye, material, the
+/// sphere the point lies on (−1: none).
+const N_IN: usize = 14;
+
+const FUNCTIONS: &str = r#"
+struct MnLobe {
+    s: f32,
+    a: vec3<f32>,
+    e: f32,
+}
+
+// The product of two lobes as one lobe (the lobe-product textures T, T2).
+fn mn_product(l1: MnLobe, l2: MnLobe) -> MnLobe {
+    let alpha = lf_angle_between(l1.a, l2.a);
+    let q = lf_lobe_product(T, S, P, T2, P2, l1.e, l2.e, alpha);
+    return MnLobe(l1.s * q.p * l2.s, lf_lobe_product_axis(l1.a, l2.a, q.t), q.e_r);
+}
+
+fn mn_integral(l: MnLobe) -> f32 {
+    return l.s * 2.0 * LF_PI / (l.e + 1.0);
+}
+
+// Whether a product survives the threshold t_i (the runtime's product_sums).
+fn mn_kept(l: MnLobe) -> bool {
+    return l.s != 0.0 && abs(mn_integral(l)) >= THRESH;
+}
+
+fn mn_sphere(b: u32) -> vec4<f32> {
+    let k = SPH0 + 4u * b;
+    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);
+}
+
+// max over the spherical quadrilateral c0..c3 (great-circle edges) of a.x (the
+// runtime's max_dot).
+fn mn_max_dot(c0: vec3<f32>, c1: vec3<f32>, c2: vec3<f32>, c3: vec3<f32>, a: vec3<f32>) -> f32 {
+    let c = array<vec3<f32>, 4>(c0, c1, c2, c3);
+    let centre = c0 + c1 + c2 + c3;
+    var inside = true;
+    var best = -2.0;
+    for (var k = 0u; k < 4u; k++) {
+        let p = c[k];
+        let q = c[(k + 1u) % 4u];
+        let m0 = cross(p, q);
+        let mlen = length(m0);
+        best = max(best, max(dot(a, p), dot(a, q)));
+        if mlen < 1e-30 {
+            continue;
+        }
+        let m = m0 / mlen;
+        let am = dot(a, m);
+        if am * sign(dot(m, centre)) < 0.0 {
+            inside = false;
+        }
+        let proj = a - am * m;
+        let plen = length(proj);
+        if plen > 1e-30 {
+            let ph = proj / plen;
+            if dot(cross(p, ph), m) >= 0.0 && dot(cross(ph, q), m) >= 0.0 {
+                best = max(best, plen);
+            }
+        }
+    }
+    return select(best, 1.0, inside);
+}
+
+// The shadow (or c_unit) lobe v times the kept BRDF x light products, then the cosine.
+fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f32 {
+    var total = 0.0;
+    let cosine = MnLobe(1.0, n, 1.0);
+    for (var k = 0u; k < MAXL; k++) {
+        if k < nbl {
+            let blv = mn_product(bl[k], v);
+            if mn_kept(blv) {
+                let f = mn_product(blv, cosine);
+                if mn_kept(f) {
+                    total += mn_integral(f);
+                }
+            }
+        }
+    }
+    return total;
+}
+"#;
+
+const BODY: &str = r#"    let p = vec3<f32>(x0, x1, x2);
+    let n = vec3<f32>(x3, x4, x5);
+    let own = i32(x13);
+    var iters = 0u;
+    var flag = 0.0;
+    // The BRDF's lobes: the Lambertian term, then each Lafortune lobe (eq. 30).
+    var brdf: array<MnLobe, MAXL>;
+    let m0 = MAT0 + u32(x12) * MAT_SIZE;
+    brdf[0] = MnLobe(X[m0] / LF_PI, n, 0.0);
+    var nb = 1u;
+    let t0 = vec3<f32>(x6, x7, x8);
+    let tt = normalize(t0 - dot(t0, n) * n);
+    let bt = cross(n, tt);
+    let wo = vec3<f32>(x9, x10, x11);
+    let local = vec3<f32>(dot(wo, tt), dot(wo, bt), dot(wo, n));
+    for (var j = 0u; j < MAXL - 1u; j++) {
+        if f32(j) < X[m0 + 1u] {
+            let k = m0 + 2u + 5u * j;
+            let m = vec3<f32>(X[k], X[k + 1u], X[k + 2u]) * local;
+            let len = length(m);
+            if len != 0.0 && X[k + 3u] != 0.0 {
+                brdf[nb] = MnLobe(X[k + 3u] * pow(len, X[k + 4u]), (m.x * tt + m.y * bt + m.z * n) / len, X[k + 4u]);
+                nb += 1u;
+            }
+        }
+    }
+    var total = 0.0;
+    for (var l = 0u; l < NL; l++) {
+        iters += 1u;
+        let k = LGT0 + 5u * l;
+        let lc = vec3<f32>(X[k], X[k + 1u], X[k + 2u]);
+        let radiance = X[k + 4u];
+        let to = lc - p;
+        let ld = length(to);
+        let la = to / ld;
+        let sa = X[k + 3u] / ld;
+        let ca = sqrt(max((1.0 - sa) * (1.0 + sa), 0.0));
+        let alpha = lf_asin(sa);
+        // Blocker caps meeting the light's (axis, cos half-angle); a cap containing
+        // the light's hides it.
+        var rel: array<vec4<f32>, MAXB>;
+        var nrel = 0u;
+        var hidden = false;
+        for (var b = 0u; b < NS; b++) {
+            iters += 1u;
+            if i32(b) == own {
+                continue;
+            }
+            let s = mn_sphere(b);
+            let w = s.xyz - p;
+            let d = length(w);
+            if d - s.w >= ld {
+                continue;
+            }
+            let ba = w / d;
+            let q = s.w / d;
+            let th = lf_asin(q);
+            let gap = lf_angle_between(la, ba);
+            if gap + alpha <= th {
+                hidden = true;
+                break;
+            }
+            if gap < th + alpha {
+                if nrel < MAXB {
+                    rel[nrel] = vec4<f32>(ba, sqrt(max((1.0 - q) * (1.0 + q), 0.0)));
+                    nrel += 1u;
+                } else {
+                    flag = 1.0;
+                }
+            }
+        }
+        if hidden {
+            continue;
+        }
+        // The BRDF x light products: the paper's light lobe, or the uniform radiance
+        // over the hemisphere (the light's cap then enters through the leaves' shares).
+        var light = MnLobe(radiance, n, 0.0);
+        if !CAP_LIGHT {
+            let e = lf_cap_exponent_any(T3, S, P3, max(alpha, 1e-4));
+            let sh = sin(0.5 * alpha);
+            light = MnLobe(radiance * 4.0 * LF_PI * sh * sh * (e + 1.0) / (2.0 * LF_PI), la, e);
+        }
+        var bl: array<MnLobe, MAXL>;
+        var nbl = 0u;
+        for (var j = 0u; j < MAXL; j++) {
+            if j < nb {
+                let r = mn_product(brdf[j], light);
+                if mn_kept(r) {
+                    bl[nbl] = r;
+                    nbl += 1u;
+                }
+            }
+        }
+        if CAP_LIGHT {
+            // The unoccluded light over its cap.
+            for (var j = 0u; j < MAXL; j++) {
+                if j < nb {
+                    let b = brdf[j];
+                    if b.e == 0.0 && dot(b.a, n) >= 1.0 - 1e-6 {
+                        total += b.s * radiance * lf_sphere_cap_irradiance(sa, dot(la, n));
+                    } else {
+                        let pc = mn_product(b, MnLobe(1.0, n, 1.0));
+                        total += radiance * mn_integral(pc)
+                            * lf_lobe_fraction_in_cap(lf_angle_between(pc.a, la), alpha, pc.e);
+                    }
+                }
+            }
+        } else {
+            total += mn_shade_vis(bl, nbl, MnLobe(1.0, n, 0.0), n);
+        }
+        if nrel == 0u {
+            continue;
+        }
+        // Eq. 39's weights at this light's dist = 1 / (2 tan alpha).
+        let dist = 0.5 * ca / sa;
+        var wts: array<f32, 5>;
+        for (var j = 0u; j < 5u; j++) {
+            if j < DEPTH {
+                wts[j] = lf_mask_weight(T4, S, P4, WSET, MODE, DEPTH, j + 1u, dist);
+            }
+        }
+        // The square S_unit at distance dist: (s, t) in [-1/2, 1/2]^2 -> w + s u + t v.
+        let sg = select(-1.0, 1.0, la.z >= 0.0);
+        let ea = -1.0 / (sg + la.z);
+        let eb = la.x * la.y * ea;
+        let kk = 2.0 * sa / ca;
+        let u = kk * vec3<f32>(1.0 + sg * la.x * la.x * ea, sg * eb, -sg * la.x);
+        let v = kk * vec3<f32>(eb, sg + la.y * la.y * ea, -la.y);
+        // Depth-first walk: (s0, t0, side, depth).
+        var stack: array<vec4<f32>, 24>;
+        stack[0] = vec4<f32>(-0.5, -0.5, 1.0, 0.0);
+        var sp = 1u;
+        loop {
+            if sp == 0u || iters >= BUDGET {
+                break;
+            }
+            iters += 1u;
+            sp -= 1u;
+            let cell = stack[sp];
+            let h = cell.z;
+            let c0 = normalize(la + cell.x * u + cell.y * v);
+            let c1 = normalize(la + (cell.x + h) * u + cell.y * v);
+            let c2 = normalize(la + (cell.x + h) * u + (cell.y + h) * v);
+            let c3 = normalize(la + cell.x * u + (cell.y + h) * v);
+            var full = false;
+            for (var b = 0u; b < nrel; b++) {
+                iters += 1u;
+                let r = rel[b];
+                if min(min(dot(r.xyz, c0), dot(r.xyz, c1)), min(dot(r.xyz, c2), dot(r.xyz, c3))) >= r.w {
+                    full = true;
+                    break;
+                }
+            }
+            if !full {
+                var meets = false;
+                for (var b = 0u; b < nrel; b++) {
+                    iters += 1u;
+                    let r = rel[b];
+                    if mn_max_dot(c0, c1, c2, c3, r.xyz) >= r.w {
+                        meets = true;
+                        break;
+                    }
+                }
+                if !meets {
+                    continue;
+                }
+            }
+            let depth = u32(cell.w);
+            let axis = normalize(c0 + c1 + c2 + c3);
+            if full || (MODE == 1u && depth == DEPTH) {
+                var wd = wts[max(depth, 1u) - 1u];
+                if wd != 0.0 {
+                    let beta = max(max(lf_angle_between(axis, c0), lf_angle_between(axis, c1)),
+                                   max(lf_angle_between(axis, c2), lf_angle_between(axis, c3)));
+                    let e = lf_cap_exponent_any(T3, S, P3, beta);
+                    if CAP_LIGHT {
+                        wd *= lf_lobe_fraction_in_cap(lf_angle_between(axis, la), alpha, e);
+                    }
+                    if wd != 0.0 {
+                        total += mn_shade_vis(bl, nbl, MnLobe(-wd, axis, e), n);
+                    }
+                }
+            }
+            if !full && depth < DEPTH {
+                // Children pushed last-first: visited in the runtime's order.
+                let g = 0.5 * h;
+                let d1 = f32(depth + 1u);
+                stack[sp] = vec4<f32>(cell.x, cell.y + g, g, d1);
+                stack[sp + 1u] = vec4<f32>(cell.x + g, cell.y + g, g, d1);
+                stack[sp + 2u] = vec4<f32>(cell.x + g, cell.y, g, d1);
+                stack[sp + 3u] = vec4<f32>(cell.x, cell.y, g, d1);
+                sp += 4u;
+            }
+        }
+    }
+    if iters >= BUDGET {
+        flag = 2.0;
+    }
+    Y[o] = total;
+    Y[o + 1u] = flag;"#;
+
+/// A material's kernel record: albedo, lobe count, then (C_x, C_y, C_z, ρ_s, n) per
+/// Lafortune lobe, zero-padded to [`MAX_LOBES`].
+fn material(b: &Brdf) -> Result<Vec<f32>, String> {
+    let (albedo, lobes): (f64, &[LafortuneLobe]) = match b {
+        Brdf::Lambert { albedo } => (*albedo, &[]),
+        Brdf::Lafortune { albedo, lobes } => (*albedo, lobes),
+    };
+    if lobes.len() > MAX_LOBES {
+        return Err(format!(
+            "a material has {} Lafortune lobes; render-meunier's kernel holds {MAX_LOBES}",
+            lobes.len()
+        ));
+    }
+    let mut v = vec![albedo as f32, lobes.len() as f32];
+    for l in lobes {
+        v.extend([l.c.x, l.c.y, l.c.z, l.rho, l.exponent].map(|x| x as f32));
+    }
+    v.resize(2 + 5 * MAX_LOBES, 0.0);
+    Ok(v)
+}
+
+/// `b` with every number rounded to f32 (what the kernel gets).
+fn material32(b: &Brdf) -> Brdf {
+    let r = |v: f64| f64::from(v as f32);
+    match b {
+        Brdf::Lambert { albedo } => Brdf::Lambert { albedo: r(*albedo) },
+        Brdf::Lafortune { albedo, lobes } => Brdf::Lafortune {
+            albedo: r(*albedo),
+            lobes: lobes
+                .iter()
+                .map(|l| LafortuneLobe {
+                    c: l.c.as_vec3().as_dvec3(),
+                    rho: r(l.rho),
+                    exponent: r(l.exponent),
+                })
+                .collect(),
+        },
+    }
+}
+
+/// Renders `scene` (a built-in Meunier scene, fig13 or glossy, or a scene file) at
+/// `width` with `settings` on the GPU and with the CPU pipeline (f64, the committed
+/// tables, the same f32 inputs); writes `out` (PNG, radiance / peak, gamma 1/2.2).
+pub fn render_meunier(
+    gpu: &Gpu,
+    export: &Export,
+    scene: &str,
+    width: usize,
+    settings: &MaskSettings,
+    out: &Path,
+) -> Result<SceneRender, String> {
+    let sc = lobefit::pipelines::meunier::render::scene(scene)?;
+    let m = &export.manifest;
+    let (lp_e, lp_t) = texture(export, lobefit_tables::lobe_product::KIND_ENERGY, 0)?;
+    let (lnw_e, lnw_t) = texture(export, lobefit_tables::lobe_product::KIND_ENERGY, 1)?;
+    let (cap_e, cap_t) = texture(export, lobefit_tables::cap_exponent::KIND, 0)?;
+    let (mw_e, mw_t) = texture(export, lobefit_tables::mask_weights::KIND, 0)?;
+    let up = [lp_t, lnw_t, cap_t, mw_t]
+        .iter()
+        .map(|t| gpu.upload(t, m.storage))
+        .collect::<Result<Vec<_>, _>>()?;
+    let params = [lp_e, lnw_e, cap_e, mw_e]
+        .iter()
+        .map(|e| lf_tex(e, Filter::Manual))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let visible: Vec<&Hit> = hits.iter().flatten().collect();
+    if visible.is_empty() {
+        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
+    }
+    let mut inputs = Vec::with_capacity(visible.len() * N_IN + 64);
+    for hit in &visible {
+        inputs.extend(
+            [
+                hit.x.x, hit.x.y, hit.x.z, hit.n.x, hit.n.y, hit.n.z, hit.t.x, hit.t.y, hit.t.z, hit.wo.x, hit.wo.y,
+                hit.wo.z,
+            ]
+            .map(|v| v as f32),
+        );
+        inputs.extend([hit.material as f32, hit.sphere.map_or(-1.0, |i| i as f32)]);
+    }
+    let spheres32: Vec<Sphere> = sc
+        .spheres
+        .iter()
+        .map(|s| Sphere {
+            centre: s.centre.as_vec3().as_dvec3(),
+            radius: f64::from(s.radius as f32),
+        })
+        .collect();
+    let lights32: Vec<SphereLight> = sc
+        .lights
+        .iter()
+        .map(|l| SphereLight {
+            sphere: Sphere {
+                centre: l.sphere.centre.as_vec3().as_dvec3(),
+                radius: f64::from(l.sphere.radius as f32),
+            },
+            radiance: f64::from(l.radiance as f32),
+        })
+        .collect();
+    for s in &spheres32 {
+        inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
+    }
+    for l in &lights32 {
+        let c = l.sphere.centre;
+        inputs.extend([c.x, c.y, c.z, l.sphere.radius, l.radiance].map(|v| v as f32));
+    }
+    for b in &sc.materials {
+        inputs.extend(material(b)?);
+    }
+    let types = [lp_t, lnw_t, cap_t, mw_t].map(crate::device::wgsl_texture_type);
+    let src = kernel_textures(&types, N_IN, 2, BODY) + &source(&sc, settings, visible.len());
+    let textures: Vec<(&[u8], &crate::device::GpuTexture)> = params.iter().map(Vec::as_slice).zip(up.iter()).collect();
+    let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
+    if let Some((k, f)) = got.chunks(2).enumerate().find(|(_, c)| c[1] != 0.0) {
+        return Err(format!(
+            "pixel {k} of {}: {}",
+            visible.len(),
+            if f[1] == 1.0 {
+                format!("more than {MAX_BLOCKERS} blockers meet the light's cap (the kernel's array)")
+            } else {
+                format!("its mask walk reached {ITERATION_BUDGET} loop iterations (llvmpipe stops loops at 65 535)")
+            }
+        ));
+    }
+    // The CPU pipeline (f64, the committed tables) at the same f32 inputs.
+    let meunier = Meunier {
+        products: LobeProduct::embedded().map_err(|e| e.to_string())?,
+        caps: CapExponent::embedded().map_err(|e| e.to_string())?,
+        weights: MaskWeights::embedded().map_err(|e| e.to_string())?,
+    };
+    let materials32: Vec<Brdf> = sc.materials.iter().map(material32).collect();
+    let mut cpu = Vec::with_capacity(visible.len());
+    for (k, hit) in visible.iter().enumerate() {
+        let v = |i: usize| f64::from(inputs[N_IN * k + i]);
+        let blockers: Vec<Sphere> = spheres32
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| Some(*i) != hit.sphere)
+            .map(|(_, s)| *s)
+            .collect();
+        cpu.push(
+            meunier
+                .radiance(
+                    DVec3::new(v(0), v(1), v(2)),
+                    DVec3::new(v(3), v(4), v(5)).normalize(),
+                    DVec3::new(v(6), v(7), v(8)),
+                    DVec3::new(v(9), v(10), v(11)).normalize(),
+                    &materials32[hit.material],
+                    &lights32,
+                    &blockers,
+                    settings,
+                )
+                .map_err(|e| format!("CPU pipeline at pixel {k}: {e}"))?,
+        );
+    }
+    let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
+    let (mut max, mut sum) = (0.0f64, 0.0);
+    for (g, c) in got.chunks(2).zip(&cpu) {
+        let d = (f64::from(g[0]) - c).abs() / peak;
+        max = max.max(d);
+        sum += d * d;
+    }
+    let rms = (sum / cpu.len() as f64).sqrt();
+    let mut image = vec![0u8; w * h];
+    let mut it = got.chunks(2);
+    for (px, hit) in image.iter_mut().zip(&hits) {
+        if hit.is_some() {
+            *px = grey(f64::from(it.next().map_or(0.0, |c| c[0])) / peak);
+        }
+    }
+    write_grey_png(out, w, h, &image)?;
+    Ok(SceneRender {
+        pixels: visible.len(),
+        max,
+        rms,
+        vs_exact: (f64::NAN, 0),
+    })
+}
