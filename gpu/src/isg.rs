@@ -22,7 +22,7 @@ use lobefit::pipelines::scene::Hit;
 use crate::conformance::Export;
 use crate::device::Gpu;
 use crate::kernel::{kernel_with, lf_tex};
-use crate::render::{grey, write_grey_png, SceneRender};
+use crate::render::{compare_and_write, SceneRender};
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
@@ -238,22 +238,7 @@ pub fn render_isg(gpu: &Gpu, export: &Export, scene: &str, width: usize, out: &P
             &at,
         )?);
     }
-    let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
-    let (mut max, mut sum) = (0.0f64, 0.0);
-    for (g, c) in got.iter().zip(&cpu) {
-        let d = (f64::from(*g) - c).abs() / peak;
-        max = max.max(d);
-        sum += d * d;
-    }
-    let rms = (sum / cpu.len() as f64).sqrt();
-    let mut image = vec![0u8; w * h];
-    let mut it = got.iter();
-    for (px, hit) in image.iter_mut().zip(&hits) {
-        if hit.is_some() {
-            *px = grey(f64::from(*it.next().unwrap_or(&0.0)) / peak);
-        }
-    }
-    write_grey_png(out, w, h, &image)?;
+    let (max, rms) = compare_and_write(&got, &cpu, hits.iter().map(Option::is_some), (w, h), out)?;
     Ok(SceneRender {
         pixels: visible.len(),
         max,

@@ -34,7 +34,7 @@ use lobefit_tables::{CapExponent, LobeProduct, MaskWeights, Meunier};
 use crate::conformance::Export;
 use crate::device::Gpu;
 use crate::kernel::{kernel_textures, lf_tex};
-use crate::render::{grey, write_grey_png, SceneRender};
+use crate::render::{compare_and_write, SceneRender};
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 96;
@@ -535,26 +535,68 @@ pub fn render_meunier(
                 .map_err(|e| format!("CPU pipeline at pixel {k}: {e}"))?,
         );
     }
-    let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
-    let (mut max, mut sum) = (0.0f64, 0.0);
-    for (g, c) in got.chunks(2).zip(&cpu) {
-        let d = (f64::from(g[0]) - c).abs() / peak;
-        max = max.max(d);
-        sum += d * d;
-    }
-    let rms = (sum / cpu.len() as f64).sqrt();
-    let mut image = vec![0u8; w * h];
-    let mut it = got.chunks(2);
-    for (px, hit) in image.iter_mut().zip(&hits) {
-        if hit.is_some() {
-            *px = grey(f64::from(it.next().map_or(0.0, |c| c[0])) / peak);
-        }
-    }
-    write_grey_png(out, w, h, &image)?;
+    let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
+    let (max, rms) = compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)?;
     Ok(SceneRender {
         pixels: visible.len(),
         max,
         rms,
         vs_exact: (f64::NAN, 0),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The kernel parses and validates (naga) for both built-in scenes under both
+    /// light models, conservative masks and a threshold.
+    #[test]
+    fn kernel_validates() {
+        for name in ["fig13", "glossy"] {
+            let sc = lobefit::pipelines::meunier::render::scene(name).unwrap();
+            for light in LightModel::ALL {
+                let s = MaskSettings {
+                    light,
+                    mode: MaskMode::Conservative,
+                    threshold: 1e-3,
+                    ..MaskSettings::default()
+                };
+                let src = kernel_textures(
+                    &[
+                        "texture_3d<f32>",
+                        "texture_2d<f32>",
+                        "texture_2d<f32>",
+                        "texture_2d<f32>",
+                    ],
+                    N_IN,
+                    2,
+                    BODY,
+                ) + &source(&sc, &s, 7);
+                if let Err(e) = lobefit::export::shaders::module_of(&src) {
+                    panic!("{name}, light {}: {e}", light.name());
+                }
+            }
+        }
+    }
+
+    /// Materials beyond the kernel's lobe count are refused, not truncated.
+    #[test]
+    fn too_many_lobes_is_an_error() {
+        let l = LafortuneLobe {
+            c: DVec3::new(-1.0, -1.0, 1.0),
+            rho: 1.0,
+            exponent: 10.0,
+        };
+        let ok = Brdf::Lafortune {
+            albedo: 0.5,
+            lobes: vec![l; MAX_LOBES],
+        };
+        assert_eq!(material(&ok).unwrap().len(), 2 + 5 * MAX_LOBES);
+        let bad = Brdf::Lafortune {
+            albedo: 0.5,
+            lobes: vec![l; MAX_LOBES + 1],
+        };
+        assert!(material(&bad).unwrap_err().contains("Lafortune lobes"));
+    }
 }

@@ -303,28 +303,47 @@ pub fn render_scene(gpu: &Gpu, export: &Export, scene: &str, out: &Path) -> Resu
         }
         cpu.push(e);
     }
-    let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
-    let (mut max, mut sum) = (0.0f64, 0.0);
-    for (g, c) in got.iter().zip(&cpu) {
-        let d = (f64::from(*g) - c).abs() / peak;
-        max = max.max(d);
-        sum += d * d;
-    }
-    let rms = (sum / cpu.len() as f64).sqrt();
-    let mut image = vec![0u8; w * h];
-    let mut it = got.iter();
-    for (px, hit) in image.iter_mut().zip(&hits) {
-        if hit.is_some() {
-            *px = grey(f64::from(*it.next().unwrap_or(&0.0)) / peak);
-        }
-    }
-    write_grey_png(out, w, h, &image)?;
+    let (max, rms) = compare_and_write(&got, &cpu, hits.iter().map(Option::is_some), (w, h), out)?;
     Ok(SceneRender {
         pixels: visible.len(),
         max,
         rms,
         vs_exact: (worst_exact, exact_n),
     })
+}
+
+/// The GPU's values `got` at the pixels that see geometry (`seen`, row by row over the
+/// w × h image) against the CPU's `cpu` at the same pixels: (max, RMS) of |GPU − CPU| /
+/// the CPU image's peak, a non-finite GPU value counting as infinitely wrong (NaN would
+/// pass unseen); writes `out` (PNG, value / peak, gamma 1/2.2, background black).
+pub(crate) fn compare_and_write(
+    got: &[f32],
+    cpu: &[f64],
+    seen: impl IntoIterator<Item = bool>,
+    (w, h): (usize, usize),
+    out: &Path,
+) -> Result<(f64, f64), String> {
+    let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
+    let (mut max, mut sum) = (0.0f64, 0.0);
+    for (g, c) in got.iter().zip(cpu) {
+        let d = if g.is_finite() {
+            (f64::from(*g) - c).abs() / peak
+        } else {
+            f64::INFINITY
+        };
+        max = max.max(d);
+        sum += d * d;
+    }
+    let rms = (sum / cpu.len().max(1) as f64).sqrt();
+    let mut image = vec![0u8; w * h];
+    let mut it = got.iter();
+    for (px, s) in image.iter_mut().zip(seen) {
+        if s {
+            *px = grey(f64::from(*it.next().unwrap_or(&0.0)) / peak);
+        }
+    }
+    write_grey_png(out, w, h, &image)?;
+    Ok((max, rms))
 }
 
 /// The export's disk-light texture (the first of its family).
