@@ -148,6 +148,32 @@ enum Command {
     },
 }
 
+/// Prints a pipeline render's comparison (`command` and what it rendered, `what`) and
+/// its image; exit 1 when the RMS difference exceeds [`render::RMS_LIMIT`].
+fn report(
+    command: &str,
+    what: &str,
+    r: &render::SceneRender,
+    gpu: &device::Gpu,
+    out: &std::path::Path,
+) -> Result<ExitCode, String> {
+    out!(
+        "{command} {what}: {} pixels see geometry, on {}; GPU against the CPU pipeline, relative to the peak: \
+         max {:.2e}, RMS {:.2e} (limit {:.0e} RMS)",
+        r.pixels,
+        gpu.info.name,
+        r.max,
+        r.rms,
+        render::RMS_LIMIT
+    );
+    out!("image: {}", out.display());
+    if r.rms > render::RMS_LIMIT {
+        out!("{command} FAILED");
+        return Ok(ExitCode::from(1));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.command {
         Command::Render {
@@ -210,21 +236,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
             let r = isg::render_isg(&gpu, &ex, &scene, width as usize, &out)?;
-            out!(
-                "render-isg {scene}: {} pixels see geometry, on {}; GPU against the CPU pipeline, relative to the \
-                 peak: max {:.2e}, RMS {:.2e} (limit {:.0e} RMS)",
-                r.pixels,
-                gpu.info.name,
-                r.max,
-                r.rms,
-                render::RMS_LIMIT
-            );
-            out!("image: {}", out.display());
-            if r.rms > render::RMS_LIMIT {
-                out!("render-isg FAILED");
-                return Ok(ExitCode::from(1));
-            }
-            Ok(ExitCode::SUCCESS)
+            report("render-isg", &scene, &r, &gpu, &out)
         }
         Command::RenderShexp {
             export,
@@ -243,22 +255,13 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
             let r = shexp::render_shexp(&gpu, &ex, &scene, width as usize, &settings, &out)?;
-            out!(
-                "render-shexp {scene} ({:?} blocker log): {} pixels see geometry, on {}; GPU against the CPU \
-                 pipeline, relative to the peak: max {:.2e}, RMS {:.2e} (limit {:.0e} RMS)",
-                settings.blocker_log,
-                r.pixels,
-                gpu.info.name,
-                r.max,
-                r.rms,
-                render::RMS_LIMIT
-            );
-            out!("image: {}", out.display());
-            if r.rms > render::RMS_LIMIT {
-                out!("render-shexp FAILED");
-                return Ok(ExitCode::from(1));
-            }
-            Ok(ExitCode::SUCCESS)
+            report(
+                "render-shexp",
+                &format!("{scene} ({:?} blocker log)", settings.blocker_log),
+                &r,
+                &gpu,
+                &out,
+            )
         }
         Command::RenderMeunier {
             export,
@@ -286,23 +289,17 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
             let r = meunier::render_meunier(&gpu, &ex, &scene, width as usize, &settings, &out)?;
-            out!(
-                "render-meunier {scene} (light {light}, weights {weights}, depth {} {}): {} pixels see geometry, on \
-                 {}; GPU against the CPU pipeline, relative to the peak: max {:.2e}, RMS {:.2e} (limit {:.0e} RMS)",
-                settings.depth,
-                settings.mode.name(),
-                r.pixels,
-                gpu.info.name,
-                r.max,
-                r.rms,
-                render::RMS_LIMIT
-            );
-            out!("image: {}", out.display());
-            if r.rms > render::RMS_LIMIT {
-                out!("render-meunier FAILED");
-                return Ok(ExitCode::from(1));
-            }
-            Ok(ExitCode::SUCCESS)
+            report(
+                "render-meunier",
+                &format!(
+                    "{scene} (light {light}, weights {weights}, depth {} {})",
+                    settings.depth,
+                    settings.mode.name()
+                ),
+                &r,
+                &gpu,
+                &out,
+            )
         }
         Command::RenderRigs { width, wrap, out } => {
             let wraps = match wrap {

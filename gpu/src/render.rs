@@ -303,12 +303,10 @@ pub fn render_scene(gpu: &Gpu, export: &Export, scene: &str, out: &Path) -> Resu
         }
         cpu.push(e);
     }
-    let (max, rms) = compare_and_write(&got, &cpu, hits.iter().map(Option::is_some), (w, h), out)?;
+    let r = compare_and_write(&got, &cpu, hits.iter().map(Option::is_some), (w, h), out)?;
     Ok(SceneRender {
-        pixels: visible.len(),
-        max,
-        rms,
         vs_exact: (worst_exact, exact_n),
+        ..r
     })
 }
 
@@ -316,13 +314,14 @@ pub fn render_scene(gpu: &Gpu, export: &Export, scene: &str, out: &Path) -> Resu
 /// w × h image) against the CPU's `cpu` at the same pixels: (max, RMS) of |GPU − CPU| /
 /// the CPU image's peak, a non-finite GPU value counting as infinitely wrong (NaN would
 /// pass unseen); writes `out` (PNG, value / peak, gamma 1/2.2, background black).
+/// `vs_exact` is left unmeasured (NaN).
 pub(crate) fn compare_and_write(
     got: &[f32],
     cpu: &[f64],
     seen: impl IntoIterator<Item = bool>,
     (w, h): (usize, usize),
     out: &Path,
-) -> Result<(f64, f64), String> {
+) -> Result<SceneRender, String> {
     let peak = cpu.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
     let (mut max, mut sum) = (0.0f64, 0.0);
     for (g, c) in got.iter().zip(cpu) {
@@ -343,7 +342,12 @@ pub(crate) fn compare_and_write(
         }
     }
     write_grey_png(out, w, h, &image)?;
-    Ok((max, rms))
+    Ok(SceneRender {
+        pixels: cpu.len(),
+        max,
+        rms,
+        vs_exact: (f64::NAN, 0),
+    })
 }
 
 /// The export's disk-light texture (the first of its family).
