@@ -1008,7 +1008,9 @@ impl Fit for LobeProductFamily {
     fn method(&self) -> String {
         match self.method {
             Method::Fast => {
-                "closed-form axis; Brent over ln(1+e_r) on W(E)·tanh-sinh in-plane integrals; p_r closed form".into()
+                "closed-form axis; Brent over ln(1+e_r) on W(E)·tanh-sinh in-plane integrals, then a local Brent \
+                 around its optimum; p_r closed form"
+                    .into()
             }
             Method::Paper => "paper: Nelder-Mead axis from the bisector, Levenberg-Marquardt (p_r, e_r) on \
                               2-D adaptive-Simpson integrals"
@@ -1023,6 +1025,10 @@ impl Fit for LobeProductFamily {
             ("truncation_k".into(), TRUNC_K.to_string()),
             ("brent_tol".into(), BRENT_TOL.to_string()),
             ("e_r_search".into(), "[0, 64(e1+e2)+1000]".into()),
+            (
+                "polish".into(),
+                format!("Brent within ±{POLISH} in ln(1+e_r), kept where the residual drops by > 1e-9 relative"),
+            ),
             ("bound_allowed_below".into(), NEGLIGIBLE.to_string()),
         ]
     }
