@@ -1628,6 +1628,33 @@ fn splitmix(state: &mut u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The f32 at fraction `u` ∈ [0, 1] of [lo, hi] that is in range as the loader sees
+/// it: widened to f64 it lies in [lo, hi] (an f64 bound rounded to f32 may fall just
+/// outside, e.g. 1e-7, which the loader then refuses).
+fn f32_in_range(lo: f64, hi: f64, u: f64) -> f32 {
+    let mut v = (lo + u * (hi - lo)) as f32;
+    if f64::from(v) > hi {
+        v = v.next_down();
+    }
+    if f64::from(v) < lo {
+        v = v.next_up();
+    }
+    v
+}
+
+/// Regression (a CI run): shexp's kink channels span ±1e-7, and 1e-7 rounded to f32
+/// exceeds 1e-7; the generator drew that value as "in range" and the loader, rightly,
+/// refused it.
+#[test]
+fn generated_in_range_values_stay_in_range() {
+    for (lo, hi) in [(-1e-7, 1e-7), (-4.0, 4.0), (0.1, 0.3), (-1e30, 1e-30)] {
+        for u in [0.0, 1e-12, 0.5, 1.0 - 1e-12, 1.0] {
+            let v = f64::from(f32_in_range(lo, hi, u));
+            assert!((lo..=hi).contains(&v), "[{lo}, {hi}] at {u}: {v}");
+        }
+    }
+}
+
 fn range_config() -> ProptestConfig {
     ProptestConfig {
         cases: 96,
@@ -1660,8 +1687,7 @@ proptest! {
         let mut s = seed;
         let uniform = |i: usize, s: &mut u64| {
             let (lo, hi) = bounds[i % nc];
-            let u = (splitmix(s) >> 11) as f64 / (1u64 << 53) as f64;
-            ((lo + u * (hi - lo)) as f32).clamp(lo as f32, hi as f32)
+            f32_in_range(lo, hi, (splitmix(s) >> 11) as f64 / (1u64 << 53) as f64)
         };
         let mut values = t.values().to_vec();
         let mut first_bad: Option<usize> = None;
