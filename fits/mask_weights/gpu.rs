@@ -5,12 +5,14 @@
 //! neighbours, and holds dist at the table's ends.
 
 use lobefit_tables::format::{Axis, Mapping, Placement};
-use lobefit_tables::mask_weights::{channel_names, DIST_MAX, DIST_MIN};
+use lobefit_tables::mask_weights::{channel_names, MaskMode, MaskWeights, WeightSet, DIST_MAX, DIST_MIN, MAX_DEPTH};
 use lobefit_tables::Table;
 
 use crate::export::families::{Baked, GpuFamily, Kernels};
+use crate::export::gpu_check::{r32, Context, Kernel, Row, Runner};
 use crate::export::layout::{grid_of_table, grid_of_values, ChannelSpec, Grid, Sampler};
 use crate::export::Storage;
+use crate::rng::Rng;
 
 /// The export of mask-weights.
 pub const GPU: GpuFamily = GpuFamily {
@@ -29,7 +31,7 @@ pub const GPU: GpuFamily = GpuFamily {
         n_out: 60,
     },
     exact_fetch: false,
-    checks: &[],
+    checks: &[|ctx, runner| weight(ctx, runner).map(|r| vec![r])],
     timed: None,
     plot_export: true,
     baked: &[
@@ -90,4 +92,103 @@ fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {
     (0..channel_names().len())
         .map(|k| s[0].sample(&[k as f32, dist])[0])
         .collect()
+}
+
+/// `lf_mask_weight` (the shader's channel index from weight set, mode, maximal depth
+/// and level) at random (dist, set, mode, D, level), dist log-uniform over [0.1, 20]
+/// (beyond the table's range, where the weights are held): GPU against the CPU
+/// emulation of the same row, and against the runtime's `MaskWeights::weights` on the
+/// committed table (which indexes the table's channels by name, not by the shader's
+/// formula): a row mixed up errs by a weight's difference between depths or sets.
+/// Limit: 1e-5 for f32 textures, 1e-3 for f16 (one channel holds every weight, so f16
+/// steps are those of its whole span; measured 1.4e-4).
+fn weight(ctx: &Context, runner: &dyn Runner) -> Result<Row, String> {
+    let samples = crate::export::gpu_check::WORLD_SAMPLES;
+    let mut rng = Rng::new(ctx.seed ^ 0x3a5c);
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|_| {
+            let dist = r32(rng.range(0.1f64.ln(), 20f64.ln()).exp());
+            let set = (rng.uniform() * 3.0).floor().min(2.0);
+            let mode = (rng.uniform() * 2.0).floor().min(1.0);
+            let depth = (rng.uniform() * MAX_DEPTH as f64).floor().min(MAX_DEPTH as f64 - 1.0) + 1.0;
+            let level = (rng.uniform() * depth).floor().min(depth - 1.0) + 1.0;
+            vec![dist, set, mode, depth, level]
+        })
+        .collect();
+    let body = "    Y[o] = lf_mask_weight(T, S, P, u32(x1), u32(x2), u32(x3), u32(x4), x0);";
+    let got = runner.run(&Kernel::new("mask-weights lf_mask_weight", &[0], body, 1), &inputs)?;
+    let rt = MaskWeights::embedded().map_err(|e| e.to_string())?;
+    let (mut vs_emu, mut vs_rt) = (0.0f64, 0.0f64);
+    for (x, g) in inputs.iter().zip(&got) {
+        let (set, mode, depth, level) = (x[1] as u32, x[2] as u32, x[3] as u32, x[4] as u32);
+        let emu = if set == 2 {
+            1.0
+        } else {
+            let k = (set * 2 + mode) * 15 + depth * (depth - 1) / 2 + level - 1;
+            f64::from(eval(ctx.samplers, &[x[0] as f32])[k as usize])
+        };
+        let mut w = [0.0; MAX_DEPTH as usize];
+        let sets = [WeightSet::Fitted, WeightSet::Paper, WeightSet::Ones];
+        rt.weights(sets[set as usize], MaskMode::ALL[mode as usize], depth, x[0], &mut w)
+            .map_err(|e| e.to_string())?;
+        vs_emu = vs_emu.max((g[0] - emu).abs());
+        vs_rt = vs_rt.max((g[0] - w[level as usize - 1]).abs());
+    }
+    let limit = match ctx.storage {
+        Storage::F32 => 1e-5,
+        Storage::F16 => 1e-3,
+    };
+    Ok(Row {
+        function: "mask-weights lf_mask_weight (set, mode, D, level)".into(),
+        storage: ctx.storage.to_string(),
+        filter: ctx.filter.name().into(),
+        samples,
+        vs_cpu: vs_emu,
+        cpu_what: "emulation (abs)",
+        vs_ref: vec![("weight vs runtime, max abs".into(), vs_rt, limit)],
+        info: Vec::new(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::export::layout::Filter;
+
+    /// The texture's rows are the runtime's weights: every (set, mode, D, level) at
+    /// nodes, between nodes and beyond the table's range, through the emulated sampler
+    /// of the f32 texture at scale 1 (row k by the shader's index formula) against
+    /// `MaskWeights::weights` (the table's channels by name).
+    #[test]
+    fn rows_are_the_runtime_weights() {
+        let table = Table::from_bytes(lobefit_tables::embedded::MASK_WEIGHTS).unwrap();
+        let g = grids(GPU.kind, &table, Storage::F32, 1.0).unwrap().remove(0);
+        let s = [Sampler {
+            axes: g.axes,
+            channels: g.channels,
+            texture: g.texture,
+            filter: Filter::Manual,
+        }];
+        let rt = MaskWeights::embedded().unwrap();
+        let mut w = [0.0; MAX_DEPTH as usize];
+        for dist in [0.1, 0.25, 0.3, 1.0, 2.7, 9.99, 10.0, 30.0] {
+            let rows = eval(&s, &[dist as f32]);
+            for (si, set) in [WeightSet::Fitted, WeightSet::Paper].into_iter().enumerate() {
+                for (mi, mode) in MaskMode::ALL.into_iter().enumerate() {
+                    for depth in 1..=MAX_DEPTH {
+                        rt.weights(set, mode, depth, f64::from(dist as f32), &mut w).unwrap();
+                        for level in 1..=depth {
+                            let k = (si as u32 * 2 + mi as u32) * 15 + depth * (depth - 1) / 2 + level - 1;
+                            let got = f64::from(rows[k as usize]);
+                            let want = w[level as usize - 1];
+                            assert!(
+                                (got - want).abs() < 1e-6,
+                                "dist {dist} {set:?} {mode:?} D{depth} w{level}: {got} vs {want}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
 }
