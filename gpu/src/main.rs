@@ -118,6 +118,15 @@ enum Command {
         /// Eq. 39's weights: fitted (the default), the paper's procedure, or all ones.
         #[arg(long, default_value = "fitted", value_parser = ["fitted", "paper", "one"])]
         weights: String,
+        /// The mask's maximal quad-tree depth.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=5))]
+        depth: u32,
+        /// Partial cells at the maximal depth: dropped (aggressive, the paper's) or kept.
+        #[arg(long, default_value = "aggressive", value_parser = ["aggressive", "conservative"])]
+        mask: String,
+        /// The threshold t_i (sr): lobe products with |∫| below it are dropped.
+        #[arg(long, default_value_t = 0.0)]
+        threshold: f64,
         /// Output PNG.
         #[arg(long)]
         out: PathBuf,
@@ -269,9 +278,15 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             width,
             light,
             weights,
+            depth,
+            mask,
+            threshold,
             out,
         } => {
-            use lobefit_tables::mask_weights::WeightSet;
+            if !(threshold.is_finite() && threshold >= 0.0) {
+                return Err(format!("--threshold {threshold}: t_i must be finite and ≥ 0 (sr)"));
+            }
+            use lobefit_tables::mask_weights::{MaskMode, WeightSet};
             use lobefit_tables::meunier::{LightModel, MaskSettings};
             let settings = MaskSettings {
                 light: if light == "lobe" {
@@ -284,6 +299,13 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                     "one" => WeightSet::Ones,
                     _ => WeightSet::Fitted,
                 },
+                depth,
+                threshold,
+                mode: if mask == "conservative" {
+                    MaskMode::Conservative
+                } else {
+                    MaskMode::Aggressive
+                },
                 ..MaskSettings::default()
             };
             let ex = conformance::read_export(&export)?;
@@ -292,7 +314,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             report(
                 "render-meunier",
                 &format!(
-                    "{scene} (light {light}, weights {weights}, depth {} {})",
+                    "{scene} (light {light}, weights {weights}, depth {} {}, t_i {threshold:e})",
                     settings.depth,
                     settings.mode.name()
                 ),
