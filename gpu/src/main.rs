@@ -306,7 +306,6 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 } else {
                     MaskMode::Aggressive
                 },
-                ..MaskSettings::default()
             };
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;
