@@ -89,6 +89,23 @@ pub struct Pipeline {
     pub render: RenderFn,
 }
 
+impl Pipeline {
+    /// The scene `name`: the built-in `<pipeline>-<name>`, else a scene file (its load
+    /// error then also lists the built-ins). The pipeline's own checks are the caller's.
+    pub fn scene(&self, name: &str) -> Result<scene::Scene, String> {
+        match scene::builtin(&format!("{}-{name}", self.name)) {
+            Some(s) => s,
+            None => scene::load(name).map_err(|e| {
+                format!(
+                    "{e} (not a built-in scene of {} either: {})",
+                    self.name,
+                    self.scenes.join(", ")
+                )
+            }),
+        }
+    }
+}
+
 /// A pipeline's query for `lobefit eval NAME [flags]` (the pipeline without images).
 pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn Query>, String>;
 

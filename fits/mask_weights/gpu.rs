@@ -87,6 +87,13 @@ fn grids(kind: &str, table: &Table, storage: Storage, scale: f64) -> Result<Vec<
     Ok(vec![grid_of_values(kind, &[channel, dist], &[spec], &values, storage)?])
 }
 
+/// The texture row of (set 0 fitted / 1 paper, mode 0 aggressive / 1 conservative,
+/// maximal depth, level): the shader's `lf_mask_weight` index, written again here for
+/// the emulation (the checks hold both to the runtime's channels by name).
+fn row(set: u32, mode: u32, depth: u32, level: u32) -> usize {
+    ((set * 2 + mode) * 15 + depth * (depth - 1) / 2 + level - 1) as usize
+}
+
 fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {
     let dist = x[0].clamp(DIST_MIN as f32, DIST_MAX as f32);
     (0..channel_names().len())
@@ -124,8 +131,7 @@ fn weight(ctx: &Context, runner: &dyn Runner) -> Result<Row, String> {
         let emu = if set == 2 {
             1.0
         } else {
-            let k = (set * 2 + mode) * 15 + depth * (depth - 1) / 2 + level - 1;
-            f64::from(eval(ctx.samplers, &[x[0] as f32])[k as usize])
+            f64::from(eval(ctx.samplers, &[x[0] as f32])[row(set, mode, depth, level)])
         };
         let mut w = [0.0; MAX_DEPTH as usize];
         let sets = [WeightSet::Fitted, WeightSet::Paper, WeightSet::Ones];
@@ -178,8 +184,7 @@ mod tests {
                     for depth in 1..=MAX_DEPTH {
                         rt.weights(set, mode, depth, f64::from(dist as f32), &mut w).unwrap();
                         for level in 1..=depth {
-                            let k = (si as u32 * 2 + mi as u32) * 15 + depth * (depth - 1) / 2 + level - 1;
-                            let got = f64::from(rows[k as usize]);
+                            let got = f64::from(rows[row(si as u32, mi as u32, depth, level)]);
                             let want = w[level as usize - 1];
                             assert!(
                                 (got - want).abs() < 1e-6,

@@ -22,20 +22,14 @@ use lobefit::pipelines::scene::Hit;
 use crate::conformance::Export;
 use crate::device::Gpu;
 use crate::kernel::{kernel_with, lf_tex};
-use crate::render::{compare_and_write, SceneRender};
+use crate::render::{compare_and_write, family_textures, SceneRender};
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
 
 /// The export's first texture of family `kind`.
 fn texture<'a>(export: &'a Export, kind: &str) -> Result<(&'a TextureEntry, &'a Texture), String> {
-    let k = export
-        .manifest
-        .families
-        .iter()
-        .position(|f| f.family == kind)
-        .ok_or_else(|| format!("the export has no {kind} texture (export it: --only isg-best,sg-fit)"))?;
-    let (e, t) = &export.textures[k][0];
+    let (e, t) = &family_textures(export, kind, "isg-best,sg-fit")?[0];
     Ok((e, t))
 }
 

@@ -286,26 +286,17 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             if !(threshold.is_finite() && threshold >= 0.0) {
                 return Err(format!("--threshold {threshold}: t_i must be finite and ≥ 0 (sr)"));
             }
-            use lobefit_tables::mask_weights::{MaskMode, WeightSet};
-            use lobefit_tables::meunier::{LightModel, MaskSettings};
-            let settings = MaskSettings {
-                light: if light == "lobe" {
-                    LightModel::Lobe
-                } else {
-                    LightModel::Cap
-                },
-                weights: match weights.as_str() {
-                    "paper" => WeightSet::Paper,
-                    "one" => WeightSet::Ones,
-                    _ => WeightSet::Fitted,
-                },
-                depth,
+            // The CPU's own parse of these settings (`eval direct-light`'s flags).
+            let flags = lobefit::family::EvalFlags {
+                depth: Some(depth as usize),
+                mask: Some(mask.clone()),
+                weights: Some(weights.clone()),
+                light: Some(light.clone()),
+                ..Default::default()
+            };
+            let settings = lobefit_tables::meunier::MaskSettings {
                 threshold,
-                mode: if mask == "conservative" {
-                    MaskMode::Conservative
-                } else {
-                    MaskMode::Aggressive
-                },
+                ..lobefit::pipelines::meunier::direct_light::DirectLightView::from_flags(&flags)?.settings
             };
             let ex = conformance::read_export(&export)?;
             let gpu = device::Gpu::new()?;

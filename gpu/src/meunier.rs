@@ -34,7 +34,7 @@ use lobefit_tables::{CapExponent, LobeProduct, MaskWeights, Meunier};
 use crate::conformance::Export;
 use crate::device::Gpu;
 use crate::kernel::{kernel_textures, lf_tex};
-use crate::render::{compare_and_write, SceneRender};
+use crate::render::{compare_and_write, family_textures, SceneRender};
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 96;
@@ -46,17 +46,9 @@ pub const MAX_LOBES: usize = 3;
 /// at 65 535).
 const ITERATION_BUDGET: u32 = 60_000;
 
-/// The export's first texture of family `kind`, and its `k`-th.
+/// The `k`-th texture of family `kind` in the export.
 fn texture<'a>(export: &'a Export, kind: &str, k: usize) -> Result<(&'a TextureEntry, &'a Texture), String> {
-    let f = export
-        .manifest
-        .families
-        .iter()
-        .position(|f| f.family == kind)
-        .ok_or_else(|| {
-            format!("the export has no {kind} texture (export it: --only lobe-product,cap-exponent,mask-weights)")
-        })?;
-    let (e, t) = export.textures[f]
+    let (e, t) = family_textures(export, kind, "lobe-product,cap-exponent,mask-weights")?
         .get(k)
         .ok_or_else(|| format!("{kind}: the export lacks its texture {k}"))?;
     Ok((e, t))
@@ -70,7 +62,7 @@ fn lit(v: f64) -> String {
 /// The kernel's functions and constants for `scene` under `settings` (the spheres,
 /// lights and materials follow the `count` pixels' inputs in the buffer X).
 fn source(scene: &Scene, settings: &MaskSettings, count: usize) -> String {
-    let (ns, nl, nm) = (scene.spheres.len(), scene.lights.len(), scene.materials.len());
+    let (ns, nl) = (scene.spheres.len(), scene.lights.len());
     let sph0 = N_IN * count;
     let lgt0 = sph0 + 4 * ns;
     let mat0 = lgt0 + 5 * nl;
@@ -81,7 +73,7 @@ fn source(scene: &Scene, settings: &MaskSettings, count: usize) -> String {
     };
     let mode = u32::from(settings.mode == MaskMode::Conservative);
     format!(
-        "const NS = {ns}u;\nconst NL = {nl}u;\nconst NM = {nm}u;\nconst SPH0 = {sph0}u;\nconst LGT0 = {lgt0}u;\n\
+        "const NS = {ns}u;\nconst NL = {nl}u;\nconst SPH0 = {sph0}u;\nconst LGT0 = {lgt0}u;\n\
          const MAT0 = {mat0}u;\nconst MAT_SIZE = {}u;\nconst MAXB = {MAX_BLOCKERS}u;\nconst MAXL = {}u;\n\
          const DEPTH = {}u;\nconst MODE = {mode}u;\nconst WSET = {set}u;\nconst THRESH = {};\nconst CAP_LIGHT = {};\n\
          const BUDGET = {ITERATION_BUDGET}u;\n{FUNCTIONS}",

@@ -147,13 +147,12 @@ pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64),
     let n = SIZE * SIZE;
     let src = kernel(wgsl_texture_type(tex), 0, 1, BODY);
     let mut img = gpu.run(&src, &lf_tex(entry, Filter::Manual)?, &up, &[], n, 1)?;
-    let texs = m
-        .families
-        .iter()
-        .position(|f| f.family == lobefit_tables::lobe_product::KIND_ENERGY)
-        .map(|k| &export.textures[k])
-        .ok_or("the export has no lobe-product texture (export it: --only disk-light,lobe-product)")?;
-    let [(e_main, t_main), (e_lnw, t_lnw)] = &texs[..] else {
+    let texs = family_textures(
+        export,
+        lobefit_tables::lobe_product::KIND_ENERGY,
+        "disk-light,lobe-product",
+    )?;
+    let [(e_main, t_main), (e_lnw, t_lnw)] = texs else {
         return Err("lobe-product: the export should hold its table and its ln W texture".into());
     };
     let (up_main, up_lnw) = (gpu.upload(t_main, m.storage)?, gpu.upload(t_lnw, m.storage)?);
@@ -350,15 +349,27 @@ pub(crate) fn compare_and_write(
     })
 }
 
-/// The export's disk-light texture (the first of its family).
-fn disk_texture(export: &Export) -> Result<(&TextureEntry, &Texture), String> {
-    let k = export
+/// The textures of family `kind` in `export` (at least one), or an error saying how
+/// to export them (`--only <only>`).
+pub(crate) fn family_textures<'a>(
+    export: &'a Export,
+    kind: &str,
+    only: &str,
+) -> Result<&'a [(TextureEntry, Texture)], String> {
+    export
         .manifest
         .families
         .iter()
-        .position(|f| f.family == lobefit_tables::disk_light::KIND)
-        .ok_or("the export has no disk-light texture (export it: --only disk-light)")?;
-    let (entry, tex) = &export.textures[k][0];
+        .position(|f| f.family == kind)
+        .and_then(|k| export.textures.get(k))
+        .filter(|t| !t.is_empty())
+        .map(Vec::as_slice)
+        .ok_or_else(|| format!("the export has no {kind} texture (export it: --only {only})"))
+}
+
+/// The export's disk-light texture (the first of its family).
+fn disk_texture(export: &Export) -> Result<(&TextureEntry, &Texture), String> {
+    let (entry, tex) = &family_textures(export, lobefit_tables::disk_light::KIND, "disk-light")?[0];
     Ok((entry, tex))
 }
 

@@ -28,7 +28,7 @@ use lobefit_tables::glam::DVec3;
 use crate::conformance::Export;
 use crate::device::Gpu;
 use crate::kernel::{kernel_textures, lf_tex};
-use crate::render::{compare_and_write, SceneRender};
+use crate::render::{compare_and_write, family_textures, SceneRender};
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
@@ -42,13 +42,7 @@ const HIT_INPUTS: usize = 13;
 
 /// The export's texture of family `kind` whose file is `stem`.<extension>.
 fn texture<'a>(export: &'a Export, kind: &str, stem: &str) -> Result<(&'a TextureEntry, &'a Texture), String> {
-    let k = export
-        .manifest
-        .families
-        .iter()
-        .position(|f| f.family == kind)
-        .ok_or_else(|| format!("the export has no {kind} texture (export it: --only wedge,shexp --allow-lossy)"))?;
-    export.textures[k]
+    family_textures(export, kind, "wedge,shexp --allow-lossy")?
         .iter()
         .find(|(e, _)| e.file.split('.').next() == Some(stem))
         .map(|(e, t)| (e, t))

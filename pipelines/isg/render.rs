@@ -27,15 +27,7 @@ pub const MC_SEED: u64 = 0x5eed_0012;
 
 /// The scene `name`: built-in `isg-<name>`, else a scene file.
 pub fn scene(name: &str) -> Result<Scene, String> {
-    let scene = match crate::pipelines::scene::builtin(&format!("isg-{name}")) {
-        Some(s) => s?,
-        None => crate::pipelines::scene::load(name).map_err(|e| {
-            format!(
-                "{e} (not a built-in scene of isg either: {})",
-                PIPELINE.scenes.join(", ")
-            )
-        })?,
-    };
+    let scene = PIPELINE.scene(name)?;
     if scene.environment.is_empty() {
         return Err(format!(
             "scene {}: the ISG pipeline needs an environment (SGs)",

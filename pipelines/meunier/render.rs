@@ -71,15 +71,7 @@ pub fn reference_with(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, see
 /// refused when it holds what the pipeline does not shade (a height field, distant
 /// light).
 pub fn scene(name: &str) -> Result<Scene, String> {
-    let scene = match crate::pipelines::scene::builtin(&format!("meunier-{name}")) {
-        Some(s) => s?,
-        None => crate::pipelines::scene::load(name).map_err(|e| {
-            format!(
-                "{e} (not a built-in scene of meunier either: {})",
-                super::PIPELINE.scenes.join(", ")
-            )
-        })?,
-    };
+    let scene = super::PIPELINE.scene(name)?;
     if scene.heightfield.is_some() || scene.sh_environment.is_some() || !scene.environment.is_empty() {
         return Err(format!(
             "render meunier: scene {} has a height field or a distant light; the pipeline's blockers are \

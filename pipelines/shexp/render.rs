@@ -34,15 +34,7 @@ pub const MC_SEED: u64 = 0x5eed_0025;
 
 /// The scene `name`: built-in `shexp-<name>`, else a scene file.
 pub fn scene(name: &str) -> Result<Scene, String> {
-    let scene = match crate::pipelines::scene::builtin(&format!("shexp-{name}")) {
-        Some(s) => s?,
-        None => crate::pipelines::scene::load(name).map_err(|e| {
-            format!(
-                "{e} (not a built-in scene of shexp either: {})",
-                PIPELINE.scenes.join(", ")
-            )
-        })?,
-    };
+    let scene = PIPELINE.scene(name)?;
     if scene.environment.is_empty() && scene.sh_environment.is_none() {
         return Err(format!(
             "scene {}: the SH-exponentiation pipeline needs a distant light (environment or sh_environment)",
