@@ -2,7 +2,7 @@
 //! without its standard error: a reference whose noise is not known cannot judge a
 //! pipeline's error.
 
-use crate::rng::Rng;
+use lobefit_core::rng::Rng;
 
 /// A Monte Carlo estimate of a mean.
 #[derive(Debug, Clone, Copy, PartialEq)]

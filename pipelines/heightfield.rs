@@ -888,7 +888,7 @@ impl HeightField {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::Rng;
+    use lobefit_core::rng::Rng;
     use std::f64::consts::{PI, TAU};
 
     fn random_dir(rng: &mut Rng) -> DVec3 {

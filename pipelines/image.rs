@@ -1,5 +1,5 @@
 //! Images of a pipeline against its reference: the error statistics every pipeline
-//! reports, the error map, and image output (PNG panels through `crate::plot`, and
+//! reports, the error map, and image output (PNG panels through `lobefit_core::plot`, and
 //! PFM, the float format image tools read: HDR viewers, ImageMagick, OpenCV).
 //!
 //! Images are row-major with row 0 at the top; a mask selects the pixels that see
@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::plot::Heatmap;
+use lobefit_core::plot::Heatmap;
 
 /// A pipeline's error against a reference over the masked pixels, relative to the
 /// reference's mean there (so a dark region's error is not hidden by its own scale).
@@ -88,7 +88,7 @@ pub fn write_comparison(
     mask: &[bool],
     mean_ref: f64,
 ) -> Result<(Vec<PathBuf>, Vec<f64>), String> {
-    use crate::plot::heatmaps;
+    use lobefit_core::plot::heatmaps;
     let mut files = vec![heatmaps(
         &dir.join(format!("{stem}-images.png")),
         &[
@@ -183,7 +183,7 @@ pub fn write_pfm(path: &Path, w: usize, h: usize, values: &[f64]) -> Result<Path
             bytes.extend_from_slice(&v.to_le_bytes());
         }
     }
-    crate::io::write_atomic(path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    lobefit_core::io::write_atomic(path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(path.to_path_buf())
 }
 

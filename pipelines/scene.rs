@@ -546,7 +546,7 @@ pub fn load(name_or_path: &str) -> Result<Scene, String> {
         return s;
     }
     let path = Path::new(name_or_path);
-    let text = crate::io::read_text(path, MAX_SCENE_LEN).map_err(|e| format!("scene {name_or_path}: {e}"))?;
+    let text = lobefit_core::io::read_text(path, MAX_SCENE_LEN).map_err(|e| format!("scene {name_or_path}: {e}"))?;
     let stem = path
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
@@ -906,7 +906,7 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::Rng;
+    use lobefit_core::rng::Rng;
 
     fn random_spheres(rng: &mut Rng, n: usize) -> Vec<Sphere> {
         (0..n)

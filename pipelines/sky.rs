@@ -11,7 +11,7 @@ use lobefit_tables::LookupError;
 
 use super::estimate::{estimate, Estimate};
 use super::scene::Hit;
-use crate::rng::Rng;
+use lobefit_core::rng::Rng;
 
 /// The BRDF as the pipeline takes it: k_d/π + k_s (n + 2)/(2π) max(r·ω, 0)^n.
 #[derive(Debug, Clone, Copy, PartialEq)]

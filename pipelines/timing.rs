@@ -38,7 +38,7 @@ impl EqualError {
     pub fn from_estimates(
         pipeline_s: f64,
         reference_s: f64,
-        refs: &[crate::pipelines::estimate::Estimate],
+        refs: &[crate::estimate::Estimate],
         mask: &[bool],
         spp: usize,
         rmse: f64,
@@ -50,7 +50,7 @@ impl EqualError {
             reference_s,
             pixels,
             spp,
-            crate::pipelines::image::mean_over(&var, mask),
+            crate::image::mean_over(&var, mask),
             rmse,
         )
     }

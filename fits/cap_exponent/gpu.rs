@@ -3,8 +3,8 @@
 
 use std::f32::consts::FRAC_PI_2;
 
-use crate::export::families::{table_grid, Baked, GpuFamily, Kernels};
-use crate::export::layout::Sampler;
+use lobefit_core::export::families::{table_grid, Baked, GpuFamily, Kernels};
+use lobefit_core::export::layout::Sampler;
 
 /// The export of cap-exponent.
 pub const GPU: GpuFamily = GpuFamily {

@@ -27,11 +27,11 @@ use lobefit_tables::cap_exponent::{self as rt, model, CapExponent, ALPHA_MIN};
 use lobefit_tables::format::Threshold;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Mapping, Table};
 
-use crate::family::{Fit, Fitted, Lookup, Query};
-use crate::fits::{Backend, Method};
-use crate::quad::{adaptive_simpson, gauss_kronrod, illinois};
-use crate::rng::Rng;
-use crate::tables::error::short;
+use crate::{Backend, Method};
+use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::quad::{adaptive_simpson, gauss_kronrod, illinois};
+use lobefit_core::rng::Rng;
+use lobefit_tables::error::short;
 
 /// Grid nodes (the paper's 1000).
 pub const NODES: u32 = 1000;
@@ -349,12 +349,16 @@ pub fn reference_e_cap(alpha: f64) -> Result<f64, String> {
     }
 }
 
-impl Lookup for CapExponent {
+/// The runtime type as the checker's [`Lookup`] (a local type: the trait and
+/// [`CapExponent`] live in other crates).
+struct CapExponentLookup(CapExponent);
+
+impl Lookup for CapExponentLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        Ok(vec![self.e_cap(x[0])?])
+        Ok(vec![self.0.e_cap(x[0])?])
     }
     fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
-        Some(self.e_cap_f32(x[0] as f32).map(|v| vec![v.into()]))
+        Some(self.0.e_cap_f32(x[0] as f32).map(|v| vec![v.into()]))
     }
 }
 
@@ -401,7 +405,7 @@ impl Query for CapExponentFamily {
         lobefit_tables::embedded::CAP_EXPONENT
     }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(CapExponent::from_table(table)?))
+        Ok(Box::new(CapExponentLookup(CapExponent::from_table(table)?)))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         Ok(vec![reference_e_cap(x[0])?])
@@ -525,8 +529,8 @@ impl Fit for CapExponentFamily {
     }
 }
 
-/// cap-exponent in the list of families (`crate::fits::entries`).
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+/// cap-exponent in the list of families (`crate::entries`).
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |o| {
         vec![Box::new(CapExponentFamily {
             backend: o.backend,
@@ -678,9 +682,9 @@ mod tests {
 #[cfg(all(test, feature = "nlopt"))]
 mod nlopt_backend {
     use super::*;
-    use crate::build::build;
-    use crate::family::Fit;
-    use crate::fits::{Backend, Method};
+    use crate::{Backend, Method};
+    use lobefit_core::build::build;
+    use lobefit_core::family::Fit;
 
     /// Agreement required between the two backends' stored q (relative). Both are
     /// polished on dF/de = 0 to ~1e-14, so what remains is f32 rounding (6e-8).

@@ -5,11 +5,13 @@ use lobefit_tables::disk_light::{R_MAX, R_MIN};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::sh;
 
-use crate::export::families::{table_grid, Baked, GpuFamily, Kernels};
-use crate::export::gpu_check::{r32, scaled_diff, unit, vector_diff, Context, Kernel, Row, Runner, WORLD_SAMPLES};
-use crate::export::layout::Sampler;
-use crate::export::Storage;
-use crate::rng::Rng;
+use lobefit_core::export::families::{table_grid, Baked, GpuFamily, Kernels};
+use lobefit_core::export::gpu_check::{
+    r32, scaled_diff, unit, vector_diff, Context, Kernel, Row, Runner, WORLD_SAMPLES,
+};
+use lobefit_core::export::layout::Sampler;
+use lobefit_core::export::Storage;
+use lobefit_core::rng::Rng;
 
 /// The lookup's kernel body: the canonical 6-vector.
 const CANONICAL: &str = "    let c = lf_disk_canonical(T, S, P, x0, x1);\n    Y[o] = c[0].x;\n    Y[o + 1u] = c[0].y;\n    \
@@ -161,7 +163,7 @@ fn world(ctx: &Context, runner: &dyn Runner) -> Result<Vec<Row>, String> {
             .map(f64::from)
             .collect();
         emu.push(disk_world(&c6, rot, x[13], v3(x, 3))?);
-        let rc = crate::fits::disk_light::reference_canonical(ratio, tau)?;
+        let rc = crate::disk_light::reference_canonical(ratio, tau)?;
         refs.push(disk_world(&rc, rot, x[13], v3(x, 3))?);
     }
     let split = |v: &[Vec<f64>]| -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {

@@ -35,10 +35,10 @@ use lobefit_tables::glam::DVec3;
 use lobefit_tables::sh::eval_basis;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Extra, Fit, Fitted, Lookup, Query};
-use crate::quad::gauss_kronrod_vec;
-use crate::rng::Rng;
-use crate::tables::error::short;
+use lobefit_core::family::{Extra, Fit, Fitted, Lookup, Query};
+use lobefit_core::quad::gauss_kronrod_vec;
+use lobefit_core::rng::Rng;
+use lobefit_tables::error::short;
 
 /// Gauss–Legendre points per panel of the fit.
 const GL_POINTS: usize = 10;
@@ -212,7 +212,7 @@ fn coefficients(m: &[f64; 7], tau: f64) -> [f64; 6] {
 /// The fit at (R/d, τ): coefficients, residual (relative to c_00), evaluations.
 pub fn fit_canonical(r: f64, tau: f64) -> ([f64; 6], f64, u32) {
     let f = DirFrame::new(r, tau);
-    let (x, wt) = crate::sh::gauss_legendre(GL_POINTS);
+    let (x, wt) = lobefit_core::sh::gauss_legendre(GL_POINTS);
     let mut panels = FIRST_PANELS;
     let mut prev = coefficients(&moments_gl(&f, panels, &x, &wt), tau);
     let mut evals = (panels * GL_POINTS) as u32;
@@ -286,7 +286,7 @@ fn disk_integral<const N: usize>(
 /// Checker reference: the six canonical coefficients by nested GK over the disk.
 /// τ ≥ π/2 gives zeros (back side).
 pub fn reference_canonical(r: f64, tau: f64) -> Result<[f64; 6], String> {
-    static MEMO: crate::memo::Memo<2, [f64; 6]> = crate::memo::Memo::new();
+    static MEMO: lobefit_core::memo::Memo<2, [f64; 6]> = lobefit_core::memo::Memo::new();
     MEMO.get([r, tau], || reference_canonical_computed(r, tau))
 }
 
@@ -331,7 +331,7 @@ fn reference_canonical_computed(r: f64, tau: f64) -> Result<[f64; 6], String> {
 /// references agree to 1e-11 (measured 5e-14; test
 /// `direction_reference_matches_area_reference`).
 pub fn reference_canonical_directions(r: f64, tau: f64) -> Result<[f64; 6], String> {
-    static MEMO: crate::memo::Memo<2, [f64; 6]> = crate::memo::Memo::new();
+    static MEMO: lobefit_core::memo::Memo<2, [f64; 6]> = lobefit_core::memo::Memo::new();
     MEMO.get([r, tau], || reference_canonical_directions_computed(r, tau))
 }
 
@@ -475,7 +475,7 @@ pub fn reference_irradiance(r: f64, tau: f64, n: [f64; 3]) -> Result<f64, String
 }
 
 /// Relative L2 distance ‖got − want‖/‖want‖ (shared with the SHExp study).
-pub use crate::fits::shexp::study::rel_l2;
+pub use crate::shexp::study::rel_l2;
 
 struct DiskLookup(DiskLight);
 
@@ -573,7 +573,7 @@ impl Query for DiskLightFamily {
             Err(e) => return vec![("disk-light".into(), Err(e.to_string()))],
         };
         // Every node: the looked-up 9-vector against the direction reference.
-        let nodes = crate::build::grid_nodes(&table.meta().axes);
+        let nodes = lobefit_core::build::grid_nodes(&table.meta().axes);
         let l2_nodes: Result<Vec<(f64, f64)>, String> = nodes
             .par_iter()
             .map(|n| {
@@ -767,7 +767,7 @@ pub fn summary(v: &[f64]) -> (f64, f64, f64) {
 /// and of the table against the exact order-3 SH irradiance, over (log10 R/d, τ), for
 /// two receiver normals. Prints the summary statistics it draws.
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use crate::plot::{heatmaps, Heatmap};
+    use lobefit_core::plot::{heatmaps, Heatmap};
     const NX: usize = 48;
     const NY: usize = 40;
     let mut panels = Vec::new();
@@ -803,8 +803,8 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     )?])
 }
 
-/// disk-light in the list of families (`crate::fits::entries`).
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+/// disk-light in the list of families (`crate::entries`).
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(DiskLightFamily)],
     eval: None,
     eval_names: &[],

@@ -5,10 +5,10 @@
 
 use std::f32::consts::{FRAC_PI_2, PI};
 
-use crate::export::families::{table_grid, Baked, GpuFamily, Kernels};
-use crate::export::gpu_check::{r32, Context, Kernel, Row, Runner};
-use crate::export::layout::Sampler;
-use crate::rng::Rng;
+use lobefit_core::export::families::{table_grid, Baked, GpuFamily, Kernels};
+use lobefit_core::export::gpu_check::{r32, Context, Kernel, Row, Runner};
+use lobefit_core::export::layout::Sampler;
+use lobefit_core::rng::Rng;
 
 /// The export of isg-refit.
 pub const REFIT: GpuFamily = GpuFamily {
@@ -130,7 +130,7 @@ fn patch(
     model: u32,
     eval: fn(&[Sampler], &[f32]) -> Vec<f32>,
 ) -> Result<Row, String> {
-    let samples = crate::export::gpu_check::WORLD_SAMPLES;
+    let samples = lobefit_core::export::gpu_check::WORLD_SAMPLES;
     let mut rng = Rng::new(ctx.seed ^ 0x9a7c);
     let inputs: Vec<Vec<f64>> = (0..samples)
         .map(|_| {

@@ -12,8 +12,8 @@
 //! The published model (`--model paper`) needs no table; its errors are measured in
 //! the tests and by `lobefit plot isg`.
 //!
-//! The fits use the fast 1-D evaluation `crate::fits::isg::reference::s_hat_fast`; the checker's
-//! reference is the nested Gauss–Kronrod quadrature `crate::fits::isg::reference::s_hat_reference`.
+//! The fits use the fast 1-D evaluation `crate::isg::reference::s_hat_fast`; the checker's
+//! reference is the nested Gauss–Kronrod quadrature `crate::isg::reference::s_hat_reference`.
 
 pub mod reference;
 
@@ -29,9 +29,9 @@ use lobefit_tables::isg::{
 };
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Fit, Fitted, Lookup, Query};
-use crate::fits::isg::reference::{check_domain, normaliser, s_hat_fast, s_hat_reference};
-use crate::rng::Rng;
+use crate::isg::reference::{check_domain, normaliser, s_hat_fast, s_hat_reference};
+use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::rng::Rng;
 
 /// γ nodes of the refit table (uniform in ln γ over [0.5, 10^4]).
 pub const REFIT_NODES: u32 = 65;
@@ -798,7 +798,7 @@ const SYMMETRY_TOL: f64 = 1e-8;
 
 /// The family `lobefit eval isg --model paper|refit|best` queries (default `best`, the
 /// most accurate); other flags are refused.
-pub fn for_eval(flags: &crate::family::EvalFlags) -> Result<Box<dyn Query>, String> {
+pub fn for_eval(flags: &lobefit_core::family::EvalFlags) -> Result<Box<dyn Query>, String> {
     if let Some(flag) = flags.given().into_iter().find(|f| *f != "--model") {
         return Err(format!("isg takes no {flag} flag"));
     }
@@ -841,7 +841,7 @@ pub fn model_errors(gamma: f64) -> Result<[f64; 3], String> {
 /// γ = 100 and 1000 for the published model, with the refit and best differences
 /// beside it, and max |f − Ŝ| against γ for the three models.
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use crate::plot::{heatmaps, line_chart, Heatmap, LineChart, Series};
+    use lobefit_core::plot::{heatmaps, line_chart, Heatmap, LineChart, Series};
     const N: usize = 121;
     let models = runtime_models()?;
     let mut files = Vec::new();
@@ -923,9 +923,9 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     Ok(files)
 }
 
-/// isg-refit and isg-best in the list of families (`crate::fits::entries`), and
+/// isg-refit and isg-best in the list of families (`crate::entries`), and
 /// `lobefit eval isg --model paper|refit|best`.
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| {
         vec![
             Box::new(IsgFamily {
@@ -938,7 +938,7 @@ pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
     },
     eval: Some(|name, flags, opts| match name {
         "isg" => for_eval(flags),
-        _ => crate::fits::without_flags(name, flags, opts),
+        _ => crate::without_flags(name, flags, opts),
     }),
     eval_names: &["isg"],
     gpu: &[gpu::REFIT, gpu::BEST],
@@ -1022,7 +1022,7 @@ mod tests {
                     }
                 })
                 .collect();
-            crate::eigen::polyfit(&x, &y, 4).unwrap()
+            lobefit_core::eigen::polyfit(&x, &y, 4).unwrap()
         };
         let (cg, ch) = (quartic(0), quartic(1));
         let eval = |c: &[f64], g: f64| c.iter().rev().fold(0.0, |acc, k| acc * (g / 1e4) + k);

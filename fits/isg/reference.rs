@@ -28,8 +28,8 @@ use std::cell::Cell;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
 
-use crate::quad::gauss_kronrod;
-use crate::tables::error::short;
+use lobefit_core::quad::gauss_kronrod;
+use lobefit_tables::error::short;
 
 /// The ISG domain and normaliser, defined once in the runtime crate.
 pub use lobefit_tables::isg::{normaliser, GAMMA_MAX, GAMMA_MIN};
@@ -75,7 +75,7 @@ pub fn check_domain(theta: f64, phi: f64, gamma: f64) -> Result<(), String> {
 /// reference), to absolute accuracy ~[`REFERENCE_TOL`]. Errors name an input outside
 /// the domain or a quadrature that did not converge.
 pub fn s_hat_reference(theta: f64, phi: f64, gamma: f64) -> Result<f64, String> {
-    static MEMO: crate::memo::Memo<3, f64> = crate::memo::Memo::new();
+    static MEMO: lobefit_core::memo::Memo<3, f64> = lobefit_core::memo::Memo::new();
     MEMO.get([theta, phi, gamma], || s_hat_reference_computed(theta, phi, gamma))
 }
 
@@ -153,12 +153,12 @@ fn width_breaks(kappa: f64) -> Vec<f64> {
     v
 }
 
-/// Gauss–Legendre nodes and weights on [0, 1] ([`crate::sh::gauss_legendre`] mapped,
+/// Gauss–Legendre nodes and weights on [0, 1] ([`lobefit_core::sh::gauss_legendre`] mapped,
 /// computed once).
 fn gauss_legendre() -> &'static [(f64, f64)] {
     static GL: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
     GL.get_or_init(|| {
-        let (x, w) = crate::sh::gauss_legendre(GL_POINTS);
+        let (x, w) = lobefit_core::sh::gauss_legendre(GL_POINTS);
         x.iter().zip(&w).map(|(x, w)| (0.5 * (1.0 + x), 0.5 * w)).collect()
     })
 }
@@ -260,7 +260,7 @@ pub fn s_hat_fast(theta: f64, phi: f64, gamma: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::Rng;
+    use lobefit_core::rng::Rng;
 
     /// Known values: Ŝ(π, π) = 1, and by the mirror symmetries θ → π − θ, φ → π − φ:
     /// Ŝ(π/2, π/2) = 1/4, Ŝ(π/2, π) = Ŝ(π, π/2) = 1/2, Ŝ(θ, φ) + Ŝ(π − θ, φ) = Ŝ(π, φ).

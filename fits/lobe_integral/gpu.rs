@@ -1,9 +1,9 @@
 //! lobe-integral on the GPU: the closed form 2π/(e + 1), no texture.
 
-use crate::export::families::ClosedForm;
-use crate::export::gpu_check::{closed_row, Kernel};
-use crate::family::Query;
-use crate::rng::Rng;
+use lobefit_core::export::families::ClosedForm;
+use lobefit_core::export::gpu_check::{closed_row, Kernel};
+use lobefit_core::family::Query;
+use lobefit_core::rng::Rng;
 
 const BODY: &str = "    Y[o] = lf_lobe_integral(x0);";
 

@@ -14,10 +14,10 @@ use lobefit_tables::format::Threshold;
 use lobefit_tables::lobe_integral::{self as rt, LobeIntegral, E_MAX};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Fit, Fitted, Lookup, Query};
-use crate::quad::adaptive_simpson;
-use crate::rng::Rng;
-use crate::tables::error::short;
+use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::quad::adaptive_simpson;
+use lobefit_core::rng::Rng;
+use lobefit_tables::error::short;
 
 /// Grid nodes: the paper's budget of 5 decades × 128 samples, plus one end node.
 pub const NODES: u32 = 641;
@@ -50,12 +50,16 @@ pub fn integral_by_simpson(e: f64) -> (f64, u32, bool) {
     (2.0 * PI * q.value, q.evals, q.converged)
 }
 
-impl Lookup for LobeIntegral {
+/// The runtime type as the checker's [`Lookup`] (a local type: the trait and
+/// [`LobeIntegral`] live in other crates).
+struct LobeIntegralLookup(LobeIntegral);
+
+impl Lookup for LobeIntegralLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        Ok(vec![self.integral(x[0])?])
+        Ok(vec![self.0.integral(x[0])?])
     }
     fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
-        Some(self.integral_f32(x[0] as f32).map(|v| vec![v.into()]))
+        Some(self.0.integral_f32(x[0] as f32).map(|v| vec![v.into()]))
     }
 }
 
@@ -83,7 +87,7 @@ impl Query for LobeIntegralFamily {
         lobefit_tables::embedded::LOBE_INTEGRAL
     }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(LobeIntegral::from_table(table)?))
+        Ok(Box::new(LobeIntegralLookup(LobeIntegral::from_table(table)?)))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         let e = x[0];
@@ -144,8 +148,8 @@ impl Fit for LobeIntegralFamily {
     }
 }
 
-/// lobe-integral in the list of families (`crate::fits::entries`): a closed form on the GPU.
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+/// lobe-integral in the list of families (`crate::entries`): a closed form on the GPU.
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(LobeIntegralFamily)],
     eval: None,
     eval_names: &[],
@@ -162,7 +166,7 @@ lobe-integral
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::quad::gauss_kronrod;
+    use lobefit_core::quad::gauss_kronrod;
 
     /// The checker's quadrature (independent of the fit) agrees with the closed
     /// form, so using the closed form as reference is using the definition.

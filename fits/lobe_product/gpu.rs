@@ -9,9 +9,9 @@ use lobefit_tables::format::{Axis, Mapping, Placement};
 use lobefit_tables::lobe_product::{ln_w, E_MAX};
 use lobefit_tables::Table;
 
-use crate::export::families::{Baked, GpuFamily, Kernels};
-use crate::export::layout::{grid_of_table, grid_of_values, ChannelSpec, Grid, Sampler};
-use crate::export::Storage;
+use lobefit_core::export::families::{Baked, GpuFamily, Kernels};
+use lobefit_core::export::layout::{grid_of_table, grid_of_values, ChannelSpec, Grid, Sampler};
+use lobefit_core::export::Storage;
 
 /// Largest E = e1 + e2 the ln W texture covers (both exponents at the table's limit).
 const E_SUM_MAX: f64 = 2.0 * E_MAX;

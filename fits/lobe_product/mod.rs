@@ -27,11 +27,11 @@ use lobefit_tables::lobe_product::{self as rt, ln_model, ln_w, lobe_ln, peak_ang
 use lobefit_tables::{Channel, LoadError, Lobe, LookupError, Table};
 use rayon::prelude::*;
 
-use crate::family::{Extra, Fit, Fitted, Lookup, Query};
-use crate::fits::Method;
-use crate::quad::gauss_kronrod;
-use crate::rng::Rng;
-use crate::tables::error::short;
+use crate::Method;
+use lobefit_core::family::{Extra, Fit, Fitted, Lookup, Query};
+use lobefit_core::quad::gauss_kronrod;
+use lobefit_core::rng::Rng;
+use lobefit_tables::error::short;
 
 /// Nodes per exponent axis (uniform in ln(1 + e) on [0, 10⁵]).
 pub const N_E: u32 = 48;
@@ -417,7 +417,7 @@ pub fn ref_ln_product(lobes: &[(f64, f64)]) -> Result<f64, String> {
 
 /// Reference ∫Ψ1Ψ2 dω (sr).
 pub fn reference_integral(e1: f64, e2: f64, alpha: f64) -> Result<f64, String> {
-    static MEMO: crate::memo::Memo<3, f64> = crate::memo::Memo::new();
+    static MEMO: lobefit_core::memo::Memo<3, f64> = lobefit_core::memo::Memo::new();
     MEMO.get([e1, e2, alpha], || reference_integral_computed(e1, e2, alpha))
 }
 
@@ -440,7 +440,7 @@ pub fn reference_residual(e1: f64, e2: f64, alpha: f64, p: f64, s_r: f64, e: f64
 /// peak: golden-section search over ln(1 + e) on Gauss–Kronrod residuals.
 /// Returns (relative residual, e_r).
 pub fn reference_optimum(variant: Variant, e1: f64, e2: f64, alpha: f64) -> Result<(f64, f64), String> {
-    static MEMO: crate::memo::Memo<4, (f64, f64)> = crate::memo::Memo::new();
+    static MEMO: lobefit_core::memo::Memo<4, (f64, f64)> = lobefit_core::memo::Memo::new();
     MEMO.get([f64::from(variant as u8), e1, e2, alpha], || {
         reference_optimum_computed(variant, e1, e2, alpha)
     })
@@ -655,7 +655,7 @@ fn paper_grid_errors(lp: &LobeProduct, stride: usize) -> Result<Vec<(f64, f64)>,
 /// Writes the error maps (the analogues of the paper's Figures 3 and 6) for the
 /// committed tables into `dir`.
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use crate::plot::{heatmaps, Heatmap};
+    use lobefit_core::plot::{heatmaps, Heatmap};
     let energy = LobeProduct::embedded().map_err(|e| e.to_string())?;
     let l2 = LobeProduct::embedded_l2().map_err(|e| e.to_string())?;
     const N: usize = 64;
@@ -752,7 +752,7 @@ pub struct LobeProductFamily {
     /// Which variant this family fits.
     pub variant: Variant,
     /// The fast fit or the paper-faithful baseline
-    /// ([`crate::fits::lobe_product::paper::fit_paper`]; hours for the whole grid).
+    /// ([`crate::lobe_product::paper::fit_paper`]; hours for the whole grid).
     pub method: Method,
 }
 
@@ -1042,7 +1042,7 @@ impl Fit for LobeProductFamily {
             Method::Fast => fit_fast(self.variant, e1, e2, node[2]),
             Method::Paper => {
                 let alpha = node[2];
-                let q = crate::fits::lobe_product::paper::fit_paper(self.variant, e1, e2, alpha);
+                let q = crate::lobe_product::paper::fit_paper(self.variant, e1, e2, alpha);
                 FastFit {
                     c: q.integral.ln() - ln_model(e1, e2, alpha),
                     e_r: q.e_r,
@@ -1092,7 +1092,7 @@ impl LobeProductFamily {
     fn node_sections(&self, table: &Table, lp: &LobeProduct) -> Vec<(String, Result<Extra, String>)> {
         let axes = &table.meta().axes;
         let nc = table.meta().channels.len();
-        let nodes = crate::build::grid_nodes(axes);
+        let nodes = lobefit_core::build::grid_nodes(axes);
         let values = table.values();
         let (n_e, n_a) = (axes[1].count as usize, axes[2].count as usize);
         let flat = |i: usize, j: usize, k: usize| (i * n_e + j) * n_a + k;
@@ -1161,8 +1161,8 @@ fn domain(x: &[f64]) -> Result<(f64, f64, f64), String> {
 }
 
 /// lobe-product and lobe-product-l2 in the list of families
-/// (`crate::fits::entries`): `eval lobe-product --variant energy|l2`.
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+/// (`crate::entries`): `eval lobe-product --variant energy|l2`.
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |o| {
         vec![
             Box::new(LobeProductFamily {
@@ -1177,7 +1177,7 @@ pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
     },
     eval: Some(|name, flags, opts| {
         if name != lobefit_tables::lobe_product::KIND_ENERGY || !flags.given().iter().all(|f| *f == "--variant") {
-            return crate::fits::without_flags(name, flags, opts);
+            return crate::without_flags(name, flags, opts);
         }
         let variant = match flags.variant.as_deref() {
             None | Some("energy") => Variant::Energy,

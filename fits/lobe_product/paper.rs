@@ -33,7 +33,7 @@ use argmin::solver::neldermead::NelderMead;
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::lobe_product::{lobe_ln, Variant};
 
-use crate::quad::adaptive_simpson;
+use lobefit_core::quad::adaptive_simpson;
 
 /// The paper's adaptive-Simpson tolerance, relative to each integral's magnitude.
 pub const PAPER_QUAD_TOL: f64 = 1e-7;
@@ -97,7 +97,7 @@ impl PaperFit {
 pub fn speed_sample() -> Vec<[f64; 3]> {
     // Moderate products (the baseline takes up to seconds on wide, clipped ones),
     // snapped to the nearest nodes of the table grid so both methods fit grid points.
-    let axes = lobefit_tables::lobe_product::axes(crate::fits::lobe_product::N_E, crate::fits::lobe_product::N_ALPHA);
+    let axes = lobefit_tables::lobe_product::axes(crate::lobe_product::N_E, crate::lobe_product::N_ALPHA);
     let snap = |k: usize, x: f64| {
         let a = &axes[k];
         let i = a.node_coordinate(x).round().clamp(0.0, (a.count - 1) as f64) as u32;
@@ -441,7 +441,7 @@ pub fn fit_paper(variant: Variant, e1: f64, e2: f64, alpha: f64) -> PaperFit {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fits::lobe_product::{fit_fast, reference_integral, reference_residual};
+    use crate::lobe_product::{fit_fast, reference_integral, reference_residual};
     use lobefit_tables::lobe_product::{ln_model, peak_angle};
 
     /// The paper's quadrature resolves ∫Ψ1Ψ2 to its 1e-7 tolerance (with margin for

@@ -7,7 +7,7 @@
 //! functions. Everything is zonal, so only the m = 0 entries are non-zero.
 //! log-ZH: the runtime's closed form; true ZH: closed form
 //! z_l = √(π(2l+1)) (r+1)/(2π) Σ_k a_{lk}/(r+k+1) (P_l = Σ a_{lk} s^k);
-//! exp*: Taylor series with the DC term factored out ([`crate::sh::exp_star`]).
+//! exp*: Taylor series with the DC term factored out ([`lobefit_core::sh::exp_star`]).
 //! `tests/it/eps_study.rs` reproduces the numbers by an independent path.
 
 use std::f64::consts::PI;
@@ -15,7 +15,7 @@ use std::f64::consts::PI;
 use lobefit_tables::log_zh;
 use lobefit_tables::sh::{index, MAX_ORDER};
 
-use crate::sh::{exp_star, Gaunt};
+use lobefit_core::sh::{exp_star, Gaunt};
 
 /// Default SH order of the study (docs/math.md §1 default; the thesis renders at order 4).
 pub const STUDY_ORDER: usize = 4;
@@ -128,7 +128,7 @@ pub fn eps_grid() -> Vec<f64> {
 /// `lobefit plot log-zh`: the Fig. 4.6 reproduction (PNG), the curves as CSV and the
 /// optimal-ε table (CSV, orders 4 and 8, r = 1..5 and a few larger r).
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use crate::plot::{line_chart, LineChart, Series};
+    use lobefit_core::plot::{line_chart, LineChart, Series};
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut out = Vec::new();
     let grid = eps_grid();

@@ -3,10 +3,10 @@
 
 use lobefit_tables::log_zh::{self as rt, Kind};
 
-use crate::export::families::ClosedForm;
-use crate::export::gpu_check::{closed_row, write_array, Kernel};
-use crate::family::Query;
-use crate::rng::Rng;
+use lobefit_core::export::families::ClosedForm;
+use lobefit_core::export::gpu_check::{closed_row, write_array, Kernel};
+use lobefit_core::family::Query;
+use lobefit_core::rng::Rng;
 
 use super::LogZhFamily;
 

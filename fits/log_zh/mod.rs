@@ -18,9 +18,9 @@ use lobefit_tables::log_zh::{self as rt, Kind, LogZh, CHANNELS, EPS_MAX, EPS_MIN
 use lobefit_tables::sh::MAX_ORDER;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Fit, Fitted, Lookup, Query};
-use crate::rng::Rng;
-use crate::tables::error::short;
+use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::rng::Rng;
+use lobefit_tables::error::short;
 
 /// Largest allowed |closed form − Gauss–Legendre| for an entry to be written.
 const MAX_RESIDUAL: f64 = 1e-9;
@@ -144,7 +144,7 @@ pub fn reference_log_zh(kind: Kind, eps: f64, param: f64, order: usize) -> Resul
         return Ok(z);
     }
     let (g, breaks) = zonal(kind, eps, param);
-    let (z, ok) = crate::sh::zh_project_gk(order, g, &breaks, REFERENCE_TOL);
+    let (z, ok) = lobefit_core::sh::zh_project_gk(order, g, &breaks, REFERENCE_TOL);
     if !ok {
         return Err(format!(
             "reference quadrature did not converge at eps={eps}, param={param}"
@@ -162,7 +162,7 @@ const GL_POINTS: usize = 24;
 /// with its singularity at s = 0, so pieces [t, 2t], [2t, 4t], … keep it one piece
 /// length away and 24 points converge to rounding.
 fn gl_log_zh(eps: f64, r: f64, order: usize) -> (Vec<f64>, u32) {
-    let (x, w) = crate::sh::gauss_legendre(GL_POINTS);
+    let (x, w) = lobefit_core::sh::gauss_legendre(GL_POINTS);
     let t = t_eps(eps, r);
     let mut pieces = vec![(-1.0, t)];
     let mut a = t;
@@ -373,9 +373,9 @@ impl Fit for LogZhFamily {
     }
 }
 
-/// log-zh in the list of families (`crate::fits::entries`): `eval log-zh --kind K
+/// log-zh in the list of families (`crate::entries`): `eval log-zh --kind K
 /// --order N`; closed forms on the GPU.
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(LogZhFamily::default())],
     eval: Some(|_, flags, _| {
         if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {

@@ -8,11 +8,11 @@ use lobefit_tables::format::{Axis, Mapping, Placement};
 use lobefit_tables::mask_weights::{channel_names, MaskMode, MaskWeights, WeightSet, DIST_MAX, DIST_MIN, MAX_DEPTH};
 use lobefit_tables::Table;
 
-use crate::export::families::{Baked, GpuFamily, Kernels};
-use crate::export::gpu_check::{r32, Context, Kernel, Row, Runner};
-use crate::export::layout::{grid_of_table, grid_of_values, ChannelSpec, Grid, Sampler};
-use crate::export::Storage;
-use crate::rng::Rng;
+use lobefit_core::export::families::{Baked, GpuFamily, Kernels};
+use lobefit_core::export::gpu_check::{r32, Context, Kernel, Row, Runner};
+use lobefit_core::export::layout::{grid_of_table, grid_of_values, ChannelSpec, Grid, Sampler};
+use lobefit_core::export::Storage;
+use lobefit_core::rng::Rng;
 
 /// The export of mask-weights.
 pub const GPU: GpuFamily = GpuFamily {
@@ -110,7 +110,7 @@ fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {
 /// Limit: 1e-5 for f32 textures, 1e-3 for f16 (one channel holds every weight, so f16
 /// steps are those of its whole span; measured 1.4e-4).
 fn weight(ctx: &Context, runner: &dyn Runner) -> Result<Row, String> {
-    let samples = crate::export::gpu_check::WORLD_SAMPLES;
+    let samples = lobefit_core::export::gpu_check::WORLD_SAMPLES;
     let mut rng = Rng::new(ctx.seed ^ 0x3a5c);
     let inputs: Vec<Vec<f64>> = (0..samples)
         .map(|_| {
@@ -159,7 +159,7 @@ fn weight(ctx: &Context, runner: &dyn Runner) -> Result<Row, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::export::layout::Filter;
+    use lobefit_core::export::layout::Filter;
 
     /// The texture's rows are the runtime's weights: every (set, mode, D, level) at
     /// nodes, between nodes and beyond the table's range, through the emulated sampler

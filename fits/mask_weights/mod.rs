@@ -2,7 +2,7 @@
 //! docs/meunier.md): the per-depth weights of the visibility mask's leaf lobes,
 //! fitted by least squares against the exact mask visibility, with the paper's manual
 //! procedure made automatic as a baseline. The pipeline that reads these weights
-//! (`eval direct-light`, `render meunier`) is `crate::pipelines::meunier`.
+//! (`eval direct-light`, `render meunier`) is `lobefit_pipelines::meunier`.
 //!
 //! **Definition.** For a light cap of half-angle α (the node's `dist` = 1/(2 tan α))
 //! and a blocker configuration (caps b_j), the mask of maximal depth D in a mode gives
@@ -37,10 +37,10 @@ use lobefit_tables::mask_weights::{
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use rayon::prelude::*;
 
-use crate::family::{Extra, Fit, Fitted, Lookup, Query};
-use crate::fits::cap_exponent::objective_slope;
-use crate::quad::illinois;
-use crate::rng::Rng;
+use crate::cap_exponent::objective_slope;
+use lobefit_core::family::{Extra, Fit, Fitted, Lookup, Query};
+use lobefit_core::quad::illinois;
+use lobefit_core::rng::Rng;
 
 /// Training configurations per node.
 pub const TRAIN_CONFIGS: usize = 48;
@@ -113,7 +113,7 @@ impl ConeRule {
 
     /// Gauss–Legendre in θ ∈ [0, α] (weight sin θ) × trapezoid in φ (the checker's).
     pub fn gauss(alpha: f64, (nt, np): (usize, usize)) -> ConeRule {
-        let (x, wx) = crate::sh::gauss_legendre(nt);
+        let (x, wx) = lobefit_core::sh::gauss_legendre(nt);
         let mut r = ConeRule {
             dirs: Vec::with_capacity(nt * np),
             weights: Vec::with_capacity(nt * np),
@@ -627,7 +627,7 @@ impl Query for MaskWeightsFamily {
             return Err(format!("dist = {dist} is outside [{DIST_MIN}, {DIST_MAX}]"));
         }
         // A pure function of dist, costly (a least squares over the training set).
-        static MEMO: crate::memo::Memo<1, Vec<f64>> = crate::memo::Memo::new();
+        static MEMO: lobefit_core::memo::Memo<1, Vec<f64>> = lobefit_core::memo::Memo::new();
         MEMO.get([dist], || {
             let s = solve(dist, |a| ConeRule::gauss(a, REF_RULE));
             if !s.ok {
@@ -786,9 +786,9 @@ impl Fit for MaskWeightsFamily {
     }
 }
 
-/// mask-weights in the list of families (`crate::fits::entries`); the pipeline that
-/// reads it is `crate::pipelines::meunier`.
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+/// mask-weights in the list of families (`crate::entries`); the pipeline that
+/// reads it is `lobefit_pipelines::meunier`.
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(MaskWeightsFamily)],
     eval: None,
     eval_names: &[],

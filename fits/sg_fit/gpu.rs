@@ -1,7 +1,7 @@
 //! sg-fit on the GPU: ln λ, ln μ on log(1 + e) as a 1D RG texture.
 
-use crate::export::families::{table_grid, Baked, GpuFamily, Kernels};
-use crate::export::layout::Sampler;
+use lobefit_core::export::families::{table_grid, Baked, GpuFamily, Kernels};
+use lobefit_core::export::layout::Sampler;
 
 /// The export of sg-fit.
 pub const GPU: GpuFamily = GpuFamily {

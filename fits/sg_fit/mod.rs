@@ -25,10 +25,10 @@ use lobefit_tables::format::Threshold;
 use lobefit_tables::sg_fit::{self as rt, SgFit, E_MAX};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Fit, Fitted, Lookup, Query};
-use crate::quad::{adaptive_simpson, gauss_kronrod, illinois};
-use crate::rng::Rng;
-use crate::tables::error::short;
+use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::quad::{adaptive_simpson, gauss_kronrod, illinois};
+use lobefit_core::rng::Rng;
+use lobefit_tables::error::short;
 
 /// Grid nodes, uniform in ln(1 + e).
 pub const NODES: u32 = 513;
@@ -203,13 +203,17 @@ pub fn fit_lambda(e: f64) -> (f64, u32, bool) {
 #[derive(Debug, Clone, Copy)]
 pub struct SgFitFamily;
 
-impl Lookup for SgFit {
+/// The runtime type as the checker's [`Lookup`] (a local type: the trait and
+/// [`SgFit`] live in other crates).
+struct SgFitLookup(SgFit);
+
+impl Lookup for SgFitLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        let (l, m) = self.fit(x[0])?;
+        let (l, m) = self.0.fit(x[0])?;
         Ok(vec![l, m])
     }
     fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
-        Some(self.fit_f32(x[0] as f32).map(|(l, m)| vec![l.into(), m.into()]))
+        Some(self.0.fit_f32(x[0] as f32).map(|(l, m)| vec![l.into(), m.into()]))
     }
 }
 
@@ -240,7 +244,7 @@ impl Query for SgFitFamily {
         lobefit_tables::embedded::SG_FIT
     }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(SgFit::from_table(table)?))
+        Ok(Box::new(SgFitLookup(SgFit::from_table(table)?)))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         let (l, m) = reference_fit(x[0])?;
@@ -330,8 +334,8 @@ impl Fit for SgFitFamily {
     }
 }
 
-/// sg-fit in the list of families (`crate::fits::entries`).
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+/// sg-fit in the list of families (`crate::entries`).
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(SgFitFamily)],
     eval: None,
     eval_names: &[],

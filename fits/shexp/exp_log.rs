@@ -20,8 +20,8 @@ use std::f64::consts::PI;
 
 use lobefit_tables::sh::{self as rt, index};
 
-use crate::eigen::{sym_eigen, SymEigen};
-use crate::sh::{exp_star, exp_taylor, ExpResult, Gaunt, SphereRule};
+use lobefit_core::eigen::{sym_eigen, SymEigen};
+use lobefit_core::sh::{exp_star, exp_taylor, ExpResult, Gaunt, SphereRule};
 
 pub use lobefit_tables::shexp::{ab_of_pair, hyb_with, ol};
 
@@ -219,7 +219,7 @@ const REF_GL_POINTS: usize = 16;
 /// analytically: 2π for m = 0, π otherwise), not from the Gaunt tensor.
 pub fn zonal_blocks_quadrature(h: &[f64]) -> Vec<Vec<f64>> {
     let n = h.len();
-    let (xs, ws) = crate::sh::gauss_legendre(REF_GL_POINTS);
+    let (xs, ws) = lobefit_core::sh::gauss_legendre(REF_GL_POINTS);
     let mut blocks: Vec<Vec<f64>> = (0..n).map(|m| vec![0.0; (n - m) * (n - m)]).collect();
     let mut y = [0.0; rt::MAX_COEFFS];
     for (&t, &w) in xs.iter().zip(&ws) {
@@ -466,7 +466,7 @@ mod tests {
     fn cap_visibility_matches_quadrature() {
         for &tb in &[1e-3, 0.3, 1.0, PI / 2.0, 2.5] {
             let c = f64::cos(tb);
-            let (want, ok) = crate::sh::zh_project_gk(8, |t| if t > c { 0.0 } else { 1.0 }, &[c], 1e-14);
+            let (want, ok) = lobefit_core::sh::zh_project_gk(8, |t| if t > c { 0.0 } else { 1.0 }, &[c], 1e-14);
             assert!(ok);
             let got = cap_visibility_zh(tb, 8).unwrap();
             for l in 0..8 {

@@ -15,11 +15,11 @@ use lobefit_tables::format::{Mapping, Placement};
 use lobefit_tables::shexp::{one_minus_cos, ShExp, OL_THRESHOLD, ORDER_MAX, ORDER_MIN};
 use lobefit_tables::{Axis, Table};
 
-use crate::export::families::{Baked, ExtraError, GpuFamily, Kernels};
-use crate::export::gpu_check::{scaled_diff, Context, Kernel, Row, Runner};
-use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler, MAX_SCALE};
-use crate::export::manifest::TextureEntry;
-use crate::export::{Storage, MAX_1D_2D_EXTENT};
+use lobefit_core::export::families::{Baked, ExtraError, GpuFamily, Kernels};
+use lobefit_core::export::gpu_check::{scaled_diff, Context, Kernel, Row, Runner};
+use lobefit_core::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler, MAX_SCALE};
+use lobefit_core::export::manifest::TextureEntry;
+use lobefit_core::export::{Storage, MAX_1D_2D_EXTENT};
 
 /// The export of shexp.
 pub const GPU: GpuFamily = GpuFamily {
@@ -221,7 +221,7 @@ fn hyb_errors(s: &[Sampler], samples: usize, seed: u64) -> Result<Vec<ExtraError
         let sampler = &s[orders + n - ORDER_MIN];
         let top = OL_THRESHOLD[n - ORDER_MIN];
         let lo = theta_at_threshold(n)?;
-        let mut rng = crate::rng::Rng::new(seed ^ (0x4879_6200 + n as u64));
+        let mut rng = lobefit_core::rng::Rng::new(seed ^ (0x4879_6200 + n as u64));
         let thetas: Vec<f64> = (0..samples / orders)
             .map(|_| {
                 if rng.uniform() < 0.5 {
@@ -237,8 +237,8 @@ fn hyb_errors(s: &[Sampler], samples: usize, seed: u64) -> Result<Vec<ExtraError
                 let (_, norm, a, b) = super::reference_point(t, n)?;
                 let v = sampler.sample(&[(norm as f32).min(top as f32)]);
                 Ok([
-                    crate::check::rel_err(f64::from(v[0]), a),
-                    crate::check::rel_err(f64::from(v[1]), b),
+                    lobefit_core::check::rel_err(f64::from(v[0]), a),
+                    lobefit_core::check::rel_err(f64::from(v[1]), b),
                 ])
             })
             .collect::<Result<Vec<_>, String>>()?;
@@ -335,7 +335,7 @@ fn hyb_check(ctx: &Context, runner: &dyn Runner) -> Result<Vec<Row>, String> {
     for n in ORDER_MIN..=ORDER_MAX {
         let top = OL_THRESHOLD[n - ORDER_MIN];
         let lo = theta_at_threshold(n)?;
-        let mut rng = crate::rng::Rng::new(ctx.seed ^ (0x4750_4859 + n as u64));
+        let mut rng = lobefit_core::rng::Rng::new(ctx.seed ^ (0x4750_4859 + n as u64));
         let refs: Vec<(f64, f64, f64)> = (0..per_order)
             .map(|k| {
                 let t = if k % 2 == 0 {
@@ -363,13 +363,13 @@ fn hyb_check(ctx: &Context, runner: &dyn Runner) -> Result<Vec<Row>, String> {
             let measured = got
                 .iter()
                 .zip(&refs)
-                .map(|(g, r)| crate::check::rel_err(g[k], if k == 0 { r.1 } else { r.2 }))
+                .map(|(g, r)| lobefit_core::check::rel_err(g[k], if k == 0 { r.1 } else { r.2 }))
                 .fold(0.0, f64::max);
             let promise = ctx.promise(&output, "offgrid.max_rel").unwrap_or(super::OFFGRID_REL);
             vs_ref.push((
                 format!("{output} max_rel"),
                 measured,
-                promise * (1.0 + crate::export::gpu_check::PROMISE_SLACK),
+                promise * (1.0 + lobefit_core::export::gpu_check::PROMISE_SLACK),
             ));
         }
     }

@@ -4,13 +4,13 @@
 //!
 //! Fit (per node, every order): g = the closed-form cap visibility ZH; Ren's log
 //! through the Gaunt tensor's m-blocks of M_{g−1} and the q-form
-//! ([`crate::fits::shexp::exp_log::ren_log_zonal`]). Residual: distance to the independent
+//! ([`crate::shexp::exp_log::ren_log_zonal`]). Residual: distance to the independent
 //! reference below (a node is written only when they agree).
 //!
 //! Reference (checker): product-matrix blocks by Gauss–Legendre quadrature of
 //! h(θ) y_l^m y_l'^m (not the Gaunt tensor) and the log applied directly to the
 //! eigenvalues, clamped ones as the q-form has them
-//! ([`crate::fits::shexp::exp_log::ren_log_zonal_reference`]); a, b and ‖f̂‖ from
+//! ([`crate::shexp::exp_log::ren_log_zonal_reference`]); a, b and ‖f̂‖ from
 //! their definitions. f is compared in units of ‖f‖ (its components cross zero as
 //! θ_b grows, where a per-component relative error says nothing).
 
@@ -25,11 +25,11 @@ use lobefit_tables::log_zh::{EPS_MAX, EPS_MIN};
 use lobefit_tables::shexp::{self as rt, ab_of_pair, cap_visibility_zh, one_minus_cos, ShExp, ORDER_MAX, ORDER_MIN};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Extra, Fit, Fitted, Lookup, Query};
-use crate::fits::shexp::exp_log::{ren_log_zonal, ren_log_zonal_reference};
-use crate::rng::Rng;
-use crate::sh::Gaunt;
-use crate::tables::error::short;
+use crate::shexp::exp_log::{ren_log_zonal, ren_log_zonal_reference};
+use lobefit_core::family::{Extra, Fit, Fitted, Lookup, Query};
+use lobefit_core::rng::Rng;
+use lobefit_core::sh::Gaunt;
+use lobefit_tables::error::short;
 
 /// Largest |fit − reference| / max(‖f‖, 1) for a node to be written: both are f64
 /// computations of the same matrix function (measured ≤ 1e-13).
@@ -106,7 +106,7 @@ impl ShExpFamily {
 
 /// (f, ‖f̂‖, a, b) of order n by the reference at θ_b.
 pub fn reference_point(theta_b: f64, order: usize) -> Result<(Vec<f64>, f64, f64, f64), String> {
-    static MEMO: crate::memo::Memo<2, (Vec<f64>, f64, f64, f64)> = crate::memo::Memo::new();
+    static MEMO: lobefit_core::memo::Memo<2, (Vec<f64>, f64, f64, f64)> = lobefit_core::memo::Memo::new();
     MEMO.get([theta_b, order as f64], || reference_point_computed(theta_b, order))
 }
 
@@ -284,19 +284,19 @@ impl Query for ShExpFamily {
             Ok(t) => t,
             Err(e) => return vec![("hyb".into(), Err(e.to_string()))],
         };
-        let scenes = crate::fits::shexp::study::scene_geometry(count, seed);
+        let scenes = crate::shexp::study::scene_geometry(count, seed);
         let mut out = vec![("intervals".to_string(), self.interval_check(table))];
         for n in ORDER_MIN..=ORDER_MAX {
             let gaunt = Gaunt::cached(n).expect("order in 3..=8");
             let hyb = scenes
                 .iter()
                 .map(|s| {
-                    let f = crate::fits::shexp::study::scene_log(&rt, s, n)?;
+                    let f = crate::shexp::study::scene_log(&rt, s, n)?;
                     let mut h = vec![0.0; n * n];
                     rt.hyb(&f, &mut h).map_err(|e| e.to_string())?;
-                    Ok(crate::fits::shexp::study::rel_l2(
+                    Ok(crate::shexp::study::rel_l2(
                         &h,
-                        &crate::sh::exp_star(gaunt, &f).value,
+                        &lobefit_core::sh::exp_star(gaunt, &f).value,
                     ))
                 })
                 .collect::<Result<Vec<f64>, String>>();
@@ -306,10 +306,10 @@ impl Query for ShExpFamily {
                     let theta = rt::THETA_MAX * i as f64 / count as f64;
                     let g = cap_visibility_zh(theta, n).map_err(|e| e.to_string())?[..n].to_vec();
                     let f = ren_log_zonal(gaunt, &g)?.f;
-                    let back = crate::sh::exp_star(gaunt, &crate::fits::shexp::exp_log::zh_to_sh_z(&f)).value;
-                    Ok(crate::fits::shexp::study::rel_l2(
+                    let back = lobefit_core::sh::exp_star(gaunt, &crate::shexp::exp_log::zh_to_sh_z(&f)).value;
+                    Ok(crate::shexp::study::rel_l2(
                         &back,
-                        &crate::fits::shexp::exp_log::zh_to_sh_z(&g),
+                        &crate::shexp::exp_log::zh_to_sh_z(&g),
                     ))
                 })
                 .collect::<Result<Vec<f64>, String>>();
@@ -353,7 +353,7 @@ impl Fit for ShExpFamily {
              the OL coefficients a, b of exp*(f_hat) ~ a 1 + b f_hat. f and |f_hat| are stored divided by \
              1 - cos(theta_b). Each value is an f32 hi/lo pair. HYB looks a, b up vs |f_hat| on the \
              monotone branch of |f_hat|(theta_b) (up to its first maximum).",
-            crate::fits::shexp::exp_log::REN_CLAMP
+            crate::shexp::exp_log::REN_CLAMP
         )
     }
     fn axes(&self) -> Vec<Axis> {
@@ -381,13 +381,13 @@ impl Fit for ShExpFamily {
     }
     fn settings(&self) -> Vec<(String, String)> {
         vec![
-            ("ren_clamp".into(), crate::fits::shexp::exp_log::REN_CLAMP.to_string()),
+            ("ren_clamp".into(), crate::shexp::exp_log::REN_CLAMP.to_string()),
             (
                 "ren_clamp_form".into(),
                 "inside q: q(max(lambda, clamp)) (g - 1)".into(),
             ),
             ("max_residual".into(), format!("{MAX_RESIDUAL:e}")),
-            ("jacobi_tol".into(), format!("{:e}", crate::eigen::JACOBI_TOL)),
+            ("jacobi_tol".into(), format!("{:e}", lobefit_core::eigen::JACOBI_TOL)),
         ]
     }
     fn residual_meaning(&self) -> &'static str {
@@ -546,9 +546,9 @@ fn naive_reference(theta_b: f64, eps: f64, order: usize) -> Result<Vec<f64>, Str
             theta_b = short(theta_b)
         ));
     }
-    let f = crate::fits::log_zh::reference_log_zh(lobefit_tables::log_zh::Kind::Blocker, eps, theta_b, order)?;
+    let f = crate::log_zh::reference_log_zh(lobefit_tables::log_zh::Kind::Blocker, eps, theta_b, order)?;
     let c = theta_b.cos();
-    let (g, ok) = crate::sh::zh_project_gk(order, |t| if t > c { 0.0 } else { 1.0 }, &[c], 1e-14);
+    let (g, ok) = lobefit_core::sh::zh_project_gk(order, |t| if t > c { 0.0 } else { 1.0 }, &[c], 1e-14);
     if !ok {
         return Err(format!(
             "visibility quadrature did not converge at theta_b = {theta_b}",
@@ -561,9 +561,9 @@ fn naive_reference(theta_b: f64, eps: f64, order: usize) -> Result<Vec<f64>, Str
     Ok(v)
 }
 
-/// shexp in the list of families (`crate::fits::entries`): `eval shexp --order N
+/// shexp in the list of families (`crate::entries`): `eval shexp --order N
 /// --log ren|naive`.
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(ShExpFamily::default())],
     eval: Some(|_, flags, _| {
         if flags.variant.is_some() || flags.model.is_some() || flags.kind.is_some() {

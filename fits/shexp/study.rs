@@ -13,9 +13,9 @@ use std::f64::consts::PI;
 use lobefit_tables::sh::zh_to_sh;
 use lobefit_tables::shexp::{cap_visibility_zh, ShExp, ORDER_MAX, ORDER_MIN};
 
-use crate::fits::shexp::exp_log::{exact_visibility_sh, ren_log_zonal, zh_to_sh_z};
-use crate::rng::Rng;
-use crate::sh::{exp_star, Gaunt, SphereRule};
+use crate::shexp::exp_log::{exact_visibility_sh, ren_log_zonal, zh_to_sh_z};
+use lobefit_core::rng::Rng;
+use lobefit_core::sh::{exp_star, Gaunt, SphereRule};
 
 /// Fewest and most blockers of a random scene.
 pub const SCENE_BLOCKERS: (usize, usize) = (2, 400);
@@ -137,7 +137,7 @@ pub fn evaluate(
     }
     let mut hyb = vec![0.0; f.len()];
     let squarings = rt.hyb_threshold(f, t, &mut hyb).map_err(|e| e.to_string())?;
-    let ss = crate::fits::shexp::exp_log::exp_scaling_squaring(gaunt, f, squarings);
+    let ss = crate::shexp::exp_log::exp_scaling_squaring(gaunt, f, squarings);
     Ok(Sample {
         ss_taylor: rel_l2(&ss.value, &taylor.value),
         norm: f[1..].iter().map(|v| v * v).sum::<f64>().sqrt(),
@@ -214,7 +214,7 @@ pub fn round_trip(order: usize, count: usize) -> Result<RoundTrip, String> {
         let e = rel_l2(&back, &zh_to_sh_z(&g));
         // LM (slow where it ends in a local minimum) on every LM_EVERY-th cap.
         let lm = if i % LM_EVERY == 0 {
-            crate::fits::shexp::exp_log::lm_log_zonal(gaunt, &g)?.residual
+            crate::shexp::exp_log::lm_log_zonal(gaunt, &g)?.residual
         } else {
             0.0
         };
@@ -332,7 +332,7 @@ fn binned(points: &[(f64, f64)], bins: usize) -> (Curve, Curve) {
 /// single caps and scenes, Taylor and HYB vs the exact visibility), the summary table
 /// (Markdown, as in docs/shexp.md) and every sample as CSV.
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use crate::plot::{line_chart, LineChart, Series};
+    use lobefit_core::plot::{line_chart, LineChart, Series};
     let rt = ShExp::embedded().map_err(|e| e.to_string())?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let sc = scenes(STUDY_SCENES, STUDY_SEED);

@@ -4,10 +4,10 @@
 use lobefit_tables::wedge::WEDGE_COUNTS;
 use lobefit_tables::Table;
 
-use crate::export::families::{Baked, GpuFamily, Kernels};
-use crate::export::gpu_check::{r32, vector_diff, Context, Kernel, Row, Runner, WORLD_SAMPLES};
-use crate::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler};
-use crate::export::Storage;
+use lobefit_core::export::families::{Baked, GpuFamily, Kernels};
+use lobefit_core::export::gpu_check::{r32, vector_diff, Context, Kernel, Row, Runner, WORLD_SAMPLES};
+use lobefit_core::export::layout::{grid_of_values, ChannelSpec, Grid, Sampler};
+use lobefit_core::export::Storage;
 
 /// The export of wedge.
 pub const GPU: GpuFamily = GpuFamily {
@@ -75,7 +75,7 @@ fn eval(s: &[Sampler], x: &[f32]) -> Vec<f32> {
 /// `lf_wedge_apply` (order 8, every W) against the same mat-vec in f64 over the CPU's
 /// fetch of the exported entries; vector-relative (see [`vector_diff`]).
 fn apply(ctx: &Context, runner: &dyn Runner) -> Result<Vec<Row>, String> {
-    let mut rng = crate::rng::Rng::new(ctx.seed ^ 0x3ed6e);
+    let mut rng = lobefit_core::rng::Rng::new(ctx.seed ^ 0x3ed6e);
     let inputs: Vec<Vec<f64>> = (0..WORLD_SAMPLES)
         .map(|k| {
             let mut x = vec![(k % 5) as f64];

@@ -18,10 +18,10 @@ use lobefit_tables::sh::{eval_basis, MAX_COEFFS, MAX_ORDER};
 use lobefit_tables::wedge::{self as rt, Wedge, CHANNELS, COLS, ROWS, WEDGE_COUNTS};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Fit, Fitted, Lookup, Query};
-use crate::quad::gauss_kronrod;
-use crate::rng::Rng;
-use crate::tables::error::short;
+use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::quad::gauss_kronrod;
+use lobefit_core::rng::Rng;
+use lobefit_tables::error::short;
 
 /// Gauss–Legendre points in θ of the fit, and of its convergence cross-check.
 const GL_POINTS: [usize; 2] = [48, 64];
@@ -108,7 +108,7 @@ pub fn m_lin_gl(w: u32, row: usize, col: usize, points: usize) -> f64 {
     if structural_zero(w, row, col) {
         return 0.0;
     }
-    let (x, wt) = crate::sh::gauss_legendre(points);
+    let (x, wt) = lobefit_core::sh::gauss_legendre(points);
     let j = col % MAX_ORDER;
     let t: f64 = x
         .iter()
@@ -199,9 +199,13 @@ fn node_w(x: f64) -> u32 {
     x.round() as u32
 }
 
-impl Lookup for Wedge {
+/// The runtime type as the checker's [`Lookup`] (a local type: the trait and
+/// [`Wedge`] live in other crates).
+struct WedgeLookup(Wedge);
+
+impl Lookup for WedgeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        Ok(vec![self.m_lin(
+        Ok(vec![self.0.m_lin(
             node_w(x[0]),
             MAX_ORDER,
             x[1] as usize,
@@ -209,7 +213,7 @@ impl Lookup for Wedge {
         )?])
     }
     fn lookup_f32(&self, x: &[f64]) -> Option<Result<Vec<f64>, LookupError>> {
-        let m = self.m_lin_f32(node_w(x[0]), MAX_ORDER, x[1] as usize, x[2] as usize);
+        let m = self.0.m_lin_f32(node_w(x[0]), MAX_ORDER, x[1] as usize, x[2] as usize);
         Some(m.map(|v| vec![v.into()]))
     }
 }
@@ -241,7 +245,7 @@ impl Query for WedgeFamily {
         lobefit_tables::embedded::WEDGE
     }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(Wedge::from_table(table)?))
+        Ok(Box::new(WedgeLookup(Wedge::from_table(table)?)))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         Ok(vec![reference_m_lin(node_w(x[0]), x[1] as usize, x[2] as usize)?])
@@ -369,15 +373,15 @@ impl Query for WedgeSliceView {
     }
 }
 
-/// wedge in the list of families (`crate::fits::entries`): `eval wedge --order N`
+/// wedge in the list of families (`crate::entries`): `eval wedge --order N`
 /// reads one order's slice.
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(WedgeFamily)],
     eval: Some(|_, flags, _| {
         if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() || flags.kind.is_some() {
             return Err("wedge takes only --order".into());
         }
-        let order = flags.order.unwrap_or(crate::fits::log_zh::DEFAULT_ORDER);
+        let order = flags.order.unwrap_or(crate::log_zh::DEFAULT_ORDER);
         if !(1..=8).contains(&order) {
             return Err(format!("wedge: --order {order} is outside 1..=8"));
         }

@@ -1,9 +1,9 @@
 //! wrap on the GPU: λ̂_l(a) in closed form (polynomials in a per band), no texture.
 
-use crate::export::families::ClosedForm;
-use crate::export::gpu_check::{closed_row, write_array, Kernel};
-use crate::family::Query;
-use crate::rng::Rng;
+use lobefit_core::export::families::ClosedForm;
+use lobefit_core::export::gpu_check::{closed_row, write_array, Kernel};
+use lobefit_core::family::Query;
+use lobefit_core::rng::Rng;
 
 /// The closed form and its conformance (8 bands).
 pub const CLOSED: ClosedForm = ClosedForm {

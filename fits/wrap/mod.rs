@@ -16,9 +16,9 @@ use lobefit_tables::sh::MAX_ORDER;
 use lobefit_tables::wrap::{self as rt, Wrap, A_MAX, A_MIN, A_NODES, CHANNELS};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use crate::family::{Fit, Fitted, Lookup, Query};
-use crate::quad::{adaptive_simpson, gauss_kronrod};
-use crate::rng::Rng;
+use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::quad::{adaptive_simpson, gauss_kronrod};
+use lobefit_core::rng::Rng;
 
 /// Absolute tolerance of the fit's adaptive Simpson per band.
 const FIT_TOL: f64 = 1e-13;
@@ -291,9 +291,9 @@ impl Fit for WrapFamily {
     }
 }
 
-/// wrap in the list of families (`crate::fits::entries`): `eval wrap --order N`;
+/// wrap in the list of families (`crate::entries`): `eval wrap --order N`;
 /// a closed form on the GPU.
-pub const ENTRY: crate::fits::Entry = crate::fits::Entry {
+pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(WrapFamily::default())],
     eval: Some(|_, flags, _| {
         if flags.given().iter().any(|f| *f != "--order") {

@@ -8,10 +8,10 @@ use lobefit_tables::meunier::Sphere;
 use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Tables};
-use crate::family::{EvalFlags, Lookup, Query};
-use crate::pipelines::scene::Bvh;
-use crate::pipelines::sky::{exact_estimate, hit_of_row, POINT_INPUTS};
-use crate::rng::Rng;
+use crate::scene::Bvh;
+use crate::sky::{exact_estimate, hit_of_row, POINT_INPUTS};
+use lobefit_core::family::{EvalFlags, Lookup, Query};
+use lobefit_core::rng::Rng;
 use lobefit_tables::format::Threshold;
 
 /// `eval --help`'s paragraph.
@@ -50,7 +50,7 @@ impl IsgShadeView {
             ));
         }
         let path = flags.scene.as_deref().ok_or("isg-shade needs --scene FILE")?;
-        let scene = crate::pipelines::scene::load(path)?;
+        let scene = crate::scene::load(path)?;
         if scene.environment.is_empty() {
             return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name));
         }

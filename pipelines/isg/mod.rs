@@ -22,8 +22,8 @@ pub const PIPELINE: Pipeline = Pipeline {
 #[cfg(test)]
 mod unoccluded {
     use super::*;
-    use crate::pipelines::isg::shade::{radiance, Phong, Settings, Tables};
-    use crate::pipelines::scene::Hit;
+    use crate::isg::shade::{radiance, Phong, Settings, Tables};
+    use crate::scene::Hit;
     use lobefit_tables::glam::DVec3;
 
     /// A plane point under the Figure 12 analogue's nine SGs with no blocker: the
@@ -32,7 +32,7 @@ mod unoccluded {
     /// 4 standard errors plus 0.5 %.
     #[test]
     fn pipeline_against_the_reference_without_blockers() {
-        let scene = crate::pipelines::scene::builtin("isg-fig12").unwrap().unwrap();
+        let scene = crate::scene::builtin("isg-fig12").unwrap().unwrap();
         let t = Tables::embedded().unwrap();
         for (kd, ks) in [(1.0, 0.0), (0.0, 0.4)] {
             let brdf = Phong {
@@ -70,14 +70,14 @@ mod unoccluded {
 
 #[cfg(test)]
 mod bvh_cull {
-    use crate::pipelines::isg::shade::{radiance, Blockers, Phong, Settings, Tables};
+    use crate::isg::shade::{radiance, Blockers, Phong, Settings, Tables};
 
     /// Culling the blockers against each product's cone through the BVH (§4.2) gives
     /// the very radiance the scan over every sphere gives, at every pixel of a small
     /// image of the 306-sphere sweep scene (both exclude the hit's own sphere).
     #[test]
     fn the_bvh_cull_equals_the_scan() {
-        let scene = crate::pipelines::isg::render::sweep_scene(306).unwrap();
+        let scene = crate::isg::render::sweep_scene(306).unwrap();
         let t = Tables::embedded().unwrap();
         let (w, h) = (24, 18);
         let mut seen = 0;
@@ -88,7 +88,7 @@ mod bvh_cull {
             let brdf = Phong::of(scene.brdf(&hit)).unwrap();
             let scan = Blockers {
                 bvh: None,
-                ..crate::pipelines::isg::render::blockers_of(&scene, &hit)
+                ..crate::isg::render::blockers_of(&scene, &hit)
             };
             let a = radiance(&t, &Settings::default(), &scene.environment, &brdf, &scan, &hit).unwrap();
             let b = radiance(
@@ -96,7 +96,7 @@ mod bvh_cull {
                 &Settings::default(),
                 &scene.environment,
                 &brdf,
-                &crate::pipelines::isg::render::blockers_of(&scene, &hit),
+                &crate::isg::render::blockers_of(&scene, &hit),
                 &hit,
             )
             .unwrap();

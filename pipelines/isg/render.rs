@@ -13,11 +13,11 @@ use rayon::prelude::*;
 
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Specular, Tables};
 use super::{reference, PIPELINE};
-use crate::pipelines::estimate::per_pixel;
-use crate::pipelines::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_comparison};
-use crate::pipelines::scene::{Hit, Scene};
-use crate::pipelines::timing::{timed, EqualError};
-use crate::pipelines::{RenderOptions, Summary};
+use crate::estimate::per_pixel;
+use crate::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_comparison};
+use crate::scene::{Hit, Scene};
+use crate::timing::{timed, EqualError};
+use crate::{RenderOptions, Summary};
 
 /// The breakdown subset's reference takes this many times the image's samples.
 pub const PRECISE_FACTOR: usize = 64;
@@ -74,14 +74,14 @@ pub const SWEEP: [usize; 4] = [46, 102, 204, 306];
 /// The Figure 12 analogue with `count` spheres: seeded, non-overlapping, radius 0.12
 /// to 0.35, over the same plane (named `sweep-<count>`).
 pub fn sweep_scene(count: usize) -> Result<Scene, String> {
-    let text = crate::pipelines::scene::BUILTIN
+    let text = crate::scene::BUILTIN
         .iter()
         .find(|(n, _)| *n == "isg-fig12")
         .map(|(_, t)| *t)
         .ok_or("isg-fig12 is not built in")?;
     let mut v: serde_json::Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
     let material = v["spheres"][0]["material"].clone();
-    let mut rng = crate::rng::Rng::new(0x5eed_0306 ^ count as u64);
+    let mut rng = lobefit_core::rng::Rng::new(0x5eed_0306 ^ count as u64);
     let mut placed: Vec<([f64; 3], f64)> = Vec::new();
     let mut tries = 0;
     while placed.len() < count && tries < 1_000_000 {
@@ -101,7 +101,7 @@ pub fn sweep_scene(count: usize) -> Result<Scene, String> {
         .iter()
         .map(|(c, r)| serde_json::json!({"centre": c, "radius": r, "material": material}))
         .collect();
-    crate::pipelines::scene::parse(&format!("sweep-{count}"), &v.to_string())
+    crate::scene::parse(&format!("sweep-{count}"), &v.to_string())
 }
 
 /// Renders one scene into `dir`; `sweep` renders the sphere-count sweep.

@@ -16,8 +16,8 @@ use lobefit_tables::isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, GAMMA_MAX, 
 use lobefit_tables::meunier::Sphere;
 use lobefit_tables::SgFit;
 
-use crate::pipelines::scene::{Bvh, Hit};
-pub use crate::pipelines::sky::Phong;
+use crate::scene::{Bvh, Hit};
+pub use crate::sky::Phong;
 
 /// Which ISG model integrates the patches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

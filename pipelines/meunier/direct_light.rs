@@ -15,11 +15,11 @@ use lobefit_tables::mask_weights::{MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
 use lobefit_tables::meunier::{check_scene, LightModel, MaskSettings, Sphere, SphereLight};
 use lobefit_tables::{CapExponent, LoadError, LobeProduct, LookupError, Meunier, MeunierError, Table};
 
-use crate::family::{EvalFlags, Lookup, Query};
-use crate::fits::mask_weights::MaskWeightsFamily;
-use crate::pipelines::scene::visible;
-use crate::quad::gauss_kronrod;
-use crate::rng::Rng;
+use crate::scene::visible;
+use lobefit_core::family::{EvalFlags, Lookup, Query};
+use lobefit_core::quad::gauss_kronrod;
+use lobefit_core::rng::Rng;
+use lobefit_fits::mask_weights::MaskWeightsFamily;
 
 /// Input columns.
 pub const INPUTS: [&str; 14] = [
@@ -546,7 +546,7 @@ pub const STUDY_SEED: u64 = 16;
 /// (all rows, and the partially shadowed ones) in `meunier-direct-light.txt`, and their
 /// distributions as a chart.
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use crate::plot::{line_chart, LineChart, Series};
+    use lobefit_core::plot::{line_chart, LineChart, Series};
     let weights = MaskWeights::embedded().map_err(|e| e.to_string())?;
     let mut text = format!(
         "|E − E_exact| / E_unoccluded over {STUDY_ROWS} seeded scenes (seed {STUDY_SEED}; docs/meunier.md)\n\
@@ -604,7 +604,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     }
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let txt = dir.join("meunier-direct-light.txt");
-    crate::io::write_atomic(&txt, text.as_bytes()).map_err(|e| format!("{}: {e}", txt.display()))?;
+    lobefit_core::io::write_atomic(&txt, text.as_bytes()).map_err(|e| format!("{}: {e}", txt.display()))?;
     let png = line_chart(
         &dir.join("meunier-direct-light.png"),
         &LineChart {

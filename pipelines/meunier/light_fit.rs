@@ -12,8 +12,8 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use lobefit_tables::meunier::cap_irradiance;
 use lobefit_tables::CapExponent;
 
-use crate::fits::mask_weights::gauss_solve;
-use crate::sh::gauss_legendre;
+use lobefit_core::sh::gauss_legendre;
+use lobefit_fits::mask_weights::gauss_solve;
 
 /// Lobes per light the study tries.
 pub const MAX_LOBES: usize = 3;

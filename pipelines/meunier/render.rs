@@ -19,12 +19,12 @@ use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
 
 use super::light_fit;
-use crate::pipelines::estimate::{estimate, Estimate};
-use crate::pipelines::image::{compare, masked, mean_over, panel, write_comparison};
-use crate::pipelines::scene::{brdf_value, visible, Hit, Scene};
-use crate::pipelines::timing::{timed, EqualError};
-use crate::pipelines::{RenderOptions, Summary};
-use crate::plot::{heatmaps, line_chart, LineChart, Series};
+use crate::estimate::{estimate, Estimate};
+use crate::image::{compare, masked, mean_over, panel, write_comparison};
+use crate::scene::{brdf_value, visible, Hit, Scene};
+use crate::timing::{timed, EqualError};
+use crate::{RenderOptions, Summary};
+use lobefit_core::plot::{heatmaps, line_chart, LineChart, Series};
 
 /// Seed of the reference's per-pixel light samples.
 pub const MC_SEED: u64 = 0x5eed_0013;
@@ -231,7 +231,7 @@ fn breakdown(
         .acos()
         .max(alpha * 1.001)
         .min(PI / 2.0 + alpha);
-    let (gx, gw) = crate::sh::gauss_legendre(48);
+    let (gx, gw) = lobefit_core::sh::gauss_legendre(48);
     let nphi = 160;
     let (u, v) = lcap.axis.any_orthonormal_pair();
     let mut out = Parts {

@@ -17,11 +17,11 @@ use lobefit_tables::Meunier;
 use rayon::prelude::*;
 
 use super::render::reference_with;
-use crate::pipelines::image::compare;
-use crate::pipelines::scene::{parse, Hit, Scene};
-use crate::pipelines::timing::{timed, EqualError};
-use crate::plot::{line_chart, LineChart, Series};
-use crate::rng::Rng;
+use crate::image::compare;
+use crate::scene::{parse, Hit, Scene};
+use crate::timing::{timed, EqualError};
+use lobefit_core::plot::{line_chart, LineChart, Series};
+use lobefit_core::rng::Rng;
 
 /// Image width (height 3/4 of it).
 pub const WIDTH: usize = 64;
@@ -176,7 +176,7 @@ pub fn measure(scene: &Scene, width: usize, spp: usize) -> Result<Row, String> {
             hits.par_iter()
                 .enumerate()
                 .map(|(p, o)| match o {
-                    None => crate::pipelines::estimate::estimate(0, 0, |_| 0.0),
+                    None => crate::estimate::estimate(0, 0, |_| 0.0),
                     Some(hit) => reference_with(scene, &light, hit, spp, super::render::MC_SEED ^ p as u64, bvh),
                 })
                 .collect::<Vec<_>>()
@@ -186,7 +186,7 @@ pub fn measure(scene: &Scene, width: usize, spp: usize) -> Result<Row, String> {
     let (_, t_scan) = mc(SPP_SCAN, false);
     let reference: Vec<f64> = refs.iter().map(|e| e.mean).collect();
     let st = compare(&all, &reference, &lit);
-    let mean = crate::pipelines::image::mean_over(&reference, &lit);
+    let mean = crate::image::mean_over(&reference, &lit);
     let se: Vec<f64> = refs.iter().map(|e| e.std_error).collect();
     let eq = EqualError::from_estimates(t_all, t_bvh, &refs, &lit, spp, st.rel_rmse * mean);
     let per_sample_scan = t_scan / (pixels.max(1) * SPP_SCAN) as f64;
@@ -196,7 +196,7 @@ pub fn measure(scene: &Scene, width: usize, spp: usize) -> Result<Row, String> {
         spheres: scene.spheres.len(),
         pixels,
         rmse: st.rel_rmse,
-        ref_se: crate::pipelines::image::mean_over(&se, &lit) / mean,
+        ref_se: crate::image::mean_over(&se, &lit) / mean,
         lobes_us: [1e6 * t_all / pixels as f64, 1e6 * t_cull / pixels as f64],
         cull_diff,
         mc_sample_us: [1e6 * eq.reference_per_sample, 1e6 * per_sample_scan],
@@ -252,7 +252,7 @@ pub fn plot(dir: &Path) -> Result<Vec<PathBuf>, String> {
     }
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let txt = dir.join("meunier-scaling.txt");
-    crate::io::write_atomic(&txt, text.as_bytes()).map_err(|e| format!("{}: {e}", txt.display()))?;
+    lobefit_core::io::write_atomic(&txt, text.as_bytes()).map_err(|e| format!("{}: {e}", txt.display()))?;
     let png = line_chart(
         &dir.join("meunier-scaling.png"),
         &LineChart {

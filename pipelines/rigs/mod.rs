@@ -20,10 +20,10 @@ use lobefit_tables::rigs::{select_direct, AxisModel, Light, Rig, RigBox, RigMode
 use lobefit_tables::sh::eval_basis;
 use rayon::prelude::*;
 
-use crate::quad::gauss_kronrod;
+use lobefit_core::quad::gauss_kronrod;
 
 pub mod render;
-use crate::rng::Rng;
+use lobefit_core::rng::Rng;
 
 /// Half extents of the car-sized box (m): 4.5 × 1.8 × 1.5.
 pub const CAR_HALF: [f64; 3] = [2.25, 0.9, 0.75];
@@ -468,7 +468,7 @@ const FIGURE_RIGS: [(usize, &str); 6] = [
 /// `lobefit plot rigs`: irradiance on the car's +y side, exact vs rigs
 /// (least squares), and the error maps; prints the comparison table (Markdown).
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use crate::plot::{heatmaps, Heatmap};
+    use lobefit_core::plot::{heatmaps, Heatmap};
     for tol in DIRECT_TOLERANCES {
         println!("{}", markdown(&compare(tol)?));
     }

@@ -17,10 +17,10 @@ use rayon::prelude::*;
 
 use super::{car_box, exact_wrapped, field, rig_configs, scene_lights, shade, surface_points, Receiver};
 use super::{CAR_HALF, FIT_POINTS, RIDGE, TEST_POINTS};
-use crate::pipelines::image::{compare, mean_over, panel, write_pfm};
-use crate::pipelines::scene::Camera;
-use crate::pipelines::timing::timed;
-use crate::pipelines::{Pipeline, RenderOptions, Summary};
+use crate::image::{compare, mean_over, panel, write_pfm};
+use crate::scene::Camera;
+use crate::timing::timed;
+use crate::{Pipeline, RenderOptions, Summary};
 
 /// `lobefit render rigs`.
 pub const PIPELINE: Pipeline = Pipeline {
@@ -290,12 +290,12 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         } else {
             "rigs-fig1-wrap".to_string()
         };
-        let masked = |v: &[f64]| crate::pipelines::image::masked(v, &lit);
+        let masked = |v: &[f64]| crate::image::masked(v, &lit);
         let shown: Vec<_> = images
             .iter()
             .map(|(label, v)| panel(format!("{tag}: {label}"), w, h, &masked(v), "irradiance"))
             .collect();
-        sum.files.push(crate::plot::heatmaps(
+        sum.files.push(lobefit_core::plot::heatmaps(
             &dir.join(format!("{stem}-images.png")),
             &shown,
             4,
@@ -307,12 +307,12 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
                     format!("{tag}: ({label} − exact) / mean exact"),
                     w,
                     h,
-                    &crate::pipelines::image::error_map(v, &exact, &lit, mean),
+                    &crate::image::error_map(v, &exact, &lit, mean),
                     "relative error",
                 )
             })
             .collect();
-        sum.files.push(crate::plot::heatmaps(
+        sum.files.push(lobefit_core::plot::heatmaps(
             &dir.join(format!("{stem}-error.png")),
             &errors,
             4,
@@ -405,7 +405,7 @@ fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
         let shade_all = |f: &(dyn Fn(DVec3) -> Result<[f64; COEFFS], String> + Sync)| {
             timed(|| -> Result<Vec<f64>, String> { test.iter().map(|r| Ok(shade(&f(r.p)?, r.n))).collect() })
         };
-        let rel = |img: &[f64]| crate::pipelines::image::compare(img, &exact, &vec![true; exact.len()]).rel_rmse;
+        let rel = |img: &[f64]| crate::image::compare(img, &exact, &vec![true; exact.len()]).rel_rmse;
         // Every light per point: the per-point SH baseline.
         let (img, t) = shade_all(&|p| field(&lights, disks, p));
         add(0, "every light per point (SH)", rel(&img?), 0.0, t);
@@ -447,18 +447,18 @@ fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
             1e6 * t_point / points,
             per_point
         ));
-        series.push(crate::plot::Series {
+        series.push(lobefit_core::plot::Series {
             name: label.clone(),
             points: errs.iter().enumerate().map(|(f, &e)| (f as f64, e)).collect(),
         });
-        scatter.push(crate::plot::Series {
+        scatter.push(lobefit_core::plot::Series {
             name: label.clone(),
             points: vec![(per_point, sorted[sorted.len() / 2])],
         });
     }
-    sum.files.push(crate::plot::line_chart(
+    sum.files.push(lobefit_core::plot::line_chart(
         &dir.join("rigs-drive-error.png"),
-        &crate::plot::LineChart {
+        &lobefit_core::plot::LineChart {
             title: "irradiance rigs: error per frame as the car drives past the lamps".into(),
             x_label: "frame".into(),
             y_label: "relative RMSE against exact irradiance".into(),
@@ -467,9 +467,9 @@ fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
             series,
         },
     )?);
-    sum.files.push(crate::plot::line_chart(
+    sum.files.push(lobefit_core::plot::line_chart(
         &dir.join("rigs-drive-cost.png"),
-        &crate::plot::LineChart {
+        &lobefit_core::plot::LineChart {
             title: "irradiance rigs: median error against cost (fit shared over the points)".into(),
             x_label: "µs per point per frame".into(),
             y_label: "median relative RMSE".into(),

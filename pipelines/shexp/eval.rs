@@ -8,10 +8,10 @@ use lobefit_tables::glam::DVec3;
 use lobefit_tables::{LoadError, LookupError, ShExp, Table};
 
 use super::shade::{radiance, Settings, Tables};
-use crate::family::{EvalFlags, Lookup, Query};
-use crate::pipelines::scene::Scene;
-use crate::pipelines::sky::{exact_estimate, hit_of_row, Phong, POINT_INPUTS};
-use crate::rng::Rng;
+use crate::scene::Scene;
+use crate::sky::{exact_estimate, hit_of_row, Phong, POINT_INPUTS};
+use lobefit_core::family::{EvalFlags, Lookup, Query};
+use lobefit_core::rng::Rng;
 
 /// `eval --help`'s paragraph.
 pub const EVAL_HELP: &str = "
@@ -43,7 +43,7 @@ impl ShExpShadeView {
             return Err(format!("shexp-shade takes no {f} flag (only --scene, --order)"));
         }
         let path = flags.scene.as_deref().ok_or("shexp-shade needs --scene FILE")?;
-        let scene = crate::pipelines::scene::load(path)?;
+        let scene = crate::scene::load(path)?;
         if scene.environment.is_empty() && scene.sh_environment.is_none() {
             return Err(format!(
                 "scene {}: shexp-shade needs a distant light (environment or sh_environment)",

@@ -59,12 +59,12 @@ mod tests {
 
     use super::shade::{radiance, sh_value, Settings, Tables};
     use super::*;
-    use crate::pipelines::scene::parse;
+    use crate::scene::parse;
 
     /// A scene with the whale's sky, `spheres` and `heightfield` (JSON), diffuse.
     fn scene_with(spheres: &str, heightfield: Option<&str>) -> Scene {
         let whale: serde_json::Value = serde_json::from_str(
-            crate::pipelines::scene::BUILTIN
+            crate::scene::BUILTIN
                 .iter()
                 .find(|(n, _)| *n == "shexp-whale")
                 .unwrap()
@@ -268,7 +268,7 @@ mod tests {
         let b = radiance(&t, &Settings::default(), &light, &brdf, &sgs, &h).unwrap();
         assert_eq!(a, b);
         let ra = reference(&sh, |w| super::light(&sh, w), &brdf, &h, 2000, 3);
-        let rb = crate::pipelines::sky::reference_with(&[], |w| sh_value(&light, w), &brdf, |_| false, &h, 2000, 3);
+        let rb = crate::sky::reference_with(&[], |w| sh_value(&light, w), &brdf, |_| false, &h, 2000, 3);
         assert_eq!(ra.mean, rb.mean);
         // Truncated to order 3 and padded to 5.
         assert_eq!(light_sh(&sh, 3).unwrap(), light[..9].to_vec());

@@ -16,12 +16,12 @@ use rayon::prelude::*;
 
 use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, Exp, Horizon, Settings, Tables};
 use super::{light, light_sh, reference, PIPELINE};
-use crate::pipelines::estimate::{per_pixel, Estimate};
-use crate::pipelines::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_comparison};
-use crate::pipelines::scene::{Hit, Scene};
-use crate::pipelines::sky::Phong;
-use crate::pipelines::timing::{timed, EqualError};
-use crate::pipelines::{RenderOptions, Summary};
+use crate::estimate::{per_pixel, Estimate};
+use crate::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_comparison};
+use crate::scene::{Hit, Scene};
+use crate::sky::Phong;
+use crate::timing::{timed, EqualError};
+use crate::{RenderOptions, Summary};
 
 /// The breakdown subset's reference takes this many times the image's samples.
 pub const PRECISE_FACTOR: usize = 64;
@@ -395,8 +395,7 @@ fn render_scene(
     )?;
     sum.files.extend(files);
     let ideal_pfm = dir.join(format!("shexp-{tag}-sh-ideal.pfm"));
-    sum.files
-        .push(crate::pipelines::image::write_pfm(&ideal_pfm, w, h, &ideal_img)?);
+    sum.files.push(crate::image::write_pfm(&ideal_pfm, w, h, &ideal_img)?);
     sum.rel_rmse = rmse_pipe;
     sum.ref_rel_se = ref_rel_se;
     sum.write(dir, &format!("shexp-{tag}"))?;

@@ -14,9 +14,9 @@ use lobefit_tables::glam::DVec3;
 use lobefit_tables::wedge::slice_log;
 use lobefit_tables::{log_zh, sh as rt, ShExp, Wedge};
 
-use crate::pipelines::scene::{Hit, Scene};
-use crate::pipelines::sky::Phong;
-use crate::sh::{Gaunt, SphereRule};
+use crate::scene::{Hit, Scene};
+use crate::sky::Phong;
+use lobefit_core::sh::{Gaunt, SphereRule};
 
 /// How the height field's horizon is found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -160,7 +160,7 @@ pub fn project_sgs(env: &[lobefit_tables::isg::Sg], order: usize) -> Result<Vec<
     let mut turned = vec![0.0; nc];
     for g in env {
         let (a, l) = (g.amplitude, g.sharpness);
-        let (zh, ok) = crate::sh::zh_project_gk(order, |t| a * (l * (t - 1.0)).exp(), &[], 1e-13);
+        let (zh, ok) = lobefit_core::sh::zh_project_gk(order, |t| a * (l * (t - 1.0)).exp(), &[], 1e-13);
         if !ok {
             return Err(format!("the projection of an SG of sharpness {l} did not converge"));
         }
@@ -245,7 +245,7 @@ pub fn exponentiate(t: &Tables, mode: Exp, f: &[f64]) -> Result<Vec<f64>, String
         }
         Exp::Exact => {
             let n = rt::order_of_len(f.len()).map_err(|e| e.to_string())?;
-            let r = crate::sh::exp_star(Gaunt::cached(n).map_err(|e| e.to_string())?, f);
+            let r = lobefit_core::sh::exp_star(Gaunt::cached(n).map_err(|e| e.to_string())?, f);
             if !r.converged {
                 return Err("exp* of the log visibility did not converge".into());
             }

@@ -47,8 +47,8 @@ impl ShaderLang {
 
 /// The stub entry point appended for translation; its lines are removed afterwards.
 const STUB_NAME: &str = "lf_library_stub";
-pub(crate) const STUB: &str =
-    "\n@fragment\nfn lf_library_stub() -> @location(0) vec4<f32> {\n    return vec4<f32>(0.0);\n}\n";
+/// The WGSL of the stub entry point (`export --shaders` translates the library with it).
+pub const STUB: &str = "\n@fragment\nfn lf_library_stub() -> @location(0) vec4<f32> {\n    return vec4<f32>(0.0);\n}\n";
 
 /// The library parsed and validated by naga (with the stub entry point).
 pub fn module() -> Result<(naga::Module, naga::valid::ModuleInfo), String> {

@@ -7,7 +7,6 @@ pub mod formats;
 pub mod gpu_check;
 pub mod layout;
 pub mod manifest;
-pub mod run;
 pub mod shaders;
 
 use std::fmt;

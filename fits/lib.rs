@@ -18,8 +18,8 @@ pub mod wrap;
 
 use std::path::{Path, PathBuf};
 
-use crate::export::families::{ClosedForm, GpuFamily};
-use crate::family::{EvalFlags, Fit, Query};
+use lobefit_core::export::families::{ClosedForm, GpuFamily};
+use lobefit_core::family::{EvalFlags, Fit, Query};
 
 /// Optimizer backend for families fitted by a 1-D minimiser.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

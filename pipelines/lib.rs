@@ -28,8 +28,8 @@ pub mod timing;
 
 use std::path::{Path, PathBuf};
 
-use crate::family::{EvalFlags, Query};
-use crate::fits::PlotFn;
+use lobefit_core::family::{EvalFlags, Query};
+use lobefit_fits::PlotFn;
 
 /// Most Monte Carlo samples (pixels × samples per pixel) one image may take: 14 times
 /// the default 160 × 120 × 1024 (a render scales linearly in it).
@@ -66,7 +66,7 @@ impl Summary {
     pub fn write(&mut self, dir: &Path, stem: &str) -> Result<(), String> {
         let text: String = self.lines.iter().map(|l| format!("{l}\n")).collect();
         let path = dir.join(format!("{stem}-summary.txt"));
-        crate::io::write_atomic(&path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
+        lobefit_core::io::write_atomic(&path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
         self.files.push(path);
         Ok(())
     }

@@ -9,7 +9,7 @@ use lobefit_tables::{Axis, Channel, LoadError, LookupError, Table};
 use crate::rng::Rng;
 
 /// Family-specific flags of `lobefit eval`. Each family reads the ones it
-/// documents; [`crate::fits::for_eval`] rejects a flag the family does not take.
+/// documents; `lobefit_fits::for_eval` rejects a flag the family does not take.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct EvalFlags {
     /// `--variant` (lobe-product: `energy` | `l2`).

@@ -1,7 +1,7 @@
 //! What a family's GPU export is made of ([`GpuFamily`]): each family's lives in its
 //! folder, `fits/<family>/gpu.rs` (its textures, the f32 formulas a shader applies to
 //! the samples, the conformance kernel's body), and is listed by the family's entry
-//! (`crate::fits::textured`, `crate::fits::closed_form`). This module names no family.
+//! (`lobefit_fits::textured`, `lobefit_fits::closed_form`). This module names no family.
 
 use lobefit_tables::{LookupError, Table};
 
