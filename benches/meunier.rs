@@ -9,9 +9,10 @@
 use divan::black_box;
 use lobefit::pipelines::meunier::direct_light::exact_irradiance;
 use lobefit::pipelines::scene::visible;
+use lobefit::tables::geom::{Sphere, SphereLight};
 use lobefit::tables::glam::DVec3;
 use lobefit::tables::mask_weights::{build_mask, Cap};
-use lobefit::tables::meunier::{LightModel, MaskSettings, Sphere, SphereLight};
+use lobefit::tables::meunier::{LightModel, MaskSettings};
 use lobefit::tables::Meunier;
 
 fn main() {

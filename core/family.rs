@@ -1,7 +1,7 @@
 //! The two traits a table family implements: [`Fit`] (build a table) and [`Query`]
 //! (query and check it). `build-tables` is written once against the first;
 //! `check`, `eval` and `export` against the second. A new family is one module in
-//! `fits/` plus one line in the registry (`fits/mod.rs`).
+//! `fits/` plus one line in the registry (`fits/lib.rs`).
 
 use lobefit_tables::format::Threshold;
 use lobefit_tables::{Axis, Channel, LoadError, LookupError, Table};

@@ -14,9 +14,9 @@
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
 
+pub use lobefit_tables::geom::{Brdf, LafortuneLobe, Sphere, SphereLight};
 use lobefit_tables::glam::DVec3;
 pub use lobefit_tables::isg::Sg;
-pub use lobefit_tables::meunier::{Brdf, LafortuneLobe, Sphere, SphereLight};
 use serde::Deserialize;
 
 pub use super::heightfield::HeightField;

@@ -4,9 +4,9 @@
 
 use std::f64::consts::{PI, TAU};
 
+use lobefit_tables::geom::{Brdf, Sphere};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::isg::Sg;
-use lobefit_tables::meunier::{Brdf, Sphere};
 use lobefit_tables::LookupError;
 
 use super::estimate::{estimate, Estimate};

@@ -9,7 +9,7 @@
 //! truncated where log-concavity bounds the integrand below e^{−50}.
 //!
 //! The checker's reference ([`reference`]) shares none of this: it integrates with the
-//! Gauss–Kronrod rule of `src/quad.rs` (W(E) included, no Γ function), finds peaks by
+//! Gauss–Kronrod rule of `core/quad.rs` (W(E) included, no Γ function), finds peaks by
 //! bisection, and minimises by golden-section search. The separation of variables
 //! itself is verified against a plain 2-D quadrature in spherical coordinates (tests).
 

@@ -26,9 +26,10 @@ use std::path::Path;
 use lobefit::export::layout::Filter;
 use lobefit::export::{manifest::TextureEntry, Texture};
 use lobefit::pipelines::scene::{Hit, Scene};
+use lobefit_tables::geom::{Brdf, LafortuneLobe, Sphere, SphereLight};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{MaskMode, WeightSet};
-use lobefit_tables::meunier::{Brdf, LafortuneLobe, LightModel, MaskSettings, Sphere, SphereLight};
+use lobefit_tables::meunier::{LightModel, MaskSettings};
 use lobefit_tables::{CapExponent, LobeProduct, MaskWeights, Meunier};
 
 use crate::conformance::Export;

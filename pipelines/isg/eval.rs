@@ -2,9 +2,9 @@
 //! [--exact]`: the ISG pipeline at given points (no image). The scene file gives the
 //! environment, the spheres (every sphere occludes) and the top-level `brdf`.
 
+use lobefit_tables::geom::Sphere;
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::isg::Sg;
-use lobefit_tables::meunier::Sphere;
 use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Tables};

@@ -11,9 +11,9 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
+use lobefit_tables::geom::Sphere;
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, GAMMA_MAX, GAMMA_MIN};
-use lobefit_tables::meunier::Sphere;
 use lobefit_tables::SgFit;
 
 use crate::scene::{Bvh, Hit};

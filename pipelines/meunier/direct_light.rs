@@ -10,9 +10,10 @@
 use std::f64::consts::{FRAC_PI_2, TAU};
 
 use lobefit_tables::format::Threshold;
+use lobefit_tables::geom::{Sphere, SphereLight};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
-use lobefit_tables::meunier::{check_scene, LightModel, MaskSettings, Sphere, SphereLight};
+use lobefit_tables::meunier::{check_scene, LightModel, MaskSettings};
 use lobefit_tables::{CapExponent, LoadError, LobeProduct, LookupError, Meunier, MeunierError, Table};
 
 use crate::scene::visible;

@@ -12,9 +12,10 @@
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
 
+use lobefit_tables::geom::SphereLight;
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{build_mask, Cap, MaskMode, WeightSet};
-use lobefit_tables::meunier::{LightModel, MaskSettings, SphereLight};
+use lobefit_tables::meunier::{LightModel, MaskSettings};
 use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
 

@@ -12,7 +12,9 @@
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 
-use lobefit_tables::meunier::{MaskSettings, Sphere, SphereLight};
+use lobefit_tables::meunier::MaskSettings;
+
+use lobefit_tables::geom::{Sphere, SphereLight};
 use lobefit_tables::Meunier;
 use rayon::prelude::*;
 

@@ -40,6 +40,7 @@
 //! | disk-light | [`DiskLight`] | SH radiance and irradiance of a disk light |
 //! | mask-weights | [`MaskWeights`] ([`meunier`]: the pipeline) | eq. 39's per-depth weights of visibility-mask leaf lobes; direct lighting with soft shadows from sphere blockers |
 //! | (no table) | [`rigs`], [`sh`], [`gaunt`] | irradiance rigs; SH basis, rotation, products |
+//! | (no table) | [`geom`] | the scene types every pipeline shares: spheres, spherical lights, BRDFs of cosine lobes |
 //! | every table | [`Table`], [`format`](mod@format) | loading, validation, interpolation, the file format |
 //!
 //! Each family type loads its committed table with `embedded()` (cargo feature
@@ -61,8 +62,8 @@
 //!   [`SgFit`], [`Wedge`], [`Wrap`]); a family with several models prefixes the model
 //!   ([`RefitIsg`], [`BestIsg`]).
 //! - **f32 twins**: a function's twin is `<name>_f32` (f32 in and out, computed in f64
-//!   and rounded once); a value type's twin is `<Type>32` ([`Lobe32`], [`ProductParams32`],
-//!   [`Sg32`], [`meunier::Sphere32`]).
+//!   and rounded once); a value type's twin is `<Type>32` ([`Lobe32`], [`lobe_product::ProductParams32`],
+//!   [`Sg32`], [`geom::Sphere32`]).
 //! - **`embedded()`** returns `Result<&'static Self, LoadError>`: parsed and validated
 //!   once, shared afterwards ([`Meunier::embedded`] too).
 //! - **Argument order**: the selectors first (which table, kind, order, variant), then
@@ -71,7 +72,7 @@
 //! - **Errors**: a lookup's bad input is a [`LookupError`] naming the input; a file's, a
 //!   [`LoadError`]; a pipeline's error carries what a table refused as the lookup's
 //!   error ([`MeunierError::Lookup`]).
-//! - **One quadrature of each kind**: Gauss–Legendre is [`gaunt::gauss_legendre`]
+//! - **One quadrature of each kind**: Gauss–Legendre is `gaunt::gauss_legendre`
 //!   (feature `writer`), shared by the fitter and its checks.
 //!
 //! ## Cargo features
@@ -157,6 +158,7 @@ pub mod disk_light;
 pub mod error;
 pub mod format;
 pub mod gaunt;
+pub mod geom;
 pub mod isg;
 pub mod lobe_integral;
 pub mod lobe_product;

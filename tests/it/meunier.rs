@@ -7,9 +7,10 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use lobefit::fits::mask_weights::random_config;
 use lobefit::pipelines::meunier::direct_light::{exact_irradiance, study, unoccluded_closed_form};
 use lobefit::rng::Rng;
+use lobefit_tables::geom::{Sphere, Sphere32, SphereLight, SphereLight32};
 use lobefit_tables::glam::{DVec3, Vec3};
 use lobefit_tables::mask_weights::{build_mask, channel_names, Cap, MaskMode, MaskWeights, WeightSet};
-use lobefit_tables::meunier::{LightModel, MaskSettings, Sphere, Sphere32, SphereLight, SphereLight32};
+use lobefit_tables::meunier::{LightModel, MaskSettings};
 use lobefit_tables::{format, LookupError, Meunier, MeunierError, Table};
 
 /// The paper's light model (one lobe per light), the default's other settings.
@@ -436,7 +437,7 @@ fn pipeline_against_exact_visibility() {
 #[test]
 fn lafortune_lobes_equal_the_definition() {
     use lobefit::pipelines::scene::{brdf_value, Hit};
-    use lobefit_tables::meunier::{Brdf, LafortuneLobe};
+    use lobefit_tables::geom::{Brdf, LafortuneLobe};
     let brdf = Brdf::Lafortune {
         albedo: 0.3,
         lobes: vec![
