@@ -178,7 +178,7 @@ pub fn hit_box(eye: DVec3, d: DVec3) -> Option<Receiver> {
 pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
     match name {
         "fig1" => {}
-        "drive" => return drive(dir, progress),
+        "drive" => return drive(dir, FRAMES, progress),
         _ => {
             return Err(format!(
                 "render rigs: unknown scene {name} (fig1: Figure 1's panels; drive: the animated pass)"
@@ -369,11 +369,17 @@ pub fn lights_at(x: f64) -> Vec<Light> {
 }
 
 /// The animated pass: the car drives from x = −9 to +9 m past the lamps in
-/// [`FRAMES`] frames; per frame every Figure 1 rig is refitted and the error-driven
+/// `frames` frames ([`FRAMES`] for `render rigs --scene drive`; ≥ 2: the first and last
+/// at x = ∓9 m); per frame every Figure 1 rig is refitted and the error-driven
 /// split re-chosen, each measured against the exact irradiance on the harness's 800
 /// test points, and timed (fit per frame; per point: reconstruction, the split's
 /// per-point lights, and every light per point).
-fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
+pub fn drive(dir: &Path, frames: usize, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
+    if frames < 2 {
+        return Err(format!(
+            "render rigs drive: {frames} frames (at least 2: the pass's ends)"
+        ));
+    }
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let disks = DiskLight::embedded().map_err(|e| e.to_string())?;
     let test = surface_points(TEST_POINTS, 0x7e57);
@@ -390,8 +396,8 @@ fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
         m.2 += t_fit;
         m.3 += t_point;
     };
-    for frame in 0..FRAMES {
-        let x = -DRIVE_X + 2.0 * DRIVE_X * frame as f64 / (FRAMES - 1) as f64;
+    for frame in 0..frames {
+        let x = -DRIVE_X + 2.0 * DRIVE_X * frame as f64 / (frames - 1) as f64;
         let lights = lights_at(x);
         let exact: Vec<f64> = test
             .par_iter()
@@ -428,9 +434,9 @@ fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
         ));
         progress();
     }
-    let points = TEST_POINTS as f64 * FRAMES as f64;
+    let points = TEST_POINTS as f64 * frames as f64;
     sum.lines.push(format!(
-        "drive: {FRAMES} frames, {TEST_POINTS} points a frame; relative RMSE against exact irradiance over the frames (min, median, max), fit ms per frame, µs per point (one thread, one run, same process):"
+        "drive: {frames} frames, {TEST_POINTS} points a frame; relative RMSE against exact irradiance over the frames (min, median, max), fit ms per frame, µs per point (one thread, one run, same process):"
     ));
     let mut series = Vec::new();
     let mut scatter = Vec::new();
@@ -443,7 +449,7 @@ fn drive(dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
             sorted[0],
             sorted[sorted.len() / 2],
             sorted[sorted.len() - 1],
-            1e3 * t_fit / FRAMES as f64,
+            1e3 * t_fit / frames as f64,
             1e6 * t_point / points,
             per_point
         ));

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# The studies behind docs/ figures, at full size. They measure (times, errors against
+# Monte Carlo) and check nothing, so CI does not run them; their code paths are
+# exercised by the test suite at tiny sizes (tests/it/render_meunier.rs,
+# tests/it/render_rigs.rs).
+# Usage: bash scripts/studies.sh [OUT]   (default plots/; builds the release binary first)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=${1:-plots}
+cargo build --release -q
+bin=target/release/lobefit
+run() { printf '\n== %s\n' "$*" >&2; "$@"; }
+# Meunier: 1–1024 sphere blockers, lobes against Monte Carlo at equal error
+# (docs/meunier.md, "Blocker scaling").
+run $bin plot meunier-scaling --out "$out/meunier"
+# Irradiance rigs: the 24-frame drive past the lamps (docs/rigs.md, "--scene drive").
+run $bin render rigs --scene drive --out "$out/rigs"
+# The direct-light study and the rigs' figures.
+run $bin plot meunier --out "$out/meunier"
+run $bin plot rigs --out "$out/rigs"
