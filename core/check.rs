@@ -6,7 +6,7 @@
 //! Every node is verified in `--quick` too, so a single corrupted node cannot hide
 //! between strided samples: by the family's pointwise check, or (where that costs too
 //! much for every node) by cheaper, still independent per-node sections of
-//! [`Query::extra_checks`] (see [`Query::nodes_in_extras`]).
+//! [`Checked::extra_checks`] (see [`Checked::nodes_in_extras`]).
 
 use std::path::Path;
 
@@ -15,7 +15,7 @@ use serde::{Deserialize, Deserializer, Serialize};
 
 use lobefit_tables::Table;
 
-use crate::family::{Extra, F32Twin, Lookup, Query};
+use crate::family::{Checked, Extra, F32Twin, Lookup};
 use crate::rng::Rng;
 
 /// Checker settings.
@@ -26,7 +26,7 @@ pub struct CheckOptions {
     /// Seed of the off-grid sample (the same seed gives the same points).
     pub seed: u64,
     /// Grid nodes given the full pointwise check in families that verify every node
-    /// in cheaper per-node sections ([`Query::nodes_in_extras`]): an evenly strided
+    /// in cheaper per-node sections ([`Checked::nodes_in_extras`]): an evenly strided
     /// subset of about this many. Every other family checks every node.
     pub grid_limit: usize,
 }
@@ -242,7 +242,7 @@ pub fn rel_err(got: f64, want: f64) -> f64 {
 }
 
 /// A quantity the family promises nothing about at this point: both values NaN (see
-/// [`Query::check_point`]). A NaN from the runtime alone is an error, never skipped.
+/// [`Checked::check_point`]). A NaN from the runtime alone is an error, never skipped.
 fn no_promise(got: f64, want: f64) -> bool {
     got.is_nan() && want.is_nan()
 }
@@ -255,7 +255,7 @@ fn gcd(mut a: usize, mut b: usize) -> usize {
 }
 
 /// Checks one family's table file.
-pub fn check_family(family: &dyn Query, path: &Path, opts: CheckOptions) -> FamilyReport {
+pub fn check_family(family: &dyn Checked, path: &Path, opts: CheckOptions) -> FamilyReport {
     let mut report = FamilyReport {
         kind: family.kind().to_string(),
         file: path.display().to_string(),
@@ -494,7 +494,7 @@ fn pair_report(output: String, grid: &[(f64, f64)], offgrid: &[(f64, f64)]) -> O
 /// The family's off-grid threshold metrics of one output from its pointwise absolute
 /// and relative errors: (metric, measured, limit) for each of `output`'s `offgrid.*`
 /// thresholds, measured the way `lobefit check` measures them.
-pub fn offgrid_metrics(family: &dyn Query, output: &str, abs: Vec<f64>, rel: Vec<f64>) -> Vec<(String, f64, f64)> {
+pub fn offgrid_metrics(family: &dyn Checked, output: &str, abs: Vec<f64>, rel: Vec<f64>) -> Vec<(String, f64, f64)> {
     let report = OutputReport {
         output: output.to_string(),
         grid_abs: Stats::of(Vec::new()),

@@ -1,7 +1,8 @@
-//! The two traits a table family implements: [`Fit`] (build a table) and [`Query`]
-//! (query and check it). `build-tables` is written once against the first;
-//! `check`, `eval` and `export` against the second. A new family is one module in
-//! `fits/` plus one line in the registry (`fits/lib.rs`).
+//! The traits a table family implements, each on top of the one before: [`View`]
+//! (evaluate it: `lobefit eval`), [`Checked`] (hold it to its promises: `check`,
+//! `export`) and [`Fit`] (build it: `build-tables`). A pipeline's eval view implements
+//! [`View`] alone. A new family is one module in `fits/` plus one line in the registry
+//! (`fits/lib.rs`).
 
 use lobefit_tables::format::Threshold;
 use lobefit_tables::{Axis, Channel, LoadError, LookupError, Table};
@@ -77,7 +78,7 @@ impl EvalFlags {
     }
 }
 
-/// One extra checker section (see [`Query::extra_checks`]).
+/// One extra checker section (see [`Checked::extra_checks`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Extra {
     /// (runtime value, reference value) pairs: reported as absolute and relative errors.
@@ -87,7 +88,7 @@ pub enum Extra {
     Values(Vec<f64>),
     /// (runtime value, reference value) pairs at grid nodes: reported as the grid
     /// errors of an output of this name (the per-node sections of
-    /// [`Query::nodes_in_extras`]).
+    /// [`Checked::nodes_in_extras`]).
     Nodes(Vec<(f64, f64)>),
 }
 
@@ -106,7 +107,7 @@ pub struct Fitted {
 
 /// The runtime lookup a family is checked through: the runtime crate's own API.
 pub trait Lookup: Sync {
-    /// Output columns (see [`Query::outputs`]) at the input point `x`.
+    /// Output columns (see [`View::outputs`]) at the input point `x`.
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError>;
     /// The same through the runtime's `_f32` twins: inputs `x` (already
     /// f32-representable) passed as f32, outputs widened. `None` where the family has
@@ -116,7 +117,7 @@ pub trait Lookup: Sync {
     }
 }
 
-/// A runtime whose [`Lookup::lookup`] is its f32 twin: [`Query::check_point`] run
+/// A runtime whose [`Lookup::lookup`] is its f32 twin: [`Checked::check_point`] run
 /// through it checks the twin with the family's own rules.
 pub struct F32Twin<'a>(pub &'a dyn Lookup);
 
@@ -129,28 +130,27 @@ impl Lookup for F32Twin<'_> {
     }
 }
 
-/// Querying and checking a table: what `check`, `eval` and `export` need. The eval
-/// views that only read a family's table (`wedge --order N`, `direct-light`)
-/// implement this trait alone.
-pub trait Query: Sync {
-    /// Table kind, file stem and CLI name, e.g. `"cap-exponent"`.
+/// What `lobefit eval NAME` evaluates: input and output columns, the runtime lookup
+/// over a table, and an independent answer for `--exact`. Every family implements it
+/// (through [`Checked`]); so do the eval views that only read tables (`wedge --order
+/// N`, and the pipelines' `direct-light`, `isg-shade`, `shexp-shade`), which promise
+/// nothing the checker could hold them to.
+pub trait View: Sync {
+    /// Table kind, file stem and CLI name, e.g. `"cap-exponent"` (for a pipeline's
+    /// view: the kind of the table `eval --table FILE` replaces).
     fn kind(&self) -> &'static str;
-    /// Accuracy promises: written into the file at build, enforced by the checker
-    /// (from here, not from the file, so a file cannot switch its check off).
-    fn thresholds(&self) -> Vec<Threshold>;
-    /// Input columns of `lobefit eval` (and of [`Query::reference`]).
+    /// Input columns of `lobefit eval` (and of [`View::reference`]).
     fn inputs(&self) -> &'static [&'static str];
     /// Output columns of `lobefit eval`.
     fn outputs(&self) -> &'static [&'static str];
-    /// The committed default table compiled into the runtime crate.
+    /// The committed default table of [`View::kind`], compiled into the runtime crate.
     fn embedded(&self) -> &'static [u8];
-    /// Wraps a loaded table in the runtime crate's lookup for this family.
+    /// Wraps a loaded table in the runtime crate's lookup for this view.
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError>;
-    /// Independent reference (closed form or adaptive quadrature, never the fit's own
-    /// numerics) of the outputs at `x`. Errors name an out-of-domain input.
+    /// Independent reference (closed form, adaptive quadrature or converged Monte
+    /// Carlo; never the fit's own numerics) of the outputs at `x`. Errors name an
+    /// out-of-domain input.
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String>;
-    /// A random input point of the domain, for the checker's off-grid test.
-    fn sample(&self, rng: &mut Rng) -> Vec<f64>;
     /// A caveat `lobefit eval` prints (to stderr, once per kind, with the number of
     /// rows) where the lookup at `x` is known to be less accurate than the family's
     /// promise, e.g. outside the range its error was measured on. Default: none.
@@ -161,6 +161,16 @@ pub trait Query: Sync {
     fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         self.reference(x)
     }
+}
+
+/// A table the checker holds to its promises: what `check` and `export` need on top
+/// of the [`View`]. Families implement it; views do not.
+pub trait Checked: View {
+    /// Accuracy promises: written into the file at build, enforced by the checker
+    /// (from here, not from the file, so a file cannot switch its check off).
+    fn thresholds(&self) -> Vec<Threshold>;
+    /// A random input point of the domain, for the checker's off-grid test.
+    fn sample(&self, rng: &mut Rng) -> Vec<f64>;
     /// Names of the quantities the checker compares (default: the eval outputs).
     fn checked(&self) -> &'static [&'static str] {
         self.outputs()
@@ -172,10 +182,10 @@ pub trait Query: Sync {
         vec![node.to_vec()]
     }
     /// The checker's comparison at `x`: (runtime values, reference values) of
-    /// [`Query::checked`], or `None` where the family promises nothing (e.g. a
+    /// [`Checked::checked`], or `None` where the family promises nothing (e.g. a
     /// product too small to matter); a quantity whose runtime and reference values
     /// are both NaN is promised nothing at `x` alone (a NaN on one side only is an
-    /// error). Default: the lookup against [`Query::reference`].
+    /// error). Default: the lookup against [`View::reference`].
     #[allow(clippy::type_complexity)]
     fn check_point(&self, runtime: &dyn Lookup, x: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>, String> {
         let got = runtime.lookup(x).map_err(|e| format!("lookup at {x:?}: {e}"))?;
@@ -188,8 +198,8 @@ pub trait Query: Sync {
     fn extra_checks(&self, _table: &Table, _count: usize, _seed: u64) -> Vec<(String, Result<Extra, String>)> {
         Vec::new()
     }
-    /// Whether [`Query::extra_checks`] verifies every grid node with sections
-    /// cheaper than [`Query::check_point`] (which then runs on an evenly strided
+    /// Whether [`Checked::extra_checks`] verifies every grid node with sections
+    /// cheaper than [`Checked::check_point`] (which then runs on an evenly strided
     /// subset of nodes). Default `false`: `check_point` at every node.
     fn nodes_in_extras(&self) -> bool {
         false
@@ -198,8 +208,8 @@ pub trait Query: Sync {
 
 /// Building a table: its grid and stored channels, how each node is fitted, and what
 /// the file records about the fit. `build-tables` needs only this (and the
-/// [`Query::kind`] and [`Query::thresholds`] it writes into the file).
-pub trait Fit: Query {
+/// [`View::kind`] and [`Checked::thresholds`] it writes into the file).
+pub trait Fit: Checked {
     /// The family's table version (bumped when layout or meaning changes).
     fn version(&self) -> u32;
     /// What the table holds and how to use it (stored in the file).

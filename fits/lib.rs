@@ -19,7 +19,7 @@ pub mod wrap;
 use std::path::{Path, PathBuf};
 
 use lobefit_core::export::families::{ClosedForm, GpuFamily};
-use lobefit_core::family::{EvalFlags, Fit, Query};
+use lobefit_core::family::{EvalFlags, Fit, View};
 
 /// Optimizer backend for families fitted by a 1-D minimiser.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -94,7 +94,7 @@ pub struct Entry {
 }
 
 /// A family's `lobefit eval` query for a name and flags (see [`Entry::eval`]).
-pub type EvalFn = fn(&str, &EvalFlags, FitOptions) -> Result<Box<dyn Query>, String>;
+pub type EvalFn = fn(&str, &EvalFlags, FitOptions) -> Result<Box<dyn View>, String>;
 
 /// Every family, in build order: the only list.
 pub fn entries() -> [Entry; 11] {
@@ -139,7 +139,7 @@ pub fn eval_names() -> Vec<&'static str> {
 
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
 /// Errors name the flag a family does not take or the value it does not know.
-pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Query>, String> {
+pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn View>, String> {
     let owns = |e: &Entry| e.eval_names.contains(&name) || (e.tables)(opts).iter().any(|f| f.kind() == name);
     let entry = entries()
         .into_iter()
@@ -152,7 +152,7 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
 }
 
 /// `name`'s table as built, refusing every flag (the default of [`Entry::eval`]).
-pub fn without_flags(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Query>, String> {
+pub fn without_flags(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn View>, String> {
     let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
     if let Some(flag) = flags.given().first() {
         return Err(format!("{name} takes no {flag} flag"));

@@ -28,7 +28,7 @@ pub mod timing;
 
 use std::path::{Path, PathBuf};
 
-use lobefit_core::family::{EvalFlags, Query};
+use lobefit_core::family::{EvalFlags, View};
 use lobefit_fits::PlotFn;
 
 /// Most Monte Carlo samples (pixels × samples per pixel) one image may take: 14 times
@@ -107,7 +107,7 @@ impl Pipeline {
 }
 
 /// A pipeline's query for `lobefit eval NAME [flags]` (the pipeline without images).
-pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn Query>, String>;
+pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn View>, String>;
 
 /// A pipeline's `lobefit eval` name, its paragraph of `eval --help`, its query.
 pub type EvalView = (&'static str, &'static str, EvalFn);

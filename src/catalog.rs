@@ -2,7 +2,7 @@
 //! sets (`fits/`) together with the pipelines' (`pipelines/`). It sits above both, so
 //! neither `fits` nor `pipelines` needs to know the other's list.
 
-use crate::family::{EvalFlags, Query};
+use crate::family::{EvalFlags, View};
 use crate::fits::{self, FitOptions, PlotFn};
 use crate::pipelines;
 
@@ -16,7 +16,7 @@ pub fn eval_names() -> Vec<&'static str> {
 
 /// The query `lobefit eval NAME [flags]` runs, configured by its flags; errors name
 /// the flag a query does not take or the value it does not know.
-pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn Query>, String> {
+pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn View>, String> {
     match pipelines::eval_views().into_iter().find(|(n, _, _)| *n == name) {
         Some((_, _, view)) => view(flags),
         None => fits::for_eval(name, flags, opts),

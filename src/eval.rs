@@ -6,7 +6,7 @@
 
 use std::io::{BufRead, BufReader, BufWriter, Read, Seek, Write};
 
-use crate::family::{Lookup, Query};
+use crate::family::{Lookup, View};
 
 /// Output held in memory before the spool moves to a temporary file.
 pub const SPOOL_MEMORY: usize = 4 << 20;
@@ -58,7 +58,7 @@ pub enum EvalError {
 /// skipped, no quoting, lines of at most [`MAX_LINE_LEN`] bytes. Line numbers in
 /// errors are physical lines of the input; the first bad line is reported.
 pub fn eval_csv(
-    family: &dyn Query,
+    family: &dyn View,
     lookup: Option<&dyn Lookup>,
     input: impl Read,
     mut output: impl Write,
@@ -150,7 +150,7 @@ pub fn eval_csv(
 }
 
 /// What [`eval_csv`] did: rows written, and the caveats of rows where the family's
-/// answer is known to be less accurate ([`Query::caveat`]).
+/// answer is known to be less accurate ([`View::caveat`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Evaluated {
     /// Rows evaluated.

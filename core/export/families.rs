@@ -142,7 +142,7 @@ pub fn table_grid(kind: &str, table: &Table, storage: Storage, scale: f64) -> Re
 }
 
 /// A family's runtime lookup as a GPU computes it from exported textures: the checker
-/// runs the family's own comparison (`Query::check_point`) through it.
+/// runs the family's own comparison (`Checked::check_point`) through it.
 pub struct Emulated<'a> {
     /// The family's GPU glue.
     pub family: GpuFamily,

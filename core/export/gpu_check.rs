@@ -9,7 +9,7 @@ use crate::check::offgrid_metrics;
 use crate::export::layout::{Filter, Sampler};
 use crate::export::manifest::{FamilyEntry, TextureEntry};
 use crate::export::Storage;
-use crate::family::Query;
+use crate::family::Checked;
 use crate::rng::Rng;
 
 /// GPU against the CPU emulation of the same texture and filter (or, for closed
@@ -149,7 +149,7 @@ pub trait Runner {
 /// What a textured family's check sees: the family, its export and the filter.
 pub struct Context<'a> {
     /// The family's queries and reference.
-    pub family: &'a dyn Query,
+    pub family: &'a dyn Checked,
     /// Its manifest entry (the promises).
     pub entry: &'a FamilyEntry,
     /// Its textures as exported, in `grids` order.
@@ -227,7 +227,7 @@ pub fn r32(v: f64) -> f64 {
 pub fn closed_row(
     runner: &dyn Runner,
     name: &str,
-    family: &dyn Query,
+    family: &dyn Checked,
     body: &str,
     cpu: &dyn Fn(&[f64]) -> Vec<f64>,
     samples: usize,

@@ -28,7 +28,7 @@ use lobefit_tables::format::Threshold;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Mapping, Table};
 
 use crate::{Backend, Method};
-use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::{adaptive_simpson, gauss_kronrod, illinois};
 use lobefit_core::rng::Rng;
 use lobefit_tables::error::short;
@@ -53,7 +53,7 @@ const NLOPT_XTOL: f64 = 1e-11;
 const REF_QUAD_TOL: f64 = 1e-11;
 /// Tolerance on q of the reference root.
 const REF_ROOT_TOL: f64 = 1e-13;
-/// Within this of π/2, `exact` returns the limit q = 1/2 (see `Query::exact`).
+/// Within this of π/2, `exact` returns the limit q = 1/2 (see `Checked::exact`).
 const ASYMPTOTE_GAP: f64 = 1e-9;
 /// Closest approach to π/2 of checked points: beyond it e_cap < 1e-9 and cos α itself
 /// carries a relative error of ~1e-16/(π/2 − α) in f64.
@@ -377,23 +377,9 @@ impl CapExponentFamily {
     }
 }
 
-impl Query for CapExponentFamily {
+impl View for CapExponentFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        vec![
-            Threshold {
-                output: "e_cap".into(),
-                metric: "grid.max_rel".into(),
-                limit: 1e-4,
-            },
-            Threshold {
-                output: "e_cap".into(),
-                metric: "offgrid.max_rel".into(),
-                limit: 1e-4,
-            },
-        ]
     }
     fn inputs(&self) -> &'static [&'static str] {
         &["alpha"]
@@ -432,6 +418,23 @@ impl Query for CapExponentFamily {
             return Err(format!("fit did not converge at alpha = {alpha}", alpha = short(alpha)));
         }
         Ok(vec![f.values[0] * model(alpha)])
+    }
+}
+
+impl Checked for CapExponentFamily {
+    fn thresholds(&self) -> Vec<Threshold> {
+        vec![
+            Threshold {
+                output: "e_cap".into(),
+                metric: "grid.max_rel".into(),
+                limit: 1e-4,
+            },
+            Threshold {
+                output: "e_cap".into(),
+                metric: "offgrid.max_rel".into(),
+                limit: 1e-4,
+            },
+        ]
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         // Half uniform in α, half uniform in the logit coordinate up to π/2 − 1e-10:

@@ -35,7 +35,7 @@ use lobefit_tables::glam::DVec3;
 use lobefit_tables::sh::eval_basis;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use lobefit_core::family::{Extra, Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Extra, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::gauss_kronrod_vec;
 use lobefit_core::rng::Rng;
 use lobefit_tables::error::short;
@@ -496,10 +496,30 @@ impl Lookup for DiskLookup {
 #[derive(Debug, Clone, Copy, Default)]
 pub struct DiskLightFamily;
 
-impl Query for DiskLightFamily {
+impl View for DiskLightFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
     }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["r_over_d", "tau"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &OUTPUTS
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::DISK_LIGHT
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(DiskLookup(DiskLight::from_table(table)?)))
+    }
+    /// Any R/d > 0 (the runtime's extensions below 0.01 and above 10 are checked
+    /// against this) and τ ∈ [0, π].
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        Ok(reference_canonical(x[0], x[1])?.to_vec())
+    }
+}
+
+impl Checked for DiskLightFamily {
     fn thresholds(&self) -> Vec<Threshold> {
         vec![
             Threshold {
@@ -524,12 +544,6 @@ impl Query for DiskLightFamily {
             },
         ]
     }
-    fn inputs(&self) -> &'static [&'static str] {
-        &["r_over_d", "tau"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &OUTPUTS
-    }
     fn checked(&self) -> &'static [&'static str] {
         &CHECKED
     }
@@ -548,17 +562,6 @@ impl Query for DiskLightFamily {
         // The area reference costs ~1.5 ms a point; `l2_nodes` checks all 24 576 nodes
         // against the direction reference at ~1/30 of that.
         true
-    }
-    fn embedded(&self) -> &'static [u8] {
-        lobefit_tables::embedded::DISK_LIGHT
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(DiskLookup(DiskLight::from_table(table)?)))
-    }
-    /// Any R/d > 0 (the runtime's extensions below 0.01 and above 10 are checked
-    /// against this) and τ ∈ [0, π].
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        Ok(reference_canonical(x[0], x[1])?.to_vec())
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         vec![rng.range(R_MIN.ln(), R_MAX.ln()).exp(), rng.range(0.0, TAU_ACCEPT)]

@@ -30,7 +30,7 @@ use lobefit_tables::isg::{
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use crate::isg::reference::{check_domain, normaliser, s_hat_fast, s_hat_reference};
-use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
 use lobefit_core::rng::Rng;
 
 /// γ nodes of the refit table (uniform in ln γ over [0.5, 10^4]).
@@ -509,13 +509,47 @@ impl<M: IsgModel + Sync> Lookup for ModelLookup<M> {
     }
 }
 
-impl Query for IsgFamily {
+impl View for IsgFamily {
     fn kind(&self) -> &'static str {
         match self.model {
             IsgModelKind::Paper | IsgModelKind::Refit => rt::KIND_REFIT,
             IsgModelKind::Best => rt::KIND_BEST,
         }
     }
+
+    fn inputs(&self) -> &'static [&'static str] {
+        &["gamma", "theta", "phi"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["s_hat", "s"]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        match self.model {
+            IsgModelKind::Paper | IsgModelKind::Refit => lobefit_tables::embedded::ISG_REFIT,
+            IsgModelKind::Best => lobefit_tables::embedded::ISG_BEST,
+        }
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        match self.model {
+            IsgModelKind::Paper => Ok(Box::new(ModelLookup(PaperIsg))),
+            IsgModelKind::Refit => Ok(Box::new(ModelLookup(RefitIsg::from_table(table)?))),
+            IsgModelKind::Best => Ok(Box::new(ModelLookup(BestIsg::from_table(table)?))),
+        }
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let (gamma, theta, phi) = (x[0], x[1], x[2]);
+        let s_hat = s_hat_reference(theta, phi, gamma)?;
+        Ok(vec![s_hat, s_hat * normaliser(gamma)])
+    }
+    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let (gamma, theta, phi) = (x[0], x[1], x[2]);
+        check_domain(theta, phi, gamma)?;
+        let s_hat = s_hat_fast(theta, phi, gamma);
+        Ok(vec![s_hat, s_hat * normaliser(gamma)])
+    }
+}
+
+impl Checked for IsgFamily {
     fn thresholds(&self) -> Vec<Threshold> {
         let t = |output: &str, metric: &str, limit: f64| Threshold {
             output: output.into(),
@@ -534,13 +568,6 @@ impl Query for IsgFamily {
                 t("s_hat", "grid.max_abs", BEST_CHECK_LIMIT),
             ],
         }
-    }
-
-    fn inputs(&self) -> &'static [&'static str] {
-        &["gamma", "theta", "phi"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &["s_hat", "s"]
     }
     fn checked(&self) -> &'static [&'static str] {
         match self.model {
@@ -594,30 +621,6 @@ impl Query for IsgFamily {
                 pts
             }
         }
-    }
-    fn embedded(&self) -> &'static [u8] {
-        match self.model {
-            IsgModelKind::Paper | IsgModelKind::Refit => lobefit_tables::embedded::ISG_REFIT,
-            IsgModelKind::Best => lobefit_tables::embedded::ISG_BEST,
-        }
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        match self.model {
-            IsgModelKind::Paper => Ok(Box::new(ModelLookup(PaperIsg))),
-            IsgModelKind::Refit => Ok(Box::new(ModelLookup(RefitIsg::from_table(table)?))),
-            IsgModelKind::Best => Ok(Box::new(ModelLookup(BestIsg::from_table(table)?))),
-        }
-    }
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let (gamma, theta, phi) = (x[0], x[1], x[2]);
-        let s_hat = s_hat_reference(theta, phi, gamma)?;
-        Ok(vec![s_hat, s_hat * normaliser(gamma)])
-    }
-    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let (gamma, theta, phi) = (x[0], x[1], x[2]);
-        check_domain(theta, phi, gamma)?;
-        let s_hat = s_hat_fast(theta, phi, gamma);
-        Ok(vec![s_hat, s_hat * normaliser(gamma)])
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         // γ log-uniform over the checked range; angles 45 % uniform on [0, π], 45 % within
@@ -798,7 +801,7 @@ const SYMMETRY_TOL: f64 = 1e-8;
 
 /// The family `lobefit eval isg --model paper|refit|best` queries (default `best`, the
 /// most accurate); other flags are refused.
-pub fn for_eval(flags: &lobefit_core::family::EvalFlags) -> Result<Box<dyn Query>, String> {
+pub fn for_eval(flags: &lobefit_core::family::EvalFlags) -> Result<Box<dyn View>, String> {
     if let Some(flag) = flags.given().into_iter().find(|f| *f != "--model") {
         return Err(format!("isg takes no {flag} flag"));
     }

@@ -2,7 +2,7 @@
 
 use lobefit_core::export::families::ClosedForm;
 use lobefit_core::export::gpu_check::{closed_row, Kernel};
-use lobefit_core::family::Query;
+use lobefit_core::family::Checked;
 use lobefit_core::rng::Rng;
 
 const BODY: &str = "    Y[o] = lf_lobe_integral(x0);";

@@ -14,7 +14,7 @@ use lobefit_tables::format::Threshold;
 use lobefit_tables::lobe_integral::{self as rt, LobeIntegral, E_MAX};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::adaptive_simpson;
 use lobefit_core::rng::Rng;
 use lobefit_tables::error::short;
@@ -63,19 +63,9 @@ impl Lookup for LobeIntegralLookup {
     }
 }
 
-impl Query for LobeIntegralFamily {
+impl View for LobeIntegralFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        ["grid.max_rel", "offgrid.max_rel"]
-            .iter()
-            .map(|m| Threshold {
-                output: "integral".into(),
-                metric: m.to_string(),
-                limit: 1e-6,
-            })
-            .collect()
     }
     fn inputs(&self) -> &'static [&'static str] {
         &["e"]
@@ -95,6 +85,19 @@ impl Query for LobeIntegralFamily {
             return Err(format!("e = {e} is outside [0, {E_MAX}]", e = short(e)));
         }
         Ok(vec![rt::exact(e).map_err(|err| err.to_string())?])
+    }
+}
+
+impl Checked for LobeIntegralFamily {
+    fn thresholds(&self) -> Vec<Threshold> {
+        ["grid.max_rel", "offgrid.max_rel"]
+            .iter()
+            .map(|m| Threshold {
+                output: "integral".into(),
+                metric: m.to_string(),
+                limit: 1e-6,
+            })
+            .collect()
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         // Uniform in ln(1+e): every decade of e gets a fair share of points.

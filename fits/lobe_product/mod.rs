@@ -28,7 +28,7 @@ use lobefit_tables::{Channel, LoadError, Lobe, LookupError, Table};
 use rayon::prelude::*;
 
 use crate::Method;
-use lobefit_core::family::{Extra, Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Extra, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::gauss_kronrod;
 use lobefit_core::rng::Rng;
 use lobefit_tables::error::short;
@@ -769,54 +769,9 @@ impl Lookup for Runtime {
     }
 }
 
-impl Query for LobeProductFamily {
+impl View for LobeProductFamily {
     fn kind(&self) -> &'static str {
         self.variant.kind()
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        let t = |output: &str, metric: &str, limit: f64| Threshold {
-            output: output.into(),
-            metric: metric.into(),
-            limit,
-        };
-        let mut v = match self.variant {
-            Variant::Energy => vec![
-                // 10× better than the paper's mean 7.1379e-4 on its own grid.
-                t("paper_grid_abs", "offgrid.mean_abs", 7e-5),
-                t("integral", "offgrid.median_rel", 1e-3),
-                t("integral", "offgrid.p99_rel", 1e-2),
-            ],
-            Variant::L2 => Vec::new(),
-        };
-        if self.variant == Variant::Energy {
-            v.extend([t("p", "offgrid.max_rel", 5e-2), t("e_r", "offgrid.max_rel", 5e-2)]);
-        }
-        // Max-type promises, both variants: off-grid, the looked-up lobe's residual
-        // within 5 % of the optimum's; at the nodes (every one, see `node_sections`)
-        // the stored values are fits, so far tighter limits hold there.
-        // The product lobe's parameters against the reference optimum (e_r as e_r + 1,
-        // the lobe's normalisation). The energy variant's optimum is sharp: p99 and
-        // max. The L2 variant's is flat in e_r at some pairs (the fit does not
-        // determine e_r there; the residual, checked above, does not care), so its
-        // promise is the 95th percentile: the 99th of a few hundred f32-twin points
-        // measured 2.0e-2.
-        let (stat, limit) = match self.variant {
-            Variant::Energy => ("offgrid.p99_rel", 1e-2),
-            Variant::L2 => ("offgrid.p95_rel", 1e-2),
-        };
-        v.extend([
-            t("p", stat, limit),
-            t("t", "offgrid.max_abs", 1e-5),
-            t("e_r", stat, limit),
-            t("l2_residual", "offgrid.max_rel", L2_RESIDUAL_MAX_REL),
-            t("l2_residual", "grid.max_rel", NODE_RESIDUAL_MAX_REL),
-            t("l2_residual_diagonal", "grid.max_rel", NODE_RESIDUAL_MAX_REL),
-            t("integral_nodes", "grid.max_rel", NODE_INTEGRAL_MAX_REL),
-        ]);
-        for ch in self.channels() {
-            v.push(t(&format!("symmetry_{}", ch.name), "max", 0.0));
-        }
-        v
     }
     fn inputs(&self) -> &'static [&'static str] {
         &["e1", "e2", "alpha"]
@@ -862,6 +817,54 @@ impl Query for LobeProductFamily {
         let integral = (f.c + ln_model(e1, e2, alpha)).exp();
         let p = f.k.exp() * integral * (f.e_r + 1.0) / TAU;
         Ok(vec![p, rt::peak_fraction(e1, e2, alpha), f.e_r])
+    }
+}
+
+impl Checked for LobeProductFamily {
+    fn thresholds(&self) -> Vec<Threshold> {
+        let t = |output: &str, metric: &str, limit: f64| Threshold {
+            output: output.into(),
+            metric: metric.into(),
+            limit,
+        };
+        let mut v = match self.variant {
+            Variant::Energy => vec![
+                // 10× better than the paper's mean 7.1379e-4 on its own grid.
+                t("paper_grid_abs", "offgrid.mean_abs", 7e-5),
+                t("integral", "offgrid.median_rel", 1e-3),
+                t("integral", "offgrid.p99_rel", 1e-2),
+            ],
+            Variant::L2 => Vec::new(),
+        };
+        if self.variant == Variant::Energy {
+            v.extend([t("p", "offgrid.max_rel", 5e-2), t("e_r", "offgrid.max_rel", 5e-2)]);
+        }
+        // Max-type promises, both variants: off-grid, the looked-up lobe's residual
+        // within 5 % of the optimum's; at the nodes (every one, see `node_sections`)
+        // the stored values are fits, so far tighter limits hold there.
+        // The product lobe's parameters against the reference optimum (e_r as e_r + 1,
+        // the lobe's normalisation). The energy variant's optimum is sharp: p99 and
+        // max. The L2 variant's is flat in e_r at some pairs (the fit does not
+        // determine e_r there; the residual, checked above, does not care), so its
+        // promise is the 95th percentile: the 99th of a few hundred f32-twin points
+        // measured 2.0e-2.
+        let (stat, limit) = match self.variant {
+            Variant::Energy => ("offgrid.p99_rel", 1e-2),
+            Variant::L2 => ("offgrid.p95_rel", 1e-2),
+        };
+        v.extend([
+            t("p", stat, limit),
+            t("t", "offgrid.max_abs", 1e-5),
+            t("e_r", stat, limit),
+            t("l2_residual", "offgrid.max_rel", L2_RESIDUAL_MAX_REL),
+            t("l2_residual", "grid.max_rel", NODE_RESIDUAL_MAX_REL),
+            t("l2_residual_diagonal", "grid.max_rel", NODE_RESIDUAL_MAX_REL),
+            t("integral_nodes", "grid.max_rel", NODE_INTEGRAL_MAX_REL),
+        ]);
+        for ch in self.channels() {
+            v.push(t(&format!("symmetry_{}", ch.name), "max", 0.0));
+        }
+        v
     }
     fn checked(&self) -> &'static [&'static str] {
         &["integral", "l2_residual", "p", "t", "e_r"]
@@ -1076,7 +1079,7 @@ impl Fit for LobeProductFamily {
 }
 
 impl LobeProductFamily {
-    /// The every-node verification (see [`Query::nodes_in_extras`]), each section
+    /// The every-node verification (see [`Checked::nodes_in_extras`]), each section
     /// independent of the fit:
     /// - `integral_nodes`: every relevant node's stored `ln_integral_over_model` plus
     ///   the closed-form model against the Gauss–Kronrod ∫Ψ1Ψ2, for e2 ≤ e1;

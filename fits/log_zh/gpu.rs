@@ -5,7 +5,7 @@ use lobefit_tables::log_zh::{self as rt, Kind};
 
 use lobefit_core::export::families::ClosedForm;
 use lobefit_core::export::gpu_check::{closed_row, write_array, Kernel};
-use lobefit_core::family::Query;
+use lobefit_core::family::Checked;
 use lobefit_core::rng::Rng;
 
 use super::LogZhFamily;

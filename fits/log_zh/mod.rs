@@ -18,7 +18,7 @@ use lobefit_tables::log_zh::{self as rt, Kind, LogZh, CHANNELS, EPS_MAX, EPS_MIN
 use lobefit_tables::sh::MAX_ORDER;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
 use lobefit_core::rng::Rng;
 use lobefit_tables::error::short;
 
@@ -230,10 +230,37 @@ impl Lookup for LogZhLookup {
     }
 }
 
-impl Query for LogZhFamily {
+impl View for LogZhFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
     }
+    fn inputs(&self) -> &'static [&'static str] {
+        match self.kind {
+            Kind::Diffuse => &["eps"],
+            Kind::Phong => &["eps", "r"],
+            Kind::Blocker => &["eps", "theta_b"],
+        }
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &CHANNELS[..self.order]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::LOG_ZH
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(LogZhLookup {
+            rt: LogZh::from_table(table)?,
+            kind: self.kind,
+            order: self.order,
+        }))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let param = if self.kind == Kind::Diffuse { 1.0 } else { x[1] };
+        reference_log_zh(self.kind, x[0], param, self.order)
+    }
+}
+
+impl Checked for LogZhFamily {
     fn thresholds(&self) -> Vec<Threshold> {
         let mut t = Vec::new();
         let mut add = |output: &str, metric: &str, limit: f64| {
@@ -269,33 +296,9 @@ impl Query for LogZhFamily {
         want.extend(self.reference(&xi).map_err(|e| format!("reference at {xi:?}: {e}"))?);
         Ok(Some((got, want)))
     }
-    fn inputs(&self) -> &'static [&'static str] {
-        match self.kind {
-            Kind::Diffuse => &["eps"],
-            Kind::Phong => &["eps", "r"],
-            Kind::Blocker => &["eps", "theta_b"],
-        }
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &CHANNELS[..self.order]
-    }
     fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
         // Axes are (r, eps); inputs are (eps, r).
         vec![vec![node[1], node[0]]]
-    }
-    fn embedded(&self) -> &'static [u8] {
-        lobefit_tables::embedded::LOG_ZH
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(LogZhLookup {
-            rt: LogZh::from_table(table)?,
-            kind: self.kind,
-            order: self.order,
-        }))
-    }
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let param = if self.kind == Kind::Diffuse { 1.0 } else { x[1] };
-        reference_log_zh(self.kind, x[0], param, self.order)
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         let eps = rng.range(EPS_MIN, EPS_MAX);

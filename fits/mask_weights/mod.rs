@@ -38,7 +38,7 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use rayon::prelude::*;
 
 use crate::cap_exponent::objective_slope;
-use lobefit_core::family::{Extra, Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Extra, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::illinois;
 use lobefit_core::rng::Rng;
 
@@ -561,10 +561,43 @@ fn system_tag(mode: MaskMode, depth: u32) -> String {
     format!("{}_d{depth}", &mode.name()[..3])
 }
 
-impl Query for MaskWeightsFamily {
+impl View for MaskWeightsFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
     }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["dist"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        output_names()
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::MASK_WEIGHTS
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(WeightsLookup {
+            rt: MaskWeights::from_table(table)?,
+        }))
+    }
+    /// The same least squares solved with the checker's Gauss–Legendre rule.
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let dist = x[0];
+        if !(DIST_MIN..=DIST_MAX).contains(&dist) {
+            return Err(format!("dist = {dist} is outside [{DIST_MIN}, {DIST_MAX}]"));
+        }
+        // A pure function of dist, costly (a least squares over the training set).
+        static MEMO: lobefit_core::memo::Memo<1, Vec<f64>> = lobefit_core::memo::Memo::new();
+        MEMO.get([dist], || {
+            let s = solve(dist, |a| ConeRule::gauss(a, REF_RULE));
+            if !s.ok {
+                return Err(format!("reference least squares failed at dist = {dist}"));
+            }
+            Ok(s.values)
+        })
+    }
+}
+
+impl Checked for MaskWeightsFamily {
     fn thresholds(&self) -> Vec<Threshold> {
         let mut t: Vec<Threshold> = channel_names()
             .iter()
@@ -603,38 +636,8 @@ impl Query for MaskWeightsFamily {
         }
         t
     }
-    fn inputs(&self) -> &'static [&'static str] {
-        &["dist"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        output_names()
-    }
     fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
         vec![vec![node[0], AT_NODE]]
-    }
-    fn embedded(&self) -> &'static [u8] {
-        lobefit_tables::embedded::MASK_WEIGHTS
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(WeightsLookup {
-            rt: MaskWeights::from_table(table)?,
-        }))
-    }
-    /// The same least squares solved with the checker's Gauss–Legendre rule.
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let dist = x[0];
-        if !(DIST_MIN..=DIST_MAX).contains(&dist) {
-            return Err(format!("dist = {dist} is outside [{DIST_MIN}, {DIST_MAX}]"));
-        }
-        // A pure function of dist, costly (a least squares over the training set).
-        static MEMO: lobefit_core::memo::Memo<1, Vec<f64>> = lobefit_core::memo::Memo::new();
-        MEMO.get([dist], || {
-            let s = solve(dist, |a| ConeRule::gauss(a, REF_RULE));
-            if !s.ok {
-                return Err(format!("reference least squares failed at dist = {dist}"));
-            }
-            Ok(s.values)
-        })
     }
     fn checked(&self) -> &'static [&'static str] {
         checked_names()

@@ -25,7 +25,7 @@ use lobefit_tables::format::Threshold;
 use lobefit_tables::sg_fit::{self as rt, SgFit, E_MAX};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::{adaptive_simpson, gauss_kronrod, illinois};
 use lobefit_core::rng::Rng;
 use lobefit_tables::error::short;
@@ -217,22 +217,9 @@ impl Lookup for SgFitLookup {
     }
 }
 
-impl Query for SgFitFamily {
+impl View for SgFitFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        let mut v = Vec::new();
-        for output in ["lambda", "mu"] {
-            for metric in ["grid.max_rel", "offgrid.max_rel"] {
-                v.push(Threshold {
-                    output: output.into(),
-                    metric: metric.into(),
-                    limit: REL_LIMIT,
-                });
-            }
-        }
-        v
     }
     fn inputs(&self) -> &'static [&'static str] {
         &["e"]
@@ -261,6 +248,22 @@ impl Query for SgFitFamily {
             return Err(format!("fit did not converge at e = {e}", e = short(e)));
         }
         Ok(f.values)
+    }
+}
+
+impl Checked for SgFitFamily {
+    fn thresholds(&self) -> Vec<Threshold> {
+        let mut v = Vec::new();
+        for output in ["lambda", "mu"] {
+            for metric in ["grid.max_rel", "offgrid.max_rel"] {
+                v.push(Threshold {
+                    output: output.into(),
+                    metric: metric.into(),
+                    limit: REL_LIMIT,
+                });
+            }
+        }
+        v
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         // Uniform in ln(1+e), and e = 0 (the hemisphere indicator) now and then.

@@ -26,7 +26,7 @@ use lobefit_tables::shexp::{self as rt, ab_of_pair, cap_visibility_zh, one_minus
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use crate::shexp::exp_log::{ren_log_zonal, ren_log_zonal_reference};
-use lobefit_core::family::{Extra, Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Extra, Fit, Fitted, Lookup, View};
 use lobefit_core::rng::Rng;
 use lobefit_core::sh::Gaunt;
 use lobefit_tables::error::short;
@@ -192,28 +192,9 @@ impl Lookup for ShExpLookup {
     }
 }
 
-impl Query for ShExpFamily {
+impl View for ShExpFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        ALL.iter()
-            .flat_map(|o| {
-                // f is compared in units of ‖f‖ (see `check_point`): its abs metric is
-                // the relative error of the vector.
-                let kind = if o.contains("_f") { "abs" } else { "rel" };
-                [("grid", GRID_REL), ("offgrid", OFFGRID_REL)].map(|(m, l)| Threshold {
-                    output: o.to_string(),
-                    metric: format!("{m}.max_{kind}"),
-                    limit: l,
-                })
-            })
-            .chain((self.view.is_none()).then(|| Threshold {
-                output: "intervals".into(),
-                metric: "offgrid.max_abs".into(),
-                limit: OFFGRID_REL,
-            }))
-            .collect()
     }
     fn inputs(&self) -> &'static [&'static str] {
         match self.view {
@@ -226,11 +207,6 @@ impl Query for ShExpFamily {
             None => &ALL,
             Some((n, _)) => &EVAL_OUT[n][..n + 3],
         }
-    }
-    /// Grid nodes are (order, θ_b); the whole-table view takes θ_b only and returns
-    /// every order, so a node maps to its θ_b.
-    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
-        vec![vec![node[1]]]
     }
     fn embedded(&self) -> &'static [u8] {
         lobefit_tables::embedded::SHEXP
@@ -259,6 +235,33 @@ impl Query for ShExpFamily {
             }
             Some((n, LogKind::Naive)) => naive_reference(x[0], x[1], n),
         }
+    }
+}
+
+impl Checked for ShExpFamily {
+    fn thresholds(&self) -> Vec<Threshold> {
+        ALL.iter()
+            .flat_map(|o| {
+                // f is compared in units of ‖f‖ (see `check_point`): its abs metric is
+                // the relative error of the vector.
+                let kind = if o.contains("_f") { "abs" } else { "rel" };
+                [("grid", GRID_REL), ("offgrid", OFFGRID_REL)].map(|(m, l)| Threshold {
+                    output: o.to_string(),
+                    metric: format!("{m}.max_{kind}"),
+                    limit: l,
+                })
+            })
+            .chain((self.view.is_none()).then(|| Threshold {
+                output: "intervals".into(),
+                metric: "offgrid.max_abs".into(),
+                limit: OFFGRID_REL,
+            }))
+            .collect()
+    }
+    /// Grid nodes are (order, θ_b); the whole-table view takes θ_b only and returns
+    /// every order, so a node maps to its θ_b.
+    fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
+        vec![vec![node[1]]]
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         // Half uniform, half log-uniform down to 1e-4 rad (small blockers).

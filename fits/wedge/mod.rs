@@ -18,7 +18,7 @@ use lobefit_tables::sh::{eval_basis, MAX_COEFFS, MAX_ORDER};
 use lobefit_tables::wedge::{self as rt, Wedge, CHANNELS, COLS, ROWS, WEDGE_COUNTS};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::gauss_kronrod;
 use lobefit_core::rng::Rng;
 use lobefit_tables::error::short;
@@ -218,10 +218,28 @@ impl Lookup for WedgeLookup {
     }
 }
 
-impl Query for WedgeFamily {
+impl View for WedgeFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
     }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["W", "row", "col"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["m"]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::WEDGE
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(WedgeLookup(Wedge::from_table(table)?)))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        Ok(vec![reference_m_lin(node_w(x[0]), x[1] as usize, x[2] as usize)?])
+    }
+}
+
+impl Checked for WedgeFamily {
     fn thresholds(&self) -> Vec<Threshold> {
         ["grid.max_abs", "offgrid.max_abs"]
             .iter()
@@ -232,23 +250,8 @@ impl Query for WedgeFamily {
             })
             .collect()
     }
-    fn inputs(&self) -> &'static [&'static str] {
-        &["W", "row", "col"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &["m"]
-    }
     fn node_inputs(&self, node: &[f64]) -> Vec<Vec<f64>> {
         vec![vec![node_w(node[0]) as f64, node[1].round(), node[2].round()]]
-    }
-    fn embedded(&self) -> &'static [u8] {
-        lobefit_tables::embedded::WEDGE
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(WedgeLookup(Wedge::from_table(table)?)))
-    }
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        Ok(vec![reference_m_lin(node_w(x[0]), x[1] as usize, x[2] as usize)?])
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         // The table is a set of matrices: "off-grid" points are random entries.
@@ -345,12 +348,9 @@ impl Lookup for SliceLookup {
     }
 }
 
-impl Query for WedgeSliceView {
+impl View for WedgeSliceView {
     fn kind(&self) -> &'static str {
         rt::KIND
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        WedgeFamily.thresholds()
     }
     fn inputs(&self) -> &'static [&'static str] {
         &["sigma", "eps"]
@@ -367,9 +367,6 @@ impl Query for WedgeSliceView {
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         reference_slice(x[0], x[1], self.order)
-    }
-    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
-        vec![rng.range(-PI / 2.0, PI / 2.0), rng.range(rt::EPS_MIN, rt::EPS_MAX)]
     }
 }
 

@@ -2,7 +2,7 @@
 
 use lobefit_core::export::families::ClosedForm;
 use lobefit_core::export::gpu_check::{closed_row, write_array, Kernel};
-use lobefit_core::family::Query;
+use lobefit_core::family::Checked;
 use lobefit_core::rng::Rng;
 
 /// The closed form and its conformance (8 bands).

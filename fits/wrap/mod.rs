@@ -16,7 +16,7 @@ use lobefit_tables::sh::MAX_ORDER;
 use lobefit_tables::wrap::{self as rt, Wrap, A_MAX, A_MIN, A_NODES, CHANNELS};
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use lobefit_core::family::{Fit, Fitted, Lookup, Query};
+use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::{adaptive_simpson, gauss_kronrod};
 use lobefit_core::rng::Rng;
 
@@ -163,10 +163,42 @@ impl Lookup for WrapLookup {
     }
 }
 
-impl Query for WrapFamily {
+impl View for WrapFamily {
     fn kind(&self) -> &'static str {
         rt::KIND
     }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["a"]
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &CHECKED[..self.order]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        lobefit_tables::embedded::WRAP
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(WrapLookup {
+            rt: Wrap::from_table(table)?,
+            order: self.order,
+        }))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        if !(A_MIN..=A_MAX).contains(&x[0]) {
+            return Err(format!(
+                "a = {} is outside [0, 1] (the closed forms' domain, docs/math.md, erratum E5)",
+                x[0]
+            ));
+        }
+        reference_lambda(x[0], self.order)
+    }
+    /// `eval wrap --exact`: the quadrature for any a ≥ 0 — for a > 1 the correct value
+    /// (support cut at t = −1) that the closed forms refuse (E5).
+    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        reference_lambda(x[0], self.order)
+    }
+}
+
+impl Checked for WrapFamily {
     fn thresholds(&self) -> Vec<Threshold> {
         let mut t = Vec::new();
         let mut add = |output: &str, metric: &str, limit: f64| {
@@ -204,35 +236,6 @@ impl Query for WrapFamily {
         let mut want = reference_lambda(x[0], MAX_ORDER)?;
         want.extend(want.clone());
         Ok(Some((got, want)))
-    }
-    fn inputs(&self) -> &'static [&'static str] {
-        &["a"]
-    }
-    fn outputs(&self) -> &'static [&'static str] {
-        &CHECKED[..self.order]
-    }
-    fn embedded(&self) -> &'static [u8] {
-        lobefit_tables::embedded::WRAP
-    }
-    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
-        Ok(Box::new(WrapLookup {
-            rt: Wrap::from_table(table)?,
-            order: self.order,
-        }))
-    }
-    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        if !(A_MIN..=A_MAX).contains(&x[0]) {
-            return Err(format!(
-                "a = {} is outside [0, 1] (the closed forms' domain, docs/math.md, erratum E5)",
-                x[0]
-            ));
-        }
-        reference_lambda(x[0], self.order)
-    }
-    /// `eval wrap --exact`: the quadrature for any a ≥ 0 — for a > 1 the correct value
-    /// (support cut at t = −1) that the closed forms refuse (E5).
-    fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        reference_lambda(x[0], self.order)
     }
     fn sample(&self, rng: &mut Rng) -> Vec<f64> {
         vec![rng.range(A_MIN, A_MAX)]

@@ -10,9 +10,7 @@ use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Tables};
 use crate::scene::Bvh;
 use crate::sky::{exact_estimate, hit_of_row, POINT_INPUTS};
-use lobefit_core::family::{EvalFlags, Lookup, Query};
-use lobefit_core::rng::Rng;
-use lobefit_tables::format::Threshold;
+use lobefit_core::family::{EvalFlags, Lookup, View};
 
 /// `eval --help`'s paragraph.
 pub const EVAL_HELP: &str = "
@@ -115,15 +113,12 @@ impl Lookup for ShadeLookup {
     }
 }
 
-impl Query for IsgShadeView {
+impl View for IsgShadeView {
     fn kind(&self) -> &'static str {
         match self.settings.model {
             Model::Refit => lobefit_tables::isg::KIND_REFIT,
             _ => lobefit_tables::isg::KIND_BEST,
         }
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        Vec::new()
     }
     fn inputs(&self) -> &'static [&'static str] {
         &POINT_INPUTS
@@ -154,20 +149,5 @@ impl Query for IsgShadeView {
         let seed = x.iter().fold(0x5eed_15c0_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         let occluded = |v: DVec3| self.bvh.occluded(&self.spheres, h.x, v, f64::INFINITY, h.sphere);
         exact_estimate(|n| super::reference(&self.env, &self.brdf, occluded, &h, n, seed)).map(|m| vec![m])
-    }
-    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
-        // A point on the ground below the spheres, seen from above.
-        let a = rng.range(0.0, std::f64::consts::TAU);
-        vec![
-            rng.range(-3.0, 3.0),
-            rng.range(-3.0, 3.0),
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-            0.6 * a.cos(),
-            0.6 * a.sin(),
-            0.8,
-        ]
     }
 }

@@ -9,7 +9,6 @@
 
 use std::f64::consts::{FRAC_PI_2, TAU};
 
-use lobefit_tables::format::Threshold;
 use lobefit_tables::geom::{Sphere, SphereLight};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
@@ -17,7 +16,7 @@ use lobefit_tables::meunier::{check_scene, LightModel, MaskSettings};
 use lobefit_tables::{CapExponent, LoadError, LobeProduct, LookupError, Meunier, MeunierError, Table};
 
 use crate::scene::visible;
-use lobefit_core::family::{EvalFlags, Lookup, Query};
+use lobefit_core::family::{EvalFlags, Lookup, View};
 use lobefit_core::quad::gauss_kronrod;
 use lobefit_core::rng::Rng;
 use lobefit_fits::mask_weights::MaskWeightsFamily;
@@ -417,12 +416,9 @@ pub fn random_row(rng: &mut Rng) -> [f64; 14] {
     out
 }
 
-impl Query for DirectLightView {
+impl View for DirectLightView {
     fn kind(&self) -> &'static str {
         MaskWeightsFamily.kind()
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        MaskWeightsFamily.thresholds()
     }
     fn inputs(&self) -> &'static [&'static str] {
         &INPUTS
@@ -445,9 +441,6 @@ impl Query for DirectLightView {
         exact_irradiance(r.x, r.n, &r.light, &blockers)
             .map(|e| vec![e])
             .map_err(|e| to_lookup(e).to_string())
-    }
-    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
-        random_row(rng).to_vec()
     }
     fn caveat(&self, x: &[f64]) -> Option<&'static str> {
         // The light's cap is exact unoccluded at any size and tilt; the lobe is not.
@@ -475,11 +468,11 @@ impl Query for DirectLightView {
 
 /// Largest light half-angle (rad) the light lobe's error was measured at (docs/meunier.md).
 pub const LIGHT_ALPHA_MEASURED: f64 = 0.85;
-/// [`Query::caveat`] of a light that crosses the point's horizon.
+/// [`Checked::caveat`] of a light that crosses the point's horizon.
 pub const LIGHT_ACROSS_HORIZON: &str = "the light crosses the horizon: its single cosine lobe is least accurate \
      there (a light tilted 1 rad from the normal: unoccluded irradiance 15 % low at a half-angle of 0.55 rad, \
      28 % at 0.85; docs/meunier.md)";
-/// [`Query::caveat`] of a light wider than the measured range.
+/// [`Checked::caveat`] of a light wider than the measured range.
 pub const LIGHT_TOO_LARGE: &str = "the light's half-angle exceeds 0.85 rad, beyond the range the light lobe's \
      error was measured on (8 to 13.5 % low at 0.73 to 0.85 rad; docs/meunier.md)";
 

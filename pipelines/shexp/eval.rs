@@ -3,15 +3,12 @@
 //! (`environment` SGs or `sh_environment`), the blockers (spheres and an optional
 //! height field) and the top-level `brdf`.
 
-use lobefit_tables::format::Threshold;
-use lobefit_tables::glam::DVec3;
 use lobefit_tables::{LoadError, LookupError, ShExp, Table};
 
 use super::shade::{radiance, Settings, Tables};
 use crate::scene::Scene;
 use crate::sky::{exact_estimate, hit_of_row, Phong, POINT_INPUTS};
-use lobefit_core::family::{EvalFlags, Lookup, Query};
-use lobefit_core::rng::Rng;
+use lobefit_core::family::{EvalFlags, Lookup, View};
 
 /// `eval --help`'s paragraph.
 pub const EVAL_HELP: &str = "
@@ -88,12 +85,9 @@ impl Lookup for ShadeLookup {
     }
 }
 
-impl Query for ShExpShadeView {
+impl View for ShExpShadeView {
     fn kind(&self) -> &'static str {
         lobefit_tables::shexp::KIND
-    }
-    fn thresholds(&self) -> Vec<Threshold> {
-        Vec::new()
     }
     fn inputs(&self) -> &'static [&'static str] {
         &POINT_INPUTS
@@ -119,16 +113,5 @@ impl Query for ShExpShadeView {
         let scene = &self.scene;
         exact_estimate(|n| super::reference(scene, |w| super::light(scene, w), &self.brdf, &h, n, seed))
             .map(|m| vec![m])
-    }
-    fn sample(&self, rng: &mut Rng) -> Vec<f64> {
-        // A point on the terrain (or the z = 0 plane without one), seen from above.
-        let (x, y) = (rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
-        let (z, n) = match &self.scene.heightfield {
-            Some((hf, _)) => (hf.height(x, y).unwrap_or(0.0), hf.normal(x, y).unwrap_or(DVec3::Z)),
-            None => (0.0, DVec3::Z),
-        };
-        let a = rng.range(0.0, std::f64::consts::TAU);
-        let v = DVec3::new(0.6 * a.cos(), 0.6 * a.sin(), 0.8);
-        vec![x, y, z, n.x, n.y, n.z, v.x, v.y, v.z]
     }
 }

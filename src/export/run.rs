@@ -16,7 +16,7 @@ use super::manifest::{
 };
 use super::{Format, Storage, Texture};
 use crate::check::{f32_point, offgrid_metrics};
-use crate::family::Query;
+use crate::family::Checked;
 use crate::fits;
 use crate::fits::{registry, FitOptions};
 use crate::rng::Rng;
@@ -43,18 +43,18 @@ pub struct ExportOptions {
 }
 
 /// The registry's family of `kind` (default options).
-pub fn family_of(kind: &str) -> Option<Box<dyn Query>> {
+pub fn family_of(kind: &str) -> Option<Box<dyn Checked>> {
     registry(FitOptions::default())
         .into_iter()
         .find(|f| f.kind() == kind)
-        .map(|f| -> Box<dyn Query> { f })
+        .map(|f| -> Box<dyn Checked> { f })
 }
 
 /// The export error of one texture, per filter: the family's own pointwise check run
 /// through the emulated GPU lookup at seeded off-grid samples (rounded to f32, the
 /// inputs a shader gets), reduced to the family's off-grid threshold metrics.
 pub fn measure(
-    family: &dyn Query,
+    family: &dyn Checked,
     gpu: GpuFamily,
     textures: &[(Vec<TexAxis>, Vec<Channel>, super::Texture)],
     samples: usize,
@@ -96,7 +96,7 @@ pub fn measure(
 /// The seeded off-grid samples the export error is measured on: `samples` points of
 /// `family.sample`, each rounded to the f32 inputs a shader gets (staying in the
 /// runtime's domain).
-pub fn sample_points(family: &dyn Query, samples: usize, seed: u64) -> Result<Vec<Vec<f64>>, String> {
+pub fn sample_points(family: &dyn Checked, samples: usize, seed: u64) -> Result<Vec<Vec<f64>>, String> {
     let mut rng = Rng::new(seed);
     let points: Vec<Vec<f64>> = (0..samples).map(|_| family.sample(&mut rng)).collect();
     // The CPU runtime only tells which f32 roundings of a sample stay in the domain.
@@ -105,11 +105,11 @@ pub fn sample_points(family: &dyn Query, samples: usize, seed: u64) -> Result<Ve
     Ok(points.iter().map(|x| f32_point(cpu.as_ref(), x)).collect())
 }
 
-/// The family's own pointwise check (`Query::check_point`) of `lookup` at `points`
+/// The family's own pointwise check (`Checked::check_point`) of `lookup` at `points`
 /// (from [`sample_points`]), reduced to its off-grid threshold metrics: one entry per
 /// threshold, labelled `filter`.
 pub fn errors_of(
-    family: &dyn Query,
+    family: &dyn Checked,
     lookup: &dyn crate::family::Lookup,
     points: &[Vec<f64>],
     filter: Filter,

@@ -14,7 +14,7 @@ fn main() {
     divan::main();
 }
 
-/// Query points per bench.
+/// Checked points per bench.
 const N: usize = 1024;
 
 /// splitmix64: a fixed, seeded stream of uniform numbers in [0, 1).

@@ -12,7 +12,7 @@ use std::f64::consts::TAU;
 use std::path::Path;
 
 use lobefit::check::{check_family, CheckOptions, FamilyReport};
-use lobefit::family::Query;
+use lobefit::family::{Checked, View};
 use lobefit::fits::lobe_product::{reference_integral, RELEVANCE};
 use lobefit::fits::{registry, FitOptions};
 use lobefit::rng::Rng;
@@ -93,7 +93,7 @@ fn shexp_delta(table: &Table, node: usize, channel: usize) -> Option<f64> {
 /// are promised through the looked-up lobe's residual, within 0.1 % of the reference
 /// optimum's at the nodes: the smallest change 0.03 · 2^k (in the channel's log
 /// units) that moves it past three times that promise, or `None` if none up to 1 does.
-fn residual_delta(family: &dyn Query, table: &Table, node: usize, channel: usize) -> Option<f64> {
+fn residual_delta(family: &dyn Checked, table: &Table, node: usize, channel: usize) -> Option<f64> {
     let nc = table.meta().channels.len();
     let x = lobefit::build::grid_nodes(&table.meta().axes).swap_remove(node);
     let mut d = 0.03;
@@ -144,7 +144,7 @@ fn relevant_diagonal_node(table: &Table, rng: &mut Rng) -> usize {
     }
 }
 
-fn check_bytes(family: &dyn Query, dir: &Path, bytes: &[u8]) -> FamilyReport {
+fn check_bytes(family: &dyn Checked, dir: &Path, bytes: &[u8]) -> FamilyReport {
     let path = dir.join(format!("{}.lobefit", family.kind()));
     std::fs::write(&path, bytes).unwrap();
     check_family(family, &path, OPTS)

@@ -11,7 +11,7 @@ use lobefit::export::layout::{Filter, Sampler};
 use lobefit::export::manifest::Manifest;
 use lobefit::export::run::{check_export, export, ExportOptions};
 use lobefit::export::{formats, Format, Storage};
-use lobefit::family::Query;
+use lobefit::family::Checked;
 use lobefit::fits::{registry, FitOptions};
 
 fn opts(format: Format, storage: Storage) -> ExportOptions {
@@ -92,7 +92,7 @@ fn near_the_axis_the_warp_keeps_its_digits() {
     let m = export(&opts(Format::Raw, Storage::F32), dir.path()).unwrap();
     let t = &m.families[0].textures[0];
     let (texture, _) = formats::read(&dir.path().join(&t.file), Format::Raw).unwrap();
-    let family: Box<dyn Query> = registry(FitOptions::default())
+    let family: Box<dyn Checked> = registry(FitOptions::default())
         .into_iter()
         .find(|f| f.kind() == "isg-best")
         .unwrap();

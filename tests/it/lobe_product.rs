@@ -209,7 +209,7 @@ fn a_triple_product_matches_quadrature() {
 #[test]
 #[ignore]
 fn axis_refinement_gains_little() {
-    use lobefit::family::Query;
+    use lobefit::family::Checked;
     use lobefit::fits::lobe_product::{ref_ln_product, LobeProductFamily};
     let opt_at = |e1: f64, e2: f64, a: f64, s: f64| -> f64 {
         let ln_c = ref_ln_product(&[(2.0 * e1, 0.0), (2.0 * e2, a)]).unwrap();
