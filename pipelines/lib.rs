@@ -76,8 +76,10 @@ impl Summary {
 /// directory; `progress` is called once per finished image row of the reference.
 pub type RenderFn = fn(&str, &RenderOptions, &Path, &(dyn Fn() + Sync)) -> Result<Summary, String>;
 
-/// One pipeline of `lobefit render`.
-#[derive(Debug, Clone, Copy)]
+/// One pipeline: everything the CLI knows of it (`lobefit render NAME`, its `eval`
+/// views, its `plot` figure sets) is in this entry, and [`registry`] is the one list
+/// of them.
+#[derive(Clone, Copy)]
 pub struct Pipeline {
     /// Command-line name.
     pub name: &'static str,
@@ -87,6 +89,21 @@ pub struct Pipeline {
     pub scenes: &'static [&'static str],
     /// The renderer.
     pub render: RenderFn,
+    /// Its `lobefit eval` views (the pipeline without images).
+    pub eval: &'static [EvalView],
+    /// Its `lobefit plot` figure sets.
+    pub plots: &'static [(&'static str, PlotFn)],
+}
+
+impl std::fmt::Debug for Pipeline {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Pipeline")
+            .field("name", &self.name)
+            .field("scenes", &self.scenes)
+            .field("eval", &self.eval.iter().map(|e| e.0).collect::<Vec<_>>())
+            .field("plots", &self.plots.iter().map(|p| p.0).collect::<Vec<_>>())
+            .finish()
+    }
 }
 
 impl Pipeline {
@@ -112,31 +129,17 @@ pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn View>, String>;
 /// A pipeline's `lobefit eval` name, its paragraph of `eval --help`, its query.
 pub type EvalView = (&'static str, &'static str, EvalFn);
 
-/// The `lobefit eval` names the pipelines add to the families'.
+/// The `lobefit eval` names the pipelines add to the families', from [`registry`].
 pub fn eval_views() -> Vec<EvalView> {
-    vec![
-        ("direct-light", meunier::direct_light::EVAL_HELP, |flags| {
-            Ok(Box::new(meunier::direct_light::DirectLightView::from_flags(flags)?))
-        }),
-        ("isg-shade", isg::eval::EVAL_HELP, |flags| {
-            Ok(Box::new(isg::eval::IsgShadeView::from_flags(flags)?))
-        }),
-        ("shexp-shade", shexp::eval::EVAL_HELP, |flags| {
-            Ok(Box::new(shexp::eval::ShExpShadeView::from_flags(flags)?))
-        }),
-    ]
+    registry().iter().flat_map(|p| p.eval.iter().copied()).collect()
 }
 
-/// The `lobefit plot` figure sets of the pipelines.
+/// The `lobefit plot` figure sets of the pipelines, from [`registry`].
 pub fn plots() -> Vec<(&'static str, PlotFn)> {
-    vec![
-        ("meunier", meunier::direct_light::plot),
-        ("meunier-scaling", meunier::scaling::plot),
-        ("rigs", rigs::plot),
-    ]
+    registry().iter().flat_map(|p| p.plots.iter().copied()).collect()
 }
 
-/// Every pipeline `lobefit render` knows.
+/// Every pipeline: the only list.
 pub fn registry() -> Vec<Pipeline> {
     vec![
         meunier::PIPELINE,

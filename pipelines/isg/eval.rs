@@ -151,3 +151,9 @@ impl View for IsgShadeView {
         exact_estimate(|n| super::reference(&self.env, &self.brdf, occluded, &h, n, seed)).map(|m| vec![m])
     }
 }
+
+/// The pipeline's entry for `lobefit eval` ([`crate::Pipeline::eval`]): the view its
+/// flags configure.
+pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, String> {
+    Ok(Box::new(IsgShadeView::from_flags(flags)?))
+}

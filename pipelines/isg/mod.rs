@@ -17,6 +17,8 @@ pub const PIPELINE: Pipeline = Pipeline {
     about: "Iwasaki et al. 2012: spheres under an SG environment, ISG shadows (docs/isg-render.md)",
     scenes: &["fig12", "fig12-diffuse", "sweep"],
     render: render::render,
+    eval: &[("isg-shade", eval::EVAL_HELP, eval::view)],
+    plots: &[],
 };
 
 #[cfg(test)]

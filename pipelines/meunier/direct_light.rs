@@ -612,3 +612,9 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     )?;
     Ok(vec![txt, png])
 }
+
+/// The pipeline's entry for `lobefit eval` ([`crate::Pipeline::eval`]): the view its
+/// flags configure.
+pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, String> {
+    Ok(Box::new(DirectLightView::from_flags(flags)?))
+}

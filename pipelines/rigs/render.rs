@@ -28,6 +28,8 @@ pub const PIPELINE: Pipeline = Pipeline {
     about: "Yuan et al. 2012, Figure 1: irradiance rigs on a car-sized box against exact irradiance (docs/rigs.md)",
     scenes: &["fig1", "drive"],
     render,
+    eval: &[],
+    plots: &[("rigs", super::plot)],
 };
 
 /// The camera: a three-quarter view from above the car's front left.

@@ -115,3 +115,9 @@ impl View for ShExpShadeView {
             .map(|m| vec![m])
     }
 }
+
+/// The pipeline's entry for `lobefit eval` ([`crate::Pipeline::eval`]): the view its
+/// flags configure.
+pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, String> {
+    Ok(Box::new(ShExpShadeView::from_flags(flags)?))
+}

@@ -21,6 +21,8 @@ pub const PIPELINE: Pipeline = Pipeline {
     about: "Ren et al. 2006 / Giraud 2015: height field and spheres under an SH sky, SH-exponentiation shadows (docs/shexp-render.md)",
     scenes: &["whale", "whale-diffuse", "wrecking"],
     render: render::render,
+    eval: &[("shexp-shade", eval::EVAL_HELP, eval::view)],
+    plots: &[],
 };
 
 /// The scene's distant light: its SGs, or its SH function.
