@@ -1,7 +1,7 @@
 //! Small dense linear algebra: symmetric eigen-decomposition by the cyclic Jacobi
 //! method (Golub & Van Loan §8.5), for the small (≤ 64 × 64) SH product matrices of
-//! Ren's SH logarithm (docs/math.md, shexp), and least-squares polynomials
-//! ([`polyfit`]).
+//! Ren's SH logarithm (docs/math.md, shexp), the fit side's one dense linear solver
+//! ([`solve`]), and least-squares polynomials ([`polyfit`]).
 //!
 //! Jacobi is slow for large matrices but backward stable with high relative accuracy
 //! of the eigenvectors' orthogonality, needs no tridiagonalisation and is a few dozen
@@ -112,17 +112,81 @@ pub fn sym_eigen(a: &[f64], n: usize) -> Result<SymEigen, String> {
     })
 }
 
+/// Solves A X = B in place by Gaussian elimination with partial pivoting: the one
+/// dense linear solver of the fit side (mask-weights' ridge least squares, disk-light's
+/// canonical polynomials, [`polyfit`], Meunier's light-lobe fit).
+///
+/// Conventions: `a` is the n × n matrix A, row-major (`a[i * n + j]` = A_ij); `b` is
+/// the n × `nrhs` matrix B of right-hand sides, row-major (`b[i * nrhs + c]` is row i
+/// of right-hand side c; with `nrhs` = 1 simply the vector b). On success `b` holds the
+/// solution X in the same layout; `a` is left holding the row-permuted upper
+/// triangular factor. `None` when a pivot is exactly zero (singular) or the solution
+/// is not finite (nearly singular, or non-finite input); `a` and `b` then hold
+/// partial results. Panics when `a` or `b` has the wrong length.
+///
+/// The operation order is fixed, and part of the contract (the committed tables and
+/// export layouts depend on its bits): for each column k, the pivot is the row
+/// p ≥ k of largest |A_pk| (the last such row on a tie), rows p and k of A and B are
+/// swapped whole, and each row i > k has f = A_ik / A_kk times row k subtracted from
+/// its entries j ≥ k and from all of B's; then back substitution from the last row,
+/// x_i = (b_i − Σ_{j>i} A_ij x_j) / A_ii with the sum taken in increasing j, for
+/// each right-hand side.
+///
+/// The one other dense solver is the runtime's Householder QR in
+/// `lobefit_tables::rigs` (`householder_solve`): least squares on an overdetermined,
+/// column-major system for the rig fits, in the runtime crate, which cannot depend on
+/// this one.
+pub fn solve(a: &mut [f64], b: &mut [f64], n: usize, nrhs: usize) -> Option<()> {
+    assert_eq!(a.len(), n * n, "solve: matrix has {} entries, expected {n}²", a.len());
+    assert_eq!(
+        b.len(),
+        n * nrhs,
+        "solve: right-hand sides have {} entries, expected {n} × {nrhs}",
+        b.len()
+    );
+    for k in 0..n {
+        let p = (k..n).max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))?;
+        if a[p * n + k] == 0.0 {
+            return None;
+        }
+        if p != k {
+            for j in 0..n {
+                a.swap(k * n + j, p * n + j);
+            }
+            for c in 0..nrhs {
+                b.swap(k * nrhs + c, p * nrhs + c);
+            }
+        }
+        for i in k + 1..n {
+            let f = a[i * n + k] / a[k * n + k];
+            for j in k..n {
+                a[i * n + j] -= f * a[k * n + j];
+            }
+            for c in 0..nrhs {
+                b[i * nrhs + c] -= f * b[k * nrhs + c];
+            }
+        }
+    }
+    for i in (0..n).rev() {
+        for c in 0..nrhs {
+            let s: f64 = (i + 1..n).map(|j| a[i * n + j] * b[j * nrhs + c]).sum();
+            b[i * nrhs + c] = (b[i * nrhs + c] - s) / a[i * n + i];
+        }
+    }
+    b.iter().all(|v| v.is_finite()).then_some(())
+}
+
 /// Least-squares polynomial c0 + c1 x + … + c_d x^d of degree `degree` through the
-/// points (`x[i]`, `y[i]`), by the normal equations on the monomials and Gaussian
-/// elimination with partial pivoting: meant for low degrees on x scaled to about
-/// [0, 1], where the normal equations are well conditioned. `None` for fewer points
-/// than coefficients, mismatched lengths, or a non-finite solution.
+/// points (`x[i]`, `y[i]`), by the normal equations on the monomials and [`solve`]:
+/// meant for low degrees on x scaled to about [0, 1], where the normal equations are
+/// well conditioned. `None` for fewer points than coefficients, mismatched lengths,
+/// or a singular system or non-finite solution.
 pub fn polyfit(x: &[f64], y: &[f64], degree: usize) -> Option<Vec<f64>> {
     let m = degree + 1;
     if x.len() != y.len() || x.len() < m {
         return None;
     }
-    let mut a = vec![vec![0.0f64; m]; m];
+    let mut a = vec![0.0f64; m * m];
     let mut b = vec![0.0f64; m];
     let mut p = vec![1.0f64; m];
     for (&t, &v) in x.iter().zip(y) {
@@ -132,31 +196,12 @@ pub fn polyfit(x: &[f64], y: &[f64], degree: usize) -> Option<Vec<f64>> {
         for r in 0..m {
             b[r] += p[r] * v;
             for c in 0..m {
-                a[r][c] += p[r] * p[c];
+                a[r * m + c] += p[r] * p[c];
             }
         }
     }
-    for k in 0..m {
-        let piv = (k..m)
-            .max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))
-            .unwrap_or(k);
-        a.swap(k, piv);
-        b.swap(k, piv);
-        let (pivot_row, pivot_b) = (a[k].clone(), b[k]);
-        for (row, rb) in a.iter_mut().zip(b.iter_mut()).skip(k + 1) {
-            let f = row[k] / pivot_row[k];
-            for (v, p) in row.iter_mut().zip(&pivot_row).skip(k) {
-                *v -= f * p;
-            }
-            *rb -= f * pivot_b;
-        }
-    }
-    let mut c = vec![0.0f64; m];
-    for k in (0..m).rev() {
-        let s: f64 = (k + 1..m).map(|j| a[k][j] * c[j]).sum();
-        c[k] = (b[k] - s) / a[k][k];
-    }
-    c.iter().all(|v| v.is_finite()).then_some(c)
+    solve(&mut a, &mut b, m, 1)?;
+    Some(b)
 }
 
 #[cfg(test)]
@@ -212,6 +257,59 @@ mod tests {
             "reconstruction {rec:e}, orthogonality {orth:e}"
         );
         assert!(e.values.windows(2).all(|w| w[0] <= w[1]));
+    }
+
+    /// A 3 × 3 system solved by hand (x = (2, 3, −1)), and a second right-hand side
+    /// with x = (1, −1, 2): B = A X worked out entry by entry.
+    #[test]
+    fn solve_three_by_three_two_right_hand_sides() {
+        let mut a = vec![2.0, 1.0, -1.0, -3.0, -1.0, 2.0, -2.0, 1.0, 2.0];
+        // Row i: (A·(2, 3, −1))_i, (A·(1, −1, 2))_i.
+        let mut b = vec![8.0, -1.0, -11.0, 2.0, -3.0, 1.0];
+        solve(&mut a, &mut b, 3, 2).unwrap();
+        let want = [2.0, 1.0, 3.0, -1.0, -1.0, 2.0];
+        for (got, want) in b.iter().zip(want) {
+            assert!((got - want).abs() < 1e-14, "{b:?}");
+        }
+    }
+
+    /// A zero first pivot needs the row swap; on a tie |A_0k| = |A_1k| the last row is
+    /// the pivot: [[1, 2], [−1, 3]] x = (3, 2) pivots on row 1, leaving the factor
+    /// [[−1, 3], [0, 5]] (row 0 + row 1 → (0, 5)) and x = (1, 1), all exact.
+    #[test]
+    fn solve_pivoting() {
+        let mut a = vec![0.0, 1.0, 1.0, 0.0];
+        let mut b = vec![3.0, 5.0];
+        solve(&mut a, &mut b, 2, 1).unwrap();
+        assert_eq!(b, [5.0, 3.0]);
+        let mut a = vec![1.0, 2.0, -1.0, 3.0];
+        let mut b = vec![3.0, 2.0];
+        solve(&mut a, &mut b, 2, 1).unwrap();
+        assert_eq!(a, [-1.0, 3.0, 0.0, 5.0]);
+        assert_eq!(b, [1.0, 1.0]);
+    }
+
+    /// Singular systems are `None`: rank 1 (row 1 = 2 × row 0, eliminated exactly to a
+    /// zero row), the zero matrix, and a non-finite entry; the empty system is solved.
+    #[test]
+    fn solve_singular() {
+        let mut b = vec![1.0, 2.0];
+        assert_eq!(solve(&mut [1.0, 2.0, 2.0, 4.0], &mut b, 2, 1), None);
+        assert_eq!(solve(&mut [0.0; 9], &mut [1.0; 3], 3, 1), None);
+        assert_eq!(solve(&mut [1.0, 0.0, 0.0, f64::NAN], &mut [1.0, 1.0], 2, 1), None);
+        assert_eq!(solve(&mut [], &mut [], 0, 3), Some(()));
+    }
+
+    /// Points on 1 + 2x − 3x² give back its coefficients; too few points give `None`.
+    #[test]
+    fn polyfit_exact_quadratic() {
+        let x: Vec<f64> = (0..7).map(|i| i as f64 / 6.0).collect();
+        let y: Vec<f64> = x.iter().map(|t| 1.0 + 2.0 * t - 3.0 * t * t).collect();
+        let c = polyfit(&x, &y, 2).unwrap();
+        for (got, want) in c.iter().zip([1.0, 2.0, -3.0]) {
+            assert!((got - want).abs() < 1e-12, "{c:?}");
+        }
+        assert_eq!(polyfit(&x[..2], &y[..2], 2), None);
     }
 
     #[test]

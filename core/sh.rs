@@ -15,6 +15,8 @@
 use std::f64::consts::PI;
 
 pub use lobefit_tables::gaunt::{gauss_legendre, one, Gaunt, GauntEntry, SphereRule, GAUNT_ZERO};
+/// Monomial coefficients of P_0 … P_7 (`[l][k]` multiplies t^k), the runtime's.
+pub use lobefit_tables::log_zh::legendre_coeffs;
 pub use lobefit_tables::sh as rt;
 use lobefit_tables::sh::MAX_ORDER;
 
@@ -109,6 +111,32 @@ pub fn zh_project_gk(order: usize, g: impl Fn(f64) -> f64, breaks: &[f64], tol: 
     (z, ok)
 }
 
+/// Legendre polynomials P_0(t), P_1(t), P_2(t), … without end, by Bonnet's
+/// recurrence (l + 1) P_{l+1} = (2l + 1) t P_l − l P_{l−1} (P_0 = 1, P_1 = t): the fit
+/// side's one evaluation of the recurrence ([`legendre`] is its l-th term). The
+/// runtime evaluates its own ([`rt::eval_zonal`], and [`legendre_coeffs`] for the
+/// monomial coefficients): it cannot depend on this crate.
+pub fn legendre_seq(t: f64) -> impl Iterator<Item = f64> {
+    let (mut l, mut p_prev, mut p) = (0usize, 0.0, 1.0);
+    std::iter::from_fn(move || {
+        match l {
+            0 => {}
+            1 => (p_prev, p) = (p, t),
+            _ => {
+                let k = l - 1;
+                (p_prev, p) = (p, ((2 * k + 1) as f64 * t * p - k as f64 * p_prev) / (k + 1) as f64);
+            }
+        }
+        l += 1;
+        Some(p)
+    })
+}
+
+/// Legendre polynomial P_l(t), by the recurrence of [`legendre_seq`].
+pub fn legendre(l: usize, t: f64) -> f64 {
+    legendre_seq(t).nth(l).expect("an endless sequence")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -157,6 +185,46 @@ mod tests {
         );
         assert!(qt.converged && qp.converged);
         qt.value * qp.value
+    }
+
+    /// P_0 … P_4 against their closed forms (worked out by hand), at points where
+    /// those are exact in binary: P_2 = (3t² − 1)/2, P_3 = (5t³ − 3t)/2,
+    /// P_4 = (35t⁴ − 30t² + 3)/8; and P_l(1) = 1, P_l(−1) = (−1)^l.
+    #[test]
+    fn legendre_closed_forms() {
+        for t in [0.0, 0.5, -0.25, 1.0, -1.0] {
+            let want = [
+                1.0,
+                t,
+                (3.0 * t * t - 1.0) / 2.0,
+                (5.0 * t * t * t - 3.0 * t) / 2.0,
+                (35.0 * t * t * t * t - 30.0 * t * t + 3.0) / 8.0,
+            ];
+            let got: Vec<f64> = legendre_seq(t).take(5).collect();
+            for (l, (g, w)) in got.iter().zip(want).enumerate() {
+                assert!((g - w).abs() < 1e-15, "P_{l}({t}) = {g}, want {w}");
+                assert_eq!(legendre(l, t), *g);
+            }
+        }
+        // P_2(0.5) = −1/8, P_3(0.5) = −7/16 by hand.
+        assert_eq!(legendre(2, 0.5), -0.125);
+        assert_eq!(legendre(3, 0.5), -0.4375);
+        for l in 0..20 {
+            assert!((legendre(l, 1.0) - 1.0).abs() < 1e-14);
+            assert!((legendre(l, -1.0) - if l % 2 == 0 { 1.0 } else { -1.0 }).abs() < 1e-14);
+        }
+    }
+
+    /// The runtime's monomial coefficients evaluate to the recurrence's P_l.
+    #[test]
+    fn legendre_coeffs_match_recurrence() {
+        let a = legendre_coeffs();
+        for t in [-0.9, -0.3, 0.2, 0.7] {
+            for (l, p) in legendre_seq(t).take(MAX_ORDER).enumerate() {
+                let m: f64 = (0..MAX_ORDER).map(|k| a[l][k] * t.powi(k as i32)).sum();
+                assert!((m - p).abs() < 1e-13, "l={l} t={t}: {m} vs {p}");
+            }
+        }
     }
 
     #[test]

@@ -35,6 +35,7 @@ use lobefit_tables::glam::DVec3;
 use lobefit_tables::sh::eval_basis;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
+use lobefit_core::eigen::solve;
 use lobefit_core::family::{Checked, Extra, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::gauss_kronrod_vec;
 use lobefit_core::rng::Rng;
@@ -403,57 +404,28 @@ fn canonical_polynomials() -> [[f64; 6]; 6] {
             [-0.5, -0.1, 0.85],
             [0.7, 0.6, 0.1],
         ];
-        let mut a = [[0.0; 6]; 6];
-        let mut rhs = [[0.0; 6]; 6];
+        // A (6 × 6) and the six right-hand sides B (6 × 6), row-major.
+        let mut a = [0.0; 36];
+        let mut rhs = [0.0; 36];
         for (row, d) in dirs.iter().enumerate() {
             let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             let [x, y, z] = d.map(|v| v / l);
-            a[row] = [x, z, x * x, y * y, z * z, x * z];
+            a[row * 6..row * 6 + 6].copy_from_slice(&[x, z, x * x, y * y, z * z, x * z]);
             let mut yb = [0.0; 9];
             eval_basis(3, [x, y, z], &mut yb).expect("unit direction");
             for (k, &i) in CANONICAL_INDEX.iter().enumerate() {
-                rhs[row][k] = yb[i];
+                rhs[row * 6 + k] = yb[i];
             }
         }
-        let sol = solve6(a, rhs);
+        solve(&mut a, &mut rhs, 6, 6).expect("six independent directions");
         let mut out = [[0.0; 6]; 6];
-        for k in 0..6 {
-            for j in 0..6 {
-                out[k][j] = sol[j][k];
+        for (k, poly) in out.iter_mut().enumerate() {
+            for (j, c) in poly.iter_mut().enumerate() {
+                *c = rhs[j * 6 + k];
             }
         }
         out
     })
-}
-
-/// Solves A X = B (6 × 6, six right-hand sides) by Gaussian elimination with partial
-/// pivoting.
-#[allow(clippy::needless_range_loop)] // row operations read best with indices
-fn solve6(mut a: [[f64; 6]; 6], mut b: [[f64; 6]; 6]) -> [[f64; 6]; 6] {
-    for col in 0..6 {
-        let piv = (col..6)
-            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
-            .expect("rows left");
-        a.swap(col, piv);
-        b.swap(col, piv);
-        for row in col + 1..6 {
-            let f = a[row][col] / a[col][col];
-            for k in col..6 {
-                a[row][k] -= f * a[col][k];
-            }
-            for k in 0..6 {
-                b[row][k] -= f * b[col][k];
-            }
-        }
-    }
-    let mut x = [[0.0; 6]; 6];
-    for row in (0..6).rev() {
-        for k in 0..6 {
-            let s: f64 = (row + 1..6).map(|j| a[row][j] * x[j][k]).sum();
-            x[row][k] = (b[row][k] - s) / a[row][row];
-        }
-    }
-    x
 }
 
 /// Exact irradiance (per unit radiance) at the origin with unit normal `n`

@@ -27,16 +27,8 @@ const EPS_XTOL: f64 = 1e-7;
 /// True ZH vector z_0..z_{n−1} of the normalised Phong lobe (r+1)/(2π) cos^r θ (0
 /// below the horizon), r ≥ 0 real.
 pub fn true_phong_zh(r: f64, order: usize) -> Vec<f64> {
-    // P_l monomial coefficients by the three-term recurrence.
-    let mut a = [[0.0f64; MAX_ORDER]; MAX_ORDER];
-    a[0][0] = 1.0;
-    a[1][1] = 1.0;
-    for l in 2..MAX_ORDER {
-        for k in 0..MAX_ORDER {
-            let up = if k > 0 { a[l - 1][k - 1] } else { 0.0 };
-            a[l][k] = ((2 * l - 1) as f64 * up - (l - 1) as f64 * a[l - 2][k]) / l as f64;
-        }
-    }
+    // P_l monomial coefficients (the runtime's, by the three-term recurrence).
+    let a = lobefit_core::sh::legendre_coeffs();
     (0..order)
         .map(|l| {
             let s: f64 = (0..=l).map(|k| a[l][k] / (r + k as f64 + 1.0)).sum();

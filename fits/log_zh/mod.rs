@@ -20,6 +20,7 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
 use lobefit_core::rng::Rng;
+use lobefit_core::sh::legendre_seq;
 use lobefit_tables::error::short;
 
 /// Largest allowed |closed form − Gauss–Legendre| for an entry to be written.
@@ -178,16 +179,7 @@ fn gl_log_zh(eps: f64, r: f64, order: usize) -> (Vec<f64>, u32) {
         for (xi, wi) in x.iter().zip(&w) {
             let s = c + h * xi;
             let g = log_phong(eps, r, s);
-            let (mut p0, mut p1) = (1.0, s);
-            for (l, zl) in z.iter_mut().enumerate() {
-                let p = match l {
-                    0 => 1.0,
-                    1 => s,
-                    _ => {
-                        (p0, p1) = (p1, ((2 * l - 1) as f64 * s * p1 - (l - 1) as f64 * p0) / l as f64);
-                        p1
-                    }
-                };
+            for (zl, p) in z.iter_mut().zip(legendre_seq(s)) {
                 *zl += h * wi * g * p;
             }
             evals += 1;

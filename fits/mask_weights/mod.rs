@@ -38,6 +38,7 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use rayon::prelude::*;
 
 use crate::cap_exponent::objective_slope;
+use lobefit_core::eigen;
 use lobefit_core::family::{Checked, Extra, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::illinois;
 use lobefit_core::rng::Rng;
@@ -342,7 +343,7 @@ fn quad_form(g: &[f64], w: &[f64], n: usize) -> f64 {
 }
 
 /// (G + λI) w = g + λ·1, λ = RIDGE·tr G/n (plus a floor for an empty system), by
-/// Gaussian elimination with partial pivoting (G + λI is symmetric positive definite).
+/// [`lobefit_core::eigen::solve`] (G + λI is symmetric positive definite).
 fn ridge_solve(g: &[f64], rhs: &[f64], n: usize) -> Option<Vec<f64>> {
     let tr: f64 = (0..n).map(|i| g[i * n + i]).sum();
     let lambda = RIDGE * tr / n as f64 + 1e-300;
@@ -352,35 +353,8 @@ fn ridge_solve(g: &[f64], rhs: &[f64], n: usize) -> Option<Vec<f64>> {
         a[i * n + i] += lambda;
         b[i] += lambda;
     }
-    gauss_solve(a, b, n)
-}
-
-/// Solves the n × n system `a` x = `b` (row-major) by Gaussian elimination with
-/// partial pivoting; `None` when singular or not finite.
-pub fn gauss_solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize) -> Option<Vec<f64>> {
-    for k in 0..n {
-        let p = (k..n).max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))?;
-        if a[p * n + k] == 0.0 {
-            return None;
-        }
-        for j in 0..n {
-            a.swap(k * n + j, p * n + j);
-        }
-        b.swap(k, p);
-        for i in k + 1..n {
-            let f = a[i * n + k] / a[k * n + k];
-            for j in k..n {
-                a[i * n + j] -= f * a[k * n + j];
-            }
-            b[i] -= f * b[k];
-        }
-    }
-    let mut x = vec![0.0; n];
-    for i in (0..n).rev() {
-        let s: f64 = (i + 1..n).map(|j| a[i * n + j] * x[j]).sum();
-        x[i] = (b[i] - s) / a[i * n + i];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    eigen::solve(&mut a, &mut b, n, 1)?;
+    Some(b)
 }
 
 /// The paper's procedure made automatic: w_d, coarse to fine, by least squares with

@@ -56,12 +56,7 @@ fn phi_part(i: usize, phi: f64) -> f64 {
 
 /// P̂_l(t) = √((2l+1)/2) P_l(t).
 pub fn nlp(l: usize, t: f64) -> f64 {
-    let (mut p0, mut p1) = (1.0, t);
-    for k in 1..l {
-        (p0, p1) = (p1, ((2 * k + 1) as f64 * t * p1 - k as f64 * p0) / (k + 1) as f64);
-    }
-    let p = if l == 0 { 1.0 } else { p1 };
-    ((2 * l + 1) as f64 / 2.0).sqrt() * p
+    ((2 * l + 1) as f64 / 2.0).sqrt() * lobefit_core::sh::legendre(l, t)
 }
 
 /// ∫_0^D w(φ) Φ_i(φ) dφ with w = 1 − φ/D (`second` false) or φ/D (true), closed form.

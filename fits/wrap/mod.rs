@@ -19,6 +19,8 @@ use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
 use lobefit_core::quad::{adaptive_simpson, gauss_kronrod};
 use lobefit_core::rng::Rng;
+// P_l by the three-term recurrence (not the runtime's monomial expansion).
+use lobefit_core::sh::legendre;
 
 /// Absolute tolerance of the fit's adaptive Simpson per band.
 const FIT_TOL: f64 = 1e-13;
@@ -59,19 +61,6 @@ impl Default for WrapFamily {
     fn default() -> Self {
         WrapFamily { order: MAX_ORDER }
     }
-}
-
-/// Legendre polynomial P_l(t) by the three-term recurrence (not the runtime's
-/// monomial expansion).
-pub fn legendre(l: usize, t: f64) -> f64 {
-    let (mut p0, mut p1) = (1.0, t);
-    if l == 0 {
-        return 1.0;
-    }
-    for k in 1..l {
-        (p0, p1) = (p1, ((2 * k + 1) as f64 * t * p1 - k as f64 * p0) / (k + 1) as f64);
-    }
-    p1
 }
 
 /// The wrap kernel f(t | a) (zero below t = −a).

@@ -12,8 +12,8 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use lobefit_tables::meunier::cap_irradiance;
 use lobefit_tables::CapExponent;
 
+use lobefit_core::eigen::solve;
 use lobefit_core::sh::gauss_legendre;
-use lobefit_fits::mask_weights::gauss_solve;
 
 /// Lobes per light the study tries.
 pub const MAX_LOBES: usize = 3;
@@ -109,8 +109,8 @@ pub fn fit(caps: &CapExponent, alpha: f64, k: usize) -> Result<Vec<(f64, f64)>, 
             1.0 / (e_normal * e_normal * tilts as f64),
         );
     }
-    let s = gauss_solve(g, rhs, k).ok_or_else(|| format!("light-lobe fit at α = {alpha}: singular"))?;
-    Ok(es.into_iter().zip(s).collect())
+    solve(&mut g, &mut rhs, k, 1).ok_or_else(|| format!("light-lobe fit at α = {alpha}: singular"))?;
+    Ok(es.into_iter().zip(rhs).collect())
 }
 
 /// Value of the fitted lobes at polar angle `theta` from the light's axis.

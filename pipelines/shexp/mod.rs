@@ -59,6 +59,8 @@ mod tests {
 
     use lobefit_tables::glam::DVec3;
 
+    use lobefit_core::sh::legendre;
+
     use super::shade::{radiance, sh_value, Settings, Tables};
     use super::*;
     use crate::scene::parse;
@@ -93,21 +95,11 @@ mod tests {
     }
 
     /// ∫ L₄(ω) max(n·ω, 0)/π dω by Funk–Hecke, with 2π ∫₀¹ t P_l(t) dt by Simpson's rule
-    /// (exact for these polynomials) and P_l by its recurrence: independent of the SH
-    /// routines but for the light's coefficients.
+    /// (exact for these polynomials) and P_l by its recurrence
+    /// ([`lobefit_core::sh::legendre`]): independent of the SH routines but for the
+    /// light's coefficients.
     fn diffuse_closed_form(light: &[f64], n: DVec3) -> f64 {
         let order = (light.len() as f64).sqrt() as usize;
-        let legendre = |l: usize, t: f64| {
-            let (mut p0, mut p1) = (1.0, t);
-            if l == 0 {
-                return 1.0;
-            }
-            for k in 1..l {
-                let p2 = ((2 * k + 1) as f64 * t * p1 - k as f64 * p0) / (k + 1) as f64;
-                (p0, p1) = (p1, p2);
-            }
-            p1
-        };
         let steps = 2000;
         let mut total = 0.0;
         for l in 0..order {

@@ -137,6 +137,7 @@ pub(crate) fn axes() -> Vec<Axis> {
 }
 
 /// Monomial coefficients of P_l, l < 8 (a[l][k] multiplies s^k).
+#[cfg_attr(feature = "writer", visibility::make(pub))]
 pub(crate) fn legendre_coeffs() -> [[f64; MAX_ORDER]; MAX_ORDER] {
     let mut a = [[0.0; MAX_ORDER]; MAX_ORDER];
     a[0][0] = 1.0;
