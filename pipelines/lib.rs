@@ -79,7 +79,7 @@ pub type RenderFn = fn(&str, &RenderOptions, &Path, &(dyn Fn() + Sync)) -> Resul
 /// One pipeline: everything the CLI knows of it (`lobefit render NAME`, its `eval`
 /// views, its `plot` figure sets) is in this entry, and [`registry`] is the one list
 /// of them.
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy)]
 pub struct Pipeline {
     /// Command-line name.
     pub name: &'static str,
@@ -93,17 +93,6 @@ pub struct Pipeline {
     pub eval: &'static [EvalView],
     /// Its `lobefit plot` figure sets.
     pub plots: &'static [(&'static str, PlotFn)],
-}
-
-impl std::fmt::Debug for Pipeline {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Pipeline")
-            .field("name", &self.name)
-            .field("scenes", &self.scenes)
-            .field("eval", &self.eval.iter().map(|e| e.0).collect::<Vec<_>>())
-            .field("plots", &self.plots.iter().map(|p| p.0).collect::<Vec<_>>())
-            .finish()
-    }
 }
 
 impl Pipeline {
