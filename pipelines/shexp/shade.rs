@@ -153,17 +153,15 @@ impl Tables {
 }
 
 /// The SH vector (order n) of a distant light given as SGs, each projected exactly
-/// (its ZH by adaptive quadrature, turned to its axis).
+/// (its ZH in closed form, [`lobefit_core::sh::sg_zh`], turned to its axis) for every
+/// sharpness: a sharp SG keeps its energy in the low bands.
 pub fn project_sgs(env: &[lobefit_tables::isg::Sg], order: usize) -> Result<Vec<f64>, String> {
     let nc = order * order;
     let mut out = vec![0.0; nc];
     let mut turned = vec![0.0; nc];
     for g in env {
-        let (a, l) = (g.amplitude, g.sharpness);
-        let (zh, ok) = lobefit_core::sh::zh_project_gk(order, |t| a * (l * (t - 1.0)).exp(), &[], 1e-13);
-        if !ok {
-            return Err(format!("the projection of an SG of sharpness {l} did not converge"));
-        }
+        let mut zh = lobefit_core::sh::sg_zh(order, g.sharpness)?;
+        zh.iter_mut().for_each(|z| *z *= g.amplitude);
         rt::zh_to_sh(&zh, g.axis, &mut turned).map_err(|e| e.to_string())?;
         out.iter_mut().zip(&turned).for_each(|(o, t)| *o += t);
     }
