@@ -110,7 +110,7 @@ enum Command {
         #[arg(long, value_name = "FILE.json")]
         baseline: Option<PathBuf>,
         /// How much a metric may grow against the baseline before the check fails.
-        #[arg(long, default_value_t = lobefit::ci::DEFAULT_FACTOR, requires = "baseline")]
+        #[arg(long, default_value_t = lobefit::ci::DEFAULT_FACTOR, requires = "baseline", value_parser = factor_arg)]
         baseline_factor: f64,
         /// Also write the verdicts as JUnit XML to this file.
         #[arg(long, value_name = "FILE.xml")]
@@ -225,7 +225,8 @@ struct EvalFlagArgs {
     /// log-zh: diffuse | phong | blocker.
     #[arg(long)]
     kind: Option<String>,
-    /// SH families: order N (bands 0..N-1), 1..=8.
+    /// SH families: order N (bands 0..N-1): 1..=8 (log-zh, wedge, wrap), 3..=8 (shexp,
+    /// shexp-shade); a value outside the family's range is a usage error.
     #[arg(long, value_parser = clap::value_parser!(u8).range(1..=8))]
     order: Option<u8>,
     /// shexp: ren | naive.
@@ -279,6 +280,14 @@ fn threads_arg(s: &str) -> Result<usize, String> {
         _ => Err(format!(
             "expected a thread count from 1 to {max} (4 per available core, {cores} cores)"
         )),
+    }
+}
+
+/// Parses `--baseline-factor`: a finite number ≥ 1 (refused before the check runs).
+fn factor_arg(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(f) if f.is_finite() && f >= 1.0 => Ok(f),
+        _ => Err("expected a finite number ≥ 1".into()),
     }
 }
 
@@ -424,14 +433,28 @@ fn inspect(file: &Path, json: bool) -> Result<(), String> {
     emit(&s)
 }
 
-fn run(cli: Cli) -> Result<ExitCode, String> {
+/// Why a command failed: its arguments (exit 2, as clap's own usage errors: a value
+/// clap cannot check, such as a family's `--model` or `--order` range, or `export
+/// --only`/`--scale`), or anything else (exit 1).
+enum Failure {
+    Usage(String),
+    Run(String),
+}
+
+impl From<String> for Failure {
+    fn from(e: String) -> Self {
+        Failure::Run(e)
+    }
+}
+
+fn run(cli: Cli) -> Result<ExitCode, Failure> {
     match cli.command {
         Command::BuildTables { only, out, fit } => {
-            let opts = fit_options(&fit)?;
+            let opts = fit_options(&fit).map_err(Failure::Usage)?;
             build(&select(&only, opts), fit.threads, &|k| table_path(&out, k))?;
         }
         Command::Fit { family, out, fit } => {
-            let opts = fit_options(&fit)?;
+            let opts = fit_options(&fit).map_err(Failure::Usage)?;
             let f = select(&[family], opts);
             let is_file = !(out.is_dir() || out.as_os_str().to_string_lossy().ends_with('/'));
             build(&f, fit.threads, &|k| {
@@ -455,7 +478,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             export,
         } => {
             if let Some(dir) = export {
-                return check_export(&dir);
+                return Ok(check_export(&dir)?);
             }
             // Read the baseline first: a bad file fails before minutes of checking.
             let saved: Option<Vec<check::FamilyReport>> = match &baseline {
@@ -518,7 +541,8 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 let langs = shaders
                     .iter()
                     .map(|l| lobefit::export::shaders::ShaderLang::parse(l))
-                    .collect::<Result<Vec<_>, _>>()?;
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(Failure::Usage)?;
                 for p in lobefit::export::shaders::write(&langs, &out)? {
                     let _ = writeln!(s, "shader library: {}", p.display());
                 }
@@ -541,6 +565,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 scale,
                 allow_lossy,
             };
+            lobefit::export::run::validate(&opts).map_err(Failure::Usage)?;
             let m = lobefit::export::run::export(&opts, &out)?;
             for f in &m.families {
                 let files: Vec<&str> = f.textures.iter().map(|t| t.file.as_str()).collect();
@@ -581,7 +606,21 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 scene: flags.scene,
                 patches: flags.patches,
             };
-            let f = lobefit::catalog::for_eval(&family, &flags, FitOptions::default())?;
+            // The family and its flags: what clap cannot check (a flag the family does
+            // not take, a value outside its range, a scene the family cannot shade) is
+            // a usage error too; a scene file that cannot be read or parsed is the
+            // file's error, as a table file's is.
+            let f = lobefit::catalog::for_eval(&family, &flags, FitOptions::default()).map_err(|e| {
+                let scene_file = flags
+                    .scene
+                    .as_deref()
+                    .is_some_and(|s| lobefit::pipelines::scene::load(s).err().as_ref() == Some(&e));
+                if scene_file {
+                    Failure::Run(e)
+                } else {
+                    Failure::Usage(e)
+                }
+            })?;
             let runtime = if exact {
                 None
             } else {
@@ -621,7 +660,8 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             breakdown_stride,
             threads,
         } => {
-            let pipeline = lobefit::pipelines::by_name(&name).ok_or_else(|| format!("no pipeline named {name}"))?;
+            let pipeline = lobefit::pipelines::by_name(&name)
+                .ok_or_else(|| Failure::Usage(format!("no pipeline named {name}")))?;
             let scenes: Vec<&str> = if scene == "all" {
                 pipeline.scenes.to_vec()
             } else {
@@ -635,11 +675,11 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             // Bounded work, and an output directory that takes files, before any of it.
             let samples = u64::from(width) * u64::from(width * 3 / 4) * u64::from(spp);
             if samples > lobefit::pipelines::MAX_SAMPLES {
-                return Err(format!(
+                return Err(Failure::Usage(format!(
                     "--width {width} --spp {spp}: {samples} Monte Carlo samples per image, more than the {} \
                      a render may take; lower --width or --spp",
                     lobefit::pipelines::MAX_SAMPLES
-                ));
+                )));
             }
             // (A missing --out is made only by a render that succeeds: probe its nearest
             // existing ancestor.)
@@ -653,11 +693,11 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 existing
             };
             if !probe.is_dir() {
-                return Err(format!(
+                return Err(Failure::Run(format!(
                     "--out {}: {} is not a directory",
                     out.display(),
                     probe.display()
-                ));
+                )));
             }
             tempfile::tempfile_in(probe).map_err(|e| format!("--out {}: cannot write there: {e}", out.display()))?;
             let mut text = String::new();
@@ -680,7 +720,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let (_, plot) = lobefit::catalog::plots()
                 .into_iter()
                 .find(|(n, _)| *n == name)
-                .ok_or_else(|| format!("no figures named {name}"))?;
+                .ok_or_else(|| Failure::Usage(format!("no figures named {name}")))?;
             let listing: String = plot(&out)?.iter().map(|p| format!("{}\n", p.display())).collect();
             emit(&listing)?;
         }
@@ -790,12 +830,12 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(code) => return code,
     };
-    match run(cli) {
-        Ok(code) => code,
-        Err(e) => {
-            let _ = std::io::stdout().flush();
-            note(&format!("error: {e}\n"));
-            ExitCode::from(1)
-        }
-    }
+    let (e, code) = match run(cli) {
+        Ok(code) => return code,
+        Err(Failure::Usage(e)) => (e, 2),
+        Err(Failure::Run(e)) => (e, 1),
+    };
+    let _ = std::io::stdout().flush();
+    note(&format!("error: {e}\n"));
+    ExitCode::from(code)
 }

@@ -13,6 +13,30 @@ use std::path::Path;
 /// followed or overwritten. After a successful write, temporaries of the same
 /// table left by a killed run (hidden, ignored by the loader) are removed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    // Dropping a `NamedTempFile` (on every `?` below, and inside a failed
+    // `persist`) deletes it.
+    let mut tmp = temp_beside(path, TMP_SUFFIX)?;
+    tmp.write_all(bytes)?;
+    persist(tmp, path)?;
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    remove_stale(dir, &format!(".{name}."));
+    Ok(())
+}
+
+/// The temporary of an atomic write of `path` (every file lobefit writes goes
+/// through it: [`write_atomic`], the PNG figures): created in `path`'s directory
+/// (made if missing), exclusively (`O_EXCL`) under an unpredictable name
+/// `.<name>.<random><suffix>`, with the permissions `File::create` gives a new file
+/// (0666 less the umask; tempfile's own default, 0600, would make every output
+/// private). Removed when dropped; [`persist`] renames it into place.
+pub fn temp_beside(path: &Path, suffix: &str) -> std::io::Result<tempfile::NamedTempFile> {
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -23,21 +47,24 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let prefix = format!(".{name}.");
-    // Dropping a `NamedTempFile` (on every `?` below, and inside a failed
-    // `persist`) deletes it.
     let mut builder = tempfile::Builder::new();
-    builder.prefix(&prefix).suffix(TMP_SUFFIX);
-    // tempfile's default mode is 0600; a table is as readable as `File::create`
-    // would make it (0666 less the umask).
+    builder.prefix(&prefix).suffix(suffix);
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    let mut tmp = builder.tempfile_in(dir)?;
-    tmp.write_all(bytes)?;
+    builder.tempfile_in(dir)
+}
+
+/// Completes an atomic write: `tmp` (from [`temp_beside`]) flushed to disk, renamed
+/// over `path`, and the directory flushed so the rename survives a crash. On error
+/// the target is untouched and the temporary removed.
+pub fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> std::io::Result<()> {
     tmp.as_file().sync_all()?;
     tmp.persist(path).map_err(|e| e.error)?;
-    sync_dir(dir)?;
-    remove_stale(dir, &prefix);
-    Ok(())
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    sync_dir(dir)
 }
 
 /// Suffix of the temporary files of [`write_atomic`].

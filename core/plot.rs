@@ -96,23 +96,20 @@ fn atomic_png(
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| err(dir, e))?;
-    let name = path.file_name().ok_or_else(|| err(path, "not a file name"))?;
-    // An unpredictable temporary, created exclusively (a planted symlink is never
-    // followed) and removed on any error; plotters picks the encoder from the
-    // extension, so its name ends in .png.
-    let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{}.", name.to_string_lossy()))
-        .suffix(".tmp.png")
-        .tempfile_in(dir)
-        .map_err(|e| err(dir, e))?;
+    if path.file_name().is_none() {
+        return Err(err(path, "not a file name"));
+    }
+    // The atomic writes' temporary (unpredictable, created exclusively: a planted
+    // symlink is never followed; removed on any error; the usual permissions);
+    // plotters picks the encoder from the extension, so its name ends in .png.
+    let tmp = crate::io::temp_beside(path, ".tmp.png").map_err(|e| err(dir, e))?;
     {
         let root = BitMapBackend::new(tmp.path(), size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(path, e))?;
         draw(&root)?;
         root.present().map_err(|e| err(path, e))?;
     }
-    tmp.persist(path).map_err(|e| err(path, e.error))?;
+    crate::io::persist(tmp, path).map_err(|e| err(path, e))?;
     Ok(path.to_path_buf())
 }
 

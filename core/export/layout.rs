@@ -40,6 +40,7 @@ pub const HARDWARE_WEIGHT_STEPS: f32 = 256.0;
 /// channel's quantity (its natural log when `log`). A shader reads
 /// v = offset + scale · texel, then exp(v) when `log`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Channel {
     /// Channel name (the table's).
     pub name: String,
@@ -71,6 +72,7 @@ pub struct Channel {
 /// convention. Texture coordinate u = (s + 0.5) / count with s = (map(x) − map(lo)) /
 /// (map(hi) − map(lo)) · (count − 1): node i sits at the centre of texel i.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TexAxis {
     /// The table axis (name, range, mapping, node count).
     pub axis: Axis,
@@ -160,9 +162,7 @@ pub struct Grid {
 /// table's nodes and values as they are).
 pub fn grid_of_table(name: &str, table: &Table, storage: Storage, scale: f64) -> Result<Grid, String> {
     let meta = table.meta();
-    if !(scale > 0.0 && scale <= MAX_SCALE) {
-        return Err(format!("--scale {scale}: must lie in (0, {MAX_SCALE}]"));
-    }
+    check_scale(scale)?;
     let (table_axes, values) = resample(table, scale)?;
     let channels: Vec<ChannelSpec> = meta
         .channels
@@ -293,6 +293,15 @@ pub fn grid_of_values(
 
 /// Largest `--scale` (16× the nodes per axis; API limits bound it further).
 pub const MAX_SCALE: f64 = 16.0;
+
+/// Refuses a `--scale` outside (0, [`MAX_SCALE`]] (NaN included).
+pub fn check_scale(scale: f64) -> Result<(), String> {
+    if scale > 0.0 && scale <= MAX_SCALE {
+        Ok(())
+    } else {
+        Err(format!("--scale {scale}: must lie in (0, {MAX_SCALE}]"))
+    }
+}
 
 /// The table's axes and stored values (log channels as ln), at `scale` × the nodes.
 fn resample(table: &Table, scale: f64) -> Result<(Vec<Axis>, Vec<f64>), String> {

@@ -20,6 +20,7 @@ pub const MANIFEST_VERSION: u32 = 3;
 /// The manifest: everything a renderer needs to sample the textures, and the
 /// measured error of these very files.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Manifest {
     /// [`MANIFEST_VERSION`].
     pub version: u32,
@@ -54,6 +55,7 @@ pub struct Manifest {
 
 /// One exported family: its textures, the shader's formulas, the measured error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FamilyEntry {
     /// Table kind.
     pub family: String,
@@ -69,6 +71,7 @@ pub struct FamilyEntry {
 
 /// One exported texture.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TextureEntry {
     /// File name in the export directory.
     pub file: String,
@@ -88,6 +91,7 @@ pub struct TextureEntry {
 
 /// One measured error of an exported texture.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ErrorEntry {
     /// `manual` or `hardware`.
     pub filter: Filter,

@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::families::{Emulated, GpuFamily};
 use super::formats;
-use super::layout::{Channel, Filter, Sampler, TexAxis};
+use super::layout::{Channel, Filter, Grid, Sampler, TexAxis};
 use super::manifest::{
     ErrorEntry, FamilyEntry, Manifest, TextureEntry, MANIFEST, MANIFEST_SCHEMA, MANIFEST_SCHEMA_FILE, MANIFEST_VERSION,
 };
@@ -142,35 +142,114 @@ pub fn errors_of(
     Ok(out)
 }
 
+/// The families `opts.only` names (every textured family when empty) and its scale,
+/// checked: an unknown family, one a shader evaluates in closed form, or a scale
+/// outside (0, 16] is refused (the usage errors of `lobefit export`).
+pub fn validate(opts: &ExportOptions) -> Result<Vec<GpuFamily>, String> {
+    super::layout::check_scale(opts.scale)?;
+    if opts.only.is_empty() {
+        return Ok(fits::textured());
+    }
+    opts.only
+        .iter()
+        .map(|k| {
+            fits::gpu_family(k).ok_or_else(|| {
+                if let Some(c) = fits::closed_form().into_iter().find(|c| c.kind == k) {
+                    format!(
+                        "{k} needs no texture: a shader evaluates it in closed form ({})",
+                        c.formula
+                    )
+                } else {
+                    let all: Vec<&str> = fits::textured().iter().map(|f| f.kind).collect();
+                    format!("unknown family {k:?} (textured families: {})", all.join(", "))
+                }
+            })
+        })
+        .collect()
+}
+
+/// The texture-coordinate convention every manifest states.
+pub const CONVENTION: &str = "Node i of an axis with n nodes sits at the centre of texel i: texture coordinate \
+     u = (s + 0.5) / n with s ∈ [0, n − 1] the node coordinate (formula per axis). \
+     2D textures: x = the table's fastest axis, y = the slower one. A channel's value is \
+     trend(t) + offset + scale · texel (trend: a quintic in t = s / (n − 1), Horner in f32, 1D f16 textures only), then exp() for log channels. Manual filtering: fetch the two \
+     (four) neighbouring texels and interpolate in f32; hardware filtering: a linear sampler \
+     with clamp-to-edge addressing (its sub-texel weights have 8 fractional bits).";
+
+/// The export lock's file in an export directory (see [`move_in`]).
+pub const LOCK_FILE: &str = ".lobefit-export.lock";
+
+/// The manifest entry of `grid`'s texture, written as `format` in a file of `bytes`.
+fn texture_entry(grid: &Grid, format: Format, bytes: u64) -> TextureEntry {
+    let t = &grid.texture;
+    TextureEntry {
+        file: format!("{}.{}", t.name, format.extension()),
+        bytes,
+        dimension: t.dimension,
+        extent: [t.width, t.height, t.depth, t.layers, t.channels],
+        axis_formulas: grid.axes.iter().map(TexAxis::formula).collect(),
+        axes: grid.axes.clone(),
+        channels: grid.channels.clone(),
+    }
+}
+
+/// The manifest of an export of `families` with these settings.
+fn manifest_of(format: Format, storage: Storage, scale: f64, families: Vec<FamilyEntry>) -> Manifest {
+    Manifest {
+        version: MANIFEST_VERSION,
+        format,
+        storage,
+        scale,
+        convention: CONVENTION.into(),
+        samples: SAMPLES,
+        seed: SEED,
+        uniforms_header: formats::UNIFORMS_HEADER.into(),
+        uniforms_wgsl: super::shaders::BAKED_UNIFORMS.into(),
+        baked_shaders: super::shaders::BAKED_SHADERS.iter().map(|s| s.to_string()).collect(),
+        families,
+        closed_form: fits::closed_form()
+            .iter()
+            .map(|c| (c.kind.to_string(), c.formula.to_string()))
+            .collect(),
+    }
+}
+
+/// The files an export writes beside the textures and the manifest, by name, for
+/// manifest `m`: the uniforms of its textures (C header, WGSL), the baked shaders in
+/// every language, the manifest's schema.
+fn companion_files(m: &Manifest) -> Result<Vec<(&'static str, String)>, String> {
+    let mut uniforms = Vec::new();
+    for t in m.families.iter().flat_map(|f| &f.textures) {
+        let name = t.file.split('.').next().unwrap_or_default().to_string();
+        uniforms.push((name, t.lf_tex(Filter::Manual)?, t.lf_tex(Filter::Hardware)?));
+    }
+    let wgsl = super::shaders::baked_uniforms(&uniforms);
+    let baked: Vec<super::families::Baked> = m
+        .families
+        .iter()
+        .filter_map(|f| fits::gpu_family(&f.family))
+        .flat_map(|g| g.baked.iter().copied())
+        .collect();
+    let mut files = vec![(formats::UNIFORMS_HEADER, formats::uniforms_header(&uniforms))];
+    files.extend(
+        super::shaders::BAKED_SHADERS
+            .into_iter()
+            .zip(super::shaders::baked_shader(&wgsl, &baked)?),
+    );
+    files.push((super::shaders::BAKED_UNIFORMS, wgsl));
+    files.push((MANIFEST_SCHEMA_FILE, MANIFEST_SCHEMA.to_string()));
+    Ok(files)
+}
+
 /// Writes the textures of `opts` and their manifest into `dir` (created if missing).
 /// Returns the manifest. Refuses (an error naming the measured error and the target)
 /// an f16 texture that misses its target with manual filtering, unless
 /// `allow_lossy`. Every file is written atomically.
 pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
-    let gpu: Vec<GpuFamily> = if opts.only.is_empty() {
-        fits::textured()
-    } else {
-        opts.only
-            .iter()
-            .map(|k| {
-                fits::gpu_family(k).ok_or_else(|| {
-                    if let Some(c) = fits::closed_form().into_iter().find(|c| c.kind == k) {
-                        format!(
-                            "{k} needs no texture: a shader evaluates it in closed form ({})",
-                            c.formula
-                        )
-                    } else {
-                        let all: Vec<&str> = fits::textured().iter().map(|f| f.kind).collect();
-                        format!("unknown family {k:?} (textured families: {})", all.join(", "))
-                    }
-                })
-            })
-            .collect::<Result<_, _>>()?
-    };
+    let gpu = validate(opts)?;
     // All or nothing: every texture is written and measured in a hidden staging
     // directory (removed on any error); only then do the files move into `dir`.
     let stage = Stage::new(dir)?;
-    let baked: Vec<super::families::Baked> = gpu.iter().flat_map(|g| g.baked.iter().copied()).collect();
     let mut entries = Vec::new();
     for g in gpu {
         let family = family_of(g.kind).ok_or_else(|| format!("{}: not in the registry", g.kind))?;
@@ -182,19 +261,8 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             let path = formats::write(&grid.texture, opts.format, opts.storage, stage.path())?;
             // Measure the file as a reader sees it, through the independent reader.
             let (tex, _) = formats::read(&path, opts.format)?;
-            let t = &grid.texture;
-            tex_entries.push(TextureEntry {
-                file: path
-                    .file_name()
-                    .map(|n| n.to_string_lossy().into_owned())
-                    .unwrap_or_default(),
-                bytes: std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0),
-                dimension: t.dimension,
-                extent: [t.width, t.height, t.depth, t.layers, t.channels],
-                axis_formulas: grid.axes.iter().map(TexAxis::formula).collect(),
-                axes: grid.axes.clone(),
-                channels: grid.channels.clone(),
-            });
+            let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+            tex_entries.push(texture_entry(&grid, opts.format, bytes));
             back.push((grid.axes, grid.channels, tex));
         }
         let error = measure(family.as_ref(), g, &back, SAMPLES, SEED)?;
@@ -218,62 +286,20 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             error,
         });
     }
-    let manifest = Manifest {
-        version: MANIFEST_VERSION,
-        format: opts.format,
-        storage: opts.storage,
-        scale: opts.scale,
-        convention: "Node i of an axis with n nodes sits at the centre of texel i: texture coordinate \
-                     u = (s + 0.5) / n with s ∈ [0, n − 1] the node coordinate (formula per axis). \
-                     2D textures: x = the table's fastest axis, y = the slower one. A channel's value is \
-                     trend(t) + offset + scale · texel (trend: a quintic in t = s / (n − 1), Horner in f32, 1D f16 textures only), then exp() for log channels. Manual filtering: fetch the two \
-                     (four) neighbouring texels and interpolate in f32; hardware filtering: a linear sampler \
-                     with clamp-to-edge addressing (its sub-texel weights have 8 fractional bits)."
-            .into(),
-        samples: SAMPLES,
-        seed: SEED,
-        uniforms_header: formats::UNIFORMS_HEADER.into(),
-        uniforms_wgsl: super::shaders::BAKED_UNIFORMS.into(),
-        baked_shaders: super::shaders::BAKED_SHADERS.iter().map(|s| s.to_string()).collect(),
-        families: entries,
-        closed_form: fits::closed_form()
-            .iter()
-            .map(|c| (c.kind.to_string(), c.formula.to_string()))
-            .collect(),
-    };
-    let mut uniforms = Vec::new();
-    for t in manifest.families.iter().flat_map(|f| &f.textures) {
-        let name = t.file.split('.').next().unwrap_or_default().to_string();
-        uniforms.push((name, t.lf_tex(Filter::Manual)?, t.lf_tex(Filter::Hardware)?));
-    }
-    // The same uniforms as WGSL constants, validated with the library by naga.
-    let uniforms_wgsl = super::shaders::baked_uniforms(&uniforms);
-    super::shaders::module_of(&format!(
-        "{}\n{uniforms_wgsl}{}",
-        lobefit_tables::shaders::library(),
-        super::shaders::STUB
-    ))
-    .map_err(|e| format!("{}: {e}", super::shaders::BAKED_UNIFORMS))?;
-    let path = stage.path().join(super::shaders::BAKED_UNIFORMS);
-    crate::io::write_atomic(&path, uniforms_wgsl.as_bytes()).map_err(|e| {
-        format!(
-            "cannot write {}: {e}",
-            dir.join(super::shaders::BAKED_UNIFORMS).display()
-        )
-    })?;
-    // The library specialised to this export, in every shading language.
-    for (name, text) in super::shaders::BAKED_SHADERS
-        .iter()
-        .zip(super::shaders::baked_shader(&uniforms_wgsl, &baked)?)
-    {
+    let manifest = manifest_of(opts.format, opts.storage, opts.scale, entries);
+    for (name, text) in companion_files(&manifest)? {
+        if name == super::shaders::BAKED_UNIFORMS {
+            // The uniforms as WGSL constants, validated with the library by naga.
+            super::shaders::module_of(&format!(
+                "{}\n{text}{}",
+                lobefit_tables::shaders::library(),
+                super::shaders::STUB
+            ))
+            .map_err(|e| format!("{name}: {e}"))?;
+        }
         crate::io::write_atomic(&stage.path().join(name), text.as_bytes())
             .map_err(|e| format!("cannot write {}: {e}", dir.join(name).display()))?;
     }
-    let header = stage.path().join(formats::UNIFORMS_HEADER);
-    crate::io::write_atomic(&header, formats::uniforms_header(&uniforms).as_bytes())
-        .map_err(|e| format!("cannot write {}: {e}", dir.join(formats::UNIFORMS_HEADER).display()))?;
-    crate::io::write_atomic(&stage.path().join(MANIFEST_SCHEMA_FILE), MANIFEST_SCHEMA.as_bytes())
-        .map_err(|e| format!("cannot write {}: {e}", dir.join(MANIFEST_SCHEMA_FILE).display()))?;
     let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
     crate::io::write_atomic(&stage.path().join(MANIFEST), json.as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", dir.join(MANIFEST).display()))?;
@@ -349,7 +375,7 @@ impl Stage {
 /// its own files (the last one wins whole). The lock is released when the file
 /// closes, also on a crash.
 fn move_in(stage: &Path, dir: &Path) -> Result<(), String> {
-    let lock_path = dir.join(".lobefit-export.lock");
+    let lock_path = dir.join(LOCK_FILE);
     let lock = std::fs::OpenOptions::new()
         .create(true)
         .truncate(false)
@@ -397,6 +423,11 @@ pub struct Export {
 /// readers, checking each file's storage and extent against the manifest (`check
 /// --export` and `lobefit-gpu` both start here). Errors name the file.
 pub fn read_export(dir: &Path) -> Result<Export, String> {
+    read_export_json(dir).map(|(export, _)| export)
+}
+
+/// [`read_export`], with the manifest as the JSON it holds.
+fn read_export_json(dir: &Path) -> Result<(Export, serde_json::Value), String> {
     if !dir.is_dir() {
         return Err(format!(
             "{}: no such export directory (run `lobefit export --format ktx2 --out DIR` first)",
@@ -404,6 +435,7 @@ pub fn read_export(dir: &Path) -> Result<Export, String> {
         ));
     }
     let path = dir.join(MANIFEST);
+    regular_file(&path)?;
     let text = crate::io::read_text(&path, MAX_MANIFEST_BYTES)?;
     // The version first: an older layout is named as such, not as malformed.
     let value: serde_json::Value =
@@ -418,8 +450,8 @@ pub fn read_export(dir: &Path) -> Result<Export, String> {
         }
         None => return Err(format!("{}: not a lobefit export manifest: no version", path.display())),
     }
-    let manifest: Manifest =
-        serde_json::from_value(value).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
+    let manifest: Manifest = serde_json::from_value(value.clone())
+        .map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
     let mut textures = Vec::new();
     for f in &manifest.families {
         let mut ts = Vec::new();
@@ -446,7 +478,23 @@ pub fn read_export(dir: &Path) -> Result<Export, String> {
         }
         textures.push(ts);
     }
-    Ok(Export { manifest, textures })
+    Ok((Export { manifest, textures }, value))
+}
+
+/// The metadata of `path`, refused unless it is a regular file (not a symlink, FIFO,
+/// device or directory): an export's files are read only from the export directory.
+fn regular_file(path: &Path) -> Result<std::fs::Metadata, String> {
+    let meta = std::fs::symlink_metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    if meta.file_type().is_symlink() {
+        return Err(format!(
+            "{} is a symbolic link: an export's files are regular files in its directory",
+            path.display()
+        ));
+    }
+    if !meta.is_file() {
+        return Err(format!("{} is not a regular file", path.display()));
+    }
+    Ok(meta)
 }
 
 /// Largest manifest `read_export` reads (an export's is tens of kilobytes).
@@ -475,9 +523,9 @@ fn texture_path(
         ));
     }
     let path = dir.join(file);
-    let meta = std::fs::symlink_metadata(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    if !meta.is_file() {
-        return Err(format!("{} is not a regular file", path.display()));
+    let meta = regular_file(&path)?;
+    if format == Format::Raw {
+        regular_file(&path.with_extension("json"))?;
     }
     let texels: u64 = extent.iter().map(|&n| u64::from(n)).product();
     // The C header spells each value in up to ~16 characters.
@@ -498,15 +546,21 @@ fn texture_path(
 }
 
 /// `lobefit check --export DIR`: trusts nothing the manifest says. It reads the
-/// manifest and every texture (independent readers); rebuilds each family's textures
-/// from this lobefit's tables as the manifest's storage and scale say and compares
-/// them with the files, layout and every texel (any changed texel fails); re-measures
-/// every error at the export's own sample count and seed; and holds each measurement
-/// to the promise an export of these files records (the family's target where met,
-/// else the measured error of a lossy export) — a manifest that lacks a measurement
-/// or promises more than that fails.
+/// manifest and every texture (independent readers), and rebuilds from this
+/// lobefit's tables what an export of the manifest's families with its format,
+/// storage and scale writes. Refused (an error naming the field or file): a manifest
+/// that differs from that export's in any field (file names, sizes, layouts,
+/// formulas, inputs, closed forms, …; unknown fields included) but the measured
+/// errors; a file of the export that is missing, a symbolic link or not a regular
+/// file; any other file in `DIR` (but the export lock). Failing rows: each texture's
+/// texels compared with the rebuilt ones (any changed texel fails), every file
+/// compared byte for byte (textures, raw sidecars, uniforms, baked shaders, the
+/// manifest's schema); every error re-measured at the export's own sample count and
+/// seed, and held to the value and promise an export of these files records (the
+/// family's target where met, else the measured error of a lossy export) — a manifest
+/// that lacks, adds or changes a measurement fails.
 pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
-    let Export { manifest: m, textures } = read_export(dir)?;
+    let (Export { manifest: m, textures }, json) = read_export_json(dir)?;
     let path = dir.join(MANIFEST);
     if m.families.is_empty() {
         return Err(format!("{}: the manifest lists no family", path.display()));
@@ -519,87 +573,126 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
             m.seed
         ));
     }
-    let mut out = Vec::new();
-    // The uniforms files are what an export of these textures writes, byte for byte
-    // (their layout is compared with a fresh export's below).
-    let mut uniforms = Vec::new();
-    for t in m.families.iter().flat_map(|f| &f.textures) {
-        let name = t.file.split('.').next().unwrap_or_default().to_string();
-        uniforms.push((name, t.lf_tex(Filter::Manual)?, t.lf_tex(Filter::Hardware)?));
+    // What an export of these families with these settings writes.
+    let mut grids = Vec::new();
+    let mut entries = Vec::new();
+    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    for f in &m.families {
+        let gpu = fits::gpu_family(&f.family).ok_or_else(|| {
+            format!(
+                "{}: families: {:?} is no textured family (textured: {})",
+                path.display(),
+                f.family,
+                fits::textured().iter().map(|g| g.kind).collect::<Vec<_>>().join(", ")
+            )
+        })?;
+        let family = family_of(gpu.kind).ok_or_else(|| format!("{}: not in the registry", gpu.kind))?;
+        let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", gpu.kind))?;
+        let fresh = (gpu.grids)(gpu.kind, &table, m.storage, m.scale)
+            .map_err(|e| format!("{}: {}: {e}", path.display(), gpu.kind))?;
+        let mut tex_entries = Vec::new();
+        for g in &fresh {
+            let bytes = formats::encode(&g.texture, m.format, m.storage)?;
+            let entry = texture_entry(g, m.format, bytes.len() as u64);
+            if m.format == Format::Raw {
+                let sidecar = Path::new(&entry.file).with_extension("json");
+                files.push((
+                    sidecar.to_string_lossy().into_owned(),
+                    formats::raw_sidecar(&g.texture, m.storage)?.into_bytes(),
+                ));
+            }
+            files.push((entry.file.clone(), bytes));
+            tex_entries.push(entry);
+        }
+        entries.push(FamilyEntry {
+            family: gpu.kind.to_string(),
+            inputs: family.inputs().iter().map(|s| s.to_string()).collect(),
+            shader: gpu.shader.to_string(),
+            textures: tex_entries,
+            // Re-measured below, from the files.
+            error: f.error.clone(),
+        });
+        grids.push(fresh);
     }
-    let uniforms_wgsl = super::shaders::baked_uniforms(&uniforms);
-    let baked: Vec<super::families::Baked> = m
-        .families
-        .iter()
-        .filter_map(|f| fits::gpu_family(&f.family))
-        .flat_map(|g| g.baked.iter().copied())
-        .collect();
-    let mut expected = vec![
-        (formats::UNIFORMS_HEADER, formats::uniforms_header(&uniforms)),
-        (super::shaders::BAKED_UNIFORMS, uniforms_wgsl.clone()),
-    ];
-    expected.extend(
-        super::shaders::BAKED_SHADERS
-            .into_iter()
-            .zip(super::shaders::baked_shader(&uniforms_wgsl, &baked)?),
-    );
-    if m.baked_shaders != super::shaders::BAKED_SHADERS {
+    let want = manifest_of(m.format, m.storage, m.scale, entries);
+    let want_json = serde_json::to_value(&want).map_err(|e| e.to_string())?;
+    if let Some(d) = first_difference("", &json, &want_json) {
         return Err(format!(
-            "{}: baked_shaders lists {:?}; an export writes {:?}",
-            path.display(),
-            m.baked_shaders,
-            super::shaders::BAKED_SHADERS
+            "{}: {d} (`check --export` holds every field to what an export of these tables writes)",
+            path.display()
         ));
     }
-    for (file, want) in expected {
-        let got = crate::io::read_text(&dir.join(file), 64 << 20).unwrap_or_default();
-        if got != want {
-            out.push(ExportCheck {
-                family: "-".into(),
-                entry: ErrorEntry {
-                    filter: Filter::Manual,
-                    output: file.into(),
-                    metric: "differs from a fresh export".into(),
-                    measured: 1.0,
-                    target: 0.0,
-                    promise: 0.0,
-                },
-                now: 1.0,
-                pass: false,
-            });
+    // Texture files: their differences are counted by texel below.
+    let texture_files: Vec<&str> = want
+        .families
+        .iter()
+        .flat_map(|f| &f.textures)
+        .map(|t| t.file.as_str())
+        .collect();
+    files.extend(
+        companion_files(&want)?
+            .into_iter()
+            .map(|(n, t)| (n.to_string(), t.into_bytes())),
+    );
+    // Nothing else in the directory: a file there is one a renderer may take for
+    // part of the export.
+    let mut extra = Vec::new();
+    for e in std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))? {
+        let name = e
+            .map_err(|e| format!("cannot read {}: {e}", dir.display()))?
+            .file_name()
+            .to_string_lossy()
+            .into_owned();
+        if name != MANIFEST && name != LOCK_FILE && !files.iter().any(|(n, _)| *n == name) {
+            extra.push(name);
         }
     }
-    for (f, texs) in m.families.iter().zip(textures) {
-        let family =
-            family_of(&f.family).ok_or_else(|| format!("{}: unknown family {:?}", path.display(), f.family))?;
-        let gpu =
-            fits::gpu_family(&f.family).ok_or_else(|| format!("{}: {} has no GPU layout", path.display(), f.family))?;
-        let fail = |what: String, count: f64| ExportCheck {
-            family: f.family.clone(),
-            entry: ErrorEntry {
-                filter: Filter::Manual,
-                output: what,
-                metric: "differs from a fresh export".into(),
-                measured: count,
-                target: 0.0,
-                promise: 0.0,
-            },
-            now: count,
-            pass: false,
-        };
-        let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", f.family))?;
-        let fresh = (gpu.grids)(gpu.kind, &table, m.storage, m.scale)?;
-        if fresh.len() != texs.len() {
-            out.push(fail(format!("{} textures (want {})", texs.len(), fresh.len()), 1.0));
-            continue;
+    if !extra.is_empty() {
+        extra.sort();
+        let shown: Vec<String> = extra.iter().take(8).map(|n| format!("{n:?}")).collect();
+        return Err(format!(
+            "{}: {} file{} an export of the manifest's families does not write: {}{} \
+             (an export directory holds one export and nothing else)",
+            dir.display(),
+            extra.len(),
+            if extra.len() == 1 { "" } else { "s" },
+            shown.join(", "),
+            if extra.len() > 8 { ", …" } else { "" }
+        ));
+    }
+    let mut out = Vec::new();
+    let differs = |family: &str, what: String, count: f64| ExportCheck {
+        family: family.to_string(),
+        entry: ErrorEntry {
+            filter: Filter::Manual,
+            output: what,
+            metric: "differs from a fresh export".into(),
+            measured: count,
+            target: 0.0,
+            promise: 0.0,
+        },
+        now: count,
+        pass: false,
+    };
+    // Every file byte for byte (textures: their texels are counted below).
+    let mut changed = Vec::new();
+    for (name, want) in &files {
+        let file = dir.join(name);
+        let meta = regular_file(&file)?;
+        let same = meta.len() == want.len() as u64
+            && std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))? == *want;
+        if !same {
+            changed.push(name.clone());
         }
+    }
+    for name in changed.iter().filter(|n| !texture_files.contains(&n.as_str())) {
+        out.push(differs("-", name.clone(), 1.0));
+    }
+    for ((f, texs), fresh) in m.families.iter().zip(textures).zip(grids) {
+        let family = family_of(&f.family).ok_or_else(|| format!("{}: not in the registry", f.family))?;
+        let gpu = fits::gpu_family(&f.family).ok_or_else(|| format!("{}: no GPU layout", f.family))?;
         let mut intact = true;
         for (g, (t, tex)) in fresh.iter().zip(&texs) {
-            if g.axes != t.axes || g.channels != t.channels || t.file.split('.').next() != Some(&g.texture.name) {
-                out.push(fail(format!("layout of {}", t.file), 1.0));
-                intact = false;
-                continue;
-            }
             let stored = |v: f32| match m.storage {
                 Storage::F32 => v,
                 Storage::F16 => half::f16::from_f32(v).to_f32(),
@@ -612,21 +705,28 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
                 .filter(|(a, b)| stored(**a).to_bits() != b.to_bits())
                 .count();
             if differing > 0 || g.texture.data.len() != tex.data.len() {
-                out.push(fail(format!("texels of {}", t.file), differing as f64));
+                out.push(differs(&f.family, format!("texels of {}", t.file), differing as f64));
                 intact = false;
+            } else if changed.contains(&t.file) {
+                out.push(differs(&f.family, t.file.clone(), 1.0));
             }
         }
         if !intact {
             continue;
         }
         let back: Vec<_> = texs.into_iter().map(|(t, tex)| (t.axes, t.channels, tex)).collect();
-        for n in measure(family.as_ref(), gpu, &back, SAMPLES, SEED)? {
+        let measured = measure(family.as_ref(), gpu, &back, SAMPLES, SEED)?;
+        let mut all_pass = true;
+        for n in &measured {
             let recorded = f
                 .error
                 .iter()
                 .find(|e| e.filter == n.filter && e.output == n.output && e.metric == n.metric);
-            // The promise is what this export would record, whatever the file says.
-            let pass = recorded.is_some_and(|e| e.promise == n.promise && e.target == n.target);
+            // The value and promise are what this export would record, whatever the file says.
+            let pass = recorded
+                .is_some_and(|e| e.measured == n.measured && e.promise == n.promise && e.target == n.target)
+                && n.measured <= n.promise;
+            all_pass &= pass;
             out.push(ExportCheck {
                 family: f.family.clone(),
                 entry: recorded.cloned().unwrap_or(ErrorEntry {
@@ -635,11 +735,76 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
                     ..n.clone()
                 }),
                 now: n.measured,
-                pass: pass && n.measured <= n.promise,
+                pass,
             });
+        }
+        // Entries beyond the measured ones, repeated or reordered.
+        if all_pass && f.error != measured {
+            out.push(differs(&f.family, format!("error: {} entries", f.error.len()), 1.0));
         }
     }
     Ok(out)
+}
+
+/// The first difference between a manifest as read (`got`) and as an export writes it
+/// (`want`), as "<field path> …"; the measured errors (`families[i].error`) are left
+/// to `check_export`, which re-measures them. Numbers compare by value (`1` = `1.0`).
+fn first_difference(at: &str, got: &serde_json::Value, want: &serde_json::Value) -> Option<String> {
+    use serde_json::Value;
+    let field = |k: &str| {
+        if at.is_empty() {
+            k.to_string()
+        } else {
+            format!("{at}.{k}")
+        }
+    };
+    let short = |v: &Value| {
+        let s = v.to_string();
+        if s.chars().count() > 100 {
+            format!("{}…", s.chars().take(97).collect::<String>())
+        } else {
+            s
+        }
+    };
+    match (got, want) {
+        (Value::Object(g), Value::Object(w)) => {
+            if let Some(k) = g.keys().find(|k| !w.contains_key(*k)) {
+                return Some(format!("unknown field {}", field(k)));
+            }
+            let family = at.starts_with("families[") && !at.contains('.');
+            for (k, wv) in w {
+                if family && k == "error" {
+                    continue;
+                }
+                let Some(gv) = g.get(k) else {
+                    return Some(format!("{} is missing", field(k)));
+                };
+                if let Some(d) = first_difference(&field(k), gv, wv) {
+                    return Some(d);
+                }
+            }
+            None
+        }
+        (Value::Array(g), Value::Array(w)) => {
+            for (i, (gv, wv)) in g.iter().zip(w).enumerate() {
+                if let Some(d) = first_difference(&format!("{at}[{i}]"), gv, wv) {
+                    return Some(d);
+                }
+            }
+            (g.len() != w.len()).then(|| format!("{at} has {} entries; an export writes {}", g.len(), w.len()))
+        }
+        (Value::Number(g), Value::Number(w))
+            if match (g.as_u64(), w.as_u64(), g.as_i64(), w.as_i64()) {
+                (Some(a), Some(b), _, _) => a == b,
+                (_, _, Some(a), Some(b)) => a == b,
+                _ => g.as_f64() == w.as_f64(),
+            } =>
+        {
+            None
+        }
+        _ if got == want => None,
+        _ => Some(format!("{at} is {}; an export writes {}", short(got), short(want))),
+    }
 }
 
 /// Resolutions `lobefit plot export` measures (nodes per axis relative to the tables').

@@ -230,7 +230,7 @@ fn eval_lobe_product_variants() {
         assert!((l[5] / en[5] - 1.0).abs() < 0.05 && l[4] == en[4], "{l:?} {en:?}");
     }
     let out = run(&["eval", "lobe-product", "--variant", "l3"], input);
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2), "a usage error");
     assert!(text(&out.stderr).contains("--variant l3: expected energy or l2"));
     let out = run(&["eval", "lobe-product"], "e1,e2,alpha\n1,2,3.5\n");
     assert_eq!(out.status.code(), Some(1));
@@ -365,7 +365,7 @@ fn bad_arguments_are_refused() {
     assert!(text(&out.stderr).contains("cannot read table file /nonexistent/x.lobefit"));
     // A flag the family does not take is an error, not silently ignored.
     let out = run(&["eval", "lobe-integral", "--variant", "l2"], "e\n1\n");
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2), "a usage error");
     assert!(
         text(&out.stderr).contains("lobe-integral takes no --variant flag"),
         "{}",
@@ -399,9 +399,62 @@ fn bad_arguments_are_refused() {
             ],
             "",
         );
-        assert_eq!(out.status.code(), Some(1));
+        assert_eq!(out.status.code(), Some(2), "a usage error");
         assert!(text(&out.stderr).contains("--features nlopt"));
     }
+}
+
+/// Usage errors clap cannot see (a family's own flag values and ranges, export's
+/// families and scale, a baseline factor) exit 2 like clap's, before any work; the
+/// `--order` range clap accepts (1..=8) is the union of the families' (shexp: 3..=8).
+#[test]
+fn usage_errors_after_parsing_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("x");
+    let out_dir = out_dir.to_str().unwrap();
+    let cases: &[(&[&str], &str, &str)] = &[
+        (&["eval", "isg", "--model", "foo"], "theta,phi,gamma\n", "foo"),
+        (&["eval", "shexp", "--order", "2"], "theta_b\n", "3..=8"),
+        (&["eval", "log-zh", "--kind", "specular"], "s\n", "specular"),
+        (&["eval", "wedge", "--model", "paper"], "sigma,eps\n", "only --order"),
+        (
+            &["export", "--format", "raw", "--only", "nonsense", "--out", out_dir],
+            "",
+            "unknown family",
+        ),
+        (
+            &["export", "--format", "raw", "--only", "lobe-integral", "--out", out_dir],
+            "",
+            "closed form",
+        ),
+        (
+            &["export", "--format", "raw", "--scale", "0", "--out", out_dir],
+            "",
+            "--scale",
+        ),
+        (
+            &[
+                "check",
+                "--only",
+                "cap-exponent",
+                "--baseline",
+                "b.json",
+                "--baseline-factor",
+                "0.5",
+            ],
+            "",
+            "≥ 1",
+        ),
+    ];
+    for (args, stdin, message) in cases {
+        let out = run(args, stdin);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", text(&out.stderr));
+        assert!(text(&out.stderr).contains(message), "{args:?}: {}", text(&out.stderr));
+    }
+    assert!(!dir.path().join("x").exists(), "nothing exported");
+    // Within clap's range and the family's: evaluated.
+    let out = run(&["eval", "log-zh", "--order", "2"], "eps,r\n0.5,2\n");
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
 }
 
 /// `fit FAMILY --out FILE` writes exactly the file `build-tables` would.

@@ -293,7 +293,7 @@ fn eval_disk_light() {
     assert_eq!(code, Some(1));
     assert!(out.is_empty() && err.contains("line 3") && err.contains("R/d"), "{err}");
     let (code, _, err) = common::run_text(&["eval", "disk-light", "--order", "3"], "r_over_d,tau\n0.5,0.3\n");
-    assert_eq!(code, Some(1));
+    assert_eq!(code, Some(2), "a usage error");
     assert!(err.contains("disk-light takes no --order"), "{err}");
 }
 

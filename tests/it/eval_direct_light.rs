@@ -99,13 +99,13 @@ fn bad_rows_and_flags_are_specific_errors() {
         let mut args = vec!["eval", "direct-light"];
         args.extend_from_slice(flags);
         let (code, out, err) = common::run_text(&args, &good);
-        assert_ne!(code, Some(0), "{flags:?}");
+        assert_eq!(code, Some(2), "{flags:?}: a usage error");
         assert!(out.is_empty());
         assert!(err.contains(msg), "{flags:?}: {err}");
     }
     // Other families refuse the direct-light flags.
     let (code, _, err) = common::run_text(&["eval", "cap-exponent", "--depth", "3"], "alpha\n0.1\n");
-    assert_eq!(code, Some(1));
+    assert_eq!(code, Some(2), "a usage error");
     assert!(err.contains("--depth"), "{err}");
     // A missing column is named.
     let (code, _, err) = common::run_text(&["eval", "direct-light"], "px,py,pz\n0,0,0\n");
@@ -146,6 +146,6 @@ fn lights_where_the_light_lobe_errs_are_warned_about() {
     assert_eq!(code, Some(0), "{err}");
     assert!(!err.contains("warning"), "the cap has no caveat: {err}");
     let (code, _, err) = common::run_text(&["eval", "direct-light", "--light", "disk"], rows);
-    assert_eq!(code, Some(1));
+    assert_eq!(code, Some(2), "a usage error");
     assert!(err.contains("--light disk: expected lobe or cap"), "{err}");
 }

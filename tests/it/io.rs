@@ -77,3 +77,29 @@ fn written_table_has_ordinary_permissions() {
     let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
     assert_eq!(mode(&target), mode(&plain));
 }
+
+/// A PNG figure (render panels, plots: `plot::line_chart`, `plot::heatmaps`) gets the
+/// same permissions as a table, through the same atomic-write temporary.
+#[cfg(unix)]
+#[test]
+fn a_png_figure_has_ordinary_permissions() {
+    use lobefit::plot::{line_chart, LineChart, Series};
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("plain");
+    std::fs::File::create(&plain).unwrap();
+    let chart = LineChart {
+        title: "t".into(),
+        x_label: "x".into(),
+        y_label: "y".into(),
+        log_x: false,
+        log_y: false,
+        series: vec![Series {
+            name: "s".into(),
+            points: vec![(0.0, 0.0), (1.0, 1.0)],
+        }],
+    };
+    let png = line_chart(&dir.path().join("c.png"), &chart).unwrap();
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode(&png), mode(&plain), "{:o}", mode(&png));
+}

@@ -13,6 +13,7 @@ mod eps_study;
 mod eval_direct_light;
 mod eval_memory;
 mod export;
+mod export_check;
 mod export_formats;
 mod export_isg_best;
 mod export_shaders;

@@ -170,7 +170,7 @@ fn bounds_and_outputs_are_checked_first() {
         &["render", "meunier", "--width", "2048", "--spp", "1000000", "--out", out],
         "",
     );
-    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(code, Some(2), "a usage error: {err}");
     assert!(err.contains("Monte Carlo samples") && err.contains("--spp"), "{err}");
     let file = dir.path().join("a-file");
     std::fs::write(&file, b"x").unwrap();

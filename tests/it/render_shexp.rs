@@ -191,11 +191,13 @@ fn bad_scenes_flags_and_rows_are_specific_errors() {
         ),
     ] {
         let (code, _, err) = common::run_text(&args, rows);
-        assert_eq!(code, Some(1), "{want}");
+        // Flags the family refuses are usage errors (exit 2); rows are not.
+        let usage = ["needs --scene", "--order", "no --patches"].contains(&want);
+        assert_eq!(code, Some(if usage { 2 } else { 1 }), "{want}");
         assert!(err.contains(want), "{want}: {err}");
     }
     // The ISG pipeline refuses a height field by name.
     let (code, _, err) = common::run_text(&["eval", "isg-shade", "--scene", &scene], row);
-    assert_eq!(code, Some(1));
+    assert_eq!(code, Some(2), "a usage error");
     assert!(err.contains("height field"), "{err}");
 }

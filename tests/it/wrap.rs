@@ -163,7 +163,7 @@ fn eval_wrap() {
     assert_eq!(code, Some(2)); // refused by the argument parser
     assert!(err.contains("9 is not in 1..=8"), "{err}");
     let (code, _, err) = common::run_text(&["eval", "wrap", "--kind", "phong"], "a\n0.5\n");
-    assert_eq!(code, Some(1));
+    assert_eq!(code, Some(2), "a usage error");
     assert!(err.contains("wrap takes only --order"), "{err}");
 }
 
