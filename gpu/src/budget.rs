@@ -80,4 +80,30 @@ mod tests {
         let e = flags("render-x", [1.0], 1, |f| format!("flag {f}")).unwrap_err();
         assert!(e.contains("pixel 0 of 1: flag 1"), "{e}");
     }
+
+    /// On the device: a kernel whose loop spends llvmpipe's budget is flagged by the
+    /// sentinel (its loop cut short), one within it is not.
+    #[test]
+    fn sentinel_flags_a_spent_budget() {
+        let gpu = crate::device::Gpu::new().unwrap();
+        let dummy = gpu
+            .upload(&crate::conformance::dummy_texture(), lobefit::export::Storage::F32)
+            .unwrap();
+        let body = format!(
+            "    var s = 0.0;\n    for (var k = 0u; k < u32(x0); k++) {{\n        s += 1.0;\n    }}\n    Y[o] = s;\n\
+             \x20   var budget_flag = 0.0;\n{SENTINEL}    Y[o + 1u] = budget_flag;"
+        );
+        let src = crate::kernel::kernel("texture_2d<f32>", 1, 2, &body);
+        for (n, flag) in [(1000.0f32, 0.0), (70_000.0, FLAG_BUDGET)] {
+            let got = gpu
+                .run(&src, &[0u8; crate::kernel::LF_TEX_SIZE], &dummy, &[n], 1, 2)
+                .unwrap();
+            assert_eq!(got[1], flag, "{n} iterations: {got:?}");
+            if flag == 0.0 {
+                assert_eq!(got[0], n);
+            } else {
+                assert!(got[0] < n, "{got:?}");
+            }
+        }
+    }
 }
