@@ -8,9 +8,11 @@
 //! `lf_sg_product`, `lf_sg_clamped_cosine`, `lf_isg_cone`, `lf_any_orthonormal`, and
 //! the patch loop. The scene's spheres and SGs follow the pixels in the input buffer;
 //! the per-patch blocker test is unrolled over the spheres (their values as literals):
-//! llvmpipe ends a loop after 65 535 iterations of an invocation, which a loop over
-//! the blockers inside the patch loop exceeded at busy pixels (they lost their
-//! specular term, and more of them when invocations diverged).
+//! llvmpipe ends an invocation's loops after 65 535 iterations in all, which a loop
+//! over the blockers inside the patch loop exceeded at busy pixels. So the scene's
+//! spheres are capped ([`MAX_SPHERES`]: the unrolled test's compilation grows as
+//! their square), and the loops left are bounded before dispatch and checked after
+//! it (`crate::budget`).
 
 use std::path::Path;
 
@@ -19,17 +21,60 @@ use lobefit::export::{manifest::TextureEntry, Texture};
 use lobefit::pipelines::isg::shade::{radiance, Phong, Settings, Tables};
 use lobefit::pipelines::scene::Hit;
 
-use crate::conformance::Export;
+use crate::budget;
 use crate::device::Gpu;
 use crate::kernel::{kernel_with, lf_tex};
-use crate::render::{compare_and_write, family_textures, SceneRender};
+use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
 
+/// Spheres the kernel takes: its per-patch blocker test is unrolled over them (each
+/// one a line of WGSL with its values), whose compilation grows about as their
+/// square (measured on llvmpipe: 128 spheres 2.4 s, 256 spheres 4.5 s and 273 MB for
+/// a 4 × 3 image; 1000 spheres 46 s, 4000 spheres 471 s and 2.86 GB).
+pub const MAX_SPHERES: usize = 256;
+
+/// Refuses a scene with more than [`MAX_SPHERES`] spheres.
+pub fn check_spheres(scene: &lobefit::pipelines::scene::Scene) -> Result<(), String> {
+    if scene.spheres.len() > MAX_SPHERES {
+        return Err(format!(
+            "render-isg: scene {} has {} spheres; the kernel takes at most {MAX_SPHERES} (its per-patch \
+             blocker test is unrolled over them, and compiling it grows as their square)",
+            scene.name,
+            scene.spheres.len()
+        ));
+    }
+    Ok(())
+}
+
+/// Patches per side of an SG product's cone, at most (`clamp(.., 10, 20)`).
+const MAX_PATCHES: u64 = 20;
+
+/// Loop iterations of `lf_sg_clamped_cosine` at most: its insertion sort's loops
+/// (15 + Σ_{i=1}^{14} (i + 1)) and its panel loop (15); the loops of a constant count
+/// inside are unrolled.
+const CLAMPED_COSINE_ITERATIONS: u64 = 15 + 119 + 15;
+
+/// The families render-isg reads, and how to export them.
+pub const FAMILIES: (&[&str], &str) = (
+    &[lobefit_tables::isg::KIND_BEST, lobefit_tables::sg_fit::KIND],
+    "isg-best,sg-fit",
+);
+
+/// An upper bound on the loop iterations of one pixel's kernel (`crate::budget`): the
+/// SG loop; per SG the clamped cosine and, per BRDF term (diffuse, specular), the
+/// blocker gather over every sphere and the patch loops (k ≤ 20 per side); the
+/// sentinel.
+pub fn iterations(spheres: usize, sgs: usize) -> u64 {
+    let (ns, ne) = (spheres as u64, sgs as u64);
+    let term = (ns + 1) + (MAX_PATCHES + 1) + MAX_PATCHES * (MAX_PATCHES + 1);
+    (ne + 1) + ne * (CLAMPED_COSINE_ITERATIONS + 2 * term) + 2
+}
+
 /// The export's first texture of family `kind`.
-fn texture<'a>(export: &'a Export, kind: &str) -> Result<(&'a TextureEntry, &'a Texture), String> {
-    let (e, t) = &family_textures(export, kind, "isg-best,sg-fit")?[0];
+fn texture<'a>(export: &'a VerifiedExport, kind: &str) -> Result<(&'a TextureEntry, &'a Texture), String> {
+    let (e, t) = &family_textures(export, kind)?[0];
     Ok((e, t))
 }
 
@@ -38,6 +83,7 @@ fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(Str
     if scene.spheres.is_empty() {
         return Err(format!("scene {}: render-isg needs at least one sphere", scene.name));
     }
+    check_spheres(scene)?;
     // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
     // pixels' inputs in the input buffer X: storage, not constant arrays, which a
     // kernel would index dynamically.
@@ -45,6 +91,7 @@ fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(Str
     let base = 13 * count;
     let consts = format!(
         "const NS = {ns}u;\nconst NW = {}u;\nconst NE = {ne}u;\nconst SPH0 = {base}u;\nconst ENV0 = {}u;\n\
+         var<private> isg_flag = 0.0;\n\
          fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
          fn env(e: u32) -> LfSg {{\n    let k = ENV0 + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n",
         ns.div_ceil(32),
@@ -139,8 +186,12 @@ BLOCKED_TESTS            var wgt = 0.0;
             specular += isg_visible(g, lf_sg_integral(g), lobe, false, n, p, own);
         }
     }
-    Y[o] = x9 / LF_PI * diffuse + max(dot(n, r), 0.0) * specular;"
-        .to_string();
+    Y[o] = x9 / LF_PI * diffuse + max(dot(n, r), 0.0) * specular;
+    var budget_flag = 0.0;
+"
+    .to_string()
+        + budget::SENTINEL
+        + "    Y[o + 1u] = budget_flag;";
     let f = |v: f64| format!("{:e}", v as f32);
     let tests: String = scene
         .spheres
@@ -163,8 +214,14 @@ BLOCKED_TESTS            var wgt = 0.0;
 
 /// Renders `scene` (a built-in ISG scene or file) at `width` on the GPU and the CPU;
 /// writes `out` (PNG, radiance / peak, gamma 1/2.2).
-pub fn render_isg(gpu: &Gpu, export: &Export, scene: &str, width: usize, out: &Path) -> Result<SceneRender, String> {
-    let sc = lobefit::pipelines::isg::render::scene(scene)?;
+pub fn render_isg(
+    gpu: &Gpu,
+    export: &VerifiedExport,
+    sc: &lobefit::pipelines::scene::Scene,
+    width: usize,
+    out: &Path,
+) -> Result<SceneRender, String> {
+    let scene = &sc.name;
     let m = &export.manifest;
     let (best_e, best_t) = texture(export, lobefit_tables::isg::KIND_BEST)?;
     let (fit_e, fit_t) = texture(export, lobefit_tables::sg_fit::KIND)?;
@@ -200,8 +257,8 @@ pub fn render_isg(gpu: &Gpu, export: &Export, scene: &str, width: usize, out: &P
     for g in &sc.environment {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
-    let (extra, body) = source(&sc, visible.len())?;
-    let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), 13, 1, &body) + &extra;
+    let (extra, body) = source(sc, visible.len())?;
+    let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), 13, 2, &body) + &extra;
     let got = gpu.run_with(
         &src,
         &lf_tex(best_e, Filter::Manual)?,
@@ -209,8 +266,11 @@ pub fn render_isg(gpu: &Gpu, export: &Export, scene: &str, width: usize, out: &P
         Some((&lf_tex(fit_e, Filter::Manual)?, &fit_up)),
         &inputs,
         visible.len(),
-        1,
+        2,
     )?;
+    budget::flags("render-isg", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
+        format!("unknown flag {f}")
+    })?;
     // The CPU pipeline (f64, the committed tables) at the same f32 inputs.
     let tables = Tables::embedded()?;
     let settings = Settings::default();
@@ -228,9 +288,10 @@ pub fn render_isg(gpu: &Gpu, export: &Export, scene: &str, width: usize, out: &P
             &settings,
             &sc.environment,
             b,
-            &lobefit::pipelines::isg::render::blockers_of(&sc, hit),
+            &lobefit::pipelines::isg::render::blockers_of(sc, hit),
             &at,
         )?);
     }
-    compare_and_write(&got, &cpu, hits.iter().map(Option::is_some), (w, h), out)
+    let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
+    compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
 }

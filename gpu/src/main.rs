@@ -3,6 +3,7 @@
 //! `lobefit-gpu gpu-check --export DIR` runs every shader function at the checker's
 //! seeded off-grid samples and compares with the CPU emulation and the references.
 
+mod budget;
 mod conformance;
 mod cost;
 mod device;
@@ -190,9 +191,11 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             out,
             scene: Some(scene),
         } => {
-            let ex = conformance::read_export(&export)?;
+            render::check_out(&out)?;
+            let sc = lobefit::pipelines::scene::load(&scene)?;
+            let ex = render::VerifiedExport::open(&export, render::SCENE_FAMILIES)?;
             let gpu = device::Gpu::new()?;
-            let r = render::render_scene(&gpu, &ex, &scene, &out)?;
+            let r = render::render_scene(&gpu, &ex, &sc, &out)?;
             out!(
                 "render {scene}: {}x{} ({} pixels see geometry) on {}; GPU against CPU, relative to the peak: \
                  max {:.2e}, RMS {:.2e} (limit {:.0e} RMS); CPU (order-3 disk SH) against the exact unshadowed \
@@ -219,7 +222,8 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             out,
             scene: None,
         } => {
-            let ex = conformance::read_export(&export)?;
+            render::check_out(&out)?;
+            let ex = render::VerifiedExport::open(&export, render::FAMILIES)?;
             let gpu = device::Gpu::new()?;
             let (max, rms, gloss_max) = render::render(&gpu, &ex, &out)?;
             out!(
@@ -242,9 +246,17 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             width,
             out,
         } => {
-            let ex = conformance::read_export(&export)?;
+            render::check_out(&out)?;
+            let sc = lobefit::pipelines::isg::render::scene(&scene)?;
+            isg::check_spheres(&sc)?;
+            budget::refuse_over(
+                "render-isg",
+                isg::iterations(sc.spheres.len(), sc.environment.len()),
+                &format!("{} SGs, {} spheres", sc.environment.len(), sc.spheres.len()),
+            )?;
+            let ex = render::VerifiedExport::open(&export, isg::FAMILIES)?;
             let gpu = device::Gpu::new()?;
-            let r = isg::render_isg(&gpu, &ex, &scene, width as usize, &out)?;
+            let r = isg::render_isg(&gpu, &ex, &sc, width as usize, &out)?;
             report("render-isg", &scene, &r, &gpu, &out)
         }
         Command::RenderShexp {
@@ -261,9 +273,16 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 Some("ren") => settings.blocker_log = BlockerLog::Ren,
                 _ => {}
             }
-            let ex = conformance::read_export(&export)?;
+            render::check_out(&out)?;
+            let sc = lobefit::pipelines::shexp::render::scene(&scene)?;
+            budget::refuse_over(
+                "render-shexp",
+                shexp::iterations(sc.spheres.len()),
+                &format!("{} spheres", sc.spheres.len()),
+            )?;
+            let ex = render::VerifiedExport::open(&export, shexp::FAMILIES)?;
             let gpu = device::Gpu::new()?;
-            let r = shexp::render_shexp(&gpu, &ex, &scene, width as usize, &settings, &out)?;
+            let r = shexp::render_shexp(&gpu, &ex, &sc, width as usize, &settings, &out)?;
             report(
                 "render-shexp",
                 &format!("{scene} ({:?} blocker log)", settings.blocker_log),
@@ -286,6 +305,13 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             if !(threshold.is_finite() && threshold >= 0.0) {
                 return Err(format!("--threshold {threshold}: t_i must be finite and ≥ 0 (sr)"));
             }
+            // The kernel's t_i is an f32: the CPU uses, and the report names, the same.
+            let threshold = f64::from(threshold as f32);
+            if !threshold.is_finite() {
+                return Err(format!(
+                    "--threshold {threshold}: t_i overflows f32 (the kernel's type)"
+                ));
+            }
             // The CPU's own parse of these settings (`eval direct-light`'s flags).
             let flags = lobefit::family::EvalFlags {
                 depth: Some(depth as usize),
@@ -298,9 +324,11 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 threshold,
                 ..lobefit::pipelines::meunier::direct_light::DirectLightView::from_flags(&flags)?.settings
             };
-            let ex = conformance::read_export(&export)?;
+            render::check_out(&out)?;
+            let sc = lobefit::pipelines::meunier::render::scene(&scene)?;
+            let ex = render::VerifiedExport::open(&export, meunier::FAMILIES)?;
             let gpu = device::Gpu::new()?;
-            let r = meunier::render_meunier(&gpu, &ex, &scene, width as usize, &settings, &out)?;
+            let r = meunier::render_meunier(&gpu, &ex, &sc, width as usize, &settings, &out)?;
             report(
                 "render-meunier",
                 &format!(
@@ -319,6 +347,9 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 Some(a) => return Err(format!("--wrap {a}: the wrap parameter lies in [0, 1]")),
                 None => vec![0.0, lobefit::pipelines::rigs::render::WRAP_A],
             };
+            // The kernel's wrap is an f32: the CPU uses, and the report names, the same.
+            let wraps: Vec<f64> = wraps.into_iter().map(|a| f64::from(a as f32)).collect();
+            render::check_out(&out)?;
             let gpu = device::Gpu::new()?;
             let (pixels, rows) = rigs::render_rigs(&gpu, width as usize, &wraps, &out)?;
             out!(

@@ -17,8 +17,9 @@
 //!
 //! llvmpipe ends an invocation's loops after 65 535 iterations in all (loops of a
 //! constant count are unrolled and do not count): the kernel counts its own
-//! iterations and flags a pixel that could have reached the limit, as it flags one
-//! with more blockers meeting a light than its cap array holds; a flagged pixel is an
+//! iterations and ends its walk before the limit, flagging the pixel, and its last
+//! loop checks that no loop was cut short (`crate::budget`); it flags a pixel with
+//! more blockers meeting a light than its cap array holds. A flagged pixel is an
 //! error, never a silently wrong value.
 
 use std::path::Path;
@@ -32,10 +33,10 @@ use lobefit_tables::mask_weights::{MaskMode, WeightSet};
 use lobefit_tables::meunier::{LightModel, MaskSettings};
 use lobefit_tables::{CapExponent, LobeProduct, MaskWeights, Meunier};
 
-use crate::conformance::Export;
+use crate::budget;
 use crate::device::Gpu;
 use crate::kernel::{kernel_textures, lf_tex};
-use crate::render::{compare_and_write, family_textures, SceneRender};
+use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 96;
@@ -43,13 +44,23 @@ pub const WIDTH: u32 = 96;
 pub const MAX_BLOCKERS: usize = 64;
 /// Lafortune lobes per material the kernel holds (besides the Lambertian term).
 pub const MAX_LOBES: usize = 3;
-/// Loop iterations per pixel beyond which the kernel flags the pixel (llvmpipe stops
-/// at 65 535).
+/// Loop iterations of its own at which the kernel ends its walk and flags the pixel
+/// (below llvmpipe's [`budget::LOOP_LIMIT`], leaving room for the library's loops).
 const ITERATION_BUDGET: u32 = 60_000;
 
+/// The families render-meunier reads, and how to export them.
+pub const FAMILIES: (&[&str], &str) = (
+    &[
+        lobefit_tables::lobe_product::KIND_ENERGY,
+        lobefit_tables::cap_exponent::KIND,
+        lobefit_tables::mask_weights::KIND,
+    ],
+    "lobe-product,cap-exponent,mask-weights",
+);
+
 /// The `k`-th texture of family `kind` in the export.
-fn texture<'a>(export: &'a Export, kind: &str, k: usize) -> Result<(&'a TextureEntry, &'a Texture), String> {
-    let (e, t) = family_textures(export, kind, "lobe-product,cap-exponent,mask-weights")?
+fn texture<'a>(export: &'a VerifiedExport, kind: &str, k: usize) -> Result<(&'a TextureEntry, &'a Texture), String> {
+    let (e, t) = family_textures(export, kind)?
         .get(k)
         .ok_or_else(|| format!("{kind}: the export lacks its texture {k}"))?;
     Ok((e, t))
@@ -174,7 +185,7 @@ const BODY: &str = r#"    let p = vec3<f32>(x0, x1, x2);
     let n = vec3<f32>(x3, x4, x5);
     let own = i32(x13);
     var iters = 0u;
-    var flag = 0.0;
+    var budget_flag = 0.0;
     // The BRDF's lobes: the Lambertian term, then each Lafortune lobe (eq. 30).
     var brdf: array<MnLobe, MAXL>;
     let m0 = MAT0 + u32(x12) * MAT_SIZE;
@@ -237,7 +248,7 @@ const BODY: &str = r#"    let p = vec3<f32>(x0, x1, x2);
                     rel[nrel] = vec4<f32>(ba, sqrt(max((1.0 - q) * (1.0 + q), 0.0)));
                     nrel += 1u;
                 } else {
-                    flag = 1.0;
+                    budget_flag = 1.0;
                 }
             }
         }
@@ -366,10 +377,15 @@ const BODY: &str = r#"    let p = vec3<f32>(x0, x1, x2);
         }
     }
     if iters >= BUDGET {
-        flag = 2.0;
+        budget_flag = 2.0;
     }
     Y[o] = total;
-    Y[o + 1u] = flag;"#;
+"#;
+
+/// [`BODY`], then the loop budget's sentinel and the flag.
+fn body() -> String {
+    format!("{BODY}{}    Y[o + 1u] = budget_flag;", budget::SENTINEL)
+}
 
 /// A material's kernel record: albedo, lobe count, then (C_x, C_y, C_z, ρ_s, n) per
 /// Lafortune lobe, zero-padded to [`MAX_LOBES`].
@@ -416,13 +432,13 @@ fn material32(b: &Brdf) -> Brdf {
 /// tables, the same f32 inputs); writes `out` (PNG, radiance / peak, gamma 1/2.2).
 pub fn render_meunier(
     gpu: &Gpu,
-    export: &Export,
-    scene: &str,
+    export: &VerifiedExport,
+    sc: &Scene,
     width: usize,
     settings: &MaskSettings,
     out: &Path,
 ) -> Result<SceneRender, String> {
-    let sc = lobefit::pipelines::meunier::render::scene(scene)?;
+    let scene = &sc.name;
     let m = &export.manifest;
     let (lp_e, lp_t) = texture(export, lobefit_tables::lobe_product::KIND_ENERGY, 0)?;
     let (lnw_e, lnw_t) = texture(export, lobefit_tables::lobe_product::KIND_ENERGY, 1)?;
@@ -483,20 +499,12 @@ pub fn render_meunier(
         inputs.extend(material(b)?);
     }
     let types = [lp_t, lnw_t, cap_t, mw_t].map(crate::device::wgsl_texture_type);
-    let src = kernel_textures(&types, N_IN, 2, BODY) + &source(&sc, settings, visible.len());
+    let src = kernel_textures(&types, N_IN, 2, &body()) + &source(sc, settings, visible.len());
     let textures: Vec<(&[u8], &crate::device::GpuTexture)> = params.iter().map(Vec::as_slice).zip(up.iter()).collect();
     let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
-    if let Some((k, f)) = got.chunks(2).enumerate().find(|(_, c)| c[1] != 0.0) {
-        return Err(format!(
-            "pixel {k} of {}: {}",
-            visible.len(),
-            if f[1] == 1.0 {
-                format!("more than {MAX_BLOCKERS} blockers meet the light's cap (the kernel's array)")
-            } else {
-                format!("its mask walk reached {ITERATION_BUDGET} loop iterations (llvmpipe stops loops at 65 535)")
-            }
-        ));
-    }
+    budget::flags("render-meunier", got.chunks(2).map(|c| c[1]), visible.len(), |_| {
+        format!("more than {MAX_BLOCKERS} blockers meet the light's cap (the kernel's array)")
+    })?;
     // The CPU pipeline (f64, the committed tables) at the same f32 inputs.
     let meunier = Meunier {
         products: LobeProduct::embedded().map_err(|e| e.to_string())?,
@@ -558,7 +566,7 @@ mod tests {
                     ],
                     N_IN,
                     2,
-                    BODY,
+                    &body(),
                 ) + &source(&sc, &s, 7);
                 if let Err(e) = lobefit::export::shaders::module_of(&src) {
                     panic!("{name}, light {}: {e}", light.name());

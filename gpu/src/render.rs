@@ -19,6 +19,18 @@ use lobefit::export::Texture;
 
 use crate::conformance::Export;
 use crate::device::{wgsl_texture_type, Gpu};
+
+/// The families `render` reads, and how to export them.
+pub const FAMILIES: (&[&str], &str) = (
+    &[
+        lobefit_tables::disk_light::KIND,
+        lobefit_tables::lobe_product::KIND_ENERGY,
+    ],
+    "disk-light,lobe-product",
+);
+
+/// The families `render --scene` reads, and how to export them.
+pub const SCENE_FAMILIES: (&[&str], &str) = (&[lobefit_tables::disk_light::KIND], "disk-light");
 use crate::kernel::{kernel, kernel_with, lf_tex};
 
 /// Image side (pixels).
@@ -140,18 +152,14 @@ fn glossy_cpu(lp: &LobeProduct, i: usize, j: usize) -> Result<f64, String> {
 /// Renders on the GPU and the CPU; writes `out` (PNG, 8-bit grey, E / peak, sRGB-ish
 /// gamma 1/2.2). Returns (max, RMS) of |gpu − cpu| / peak over the pixels, and the
 /// glossy pass's own max |gpu − cpu| / its peak.
-pub fn render(gpu: &Gpu, export: &Export, out: &Path) -> Result<(f64, f64, f64), String> {
+pub fn render(gpu: &Gpu, export: &VerifiedExport, out: &Path) -> Result<(f64, f64, f64), String> {
     let m = &export.manifest;
     let (entry, tex) = disk_texture(export)?;
     let up = gpu.upload(tex, m.storage)?;
     let n = SIZE * SIZE;
     let src = kernel(wgsl_texture_type(tex), 0, 1, BODY);
     let mut img = gpu.run(&src, &lf_tex(entry, Filter::Manual)?, &up, &[], n, 1)?;
-    let texs = family_textures(
-        export,
-        lobefit_tables::lobe_product::KIND_ENERGY,
-        "disk-light,lobe-product",
-    )?;
+    let texs = family_textures(export, lobefit_tables::lobe_product::KIND_ENERGY)?;
     let [(e_main, t_main), (e_lnw, t_lnw)] = texs else {
         return Err("lobe-product: the export should hold its table and its ln W texture".into());
     };
@@ -234,8 +242,13 @@ pub struct SceneRender {
 /// Primary visibility is traced on the CPU (the scene layer's BVH); the GPU shades
 /// every visible pixel; the CPU computes the same with `DiskLight::irradiance` (f64,
 /// the committed table). Writes `out` (PNG, E / peak, gamma 1/2.2).
-pub fn render_scene(gpu: &Gpu, export: &Export, scene: &str, out: &Path) -> Result<SceneRender, String> {
-    let sc = lobefit::pipelines::scene::load(scene)?;
+pub fn render_scene(
+    gpu: &Gpu,
+    export: &VerifiedExport,
+    sc: &lobefit::pipelines::scene::Scene,
+    out: &Path,
+) -> Result<SceneRender, String> {
+    let scene = &sc.name;
     let m = &export.manifest;
     let (entry, tex) = disk_texture(export)?;
     let up = gpu.upload(tex, m.storage)?;
@@ -349,13 +362,95 @@ pub(crate) fn compare_and_write(
     })
 }
 
-/// The textures of family `kind` in `export` (at least one), or an error saying how
-/// to export them (`--only <only>`).
+/// An export whose textures of the families a render reads were verified texel for
+/// texel (the one way the renders get at an export's textures).
+pub struct VerifiedExport {
+    export: Export,
+    families: Vec<String>,
+}
+
+impl std::ops::Deref for VerifiedExport {
+    type Target = Export;
+    fn deref(&self) -> &Export {
+        &self.export
+    }
+}
+
+impl VerifiedExport {
+    /// Reads the export at `dir` and verifies its textures of `families` (an error
+    /// saying how to export them, `--only <only>`, where one is missing): each is
+    /// rebuilt from this lobefit's tables at the manifest's storage and scale, as
+    /// `lobefit check --export` does, and must equal the file in layout and every
+    /// texel. An export that fails is refused with the texture and the count of
+    /// texels that differ.
+    pub fn open(dir: &Path, (families, only): (&[&str], &str)) -> Result<VerifiedExport, String> {
+        let export = crate::conformance::read_export(dir)?;
+        let m = &export.manifest;
+        for &kind in families {
+            let texs = export
+                .manifest
+                .families
+                .iter()
+                .position(|f| f.family == kind)
+                .and_then(|k| export.textures.get(k))
+                .filter(|t| !t.is_empty())
+                .ok_or_else(|| {
+                    format!(
+                        "{}: the export has no {kind} texture (export it: --only {only})",
+                        dir.display()
+                    )
+                })?;
+            let family = lobefit::export::run::family_of(kind).ok_or_else(|| format!("unknown family {kind}"))?;
+            let gpu_family = lobefit::fits::gpu_family(kind).ok_or_else(|| format!("{kind}: no GPU layout"))?;
+            let table = lobefit_tables::Table::from_bytes(family.embedded()).map_err(|e| format!("{kind}: {e}"))?;
+            let fresh = (gpu_family.grids)(gpu_family.kind, &table, m.storage, m.scale)?;
+            let refuse = |what: String| {
+                format!(
+                    "{}: {what} differs from a fresh export (`lobefit check --export` fails): the export is                      corrupt or from another lobefit; export it again",
+                    dir.display()
+                )
+            };
+            if fresh.len() != texs.len() {
+                return Err(refuse(format!("{kind}'s texture count {}", texs.len())));
+            }
+            for (g, (t, tex)) in fresh.iter().zip(texs) {
+                if g.axes != t.axes || g.channels != t.channels || t.file.split('.').next() != Some(&g.texture.name) {
+                    return Err(refuse(format!("the layout of {}", t.file)));
+                }
+                let stored = |v: f32| match m.storage {
+                    lobefit::export::Storage::F32 => v,
+                    lobefit::export::Storage::F16 => half::f16::from_f32(v).to_f32(),
+                };
+                let differing = g
+                    .texture
+                    .data
+                    .iter()
+                    .zip(&tex.data)
+                    .filter(|(a, b)| stored(**a).to_bits() != b.to_bits())
+                    .count();
+                if differing > 0 || g.texture.data.len() != tex.data.len() {
+                    return Err(refuse(format!("{} ({differing} texels)", t.file)));
+                }
+            }
+        }
+        Ok(VerifiedExport {
+            export,
+            families: families.iter().map(|f| f.to_string()).collect(),
+        })
+    }
+}
+
+/// The textures of family `kind` in `export` (at least one); `kind` must be one of the
+/// families `export` was verified for.
 pub(crate) fn family_textures<'a>(
-    export: &'a Export,
+    export: &'a VerifiedExport,
     kind: &str,
-    only: &str,
 ) -> Result<&'a [(TextureEntry, Texture)], String> {
+    if !export.families.iter().any(|f| f == kind) {
+        return Err(format!(
+            "the render reads {kind}, which its export was not verified for"
+        ));
+    }
     export
         .manifest
         .families
@@ -364,13 +459,53 @@ pub(crate) fn family_textures<'a>(
         .and_then(|k| export.textures.get(k))
         .filter(|t| !t.is_empty())
         .map(Vec::as_slice)
-        .ok_or_else(|| format!("the export has no {kind} texture (export it: --only {only})"))
+        .ok_or_else(|| format!("the export has no {kind} texture"))
 }
 
 /// The export's disk-light texture (the first of its family).
-fn disk_texture(export: &Export) -> Result<(&TextureEntry, &Texture), String> {
-    let (entry, tex) = &family_textures(export, lobefit_tables::disk_light::KIND, "disk-light")?[0];
+fn disk_texture(export: &VerifiedExport) -> Result<(&TextureEntry, &Texture), String> {
+    let (entry, tex) = &family_textures(export, lobefit_tables::disk_light::KIND)?[0];
     Ok((entry, tex))
+}
+
+/// Refuses an output path the render could not write, before it renders: its parent
+/// directory must exist (nothing is created), and the path must not be a directory.
+/// A symlink at the path is replaced, never followed.
+pub fn check_out(out: &Path) -> Result<(), String> {
+    let parent = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    match std::fs::metadata(parent) {
+        Ok(m) if m.is_dir() => {}
+        Ok(_) => {
+            return Err(format!(
+                "--out {}: {} is not a directory",
+                out.display(),
+                parent.display()
+            ))
+        }
+        Err(e) => {
+            let dangling = std::fs::symlink_metadata(parent).is_ok_and(|m| m.file_type().is_symlink());
+            return Err(format!(
+                "--out {}: its directory {} {}",
+                out.display(),
+                parent.display(),
+                if dangling {
+                    "is a dangling symbolic link".to_string()
+                } else {
+                    format!("cannot be used ({e}); the directory must exist")
+                }
+            ));
+        }
+    }
+    if out.file_name().is_none() {
+        return Err(format!("--out {}: names no file", out.display()));
+    }
+    if std::fs::metadata(out).is_ok_and(|m| m.is_dir()) {
+        return Err(format!("--out {}: is a directory; name the PNG file", out.display()));
+    }
+    Ok(())
 }
 
 /// An 8-bit grey level of `v` in [0, 1] (clamped), gamma 1/2.2.

@@ -43,3 +43,109 @@ fn render_meunier_bad_settings_are_specific_errors() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("nonexistent-lobefit-export"), "{err}");
 }
+
+/// Every render refuses an output it could not write before it reads the export or
+/// needs a device: a missing directory (never created), an existing directory, a
+/// directory that is a dangling symbolic link.
+#[test]
+fn renders_refuse_unwritable_outputs_first() {
+    let tmp = std::env::temp_dir().join(format!("lobefit-gpu-bad-out-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    let dangling = tmp.join("dangling");
+    let _ = std::fs::remove_file(&dangling);
+    std::os::unix::fs::symlink(tmp.join("nowhere"), &dangling).unwrap();
+    let missing = tmp.join("missing");
+    let tmp_s = tmp.to_str().unwrap().to_string();
+    let missing_png = format!("{}/x.png", missing.display());
+    let dangling_png = format!("{}/x.png", dangling.display());
+    let commands: [&[&str]; 6] = [
+        &["render", "--export", "/nonexistent-lobefit-export"],
+        &[
+            "render",
+            "--export",
+            "/nonexistent-lobefit-export",
+            "--scene",
+            "meunier-fig13",
+        ],
+        &["render-isg", "--export", "/nonexistent-lobefit-export"],
+        &["render-shexp", "--export", "/nonexistent-lobefit-export"],
+        &["render-meunier", "--export", "/nonexistent-lobefit-export"],
+        &["render-rigs"],
+    ];
+    for cmd in commands {
+        for (out, what) in [
+            (missing_png.as_str(), "the directory must exist"),
+            (tmp_s.as_str(), "is a directory"),
+            (dangling_png.as_str(), "dangling symbolic link"),
+        ] {
+            let args: Vec<&str> = cmd.iter().copied().chain(["--out", out]).collect();
+            let (code, err) = run(&args);
+            assert_eq!(code, Some(2), "{args:?}: {err}");
+            assert!(
+                err.contains(what) && err.contains("--out"),
+                "{args:?} should say {what:?}: {err}"
+            );
+            assert!(
+                !err.contains("nonexistent-lobefit-export"),
+                "{args:?}: --out is checked first: {err}"
+            );
+        }
+        assert!(!missing.exists(), "{cmd:?} created {}", missing.display());
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+}
+
+/// A scene whose pixels may need more loop iterations than llvmpipe runs is refused
+/// before the export is read or a device is needed, the limit named: render-isg with
+/// 100 SGs, render-shexp with 700 spheres; and render-isg with more spheres than its
+/// kernel takes.
+#[test]
+fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
+    let tmp = std::env::temp_dir().join(format!("lobefit-gpu-budget-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    let read = |name: &str| -> serde_json::Value {
+        let path = format!("{}/../pipelines/scenes/{name}.json", env!("CARGO_MANIFEST_DIR"));
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let mut isg = read("isg-fig12");
+    let sg = isg["environment"]["sgs"][1].clone();
+    isg["environment"]["sgs"] = serde_json::Value::Array(vec![sg; 100]);
+    let mut shexp = read("shexp-wrecking");
+    let spheres = shexp["spheres"].as_array().unwrap().clone();
+    let more: Vec<serde_json::Value> = (0..700)
+        .map(|k| {
+            let mut s = spheres[k % spheres.len()].clone();
+            s["centre"][0] = serde_json::json!(50.0 + k as f64);
+            s
+        })
+        .collect();
+    shexp["spheres"] = serde_json::Value::Array(more.clone());
+    // More spheres than render-isg's unrolled blocker test takes.
+    let mut isg_big = read("isg-fig12");
+    isg_big["spheres"] = serde_json::Value::Array(more[..300].to_vec());
+    for (cmd, scene, what) in [
+        ("render-isg", isg, "100 SGs"),
+        ("render-shexp", shexp, "700 spheres"),
+        ("render-isg", isg_big, "at most 256"),
+    ] {
+        let file = tmp.join(format!("{cmd}.json"));
+        std::fs::write(&file, scene.to_string()).unwrap();
+        let out = tmp.join("x.png");
+        let args = [
+            cmd,
+            "--export",
+            "/nonexistent-lobefit-export",
+            "--scene",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let (code, err) = run(&args);
+        assert_eq!(code, Some(2), "{cmd}: {err}");
+        assert!(err.contains(what) && err.contains(cmd), "{cmd}: {err}");
+        if what != "at most 256" {
+            assert!(err.contains("65535") && err.contains("loop iterations"), "{cmd}: {err}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+}
