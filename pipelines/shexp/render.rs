@@ -65,9 +65,11 @@ pub fn scene(name: &str) -> Result<Scene, String> {
 /// The pipeline's radiance at every hit with `s` (0 for background).
 fn image(t: &Tables, s: &Settings, light: &[f64], scene: &Scene, hits: &[Option<Hit>]) -> Result<Vec<f64>, String> {
     hits.par_iter()
-        .map(|h| match h {
+        .enumerate()
+        .map(|(p, h)| match h {
             None => Ok(0.0),
-            Some(h) => radiance(t, s, light, &Phong::of(scene.brdf(h))?, scene, h),
+            Some(h) => radiance(t, s, light, &Phong::of(scene.brdf(h))?, scene, h)
+                .map_err(|e| format!("pixel {p} (row-major), point {:?}: {e}", h.x.to_array())),
         })
         .collect()
 }

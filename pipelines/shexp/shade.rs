@@ -233,6 +233,32 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
     Ok(f)
 }
 
+/// Largest mean visibility (the fraction of the sphere seen, exp*(f)'s DC term over
+/// √(4π)) a pixel may show before [`radiance`] refuses it. An exact visibility's mean
+/// is at most 1 whatever its band limit (ringing does not move the DC term), so a mean
+/// above 1 is exp* failing. The margin admits HYB's measured error on the built-in
+/// scenes (whale: one pixel in 22 505 at 1.19, every other ≤ 1; wrecking ≤ 0.99).
+pub const VIS_MEAN_MAX: f64 = 1.25;
+
+/// The mean visibility of the log visibility `f`: exp*(f)_0/√(4π) with `mode`. Refuses
+/// one above [`VIS_MEAN_MAX`]: overlapping blockers count once per sphere in log space,
+/// and beyond the norms HYB was fitted on (docs/shexp.md: random scenes reach ‖f̂‖ of
+/// 1.6–4.2) truncated exp* amplifies the log's ringing exponentially. N copies of one
+/// blocker at order 4: mean 0.99 at N = 10, 1.39 at N = 30, 6.1 at N = 100, 1.5e10 at
+/// N = 1000 (the radiance 5.7e9 times the exact one), exact exp* no better.
+pub fn mean_visibility(t: &Tables, mode: Exp, f: &[f64]) -> Result<f64, String> {
+    let v = exponentiate(t, mode, f)?;
+    let mean = v[0] / (4.0 * PI).sqrt();
+    if mean <= VIS_MEAN_MAX {
+        return Ok(mean);
+    }
+    let norm = f[1..].iter().map(|v| v * v).sum::<f64>().sqrt();
+    Err(format!(
+        "mean visibility {mean:.3e} above {VIS_MEAN_MAX} (|f_hat| = {norm:.1}): SH exponentiation left its \
+         range here (too many overlapping blockers)"
+    ))
+}
+
 /// exp*(f) by `mode`.
 pub fn exponentiate(t: &Tables, mode: Exp, f: &[f64]) -> Result<Vec<f64>, String> {
     match mode {
@@ -308,6 +334,7 @@ pub fn radiance(t: &Tables, s: &Settings, light: &[f64], brdf: &Phong, scene: &S
         ));
     }
     let fv = log_visibility(t, s, scene, h)?;
+    mean_visibility(t, s.exp, &fv)?;
     let mut total = 0.0;
     let mut turned = vec![0.0; nc];
     let mut vis: Option<Vec<f64>> = None;
@@ -343,7 +370,8 @@ pub fn radiance(t: &Tables, s: &Settings, light: &[f64], brdf: &Phong, scene: &S
     if !total.is_finite() {
         return Err(format!("non-finite radiance at {:?}", h.x));
     }
-    Ok(total)
+    // A band-limited product rings below zero in dark places; radiance cannot.
+    Ok(total.max(0.0))
 }
 
 /// The exact SH projection (order n) of one BRDF × cosine term at `h`, by a product
