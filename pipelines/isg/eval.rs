@@ -106,9 +106,8 @@ impl Lookup for ShadeLookup {
             &h,
         )
         .map(|r| vec![r])
-        .map_err(|e| LookupError::Overflow {
-            name: format!("radiance ({e})"),
-            value: f64::NAN,
+        .map_err(|e| LookupError::Refused {
+            reason: format!("radiance: {e}"),
         })
     }
 }

@@ -78,9 +78,8 @@ impl Lookup for ShadeLookup {
         let v = &self.view;
         radiance(&self.tables, &v.settings, &v.light, &v.brdf, &v.scene, &h)
             .map(|r| vec![r])
-            .map_err(|e| LookupError::Overflow {
-                name: format!("radiance ({e})"),
-                value: f64::NAN,
+            .map_err(|e| LookupError::Refused {
+                reason: format!("radiance: {e}"),
             })
     }
 }

@@ -120,6 +120,11 @@ pub enum LookupError {
         needed: usize,
         what: &'static str,
     },
+    /// A pipeline (a composition of tables, e.g. `eval isg-shade`) cannot answer this
+    /// query; `reason` says why (an input outside a table it needs, a scene the method
+    /// does not cover).
+    #[error("{reason}")]
+    Refused { reason: String },
     /// A product of lobes whose peak value or exponent overflows f64.
     #[error("the product of lobes with exponents e1 = {} and e2 = {} overflows", short(*.e1), short(*.e2))]
     ProductOverflow { e1: f64, e2: f64 },
