@@ -9,9 +9,8 @@ use lobefit_tables::glam::DVec3;
 use lobefit_tables::isg::Sg;
 use lobefit_tables::LookupError;
 
-use super::estimate::{estimate, Estimate};
+use super::estimate::{estimate_with, Estimate, Sampling, Uniforms};
 use super::scene::Hit;
-use lobefit_core::rng::Rng;
 
 /// The BRDF as the pipeline takes it: k_d/π + k_s (n + 2)/(2π) max(r·ω, 0)^n.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -62,7 +61,7 @@ pub fn environment(env: &[Sg], w: DVec3) -> f64 {
 
 /// A direction of the SG `g`'s normalised density G/∫G over the sphere, and that
 /// density's value there is [`sg_pdf`].
-fn sample_sg(g: &Sg, rng: &mut Rng) -> DVec3 {
+fn sample_sg(g: &Sg, rng: &mut dyn Uniforms) -> DVec3 {
     let l = g.sharpness;
     // cos θ = 1 + ln(1 − u (1 − e^{−2λ}))/λ, inverted from the CDF in cos θ.
     let u = rng.uniform();
@@ -102,6 +101,22 @@ pub fn reference_with(
     n: usize,
     seed: u64,
 ) -> Estimate {
+    reference_sampled(Sampling::Plain, sample, light, brdf, occluded, h, n, seed)
+}
+
+/// [`reference_with`] with the uniforms of `sampling` (dimension 0 picks the strategy,
+/// the next two or three draw its direction).
+#[allow(clippy::too_many_arguments)]
+pub fn reference_sampled(
+    sampling: Sampling,
+    sample: &[Sg],
+    light: impl Fn(DVec3) -> f64,
+    brdf: &Phong,
+    occluded: impl Fn(DVec3) -> bool,
+    h: &Hit,
+    n: usize,
+    seed: u64,
+) -> Estimate {
     let env = sample;
     let nrm = h.n;
     let r = (2.0 * nrm.dot(h.wo) * nrm - h.wo).normalize();
@@ -122,7 +137,7 @@ pub fn reference_with(
         }
         f
     };
-    estimate(n, seed, |rng| {
+    estimate_with(sampling, n, seed, |rng| {
         let pick = rng.uniform();
         let w = if pick < p_cos {
             let (u1, u2) = (rng.uniform(), rng.range(0.0, TAU));
@@ -257,6 +272,58 @@ mod tests {
     /// The reference against a closed form: a Lambertian point with no blocker under
     /// one SG of axis n radiates k_d/π μ ∫ e^{λ(c−1)} c dω over the hemisphere,
     /// = k_d/π μ 2π [1/λ − (1 − e^{−λ})/λ²].
+    /// Scrambled Sobol through the same estimator: over 64 independent scrambles the
+    /// mean of the estimates is within 4 standard errors (of that mean, from the spread
+    /// over the scrambles) of the closed form, for a diffuse point under an SG with
+    /// and without a blocker half covering it (exactly half the open value); and its RMSE at 256 samples at least 5× below plain's (measured:
+    /// 103× unoccluded, 25× with the half-space blocker — 1e4× and 630× fewer samples
+    /// at equal error if plain's error falls as 1/√n).
+    #[test]
+    fn qmc_reference_is_unbiased_and_beats_plain() {
+        let lambda = 30.0;
+        let g = Sg::new(DVec3::Z, lambda, 2.0).unwrap();
+        let h = Hit {
+            x: DVec3::ZERO,
+            n: DVec3::Z,
+            t: DVec3::X,
+            wo: DVec3::new(0.6, 0.0, 0.8),
+            sphere: None,
+            material: 0,
+        };
+        let brdf = Phong {
+            diffuse: 0.7,
+            specular: 0.0,
+            exponent: 0.0,
+        };
+        let open = 0.7 / PI * 2.0 * TAU * (1.0 / lambda - (-(-lambda).exp_m1()) / (lambda * lambda));
+        let half = |w: DVec3| w.x > 0.0;
+        // The half-space blocker hides exactly half of the SG (symmetric about z).
+        for (occluded, want) in [
+            (&(|_: DVec3| false) as &dyn Fn(DVec3) -> bool, open),
+            (&half, open / 2.0),
+        ] {
+            let runs = |sampling: Sampling| -> Vec<f64> {
+                (0..64)
+                    .map(|k| reference_sampled(sampling, &[g], |w| g.eval(w), &brdf, occluded, &h, 256, 1000 + k).mean)
+                    .collect()
+            };
+            let stats = |v: &[f64]| {
+                let m = v.iter().sum::<f64>() / v.len() as f64;
+                let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
+                let rmse = (v.iter().map(|x| (x - want).powi(2)).sum::<f64>() / v.len() as f64).sqrt();
+                (m, (var / v.len() as f64).sqrt(), rmse)
+            };
+            let (mq, seq, rq) = stats(&runs(Sampling::Qmc));
+            let (_, _, rp) = stats(&runs(Sampling::Plain));
+            assert!((mq - want).abs() < 4.0 * seq, "QMC mean {mq} ± {seq} vs {want}");
+            assert!(
+                5.0 * rq < rp,
+                "RMSE at 256 samples: QMC {rq:e}, plain {rp:e} (ratio {})",
+                rp / rq
+            );
+        }
+    }
+
     #[test]
     fn reference_matches_a_closed_form_within_its_standard_error() {
         let lambda = 30.0;
