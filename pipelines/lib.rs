@@ -15,6 +15,7 @@
 //! Each pipeline is one module ([`meunier`], [`isg`], [`shexp`], [`rigs`]) and one entry of [`registry`],
 //! which `lobefit render NAME` lists.
 
+pub mod baselines;
 pub mod estimate;
 pub mod heightfield;
 pub mod image;

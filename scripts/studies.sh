@@ -18,3 +18,6 @@ run $bin render rigs --scene drive --out "$out/rigs"
 # The direct-light study and the rigs' figures.
 run $bin plot meunier --out "$out/meunier"
 run $bin plot rigs --out "$out/rigs"
+# Plain Monte Carlo against scrambled Sobol at equal error, measured (docs/pipelines.md,
+# "Stronger baselines").
+run cargo test --release -q -p lobefit-pipelines --lib study_plain_vs_qmc -- --ignored --nocapture
