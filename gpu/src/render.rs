@@ -400,38 +400,7 @@ impl VerifiedExport {
                         dir.display()
                     )
                 })?;
-            let family = lobefit::export::run::family_of(kind).ok_or_else(|| format!("unknown family {kind}"))?;
-            let gpu_family = lobefit::fits::gpu_family(kind).ok_or_else(|| format!("{kind}: no GPU layout"))?;
-            let table = lobefit_tables::Table::from_bytes(family.embedded()).map_err(|e| format!("{kind}: {e}"))?;
-            let fresh = (gpu_family.grids)(gpu_family.kind, &table, m.storage, m.scale)?;
-            let refuse = |what: String| {
-                format!(
-                    "{}: {what} differs from a fresh export (`lobefit check --export` fails): the export is                      corrupt or from another lobefit; export it again",
-                    dir.display()
-                )
-            };
-            if fresh.len() != texs.len() {
-                return Err(refuse(format!("{kind}'s texture count {}", texs.len())));
-            }
-            for (g, (t, tex)) in fresh.iter().zip(texs) {
-                if g.axes != t.axes || g.channels != t.channels || t.file.split('.').next() != Some(&g.texture.name) {
-                    return Err(refuse(format!("the layout of {}", t.file)));
-                }
-                let stored = |v: f32| match m.storage {
-                    lobefit::export::Storage::F32 => v,
-                    lobefit::export::Storage::F16 => half::f16::from_f32(v).to_f32(),
-                };
-                let differing = g
-                    .texture
-                    .data
-                    .iter()
-                    .zip(&tex.data)
-                    .filter(|(a, b)| stored(**a).to_bits() != b.to_bits())
-                    .count();
-                if differing > 0 || g.texture.data.len() != tex.data.len() {
-                    return Err(refuse(format!("{} ({differing} texels)", t.file)));
-                }
-            }
+            lobefit::export::run::verify_family_texels(dir, m, kind, texs)?;
         }
         Ok(VerifiedExport {
             export,
