@@ -1,4 +1,4 @@
-//! `lobefit-gpu render-isg`: Iwasaki et al.'s pipeline (`lobefit::pipelines::isg`) as
+//! `lobefit-gpu render isg`: Iwasaki et al.'s pipeline (`lobefit::pipelines::isg`) as
 //! one compute kernel per pixel, on the exported isg-best and sg-fit textures, against
 //! the CPU pipeline's image (docs/isg-render.md).
 //!
@@ -14,7 +14,8 @@
 //! their square), and the loops left are bounded before dispatch and checked after
 //! it (`crate::budget`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use lobefit::export::layout::Filter;
 use lobefit::export::{manifest::TextureEntry, Texture};
@@ -25,6 +26,47 @@ use crate::budget;
 use crate::device::Gpu;
 use crate::kernel::{kernel_with, lf_tex};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
+use crate::renders::{parse, Render};
+
+/// `lobefit-gpu render isg`'s options.
+#[derive(clap::Parser)]
+pub struct Args {
+    /// A `lobefit export` directory with isg-best and sg-fit.
+    #[arg(long, value_name = "DIR")]
+    export: PathBuf,
+    /// A built-in ISG scene (fig12, fig12-diffuse) or a scene file.
+    #[arg(long, default_value = "fig12")]
+    scene: String,
+    /// Image width (height 3/4 of it).
+    #[arg(long, default_value_t = WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    width: u32,
+    /// Output PNG.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// `render isg`.
+pub const RENDER: Render = Render {
+    name: "isg",
+    about: "Iwasaki et al.'s ISG pipeline per pixel on the GPU (the exported isg-best and sg-fit textures) \
+            against the CPU pipeline's image (docs/isg-render.md)",
+    options: <Args as clap::CommandFactory>::command,
+    run: |m| run(parse(m)?),
+};
+
+fn run(a: Args) -> Result<ExitCode, String> {
+    crate::render::check_out(&a.out)?;
+    let sc = lobefit::pipelines::isg::render::scene(&a.scene)?;
+    check_spheres(&sc)?;
+    budget::refuse_over(
+        "render isg",
+        iterations(sc.spheres.len(), sc.environment.len()),
+        &format!("{} SGs, {} spheres", sc.environment.len(), sc.spheres.len()),
+    )?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out)?;
+    crate::render::report("render isg", &a.scene, &r, &gpu, &a.out)
+}
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
@@ -39,7 +81,7 @@ pub const MAX_SPHERES: usize = 256;
 pub fn check_spheres(scene: &lobefit::pipelines::scene::Scene) -> Result<(), String> {
     if scene.spheres.len() > MAX_SPHERES {
         return Err(format!(
-            "render-isg: scene {} has {} spheres; the kernel takes at most {MAX_SPHERES} (its per-patch \
+            "render isg: scene {} has {} spheres; the kernel takes at most {MAX_SPHERES} (its per-patch \
              blocker test is unrolled over them, and compiling it grows as their square)",
             scene.name,
             scene.spheres.len()
@@ -56,7 +98,7 @@ const MAX_PATCHES: u64 = 20;
 /// inside are unrolled.
 const CLAMPED_COSINE_ITERATIONS: u64 = 15 + 119 + 15;
 
-/// The families render-isg reads, and how to export them.
+/// The families render isg reads, and how to export them.
 pub const FAMILIES: (&[&str], &str) = (
     &[lobefit_tables::isg::KIND_BEST, lobefit_tables::sg_fit::KIND],
     "isg-best,sg-fit",
@@ -81,7 +123,7 @@ fn texture<'a>(export: &'a VerifiedExport, kind: &str) -> Result<(&'a TextureEnt
 /// The kernel's per-product visible integral (the CPU's `visible_with`) and its body.
 fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(String, String), String> {
     if scene.spheres.is_empty() {
-        return Err(format!("scene {}: render-isg needs at least one sphere", scene.name));
+        return Err(format!("scene {}: render isg needs at least one sphere", scene.name));
     }
     check_spheres(scene)?;
     // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
@@ -268,7 +310,7 @@ pub fn render_isg(
         visible.len(),
         2,
     )?;
-    budget::flags("render-isg", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
+    budget::flags("render isg", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
         format!("unknown flag {f}")
     })?;
     // The CPU pipeline (f64, the committed tables) at the same f32 inputs.

@@ -1,4 +1,4 @@
-//! `lobefit-gpu render-meunier`: Meunier et al.'s direct lighting
+//! `lobefit-gpu render meunier`: Meunier et al.'s direct lighting
 //! (`lobefit_tables::meunier`, `lobefit render meunier`) as one compute kernel per
 //! pixel on the exported lobe-product, cap-exponent and mask-weights textures, against
 //! the CPU pipeline's image (docs/meunier.md, "On the GPU").
@@ -22,7 +22,8 @@
 //! more blockers meeting a light than its cap array holds. A flagged pixel is an
 //! error, never a silently wrong value.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use lobefit::export::layout::Filter;
 use lobefit::export::{manifest::TextureEntry, Texture};
@@ -37,6 +38,94 @@ use crate::budget;
 use crate::device::Gpu;
 use crate::kernel::{kernel_textures, lf_tex};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
+use crate::renders::{parse, Render};
+
+/// `lobefit-gpu render meunier`'s options.
+#[derive(clap::Parser)]
+pub struct Args {
+    /// A `lobefit export` directory with lobe-product, cap-exponent and mask-weights.
+    #[arg(long, value_name = "DIR")]
+    export: PathBuf,
+    /// A built-in Meunier scene (fig13, glossy) or a scene file.
+    #[arg(long, default_value = "fig13")]
+    scene: String,
+    /// Image width (height 3/4 of it).
+    #[arg(long, default_value_t = WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    width: u32,
+    /// How the light enters: its exact cap (the default) or the paper's lobe.
+    #[arg(long, default_value = "cap", value_parser = ["cap", "lobe"])]
+    light: String,
+    /// Eq. 39's weights: fitted (the default), the paper's procedure, or all ones.
+    #[arg(long, default_value = "fitted", value_parser = ["fitted", "paper", "one"])]
+    weights: String,
+    /// The mask's maximal quad-tree depth.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=5))]
+    depth: u32,
+    /// Partial cells at the maximal depth: dropped (aggressive, the paper's) or kept.
+    #[arg(long, default_value = "aggressive", value_parser = ["aggressive", "conservative"])]
+    mask: String,
+    /// The threshold t_i (sr): lobe products with |∫| below it are dropped.
+    #[arg(long, default_value_t = 0.0)]
+    threshold: f64,
+    /// Output PNG.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// `render meunier`.
+pub const RENDER: Render = Render {
+    name: "meunier",
+    about: "Meunier et al.'s direct lighting per pixel on the GPU (mask quad-tree, leaf lobes, eq. 22 on the \
+            exported lobe-product, cap-exponent and mask-weights textures) against the CPU pipeline's image \
+            (docs/meunier.md)",
+    options: <Args as clap::CommandFactory>::command,
+    run: |m| run(parse(m)?),
+};
+
+/// `a`'s settings as the CPU parses them (`eval direct-light`'s flags), the threshold
+/// rounded to the kernel's f32.
+fn settings(a: &Args) -> Result<MaskSettings, String> {
+    let threshold = a.threshold;
+    if !(threshold.is_finite() && threshold >= 0.0) {
+        return Err(format!("--threshold {threshold}: t_i must be finite and ≥ 0 (sr)"));
+    }
+    // The kernel's t_i is an f32: the CPU uses, and the report names, the same.
+    let threshold = f64::from(threshold as f32);
+    if !threshold.is_finite() {
+        return Err(format!(
+            "--threshold {threshold}: t_i overflows f32 (the kernel's type)"
+        ));
+    }
+    let flags = lobefit::family::EvalFlags {
+        depth: Some(a.depth as usize),
+        mask: Some(a.mask.clone()),
+        weights: Some(a.weights.clone()),
+        light: Some(a.light.clone()),
+        ..Default::default()
+    };
+    Ok(MaskSettings {
+        threshold,
+        ..lobefit::pipelines::meunier::direct_light::DirectLightView::from_flags(&flags)?.settings
+    })
+}
+
+fn run(a: Args) -> Result<ExitCode, String> {
+    let settings = settings(&a)?;
+    crate::render::check_out(&a.out)?;
+    let sc = lobefit::pipelines::meunier::render::scene(&a.scene)?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    let r = render_meunier(&gpu, &ex, &sc, a.width as usize, &settings, &a.out)?;
+    let what = format!(
+        "{} (light {}, weights {}, depth {} {}, t_i {:e})",
+        a.scene,
+        a.light,
+        a.weights,
+        settings.depth,
+        settings.mode.name(),
+        settings.threshold
+    );
+    crate::render::report("render meunier", &what, &r, &gpu, &a.out)
+}
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 96;
@@ -48,7 +137,7 @@ pub const MAX_LOBES: usize = 3;
 /// (below llvmpipe's [`budget::LOOP_LIMIT`], leaving room for the library's loops).
 const ITERATION_BUDGET: u32 = 60_000;
 
-/// The families render-meunier reads, and how to export them.
+/// The families render meunier reads, and how to export them.
 pub const FAMILIES: (&[&str], &str) = (
     &[
         lobefit_tables::lobe_product::KIND_ENERGY,
@@ -396,7 +485,7 @@ fn material(b: &Brdf) -> Result<Vec<f32>, String> {
     };
     if lobes.len() > MAX_LOBES {
         return Err(format!(
-            "a material has {} Lafortune lobes; render-meunier's kernel holds {MAX_LOBES}",
+            "a material has {} Lafortune lobes; render meunier's kernel holds {MAX_LOBES}",
             lobes.len()
         ));
     }
@@ -502,7 +591,7 @@ pub fn render_meunier(
     let src = kernel_textures(&types, N_IN, 2, &body()) + &source(sc, settings, visible.len());
     let textures: Vec<(&[u8], &crate::device::GpuTexture)> = params.iter().map(Vec::as_slice).zip(up.iter()).collect();
     let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
-    budget::flags("render-meunier", got.chunks(2).map(|c| c[1]), visible.len(), |_| {
+    budget::flags("render meunier", got.chunks(2).map(|c| c[1]), visible.len(), |_| {
         format!("more than {MAX_BLOCKERS} blockers meet the light's cap (the kernel's array)")
     })?;
     // The CPU pipeline (f64, the committed tables) at the same f32 inputs.

@@ -1,4 +1,4 @@
-//! `lobefit-gpu render-shexp`: the SH-exponentiation pipeline (`lobefit::pipelines::shexp`)
+//! `lobefit-gpu render shexp`: the SH-exponentiation pipeline (`lobefit::pipelines::shexp`)
 //! as one compute kernel per pixel, on the exported wedge and shexp textures, against
 //! the CPU pipeline's image (docs/shexp-render.md).
 //!
@@ -17,7 +17,8 @@
 //! (`crate::budget`).
 
 use std::f64::consts::TAU;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use lobefit::export::layout::Filter;
 use lobefit::export::{manifest::TextureEntry, Texture};
@@ -31,6 +32,58 @@ use crate::budget;
 use crate::device::Gpu;
 use crate::kernel::{kernel_textures, lf_tex};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
+use crate::renders::{parse, Render};
+
+/// `lobefit-gpu render shexp`'s options.
+#[derive(clap::Parser)]
+pub struct Args {
+    /// A `lobefit export` directory with wedge and shexp.
+    #[arg(long, value_name = "DIR")]
+    export: PathBuf,
+    /// A built-in shexp scene (whale, whale-diffuse, wrecking) or a scene file.
+    #[arg(long, default_value = "whale")]
+    scene: String,
+    /// Image width (height 3/4 of it).
+    #[arg(long, default_value_t = WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    width: u32,
+    /// The sphere blockers' log: the ε-floored closed form or Ren's (the shexp-n4
+    /// texture); default: the CPU pipeline's default.
+    #[arg(long, value_parser = ["eps", "ren"])]
+    blocker_log: Option<String>,
+    /// Output PNG.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// `render shexp`.
+pub const RENDER: Render = Render {
+    name: "shexp",
+    about: "the SH-exponentiation pipeline per pixel on the GPU (the exported wedge and shexp textures; hits \
+            and horizon angles from the CPU) against the CPU pipeline's image at its default settings \
+            (docs/shexp-render.md)",
+    options: <Args as clap::CommandFactory>::command,
+    run: |m| run(parse(m)?),
+};
+
+fn run(a: Args) -> Result<ExitCode, String> {
+    let mut settings = Settings::default();
+    match a.blocker_log.as_deref() {
+        Some("eps") => settings.blocker_log = BlockerLog::Eps,
+        Some("ren") => settings.blocker_log = BlockerLog::Ren,
+        _ => {}
+    }
+    crate::render::check_out(&a.out)?;
+    let sc = lobefit::pipelines::shexp::render::scene(&a.scene)?;
+    budget::refuse_over(
+        "render shexp",
+        iterations(sc.spheres.len()),
+        &format!("{} spheres", sc.spheres.len()),
+    )?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    let r = render_shexp(&gpu, &ex, &sc, a.width as usize, &settings, &a.out)?;
+    let what = format!("{} ({:?} blocker log)", a.scene, settings.blocker_log);
+    crate::render::report("render shexp", &what, &r, &gpu, &a.out)
+}
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
@@ -42,7 +95,7 @@ const ORDER: usize = 4;
 /// exponent, own sphere (−1: none).
 const HIT_INPUTS: usize = 13;
 
-/// The families render-shexp reads, and how to export them.
+/// The families render shexp reads, and how to export them.
 pub const FAMILIES: (&[&str], &str) = (
     &[lobefit_tables::wedge::KIND, lobefit_tables::shexp::KIND],
     "wedge,shexp --allow-lossy",
@@ -78,15 +131,15 @@ fn supported(s: &Settings) -> Result<(), String> {
     s.validate()?;
     if s.order != ORDER {
         return Err(format!(
-            "render-shexp runs SH order {ORDER} only (the shader library's SH product); the settings ask for {}",
+            "render shexp runs SH order {ORDER} only (the shader library's SH product); the settings ask for {}",
             s.order
         ));
     }
     if s.exp != Exp::Hyb {
-        return Err("render-shexp exponentiates by HYB only; the settings ask for exact exp*".into());
+        return Err("render shexp exponentiates by HYB only; the settings ask for exact exp*".into());
     }
     if s.brdf != BrdfMode::Log {
-        return Err("render-shexp adds the BRDF as log-ZH lobes only; the settings ask for the triple product".into());
+        return Err("render shexp adds the BRDF as log-ZH lobes only; the settings ask for the triple product".into());
     }
     Ok(())
 }
@@ -287,7 +340,7 @@ pub fn render_shexp(
     let src = source(sc, s, visible.len());
     let textures: Vec<(&[u8], &crate::device::GpuTexture)> = uploads.iter().map(|(p, t)| (p.as_slice(), t)).collect();
     let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
-    budget::flags("render-shexp", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
+    budget::flags("render shexp", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
         format!("unknown flag {f}")
     })?;
     // The CPU pipeline (f64, the committed tables) at the same f32-rounded hits.
