@@ -137,6 +137,9 @@ fn vec3(v: [f64; 3]) -> String {
     format!("vec3<f32>({:e}, {:e}, {:e})", v[0] as f32, v[1] as f32, v[2] as f32)
 }
 
+/// The kernel's functions (gpu/shaders/rigs.wgsl).
+const FUNCTIONS: &str = include_str!("../shaders/rigs.wgsl");
+
 /// The kernel over `count` pixels for rigs of `models` (their vectors after the
 /// pixels, in order) in `bbox`, shaded at each wrap of `wraps`: output (rig r, wrap w)
 /// at r · |wraps| + w.
@@ -160,23 +163,7 @@ fn source(models: &[RigModel], bbox: &RigBox, wraps: &[f64], count: usize) -> Re
         offset += COEFFS * m.parameter_count().map_err(|e| e.to_string())?;
     }
     let functions = format!(
-        "
-const CENTRE = {};
-const HALF = {};
-
-// Rig l(p) from its vectors at X[off + 9k ..] (lf_rig_terms' accessor convention).
-fn rig_at(kind: vec3<u32>, nodes: vec3<u32>, off: u32, p: vec3<f32>) -> array<f32, 9> {{
-    let r = lf_rig_terms(kind, nodes, CENTRE, HALF, p);
-    var l: array<f32, 9>;
-    for (var j = 0u; j < r.count; j++) {{
-        let k = off + 9u * r.index[j];
-        for (var i = 0u; i < 9u; i++) {{
-            l[i] += r.weight[j] * X[k + i];
-        }}
-    }}
-    return l;
-}}
-",
+        "\nconst CENTRE = {};\nconst HALF = {};\n{FUNCTIONS}",
         vec3(bbox.centre.to_array()),
         vec3(bbox.half.to_array())
     );
