@@ -201,61 +201,7 @@ impl Gpu {
             label: Some("lobefit kernel"),
             source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(source)),
         });
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: cs,
-            ty,
-            count: None,
-        };
-        let uniform = wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        };
-        let storage = |read_only| wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        };
-        let tex_entry = |t: &GpuTexture| wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float {
-                filterable: t.filterable,
-            },
-            view_dimension: t.view_dimension,
-            multisampled: false,
-        };
-        let mut layout_entries = vec![
-            entry(0, uniform),
-            entry(
-                1,
-                wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float {
-                        filterable: texture.filterable,
-                    },
-                    view_dimension: texture.view_dimension,
-                    multisampled: false,
-                },
-            ),
-            entry(
-                2,
-                wgpu::BindingType::Sampler(if texture.filterable {
-                    wgpu::SamplerBindingType::Filtering
-                } else {
-                    wgpu::SamplerBindingType::NonFiltering
-                }),
-            ),
-            entry(3, storage(true)),
-            entry(4, storage(false)),
-            entry(5, uniform),
-        ];
-        for (k, (_, t)) in (1u32..).zip(extra) {
-            if t.filterable != texture.filterable {
-                return Err("run_textures: the textures differ in filterability".into());
-            }
-            layout_entries.push(entry(4 + 2 * k, uniform));
-            layout_entries.push(entry(5 + 2 * k, tex_entry(t)));
-        }
+        let layout_entries = layout_entries(texture, extra)?;
         let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: None,
             entries: &layout_entries,
@@ -305,12 +251,6 @@ impl Gpu {
             label: None,
             size: out_size,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let read_buf = d.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size: out_size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let count_buf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -369,14 +309,38 @@ impl Gpu {
             layout: &layout,
             entries: &bind_entries,
         });
+        self.dispatch_and_read(&pipeline, &bind, &out_buf, out_size, scope, count, n_out)
+    }
+
+    /// Dispatches `pipeline` over `count` invocations (64 per workgroup), then reads
+    /// the `count × n_out` outputs back from `out_buf` (`out_size` bytes); a validation
+    /// error of the kernel (the open `scope`) is the error.
+    #[allow(clippy::too_many_arguments)]
+    fn dispatch_and_read(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        bind: &wgpu::BindGroup,
+        out_buf: &wgpu::Buffer,
+        out_size: u64,
+        scope: wgpu::ErrorScopeGuard,
+        count: usize,
+        n_out: usize,
+    ) -> Result<Vec<f32>, String> {
+        let d = &self.device;
+        let read_buf = d.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size: out_size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let mut enc = d.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &bind, &[]);
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind, &[]);
             pass.dispatch_workgroups((count as u32).div_ceil(64).max(1), 1, 1);
         }
-        enc.copy_buffer_to_buffer(&out_buf, 0, &read_buf, 0, out_size);
+        enc.copy_buffer_to_buffer(out_buf, 0, &read_buf, 0, out_size);
         self.queue.submit([enc.finish()]);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!("wgpu: {e}"));
@@ -391,4 +355,69 @@ impl Gpu {
         read_buf.unmap();
         Ok(out[..count * n_out].to_vec())
     }
+}
+
+/// The kernel's bind group layout: its parameters, first texture and sampler, input,
+/// output and count (bindings 0–5), then per further texture its parameters and the
+/// texture (6, 7, …).
+fn layout_entries(
+    texture: &GpuTexture,
+    extra: &[(&[u8], &GpuTexture)],
+) -> Result<Vec<wgpu::BindGroupLayoutEntry>, String> {
+    let cs = wgpu::ShaderStages::COMPUTE;
+    let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: cs,
+        ty,
+        count: None,
+    };
+    let uniform = wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Uniform,
+        has_dynamic_offset: false,
+        min_binding_size: None,
+    };
+    let storage = |read_only| wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Storage { read_only },
+        has_dynamic_offset: false,
+        min_binding_size: None,
+    };
+    let tex_entry = |t: &GpuTexture| wgpu::BindingType::Texture {
+        sample_type: wgpu::TextureSampleType::Float {
+            filterable: t.filterable,
+        },
+        view_dimension: t.view_dimension,
+        multisampled: false,
+    };
+    let mut layout_entries = vec![
+        entry(0, uniform),
+        entry(
+            1,
+            wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float {
+                    filterable: texture.filterable,
+                },
+                view_dimension: texture.view_dimension,
+                multisampled: false,
+            },
+        ),
+        entry(
+            2,
+            wgpu::BindingType::Sampler(if texture.filterable {
+                wgpu::SamplerBindingType::Filtering
+            } else {
+                wgpu::SamplerBindingType::NonFiltering
+            }),
+        ),
+        entry(3, storage(true)),
+        entry(4, storage(false)),
+        entry(5, uniform),
+    ];
+    for (k, (_, t)) in (1u32..).zip(extra) {
+        if t.filterable != texture.filterable {
+            return Err("run_textures: the textures differ in filterability".into());
+        }
+        layout_entries.push(entry(4 + 2 * k, uniform));
+        layout_entries.push(entry(5 + 2 * k, tex_entry(t)));
+    }
+    Ok(layout_entries)
 }

@@ -1,4 +1,4 @@
-//! `lobefit-gpu render-isg`: Iwasaki et al.'s pipeline (`lobefit::pipelines::isg`) as
+//! `lobefit-gpu render isg`: Iwasaki et al.'s pipeline (`lobefit::pipelines::isg`) as
 //! one compute kernel per pixel, on the exported isg-best and sg-fit textures, against
 //! the CPU pipeline's image (docs/isg-render.md).
 //!
@@ -14,7 +14,8 @@
 //! their square), and the loops left are bounded before dispatch and checked after
 //! it (`crate::budget`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use lobefit::export::layout::Filter;
 use lobefit::export::{manifest::TextureEntry, Texture};
@@ -23,8 +24,49 @@ use lobefit::pipelines::scene::Hit;
 
 use crate::budget;
 use crate::device::Gpu;
-use crate::kernel::{kernel_with, lf_tex};
+use crate::kernel::{kernel_with, lf_tex, split};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
+use crate::renders::{parse, Render};
+
+/// `lobefit-gpu render isg`'s options.
+#[derive(clap::Parser)]
+pub struct Args {
+    /// A `lobefit export` directory with isg-best and sg-fit.
+    #[arg(long, value_name = "DIR")]
+    export: PathBuf,
+    /// A built-in ISG scene (fig12, fig12-diffuse) or a scene file.
+    #[arg(long, default_value = "fig12")]
+    scene: String,
+    /// Image width (height 3/4 of it).
+    #[arg(long, default_value_t = WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    width: u32,
+    /// Output PNG.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// `render isg`.
+pub const RENDER: Render = Render {
+    name: "isg",
+    about: "Iwasaki et al.'s ISG pipeline per pixel on the GPU (the exported isg-best and sg-fit textures) \
+            against the CPU pipeline's image (docs/isg-render.md)",
+    options: <Args as clap::CommandFactory>::command,
+    run: |m| run(parse(m)?),
+};
+
+fn run(a: Args) -> Result<ExitCode, String> {
+    crate::render::check_out(&a.out)?;
+    let sc = lobefit::pipelines::isg::render::scene(&a.scene)?;
+    check_spheres(&sc)?;
+    budget::refuse_over(
+        "render isg",
+        iterations(sc.spheres.len(), sc.environment.len()),
+        &format!("{} SGs, {} spheres", sc.environment.len(), sc.spheres.len()),
+    )?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out)?;
+    crate::render::report("render isg", &a.scene, &r, &gpu, &a.out)
+}
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
@@ -39,7 +81,7 @@ pub const MAX_SPHERES: usize = 256;
 pub fn check_spheres(scene: &lobefit::pipelines::scene::Scene) -> Result<(), String> {
     if scene.spheres.len() > MAX_SPHERES {
         return Err(format!(
-            "render-isg: scene {} has {} spheres; the kernel takes at most {MAX_SPHERES} (its per-patch \
+            "render isg: scene {} has {} spheres; the kernel takes at most {MAX_SPHERES} (its per-patch \
              blocker test is unrolled over them, and compiling it grows as their square)",
             scene.name,
             scene.spheres.len()
@@ -56,7 +98,7 @@ const MAX_PATCHES: u64 = 20;
 /// inside are unrolled.
 const CLAMPED_COSINE_ITERATIONS: u64 = 15 + 119 + 15;
 
-/// The families render-isg reads, and how to export them.
+/// The families render isg reads, and how to export them.
 pub const FAMILIES: (&[&str], &str) = (
     &[lobefit_tables::isg::KIND_BEST, lobefit_tables::sg_fit::KIND],
     "isg-best,sg-fit",
@@ -78,10 +120,13 @@ fn texture<'a>(export: &'a VerifiedExport, kind: &str) -> Result<(&'a TextureEnt
     Ok((e, t))
 }
 
+/// The kernel's functions and body (gpu/shaders/isg.wgsl).
+const SHADER: &str = include_str!("../shaders/isg.wgsl");
+
 /// The kernel's per-product visible integral (the CPU's `visible_with`) and its body.
 fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(String, String), String> {
     if scene.spheres.is_empty() {
-        return Err(format!("scene {}: render-isg needs at least one sphere", scene.name));
+        return Err(format!("scene {}: render isg needs at least one sphere", scene.name));
     }
     check_spheres(scene)?;
     // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
@@ -97,101 +142,8 @@ fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(Str
         ns.div_ceil(32),
         base + 4 * ns
     );
-    let functions = r#"
-// Whether the cap of sphere s (centre, radius) seen from x covers the direction d.
-fn isg_covers(s: vec4<f32>, x: vec3<f32>, d: vec3<f32>) -> bool {
-    let w = s.xyz - x;
-    return dot(w, d) >= sqrt(max(dot(w, w) - s.w * s.w, 0.0));
-}
-
-// The visible integral of g: `total` minus g over the occluded patches of its cone;
-// with `cosine`, each occluded patch weighted by max(n.d, 0) / cs(d) and patches below
-// the horizon not counted (the CPU's visible_with).
-fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec3<f32>, own: i32) -> f32 {
-    if g.amplitude == 0.0 {
-        return 0.0;
-    }
-    let gamma = clamp(g.sharpness, 0.5, 1e4);
-    let cone = lf_isg_cone(g.sharpness, 0.01);
-    let z = g.axis;
-    let y = lf_any_orthonormal(z);
-    let xa = cross(y, z);
-    // The blockers whose cap meets the cone, as a bit mask. (llvmpipe ends any loop
-    // after 65 535 iterations of an invocation: a loop over these blockers inside the
-    // patch loop went past that at busy pixels, so the test per patch is unrolled.)
-    var mask = array<u32, NW>();
-    for (var b = 0u; b < NS; b++) {
-        let s = sph(b);
-        let w = s.xyz - x;
-        let d = length(w);
-        if i32(b) != own && d > s.w {
-            if lf_angle_between(w / d, z) <= cone + lf_asin(s.w / d) {
-                mask[b / 32u] |= 1u << (b % 32u);
-            }
-        }
-    }
-    let k = u32(clamp(ceil(2.0 * cone * sqrt(gamma) * 3.0), 10.0, 20.0));
-    let lo = 0.5 * LF_PI - cone;
-    let step = 2.0 * cone / f32(k);
-    let norm = lf_isg_normaliser(gamma);
-    var hidden = 0.0;
-    for (var i = 0u; i < k; i++) {
-        let th = lo + (f32(i) + 0.5) * step;
-        let st = sin(th);
-        let ct = cos(th);
-        for (var j = 0u; j < k; j++) {
-            let ph = lo + (f32(j) + 0.5) * step;
-            let d = xa * (st * cos(ph)) + y * ct + z * (st * sin(ph));
-            let c = dot(n, d);
-            var blocked = false;
-BLOCKED_TESTS            var wgt = 0.0;
-            if cosine {
-                if c > 0.0 && blocked {
-                    wgt = c / lf_sg_eval(cs, d);
-                }
-            } else if c <= 0.0 || blocked {
-                wgt = 1.0;
-            }
-            if wgt != 0.0 {
-                let t1 = clamp(lo + f32(i) * step, 0.0, LF_PI);
-                let t2 = clamp(lo + f32(i + 1u) * step, 0.0, LF_PI);
-                let p1 = clamp(lo + f32(j) * step, 0.0, LF_PI);
-                let p2 = clamp(lo + f32(j + 1u) * step, 0.0, LF_PI);
-                let sh = lf_isg_best(T, S, P, t2, p2, gamma) - lf_isg_best(T, S, P, t1, p2, gamma)
-                    - lf_isg_best(T, S, P, t2, p1, gamma) + lf_isg_best(T, S, P, t1, p1, gamma);
-                hidden += wgt * sh * norm;
-            }
-        }
-    }
-    return total - g.amplitude * hidden;
-}
-"#;
-    let body = "    let p = vec3<f32>(x0, x1, x2);
-    let n = vec3<f32>(x3, x4, x5);
-    let wo = vec3<f32>(x6, x7, x8);
-    let own = i32(x12);
-    let cs = lf_lobe_to_sg(T2, S, P2, n, 1.0, 1.0);
-    let r = normalize(2.0 * dot(n, wo) * n - wo);
-    let lobe = lf_lobe_to_sg(T2, S, P2, r, x11, x10 * (x11 + 2.0) / (2.0 * LF_PI));
-    var diffuse = 0.0;
-    var specular = 0.0;
-    for (var e = 0u; e < NE; e++) {
-        let l = env(e);
-        if x9 > 0.0 {
-            let t = l.amplitude * lf_sg_clamped_cosine(l, n);
-            diffuse += isg_visible(lf_sg_product(l, cs), t, cs, true, n, p, own);
-        }
-        if x10 > 0.0 {
-            let g = lf_sg_product(l, lobe);
-            specular += isg_visible(g, lf_sg_integral(g), lobe, false, n, p, own);
-        }
-    }
-    Y[o] = x9 / LF_PI * diffuse + max(dot(n, r), 0.0) * specular;
-    var budget_flag = 0.0;
-"
-    .to_string()
-        + budget::SENTINEL
-        + "    Y[o + 1u] = budget_flag;";
+    let (functions, body) = split(SHADER);
+    let body = body.to_string() + budget::SENTINEL + "    Y[o + 1u] = budget_flag;";
     let f = |v: f64| format!("{:e}", v as f32);
     let tests: String = scene
         .spheres
@@ -268,7 +220,7 @@ pub fn render_isg(
         visible.len(),
         2,
     )?;
-    budget::flags("render-isg", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
+    budget::flags("render isg", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
         format!("unknown flag {f}")
     })?;
     // The CPU pipeline (f64, the committed tables) at the same f32 inputs.

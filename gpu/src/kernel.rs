@@ -177,6 +177,16 @@ impl Runner for Bound<'_> {
     }
 }
 
+/// The line of a kernel file (gpu/shaders/<pipeline>.wgsl) between its functions and
+/// its body (the statements of the entry point [`kernel`] writes).
+pub const BODY_MARKER: &str = "// ---- main: the kernel's body (the statements inside its entry point, kernel.rs)\n";
+
+/// A kernel file's (functions, body), split at [`BODY_MARKER`]; a file without it is
+/// all functions.
+pub fn split(shader: &'static str) -> (&'static str, &'static str) {
+    shader.split_once(BODY_MARKER).unwrap_or((shader, ""))
+}
+
 #[cfg(test)]
 mod tests {
     use lobefit::export::Storage;

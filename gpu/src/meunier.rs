@@ -1,4 +1,4 @@
-//! `lobefit-gpu render-meunier`: Meunier et al.'s direct lighting
+//! `lobefit-gpu render meunier`: Meunier et al.'s direct lighting
 //! (`lobefit_tables::meunier`, `lobefit render meunier`) as one compute kernel per
 //! pixel on the exported lobe-product, cap-exponent and mask-weights textures, against
 //! the CPU pipeline's image (docs/meunier.md, "On the GPU").
@@ -22,7 +22,8 @@
 //! more blockers meeting a light than its cap array holds. A flagged pixel is an
 //! error, never a silently wrong value.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use lobefit::export::layout::Filter;
 use lobefit::export::{manifest::TextureEntry, Texture};
@@ -30,13 +31,101 @@ use lobefit::pipelines::scene::{Hit, Scene};
 use lobefit_tables::geom::{Brdf, LafortuneLobe, Sphere, SphereLight};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{MaskMode, WeightSet};
-use lobefit_tables::meunier::{LightModel, MaskSettings};
+use lobefit_tables::meunier::{LightModel, MaskSettings, LIGHT_HALF_ANGLE_MIN};
 use lobefit_tables::{CapExponent, LobeProduct, MaskWeights, Meunier};
 
 use crate::budget;
 use crate::device::Gpu;
-use crate::kernel::{kernel_textures, lf_tex};
+use crate::kernel::{kernel_textures, lf_tex, split};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
+use crate::renders::{parse, Render};
+
+/// `lobefit-gpu render meunier`'s options.
+#[derive(clap::Parser)]
+pub struct Args {
+    /// A `lobefit export` directory with lobe-product, cap-exponent and mask-weights.
+    #[arg(long, value_name = "DIR")]
+    export: PathBuf,
+    /// A built-in Meunier scene (fig13, glossy) or a scene file.
+    #[arg(long, default_value = "fig13")]
+    scene: String,
+    /// Image width (height 3/4 of it).
+    #[arg(long, default_value_t = WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    width: u32,
+    /// How the light enters: its exact cap (the default) or the paper's lobe.
+    #[arg(long, default_value = "cap", value_parser = ["cap", "lobe"])]
+    light: String,
+    /// Eq. 39's weights: fitted (the default), the paper's procedure, or all ones.
+    #[arg(long, default_value = "fitted", value_parser = ["fitted", "paper", "one"])]
+    weights: String,
+    /// The mask's maximal quad-tree depth.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=5))]
+    depth: u32,
+    /// Partial cells at the maximal depth: dropped (aggressive, the paper's) or kept.
+    #[arg(long, default_value = "aggressive", value_parser = ["aggressive", "conservative"])]
+    mask: String,
+    /// The threshold t_i (sr): lobe products with |∫| below it are dropped.
+    #[arg(long, default_value_t = 0.0)]
+    threshold: f64,
+    /// Output PNG.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// `render meunier`.
+pub const RENDER: Render = Render {
+    name: "meunier",
+    about: "Meunier et al.'s direct lighting per pixel on the GPU (mask quad-tree, leaf lobes, eq. 22 on the \
+            exported lobe-product, cap-exponent and mask-weights textures) against the CPU pipeline's image \
+            (docs/meunier.md)",
+    options: <Args as clap::CommandFactory>::command,
+    run: |m| run(parse(m)?),
+};
+
+/// `a`'s settings as the CPU parses them (`eval direct-light`'s flags), the threshold
+/// rounded to the kernel's f32.
+fn settings(a: &Args) -> Result<MaskSettings, String> {
+    let threshold = a.threshold;
+    if !(threshold.is_finite() && threshold >= 0.0) {
+        return Err(format!("--threshold {threshold}: t_i must be finite and ≥ 0 (sr)"));
+    }
+    // The kernel's t_i is an f32: the CPU uses, and the report names, the same.
+    let threshold = f64::from(threshold as f32);
+    if !threshold.is_finite() {
+        return Err(format!(
+            "--threshold {threshold}: t_i overflows f32 (the kernel's type)"
+        ));
+    }
+    let flags = lobefit::family::EvalFlags {
+        depth: Some(a.depth as usize),
+        mask: Some(a.mask.clone()),
+        weights: Some(a.weights.clone()),
+        light: Some(a.light.clone()),
+        ..Default::default()
+    };
+    Ok(MaskSettings {
+        threshold,
+        ..lobefit::pipelines::meunier::direct_light::DirectLightView::from_flags(&flags)?.settings
+    })
+}
+
+fn run(a: Args) -> Result<ExitCode, String> {
+    let settings = settings(&a)?;
+    crate::render::check_out(&a.out)?;
+    let sc = lobefit::pipelines::meunier::render::scene(&a.scene)?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    let r = render_meunier(&gpu, &ex, &sc, a.width as usize, &settings, &a.out)?;
+    let what = format!(
+        "{} (light {}, weights {}, depth {} {}, t_i {:e})",
+        a.scene,
+        a.light,
+        a.weights,
+        settings.depth,
+        settings.mode.name(),
+        settings.threshold
+    );
+    crate::render::report("render meunier", &what, &r, &gpu, &a.out)
+}
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 96;
@@ -48,7 +137,7 @@ pub const MAX_LOBES: usize = 3;
 /// (below llvmpipe's [`budget::LOOP_LIMIT`], leaving room for the library's loops).
 const ITERATION_BUDGET: u32 = 60_000;
 
-/// The families render-meunier reads, and how to export them.
+/// The families render meunier reads, and how to export them.
 pub const FAMILIES: (&[&str], &str) = (
     &[
         lobefit_tables::lobe_product::KIND_ENERGY,
@@ -88,12 +177,14 @@ fn source(scene: &Scene, settings: &MaskSettings, count: usize) -> String {
         "const NS = {ns}u;\nconst NL = {nl}u;\nconst SPH0 = {sph0}u;\nconst LGT0 = {lgt0}u;\n\
          const MAT0 = {mat0}u;\nconst MAT_SIZE = {}u;\nconst MAXB = {MAX_BLOCKERS}u;\nconst MAXL = {}u;\n\
          const DEPTH = {}u;\nconst MODE = {mode}u;\nconst WSET = {set}u;\nconst THRESH = {};\nconst CAP_LIGHT = {};\n\
-         const BUDGET = {ITERATION_BUDGET}u;\n{FUNCTIONS}",
+         const BUDGET = {ITERATION_BUDGET}u;\nconst LIGHT_HALF_ANGLE_MIN = {};\n{}",
         2 + 5 * MAX_LOBES,
         MAX_LOBES + 1,
         settings.depth,
         lit(settings.threshold),
         settings.light == LightModel::Cap,
+        lit(LIGHT_HALF_ANGLE_MIN),
+        split(SHADER).0,
     )
 }
 
@@ -101,290 +192,13 @@ fn source(scene: &Scene, settings: &MaskSettings, count: usize) -> String {
 /// sphere the point lies on (−1: none).
 const N_IN: usize = 14;
 
-const FUNCTIONS: &str = r#"
-struct MnLobe {
-    s: f32,
-    a: vec3<f32>,
-    e: f32,
-}
+/// The kernel's functions and body (gpu/shaders/meunier.wgsl).
+const SHADER: &str = include_str!("../shaders/meunier.wgsl");
 
-// The product of two lobes as one lobe (the lobe-product textures T, T2).
-fn mn_product(l1: MnLobe, l2: MnLobe) -> MnLobe {
-    let alpha = lf_angle_between(l1.a, l2.a);
-    let q = lf_lobe_product(T, S, P, T2, P2, l1.e, l2.e, alpha);
-    return MnLobe(l1.s * q.p * l2.s, lf_lobe_product_axis(l1.a, l2.a, q.t), q.e_r);
-}
-
-fn mn_integral(l: MnLobe) -> f32 {
-    return l.s * 2.0 * LF_PI / (l.e + 1.0);
-}
-
-// Whether a product survives the threshold t_i (the runtime's product_sums).
-fn mn_kept(l: MnLobe) -> bool {
-    return l.s != 0.0 && abs(mn_integral(l)) >= THRESH;
-}
-
-fn mn_sphere(b: u32) -> vec4<f32> {
-    let k = SPH0 + 4u * b;
-    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);
-}
-
-// max over the spherical quadrilateral c0..c3 (great-circle edges) of a.x (the
-// runtime's max_dot).
-fn mn_max_dot(c0: vec3<f32>, c1: vec3<f32>, c2: vec3<f32>, c3: vec3<f32>, a: vec3<f32>) -> f32 {
-    let c = array<vec3<f32>, 4>(c0, c1, c2, c3);
-    let centre = c0 + c1 + c2 + c3;
-    var inside = true;
-    var best = -2.0;
-    for (var k = 0u; k < 4u; k++) {
-        let p = c[k];
-        let q = c[(k + 1u) % 4u];
-        let m0 = cross(p, q);
-        let mlen = length(m0);
-        best = max(best, max(dot(a, p), dot(a, q)));
-        if mlen < 1e-30 {
-            continue;
-        }
-        let m = m0 / mlen;
-        let am = dot(a, m);
-        if am * sign(dot(m, centre)) < 0.0 {
-            inside = false;
-        }
-        let proj = a - am * m;
-        let plen = length(proj);
-        if plen > 1e-30 {
-            let ph = proj / plen;
-            if dot(cross(p, ph), m) >= 0.0 && dot(cross(ph, q), m) >= 0.0 {
-                best = max(best, plen);
-            }
-        }
-    }
-    return select(best, 1.0, inside);
-}
-
-// The shadow (or c_unit) lobe v times the kept BRDF x light products, then the cosine.
-fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f32 {
-    var total = 0.0;
-    let cosine = MnLobe(1.0, n, 1.0);
-    for (var k = 0u; k < MAXL; k++) {
-        if k < nbl {
-            let blv = mn_product(bl[k], v);
-            if mn_kept(blv) {
-                let f = mn_product(blv, cosine);
-                if mn_kept(f) {
-                    total += mn_integral(f);
-                }
-            }
-        }
-    }
-    return total;
-}
-"#;
-
-const BODY: &str = r#"    let p = vec3<f32>(x0, x1, x2);
-    let n = vec3<f32>(x3, x4, x5);
-    let own = i32(x13);
-    var iters = 0u;
-    var budget_flag = 0.0;
-    // The BRDF's lobes: the Lambertian term, then each Lafortune lobe (eq. 30).
-    var brdf: array<MnLobe, MAXL>;
-    let m0 = MAT0 + u32(x12) * MAT_SIZE;
-    brdf[0] = MnLobe(X[m0] / LF_PI, n, 0.0);
-    var nb = 1u;
-    let t0 = vec3<f32>(x6, x7, x8);
-    let tt = normalize(t0 - dot(t0, n) * n);
-    let bt = cross(n, tt);
-    let wo = vec3<f32>(x9, x10, x11);
-    let local = vec3<f32>(dot(wo, tt), dot(wo, bt), dot(wo, n));
-    for (var j = 0u; j < MAXL - 1u; j++) {
-        if f32(j) < X[m0 + 1u] {
-            let k = m0 + 2u + 5u * j;
-            let m = vec3<f32>(X[k], X[k + 1u], X[k + 2u]) * local;
-            let len = length(m);
-            if len != 0.0 && X[k + 3u] != 0.0 {
-                brdf[nb] = MnLobe(X[k + 3u] * pow(len, X[k + 4u]), (m.x * tt + m.y * bt + m.z * n) / len, X[k + 4u]);
-                nb += 1u;
-            }
-        }
-    }
-    var total = 0.0;
-    for (var l = 0u; l < NL; l++) {
-        iters += 1u;
-        let k = LGT0 + 5u * l;
-        let lc = vec3<f32>(X[k], X[k + 1u], X[k + 2u]);
-        let radiance = X[k + 4u];
-        let to = lc - p;
-        let ld = length(to);
-        let la = to / ld;
-        let sa = X[k + 3u] / ld;
-        let ca = sqrt(max((1.0 - sa) * (1.0 + sa), 0.0));
-        let alpha = lf_asin(sa);
-        // Blocker caps meeting the light's (axis, cos half-angle); a cap containing
-        // the light's hides it.
-        var rel: array<vec4<f32>, MAXB>;
-        var nrel = 0u;
-        var hidden = false;
-        for (var b = 0u; b < NS; b++) {
-            iters += 1u;
-            if i32(b) == own {
-                continue;
-            }
-            let s = mn_sphere(b);
-            let w = s.xyz - p;
-            let d = length(w);
-            if d - s.w >= ld {
-                continue;
-            }
-            let ba = w / d;
-            let q = s.w / d;
-            let th = lf_asin(q);
-            let gap = lf_angle_between(la, ba);
-            if gap + alpha <= th {
-                hidden = true;
-                break;
-            }
-            if gap < th + alpha {
-                if nrel < MAXB {
-                    rel[nrel] = vec4<f32>(ba, sqrt(max((1.0 - q) * (1.0 + q), 0.0)));
-                    nrel += 1u;
-                } else {
-                    budget_flag = 1.0;
-                }
-            }
-        }
-        if hidden {
-            continue;
-        }
-        // The BRDF x light products: the paper's light lobe, or the uniform radiance
-        // over the hemisphere (the light's cap then enters through the leaves' shares).
-        var light = MnLobe(radiance, n, 0.0);
-        if !CAP_LIGHT {
-            let e = lf_cap_exponent_any(T3, S, P3, max(alpha, 1e-4));
-            let sh = sin(0.5 * alpha);
-            light = MnLobe(radiance * 4.0 * LF_PI * sh * sh * (e + 1.0) / (2.0 * LF_PI), la, e);
-        }
-        var bl: array<MnLobe, MAXL>;
-        var nbl = 0u;
-        for (var j = 0u; j < MAXL; j++) {
-            if j < nb {
-                let r = mn_product(brdf[j], light);
-                if mn_kept(r) {
-                    bl[nbl] = r;
-                    nbl += 1u;
-                }
-            }
-        }
-        if CAP_LIGHT {
-            // The unoccluded light over its cap.
-            for (var j = 0u; j < MAXL; j++) {
-                if j < nb {
-                    let b = brdf[j];
-                    if b.e == 0.0 && dot(b.a, n) >= 1.0 - 1e-6 {
-                        total += b.s * radiance * lf_sphere_cap_irradiance(sa, dot(la, n));
-                    } else {
-                        let pc = mn_product(b, MnLobe(1.0, n, 1.0));
-                        total += radiance * mn_integral(pc)
-                            * lf_lobe_fraction_in_cap(lf_angle_between(pc.a, la), alpha, pc.e);
-                    }
-                }
-            }
-        } else {
-            total += mn_shade_vis(bl, nbl, MnLobe(1.0, n, 0.0), n);
-        }
-        if nrel == 0u {
-            continue;
-        }
-        // Eq. 39's weights at this light's dist = 1 / (2 tan alpha).
-        let dist = 0.5 * ca / sa;
-        var wts: array<f32, 5>;
-        for (var j = 0u; j < 5u; j++) {
-            if j < DEPTH {
-                wts[j] = lf_mask_weight(T4, S, P4, WSET, MODE, DEPTH, j + 1u, dist);
-            }
-        }
-        // The square S_unit at distance dist: (s, t) in [-1/2, 1/2]^2 -> w + s u + t v.
-        let sg = select(-1.0, 1.0, la.z >= 0.0);
-        let ea = -1.0 / (sg + la.z);
-        let eb = la.x * la.y * ea;
-        let kk = 2.0 * sa / ca;
-        let u = kk * vec3<f32>(1.0 + sg * la.x * la.x * ea, sg * eb, -sg * la.x);
-        let v = kk * vec3<f32>(eb, sg + la.y * la.y * ea, -la.y);
-        // Depth-first walk: (s0, t0, side, depth).
-        var stack: array<vec4<f32>, 24>;
-        stack[0] = vec4<f32>(-0.5, -0.5, 1.0, 0.0);
-        var sp = 1u;
-        loop {
-            if sp == 0u || iters >= BUDGET {
-                break;
-            }
-            iters += 1u;
-            sp -= 1u;
-            let cell = stack[sp];
-            let h = cell.z;
-            let c0 = normalize(la + cell.x * u + cell.y * v);
-            let c1 = normalize(la + (cell.x + h) * u + cell.y * v);
-            let c2 = normalize(la + (cell.x + h) * u + (cell.y + h) * v);
-            let c3 = normalize(la + cell.x * u + (cell.y + h) * v);
-            var full = false;
-            for (var b = 0u; b < nrel; b++) {
-                iters += 1u;
-                let r = rel[b];
-                if min(min(dot(r.xyz, c0), dot(r.xyz, c1)), min(dot(r.xyz, c2), dot(r.xyz, c3))) >= r.w {
-                    full = true;
-                    break;
-                }
-            }
-            if !full {
-                var meets = false;
-                for (var b = 0u; b < nrel; b++) {
-                    iters += 1u;
-                    let r = rel[b];
-                    if mn_max_dot(c0, c1, c2, c3, r.xyz) >= r.w {
-                        meets = true;
-                        break;
-                    }
-                }
-                if !meets {
-                    continue;
-                }
-            }
-            let depth = u32(cell.w);
-            let axis = normalize(c0 + c1 + c2 + c3);
-            if full || (MODE == 1u && depth == DEPTH) {
-                var wd = wts[max(depth, 1u) - 1u];
-                if wd != 0.0 {
-                    let beta = max(max(lf_angle_between(axis, c0), lf_angle_between(axis, c1)),
-                                   max(lf_angle_between(axis, c2), lf_angle_between(axis, c3)));
-                    let e = lf_cap_exponent_any(T3, S, P3, beta);
-                    if CAP_LIGHT {
-                        wd *= lf_lobe_fraction_in_cap(lf_angle_between(axis, la), alpha, e);
-                    }
-                    if wd != 0.0 {
-                        total += mn_shade_vis(bl, nbl, MnLobe(-wd, axis, e), n);
-                    }
-                }
-            }
-            if !full && depth < DEPTH {
-                // Children pushed last-first: visited in the runtime's order.
-                let g = 0.5 * h;
-                let d1 = f32(depth + 1u);
-                stack[sp] = vec4<f32>(cell.x, cell.y + g, g, d1);
-                stack[sp + 1u] = vec4<f32>(cell.x + g, cell.y + g, g, d1);
-                stack[sp + 2u] = vec4<f32>(cell.x + g, cell.y, g, d1);
-                stack[sp + 3u] = vec4<f32>(cell.x, cell.y, g, d1);
-                sp += 4u;
-            }
-        }
-    }
-    if iters >= BUDGET {
-        budget_flag = 2.0;
-    }
-    Y[o] = total;
-"#;
-
-/// [`BODY`], then the loop budget's sentinel and the flag.
+/// The kernel's body (gpu/shaders/meunier.wgsl), then the loop budget's sentinel and
+/// the flag.
 fn body() -> String {
-    format!("{BODY}{}    Y[o + 1u] = budget_flag;", budget::SENTINEL)
+    format!("{}{}    Y[o + 1u] = budget_flag;", split(SHADER).1, budget::SENTINEL)
 }
 
 /// A material's kernel record: albedo, lobe count, then (C_x, C_y, C_z, ρ_s, n) per
@@ -396,7 +210,7 @@ fn material(b: &Brdf) -> Result<Vec<f32>, String> {
     };
     if lobes.len() > MAX_LOBES {
         return Err(format!(
-            "a material has {} Lafortune lobes; render-meunier's kernel holds {MAX_LOBES}",
+            "a material has {} Lafortune lobes; render meunier's kernel holds {MAX_LOBES}",
             lobes.len()
         ));
     }
@@ -502,7 +316,7 @@ pub fn render_meunier(
     let src = kernel_textures(&types, N_IN, 2, &body()) + &source(sc, settings, visible.len());
     let textures: Vec<(&[u8], &crate::device::GpuTexture)> = params.iter().map(Vec::as_slice).zip(up.iter()).collect();
     let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
-    budget::flags("render-meunier", got.chunks(2).map(|c| c[1]), visible.len(), |_| {
+    budget::flags("render meunier", got.chunks(2).map(|c| c[1]), visible.len(), |_| {
         format!("more than {MAX_BLOCKERS} blockers meet the light's cap (the kernel's array)")
     })?;
     // The CPU pipeline (f64, the committed tables) at the same f32 inputs.

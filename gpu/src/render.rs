@@ -1,13 +1,20 @@
-//! `lobefit-gpu render`: a small headless image through the shader library — a
+//! `lobefit-gpu render library`: a small headless image through the shader library — a
 //! diffuse sphere on a floor lit by a one-sided disk light, shaded by the disk's order-3
 //! SH irradiance (`lf_disk_irradiance` on the exported disk-light texture), plus a
 //! glossy term on the sphere: two cosine-lobe lights through a Phong lobe about the
 //! mirror direction, each ∫ BRDF lobe × light lobe from `lf_lobe_product` (the exported
 //! lobe-product texture and its ln W texture, a second pass) — written as a PNG, and
 //! the same image computed on the CPU with the runtime crate (`DiskLight::irradiance`,
-//! `LobeProduct::params`, f64, the committed tables), compared pixel by pixel.
+//! `LobeProduct::params`, f64, the committed tables), compared pixel by pixel
+//! (`lobefit-gpu render library`); with `--scene`, a scene's spherical lights'
+//! unshadowed irradiance through the disk-light texture.
+//!
+//! Also the skeleton every render runs ([`open`], [`report`], [`check_out`],
+//! [`compare_and_write`]) and [`VerifiedExport`].
 
-use std::path::Path;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use glam::DVec3;
 use lobefit::export::layout::Filter;
@@ -29,9 +36,102 @@ pub const FAMILIES: (&[&str], &str) = (
     "disk-light,lobe-product",
 );
 
-/// The families `render --scene` reads, and how to export them.
+/// The families `render library --scene` reads, and how to export them.
 pub const SCENE_FAMILIES: (&[&str], &str) = (&[lobefit_tables::disk_light::KIND], "disk-light");
 use crate::kernel::{kernel, kernel_with, lf_tex};
+use crate::renders::{parse, Render, LIBRARY};
+
+/// `lobefit-gpu render library`'s options.
+#[derive(clap::Parser)]
+pub struct Args {
+    /// A `lobefit export` directory with the disk-light texture (and lobe-product,
+    /// without --scene).
+    #[arg(long, value_name = "DIR")]
+    export: PathBuf,
+    /// Output PNG.
+    #[arg(long)]
+    out: PathBuf,
+    /// A scene (a built-in name, e.g. meunier-fig13, or a scene file): its
+    /// spherical lights' unshadowed irradiance through the disk-light texture,
+    /// against the CPU. Without it: the fixed test scene (disk light + glossy pass).
+    #[arg(long, value_name = "NAME|FILE")]
+    scene: Option<String>,
+}
+
+/// `render library`.
+pub const RENDER: Render = Render {
+    name: LIBRARY,
+    about: "the shader library's test image (a sphere and a floor lit by a disk light's SH irradiance, \
+            cosine-lobe lights through the lobe product), or a scene's lights through the disk-light texture",
+    options: <Args as clap::CommandFactory>::command,
+    run: |m| run(parse(m)?),
+};
+
+fn run(a: Args) -> Result<ExitCode, String> {
+    check_out(&a.out)?;
+    let Some(scene) = a.scene else {
+        let (ex, gpu) = open(&a.export, FAMILIES)?;
+        let (max, rms, gloss_max) = render(&gpu, &ex, &a.out)?;
+        out!(
+            "render library: {0}x{0} on {1}; GPU against CPU, relative to the peak: max {max:.2e}, RMS {rms:.2e} \
+             (limit {2:.0e} RMS); glossy (lobe-product) pass alone, relative to its peak: max {gloss_max:.2e}",
+            SIZE,
+            gpu.info.name,
+            RMS_LIMIT
+        );
+        return verdict("render library", rms <= RMS_LIMIT, &a.out);
+    };
+    let sc = lobefit::pipelines::scene::load(&scene)?;
+    let (ex, gpu) = open(&a.export, SCENE_FAMILIES)?;
+    let r = render_scene(&gpu, &ex, &sc, &a.out)?;
+    out!(
+        "render library {scene}: {}x{} ({} pixels see geometry) on {}; GPU against CPU, relative to the peak: \
+         max {:.2e}, RMS {:.2e} (limit {:.0e} RMS); CPU (order-3 disk SH) against the exact unshadowed \
+         irradiance where every light is above the horizon: max rel {:.2e} at {} pixels",
+        SCENE_WIDTH,
+        SCENE_WIDTH * 3 / 4,
+        r.pixels,
+        gpu.info.name,
+        r.max,
+        r.rms,
+        RMS_LIMIT,
+        r.vs_exact.0,
+        r.vs_exact.1
+    );
+    verdict("render library", r.rms <= RMS_LIMIT, &a.out)
+}
+
+/// A render's skeleton after its own checks: the export's textures of `families`
+/// verified ([`VerifiedExport::open`]), then the device.
+pub fn open(export: &Path, families: (&[&str], &str)) -> Result<(VerifiedExport, Gpu), String> {
+    let ex = VerifiedExport::open(export, families)?;
+    Ok((ex, Gpu::new()?))
+}
+
+/// A render's last lines: its image, and `{command} FAILED` (exit 1) unless `pass`.
+pub fn verdict(command: &str, pass: bool, out: &Path) -> Result<ExitCode, String> {
+    out!("image: {}", out.display());
+    if !pass {
+        out!("{command} FAILED");
+        return Ok(ExitCode::from(1));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Prints a pipeline render's comparison (`command` and what it rendered, `what`) and
+/// its image; exit 1 when the RMS difference exceeds [`RMS_LIMIT`].
+pub fn report(command: &str, what: &str, r: &SceneRender, gpu: &Gpu, out: &Path) -> Result<ExitCode, String> {
+    out!(
+        "{command} {what}: {} pixels see geometry, on {}; GPU against the CPU pipeline, relative to the peak: \
+         max {:.2e}, RMS {:.2e} (limit {:.0e} RMS)",
+        r.pixels,
+        gpu.info.name,
+        r.max,
+        r.rms,
+        RMS_LIMIT
+    );
+    verdict(command, r.rms <= RMS_LIMIT, out)
+}
 
 /// Image side (pixels).
 pub const SIZE: usize = 256;
@@ -400,38 +500,7 @@ impl VerifiedExport {
                         dir.display()
                     )
                 })?;
-            let family = lobefit::export::run::family_of(kind).ok_or_else(|| format!("unknown family {kind}"))?;
-            let gpu_family = lobefit::fits::gpu_family(kind).ok_or_else(|| format!("{kind}: no GPU layout"))?;
-            let table = lobefit_tables::Table::from_bytes(family.embedded()).map_err(|e| format!("{kind}: {e}"))?;
-            let fresh = (gpu_family.grids)(gpu_family.kind, &table, m.storage, m.scale)?;
-            let refuse = |what: String| {
-                format!(
-                    "{}: {what} differs from a fresh export (`lobefit check --export` fails): the export is                      corrupt or from another lobefit; export it again",
-                    dir.display()
-                )
-            };
-            if fresh.len() != texs.len() {
-                return Err(refuse(format!("{kind}'s texture count {}", texs.len())));
-            }
-            for (g, (t, tex)) in fresh.iter().zip(texs) {
-                if g.axes != t.axes || g.channels != t.channels || t.file.split('.').next() != Some(&g.texture.name) {
-                    return Err(refuse(format!("the layout of {}", t.file)));
-                }
-                let stored = |v: f32| match m.storage {
-                    lobefit::export::Storage::F32 => v,
-                    lobefit::export::Storage::F16 => half::f16::from_f32(v).to_f32(),
-                };
-                let differing = g
-                    .texture
-                    .data
-                    .iter()
-                    .zip(&tex.data)
-                    .filter(|(a, b)| stored(**a).to_bits() != b.to_bits())
-                    .count();
-                if differing > 0 || g.texture.data.len() != tex.data.len() {
-                    return Err(refuse(format!("{} ({differing} texels)", t.file)));
-                }
-            }
+            lobefit::export::run::verify_family_texels(dir, m, kind, texs)?;
         }
         Ok(VerifiedExport {
             export,

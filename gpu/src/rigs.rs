@@ -1,4 +1,4 @@
-//! `lobefit-gpu render-rigs`: the irradiance-rig pipeline's reconstruction and wrap
+//! `lobefit-gpu render rigs`: the irradiance-rig pipeline's reconstruction and wrap
 //! shading (`lobefit render rigs`, docs/rigs.md) as one compute kernel per pixel,
 //! against the CPU at the same f32-rounded inputs.
 //!
@@ -10,7 +10,9 @@
 //! The rigs need no texture: the kernel binds the dummy texture, and the command takes
 //! no export.
 
-use std::path::Path;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use lobefit::export::Storage;
 use lobefit::pipelines::rigs::render::{figure_rigs, hit_box, shade_wrapped, CAMERA};
@@ -22,7 +24,73 @@ use lobefit_tables::rigs::{AxisModel, Light, RigBox, RigModel, COEFFS};
 use crate::conformance::dummy_texture;
 use crate::device::Gpu;
 use crate::kernel::{kernel, LF_TEX_SIZE};
-use crate::render::{grey, write_grey_png};
+use crate::render::{grey, write_grey_png, RMS_LIMIT};
+use crate::renders::{parse, Render};
+
+/// `lobefit-gpu render rigs`'s options.
+#[derive(clap::Parser)]
+pub struct Args {
+    /// Image width (height 3/4 of it).
+    #[arg(long, default_value_t = WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    width: u32,
+    /// Only this wrap parameter a in [0, 1]; default: a = 0 (Lambert) and the CPU
+    /// pipeline's WRAP_A.
+    #[arg(long, value_name = "A")]
+    wrap: Option<f64>,
+    /// Output PNG (a row of panels per wrap, a column per rig).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// `render rigs`.
+pub const RENDER: Render = Render {
+    name: "rigs",
+    about: "the irradiance-rig pipeline per pixel on the GPU (the library's rig reconstruction and wrap \
+            shading; points, normals and Figure 1's least-squares rigs from the CPU) against the CPU's \
+            shade_wrapped (docs/rigs.md); no export: the rigs need no texture",
+    options: <Args as clap::CommandFactory>::command,
+    run: |m| run(parse(m)?),
+};
+
+fn run(a: Args) -> Result<ExitCode, String> {
+    let wraps = match a.wrap {
+        Some(w) if (0.0..=1.0).contains(&w) => vec![w],
+        Some(w) => return Err(format!("--wrap {w}: the wrap parameter lies in [0, 1]")),
+        None => vec![0.0, lobefit::pipelines::rigs::render::WRAP_A],
+    };
+    // The kernel's wrap is an f32: the CPU uses, and the report names, the same.
+    let wraps: Vec<f64> = wraps.into_iter().map(|w| f64::from(w as f32)).collect();
+    crate::render::check_out(&a.out)?;
+    let gpu = Gpu::new()?;
+    let (pixels, rows) = render_rigs(&gpu, a.width as usize, &wraps, &a.out)?;
+    out!(
+        "render rigs: {}x{} ({pixels} pixels see the car) on {}; GPU against the CPU, relative to each \
+         image's peak (limit {RMS_LIMIT:.0e} RMS):",
+        a.width,
+        (a.width * 3 / 4).max(3),
+        gpu.info.name,
+    );
+    let mut failed = 0;
+    for r in &rows {
+        let pass = r.rms <= RMS_LIMIT;
+        failed += usize::from(!pass);
+        out!(
+            "  {:<20} {:>3} vectors  wrap a = {:<4}  max {:.2e}  RMS {:.2e}{}",
+            r.label,
+            r.vectors,
+            r.wrap,
+            r.max,
+            r.rms,
+            if pass { "" } else { "  FAIL" }
+        );
+    }
+    out!("image: {}", a.out.display());
+    if failed > 0 {
+        out!("render rigs FAILED: {failed} of {} rows", rows.len());
+        return Ok(ExitCode::from(1));
+    }
+    Ok(ExitCode::SUCCESS)
+}
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
@@ -69,6 +137,9 @@ fn vec3(v: [f64; 3]) -> String {
     format!("vec3<f32>({:e}, {:e}, {:e})", v[0] as f32, v[1] as f32, v[2] as f32)
 }
 
+/// The kernel's functions (gpu/shaders/rigs.wgsl).
+const FUNCTIONS: &str = include_str!("../shaders/rigs.wgsl");
+
 /// The kernel over `count` pixels for rigs of `models` (their vectors after the
 /// pixels, in order) in `bbox`, shaded at each wrap of `wraps`: output (rig r, wrap w)
 /// at r · |wraps| + w.
@@ -92,23 +163,7 @@ fn source(models: &[RigModel], bbox: &RigBox, wraps: &[f64], count: usize) -> Re
         offset += COEFFS * m.parameter_count().map_err(|e| e.to_string())?;
     }
     let functions = format!(
-        "
-const CENTRE = {};
-const HALF = {};
-
-// Rig l(p) from its vectors at X[off + 9k ..] (lf_rig_terms' accessor convention).
-fn rig_at(kind: vec3<u32>, nodes: vec3<u32>, off: u32, p: vec3<f32>) -> array<f32, 9> {{
-    let r = lf_rig_terms(kind, nodes, CENTRE, HALF, p);
-    var l: array<f32, 9>;
-    for (var j = 0u; j < r.count; j++) {{
-        let k = off + 9u * r.index[j];
-        for (var i = 0u; i < 9u; i++) {{
-            l[i] += r.weight[j] * X[k + i];
-        }}
-    }}
-    return l;
-}}
-",
+        "\nconst CENTRE = {};\nconst HALF = {};\n{FUNCTIONS}",
         vec3(bbox.centre.to_array()),
         vec3(bbox.half.to_array())
     );
@@ -142,7 +197,7 @@ pub fn render_rigs(gpu: &Gpu, width: usize, wraps: &[f64], out: &Path) -> Result
     // The GPU's inputs, rounded to f32; the CPU shades the same rounded point.
     let visible: Vec<(DVec3, DVec3)> = hits.iter().flatten().map(|r| (inside32(&bbox, r.p), r.n)).collect();
     if visible.is_empty() {
-        return Err(format!("render-rigs: no pixel of the {w}×{h} image sees the car"));
+        return Err(format!("render rigs: no pixel of the {w}×{h} image sees the car"));
     }
     let disks = DiskLight::embedded().map_err(|e| e.to_string())?;
     let lights: Vec<Light> = scene_lights().iter().map(|l| l.1).collect();

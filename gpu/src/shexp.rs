@@ -1,4 +1,4 @@
-//! `lobefit-gpu render-shexp`: the SH-exponentiation pipeline (`lobefit::pipelines::shexp`)
+//! `lobefit-gpu render shexp`: the SH-exponentiation pipeline (`lobefit::pipelines::shexp`)
 //! as one compute kernel per pixel, on the exported wedge and shexp textures, against
 //! the CPU pipeline's image (docs/shexp-render.md).
 //!
@@ -17,7 +17,8 @@
 //! (`crate::budget`).
 
 use std::f64::consts::TAU;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use lobefit::export::layout::Filter;
 use lobefit::export::{manifest::TextureEntry, Texture};
@@ -29,8 +30,60 @@ use lobefit_tables::glam::DVec3;
 
 use crate::budget;
 use crate::device::Gpu;
-use crate::kernel::{kernel_textures, lf_tex};
+use crate::kernel::{kernel_textures, lf_tex, split};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
+use crate::renders::{parse, Render};
+
+/// `lobefit-gpu render shexp`'s options.
+#[derive(clap::Parser)]
+pub struct Args {
+    /// A `lobefit export` directory with wedge and shexp.
+    #[arg(long, value_name = "DIR")]
+    export: PathBuf,
+    /// A built-in shexp scene (whale, whale-diffuse, wrecking) or a scene file.
+    #[arg(long, default_value = "whale")]
+    scene: String,
+    /// Image width (height 3/4 of it).
+    #[arg(long, default_value_t = WIDTH, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    width: u32,
+    /// The sphere blockers' log: the ε-floored closed form or Ren's (the shexp-n4
+    /// texture); default: the CPU pipeline's default.
+    #[arg(long, value_parser = ["eps", "ren"])]
+    blocker_log: Option<String>,
+    /// Output PNG.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// `render shexp`.
+pub const RENDER: Render = Render {
+    name: "shexp",
+    about: "the SH-exponentiation pipeline per pixel on the GPU (the exported wedge and shexp textures; hits \
+            and horizon angles from the CPU) against the CPU pipeline's image at its default settings \
+            (docs/shexp-render.md)",
+    options: <Args as clap::CommandFactory>::command,
+    run: |m| run(parse(m)?),
+};
+
+fn run(a: Args) -> Result<ExitCode, String> {
+    let mut settings = Settings::default();
+    match a.blocker_log.as_deref() {
+        Some("eps") => settings.blocker_log = BlockerLog::Eps,
+        Some("ren") => settings.blocker_log = BlockerLog::Ren,
+        _ => {}
+    }
+    crate::render::check_out(&a.out)?;
+    let sc = lobefit::pipelines::shexp::render::scene(&a.scene)?;
+    budget::refuse_over(
+        "render shexp",
+        iterations(sc.spheres.len()),
+        &format!("{} spheres", sc.spheres.len()),
+    )?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    let r = render_shexp(&gpu, &ex, &sc, a.width as usize, &settings, &a.out)?;
+    let what = format!("{} ({:?} blocker log)", a.scene, settings.blocker_log);
+    crate::render::report("render shexp", &what, &r, &gpu, &a.out)
+}
 
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
@@ -42,7 +95,7 @@ const ORDER: usize = 4;
 /// exponent, own sphere (−1: none).
 const HIT_INPUTS: usize = 13;
 
-/// The families render-shexp reads, and how to export them.
+/// The families render shexp reads, and how to export them.
 pub const FAMILIES: (&[&str], &str) = (
     &[lobefit_tables::wedge::KIND, lobefit_tables::shexp::KIND],
     "wedge,shexp --allow-lossy",
@@ -78,18 +131,21 @@ fn supported(s: &Settings) -> Result<(), String> {
     s.validate()?;
     if s.order != ORDER {
         return Err(format!(
-            "render-shexp runs SH order {ORDER} only (the shader library's SH product); the settings ask for {}",
+            "render shexp runs SH order {ORDER} only (the shader library's SH product); the settings ask for {}",
             s.order
         ));
     }
     if s.exp != Exp::Hyb {
-        return Err("render-shexp exponentiates by HYB only; the settings ask for exact exp*".into());
+        return Err("render shexp exponentiates by HYB only; the settings ask for exact exp*".into());
     }
     if s.brdf != BrdfMode::Log {
-        return Err("render-shexp adds the BRDF as log-ZH lobes only; the settings ask for the triple product".into());
+        return Err("render shexp adds the BRDF as log-ZH lobes only; the settings ask for the triple product".into());
     }
     Ok(())
 }
+
+/// The kernel's functions and body (gpu/shaders/shexp.wgsl).
+const SHADER: &str = include_str!("../shaders/shexp.wgsl");
 
 /// The kernel's constants and functions, and its body, for `scene` at `count` pixels.
 fn source(scene: &Scene, s: &Settings, count: usize) -> String {
@@ -116,88 +172,12 @@ fn source(scene: &Scene, s: &Settings, count: usize) -> String {
         f(s.eps_terrain),
         f(s.eps_brdf)
     );
-    let functions = r#"
-// One BRDF term: exp* (HYB) of the log visibility f plus the term's log-ZH lobe z
-// about `axis`, dotted with the light's SH vector.
-fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
-    let t = lf_zh_to_sh(4u, z, axis);
-    var g: array<f32, 16>;
-    for (var i = 0u; i < 16u; i++) {
-        g[i] = f[i] + t[i];
-    }
-    let e = lf_shexp_hyb(T2, S, P2, 4u, g);
-    var sum = 0.0;
-    for (var i = 0u; i < 16u; i++) {
-        sum += e[i] * X[LIGHT0 + i];
-    }
-    return sum;
-}
-"#;
-    let body = format!(
-        "    let p = vec3<f32>(x0, x1, x2);
-    let n = vec3<f32>(x3, x4, x5);
-    let wo = vec3<f32>(x6, x7, x8);
-    let own = i32(x12);
-    var f: array<f32, 16>;
-    if HEIGHT_FIELD {{
-        var sigma: array<f32, 64>;
-        for (var k = 0u; k < NW; k++) {{
-            sigma[k] = X[i * N_IN + {HIT_INPUTS}u + k];
-        }}
-        var v: array<f32, 64>;
-        if TERRAIN_ABOVE_TANGENT {{
-            // The tangent plane's elevation per azimuth (n.d = 0).
-            var lower: array<f32, 64>;
-            for (var k = 0u; k < NW; k++) {{
-                let phi = 2.0 * LF_PI * f32(k) / f32(NW);
-                lower[k] = clamp(atan2(-(n.x * cos(phi) + n.y * sin(phi)), n.z), -0.5 * LF_PI, 0.5 * LF_PI);
-            }}
-            v = lf_wedge_compose_between(T, P, W_INDEX, 4u, EPS_TERRAIN, lower, sigma);
-        }} else {{
-            v = lf_wedge_compose(T, P, W_INDEX, 4u, EPS_TERRAIN, sigma);
-        }}
-        for (var k = 0u; k < 16u; k++) {{
-            f[k] = v[k];
-        }}
-    }}
-    for (var b = 0u; b < NS; b++) {{
-        let s = sph(b);
-        let w = s.xyz - p;
-        let d = length(w);
-        let dir = w / d;
-        // sin theta_b; a cap wholly below the tangent plane cannot shadow the point.
-        let sb = s.w / d;
-        if i32(b) == own || dot(n, dir) < -sb {{
-            continue;
-        }}
-        let theta = lf_asin(sb);
-        var zh = {blocker};
-        if ATTENUATION {{
-            for (var l = 0u; l < 4u; l++) {{
-                zh[l] *= sb;
-            }}
-        }}
-        let t = lf_zh_to_sh(4u, zh, dir);
-        for (var k = 0u; k < 16u; k++) {{
-            f[k] += t[k];
-        }}
-    }}
-    var total = 0.0;
-    if x9 > 0.0 {{
-        total += x9 * shexp_term(f, lf_log_zh_diffuse(EPS_BRDF, 4u), n);
-    }}
-    if x10 > 0.0 {{
-        let m = normalize(2.0 * dot(n, wo) * n - wo);
-        let weight = x10 * (x11 + 2.0) / (x11 + 1.0) * max(dot(n, m), 0.0);
-        if weight > 0.0 {{
-            total += weight * shexp_term(f, lf_log_zh_phong(EPS_BRDF, x11, 4u), m);
-        }}
-    }}
-    Y[o] = total;
-    var budget_flag = 0.0;
-{}    Y[o + 1u] = budget_flag;",
-        budget::SENTINEL
-    );
+    let (functions, body) = split(SHADER);
+    let body = body
+        .replacen("HIT_INPUTS_", &HIT_INPUTS.to_string(), 1)
+        .replacen("BLOCKER_LOG_", blocker, 1)
+        + budget::SENTINEL
+        + "    Y[o + 1u] = budget_flag;";
     // T: wedge, T2: shexp-hyb-n4, T3: shexp-n4 (Ren's log only).
     let mut textures = vec!["texture_3d<f32>", "texture_2d<f32>"];
     if s.blocker_log == BlockerLog::Ren {
@@ -287,7 +267,7 @@ pub fn render_shexp(
     let src = source(sc, s, visible.len());
     let textures: Vec<(&[u8], &crate::device::GpuTexture)> = uploads.iter().map(|(p, t)| (p.as_slice(), t)).collect();
     let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
-    budget::flags("render-shexp", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
+    budget::flags("render shexp", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
         format!("unknown flag {f}")
     })?;
     // The CPU pipeline (f64, the committed tables) at the same f32-rounded hits.

@@ -54,15 +54,24 @@ const WRITE9: &str = "    for (var k = 0u; k < 9u; k++) {\n        Y[o + k] = z[
 /// SH basis (order 8 and the order-3 polynomials), ZH → SH, order-3 rotation, SG
 /// product / integrals / evaluation, and the paper's ISG model: GPU against f64.
 pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u64) -> Result<Vec<Row>, String> {
-    let t2 = "texture_2d<f32>";
     let mut rng = Rng::new(seed ^ 0x5a);
+    let mut rows = check_sh_basis(gpu, dummy, samples, &mut rng)?;
+    rows.extend(check_sg(gpu, dummy, samples, &mut rng)?);
+    rows.extend(check_lobe_product_axis(gpu, dummy, samples, &mut rng)?);
+    rows.extend(check_sh_algebra(gpu, dummy, samples, &mut rng)?);
+    rows.push(check_rigs(gpu, dummy, samples, &mut rng)?);
+    rows.extend(check_meunier(gpu, dummy, samples, &mut rng)?);
+    Ok(rows)
+}
+
+/// The SH basis (order 8 and order 3), ZH → SH at order 8, the order-3 rotation.
+fn check_sh_basis(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) -> Result<Vec<Row>, String> {
+    let t2 = "texture_2d<f32>";
     let mut rows = Vec::new();
     let map = |e: LookupError| e.to_string();
 
     // Basis, order 8 and order 3.
-    let dirs: Vec<Vec<f64>> = (0..samples)
-        .map(|_| unit(&mut rng).to_array().map(r32).to_vec())
-        .collect();
+    let dirs: Vec<Vec<f64>> = (0..samples).map(|_| unit(rng).to_array().map(r32).to_vec()).collect();
     let got = run_rows(
         gpu,
         dummy,
@@ -120,7 +129,7 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
     let mut inputs = Vec::new();
     let mut mats = Vec::new();
     for _ in 0..samples {
-        let r = sh::rotation_axis_angle(unit(&mut rng), rng.range(-3.2, 3.2)).map_err(map)?;
+        let r = sh::rotation_axis_angle(unit(rng), rng.range(-3.2, 3.2)).map_err(map)?;
         let r = r.map(|row| row.map(r32));
         let mut x: Vec<f64> = (0..3)
             .flat_map(|c| (0..3).map(move |i| (i, c)))
@@ -147,17 +156,25 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
         .collect::<Result<_, _>>()
         .map_err(map)?;
     rows.push(row("sh9 rotate", samples, vector_diff(&got, &want), Vec::new()));
+    Ok(rows)
+}
+
+/// SG algebra (product, integrals, value) and the paper's ISG model (no texture).
+fn check_sg(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) -> Result<Vec<Row>, String> {
+    let t2 = "texture_2d<f32>";
+    let mut rows = Vec::new();
+    let map = |e: LookupError| e.to_string();
 
     // SG algebra: product, its integral, a lobe's hemisphere integral and value.
     let mut inputs = Vec::new();
     for _ in 0..samples {
         let mut x = Vec::new();
         for _ in 0..2 {
-            x.extend(unit(&mut rng).to_array().map(r32));
+            x.extend(unit(rng).to_array().map(r32));
             x.push(r32(rng.range(0.1f64.ln(), 1000f64.ln()).exp()));
             x.push(r32(rng.range(0.1, 10.0)));
         }
-        x.extend(unit(&mut rng).to_array().map(r32));
+        x.extend(unit(rng).to_array().map(r32));
         inputs.push(x);
     }
     let body = "    let g1 = LfSg(vec3<f32>(x0, x1, x2), x3, x4);\n    let g2 = LfSg(vec3<f32>(x5, x6, x7), x8, x9);\n    \
@@ -219,6 +236,13 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
         .collect::<Result<_, LookupError>>()
         .map_err(map)?;
     rows.push(row("isg paper", samples, scaled_diff(&got, &want).0, Vec::new()));
+    Ok(rows)
+}
+
+/// The lobe product's axis on the arc (`lf_lobe_product_axis`) against the f64 slerp.
+fn check_lobe_product_axis(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) -> Result<Vec<Row>, String> {
+    let t2 = "texture_2d<f32>";
+    let mut rows = Vec::new();
 
     // The lobe product's axis on the arc a1 -> a2 at fraction t, against the f64
     // slerp (sin((1 − t) α) a1 + sin(t α) a2) / sin α of the f32 inputs, normalised.
@@ -226,13 +250,13 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
     // π − 1e-2 (the arc between near-antipodal axes is ill-conditioned).
     let mut inputs: Vec<Vec<f64>> = Vec::with_capacity(samples);
     while inputs.len() < samples {
-        let a1 = unit(&mut rng);
+        let a1 = unit(rng);
         let a2 = if inputs.len().is_multiple_of(2) {
-            let p = unit(&mut rng).cross(a1).normalize_or_zero();
+            let p = unit(rng).cross(a1).normalize_or_zero();
             let ang = rng.range(1e-4f64.ln(), 0.0).exp();
             a1 * ang.cos() + p * ang.sin()
         } else {
-            unit(&mut rng)
+            unit(rng)
         };
         let t = rng.uniform();
         let x: Vec<f64> = [a1.to_array(), a2.to_array()]
@@ -277,9 +301,6 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
         vector_diff(&got, &want),
         Vec::new(),
     ));
-    rows.extend(check_sh_algebra(gpu, dummy, samples, &mut rng)?);
-    rows.push(check_rigs(gpu, dummy, samples, &mut rng)?);
-    rows.extend(check_meunier(gpu, dummy, samples, &mut rng)?);
     Ok(rows)
 }
 

@@ -1,4 +1,4 @@
-//! `lobefit-gpu render-meunier` refuses bad settings with a specific error before it
+//! `lobefit-gpu render meunier` refuses bad settings with a specific error before it
 //! needs a device or an export: exit 2, one `error:` line naming the setting.
 
 use std::process::{Command, Stdio};
@@ -12,10 +12,24 @@ fn run(args: &[&str]) -> (Option<i32>, String) {
     (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
+/// A name that is no render (no pipeline of the registry, not `library`) is refused
+/// with exit 2, naming the renders there are.
+#[test]
+fn render_refuses_a_name_not_in_the_list() {
+    let (code, err) = run(&["render", "nope", "--out", "/tmp/unused.png"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("nope") && err.contains("isg") && err.contains("library"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
 #[test]
 fn render_meunier_bad_settings_are_specific_errors() {
     let base = [
-        "render-meunier",
+        "render",
+        "meunier",
         "--export",
         "/nonexistent-lobefit-export",
         "--out",
@@ -59,18 +73,19 @@ fn renders_refuse_unwritable_outputs_first() {
     let missing_png = format!("{}/x.png", missing.display());
     let dangling_png = format!("{}/x.png", dangling.display());
     let commands: [&[&str]; 6] = [
-        &["render", "--export", "/nonexistent-lobefit-export"],
+        &["render", "library", "--export", "/nonexistent-lobefit-export"],
         &[
             "render",
+            "library",
             "--export",
             "/nonexistent-lobefit-export",
             "--scene",
             "meunier-fig13",
         ],
-        &["render-isg", "--export", "/nonexistent-lobefit-export"],
-        &["render-shexp", "--export", "/nonexistent-lobefit-export"],
-        &["render-meunier", "--export", "/nonexistent-lobefit-export"],
-        &["render-rigs"],
+        &["render", "isg", "--export", "/nonexistent-lobefit-export"],
+        &["render", "shexp", "--export", "/nonexistent-lobefit-export"],
+        &["render", "meunier", "--export", "/nonexistent-lobefit-export"],
+        &["render", "rigs"],
     ];
     for cmd in commands {
         for (out, what) in [
@@ -96,8 +111,8 @@ fn renders_refuse_unwritable_outputs_first() {
 }
 
 /// A scene whose pixels may need more loop iterations than llvmpipe runs is refused
-/// before the export is read or a device is needed, the limit named: render-isg with
-/// 100 SGs, render-shexp with 700 spheres; and render-isg with more spheres than its
+/// before the export is read or a device is needed, the limit named: render isg with
+/// 100 SGs, render shexp with 700 spheres; and render isg with more spheres than its
 /// kernel takes.
 #[test]
 fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
@@ -120,19 +135,21 @@ fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
         })
         .collect();
     shexp["spheres"] = serde_json::Value::Array(more.clone());
-    // More spheres than render-isg's unrolled blocker test takes.
+    // More spheres than render isg's unrolled blocker test takes.
     let mut isg_big = read("isg-fig12");
     isg_big["spheres"] = serde_json::Value::Array(more[..300].to_vec());
-    for (cmd, scene, what) in [
-        ("render-isg", isg, "100 SGs"),
-        ("render-shexp", shexp, "700 spheres"),
-        ("render-isg", isg_big, "at most 256"),
+    for (name, scene, what) in [
+        ("isg", isg, "100 SGs"),
+        ("shexp", shexp, "700 spheres"),
+        ("isg", isg_big, "at most 256"),
     ] {
-        let file = tmp.join(format!("{cmd}.json"));
+        let cmd = format!("render {name}");
+        let file = tmp.join(format!("{name}.json"));
         std::fs::write(&file, scene.to_string()).unwrap();
         let out = tmp.join("x.png");
         let args = [
-            cmd,
+            "render",
+            name,
             "--export",
             "/nonexistent-lobefit-export",
             "--scene",
@@ -142,7 +159,7 @@ fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
         ];
         let (code, err) = run(&args);
         assert_eq!(code, Some(2), "{cmd}: {err}");
-        assert!(err.contains(what) && err.contains(cmd), "{cmd}: {err}");
+        assert!(err.contains(what) && err.contains(&cmd), "{cmd}: {err}");
         if what != "at most 256" {
             assert!(err.contains("65535") && err.contains("loop iterations"), "{cmd}: {err}");
         }

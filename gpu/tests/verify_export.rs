@@ -56,14 +56,14 @@ fn renders_refuse_a_changed_texel_before_the_device() {
             "isg-best.bin",
             1000,
             (|v: f32| f32::from_bits(v.to_bits() ^ 1)) as fn(f32) -> f32,
-            &["render-isg", "--scene", "fig12"][..],
+            &["render", "isg", "--scene", "fig12"][..],
         ),
         (
             &["disk-light", "lobe-product"][..],
             "lobe-product.bin",
             777,
             |_| 1e30,
-            &["render"][..],
+            &["render", "library"][..],
         ),
     ] {
         let good = tmp.path().join(format!("good-{file}"));

@@ -587,9 +587,7 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
             )
         })?;
         let family = family_of(gpu.kind).ok_or_else(|| format!("{}: not in the registry", gpu.kind))?;
-        let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{}: {e}", gpu.kind))?;
-        let fresh = (gpu.grids)(gpu.kind, &table, m.storage, m.scale)
-            .map_err(|e| format!("{}: {}: {e}", path.display(), gpu.kind))?;
+        let fresh = fresh_grids(gpu.kind, m.storage, m.scale).map_err(|e| format!("{}: {e}", path.display()))?;
         let mut tex_entries = Vec::new();
         for g in &fresh {
             let bytes = formats::encode(&g.texture, m.format, m.storage)?;
@@ -693,18 +691,7 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
         let gpu = fits::gpu_family(&f.family).ok_or_else(|| format!("{}: no GPU layout", f.family))?;
         let mut intact = true;
         for (g, (t, tex)) in fresh.iter().zip(&texs) {
-            let stored = |v: f32| match m.storage {
-                Storage::F32 => v,
-                Storage::F16 => half::f16::from_f32(v).to_f32(),
-            };
-            let differing = g
-                .texture
-                .data
-                .iter()
-                .zip(&tex.data)
-                .filter(|(a, b)| stored(**a).to_bits() != b.to_bits())
-                .count();
-            if differing > 0 || g.texture.data.len() != tex.data.len() {
+            if let Some(differing) = texel_difference(&g.texture, tex, m.storage) {
                 out.push(differs(&f.family, format!("texels of {}", t.file), differing as f64));
                 intact = false;
             } else if changed.contains(&t.file) {
@@ -744,6 +731,66 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
         }
     }
     Ok(out)
+}
+
+/// Family `kind`'s textures as an export of this lobefit's tables writes them at
+/// `storage` and `scale` (what `check_export` and [`verify_family_texels`] compare
+/// an export's files with).
+fn fresh_grids(kind: &str, storage: Storage, scale: f64) -> Result<Vec<Grid>, String> {
+    let family = family_of(kind).ok_or_else(|| format!("{kind}: not in the registry"))?;
+    let gpu = fits::gpu_family(kind).ok_or_else(|| format!("{kind}: no GPU layout"))?;
+    let table = Table::from_bytes(family.embedded()).map_err(|e| format!("{kind}: {e}"))?;
+    (gpu.grids)(gpu.kind, &table, storage, scale).map_err(|e| format!("{kind}: {e}"))
+}
+
+/// The count of texels of `read` (a texture as read back from an export stored as
+/// `storage`) whose bits differ from `fresh`'s rounded to `storage`; `None` where the
+/// two are equal in length and every texel.
+fn texel_difference(fresh: &Texture, read: &Texture, storage: Storage) -> Option<usize> {
+    let stored = |v: f32| match storage {
+        Storage::F32 => v,
+        Storage::F16 => half::f16::from_f32(v).to_f32(),
+    };
+    let differing = fresh
+        .data
+        .iter()
+        .zip(&read.data)
+        .filter(|(a, b)| stored(**a).to_bits() != b.to_bits())
+        .count();
+    (differing > 0 || fresh.data.len() != read.data.len()).then_some(differing)
+}
+
+/// Verifies family `kind`'s textures in an export (`textures`, as [`read_export`]
+/// read them from `dir` with the manifest `m`) as `check_export` does: each is
+/// rebuilt from this lobefit's tables at the manifest's storage and scale and must
+/// equal the file in layout and every texel. The error names the texture and the
+/// count of texels that differ.
+pub fn verify_family_texels(
+    dir: &Path,
+    m: &Manifest,
+    kind: &str,
+    textures: &[(TextureEntry, Texture)],
+) -> Result<(), String> {
+    let fresh = fresh_grids(kind, m.storage, m.scale)?;
+    let refuse = |what: String| {
+        format!(
+            "{}: {what} differs from a fresh export (`lobefit check --export` fails): the export is \
+             corrupt or from another lobefit; export it again",
+            dir.display()
+        )
+    };
+    if fresh.len() != textures.len() {
+        return Err(refuse(format!("{kind}'s texture count {}", textures.len())));
+    }
+    for (g, (t, tex)) in fresh.iter().zip(textures) {
+        if g.axes != t.axes || g.channels != t.channels || t.file.split('.').next() != Some(&g.texture.name) {
+            return Err(refuse(format!("the layout of {}", t.file)));
+        }
+        if let Some(differing) = texel_difference(&g.texture, tex, m.storage) {
+            return Err(refuse(format!("{} ({differing} texels)", t.file)));
+        }
+    }
+    Ok(())
 }
 
 /// The first difference between a manifest as read (`got`) and as an export writes it

@@ -1,0 +1,85 @@
+// lobefit-gpu render shexp: the kernel's own function (shexp_term), then its body.
+// The kernel's constants and accessor (N_IN, NW, W_INDEX, NS, SPH0, LIGHT0,
+// HEIGHT_FIELD, TERRAIN_ABOVE_TANGENT, ATTENUATION, EPS_*, sph) come from
+// gpu/src/shexp.rs, which also puts in the body the count of per-pixel inputs before
+// the horizon angles (HIT_INPUTS_) and the sphere blockers' log (BLOCKER_LOG_: the
+// library's lf_log_zh_blocker or Ren's lf_shexp); the formulas shared with renderers are
+// the shader library's. Not exported: only lobefit-gpu runs it.
+
+// One BRDF term: exp* (HYB) of the log visibility f plus the term's log-ZH lobe z
+// about `axis`, dotted with the light's SH vector.
+fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
+    let t = lf_zh_to_sh(4u, z, axis);
+    var g: array<f32, 16>;
+    for (var i = 0u; i < 16u; i++) {
+        g[i] = f[i] + t[i];
+    }
+    let e = lf_shexp_hyb(T2, S, P2, 4u, g);
+    var sum = 0.0;
+    for (var i = 0u; i < 16u; i++) {
+        sum += e[i] * X[LIGHT0 + i];
+    }
+    return sum;
+}
+// ---- main: the kernel's body (the statements inside its entry point, kernel.rs)
+    let p = vec3<f32>(x0, x1, x2);
+    let n = vec3<f32>(x3, x4, x5);
+    let wo = vec3<f32>(x6, x7, x8);
+    let own = i32(x12);
+    var f: array<f32, 16>;
+    if HEIGHT_FIELD {
+        var sigma: array<f32, 64>;
+        for (var k = 0u; k < NW; k++) {
+            sigma[k] = X[i * N_IN + HIT_INPUTS_u + k];
+        }
+        var v: array<f32, 64>;
+        if TERRAIN_ABOVE_TANGENT {
+            // The tangent plane's elevation per azimuth (n.d = 0).
+            var lower: array<f32, 64>;
+            for (var k = 0u; k < NW; k++) {
+                let phi = 2.0 * LF_PI * f32(k) / f32(NW);
+                lower[k] = clamp(atan2(-(n.x * cos(phi) + n.y * sin(phi)), n.z), -0.5 * LF_PI, 0.5 * LF_PI);
+            }
+            v = lf_wedge_compose_between(T, P, W_INDEX, 4u, EPS_TERRAIN, lower, sigma);
+        } else {
+            v = lf_wedge_compose(T, P, W_INDEX, 4u, EPS_TERRAIN, sigma);
+        }
+        for (var k = 0u; k < 16u; k++) {
+            f[k] = v[k];
+        }
+    }
+    for (var b = 0u; b < NS; b++) {
+        let s = sph(b);
+        let w = s.xyz - p;
+        let d = length(w);
+        let dir = w / d;
+        // sin theta_b; a cap wholly below the tangent plane cannot shadow the point.
+        let sb = s.w / d;
+        if i32(b) == own || dot(n, dir) < -sb {
+            continue;
+        }
+        let theta = lf_asin(sb);
+        var zh = BLOCKER_LOG_;
+        if ATTENUATION {
+            for (var l = 0u; l < 4u; l++) {
+                zh[l] *= sb;
+            }
+        }
+        let t = lf_zh_to_sh(4u, zh, dir);
+        for (var k = 0u; k < 16u; k++) {
+            f[k] += t[k];
+        }
+    }
+    var total = 0.0;
+    if x9 > 0.0 {
+        total += x9 * shexp_term(f, lf_log_zh_diffuse(EPS_BRDF, 4u), n);
+    }
+    if x10 > 0.0 {
+        let m = normalize(2.0 * dot(n, wo) * n - wo);
+        let weight = x10 * (x11 + 2.0) / (x11 + 1.0) * max(dot(n, m), 0.0);
+        if weight > 0.0 {
+            total += weight * shexp_term(f, lf_log_zh_phong(EPS_BRDF, x11, 4u), m);
+        }
+    }
+    Y[o] = total;
+    var budget_flag = 0.0;
