@@ -1004,7 +1004,7 @@ fn parse_inner(name: &str, text: &str, accepts: &Accepts, build: bool) -> Result
         None => None,
         Some(h) => {
             let hf_err = |e: String| err(format!("heightfield: {e}"));
-            if !(h.extent <= MAX_COORD) {
+            if h.extent > MAX_COORD {
                 return Err(hf_err(format!(
                     "extent {} must be ≤ {MAX_COORD:e} (MAX_COORD)",
                     h.extent
