@@ -40,7 +40,13 @@ impl ShExpShadeView {
             return Err(format!("shexp-shade takes no {f} flag (only --scene, --order)"));
         }
         let path = flags.scene.as_deref().ok_or("shexp-shade needs --scene FILE")?;
-        let scene = crate::scene::load_for(path, &super::PIPELINE.accepts)?;
+        // The render's rule, but planes: they are only seen (not blockers), and eval
+        // shades given points, so they change nothing here.
+        let accepts = crate::scene::Accepts {
+            planes: true,
+            ..super::PIPELINE.accepts
+        };
+        let scene = crate::scene::load_for(path, &accepts)?;
         if scene.environment.is_empty() && scene.sh_environment.is_none() {
             return Err(format!(
                 "scene {}: shexp-shade needs a distant light (environment or sh_environment)",
