@@ -614,7 +614,7 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
                 let scene_file = flags
                     .scene
                     .as_deref()
-                    .is_some_and(|s| lobefit::pipelines::scene::load(s).err().as_ref() == Some(&e));
+                    .is_some_and(|s| lobefit::pipelines::scene::check_file(s).err().as_ref() == Some(&e));
                 if scene_file {
                     Failure::Run(e)
                 } else {
@@ -679,6 +679,15 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
                     "--width {width} --spp {spp}: {samples} Monte Carlo samples per image, more than the {} \
                      a render may take; lower --width or --spp",
                     lobefit::pipelines::MAX_SAMPLES
+                )));
+            }
+            let total = pipeline.samples(&opts);
+            if total > lobefit::pipelines::MAX_RENDER_SAMPLES {
+                return Err(Failure::Usage(format!(
+                    "--width {width} --spp {spp} --breakdown-stride {breakdown_stride}: {total} Monte Carlo samples \
+                     over the image and the error breakdown of render {name}, more than the {} a render may take \
+                     (MAX_RENDER_SAMPLES); lower --width or --spp, or raise --breakdown-stride",
+                    lobefit::pipelines::MAX_RENDER_SAMPLES
                 )));
             }
             // (A missing --out is made only by a render that succeeds: probe its nearest

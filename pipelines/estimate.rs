@@ -22,6 +22,23 @@ impl Estimate {
     pub fn per_sample_variance(&self) -> f64 {
         self.std_error * self.std_error * self.samples as f64
     }
+
+    /// The estimate, or an error naming `what` when its mean or standard error is not
+    /// finite (samples too large to square, or a non-finite sample): no statistic
+    /// built on it would mean anything.
+    pub fn finite(self, what: impl FnOnce() -> String) -> Result<Estimate, String> {
+        if self.mean.is_finite() && self.std_error.is_finite() {
+            Ok(self)
+        } else {
+            Err(format!(
+                "{}: the Monte Carlo estimate is not finite (mean {:e}, standard error {:e} over {} samples)",
+                what(),
+                self.mean,
+                self.std_error,
+                self.samples
+            ))
+        }
+    }
 }
 
 /// Running mean and sum of squared deviations (Welford's update: no cancellation
@@ -168,7 +185,7 @@ pub fn per_pixel<H: Sync>(
             let row = (j * w..(j + 1) * w)
                 .map(|p| match &hits[p] {
                     None => Ok(estimate(0, 0, |_| 0.0)),
-                    Some(hit) => sample(hit, p),
+                    Some(hit) => sample(hit, p).and_then(|e| e.finite(|| format!("pixel ({}, {j})", p % w))),
                 })
                 .collect();
             progress();
@@ -181,6 +198,30 @@ pub fn per_pixel<H: Sync>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Samples whose squares overflow give a standard error of ∞: `per_pixel` refuses
+    /// it naming the pixel, instead of handing it to statistics that print NaN.
+    #[test]
+    fn non_finite_estimates_are_errors() {
+        let hits = vec![Some(()), Some(()), None, Some(())];
+        let e = per_pixel(
+            &hits,
+            2,
+            |_, p| Ok(estimate(64, p as u64, |r| 1e300 * r.uniform())),
+            &|| (),
+        )
+        .unwrap_err();
+        assert!(e.contains("pixel (0, 0)") && e.contains("standard error inf"), "{e}");
+        let ok = per_pixel(
+            &hits,
+            2,
+            |_, p| Ok(estimate(64, p as u64, |r| 1e100 * r.uniform())),
+            &|| (),
+        )
+        .unwrap();
+        assert_eq!(ok.len(), 4);
+        assert!(estimate(4, 1, |_| f64::NAN).finite(|| "x".into()).is_err());
+    }
 
     /// Against closed forms: U(0, 1) has mean 1/2 and variance 1/12; the reported
     /// standard error is within a few percent of √(1/12 n), and the mean within

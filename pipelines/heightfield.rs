@@ -107,6 +107,31 @@ fn check_grid(n: usize, extent: f64) -> Result<(), String> {
     Ok(())
 }
 
+/// The errors of [`HeightField::new`] without building anything (O(n²) reads).
+pub fn check_heights(n: usize, extent: f64, heights: &[f64]) -> Result<(), String> {
+    check_grid(n, extent)?;
+    if heights.len() != n * n {
+        return Err(format!("heights has {} values, n² = {}", heights.len(), n * n));
+    }
+    if let Some(k) = heights.iter().position(|h| !h.is_finite()) {
+        return Err(format!("heights[{k}] = {} is not finite", heights[k]));
+    }
+    Ok(())
+}
+
+/// The errors of [`HeightField::procedural`] without building anything (O(1)): its
+/// heights are finite by construction.
+pub fn check_procedural(n: usize, extent: f64, amplitude: f64, octaves: u32) -> Result<(), String> {
+    check_grid(n, extent)?;
+    if !(amplitude.is_finite() && amplitude >= 0.0) {
+        return Err(format!("amplitude {amplitude} must be finite and ≥ 0"));
+    }
+    if !(1..=MAX_OCTAVES).contains(&octaves) {
+        return Err(format!("octaves {octaves} must be in 1..={MAX_OCTAVES}"));
+    }
+    Ok(())
+}
+
 /// A bilinear patch h = p[0] + p[1]·u + p[2]·w + p[3]·u·w in a cell's local
 /// coordinates (u, w) ∈ [0, 1]². Every evaluation goes through this one expression, so
 /// the receiver height `height` returns is bit for bit what the horizon starts from.
@@ -306,13 +331,7 @@ impl HeightField {
     /// Errors (naming what is wrong): n < 2 or n > [`MAX_N`], extent not finite or ≤ 0,
     /// heights.len() ≠ n², a non-finite height.
     pub fn new(n: usize, extent: f64, heights: Vec<f64>) -> Result<HeightField, String> {
-        check_grid(n, extent)?;
-        if heights.len() != n * n {
-            return Err(format!("heights has {} values, n² = {}", heights.len(), n * n));
-        }
-        if let Some(k) = heights.iter().position(|h| !h.is_finite()) {
-            return Err(format!("heights[{k}] = {} is not finite", heights[k]));
-        }
+        check_heights(n, extent, &heights)?;
         let min_height = heights.iter().copied().fold(f64::INFINITY, f64::min);
         let max_height = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let mut field = HeightField {
@@ -345,13 +364,7 @@ impl HeightField {
     /// Errors as for [`HeightField::new`], plus amplitude not finite or < 0 and octaves
     /// outside 1..=[`MAX_OCTAVES`].
     pub fn procedural(n: usize, extent: f64, amplitude: f64, octaves: u32, seed: u64) -> Result<HeightField, String> {
-        check_grid(n, extent)?;
-        if !(amplitude.is_finite() && amplitude >= 0.0) {
-            return Err(format!("amplitude {amplitude} must be finite and ≥ 0"));
-        }
-        if !(1..=MAX_OCTAVES).contains(&octaves) {
-            return Err(format!("octaves {octaves} must be in 1..={MAX_OCTAVES}"));
-        }
+        check_procedural(n, extent, amplitude, octaves)?;
         let m = (n - 1) as f64;
         let mut heights = Vec::with_capacity(n * n);
         for j in 0..n {

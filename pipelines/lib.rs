@@ -94,15 +94,24 @@ pub struct Pipeline {
     pub eval: &'static [EvalView],
     /// Its `lobefit plot` figure sets.
     pub plots: &'static [(&'static str, PlotFn)],
+    /// The scene kinds it shades: one rule for its renders and its `eval` views, checked
+    /// before anything expensive is built.
+    pub accepts: scene::Accepts,
+    /// Monte Carlo references per pixel of the image (an upper bound on its samples:
+    /// pixels × spp × this), and per pixel of the error breakdown's subset (each of
+    /// `spp` × [`Pipeline::precise_factor`] samples).
+    pub references: (u64, u64),
+    /// The breakdown's references take this many times `spp`.
+    pub precise_factor: u64,
 }
 
 impl Pipeline {
     /// The scene `name`: the built-in `<pipeline>-<name>`, else a scene file (its load
     /// error then also lists the built-ins). The pipeline's own checks are the caller's.
     pub fn scene(&self, name: &str) -> Result<scene::Scene, String> {
-        match scene::builtin(&format!("{}-{name}", self.name)) {
+        match scene::builtin_for(&format!("{}-{name}", self.name), &self.accepts) {
             Some(s) => s,
-            None => scene::load(name).map_err(|e| {
+            None => scene::load_for(name, &self.accepts).map_err(|e| {
                 format!(
                     "{e} (not a built-in scene of {} either: {})",
                     self.name,
@@ -111,7 +120,63 @@ impl Pipeline {
             }),
         }
     }
+
+    /// Most Monte Carlo samples a render with `opts` takes (every reference: the
+    /// image's, and the breakdown's on every `breakdown_stride`-th pixel in x and y, as
+    /// if every pixel saw geometry).
+    pub fn samples(&self, opts: &RenderOptions) -> u64 {
+        let (w, h) = (opts.width.max(4) as u64, (opts.width * 3 / 4).max(3) as u64);
+        let stride = opts.breakdown_stride.max(1) as u64;
+        let picks = w.div_ceil(stride) * h.div_ceil(stride);
+        let spp = opts.spp as u64;
+        let (image, breakdown) = self.references;
+        (w * h * spp * image).saturating_add(picks * spp * self.precise_factor * breakdown)
+    }
+
+    /// An error naming the limit when a render of `scene` with `opts` would take more
+    /// than [`MAX_RENDER_SAMPLES`] Monte Carlo samples, or more than [`MAX_WORK`]
+    /// samples × light terms (SGs + sphere lights, at least 1) × blockers (spheres, plus
+    /// 1 for a height field, at least 1).
+    pub fn check_work(&self, scene: &scene::Scene, opts: &RenderOptions) -> Result<(), String> {
+        let samples = self.samples(opts);
+        let flags = format!(
+            "--width {} --spp {} --breakdown-stride {}",
+            opts.width, opts.spp, opts.breakdown_stride
+        );
+        if samples > MAX_RENDER_SAMPLES {
+            return Err(format!(
+                "render {}: {flags}: {samples} Monte Carlo samples over the image and the error breakdown, more \
+                 than the {MAX_RENDER_SAMPLES} a render may take (MAX_RENDER_SAMPLES); lower --width or --spp, or \
+                 raise --breakdown-stride",
+                self.name
+            ));
+        }
+        let lights = (scene.environment.len() + scene.lights.len()).max(1) as u64;
+        let blockers = (scene.spheres.len() + usize::from(scene.heightfield.is_some())).max(1) as u64;
+        let work = samples.saturating_mul(lights).saturating_mul(blockers);
+        if work > MAX_WORK {
+            return Err(format!(
+                "render {}: scene {}: {flags}: {samples} samples × {lights} light terms × {blockers} blockers = \
+                 {:.3e} work units, more than the {MAX_WORK:.0e} a render may take (MAX_WORK); lower --width or \
+                 --spp, raise --breakdown-stride, or use fewer SGs, lights or spheres",
+                self.name, scene.name, work as f64
+            ));
+        }
+        Ok(())
+    }
 }
+
+/// Most Monte Carlo samples one render of one scene may take over all its references
+/// (the image's, the SH-ideal render's, the error breakdown's precise ones): 16 ×
+/// [`MAX_SAMPLES`], 12 times a default `render shexp` (3.5e8) and 44 times a default
+/// `render isg` (9.8e7).
+pub const MAX_RENDER_SAMPLES: u64 = 16 * MAX_SAMPLES;
+
+/// Most work one render of one scene may take: samples × light terms × blockers (a
+/// bound on the visibility tests a reference scanning every blocker makes). A default
+/// `render shexp --scene wrecking` is 5.7e11, `render isg --scene sweep`'s largest
+/// scene 2.7e11.
+pub const MAX_WORK: u64 = 10_000_000_000_000;
 
 /// A pipeline's query for `lobefit eval NAME [flags]` (the pipeline without images).
 pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn View>, String>;
@@ -142,4 +207,53 @@ pub fn registry() -> Vec<Pipeline> {
 /// The pipeline called `name`.
 pub fn by_name(name: &str) -> Option<Pipeline> {
     registry().into_iter().find(|p| p.name == name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn opts(width: usize, spp: usize, breakdown_stride: usize) -> RenderOptions {
+        RenderOptions {
+            width,
+            spp,
+            breakdown_stride,
+        }
+    }
+
+    /// Every built-in scene (and the ISG sweep's largest) renders at the defaults within
+    /// the work limits; the breakdown's references count (at stride 1 they took 46 ×
+    /// [`MAX_SAMPLES`]), and so do SGs × spheres.
+    #[test]
+    fn render_work_is_bounded_above_every_builtin() {
+        let defaults = opts(160, 1024, 4);
+        for p in registry() {
+            for name in p.scenes {
+                let scene = match (p.name, *name) {
+                    ("rigs", _) => continue,
+                    ("isg", "sweep") => isg::render::sweep_scene(*isg::render::SWEEP.last().unwrap()).unwrap(),
+                    _ => p.scene(name).unwrap(),
+                };
+                p.check_work(&scene, &defaults).unwrap();
+            }
+        }
+        let isg = isg::PIPELINE;
+        assert_eq!(isg.samples(&defaults), 160 * 120 * 1024 + 40 * 30 * 1024 * 64);
+        let fig12 = isg.scene("fig12").unwrap();
+        let e = isg.check_work(&fig12, &opts(1024, 256, 1)).unwrap_err();
+        assert!(e.contains("MAX_RENDER_SAMPLES"), "{e}");
+        // The largest scene the file allows, at a modest render.
+        let mut v: serde_json::Value = serde_json::from_str(scene::BUILTIN[2].1).unwrap();
+        let g = v["environment"]["sgs"][0].clone();
+        let s = v["spheres"][0].clone();
+        v["environment"]["sgs"] = (0..scene::MAX_SGS).map(|_| g.clone()).collect();
+        v["spheres"] = (0..1000).map(|_| s.clone()).collect();
+        let big = scene::parse("big", &v.to_string()).unwrap();
+        let e = isg.check_work(&big, &opts(160, 1024, 4)).unwrap_err();
+        assert!(
+            e.contains("MAX_WORK") && e.contains("256 light terms × 1000 blockers"),
+            "{e}"
+        );
+        isg.check_work(&big, &opts(16, 16, 4)).unwrap();
+    }
 }

@@ -34,6 +34,55 @@ pub const SCENE_VERSION: u32 = 1;
 /// what a mistaken path can make us read.
 pub const MAX_SCENE_LEN: u64 = 64 << 20;
 
+/// Largest |coordinate| of a point, radius, plane offset or half extent, height field
+/// extent or height a scene file may give (scene units): squares of differences stay
+/// about 1e13, far from overflow (at ~1e154 they overflowed and spheres vanished).
+pub const MAX_COORD: f64 = 1e6;
+/// Largest SG amplitude, sphere light radiance or |SH coefficient| a scene file may
+/// give: a Monte Carlo sample's square stays finite for any material.
+pub const MAX_RADIANCE: f64 = 1e12;
+/// Most spheres a scene may hold (the built-ins hold ≤ 402, the blocker-scaling study
+/// 1024).
+pub const MAX_SPHERES: usize = 16384;
+/// Most environment SGs a scene may hold (the built-ins hold 9): every reference
+/// sample evaluates each one's density, and the ISG pipeline shades each one.
+pub const MAX_SGS: usize = 256;
+/// Most sphere lights a scene may hold (the built-ins hold 1).
+pub const MAX_LIGHTS: usize = 64;
+/// Most plane patches a scene may hold (the built-ins hold 1).
+pub const MAX_PLANES: usize = 64;
+
+/// What a pipeline shades, checked right after a scene file is parsed and before
+/// anything expensive (a height field's quadtree and pyramid, the BVH) is built: a
+/// scene holding another kind is refused by name ([`load_for`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Accepts {
+    /// The pipeline, as errors name it ("the ISG pipeline").
+    pub pipeline: &'static str,
+    /// A `heightfield`.
+    pub heightfield: bool,
+    /// Sphere `lights`.
+    pub sphere_lights: bool,
+    /// An `environment` of SGs.
+    pub sg_environment: bool,
+    /// An `sh_environment`.
+    pub sh_environment: bool,
+    /// `planes`.
+    pub planes: bool,
+}
+
+impl Accepts {
+    /// Every kind (what [`load`] reads).
+    pub const ALL: Accepts = Accepts {
+        pipeline: "",
+        heightfield: true,
+        sphere_lights: true,
+        sg_environment: true,
+        sh_environment: true,
+        planes: true,
+    };
+}
+
 /// Distance along the ray x + t·v (v unit) to the first intersection with `s`, if any
 /// (t > 0).
 pub fn ray_sphere(x: DVec3, v: DVec3, s: &Sphere) -> Option<f64> {
@@ -466,6 +515,7 @@ impl Scene {
     /// What every pixel of a w × h image sees, and the mask of those that see
     /// geometry; an error naming the scene when none does.
     pub fn primary_hits(&self, w: usize, h: usize) -> Result<(Vec<Option<Hit>>, Vec<bool>), String> {
+        self.check_camera()?;
         let hits: Vec<Option<Hit>> = (0..w * h).map(|p| self.primary(p % w, p / w, w, h)).collect();
         let lit: Vec<bool> = hits.iter().map(Option::is_some).collect();
         if !lit.contains(&true) {
@@ -475,6 +525,34 @@ impl Scene {
             ));
         }
         Ok((hits, lit))
+    }
+
+    /// An error naming the sphere the camera's eye lies in (or on), or the height
+    /// field it lies below: primary rays from there see insides, which the pipelines
+    /// would shade as lit outsides.
+    pub fn check_camera(&self) -> Result<(), String> {
+        let eye = self.camera.eye;
+        if let Some(k) = self.spheres.iter().position(|s| (eye - s.centre).length() <= s.radius) {
+            return Err(format!(
+                "scene {}: camera.eye {:?} lies inside spheres[{k}] (centre {:?}, radius {})",
+                self.name,
+                eye.to_array(),
+                self.spheres[k].centre.to_array(),
+                self.spheres[k].radius
+            ));
+        }
+        if let Some((hf, _)) = &self.heightfield {
+            if let Some(z) = hf.height(eye.x, eye.y) {
+                if eye.z < z {
+                    return Err(format!(
+                        "scene {}: camera.eye {:?} lies below the heightfield (height {z} there)",
+                        self.name,
+                        eye.to_array()
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The BRDF at a hit.
@@ -537,20 +615,47 @@ pub const BUILTIN: [(&str, &str); 7] = [
 
 /// The built-in scene `name`, parsed.
 pub fn builtin(name: &str) -> Option<Result<Scene, String>> {
-    BUILTIN.iter().find(|(n, _)| *n == name).map(|(n, text)| parse(n, text))
+    builtin_for(name, &Accepts::ALL)
+}
+
+/// [`builtin`] with the pipeline's kinds checked as [`load_for`] does.
+pub fn builtin_for(name: &str, accepts: &Accepts) -> Option<Result<Scene, String>> {
+    BUILTIN
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(n, text)| parse_inner(n, text, accepts, true).map(|s| s.expect("built")))
 }
 
 /// A scene by built-in name, else by path to a scene file.
 pub fn load(name_or_path: &str) -> Result<Scene, String> {
-    if let Some(s) = builtin(name_or_path) {
-        return s;
+    load_for(name_or_path, &Accepts::ALL)
+}
+
+/// [`load`], refusing (by name, before building the height field) a scene holding a
+/// kind `accepts` does not.
+pub fn load_for(name_or_path: &str, accepts: &Accepts) -> Result<Scene, String> {
+    let (name, text) = read(name_or_path)?;
+    Ok(parse_inner(&name, &text, accepts, true)?.expect("built"))
+}
+
+/// Whether [`load`] would succeed, without building anything expensive (the height
+/// field): the same error, or Ok.
+pub fn check_file(name_or_path: &str) -> Result<(), String> {
+    let (name, text) = read(name_or_path)?;
+    parse_inner(&name, &text, &Accepts::ALL, false).map(|_| ())
+}
+
+/// A built-in's (name, text), else a file's (stem, text).
+fn read(name_or_path: &str) -> Result<(String, String), String> {
+    if let Some((n, text)) = BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
+        return Ok(((*n).into(), (*text).into()));
     }
     let path = Path::new(name_or_path);
     let text = lobefit_core::io::read_text(path, MAX_SCENE_LEN).map_err(|e| format!("scene {name_or_path}: {e}"))?;
     let stem = path
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-    parse(&stem, &text)
+    Ok((stem, text))
 }
 
 /// The file's structure (docs/pipelines.md).
@@ -682,6 +787,12 @@ enum FileLight {
 
 /// Parses and validates a scene file's text; errors name the scene and the field.
 pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
+    Ok(parse_inner(name, text, &Accepts::ALL, true)?.expect("built"))
+}
+
+/// [`parse`] with the pipeline's kinds checked before anything expensive is built;
+/// `build` false: validate only (the same errors but the camera's), `Ok(None)`.
+fn parse_inner(name: &str, text: &str, accepts: &Accepts, build: bool) -> Result<Option<Scene>, String> {
     let err = |m: String| format!("scene {name}: {m}");
     // The version first: a newer file's other fields are not this build's to judge.
     #[derive(Deserialize)]
@@ -696,11 +807,51 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         )));
     }
     let f: File = serde_json::from_str(text).map_err(|e| err(e.to_string()))?;
+    // Sizes first: what follows is linear in them.
+    let sgs = f.environment.as_ref().map_or(0, |e| e.sgs.len());
+    for (what, count, max, limit) in [
+        ("spheres", f.spheres.len(), MAX_SPHERES, "MAX_SPHERES"),
+        ("environment.sgs", sgs, MAX_SGS, "MAX_SGS"),
+        ("lights", f.lights.len(), MAX_LIGHTS, "MAX_LIGHTS"),
+        ("planes", f.planes.len(), MAX_PLANES, "MAX_PLANES"),
+    ] {
+        if count > max {
+            return Err(err(format!(
+                "{what} has {count} entries, more than the {max} a scene may hold ({limit}, docs/pipelines.md)"
+            )));
+        }
+    }
+    // The kinds the pipeline shades, before the height field is built.
+    if !accepts.pipeline.is_empty() {
+        let kinds = [
+            (
+                f.heightfield.is_some(),
+                accepts.heightfield,
+                "a height field (`heightfield`)",
+            ),
+            (!f.lights.is_empty(), accepts.sphere_lights, "sphere lights (`lights`)"),
+            (sgs > 0, accepts.sg_environment, "an SG environment (`environment`)"),
+            (
+                f.sh_environment.is_some(),
+                accepts.sh_environment,
+                "an SH environment (`sh_environment`)",
+            ),
+            (!f.planes.is_empty(), accepts.planes, "planes (`planes`)"),
+        ];
+        if let Some((_, _, kind)) = kinds.iter().find(|(has, ok, _)| *has && !*ok) {
+            return Err(err(format!(
+                "{} cannot shade {kind}, which the scene holds",
+                accepts.pipeline
+            )));
+        }
+    }
     let vec3 = |what: &str, v: [f64; 3]| -> Result<DVec3, String> {
-        if v.iter().all(|x| x.is_finite()) {
+        if v.iter().all(|x| x.is_finite() && x.abs() <= MAX_COORD) {
             Ok(DVec3::from_array(v))
         } else {
-            Err(err(format!("{what} {v:?} is not finite")))
+            Err(err(format!(
+                "{what} {v:?} must be finite with every |coordinate| ≤ {MAX_COORD:e} (MAX_COORD)"
+            )))
         }
     };
     let positive = |what: &str, x: f64| -> Result<f64, String> {
@@ -708,6 +859,24 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
             Ok(x)
         } else {
             Err(err(format!("{what} {x} must be finite and > 0")))
+        }
+    };
+    let length = |what: &str, x: f64| -> Result<f64, String> {
+        if x.is_finite() && x > 0.0 && x <= MAX_COORD {
+            Ok(x)
+        } else {
+            Err(err(format!(
+                "{what} {x:?} must be finite, > 0 and ≤ {MAX_COORD:e} (MAX_COORD)"
+            )))
+        }
+    };
+    let radiance = |what: &str, x: f64| -> Result<f64, String> {
+        if x.is_finite() && (0.0..=MAX_RADIANCE).contains(&x) {
+            Ok(x)
+        } else {
+            Err(err(format!(
+                "{what} {x:?} must be finite, ≥ 0 and ≤ {MAX_RADIANCE:e} (MAX_RADIANCE)"
+            )))
         }
     };
     let unit = |what: &str, v: [f64; 3]| -> Result<DVec3, String> {
@@ -767,7 +936,7 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         let what = format!("spheres[{k}]");
         spheres.push(Sphere {
             centre: vec3(&format!("{what}.centre"), s.centre)?,
-            radius: positive(&format!("{what}.radius"), s.radius)?,
+            radius: length(&format!("{what}.radius"), s.radius)?,
         });
         sphere_materials.push(material(&what, s.material)?);
     }
@@ -780,14 +949,17 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         if normal.dot(tangent).abs() > 1e-9 {
             return Err(err(format!("{what}: tangent is not perpendicular to the normal")));
         }
-        if !p.offset.is_finite() {
-            return Err(err(format!("{what}.offset {} is not finite", p.offset)));
+        if !(p.offset.is_finite() && p.offset.abs() <= MAX_COORD) {
+            return Err(err(format!(
+                "{what}.offset {} must be finite with |offset| ≤ {MAX_COORD:e} (MAX_COORD)",
+                p.offset
+            )));
         }
         planes.push(Plane {
             normal,
             offset: p.offset,
             tangent,
-            half_extent: positive(&format!("{what}.half_extent"), p.half_extent)?,
+            half_extent: length(&format!("{what}.half_extent"), p.half_extent)?,
         });
         plane_materials.push(material(&what, p.material)?);
     }
@@ -813,22 +985,54 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
                     e.order * e.order
                 )));
             }
-            if let Some(k) = e.coefficients.iter().position(|c| !c.is_finite()) {
-                return Err(err(format!("sh_environment.coefficients[{k}] is not finite")));
+            if let Some(k) = e
+                .coefficients
+                .iter()
+                .position(|c| !(c.is_finite() && c.abs() <= MAX_RADIANCE))
+            {
+                return Err(err(format!(
+                    "sh_environment.coefficients[{k}] {} must be finite with |c| ≤ {MAX_RADIANCE:e} (MAX_RADIANCE)",
+                    e.coefficients[k]
+                )));
             }
             Some(e.coefficients)
         }
     };
+    // The height field's parameters are checked here; it is built (O(n²) time and
+    // memory) only once every other check has passed.
     let heightfield = match f.heightfield {
         None => None,
         Some(h) => {
-            let hf = match (h.heights, h.procedural) {
-                (Some(heights), None) => HeightField::new(h.size, h.extent, heights),
-                (None, Some(p)) => HeightField::procedural(h.size, h.extent, p.amplitude, p.octaves, p.seed),
-                _ => Err("give exactly one of heights and procedural".into()),
+            let hf_err = |e: String| err(format!("heightfield: {e}"));
+            if h.extent > MAX_COORD {
+                return Err(hf_err(format!(
+                    "extent {} must be ≤ {MAX_COORD:e} (MAX_COORD)",
+                    h.extent
+                )));
             }
-            .map_err(|e| err(format!("heightfield: {e}")))?;
-            Some((hf, material("heightfield", h.material)?))
+            match (&h.heights, &h.procedural) {
+                (Some(heights), None) => {
+                    crate::heightfield::check_heights(h.size, h.extent, heights).map_err(hf_err)?;
+                    if let Some(k) = heights.iter().position(|z| z.abs() > MAX_COORD) {
+                        return Err(hf_err(format!(
+                            "heights[{k}] = {} must have |height| ≤ {MAX_COORD:e} (MAX_COORD)",
+                            heights[k]
+                        )));
+                    }
+                }
+                (None, Some(p)) => {
+                    crate::heightfield::check_procedural(h.size, h.extent, p.amplitude, p.octaves).map_err(hf_err)?;
+                    if p.amplitude > MAX_COORD {
+                        return Err(hf_err(format!(
+                            "amplitude {} must be ≤ {MAX_COORD:e} (MAX_COORD)",
+                            p.amplitude
+                        )));
+                    }
+                }
+                _ => return Err(hf_err("give exactly one of heights and procedural".into())),
+            }
+            let m = material("heightfield", h.material)?;
+            Some((h.size, h.extent, h.heights, h.procedural, m))
         }
     };
     let mut environment = Vec::new();
@@ -839,9 +1043,7 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
             return Err(err(format!("{what}.axis is the zero vector")));
         }
         let sharpness = positive(&format!("{what}.sharpness"), g.sharpness)?;
-        if !(g.amplitude.is_finite() && g.amplitude >= 0.0) {
-            return Err(err(format!("{what}.amplitude {} must be finite and ≥ 0", g.amplitude)));
-        }
+        radiance(&format!("{what}.amplitude"), g.amplitude)?;
         environment.push(Sg::new(axis.normalize(), sharpness, g.amplitude).map_err(|e| err(format!("{what}: {e}")))?);
     }
     let mut lights = Vec::new();
@@ -849,18 +1051,16 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         let FileLight::Sphere {
             centre,
             radius,
-            radiance,
+            radiance: value,
         } = l;
         let what = format!("lights[{k}]");
-        if !(radiance.is_finite() && radiance >= 0.0) {
-            return Err(err(format!("{what}.radiance {radiance} must be finite and ≥ 0")));
-        }
+        let value = radiance(&format!("{what}.radiance"), value)?;
         lights.push(SphereLight {
             sphere: Sphere {
                 centre: vec3(&format!("{what}.centre"), centre)?,
-                radius: positive(&format!("{what}.radius"), radius)?,
+                radius: length(&format!("{what}.radius"), radius)?,
             },
-            radiance,
+            radiance: value,
         });
     }
     let materials: Vec<Brdf> = materials
@@ -881,8 +1081,23 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
         })
         .collect();
     let brdf = brdf.map(|i| materials[i].clone());
+    if !build {
+        return Ok(None);
+    }
+    let heightfield = match heightfield {
+        None => None,
+        Some((n, extent, heights, procedural, m)) => {
+            let hf = match (heights, procedural) {
+                (Some(heights), _) => HeightField::new(n, extent, heights),
+                (None, Some(p)) => HeightField::procedural(n, extent, p.amplitude, p.octaves, p.seed),
+                (None, None) => unreachable!("checked above"),
+            }
+            .map_err(|e| err(format!("heightfield: {e}")))?;
+            Some((hf, m))
+        }
+    };
     let bvh = Bvh::new(&spheres);
-    Ok(Scene {
+    Ok(Some(Scene {
         name: name.into(),
         spheres,
         sphere_materials,
@@ -900,7 +1115,7 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
             fov: camera.fov,
         },
         bvh,
-    })
+    }))
 }
 
 #[cfg(test)]
@@ -980,6 +1195,100 @@ mod tests {
         assert_eq!(p.intersect(DVec3::new(0.0, 0.0, 0.5), down), None);
     }
 
+    /// The fig13 scene with its spheres, lights and SGs replaced by `n` of each kind.
+    fn with_counts(spheres: usize, lights: usize, sgs: usize) -> String {
+        let mut v: serde_json::Value = serde_json::from_str(BUILTIN[0].1).unwrap();
+        let s = v["spheres"][0].clone();
+        let l = v["lights"][0].clone();
+        v["spheres"] = (0..spheres).map(|_| s.clone()).collect();
+        v["lights"] = (0..lights).map(|_| l.clone()).collect();
+        let g = serde_json::json!({"axis": [0, 0, 1], "sharpness": 2, "amplitude": 1});
+        v["environment"] = serde_json::json!({ "sgs": (0..sgs).map(|_| g.clone()).collect::<Vec<_>>() });
+        v.to_string()
+    }
+
+    /// Sizes are bounded, with errors naming the limit; the largest allowed parse.
+    #[test]
+    fn scene_sizes_are_bounded() {
+        for (text, want) in [
+            (
+                with_counts(MAX_SPHERES + 1, 1, 1),
+                "spheres has 16385 entries, more than the 16384 a scene may hold (MAX_SPHERES",
+            ),
+            (
+                with_counts(1, MAX_LIGHTS + 1, 1),
+                "lights has 65 entries, more than the 64 a scene may hold (MAX_LIGHTS",
+            ),
+            (
+                with_counts(1, 1, MAX_SGS + 1),
+                "environment.sgs has 257 entries, more than the 256 a scene may hold (MAX_SGS",
+            ),
+        ] {
+            let e = parse("t", &text).unwrap_err();
+            assert!(e.contains(want), "{e} (want {want})");
+        }
+        let s = parse("t", &with_counts(MAX_SPHERES, MAX_LIGHTS, MAX_SGS)).unwrap();
+        assert_eq!(
+            (s.spheres.len(), s.lights.len(), s.environment.len()),
+            (MAX_SPHERES, MAX_LIGHTS, MAX_SGS)
+        );
+    }
+
+    /// A pipeline's kinds are checked before the height field is built: a 4097²
+    /// procedural terrain (seconds and ~0.7 GB to build) is refused at once by a
+    /// pipeline without height fields, and check_file validates it without building.
+    #[test]
+    fn kinds_are_refused_before_the_height_field_is_built() {
+        let text = r#"{"version":1,"environment":{"sgs":[{"axis":[0,0,1],"sharpness":5,"amplitude":1}]},
+            "heightfield":{"size":4097,"extent":8,"procedural":{"amplitude":1,"octaves":3,"seed":1},
+            "material":{"lambert":{"albedo":0.5}}}}"#;
+        let no_terrain = Accepts {
+            pipeline: "the test pipeline",
+            heightfield: false,
+            ..Accepts::ALL
+        };
+        let t = std::time::Instant::now();
+        let e = parse_inner("t", text, &no_terrain, true).unwrap_err();
+        assert!(
+            e.contains("the test pipeline cannot shade a height field (`heightfield`)"),
+            "{e}"
+        );
+        assert!(parse_inner("t", text, &Accepts::ALL, false).unwrap().is_none());
+        // Building it takes seconds; refusing it, microseconds.
+        assert!(t.elapsed().as_secs_f64() < 0.5, "{:?}", t.elapsed());
+        let lights = Accepts {
+            sphere_lights: false,
+            ..no_terrain
+        };
+        let e = parse_inner("t", BUILTIN[0].1, &lights, true).unwrap_err();
+        assert!(e.contains("cannot shade sphere lights (`lights`)"), "{e}");
+    }
+
+    /// A camera inside a sphere or below the height field is refused at render start
+    /// (primary_hits) naming it; before, the inside of the sphere was shaded as lit.
+    #[test]
+    fn a_camera_inside_a_sphere_or_below_the_terrain_is_refused() {
+        let inside = BUILTIN[0]
+            .1
+            .replace("\"eye\": [0.0, -6.5, 4.5]", "\"eye\": [-1.2, 0.1, 0.9]");
+        assert_ne!(inside, BUILTIN[0].1);
+        let e = parse("t", &inside).unwrap().primary_hits(8, 6).unwrap_err();
+        assert!(e.contains("camera.eye [-1.2, 0.1, 0.9] lies inside spheres[0]"), "{e}");
+        let text = r#"{"version":1,"environment":{"sgs":[{"axis":[0,0,1],"sharpness":5,"amplitude":1}]},
+            "camera":{"eye":[0.5,0.5,0.2],"target":[0,3,0.5],"fov":0.8},
+            "heightfield":{"size":3,"extent":4,"heights":[1,1,1,1,1,1,1,1,1],"material":{"lambert":{"albedo":0.5}}}}"#;
+        let e = parse("t", text).unwrap().primary_hits(8, 6).unwrap_err();
+        assert!(
+            e.contains("camera.eye [0.5, 0.5, 0.2] lies below the heightfield"),
+            "{e}"
+        );
+        assert!(parse("t", &text.replace("0.5,0.5,0.2", "0.5,0.5,1.2"))
+            .unwrap()
+            .primary_hits(8, 6)
+            .is_ok());
+        assert!(parse("t", BUILTIN[0].1).unwrap().primary_hits(8, 6).is_ok());
+    }
+
     #[test]
     fn builtin_scenes_parse() {
         for (name, _) in BUILTIN {
@@ -1014,12 +1323,30 @@ mod tests {
                 "lights[0].radiance",
             ),
             ("{".to_string(), "EOF"),
+            // Squares of 1e154 overflowed in ray_sphere and the sphere vanished.
+            (
+                good.replace("\"centre\": [-1.2, 0.0, 0.9]", "\"centre\": [1e154, 0.0, 0.9]"),
+                "spheres[0].centre [1e154, 0.0, 0.9] must be finite with every |coordinate| ≤ 1e6 (MAX_COORD)",
+            ),
+            (
+                good.replace("\"radius\": 0.5", "\"radius\": 2e6"),
+                "spheres[0].radius 2000000.0 must be finite, > 0 and ≤ 1e6",
+            ),
+            (
+                good.replace("\"radiance\": 4.0", "\"radiance\": 1e300"),
+                "lights[0].radiance 1e300 must be finite, ≥ 0 and ≤ 1e12 (MAX_RADIANCE)",
+            ),
+            (good.replace("\"offset\": 0.0", "\"offset\": 1e200"), "planes[0].offset"),
         ];
         for (text, want) in cases {
             assert_ne!(text, good, "case {want} did not change the file");
             let e = parse("t", &text).unwrap_err();
             assert!(e.starts_with("scene t: ") && e.contains(want), "{e} (want {want})");
         }
+        // check_file gives load's errors without building anything.
+        assert!(check_file("/nonexistent/scene.json")
+            .unwrap_err()
+            .contains("/nonexistent/scene.json"));
         assert!(load("/nonexistent/scene.json")
             .unwrap_err()
             .contains("/nonexistent/scene.json"));

@@ -48,15 +48,9 @@ impl IsgShadeView {
             ));
         }
         let path = flags.scene.as_deref().ok_or("isg-shade needs --scene FILE")?;
-        let scene = crate::scene::load(path)?;
+        let scene = crate::scene::load_for(path, &super::PIPELINE.accepts)?;
         if scene.environment.is_empty() {
             return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name));
-        }
-        if scene.heightfield.is_some() {
-            return Err(format!(
-                "scene {}: isg-shade's blockers are spheres (a height field is shexp-shade's)",
-                scene.name
-            ));
         }
         let brdf = scene
             .brdf
@@ -90,7 +84,7 @@ struct ShadeLookup {
 
 impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        let h = hit_of_row(x, &self.view.spheres)?;
+        let h = hit_of_row(x, &self.view.spheres, None)?;
         let own = h.sphere;
         let blockers = Blockers {
             spheres: &self.view.spheres,
@@ -143,7 +137,7 @@ impl View for IsgShadeView {
         }))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let h = hit_of_row(x, &self.spheres).map_err(|e| e.to_string())?;
+        let h = hit_of_row(x, &self.spheres, None).map_err(|e| e.to_string())?;
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_15c0_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         let occluded = |v: DVec3| self.bvh.occluded(&self.spheres, h.x, v, f64::INFINITY, h.sphere);

@@ -19,6 +19,16 @@ pub const PIPELINE: Pipeline = Pipeline {
     render: render::render,
     eval: &[("isg-shade", eval::EVAL_HELP, eval::view)],
     plots: &[],
+    accepts: super::scene::Accepts {
+        pipeline: "the ISG pipeline",
+        heightfield: false,
+        sphere_lights: false,
+        sg_environment: true,
+        sh_environment: false,
+        planes: true,
+    },
+    references: (1, 1),
+    precise_factor: render::PRECISE_FACTOR as u64,
 };
 
 #[cfg(test)]

@@ -34,12 +34,6 @@ pub fn scene(name: &str) -> Result<Scene, String> {
             scene.name
         ));
     }
-    if scene.heightfield.is_some() {
-        return Err(format!(
-            "scene {}: the ISG pipeline's blockers are spheres (a height field is the shexp pipeline's)",
-            scene.name
-        ));
-    }
     for m in &scene.materials {
         Phong::of(m).map_err(|e| format!("scene {}: {e}", scene.name))?;
     }
@@ -129,6 +123,7 @@ fn render_scene(
 ) -> Result<Summary, String> {
     let tag = scene.name.strip_prefix("isg-").unwrap_or(&scene.name).to_string();
     let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
+    PIPELINE.check_work(scene, opts)?;
     let tables = Tables::embedded()?;
     let (hits, lit) = scene.primary_hits(w, h)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
@@ -259,7 +254,8 @@ fn render_scene(
                 &hit,
                 opts.spp * PRECISE_FACTOR,
                 MC_SEED ^ 0x9e37 ^ p as u64,
-            );
+            )
+            .finite(|| format!("the breakdown's reference at pixel ({}, {})", p % w, p / w))?;
             v.extend([precise.mean, precise.std_error]);
             Ok(v)
         })

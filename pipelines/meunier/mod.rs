@@ -19,4 +19,15 @@ pub const PIPELINE: Pipeline = Pipeline {
     render: render::render,
     eval: &[("direct-light", direct_light::EVAL_HELP, direct_light::view)],
     plots: &[("meunier", direct_light::plot), ("meunier-scaling", scaling::plot)],
+    accepts: super::scene::Accepts {
+        pipeline: "the Meunier pipeline",
+        heightfield: false,
+        sphere_lights: true,
+        sg_environment: false,
+        sh_environment: false,
+        planes: true,
+    },
+    // The image's reference; the breakdown is quadrature.
+    references: (1, 0),
+    precise_factor: 0,
 };

@@ -72,15 +72,7 @@ pub fn reference_with(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, see
 /// refused when it holds what the pipeline does not shade (a height field, distant
 /// light).
 pub fn scene(name: &str) -> Result<Scene, String> {
-    let scene = super::PIPELINE.scene(name)?;
-    if scene.heightfield.is_some() || scene.sh_environment.is_some() || !scene.environment.is_empty() {
-        return Err(format!(
-            "render meunier: scene {} has a height field or a distant light; the pipeline's blockers are \
-             spheres and its lights spherical",
-            scene.name
-        ));
-    }
-    Ok(scene)
+    super::PIPELINE.scene(name)
 }
 
 /// The lobe pipeline over the whole image with `settings`; `None` for background.
@@ -324,15 +316,9 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         caps: CapExponent::embedded().map_err(|e| e.to_string())?,
         weights: MaskWeights::embedded().map_err(|e| e.to_string())?,
     };
-    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| scene.primary(p % w, p / w, w, h)).collect();
-    let lit: Vec<bool> = hits.iter().map(Option::is_some).collect();
-    if !lit.contains(&true) {
-        // Every statistic is relative to the reference's mean over these pixels.
-        return Err(format!(
-            "scene {}: no pixel of the {w}×{h} image sees geometry",
-            scene.name
-        ));
-    }
+    super::PIPELINE.check_work(&scene, opts)?;
+    // Every statistic is relative to the reference's mean over the lit pixels.
+    let (hits, lit) = scene.primary_hits(w, h)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut sum = Summary::default();
 
@@ -352,6 +338,9 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             })
             .collect()
     });
+    for (p, r) in refs.iter().enumerate() {
+        r.finite(|| format!("scene {}: the reference at pixel ({}, {})", scene.name, p % w, p / w))?;
+    }
     let reference_img: Vec<f64> = refs.iter().map(|r| r.mean).collect();
     let se: Vec<f64> = refs.iter().map(|r| r.std_error).collect();
     let mean_ref = mean_over(&reference_img, &lit);

@@ -30,6 +30,17 @@ pub const PIPELINE: Pipeline = Pipeline {
     render,
     eval: &[],
     plots: &[("rigs", super::plot)],
+    // Its scenes are built in code (no scene file), its renders exact.
+    accepts: crate::scene::Accepts {
+        pipeline: "the rigs pipeline",
+        heightfield: false,
+        sphere_lights: false,
+        sg_environment: false,
+        sh_environment: false,
+        planes: false,
+    },
+    references: (0, 0),
+    precise_factor: 0,
 };
 
 /// The camera: a three-quarter view from above the car's front left.

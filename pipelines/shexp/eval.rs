@@ -40,7 +40,13 @@ impl ShExpShadeView {
             return Err(format!("shexp-shade takes no {f} flag (only --scene, --order)"));
         }
         let path = flags.scene.as_deref().ok_or("shexp-shade needs --scene FILE")?;
-        let scene = crate::scene::load(path)?;
+        // The render's rule, but planes: they are only seen (not blockers), and eval
+        // shades given points, so they change nothing here.
+        let accepts = crate::scene::Accepts {
+            planes: true,
+            ..super::PIPELINE.accepts
+        };
+        let scene = crate::scene::load_for(path, &accepts)?;
         if scene.environment.is_empty() && scene.sh_environment.is_none() {
             return Err(format!(
                 "scene {}: shexp-shade needs a distant light (environment or sh_environment)",
@@ -58,6 +64,9 @@ impl ShExpShadeView {
         };
         settings.validate().map_err(|e| format!("--order: {e}"))?;
         let light = super::light_sh(&scene, settings.order)?;
+        if let Some(w) = super::truncation_warning(&scene, settings.order) {
+            eprintln!("{w}");
+        }
         Ok(ShExpShadeView {
             settings,
             scene,
@@ -74,7 +83,7 @@ struct ShadeLookup {
 
 impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        let h = hit_of_row(x, &self.view.scene.spheres)?;
+        let h = hit_of_row(x, &self.view.scene.spheres, terrain(&self.view.scene))?;
         let v = &self.view;
         radiance(&self.tables, &v.settings, &v.light, &v.brdf, &v.scene, &h)
             .map(|r| vec![r])
@@ -106,13 +115,18 @@ impl View for ShExpShadeView {
         }))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let h = hit_of_row(x, &self.scene.spheres).map_err(|e| e.to_string())?;
+        let h = hit_of_row(x, &self.scene.spheres, terrain(&self.scene)).map_err(|e| e.to_string())?;
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_5e40_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         let scene = &self.scene;
         exact_estimate(|n| super::reference(scene, |w| super::light(scene, w), &self.brdf, &h, n, seed))
             .map(|m| vec![m])
     }
+}
+
+/// The scene's height field, if any.
+fn terrain(scene: &Scene) -> Option<&crate::heightfield::HeightField> {
+    scene.heightfield.as_ref().map(|(hf, _)| hf)
 }
 
 /// The pipeline's entry for `lobefit eval` ([`crate::Pipeline::eval`]): the view its

@@ -23,6 +23,18 @@ pub const PIPELINE: Pipeline = Pipeline {
     render: render::render,
     eval: &[("shexp-shade", eval::EVAL_HELP, eval::view)],
     plots: &[],
+    accepts: super::scene::Accepts {
+        pipeline: "the SH-exponentiation pipeline",
+        heightfield: true,
+        sphere_lights: false,
+        sg_environment: true,
+        sh_environment: true,
+        planes: false,
+    },
+    // The reference and the SH-ideal render; in the breakdown those two and SH-ideal at
+    // each higher order.
+    references: (2, 2 + render::HIGHER_ORDERS.len() as u64),
+    precise_factor: render::PRECISE_FACTOR as u64,
 };
 
 /// The scene's distant light: its SGs, or its SH function.
@@ -45,6 +57,20 @@ pub fn light_sh(scene: &Scene, order: usize) -> Result<Vec<f64>, String> {
         }
         None => shade::project_sgs(&scene.environment, order),
     }
+}
+
+/// The warning when the pipeline at `order` drops bands of the scene's
+/// `sh_environment` (naming both orders); `None` when it keeps them all.
+pub fn truncation_warning(scene: &Scene, order: usize) -> Option<String> {
+    let given = (scene.sh_environment.as_ref()?.len() as f64).sqrt().round() as usize;
+    (given > order).then(|| {
+        format!(
+            "warning: scene {}: sh_environment of order {given} truncated to the pipeline's order {order} (bands {order}..={} \
+             dropped; the reference keeps them)",
+            scene.name,
+            given - 1
+        )
+    })
 }
 
 /// The Monte Carlo reference at `h` under `light(ω)` with exact visibility (spheres

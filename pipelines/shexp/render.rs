@@ -41,13 +41,6 @@ pub fn scene(name: &str) -> Result<Scene, String> {
             scene.name
         ));
     }
-    if !scene.lights.is_empty() || !scene.planes.is_empty() {
-        return Err(format!(
-            "scene {}: the SH-exponentiation pipeline shades spheres and a height field under a distant light \
-             (no sphere lights, no planes)",
-            scene.name
-        ));
-    }
     for m in &scene.materials {
         let p = Phong::of(m).map_err(|e| format!("scene {}: {e}", scene.name))?;
         if p.specular > 0.0 && !(1.0..=lobefit_tables::log_zh::R_MAX).contains(&p.exponent) {
@@ -116,9 +109,13 @@ fn render_scene(
 ) -> Result<Summary, String> {
     let tag = scene.name.strip_prefix("shexp-").unwrap_or(&scene.name).to_string();
     let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
+    PIPELINE.check_work(scene, opts)?;
     let tables = Tables::embedded()?;
     let default = Settings::default();
     let light_n = light_sh(scene, default.order)?;
+    if let Some(w) = super::truncation_warning(scene, default.order) {
+        eprintln!("{w}");
+    }
     let (hits, lit) = scene.primary_hits(w, h)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut sum = Summary::default();
@@ -305,13 +302,14 @@ fn render_scene(
                 .collect::<Result<Vec<f64>, String>>()?;
             let n = opts.spp * PRECISE_FACTOR;
             let seed = MC_SEED ^ 0x9e37 ^ p as u64;
-            let ideal = reference(scene, banded, &brdf, &hit, n, seed);
-            let precise = reference(scene, full, &brdf, &hit, n, seed);
+            let at = || format!("the breakdown's reference at pixel ({}, {})", p % w, p / w);
+            let ideal = reference(scene, banded, &brdf, &hit, n, seed).finite(at)?;
+            let precise = reference(scene, full, &brdf, &hit, n, seed).finite(at)?;
             v.extend([ideal.mean, precise.mean, precise.std_error, ideal.std_error]);
             // Higher orders: the pipeline (defaults) and SH-ideal at each.
             for (s, light) in &higher {
                 v.push(radiance(&tables, s, light, &brdf, scene, &hit)?);
-                let e = reference(scene, |w| sh_value(light, w), &brdf, &hit, n, seed);
+                let e = reference(scene, |w| sh_value(light, w), &brdf, &hit, n, seed).finite(at)?;
                 v.extend([e.mean, e.std_error]);
             }
             Ok(v)

@@ -175,3 +175,101 @@ fn bad_scenes_flags_and_rows_are_specific_errors() {
         assert!(err.contains(want), "{want}: {err}");
     }
 }
+
+/// Issue 37: sphere lights are refused by `render isg` and `eval isg-shade` as by
+/// `render shexp` (before, `render isg` rendered the scene without them); a camera
+/// inside a sphere is refused naming it (its inside was shaded as lit).
+#[test]
+fn lights_and_a_camera_inside_a_sphere_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let render = |scene: &str| {
+        common::run_text(
+            &[
+                "render",
+                "isg",
+                "--scene",
+                scene,
+                "--width",
+                "4",
+                "--spp",
+                "2",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            "",
+        )
+    };
+    let lit = scene_file(dir.path(), |v| {
+        v["lights"] = serde_json::json!([{"sphere": {"centre": [0, 0, 6], "radius": 0.5, "radiance": 3}}]);
+    });
+    let (code, _, err) = render(&lit);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("the ISG pipeline cannot shade sphere lights (`lights`)"),
+        "{err}"
+    );
+    let (code, _, err) = common::run_text(
+        &["eval", "isg-shade", "--scene", &lit],
+        "px,py,pz,nx,ny,nz,vx,vy,vz\n0,0,0,0,0,1,0,0,1\n",
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("cannot shade sphere lights"), "{err}");
+
+    let inside = scene_file(dir.path(), |v| {
+        let c = v["spheres"][7]["centre"].clone();
+        v["camera"]["eye"] = c;
+    });
+    let (code, _, err) = render(&inside);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("lies inside spheres[7]"), "{err}");
+    assert!(!out.exists(), "nothing written");
+}
+
+/// Issue 37 (item 7): a 4097² procedural terrain in a 250-byte scene is refused by
+/// `eval isg-shade` before it is built (it took 3.5 s and 680 MB before the refusal);
+/// a render whose error breakdown alone would take far more than MAX_RENDER_SAMPLES is
+/// a usage error before anything runs (it was not counted: 46 × MAX_SAMPLES).
+#[test]
+fn expensive_scenes_and_renders_are_refused_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("big.json");
+    std::fs::write(
+        &p,
+        r#"{"version":1,"environment":{"sgs":[{"axis":[0,0,1],"sharpness":5,"amplitude":1}]},"brdf":{"lambert":{"albedo":0.5}},
+ "heightfield":{"size":4097,"extent":8,"procedural":{"amplitude":1,"octaves":3,"seed":1},"material":{"lambert":{"albedo":0.5}}}}"#,
+    )
+    .unwrap();
+    let t = std::time::Instant::now();
+    let (code, _, err) = common::run_text(
+        &["eval", "isg-shade", "--scene", p.to_str().unwrap()],
+        "px,py,pz,nx,ny,nz,vx,vy,vz\n0,0,3,0,0,1,0,0,1\n",
+    );
+    let secs = t.elapsed().as_secs_f64();
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("cannot shade a height field"), "{err}");
+    assert!(secs < 1.5, "{secs} s");
+
+    // --out below a file: the old code reached its check (exit 1) instead.
+    let file = dir.path().join("file");
+    std::fs::write(&file, "").unwrap();
+    let (code, _, err) = common::run_text(
+        &[
+            "render",
+            "isg",
+            "--scene",
+            "fig12",
+            "--width",
+            "1024",
+            "--spp",
+            "256",
+            "--breakdown-stride",
+            "1",
+            "--out",
+            file.join("out").to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("MAX_RENDER_SAMPLES"), "{err}");
+}

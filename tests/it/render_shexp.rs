@@ -201,3 +201,71 @@ fn bad_scenes_flags_and_rows_are_specific_errors() {
     assert_eq!(code, Some(2), "a usage error");
     assert!(err.contains("height field"), "{err}");
 }
+
+/// Issue 37 (item 4): a point under the terrain is refused naming the row and the
+/// height field (it was shaded: 0.771 against a reference of 0.0257), while a point on
+/// the surface is shaded; an order-8 `sh_environment` truncated to the pipeline's order
+/// 4 is warned about on stderr, naming both orders.
+#[test]
+fn points_below_the_terrain_are_refused_and_sh_truncation_is_warned() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(dir.path(), |_| {});
+    let hf = lobefit::pipelines::scene::load(&scene).unwrap().heightfield.unwrap().0;
+    let (x, y) = (0.5, 0.5);
+    let z = hf.height(x, y).unwrap();
+    let below = format!(
+        "px,py,pz,nx,ny,nz,vx,vy,vz\n{x},{y},{z},0,0,1,0,0,1\n{x},{y},{},0,0,1,0,0,1\n",
+        z - 0.5
+    );
+    for exact in [false, true] {
+        let mut args = vec!["eval", "shexp-shade", "--scene", &scene];
+        if exact {
+            args.push("--exact");
+        }
+        let (code, _, err) = common::run_text(&args, &below);
+        assert_eq!(code, Some(1), "{err}");
+        assert!(
+            err.contains("line 3") && err.contains("below the height field"),
+            "{err}"
+        );
+    }
+    let on = format!("px,py,pz,nx,ny,nz,vx,vy,vz\n{x},{y},{z},0,0,1,0,0,1\n");
+    let (code, _, err) = common::run_text(&["eval", "shexp-shade", "--scene", &scene], &on);
+    assert_eq!(code, Some(0), "{err}");
+
+    let sh = |order: usize| {
+        scene_file(dir.path(), move |v| {
+            v.as_object_mut().unwrap().remove("environment");
+            let mut c = vec![0.0; order * order];
+            c[0] = 1.0;
+            v["sh_environment"] = serde_json::json!({"order": order, "coefficients": c});
+        })
+    };
+    let row = format!("px,py,pz,nx,ny,nz,vx,vy,vz\n{x},{y},{},0,0,1,0,0,1\n", z + 0.01);
+    let (code, _, err) = common::run_text(&["eval", "shexp-shade", "--scene", &sh(8)], &row);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("sh_environment of order 8 truncated to the pipeline's order 4"),
+        "{err}"
+    );
+    let (code, _, err) = common::run_text(&["eval", "shexp-shade", "--scene", &sh(8), "--order", "8"], &row);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!err.contains("truncated"), "{err}");
+}
+
+/// Issue 37: sphere lights and planes, which the pipeline cannot shade, are refused
+/// by `eval shexp-shade` as by `render shexp` (one rule, the pipeline's entry).
+#[test]
+fn eval_refuses_what_render_refuses() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(dir.path(), |v| {
+        v["lights"] = serde_json::json!([{"sphere": {"centre": [0, 0, 6], "radius": 0.5, "radiance": 3}}]);
+    });
+    let row = "px,py,pz,nx,ny,nz,vx,vy,vz\n0,0,3,0,0,1,0,0,1\n";
+    let (code, _, err) = common::run_text(&["eval", "shexp-shade", "--scene", &scene], row);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("the SH-exponentiation pipeline cannot shade sphere lights"),
+        "{err}"
+    );
+}
