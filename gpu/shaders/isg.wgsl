@@ -93,5 +93,6 @@ BLOCKED_TESTS            var wgt = 0.0;
             specular += isg_visible(g, lf_sg_integral(g), lobe, false, n, p, own);
         }
     }
-    Y[o] = x9 / LF_PI * diffuse + max(dot(n, r), 0.0) * specular;
+    // Radiance is never negative (the CPU pipeline clamps its sum too).
+    Y[o] = max(x9 / LF_PI * diffuse + max(dot(n, r), 0.0) * specular, 0.0);
     var budget_flag = 0.0;

@@ -58,6 +58,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::isg::render::scene(&a.scene)?;
     check_spheres(&sc)?;
+    check_sharpness(&sc)?;
     budget::refuse_over(
         "render isg",
         iterations(sc.spheres.len(), sc.environment.len()),
@@ -85,6 +86,37 @@ pub fn check_spheres(scene: &lobefit::pipelines::scene::Scene) -> Result<(), Str
              blocker test is unrolled over them, and compiling it grows as their square)",
             scene.name,
             scene.spheres.len()
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses a scene whose SG products may be sharper than the ISG table's γ ≤
+/// [`GAMMA_MAX`](lobefit_tables::isg::GAMMA_MAX): the kernel reads the table there
+/// (clamping γ subtracted a broader SG's patches: negative radiance), where the CPU
+/// pipeline integrates such products by quadrature. The bound: a product's sharpness
+/// is at most the sum of its factors' (the lighting SG's and the Phong lobe's fitted
+/// SG, or the cosine's).
+pub fn check_sharpness(scene: &lobefit::pipelines::scene::Scene) -> Result<(), String> {
+    use lobefit_tables::geom::Brdf;
+    let fit = lobefit_tables::SgFit::embedded().map_err(|e| e.to_string())?;
+    let mut lobe = fit.fit(1.0).map_err(|e| e.to_string())?.0;
+    for m in &scene.materials {
+        if let Brdf::Lafortune { lobes, .. } = m {
+            for l in lobes {
+                lobe = lobe.max(fit.fit(l.exponent).map_err(|e| format!("scene {}: {e}", scene.name))?.0);
+            }
+        }
+    }
+    let light = scene.environment.iter().map(|g| g.sharpness).fold(0.0, f64::max);
+    let max = lobefit_tables::isg::GAMMA_MAX;
+    if light + lobe > max {
+        return Err(format!(
+            "render isg: scene {} has SG products up to sharpness {:.4e} (lighting {light:.4e} + lobe {lobe:.4e}); \
+             the GPU kernel reads the ISG table, γ ≤ {max:e} (lobefit render isg integrates sharper \
+             products by quadrature on the CPU)",
+            scene.name,
+            light + lobe
         ));
     }
     Ok(())

@@ -113,7 +113,7 @@ fn renders_refuse_unwritable_outputs_first() {
 /// A scene whose pixels may need more loop iterations than llvmpipe runs is refused
 /// before the export is read or a device is needed, the limit named: render isg with
 /// 100 SGs, render shexp with 700 spheres; and render isg with more spheres than its
-/// kernel takes.
+/// kernel takes, or SG products sharper than its table.
 #[test]
 fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
     let tmp = std::env::temp_dir().join(format!("lobefit-gpu-budget-{}", std::process::id()));
@@ -138,7 +138,15 @@ fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
     // More spheres than render isg's unrolled blocker test takes.
     let mut isg_big = read("isg-fig12");
     isg_big["spheres"] = serde_json::Value::Array(more[..300].to_vec());
+    // Phong lobes sharper than the ISG table's γ ≤ 1e4 (the kernel clamped γ: negative).
+    let mut isg_sharp = read("isg-fig12");
+    for s in isg_sharp["spheres"].as_array_mut().unwrap() {
+        if let Some(lobes) = s["material"]["lafortune"]["lobes"].as_array_mut() {
+            lobes.iter_mut().for_each(|l| l["exponent"] = serde_json::json!(1e5));
+        }
+    }
     for (name, scene, what) in [
+        ("isg", isg_sharp, "γ ≤"),
         ("isg", isg, "100 SGs"),
         ("shexp", shexp, "700 spheres"),
         ("isg", isg_big, "at most 256"),
@@ -160,7 +168,7 @@ fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
         let (code, err) = run(&args);
         assert_eq!(code, Some(2), "{cmd}: {err}");
         assert!(err.contains(what) && err.contains(&cmd), "{cmd}: {err}");
-        if what != "at most 256" {
+        if what == "100 SGs" || what == "700 spheres" {
             assert!(err.contains("65535") && err.contains("loop iterations"), "{cmd}: {err}");
         }
     }
