@@ -211,6 +211,7 @@ pub fn render_isg(
     let (fit_e, fit_t) = texture(export, lobefit_tables::sg_fit::KIND)?;
     let (best_up, fit_up) = (gpu.upload(best_t, m.storage)?, gpu.upload(fit_t, m.storage)?);
     let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    sc.check_camera()?;
     let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
     let visible: Vec<&Hit> = hits.iter().flatten().collect();
     if visible.is_empty() {

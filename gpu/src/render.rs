@@ -353,6 +353,7 @@ pub fn render_scene(
     let (entry, tex) = disk_texture(export)?;
     let up = gpu.upload(tex, m.storage)?;
     let (w, h) = (SCENE_WIDTH, SCENE_WIDTH * 3 / 4);
+    sc.check_camera()?;
     let hits: Vec<Option<lobefit::pipelines::scene::Hit>> =
         (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
     let visible: Vec<&lobefit::pipelines::scene::Hit> = hits.iter().flatten().collect();

@@ -227,6 +227,7 @@ pub fn render_shexp(
         uploads.push((lf_tex(e, Filter::Manual)?, gpu.upload(t, storage)?));
     }
     let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    sc.check_camera()?;
     let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
     let visible: Vec<&Hit> = hits.iter().flatten().collect();
     if visible.is_empty() {
