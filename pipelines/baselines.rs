@@ -1,128 +1,481 @@
-//! Equal-error comparisons of the environment reference's estimators (plain Monte
-//! Carlo against scrambled Sobol), measured at each compared sample count, not
-//! extrapolated from one run's variance. A study (`scripts/studies.sh`), not a check.
+//! Equal-error comparisons of the Monte Carlo references' estimators (plain, scrambled
+//! Sobol, scrambled Sobol with a control variate) with each other and with a
+//! pipeline's analytic shading: each estimator's error and time per pixel measured at
+//! each compared sample count (not extrapolated from one run's variance), the
+//! analytic method's on the same pixels against the same reference. A study
+//! (`scripts/studies.sh`), not a check: nothing here asserts a time.
 
-use crate::estimate::{per_pixel, Sampling};
-use crate::scene::Scene;
-use crate::sky::{reference_sampled, Phong};
+use std::time::Instant;
 
-/// One estimator's measured error at `spp` samples per pixel.
+use crate::estimate::{per_pixel, Estimate};
+use crate::scene::{Hit, Scene};
+
+/// Wall time per shaded pixel (µs) over repeated runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timing {
+    /// Median over the runs.
+    pub median: f64,
+    /// Fastest run.
+    pub min: f64,
+    /// Slowest run.
+    pub max: f64,
+}
+
+/// One estimator's measured error and time at `spp` samples per pixel.
 #[derive(Debug, Clone, Copy)]
 pub struct Point {
     /// Samples per pixel.
     pub spp: usize,
     /// Relative RMSE over the lit pixels against the precise reference, its noise
-    /// removed (E[(x − r)²] − E[se_r²], over the reference's mean squared).
+    /// removed: √((E[(x − r)²] − E[noise_r²]) / E[r²]) (note: over the reference's RMS,
+    /// not its mean as in the renders).
     pub rel_rmse: f64,
+    /// Time per pixel.
+    pub us: Timing,
 }
 
-/// The errors of `sampling` at each of `spps` on `scene` at `width` pixels, against a
-/// plain reference of `ref_spp` samples per pixel (seeded apart from the compared runs).
-pub fn curve(
-    scene: &Scene,
-    width: usize,
-    ref_spp: usize,
-    spps: &[usize],
-    sampling: Sampling,
-) -> Result<Vec<Point>, String> {
-    let (w, h) = (width, width * 3 / 4);
-    let (hits, lit) = scene.primary_hits(w, h)?;
-    let run = |s: Sampling, n: usize, seed: u64| {
-        per_pixel(
-            &hits,
+/// A scene's pixels and its precise reference: what every estimator and the analytic
+/// method are measured against, and how they are timed.
+pub struct Bench {
+    w: usize,
+    hits: Vec<Option<Hit>>,
+    refs: Vec<f64>,
+    idx: Vec<usize>,
+    mean_sq: f64,
+    ref_var: f64,
+    runs: usize,
+}
+
+/// Per-pixel shading: `(hit, samples, seed)` → estimate.
+pub type Estimator<'a> = &'a (dyn Fn(&Hit, usize, u64) -> Result<Estimate, String> + Sync);
+
+impl Bench {
+    /// `scene` at `width` × ¾ width pixels; its reference the mean of two independent
+    /// runs of `reference` at `ref_spp` samples per pixel (seeded apart from the
+    /// compared runs), whose noise is estimated from their difference (E[(a − b)²]/4
+    /// is the variance of their mean for any unbiased estimator, QMC's included);
+    /// every time the median of `runs` runs after one warm-up run, on rayon's pool.
+    pub fn new(
+        scene: &Scene,
+        width: usize,
+        ref_spp: usize,
+        runs: usize,
+        reference: Estimator,
+    ) -> Result<Bench, String> {
+        let (w, h) = (width, width * 3 / 4);
+        let (hits, lit) = scene.primary_hits(w, h)?;
+        let [a, b] = REF_SEEDS.map(|s| per_pixel(&hits, w, |hit, p| reference(hit, ref_spp, seed(s, p)), &|| ()));
+        let (a, b) = (a?, b?);
+        let refs: Vec<f64> = a.iter().zip(&b).map(|(a, b)| 0.5 * (a.mean + b.mean)).collect();
+        let idx: Vec<usize> = (0..hits.len()).filter(|&p| lit[p]).collect();
+        let mean_sq = idx.iter().map(|&p| refs[p].powi(2)).sum::<f64>() / idx.len() as f64;
+        let ref_var = idx.iter().map(|&p| 0.25 * (a[p].mean - b[p].mean).powi(2)).sum::<f64>() / idx.len() as f64;
+        Ok(Bench {
             w,
-            |hit, p| {
-                let brdf = Phong::of(scene.brdf(hit))?;
-                Ok(reference_sampled(
-                    s,
-                    &scene.environment,
-                    |v| crate::sky::environment(&scene.environment, v),
-                    &brdf,
-                    |v| scene.occluded(hit, v),
-                    hit,
-                    n,
-                    seed ^ (p as u64).wrapping_mul(0x9e37_79b9),
-                ))
-            },
-            &|| (),
-        )
-    };
-    let refs = run(Sampling::Plain, ref_spp, 0x00c0_ffee)?;
-    let idx: Vec<usize> = (0..hits.len()).filter(|&p| lit[p]).collect();
-    let mean_sq = idx.iter().map(|&p| refs[p].mean.powi(2)).sum::<f64>() / idx.len() as f64;
-    let ref_var = idx.iter().map(|&p| refs[p].std_error.powi(2)).sum::<f64>() / idx.len() as f64;
-    spps.iter()
-        .map(|&n| {
-            let est = run(sampling, n, 0x5eed_0000 + n as u64)?;
-            let mse = idx.iter().map(|&p| (est[p].mean - refs[p].mean).powi(2)).sum::<f64>() / idx.len() as f64;
-            Ok(Point {
-                spp: n,
-                rel_rmse: ((mse - ref_var).max(0.0) / mean_sq).sqrt(),
-            })
+            hits,
+            refs,
+            idx,
+            mean_sq,
+            ref_var,
+            runs: runs.max(1),
         })
-        .collect()
+    }
+
+    /// The reference's own relative RMS error (estimated), on the scale of the
+    /// errors measured against it.
+    pub fn reference_error(&self) -> f64 {
+        (self.ref_var / self.mean_sq).sqrt()
+    }
+
+    /// Pixels shaded (those that see geometry).
+    pub fn pixels(&self) -> usize {
+        self.idx.len()
+    }
+
+    /// The noise-free relative RMSE of `img` against the reference.
+    fn error(&self, img: &[Estimate]) -> f64 {
+        let mse = self
+            .idx
+            .iter()
+            .map(|&p| (img[p].mean - self.refs[p]).powi(2))
+            .sum::<f64>()
+            / self.idx.len() as f64;
+        ((mse - self.ref_var).max(0.0) / self.mean_sq).sqrt()
+    }
+
+    /// The image `shade(hit, pixel)` gives (one warm-up run) and its time per pixel.
+    fn timed(
+        &self,
+        shade: &(dyn Fn(&Hit, usize) -> Result<Estimate, String> + Sync),
+    ) -> Result<(Vec<Estimate>, Timing), String> {
+        let img = per_pixel(&self.hits, self.w, shade, &|| ())?;
+        let mut us = (0..self.runs)
+            .map(|_| {
+                let t = Instant::now();
+                per_pixel(&self.hits, self.w, shade, &|| ())?;
+                Ok(1e6 * t.elapsed().as_secs_f64() / self.pixels() as f64)
+            })
+            .collect::<Result<Vec<f64>, String>>()?;
+        us.sort_by(f64::total_cmp);
+        let median = if us.len() % 2 == 1 {
+            us[us.len() / 2]
+        } else {
+            0.5 * (us[us.len() / 2 - 1] + us[us.len() / 2])
+        };
+        Ok((
+            img,
+            Timing {
+                median,
+                min: us[0],
+                max: us[us.len() - 1],
+            },
+        ))
+    }
+
+    /// `estimator`'s error and time at each of `spps`.
+    pub fn curve(&self, spps: &[usize], estimator: Estimator) -> Result<Vec<Point>, String> {
+        spps.iter()
+            .map(|&n| {
+                let (img, us) = self.timed(&|hit, p| estimator(hit, n, seed(0x5eed_0000 + n as u64, p)))?;
+                Ok(Point {
+                    spp: n,
+                    rel_rmse: self.error(&img),
+                    us,
+                })
+            })
+            .collect()
+    }
+
+    /// The analytic method `shade(hit)`'s error and time per pixel, timed the same way.
+    pub fn analytic(&self, shade: &(dyn Fn(&Hit) -> Result<f64, String> + Sync)) -> Result<(f64, Timing), String> {
+        let (img, us) = self.timed(&|hit, _| {
+            Ok(Estimate {
+                mean: shade(hit)?,
+                std_error: 0.0,
+                samples: 1,
+            })
+        })?;
+        Ok((self.error(&img), us))
+    }
 }
 
-/// The samples `curve` (decreasing error) needs for `error`, by log–log interpolation
-/// between its two measured points around it; `None` outside the measured range.
-pub fn spp_at(curve: &[Point], error: f64) -> Option<f64> {
+/// The reference's two runs' seeds.
+const REF_SEEDS: [u64; 2] = [0x00c0_ffee, 0x0dec_af00];
+
+/// Pixel `p`'s seed of a run seeded `base`.
+fn seed(base: u64, p: usize) -> u64 {
+    base ^ (p as u64).wrapping_mul(0x9e37_79b9)
+}
+
+/// `value` of `curve` (decreasing error) at `error`, by log–log interpolation between
+/// its two measured points around it; `None` outside the measured range.
+fn at(curve: &[Point], error: f64, value: impl Fn(&Point) -> f64) -> Option<f64> {
     curve.windows(2).find_map(|p| {
-        let (a, b) = (p[0], p[1]);
+        let (a, b) = (&p[0], &p[1]);
         if !(b.rel_rmse <= error && error <= a.rel_rmse) || a.rel_rmse <= 0.0 || b.rel_rmse <= 0.0 {
             return None;
         }
-        let t = (error.ln() - a.rel_rmse.ln()) / (b.rel_rmse.ln() - a.rel_rmse.ln());
-        Some(((a.spp as f64).ln() + t * ((b.spp as f64).ln() - (a.spp as f64).ln())).exp())
+        let t = if a.rel_rmse == b.rel_rmse {
+            0.0
+        } else {
+            (error.ln() - a.rel_rmse.ln()) / (b.rel_rmse.ln() - a.rel_rmse.ln())
+        };
+        Some((value(a).ln() + t * (value(b).ln() - value(a).ln())).exp())
+    })
+}
+
+/// The samples `curve` needs for `error` (log–log interpolation; `None` outside the
+/// measured range).
+pub fn spp_at(curve: &[Point], error: f64) -> Option<f64> {
+    at(curve, error, |p| p.spp as f64)
+}
+
+/// The time per pixel `curve` needs for `error`: median, fastest and slowest each
+/// interpolated like [`spp_at`].
+pub fn time_at(curve: &[Point], error: f64) -> Option<Timing> {
+    Some(Timing {
+        median: at(curve, error, |p| p.us.median)?,
+        min: at(curve, error, |p| p.us.min)?,
+        max: at(curve, error, |p| p.us.max)?,
     })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::estimate::Sampling;
+    use crate::sky::{reference_cv, reference_sampled, Phong};
 
-    /// Interpolation recovers n from a 1/√n curve exactly, and refuses to extrapolate.
+    fn point(spp: usize, rel_rmse: f64, us: f64) -> Point {
+        Point {
+            spp,
+            rel_rmse,
+            us: Timing {
+                median: us,
+                min: 0.5 * us,
+                max: 2.0 * us,
+            },
+        }
+    }
+
+    /// Interpolation recovers n and its time from a 1/√n curve exactly, and refuses to
+    /// extrapolate.
     #[test]
     fn spp_at_interpolates_and_never_extrapolates() {
         let c: Vec<Point> = [4, 16, 64]
             .iter()
-            .map(|&spp| Point {
-                spp,
-                rel_rmse: 1.0 / (spp as f64).sqrt(),
-            })
+            .map(|&spp| point(spp, 1.0 / (spp as f64).sqrt(), 0.1 * spp as f64))
             .collect();
         let n = spp_at(&c, 1.0 / 32f64.sqrt()).unwrap();
         assert!((n - 32.0).abs() < 1e-9, "{n}");
-        assert!(spp_at(&c, 1.0).is_none() && spp_at(&c, 0.01).is_none());
+        let t = time_at(&c, 1.0 / 32f64.sqrt()).unwrap();
+        assert!(
+            (t.median - 3.2).abs() < 1e-9 && (t.min - 1.6).abs() < 1e-9 && (t.max - 6.4).abs() < 1e-9,
+            "{t:?}"
+        );
+        assert!(spp_at(&c, 1.0).is_none() && spp_at(&c, 0.01).is_none() && time_at(&c, 0.01).is_none());
     }
 
-    /// The study: plain against QMC on fig12 and fig12-diffuse (run with --ignored;
-    /// scripts/studies.sh). Prints each curve and QMC's sample factor at equal error.
+    /// On a tiny image: the reference measured against itself (same seeds) has no
+    /// error once its own noise is taken out, and a curve has one point per count.
+    #[test]
+    fn bench_measures_against_its_reference() {
+        let scene = crate::isg::PIPELINE.scene("fig12-diffuse").unwrap();
+        let est = environment(&scene, Kind::Plain);
+        let b = Bench::new(&scene, 8, 64, 1, &est).unwrap();
+        let same = |hit: &Hit| -> Result<f64, String> {
+            let p = b
+                .hits
+                .iter()
+                .position(|h| h.as_ref().map(|h| h.x) == Some(hit.x))
+                .unwrap();
+            let [a, b] = REF_SEEDS.map(|s| est(hit, 64, seed(s, p)).unwrap().mean);
+            Ok(0.5 * (a + b))
+        };
+        let (e, t) = b.analytic(&same).unwrap();
+        assert_eq!(e, 0.0);
+        assert!(t.min <= t.median && t.median <= t.max);
+        let c = b.curve(&[4, 16], &est).unwrap();
+        assert!(
+            c.len() == 2 && c.iter().all(|p| p.rel_rmse.is_finite() && p.rel_rmse > 0.0),
+            "{c:?}"
+        );
+    }
+
+    /// An environment scene's estimators.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    enum Kind {
+        Plain,
+        Qmc,
+        QmcCv,
+    }
+
+    /// `kind` at a hit of the environment scene `scene` (its SGs sampled, its light
+    /// through `shexp::light`: the SGs or its SH, visibility exact).
+    fn environment(scene: &Scene, kind: Kind) -> impl Fn(&Hit, usize, u64) -> Result<Estimate, String> + Sync + '_ {
+        move |hit, n, seed| {
+            let brdf = Phong::of(scene.brdf(hit))?;
+            let occluded = |v| scene.occluded(hit, v);
+            let light = |v| crate::shexp::light(scene, v);
+            Ok(match kind {
+                Kind::Plain => reference_sampled(
+                    Sampling::Plain,
+                    &scene.environment,
+                    light,
+                    &brdf,
+                    occluded,
+                    hit,
+                    n,
+                    seed,
+                ),
+                Kind::Qmc => reference_sampled(Sampling::Qmc, &scene.environment, light, &brdf, occluded, hit, n, seed),
+                Kind::QmcCv => reference_cv(Sampling::Qmc, &scene.environment, &brdf, occluded, hit, n, seed),
+            })
+        }
+    }
+
+    /// Prints the curves and each estimator's samples and time at the analytic
+    /// method's error, with the factors against plain and against the analytic time.
+    fn report(name: &str, b: &Bench, analytic: (f64, Timing), curves: &[(&str, Vec<Point>)]) {
+        let (err, ta) = analytic;
+        println!(
+            "{name}: {} px shaded, {} threads; reference error {:.1e}; analytic: rel RMSE {err:.4}, {:.2} µs/px [{:.2}–{:.2}]",
+            b.pixels(),
+            rayon::current_num_threads(),
+            b.reference_error(),
+            ta.median,
+            ta.min,
+            ta.max
+        );
+        for (label, c) in curves {
+            let pts: Vec<String> = c
+                .iter()
+                .map(|p| {
+                    format!(
+                        "{} spp {:.4} {:.1} µs [{:.1}–{:.1}]",
+                        p.spp, p.rel_rmse, p.us.median, p.us.min, p.us.max
+                    )
+                })
+                .collect();
+            println!("  {label:<7} {}", pts.join("; "));
+        }
+        // Plain at the analytic error, or (beyond its measured range, below its last
+        // error) its last point: a lower bound of its samples and time.
+        let plain = curves.iter().find(|(l, _)| *l == "plain").and_then(|(_, c)| {
+            let last = c.last()?;
+            match (spp_at(c, err), time_at(c, err)) {
+                (Some(n), Some(t)) => Some((n, t.median, "")),
+                _ if err < last.rel_rmse => Some((last.spp as f64, last.us.median, "> ")),
+                _ => None,
+            }
+        });
+        for (label, c) in curves {
+            match (spp_at(c, err), time_at(c, err)) {
+                (Some(n), Some(t)) => {
+                    let vs_plain = match plain {
+                        Some((pn, pt, bound)) => format!(
+                            "{bound}{:.1}× fewer samples, {bound}{:.1}× less time than plain",
+                            pn / n,
+                            pt / t.median
+                        ),
+                        None => "plain beyond measured range".into(),
+                    };
+                    println!(
+                        "  at the analytic error, {label:<7}: {n:.0} spp, {:.1} µs/px [{:.1}–{:.1}]; {vs_plain}; {:.1}× the analytic time",
+                        t.median,
+                        t.min,
+                        t.max,
+                        t.median / ta.median
+                    );
+                }
+                _ => println!(
+                    "  at the analytic error, {label:<7}: beyond measured range (last: {} spp, {:.4})",
+                    c.last().map_or(0, |p| p.spp),
+                    c.last().map_or(f64::NAN, |p| p.rel_rmse)
+                ),
+            }
+        }
+    }
+
+    fn env_or<T: std::str::FromStr>(var: &str, default: T) -> T {
+        std::env::var(var).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+    }
+
+    /// The study (run with --ignored; scripts/studies.sh): on each scene of `LF_SCENES`
+    /// (default all: fig12, fig12-diffuse, whale, wrecking, fig13) at `LF_WIDTH` px
+    /// (default 24; × ¾ rows) against a reference of two runs of `LF_REF_SPP` (2¹⁷)
+    /// spp each (QMC with the control variate under SGs, QMC on fig13), the analytic
+    /// method (ISG, SH exponentiation, Meunier's lobes, each with its default
+    /// settings) and the estimators' curves at 4, 16, 64, … spp until past the
+    /// analytic error (plain to `LF_PLAIN_MAX`, 2¹⁶; QMC to 2¹⁴); each time the
+    /// median of `LF_RUNS` (5) runs after a warm-up on rayon's pool.
     #[test]
     #[ignore]
-    fn study_plain_vs_qmc() {
-        let width: usize = std::env::var("LF_WIDTH")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(24);
-        for name in ["fig12", "fig12-diffuse"] {
-            let scene = crate::isg::PIPELINE.scene(name).unwrap();
-            let plain = curve(&scene, width, 1 << 16, &[4, 16, 64, 256, 1024, 4096], Sampling::Plain).unwrap();
-            let qmc = curve(&scene, width, 1 << 16, &[4, 16, 64, 256], Sampling::Qmc).unwrap();
-            println!("{name} ({width} px wide): plain {plain:?}");
-            println!("{name}: qmc {qmc:?}");
-            for q in &qmc {
-                match spp_at(&plain, q.rel_rmse) {
-                    Some(n) => println!(
-                        "  qmc {} spp = plain {n:.0} spp: {:.1}× fewer samples",
-                        q.spp,
-                        n / q.spp as f64
-                    ),
-                    None => println!(
-                        "  qmc {} spp: rel RMSE {:.3e} outside plain's measured range",
-                        q.spp, q.rel_rmse
-                    ),
+    fn study_baselines() {
+        let width: usize = env_or("LF_WIDTH", 24);
+        let runs: usize = env_or("LF_RUNS", 5);
+        let scenes: String = env_or("LF_SCENES", "fig12,fig12-diffuse,whale,wrecking,fig13".to_string());
+        let ref_spp: usize = env_or("LF_REF_SPP", 1 << 17);
+        let plain_max: usize = env_or("LF_PLAIN_MAX", 1 << 16);
+        // 4, 16, 64, … until past `target` (from 256 on) or at `max`.
+        let measure = |b: &Bench, target: f64, max: usize, est: Estimator| {
+            let mut c: Vec<Point> = Vec::new();
+            for n in (1..).map(|k| 1usize << (2 * k)).take_while(|&n| n <= max) {
+                c.extend(b.curve(&[n], est).unwrap());
+                if n >= 256 && c[c.len() - 1].rel_rmse < target {
+                    break;
                 }
             }
+            c
+        };
+        for name in scenes.split(',') {
+            let t0 = Instant::now();
+            if name == "fig13" {
+                let scene = crate::meunier::render::scene(name).unwrap();
+                let light = scene.lights[0];
+                let m = lobefit_tables::Meunier {
+                    products: lobefit_tables::LobeProduct::embedded().unwrap(),
+                    caps: lobefit_tables::CapExponent::embedded().unwrap(),
+                    weights: lobefit_tables::MaskWeights::embedded().unwrap(),
+                };
+                let est = |s: Sampling| {
+                    let scene = &scene;
+                    move |hit: &Hit, n: usize, seed: u64| {
+                        Ok(crate::meunier::render::reference_sampled(
+                            s, scene, &light, hit, n, seed, true,
+                        ))
+                    }
+                };
+                // The reference: QMC (no control variate here), two runs.
+                let b = Bench::new(&scene, width, ref_spp, runs, &est(Sampling::Qmc)).unwrap();
+                let settings = lobefit_tables::meunier::MaskSettings::default();
+                let shade = |h: &Hit| {
+                    m.radiance(
+                        h.x,
+                        h.n,
+                        h.t,
+                        h.wo,
+                        scene.brdf(h),
+                        &[light],
+                        &scene.blockers(h),
+                        &settings,
+                    )
+                    .map_err(|e| e.to_string())
+                };
+                let a = b.analytic(&shade).unwrap();
+                let curves = [
+                    ("plain", measure(&b, a.0, plain_max, &est(Sampling::Plain))),
+                    ("qmc", measure(&b, a.0, 1 << 14, &est(Sampling::Qmc))),
+                ];
+                report(name, &b, a, &curves);
+            } else {
+                let isg = name.starts_with("fig12");
+                let scene = if isg {
+                    crate::isg::render::scene(name).unwrap()
+                } else {
+                    crate::shexp::render::scene(name).unwrap()
+                };
+                // The reference: QMC with the control variate (an SG light), two runs.
+                let kind = if scene.sh_environment.is_none() {
+                    Kind::QmcCv
+                } else {
+                    Kind::Qmc
+                };
+                let b = Bench::new(&scene, width, ref_spp, runs, &environment(&scene, kind)).unwrap();
+                let a = if isg {
+                    use crate::isg::shade::{radiance, Settings, Tables};
+                    let t = Tables::embedded().unwrap();
+                    let s = Settings::default();
+                    b.analytic(&|h| {
+                        let brdf = Phong::of(scene.brdf(h))?;
+                        radiance(
+                            &t,
+                            &s,
+                            &scene.environment,
+                            &brdf,
+                            &crate::isg::render::blockers_of(&scene, h),
+                            h,
+                        )
+                    })
+                    .unwrap()
+                } else {
+                    use crate::shexp::shade::{radiance, Settings, Tables};
+                    let t = Tables::embedded().unwrap();
+                    let s = Settings::default();
+                    let light = crate::shexp::light_sh(&scene, s.order).unwrap();
+                    b.analytic(&|h| radiance(&t, &s, &light, &Phong::of(scene.brdf(h))?, &scene, h))
+                        .unwrap()
+                };
+                let mut curves = vec![
+                    ("plain", measure(&b, a.0, plain_max, &environment(&scene, Kind::Plain))),
+                    ("qmc", measure(&b, a.0, 1 << 14, &environment(&scene, Kind::Qmc))),
+                ];
+                if scene.sh_environment.is_none() {
+                    curves.push(("qmc-cv", measure(&b, a.0, 1 << 14, &environment(&scene, Kind::QmcCv))));
+                }
+                report(name, &b, a, &curves);
+            }
+            println!("  ({width} px wide, {:.0} s)", t0.elapsed().as_secs_f64());
         }
     }
 }

@@ -118,7 +118,67 @@ pub fn reference_sampled(
     n: usize,
     seed: u64,
 ) -> Estimate {
-    let env = sample;
+    mis(sampling, sample, brdf, h, n, seed, |w, c, pdf, f_d, f_s| {
+        if occluded(w) {
+            0.0
+        } else {
+            light(w) * (f_d + f_s) * c / pdf
+        }
+    })
+}
+
+/// The reference under the environment `env` (L = Σ of its SGs) with a control
+/// variate for the diffuse term: its unoccluded value in closed form,
+/// k_d/π Σ μ ∫ G max(n·ω, 0) dω ([`clamped_cosine_integral`]), minus the Monte Carlo
+/// estimate of what the blockers hide of it, L k_d/π cos / pdf over the occluded
+/// samples; the specular term is estimated as in [`reference_sampled`] (visible
+/// samples, L f_s cos / pdf) from the same samples. Unbiased for any `sampling` (the
+/// mixture covers the hemisphere); an unoccluded diffuse point has no variance. The
+/// standard error is the samples' (the constant adds none).
+///
+/// [`clamped_cosine_integral`]: crate::isg::shade::clamped_cosine_integral
+pub fn reference_cv(
+    sampling: Sampling,
+    env: &[Sg],
+    brdf: &Phong,
+    occluded: impl Fn(DVec3) -> bool,
+    h: &Hit,
+    n: usize,
+    seed: u64,
+) -> Estimate {
+    let open: f64 = env
+        .iter()
+        .map(|g| g.amplitude * crate::isg::shade::clamped_cosine_integral(g, h.n))
+        .sum::<f64>()
+        * brdf.diffuse
+        / PI;
+    let e = mis(sampling, env, brdf, h, n, seed, |w, c, pdf, f_d, f_s| {
+        let l = environment(env, w);
+        if occluded(w) {
+            -l * f_d * c / pdf
+        } else {
+            l * f_s * c / pdf
+        }
+    });
+    Estimate {
+        mean: open + e.mean,
+        ..e
+    }
+}
+
+/// The mixture estimator behind the references: each sample's direction ω from the
+/// cosine, the Phong lobe or an SG of `env`, and `term(ω, cos, pdf, f_d, f_s)` its
+/// value for cos > 0 and pdf > 0 (0 otherwise), f_d = k_d/π and f_s the specular
+/// BRDF at ω.
+fn mis(
+    sampling: Sampling,
+    env: &[Sg],
+    brdf: &Phong,
+    h: &Hit,
+    n: usize,
+    seed: u64,
+    mut term: impl FnMut(DVec3, f64, f64, f64, f64) -> f64,
+) -> Estimate {
     let nrm = h.n;
     let r = (2.0 * nrm.dot(h.wo) * nrm - h.wo).normalize();
     let (t, b) = nrm.any_orthonormal_pair();
@@ -131,13 +191,7 @@ pub fn reference_sampled(
     let p_env = if total > 0.0 { 1.0 - p_cos - p_phong } else { 0.0 };
     let p_cos = 1.0 - p_phong - p_env;
     let e = brdf.exponent;
-    let f_r = |w: DVec3| {
-        let mut f = brdf.diffuse / PI;
-        if spec {
-            f += brdf.specular * (e + 2.0) / TAU * r.dot(w).max(0.0).powf(e);
-        }
-        f
-    };
+    let f_d = brdf.diffuse / PI;
     estimate_with(sampling, n, seed, |rng| {
         let pick = rng.uniform();
         let w = if pick < p_cos {
@@ -174,10 +228,15 @@ pub fn reference_sampled(
                     .map(|(g, &en)| en / total * sg_pdf(g, w))
                     .sum::<f64>();
         }
-        if pdf <= 0.0 || occluded(w) {
+        if pdf <= 0.0 {
             return 0.0;
         }
-        light(w) * f_r(w) * c / pdf
+        let f_s = if spec {
+            brdf.specular * (e + 2.0) / TAU * r.dot(w).max(0.0).powf(e)
+        } else {
+            0.0
+        };
+        term(w, c, pdf, f_d, f_s)
     })
 }
 
@@ -343,6 +402,66 @@ mod tests {
                 rp / rq
             );
         }
+    }
+
+    /// The control-variate estimator is unbiased: for a diffuse point under an SG
+    /// about its normal, open and with a half-space blocker hiding exactly half of the
+    /// SG, the mean over 64 independent scrambles (QMC) and the mean of one plain run
+    /// are within 4 standard errors of the closed form; open, it is the closed form
+    /// itself (no sample is occluded). For a Phong point (specular by plain Monte
+    /// Carlo from the same samples) under two SGs with the blocker, its mean over 64
+    /// scrambles is within 4 standard errors of plain's 200 000-sample mean
+    /// (independently tested against a closed form above).
+    #[test]
+    fn control_variate_is_unbiased() {
+        let lambda = 30.0;
+        let g = Sg::new(DVec3::Z, lambda, 2.0).unwrap();
+        let h = Hit {
+            x: DVec3::ZERO,
+            n: DVec3::Z,
+            t: DVec3::X,
+            wo: DVec3::new(0.6, 0.0, 0.8),
+            sphere: None,
+            material: 0,
+        };
+        let diffuse = Phong {
+            diffuse: 0.7,
+            specular: 0.0,
+            exponent: 0.0,
+        };
+        let open = 0.7 / PI * 2.0 * TAU * (1.0 / lambda - (-(-lambda).exp_m1()) / (lambda * lambda));
+        let half = |w: DVec3| w.x > 0.0;
+        let mean_se = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
+            (m, (var / v.len() as f64).sqrt())
+        };
+        let none = reference_cv(Sampling::Qmc, &[g], &diffuse, |_| false, &h, 64, 5);
+        assert!(
+            (none.mean / open - 1.0).abs() < 1e-3 && none.std_error == 0.0,
+            "{none:?} vs {open}"
+        );
+        let v: Vec<f64> = (0..64)
+            .map(|k| reference_cv(Sampling::Qmc, &[g], &diffuse, half, &h, 256, 1000 + k).mean)
+            .collect();
+        let (m, se) = mean_se(&v);
+        assert!((m - open / 2.0).abs() < 4.0 * se, "QMC-CV {m} ± {se} vs {}", open / 2.0);
+        let p = reference_cv(Sampling::Plain, &[g], &diffuse, half, &h, 20_000, 9);
+        assert!((p.mean - open / 2.0).abs() < 4.0 * p.std_error, "plain CV {p:?}");
+
+        let phong = Phong {
+            diffuse: 0.5,
+            specular: 0.3,
+            exponent: 20.0,
+        };
+        let env = [g, Sg::new(DVec3::new(0.8, 0.0, 0.6), 5.0, 1.0).unwrap()];
+        let want = reference(&env, &phong, half, &h, 200_000, 3);
+        let v: Vec<f64> = (0..64)
+            .map(|k| reference_cv(Sampling::Qmc, &env, &phong, half, &h, 256, 1000 + k).mean)
+            .collect();
+        let (m, se) = mean_se(&v);
+        let tol = 4.0 * (se * se + want.std_error * want.std_error).sqrt();
+        assert!((m - want.mean).abs() < tol, "QMC-CV {m} ± {se} vs plain {want:?}");
     }
 
     #[test]

@@ -18,6 +18,7 @@ run $bin render rigs --scene drive --out "$out/rigs"
 # The direct-light study and the rigs' figures.
 run $bin plot meunier --out "$out/meunier"
 run $bin plot rigs --out "$out/rigs"
-# Plain Monte Carlo against scrambled Sobol at equal error, measured (docs/pipelines.md,
-# "Stronger baselines").
-run cargo test --release -q -p lobefit-pipelines --lib study_plain_vs_qmc -- --ignored --nocapture
+# Plain Monte Carlo, scrambled Sobol and Sobol with a control variate against each pipeline at
+# equal error, samples and time measured (docs/pipelines.md, "Stronger baselines"; ~5 min on 2 cores).
+LF_SCENES=fig12,fig12-diffuse,whale,fig13 run cargo test --release -q -p lobefit-pipelines --lib study_baselines -- --ignored --nocapture
+LF_WIDTH=16 LF_SCENES=wrecking run cargo test --release -q -p lobefit-pipelines --lib study_baselines -- --ignored --nocapture

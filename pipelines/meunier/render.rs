@@ -20,7 +20,7 @@ use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
 
 use super::light_fit;
-use crate::estimate::{estimate, Estimate};
+use crate::estimate::{estimate, estimate_with, Estimate, Sampling};
 use crate::image::{compare, masked, mean_over, panel, write_comparison};
 use crate::scene::{brdf_value, visible, Hit, Scene};
 use crate::timing::{timed, EqualError};
@@ -39,6 +39,20 @@ pub fn reference(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, seed: u6
 /// [`reference`], its visibility through the scene's BVH (`bvh`) or by testing every
 /// sphere (the same answers, another cost).
 pub fn reference_with(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, seed: u64, bvh: bool) -> Estimate {
+    reference_sampled(Sampling::Plain, scene, light, h, n, seed, bvh)
+}
+
+/// [`reference_with`] with the uniforms of `sampling` (dimension 0 the cap's cos θ,
+/// dimension 1 its azimuth); `Plain` draws the very numbers [`reference_with`] did.
+pub fn reference_sampled(
+    sampling: Sampling,
+    scene: &Scene,
+    light: &SphereLight,
+    h: &Hit,
+    n: usize,
+    seed: u64,
+    bvh: bool,
+) -> Estimate {
     let to = light.sphere.centre - h.x;
     let d = to.length();
     let w = to / d;
@@ -47,7 +61,7 @@ pub fn reference_with(scene: &Scene, light: &SphereLight, h: &Hit, n: usize, see
     let (u, v) = w.any_orthonormal_pair();
     let brdf = scene.brdf(h);
     let blockers = if bvh { Vec::new() } else { scene.blockers(h) };
-    estimate(n, seed, |rng| {
+    estimate_with(sampling, n, seed, |rng| {
         let mu = 1.0 - rng.uniform() * (1.0 - cos_a);
         let phi = rng.range(0.0, TAU);
         let st = (1.0 - mu * mu).max(0.0).sqrt();
