@@ -16,7 +16,7 @@ pub const MANIFEST_SCHEMA: &str = include_str!("manifest.schema.json");
 /// Its file name in an export directory.
 pub const MANIFEST_SCHEMA_FILE: &str = "manifest.schema.json";
 /// Manifest layout version.
-pub const MANIFEST_VERSION: u32 = 3;
+pub const MANIFEST_VERSION: u32 = 4;
 /// The manifest: everything a renderer needs to sample the textures, and the
 /// measured error of these very files.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -103,15 +103,29 @@ pub struct ErrorEntry {
     pub measured: f64,
     /// The family's own limit (its `check` threshold).
     pub target: f64,
-    /// What `check --export` holds the file to: the target where met, else the
-    /// measured value (a lossy export).
+    /// The storage's rounding floor for this quantity: what a texture of this storage
+    /// can hold at all. For a quantity that is a channel's value (same name), with an
+    /// `_abs` metric (or `_rel` of a log channel), the channel's floor
+    /// ([`Storage::channel_floor`]); 0 (none stated) for other quantities. The
+    /// export's target is the larger of `target` and `floor`
+    /// ([`ErrorEntry::export_target`]).
+    ///
+    /// [`Storage::channel_floor`]: super::Storage::channel_floor
+    pub floor: f64,
+    /// What `check --export` (and the GPU conformance) holds the file to: the family's
+    /// target where met, else the measured value (within the floor, or a lossy export).
     pub promise: f64,
 }
 
 impl ErrorEntry {
-    /// Whether the measured error meets the family's target.
+    /// The export's target: the larger of the family's limit and the storage's
+    /// rounding floor.
+    pub fn export_target(&self) -> f64 {
+        self.target.max(self.floor)
+    }
+    /// Whether the measured error meets the export's target ([`Self::export_target`]).
     pub fn meets_target(&self) -> bool {
-        self.measured <= self.target
+        self.measured <= self.export_target()
     }
 }
 

@@ -36,7 +36,40 @@ impl Storage {
             Storage::F16 => "f16",
         }
     }
+    /// Significand bits after the binary point: 23 (f32), 10 (f16).
+    pub fn fraction_bits(self) -> i32 {
+        match self {
+            Storage::F32 => 23,
+            Storage::F16 => 10,
+        }
+    }
+    /// The unit in the last place of `x` in this storage's precision,
+    /// 2^(⌊log₂|x|⌋ − [`fraction_bits`](Self::fraction_bits)) (exponent range aside: the
+    /// packing's offset and scale keep texels in range); 0 for `x` = 0 or not finite.
+    pub fn ulp(self, x: f64) -> f64 {
+        let a = x.abs();
+        if a == 0.0 || !a.is_finite() {
+            return 0.0;
+        }
+        (a.log2().floor() - f64::from(self.fraction_bits())).exp2()
+    }
+    /// The rounding floor of a channel stored in this storage: what a texture of this
+    /// storage can hold of its value at all, [`FLOOR_ULPS`] ulps of the stored value's
+    /// scale — `|scale|` × the ulp (this storage's) of the largest |texel| `max_texel`,
+    /// plus the f32 ulp of the largest |value| `max_value` the shader decodes
+    /// (trend + offset + scale · texel, in f32). In the channel's units: ln units, that
+    /// is relative error, for a log channel. For f32 with scale 1 and no offset this is
+    /// 4 f32 ulps of the channel's largest |value| (×2: texel and decode); for f16 it is
+    /// 4 f16 ulps of the texel range after offset, scale and trend, times the scale.
+    /// Half an ulp is the texel's own rounding; the rest covers the interpolation.
+    pub fn channel_floor(self, scale: f64, max_texel: f64, max_value: f64) -> f64 {
+        FLOOR_ULPS * (scale.abs() * self.ulp(max_texel) + Storage::F32.ulp(max_value))
+    }
 }
+
+/// Ulps of a channel's stored scale its storage is allowed beyond the family's own
+/// limit (see [`Storage::channel_floor`]): 4, for f32 and f16 alike.
+pub const FLOOR_ULPS: f64 = 4.0;
 
 impl fmt::Display for Storage {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

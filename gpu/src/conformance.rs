@@ -11,7 +11,7 @@ pub use lobefit::export::gpu_check::Row;
 use lobefit::export::gpu_check::{scaled_diff, Context, Kernel, Runner, PROMISE_SLACK};
 use lobefit::export::layout::{Filter, Sampler};
 use lobefit::export::manifest::TextureEntry;
-use lobefit::export::run::{errors_of, family_of, sample_points};
+use lobefit::export::run::{channel_floors, errors_of, family_of, sample_points};
 use lobefit::export::{Storage, Texture};
 use lobefit::family::Lookup;
 use lobefit_tables::LookupError;
@@ -68,6 +68,7 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
             .map(|(_, t)| gpu.upload(t, m.storage))
             .collect::<Result<_, _>>()?;
         let points = sample_points(family.as_ref(), m.samples, m.seed)?;
+        let floors = channel_floors(texs.iter().map(|(e, t)| (e.channels.as_slice(), t)), m.storage);
         let filters: &[Filter] = if gpu_family.exact_fetch {
             &[Filter::Manual]
         } else {
@@ -151,7 +152,7 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
                     .zip(got.iter().cloned())
                     .collect(),
             );
-            let errs = errors_of(family.as_ref(), &lookup, &points, filter)?;
+            let errs = errors_of(family.as_ref(), &lookup, &points, filter, &floors)?;
             let vs_ref = errs
                 .iter()
                 .map(|e| {
@@ -159,7 +160,7 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
                         .error
                         .iter()
                         .find(|p| p.filter == filter && p.output == e.output && p.metric == e.metric)
-                        .map_or(e.target, |p| p.promise);
+                        .map_or(e.export_target(), |p| p.promise);
                     (
                         format!("{} {}", e.output, e.metric.trim_start_matches("offgrid.")),
                         e.measured,

@@ -98,7 +98,7 @@ const HIT_INPUTS: usize = 13;
 /// The families render shexp reads, and how to export them.
 pub const FAMILIES: (&[&str], &str) = (
     &[lobefit_tables::wedge::KIND, lobefit_tables::shexp::KIND],
-    "wedge,shexp --allow-lossy",
+    "wedge,shexp",
 );
 
 /// Loop iterations per sphere blocker, at most: the sphere loop's own and its body's

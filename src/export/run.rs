@@ -37,8 +37,10 @@ pub struct ExportOptions {
     pub storage: Storage,
     /// Nodes per axis relative to the table's (see [`grid_of_table`]).
     pub scale: f64,
-    /// Export an f16 texture that misses its family's target (its measured error is
-    /// in the manifest) instead of refusing it.
+    /// Export a texture that misses its target — the larger of the family's limit and
+    /// the storage's rounding floor ([`Storage::rounding_floor`]): f16 beyond its
+    /// floor, a coarse `scale` — with its measured error in the manifest, instead of
+    /// refusing it.
     pub allow_lossy: bool,
 }
 
@@ -50,17 +52,20 @@ pub fn family_of(kind: &str) -> Option<Box<dyn Checked>> {
         .map(|f| -> Box<dyn Checked> { f })
 }
 
-/// The export error of one texture, per filter: the family's own pointwise check run
-/// through the emulated GPU lookup at seeded off-grid samples (rounded to f32, the
-/// inputs a shader gets), reduced to the family's off-grid threshold metrics.
+/// The export error of one texture stored as `storage`, per filter: the family's own
+/// pointwise check run through the emulated GPU lookup at seeded off-grid samples
+/// (rounded to f32, the inputs a shader gets), reduced to the family's off-grid
+/// threshold metrics, each with its rounding floor (see [`channel_floors`]).
 pub fn measure(
     family: &dyn Checked,
     gpu: GpuFamily,
     textures: &[(Vec<TexAxis>, Vec<Channel>, super::Texture)],
+    storage: Storage,
     samples: usize,
     seed: u64,
 ) -> Result<Vec<ErrorEntry>, String> {
     let points = sample_points(family, samples, seed)?;
+    let floors = channel_floors(textures.iter().map(|(_, c, t)| (c.as_slice(), t)), storage);
     let mut out = Vec::new();
     for filter in Filter::ALL {
         let samplers: Vec<Sampler> = textures
@@ -76,17 +81,11 @@ pub fn measure(
             family: gpu,
             samplers: &samplers,
         };
-        out.extend(errors_of(family, &emu, &points, filter)?);
+        out.extend(errors_of(family, &emu, &points, filter, &floors)?);
         if let Some(extra) = gpu.extra {
             for e in extra(&samplers, samples, seed).map_err(|e| format!("{}: {e}", family.kind()))? {
-                out.push(ErrorEntry {
-                    filter,
-                    promise: if e.measured <= e.target { e.target } else { e.measured },
-                    output: e.output,
-                    metric: e.metric,
-                    measured: e.measured,
-                    target: e.target,
-                });
+                let floor = floor_of(&floors, &e.output, &e.metric);
+                out.push(entry(filter, e.output, e.metric, e.measured, e.target, floor));
             }
         }
     }
@@ -105,14 +104,83 @@ pub fn sample_points(family: &dyn Checked, samples: usize, seed: u64) -> Result<
     Ok(points.iter().map(|x| f32_point(cpu.as_ref(), x)).collect())
 }
 
+/// The rounding floor of one channel of an export (see [`channel_floors`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelFloor {
+    /// Channel name.
+    pub name: String,
+    /// The texel holds the natural log: the floor is relative.
+    pub log: bool,
+    /// [`Storage::channel_floor`] of the channel.
+    pub floor: f64,
+}
+
+/// The rounding floor of every channel of `textures` (each texture with its
+/// channels) stored as `storage`: [`Storage::channel_floor`] of the channel's scale,
+/// its largest |texel| and a bound on its largest decoded |value| (|offset| + |scale|
+/// · max |texel| + Σ |trend coefficients|). A compressed channel states none.
+pub fn channel_floors<'a>(
+    textures: impl IntoIterator<Item = (&'a [Channel], &'a Texture)>,
+    storage: Storage,
+) -> Vec<ChannelFloor> {
+    let mut out = Vec::new();
+    for (channels, t) in textures {
+        let per_texel = t.channels.max(1) as usize;
+        let texels = (t.width * t.height * t.depth) as usize;
+        for ch in channels.iter().filter(|c| c.compression == 0.0) {
+            let max_texel = (0..texels)
+                .filter_map(|i| {
+                    t.data
+                        .get((ch.layer as usize * texels + i) * per_texel + ch.component as usize)
+                })
+                .fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
+            let max_value =
+                ch.offset.abs() + ch.scale.abs() * max_texel + ch.trend.iter().map(|c| c.abs()).sum::<f64>();
+            out.push(ChannelFloor {
+                name: ch.name.clone(),
+                log: ch.log,
+                floor: storage.channel_floor(ch.scale, max_texel, max_value),
+            });
+        }
+    }
+    out
+}
+
+/// The floor of quantity `output` under `metric`: its channel's (same name) for an
+/// `_abs` metric of a linear channel or a `_rel` metric of a log channel; 0 (none
+/// stated) otherwise.
+pub fn floor_of(floors: &[ChannelFloor], output: &str, metric: &str) -> f64 {
+    floors
+        .iter()
+        .filter(|c| c.name == output && (c.log == metric.ends_with("_rel")))
+        .map(|c| c.floor)
+        .fold(0.0, f64::max)
+}
+
+/// One measured error with its rounding floor `floor`; its promise the family's target
+/// where met, else the measured value (the floor decides only whether an export needs
+/// `allow_lossy`: no promise is looser than what the file achieves).
+fn entry(filter: Filter, output: String, metric: String, measured: f64, target: f64, floor: f64) -> ErrorEntry {
+    ErrorEntry {
+        filter,
+        floor,
+        promise: if measured <= target { target } else { measured },
+        output,
+        metric,
+        measured,
+        target,
+    }
+}
+
 /// The family's own pointwise check (`Checked::check_point`) of `lookup` at `points`
 /// (from [`sample_points`]), reduced to its off-grid threshold metrics: one entry per
-/// threshold, labelled `filter`.
+/// threshold, labelled `filter`, with its rounding floor from `floors` ([`floor_of`]).
 pub fn errors_of(
     family: &dyn Checked,
     lookup: &dyn crate::family::Lookup,
     points: &[Vec<f64>],
     filter: Filter,
+    floors: &[ChannelFloor],
 ) -> Result<Vec<ErrorEntry>, String> {
     let mut out = Vec::new();
     let res: Vec<_> = points.par_iter().map(|x| family.check_point(lookup, x)).collect();
@@ -129,14 +197,8 @@ pub fn errors_of(
             rel.push(crate::check::rel_err(g[k], w[k]));
         }
         for (metric, measured, limit) in offgrid_metrics(family, name, abs, rel) {
-            out.push(ErrorEntry {
-                filter,
-                output: name.to_string(),
-                metric,
-                measured,
-                target: limit,
-                promise: if measured <= limit { limit } else { measured },
-            });
+            let floor = floor_of(floors, name, &metric);
+            out.push(entry(filter, name.to_string(), metric, measured, limit, floor));
         }
     }
     Ok(out)
@@ -265,17 +327,18 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
             tex_entries.push(texture_entry(&grid, opts.format, bytes));
             back.push((grid.axes, grid.channels, tex));
         }
-        let error = measure(family.as_ref(), g, &back, SAMPLES, SEED)?;
-        // Whatever the cause (f16, a coarse --scale, a target beyond f32 arithmetic),
-        // an export that misses its target is the user's explicit choice.
+        let error = measure(family.as_ref(), g, &back, opts.storage, SAMPLES, SEED)?;
+        // The target is the larger of the family's limit and the storage's rounding
+        // floor: what is left (f16 beyond its floor, a coarse --scale) is a loss the
+        // user asks for explicitly.
         if !opts.allow_lossy {
             if let Some(e) = error.iter().find(|e| e.filter == Filter::Manual && !e.meets_target()) {
-                return Err(format!(
-                    "{}: {} at scale {} misses the target: {} {} = {:.3e} against {:.1e} (manual filtering); \
-                     nothing was written; leave it out (--only), use --storage f32 or a finer --scale \
-                     where that helps, or --allow-lossy to export it with that error recorded",
-                    g.kind, opts.storage, opts.scale, e.output, e.metric, e.measured, e.target
-                ));
+                // f32 is suggested only where an f32 export at this scale meets every target.
+                let f32_helps = opts.storage == Storage::F16
+                    && measure_in_memory(family.as_ref(), g, &table, Storage::F32, opts.scale)?
+                        .iter()
+                        .all(|e| e.filter != Filter::Manual || e.meets_target());
+                return Err(refusal(g.kind, opts, e, f32_helps));
             }
         }
         entries.push(FamilyEntry {
@@ -305,6 +368,72 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         .map_err(|e| format!("cannot write {}: {e}", dir.join(MANIFEST).display()))?;
     stage.commit()?;
     Ok(manifest)
+}
+
+/// The export errors of family `gpu`'s textures built from `table` at `storage` and
+/// `scale` and measured in memory (texels rounded to `storage`, as a file holds them).
+fn measure_in_memory(
+    family: &dyn Checked,
+    gpu: GpuFamily,
+    table: &Table,
+    storage: Storage,
+    scale: f64,
+) -> Result<Vec<ErrorEntry>, String> {
+    let back: Vec<_> = (gpu.grids)(gpu.kind, table, storage, scale)?
+        .into_iter()
+        .map(|g| {
+            let mut t = g.texture;
+            for v in &mut t.data {
+                *v = stored(*v, storage);
+            }
+            (g.axes, g.channels, t)
+        })
+        .collect();
+    measure(family, gpu, &back, storage, SAMPLES, SEED)
+}
+
+/// `v` as a texel of `storage` holds it.
+fn stored(v: f32, storage: Storage) -> f32 {
+    match storage {
+        Storage::F32 => v,
+        Storage::F16 => half::f16::from_f32(v).to_f32(),
+    }
+}
+
+/// Why an export of family `kind` with `opts` is refused: the measured error `e`
+/// misses its target (manual filtering). Suggests only what would help: f32 where
+/// the storage is f16 and an f32 export meets every target (`f32_helps`), the
+/// table's own grid where `--scale` is below 1.
+fn refusal(kind: &str, opts: &ExportOptions, e: &ErrorEntry, f32_helps: bool) -> String {
+    let mut fixes = vec!["leave it out (--only)".to_string()];
+    if f32_helps {
+        fixes.push("use --storage f32".into());
+    }
+    if opts.scale < 1.0 {
+        fixes.push("use a finer --scale (1 is the table's own grid)".into());
+    }
+    fixes.push("or --allow-lossy to export it with that error recorded".into());
+    let against = if e.floor > 0.0 {
+        format!(
+            "{:.1e} (the larger of the family's limit {:.1e} and {}'s rounding floor {:.1e})",
+            e.export_target(),
+            e.target,
+            opts.storage,
+            e.floor
+        )
+    } else {
+        format!("the family's limit {:.1e}", e.target)
+    };
+    format!(
+        "{kind}: {} at scale {} misses the target: {} {} = {:.3e} against {against}, manual filtering; \
+         nothing was written; {}",
+        opts.storage,
+        opts.scale,
+        e.output,
+        e.metric,
+        e.measured,
+        fixes.join(", ")
+    )
 }
 
 /// The staging directory of an export (see [`export`]): a new `dir` is staged beside
@@ -667,6 +796,7 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
             metric: "differs from a fresh export".into(),
             measured: count,
             target: 0.0,
+            floor: 0.0,
             promise: 0.0,
         },
         now: count,
@@ -702,7 +832,7 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
             continue;
         }
         let back: Vec<_> = texs.into_iter().map(|(t, tex)| (t.axes, t.channels, tex)).collect();
-        let measured = measure(family.as_ref(), gpu, &back, SAMPLES, SEED)?;
+        let measured = measure(family.as_ref(), gpu, &back, m.storage, SAMPLES, SEED)?;
         let mut all_pass = true;
         for n in &measured {
             let recorded = f
@@ -710,9 +840,9 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
                 .iter()
                 .find(|e| e.filter == n.filter && e.output == n.output && e.metric == n.metric);
             // The value and promise are what this export would record, whatever the file says.
-            let pass = recorded
-                .is_some_and(|e| e.measured == n.measured && e.promise == n.promise && e.target == n.target)
-                && n.measured <= n.promise;
+            let pass = recorded.is_some_and(|e| {
+                e.measured == n.measured && e.promise == n.promise && e.target == n.target && e.floor == n.floor
+            }) && n.measured <= n.promise;
             all_pass &= pass;
             out.push(ExportCheck {
                 family: f.family.clone(),
@@ -747,15 +877,11 @@ fn fresh_grids(kind: &str, storage: Storage, scale: f64) -> Result<Vec<Grid>, St
 /// `storage`) whose bits differ from `fresh`'s rounded to `storage`; `None` where the
 /// two are equal in length and every texel.
 fn texel_difference(fresh: &Texture, read: &Texture, storage: Storage) -> Option<usize> {
-    let stored = |v: f32| match storage {
-        Storage::F32 => v,
-        Storage::F16 => half::f16::from_f32(v).to_f32(),
-    };
     let differing = fresh
         .data
         .iter()
         .zip(&read.data)
-        .filter(|(a, b)| stored(**a).to_bits() != b.to_bits())
+        .filter(|(a, b)| stored(**a, storage).to_bits() != b.to_bits())
         .count();
     (differing > 0 || fresh.data.len() != read.data.len()).then_some(differing)
 }
@@ -884,7 +1010,7 @@ pub fn plot(out: &Path) -> Result<Vec<std::path::PathBuf>, String> {
                     .error
                     .iter()
                     .filter(|e| e.filter == Filter::Manual)
-                    .map(|e| e.measured / e.target)
+                    .map(|e| e.measured / e.export_target())
                     .fold(0.0, f64::max);
                 points.push((bytes as f64, worst));
             }

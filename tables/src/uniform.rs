@@ -192,7 +192,7 @@ impl LfTex {
     ///
     /// ```
     /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
-    /// # let manifest = r#"{"version": 3, "families": [{"textures": [{"file": "cap-exponent.ktx2",
+    /// # let manifest = r#"{"version": 4, "families": [{"textures": [{"file": "cap-exponent.ktx2",
     /// #   "axes": [{"axis": {"count": 1000}, "mapped_lo": -5.0, "mapped_hi": 5.0,
     /// #             "mapping_kind": 3, "mapping_constants": [-0.01, 1.58]}],
     /// #   "channels": [{"layer": 0, "component": 0, "offset": 0.0, "scale": 1.0,
@@ -235,7 +235,7 @@ impl LfTex {
     }
 }
 
-/// The part of an export manifest (versions 2 and 3) the uniform needs.
+/// The part of an export manifest (versions 2 to 4) the uniform needs.
 #[cfg(feature = "manifest")]
 mod manifest {
     use serde::Deserialize;
@@ -283,9 +283,10 @@ mod manifest {
     pub(super) fn lf_tex(text: &str, texture: &str, filtering: Filtering) -> Result<LfTex, UniformError> {
         let bad = |what: String| UniformError::Manifest(what);
         let m: Manifest = serde_json::from_str(text).map_err(|e| bad(format!("not an export manifest: {e}")))?;
-        // Version 3 added the baked shaders' file names; the textures' part is as in 2.
-        if !(2..=3).contains(&m.version) {
-            return Err(bad(format!("manifest version {} (this reads 2 and 3)", m.version)));
+        // Version 3 added the baked shaders' file names, 4 the errors' rounding floors;
+        // the textures' part is as in 2.
+        if !(2..=4).contains(&m.version) {
+            return Err(bad(format!("manifest version {} (this reads 2 to 4)", m.version)));
         }
         let t = m
             .families
