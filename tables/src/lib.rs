@@ -216,3 +216,8 @@ table_type::table_types! {
     "lobe-product-l2" => LobeProduct::embedded_l2, LOBE_PRODUCT_L2, "embedded-lobe-product-l2";
     "mask-weights"    => MaskWeights::embedded,    MASK_WEIGHTS,    "embedded-mask-weights";
 }
+
+/// The crate README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
