@@ -349,17 +349,10 @@ pub fn exact_estimate(mut run: impl FnMut(usize) -> Estimate) -> Result<f64, Str
 mod tests {
     use super::*;
 
-    /// The reference against a closed form: a Lambertian point with no blocker under
-    /// one SG of axis n radiates k_d/π μ ∫ e^{λ(c−1)} c dω over the hemisphere,
-    /// = k_d/π μ 2π [1/λ − (1 − e^{−λ})/λ²].
-    /// Scrambled Sobol through the same estimator: over 64 independent scrambles the
-    /// mean of the estimates is within 4 standard errors (of that mean, from the spread
-    /// over the scrambles) of the closed form, for a diffuse point under an SG with
-    /// and without a blocker half covering it (exactly half the open value); and its RMSE at 256 samples at least 5× below plain's (measured:
-    /// 103× unoccluded, 25× with the half-space blocker — 1e4× and 630× fewer samples
-    /// at equal error if plain's error falls as 1/√n).
-    #[test]
-    fn qmc_reference_is_unbiased_and_beats_plain() {
+    /// A diffuse point (k_d = 0.7, normal +z, viewed obliquely) under one SG of
+    /// sharpness 30 and amplitude 2 about its normal, and its radiance in closed form:
+    /// k_d/π · 2 · 2π (1/λ − (1 − e^{−λ})/λ²).
+    fn diffuse_under_sg() -> (Sg, Hit, Phong, f64) {
         let lambda = 30.0;
         let g = Sg::new(DVec3::Z, lambda, 2.0).unwrap();
         let h = Hit {
@@ -376,6 +369,21 @@ mod tests {
             exponent: 0.0,
         };
         let open = 0.7 / PI * 2.0 * TAU * (1.0 / lambda - (-(-lambda).exp_m1()) / (lambda * lambda));
+        (g, h, brdf, open)
+    }
+
+    /// The reference against a closed form: a Lambertian point with no blocker under
+    /// one SG of axis n radiates k_d/π μ ∫ e^{λ(c−1)} c dω over the hemisphere,
+    /// = k_d/π μ 2π [1/λ − (1 − e^{−λ})/λ²].
+    /// Scrambled Sobol through the same estimator: over 64 independent scrambles the
+    /// mean of the estimates is within 4 standard errors (of that mean, from the spread
+    /// over the scrambles) of the closed form, for a diffuse point under an SG with
+    /// and without a blocker half covering it (exactly half the open value); and its
+    /// RMSE at 256 samples at least 5× below plain's (measured: 103× unoccluded, 25× with the half-space blocker — 1e4× and 630× fewer samples
+    /// at equal error if plain's error falls as 1/√n).
+    #[test]
+    fn qmc_reference_is_unbiased_and_beats_plain() {
+        let (g, h, brdf, open) = diffuse_under_sg();
         let half = |w: DVec3| w.x > 0.0;
         // The half-space blocker hides exactly half of the SG (symmetric about z).
         for (occluded, want) in [
@@ -414,22 +422,7 @@ mod tests {
     /// (independently tested against a closed form above).
     #[test]
     fn control_variate_is_unbiased() {
-        let lambda = 30.0;
-        let g = Sg::new(DVec3::Z, lambda, 2.0).unwrap();
-        let h = Hit {
-            x: DVec3::ZERO,
-            n: DVec3::Z,
-            t: DVec3::X,
-            wo: DVec3::new(0.6, 0.0, 0.8),
-            sphere: None,
-            material: 0,
-        };
-        let diffuse = Phong {
-            diffuse: 0.7,
-            specular: 0.0,
-            exponent: 0.0,
-        };
-        let open = 0.7 / PI * 2.0 * TAU * (1.0 / lambda - (-(-lambda).exp_m1()) / (lambda * lambda));
+        let (g, h, diffuse, open) = diffuse_under_sg();
         let half = |w: DVec3| w.x > 0.0;
         let mean_se = |v: &[f64]| {
             let m = v.iter().sum::<f64>() / v.len() as f64;
@@ -466,22 +459,7 @@ mod tests {
 
     #[test]
     fn reference_matches_a_closed_form_within_its_standard_error() {
-        let lambda = 30.0;
-        let g = Sg::new(DVec3::Z, lambda, 2.0).unwrap();
-        let want = 0.7 / PI * 2.0 * TAU * (1.0 / lambda - (-(-lambda).exp_m1()) / (lambda * lambda));
-        let h = Hit {
-            x: DVec3::ZERO,
-            n: DVec3::Z,
-            t: DVec3::X,
-            wo: DVec3::new(0.6, 0.0, 0.8),
-            sphere: None,
-            material: 0,
-        };
-        let brdf = Phong {
-            diffuse: 0.7,
-            specular: 0.0,
-            exponent: 0.0,
-        };
+        let (g, h, brdf, want) = diffuse_under_sg();
         let est = reference(&[g], &brdf, |_| false, &h, 20_000, 7);
         assert!(
             (est.mean - want).abs() < 4.0 * est.std_error && est.std_error < 0.01 * want,

@@ -240,17 +240,18 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
 /// scenes (whale: one pixel in 22 505 at 1.19, every other ≤ 1; wrecking ≤ 0.99).
 pub const VIS_MEAN_MAX: f64 = 1.25;
 
-/// The mean visibility of the log visibility `f`: exp*(f)_0/√(4π) with `mode`. Refuses
-/// one above [`VIS_MEAN_MAX`]: overlapping blockers count once per sphere in log space,
-/// and beyond the norms HYB was fitted on (docs/shexp.md: random scenes reach ‖f̂‖ of
+/// The visibility exp*(f) of the log visibility `f` with `mode` (the triple-product
+/// BRDF mode reuses it), refused when its mean exp*(f)_0/√(4π) is above
+/// [`VIS_MEAN_MAX`]: overlapping blockers count once per sphere in log space, and
+/// beyond the norms HYB was fitted on (docs/shexp.md: random scenes reach ‖f̂‖ of
 /// 1.6–4.2) truncated exp* amplifies the log's ringing exponentially. N copies of one
 /// blocker at order 4: mean 0.99 at N = 10, 1.39 at N = 30, 6.1 at N = 100, 1.5e10 at
 /// N = 1000 (the radiance 5.7e9 times the exact one), exact exp* no better.
-pub fn mean_visibility(t: &Tables, mode: Exp, f: &[f64]) -> Result<f64, String> {
+pub fn checked_visibility(t: &Tables, mode: Exp, f: &[f64]) -> Result<Vec<f64>, String> {
     let v = exponentiate(t, mode, f)?;
     let mean = v[0] / (4.0 * PI).sqrt();
     if mean <= VIS_MEAN_MAX {
-        return Ok(mean);
+        return Ok(v);
     }
     let norm = f[1..].iter().map(|v| v * v).sum::<f64>().sqrt();
     Err(format!(
@@ -334,10 +335,9 @@ pub fn radiance(t: &Tables, s: &Settings, light: &[f64], brdf: &Phong, scene: &S
         ));
     }
     let fv = log_visibility(t, s, scene, h)?;
-    mean_visibility(t, s.exp, &fv)?;
+    let vis = checked_visibility(t, s.exp, &fv)?;
     let mut total = 0.0;
     let mut turned = vec![0.0; nc];
-    let mut vis: Option<Vec<f64>> = None;
     for (weight, zh, axis, term) in terms(s, brdf, h)? {
         let value = match s.brdf {
             BrdfMode::Log => {
@@ -347,10 +347,7 @@ pub fn radiance(t: &Tables, s: &Settings, light: &[f64], brdf: &Phong, scene: &S
                 weight * g.iter().zip(light).map(|(a, b)| a * b).sum::<f64>()
             }
             BrdfMode::Triple => {
-                if vis.is_none() {
-                    vis = Some(exponentiate(t, s.exp, &fv)?);
-                }
-                let v = vis.as_ref().expect("set above");
+                let v = &vis;
                 let rho = project_term(term, h, n);
                 let gaunt = Gaunt::cached(n).map_err(|e| e.to_string())?;
                 let k = match term {
