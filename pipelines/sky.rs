@@ -118,13 +118,48 @@ pub fn reference_sampled(
     n: usize,
     seed: u64,
 ) -> Estimate {
-    mis(sampling, sample, brdf, h, n, seed, |w, c, pdf, f_d, f_s| {
+    mis(sampling, sample, brdf, h, n, seed, false, |w, c, pdf, f_d, f_s| {
         if occluded(w) {
             0.0
         } else {
             light(w) * (f_d + f_s) * c / pdf
         }
     })
+}
+
+/// The `hybrid` estimator: an analytic method's shading as the control variate. With
+/// `a(ω)` the method's integrand (radiance × BRDF × cosine per steradian, any sign,
+/// over the whole sphere) and `a_integral` its exact integral (the method's
+/// unclamped result), ∫ f = ∫ a + ∫ (f − a): the method's result plus Monte Carlo of
+/// its residual, f the true integrand under the environment `env` with exact
+/// visibility `occluded`. Unbiased for any `sampling` wherever the mixture covers
+/// a's support (the SG strategies cover the whole sphere, so below the horizon too);
+/// its variance is the residual's, small where the method is right. Not clamped at
+/// 0: clamping would bias it; a caller that shows it clamps.
+#[allow(clippy::too_many_arguments)]
+pub fn reference_hybrid(
+    sampling: Sampling,
+    env: &[Sg],
+    brdf: &Phong,
+    occluded: impl Fn(DVec3) -> bool,
+    h: &Hit,
+    n: usize,
+    seed: u64,
+    a_integral: f64,
+    a: impl Fn(DVec3) -> f64,
+) -> Estimate {
+    let e = mis(sampling, env, brdf, h, n, seed, true, |w, c, pdf, f_d, f_s| {
+        let f = if c <= 0.0 || occluded(w) {
+            0.0
+        } else {
+            environment(env, w) * (f_d + f_s) * c
+        };
+        (f - a(w)) / pdf
+    });
+    Estimate {
+        mean: a_integral + e.mean,
+        ..e
+    }
 }
 
 /// The reference under the environment `env` (L = Σ of its SGs) with a control
@@ -152,7 +187,7 @@ pub fn reference_cv(
         .sum::<f64>()
         * brdf.diffuse
         / PI;
-    let e = mis(sampling, env, brdf, h, n, seed, |w, c, pdf, f_d, f_s| {
+    let e = mis(sampling, env, brdf, h, n, seed, false, |w, c, pdf, f_d, f_s| {
         let l = environment(env, w);
         if occluded(w) {
             -l * f_d * c / pdf
@@ -168,8 +203,9 @@ pub fn reference_cv(
 
 /// The mixture estimator behind the references: each sample's direction ω from the
 /// cosine, the Phong lobe or an SG of `env`, and `term(ω, cos, pdf, f_d, f_s)` its
-/// value for cos > 0 and pdf > 0 (0 otherwise), f_d = k_d/π and f_s the specular
-/// BRDF at ω.
+/// value for pdf > 0 and cos > 0 (any cos with `below`: an integrand that lives
+/// below the horizon too), 0 otherwise; f_d = k_d/π and f_s the specular BRDF at ω.
+#[allow(clippy::too_many_arguments)]
 fn mis(
     sampling: Sampling,
     env: &[Sg],
@@ -177,6 +213,7 @@ fn mis(
     h: &Hit,
     n: usize,
     seed: u64,
+    below: bool,
     mut term: impl FnMut(DVec3, f64, f64, f64, f64) -> f64,
 ) -> Estimate {
     let nrm = h.n;
@@ -213,10 +250,10 @@ fn mis(
             sample_sg(&env[k], rng)
         };
         let c = nrm.dot(w);
-        if c <= 0.0 {
+        if c <= 0.0 && !below {
             return 0.0;
         }
-        let mut pdf = p_cos * c / PI;
+        let mut pdf = p_cos * c.max(0.0) / PI;
         if spec {
             pdf += p_phong * (e + 1.0) / TAU * r.dot(w).max(0.0).powf(e);
         }

@@ -200,31 +200,129 @@ pub fn radiance(
     blockers: &Blockers,
     h: &Hit,
 ) -> Result<f64, String> {
+    // Radiance is never negative; the products' over-subtraction can cross zero.
+    Ok(shade(t, s, env, brdf, blockers, h, false)?.0.max(0.0))
+}
+
+/// The pipeline's shading at one point as a function of direction ω (radiance × BRDF
+/// × cosine, per steradian), whose integral over the sphere is exactly the
+/// pipeline's radiance before its clamp at 0: each product SG (lighting × the
+/// cosine's or the BRDF's SG, or lighting × the exact clamped cosine) minus, on each
+/// patch the pipeline counted as occluded, what it subtracted there spread evenly over
+/// the patch's solid angle. What Monte Carlo needs to estimate the pipeline's residual
+/// (the `hybrid` estimator): ∫ f = ∫ a + ∫ (f − a).
+#[derive(Debug, Clone)]
+pub struct Integrand {
+    /// ∫ a dω over the sphere: the pipeline's radiance, not clamped.
+    pub value: f64,
+    n: DVec3,
+    /// factor × G(ω), times max(n·ω, 0) when the flag is set.
+    open: Vec<(Sg, f64, bool)>,
+    /// factor × the product's subtracted patches at ω.
+    hidden: Vec<(f64, HiddenPatches)>,
+}
+
+impl Integrand {
+    /// a(ω) (radiance per steradian) at the unit direction `w`; it may be negative
+    /// where the patches over-subtract, and non-zero below the horizon (the specular
+    /// products' SGs).
+    pub fn eval(&self, w: DVec3) -> f64 {
+        let c = self.n.dot(w).max(0.0);
+        let open: f64 = self
+            .open
+            .iter()
+            .map(|(g, f, cos)| f * g.eval(w) * if *cos { c } else { 1.0 })
+            .sum();
+        open - self.hidden.iter().map(|(f, p)| f * p.eval(w)).sum::<f64>()
+    }
+}
+
+/// One product SG's occluded patches as a piecewise-constant function of direction:
+/// on patch (i, j) of the product's grid, what the pipeline subtracted there (its
+/// amplitude × the patch's ISG × its weight) over the patch's solid angle, 0 on the
+/// patches it counted as visible and outside the grid.
+#[derive(Debug, Clone)]
+struct HiddenPatches {
+    /// The ISG frame: θ from `y`, φ from `x` towards `z`.
+    x: DVec3,
+    y: DVec3,
+    z: DVec3,
+    /// The grid's first edge and step (rad), both angles.
+    lo: f64,
+    step: f64,
+    /// Patches per side.
+    k: usize,
+    /// Per patch (θ row-major), per steradian.
+    density: Vec<f64>,
+}
+
+impl HiddenPatches {
+    fn eval(&self, w: DVec3) -> f64 {
+        let theta = self.y.dot(w).clamp(-1.0, 1.0).acos();
+        let phi = self.z.dot(w).atan2(self.x.dot(w));
+        let cell = |a: f64| {
+            let i = ((a - self.lo) / self.step).floor();
+            (i >= 0.0 && i < self.k as f64).then_some(i as usize)
+        };
+        match (cell(theta), cell(phi)) {
+            (Some(i), Some(j)) => self.density[i * self.k + j],
+            _ => 0.0,
+        }
+    }
+}
+
+/// The pipeline at one point: its radiance before the clamp at 0 and, with `keep`,
+/// its [`Integrand`].
+fn shade(
+    t: &Tables,
+    s: &Settings,
+    env: &[Sg],
+    brdf: &Phong,
+    blockers: &Blockers,
+    h: &Hit,
+    keep: bool,
+) -> Result<(f64, Option<Integrand>), String> {
     let n = h.n;
     let e = |e: lobefit_tables::LookupError| e.to_string();
     let mut total = 0.0;
+    let mut open = Vec::new();
+    let mut hidden = Vec::new();
+    // Records a product's visible integral `v` (its patches scaled by `f`).
+    let add = |(v, p): (f64, Option<HiddenPatches>), f: f64, hidden: &mut Vec<(f64, HiddenPatches)>| {
+        if let Some(p) = p {
+            hidden.push((f, p));
+        }
+        v
+    };
     if brdf.diffuse > 0.0 {
         // The cosine as an SG (lobe exponent 1), times each lighting SG.
+        let f = brdf.diffuse / PI;
         let cosine = t.sg_fit.lobe_to_sg(n, 1.0, 1.0).map_err(e)?;
         let mut sum = 0.0;
         for l in env {
             let g = l.product(&cosine).map_err(e)?;
             sum += if s.exact_cosine {
-                visible_with(
-                    t,
-                    s,
-                    &g,
-                    l.amplitude * clamped_cosine_integral(l, n),
-                    Some(&cosine),
-                    n,
-                    blockers,
-                    h.x,
-                )?
+                if keep {
+                    open.push((*l, f, true));
+                }
+                let total = l.amplitude * clamped_cosine_integral(l, n);
+                add(
+                    visible_patches(t, s, &g, total, Some(&cosine), n, blockers, h.x, keep)?,
+                    f,
+                    &mut hidden,
+                )
             } else {
-                visible(t, s, &g, n, blockers, h.x)?
+                if keep {
+                    open.push((g, f, false));
+                }
+                add(
+                    visible_patches(t, s, &g, g.integral(), None, n, blockers, h.x, keep)?,
+                    f,
+                    &mut hidden,
+                )
             };
         }
-        total += brdf.diffuse / PI * sum;
+        total += f * sum;
     }
     if brdf.specular > 0.0 {
         let r = (2.0 * n.dot(h.wo) * n - h.wo).normalize();
@@ -240,7 +338,15 @@ pub fn radiance(
                     .map_err(e)?;
                 let total_b = lobe.integral();
                 if total_b > 0.0 {
-                    pre * visible(t, s, &lobe, n, blockers, h.x)? / total_b
+                    let f = cos_r * pre / total_b;
+                    if keep {
+                        open.push((lobe, f, false));
+                    }
+                    pre * add(
+                        visible_patches(t, s, &lobe, total_b, None, n, blockers, h.x, keep)?,
+                        f,
+                        &mut hidden,
+                    ) / total_b
                 } else {
                     0.0
                 }
@@ -248,15 +354,42 @@ pub fn radiance(
             Specular::Product => {
                 let mut sum = 0.0;
                 for l in env {
-                    sum += visible(t, s, &l.product(&lobe).map_err(e)?, n, blockers, h.x)?;
+                    let g = l.product(&lobe).map_err(e)?;
+                    if keep {
+                        open.push((g, cos_r, false));
+                    }
+                    sum += add(
+                        visible_patches(t, s, &g, g.integral(), None, n, blockers, h.x, keep)?,
+                        cos_r,
+                        &mut hidden,
+                    );
                 }
                 sum
             }
         };
         total += cos_r * spec;
     }
-    // Radiance is never negative; the products' over-subtraction can cross zero.
-    Ok(total.max(0.0))
+    let integrand = keep.then(|| Integrand {
+        value: total,
+        n,
+        open,
+        hidden,
+    });
+    Ok((total, integrand))
+}
+
+/// The pipeline's [`Integrand`] at hit `h` (settings, tables and inputs as
+/// [`radiance`]).
+pub fn integrand(
+    t: &Tables,
+    s: &Settings,
+    env: &[Sg],
+    brdf: &Phong,
+    blockers: &Blockers,
+    h: &Hit,
+) -> Result<Integrand, String> {
+    let (_, a) = shade(t, s, env, brdf, blockers, h, true)?;
+    a.ok_or_else(|| "no integrand recorded".to_string())
 }
 
 /// ∫ G V dω (sr × G's unit): G's integral over the sphere minus its integral over the
@@ -281,8 +414,25 @@ pub fn visible_with(
     blockers: &Blockers,
     x: DVec3,
 ) -> Result<f64, String> {
+    visible_patches(t, s, g, total, cosine, n, blockers, x, false).map(|(v, _)| v)
+}
+
+/// [`visible_with`], and with `keep` the patches it subtracted as a function of
+/// direction.
+#[allow(clippy::too_many_arguments)]
+fn visible_patches(
+    t: &Tables,
+    s: &Settings,
+    g: &Sg,
+    total: f64,
+    cosine: Option<&Sg>,
+    n: DVec3,
+    blockers: &Blockers,
+    x: DVec3,
+    keep: bool,
+) -> Result<(f64, Option<HiddenPatches>), String> {
     if g.amplitude == 0.0 {
-        return Ok(0.0);
+        return Ok((0.0, None));
     }
     // The ISG tables hold γ in [GAMMA_MIN, GAMMA_MAX]; a product outside them is
     // integrated patch by patch by quadrature instead. Clamping γ there subtracted the
@@ -341,31 +491,49 @@ pub fn visible_with(
         Ok(*c)
     };
     let mut hidden = 0.0;
+    let mut density = if keep { vec![0.0; k * k] } else { Vec::new() };
     for (i, &(st, ct)) in trig.iter().enumerate() {
         for (j, &(sp, cp)) in trig.iter().enumerate() {
-            if s.binary {
+            let part = if s.binary {
                 let w = weight(xa * (st * cp) + y * ct + z * (st * sp));
                 if w == 0.0 {
                     continue;
                 }
-                hidden += w * if quadrature {
+                w * if quadrature {
                     gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |_, _| 1.0)
                 } else {
                     (s_hat(i + 1, j + 1)? - s_hat(i, j + 1)? - s_hat(i + 1, j)? + s_hat(i, j)?) * isg_normaliser(gamma)
-                };
+                }
             } else {
-                hidden += gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |th, ph| {
+                gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |th, ph| {
                     weight(dir(th, ph))
-                });
+                })
+            };
+            hidden += part;
+            if keep {
+                // The patch's solid angle ∫∫ sin θ dθ dφ, exact.
+                let area = (edge(i).cos() - edge(i + 1).cos()) * (edge(j + 1) - edge(j));
+                if area > 0.0 {
+                    density[i * k + j] = g.amplitude * part / area;
+                }
             }
         }
     }
+    let patches = keep.then(|| HiddenPatches {
+        x: xa,
+        y,
+        z,
+        lo,
+        step,
+        k,
+        density,
+    });
     let v = total - g.amplitude * hidden;
     // The patch models may over-subtract where most of a product is hidden (fig12's
     // cosine-weighted patches reach −3.6 % of the total): kept, as the paper sums
     // them and the GPU kernel does; [`radiance`] clamps the pixel's sum at 0.
     if v.is_finite() {
-        Ok(v)
+        Ok((v, patches))
     } else {
         Err(format!("visible integral {v} of an SG of sharpness {}", g.sharpness))
     }
@@ -570,6 +738,94 @@ mod tests {
         };
         let got = visible(&t, &s, &g, DVec3::Z, &Blockers::all(&[b]), DVec3::ZERO).unwrap();
         assert!((got / want - 1.0).abs() < 1e-2, "{got} vs {want}");
+    }
+}
+
+#[cfg(test)]
+mod hybrid_tests {
+    use super::*;
+    use crate::estimate::Sampling;
+    use crate::sky::{reference, reference_hybrid};
+
+    /// The pipeline as the control variate leaves the estimate unbiased: at a Phong
+    /// point (specular products reach below the horizon) under two SGs with a sphere
+    /// blocker, for the default settings and the paper's variants (eq. 9, the
+    /// cosine's SG, exact patch coverage), the hybrid's mean over 64 scrambles of
+    /// 4096 QMC samples lies within 4 standard errors (≈ 0.4 %) of plain Monte Carlo's
+    /// 4 000 000-sample mean (exact visibility, an independent ray–sphere test here),
+    /// while the pipeline alone (2–16 % off) lies outside it. An integrand whose
+    /// integral were 1 % off its value fails.
+    #[test]
+    fn hybrid_is_unbiased_where_the_pipeline_is_not() {
+        let t = Tables::embedded().unwrap();
+        let env = [
+            Sg::new(DVec3::new(0.3, 0.1, 0.95).normalize(), 30.0, 2.0).unwrap(),
+            Sg::new(DVec3::new(-0.5, 0.2, 0.84).normalize(), 5.0, 1.0).unwrap(),
+        ];
+        let b = Sphere {
+            centre: DVec3::new(0.25, 0.05, 1.5),
+            radius: 0.3,
+        };
+        let h = Hit {
+            x: DVec3::ZERO,
+            n: DVec3::Z,
+            t: DVec3::X,
+            wo: DVec3::new(-0.3, 0.0, 0.95).normalize(),
+            sphere: None,
+            material: 0,
+        };
+        let brdf = Phong {
+            diffuse: 0.5,
+            specular: 0.4,
+            exponent: 50.0,
+        };
+        // The ray x + s w (s > 0) meets the sphere.
+        let occluded = |w: DVec3| {
+            let oc = h.x - b.centre;
+            let bq = oc.dot(w);
+            let disc = bq * bq - (oc.length_squared() - b.radius * b.radius);
+            disc >= 0.0 && -bq + disc.sqrt() > 0.0
+        };
+        let want = reference(&env, &brdf, occluded, &h, 4_000_000, 3);
+        let spheres = [b];
+        let blockers = Blockers::all(&spheres);
+        let variants = [
+            Settings::default(),
+            Settings {
+                specular: Specular::Eq9,
+                exact_cosine: false,
+                ..Settings::default()
+            },
+            Settings {
+                binary: false,
+                patches: Patches::Grid(12),
+                ..Settings::default()
+            },
+        ];
+        for s in variants {
+            let a = integrand(&t, &s, &env, &brdf, &blockers, &h).unwrap();
+            let plain = radiance(&t, &s, &env, &brdf, &blockers, &h).unwrap();
+            assert_eq!(a.value.max(0.0), plain);
+            let v: Vec<f64> = (0..64)
+                .map(|k| {
+                    reference_hybrid(Sampling::Qmc, &env, &brdf, occluded, &h, 4096, 1000 + k, a.value, |w| {
+                        a.eval(w)
+                    })
+                    .mean
+                })
+                .collect();
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            let se = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / ((v.len() - 1) * v.len()) as f64).sqrt();
+            let tol = 4.0 * (se * se + want.std_error * want.std_error).sqrt();
+            assert!(
+                (m - want.mean).abs() < tol,
+                "{s:?}: hybrid {m} ± {se} vs plain {want:?}"
+            );
+            assert!(
+                (plain - want.mean).abs() > tol,
+                "{s:?}: the pipeline {plain} is already within {tol} of {want:?}"
+            );
+        }
     }
 }
 
