@@ -337,6 +337,12 @@ where
         .map_err(e)?;
     for (k, (s, p)) in chart.series.iter().zip(pts).enumerate() {
         let col = Palette99::pick(k).to_rgba();
+        // A marker at every point of a short series: measured points (a Pareto chart's
+        // curves) read as such, and a series of one point (a method) shows at all.
+        if p.len() <= 32 {
+            c.draw_series(p.iter().map(|&xy| Circle::new(xy, 4, col.filled())))
+                .map_err(e)?;
+        }
         c.draw_series(LineSeries::new(p.iter().copied(), col.stroke_width(2)))
             .map_err(e)?
             .label(&s.name)

@@ -204,7 +204,7 @@ pub fn time_at(curve: &[Point], error: f64) -> Option<Timing> {
 mod tests {
     use super::*;
     use crate::estimate::Sampling;
-    use crate::sky::{reference_cv, reference_sampled, Phong};
+    use crate::sky::{reference_cv, reference_hybrid, reference_sampled, Phong};
 
     fn point(spp: usize, rel_rmse: f64, us: f64) -> Point {
         Point {
@@ -268,11 +268,14 @@ mod tests {
         Plain,
         Qmc,
         QmcCv,
+        /// QMC with the ISG pipeline (default settings) as the control variate.
+        Hybrid,
     }
 
     /// `kind` at a hit of the environment scene `scene` (its SGs sampled, its light
     /// through `shexp::light`: the SGs or its SH, visibility exact).
     fn environment(scene: &Scene, kind: Kind) -> impl Fn(&Hit, usize, u64) -> Result<Estimate, String> + Sync + '_ {
+        let isg = (kind == Kind::Hybrid).then(|| crate::isg::shade::Tables::embedded().unwrap());
         move |hit, n, seed| {
             let brdf = Phong::of(scene.brdf(hit))?;
             let occluded = |v| scene.occluded(hit, v);
@@ -290,23 +293,52 @@ mod tests {
                 ),
                 Kind::Qmc => reference_sampled(Sampling::Qmc, &scene.environment, light, &brdf, occluded, hit, n, seed),
                 Kind::QmcCv => reference_cv(Sampling::Qmc, &scene.environment, &brdf, occluded, hit, n, seed),
+                Kind::Hybrid => {
+                    let t = isg.as_ref().expect("the ISG tables");
+                    let blockers = crate::isg::render::blockers_of(scene, hit);
+                    let s = crate::isg::shade::Settings::default();
+                    let a = crate::isg::shade::integrand(t, &s, &scene.environment, &brdf, &blockers, hit)?;
+                    reference_hybrid(
+                        Sampling::Qmc,
+                        &scene.environment,
+                        &brdf,
+                        occluded,
+                        hit,
+                        n,
+                        seed,
+                        a.value,
+                        |w| a.eval(w),
+                    )
+                }
             })
         }
     }
 
-    /// Prints the curves and each estimator's samples and time at the analytic
-    /// method's error, with the factors against plain and against the analytic time.
-    fn report(name: &str, b: &Bench, analytic: (f64, Timing), curves: &[(&str, Vec<Point>)]) {
-        let (err, ta) = analytic;
+    /// One analytic configuration's measured error and time.
+    struct Method {
+        name: String,
+        rel_rmse: f64,
+        us: Timing,
+    }
+
+    /// Prints the curves and each estimator's samples and time at the default
+    /// configuration's error (`methods[0]`) and at a quarter of it, with the factors
+    /// against plain and against the analytic time; writes
+    /// `<out>/<tag>-summary.json` and the Pareto chart `<out>/<tag>-pareto.png`.
+    fn report(tag: &str, out: &std::path::Path, b: &Bench, methods: &[Method], curves: &[(&str, Vec<Point>)]) {
+        let (err, ta) = (methods[0].rel_rmse, methods[0].us);
         println!(
-            "{name}: {} px shaded, {} threads; reference error {:.1e}; analytic: rel RMSE {err:.4}, {:.2} µs/px [{:.2}–{:.2}]",
+            "{tag}: {} px shaded, {} threads; reference error {:.1e}",
             b.pixels(),
             rayon::current_num_threads(),
             b.reference_error(),
-            ta.median,
-            ta.min,
-            ta.max
         );
+        for m in methods {
+            println!(
+                "  method {:<22} rel RMSE {:.4}, {:.2} µs/px [{:.2}–{:.2}]",
+                m.name, m.rel_rmse, m.us.median, m.us.min, m.us.max
+            );
+        }
         for (label, c) in curves {
             let pts: Vec<String> = c
                 .iter()
@@ -319,42 +351,102 @@ mod tests {
                 .collect();
             println!("  {label:<7} {}", pts.join("; "));
         }
-        // Plain at the analytic error, or (beyond its measured range, below its last
-        // error) its last point: a lower bound of its samples and time.
-        let plain = curves.iter().find(|(l, _)| *l == "plain").and_then(|(_, c)| {
-            let last = c.last()?;
-            match (spp_at(c, err), time_at(c, err)) {
-                (Some(n), Some(t)) => Some((n, t.median, "")),
-                _ if err < last.rel_rmse => Some((last.spp as f64, last.us.median, "> ")),
-                _ => None,
-            }
-        });
-        for (label, c) in curves {
-            match (spp_at(c, err), time_at(c, err)) {
-                (Some(n), Some(t)) => {
-                    let vs_plain = match plain {
-                        Some((pn, pt, bound)) => format!(
-                            "{bound}{:.1}× fewer samples, {bound}{:.1}× less time than plain",
-                            pn / n,
-                            pt / t.median
-                        ),
-                        None => "plain beyond measured range".into(),
-                    };
-                    println!(
-                        "  at the analytic error, {label:<7}: {n:.0} spp, {:.1} µs/px [{:.1}–{:.1}]; {vs_plain}; {:.1}× the analytic time",
-                        t.median,
-                        t.min,
-                        t.max,
-                        t.median / ta.median
-                    );
+        let mut equal = Vec::new();
+        for (what, target) in [("the analytic error", err), ("a quarter of it", err / 4.0)] {
+            // Plain at the target, or (beyond its measured range, below its last
+            // error) its last point: a lower bound of its samples and time.
+            let plain = curves.iter().find(|(l, _)| *l == "plain").and_then(|(_, c)| {
+                let last = c.last()?;
+                match (spp_at(c, target), time_at(c, target)) {
+                    (Some(n), Some(t)) => Some((n, t.median, "")),
+                    _ if target < last.rel_rmse => Some((last.spp as f64, last.us.median, "> ")),
+                    _ => None,
                 }
-                _ => println!(
-                    "  at the analytic error, {label:<7}: beyond measured range (last: {} spp, {:.4})",
-                    c.last().map_or(0, |p| p.spp),
-                    c.last().map_or(f64::NAN, |p| p.rel_rmse)
-                ),
+            });
+            for (label, c) in curves {
+                match (spp_at(c, target), time_at(c, target)) {
+                    (Some(n), Some(t)) => {
+                        let vs_plain = match plain {
+                            Some((pn, pt, bound)) => format!(
+                                "{bound}{:.1}× fewer samples, {bound}{:.1}× less time than plain",
+                                pn / n,
+                                pt / t.median
+                            ),
+                            None => "plain beyond measured range".into(),
+                        };
+                        println!(
+                            "  at {what} ({target:.4}), {label:<7}: {n:.0} spp, {:.1} µs/px [{:.1}–{:.1}]; {vs_plain}; {:.2}× the analytic time [{:.2}–{:.2}]",
+                            t.median,
+                            t.min,
+                            t.max,
+                            t.median / ta.median,
+                            t.min / ta.max,
+                            t.max / ta.min
+                        );
+                        equal.push(serde_json::json!({
+                            "method": methods[0].name, "target": target, "estimator": label,
+                            "spp": n, "us_per_pixel": t.median, "us_min": t.min, "us_max": t.max,
+                            "ratio": t.median / ta.median,
+                        }));
+                    }
+                    _ => println!(
+                        "  at {what} ({target:.4}), {label:<7}: beyond measured range (last: {} spp, {:.4})",
+                        c.last().map_or(0, |p| p.spp),
+                        c.last().map_or(f64::NAN, |p| p.rel_rmse)
+                    ),
+                }
             }
         }
+        let summary = serde_json::json!({
+            "scene": tag,
+            "pixels": b.pixels(),
+            "threads": rayon::current_num_threads(),
+            "reference_rel_rmse": b.reference_error(),
+            "flip": null,
+            "methods": methods.iter().map(|m| serde_json::json!({
+                "name": m.name, "rel_rmse_noise_free": m.rel_rmse,
+                "us_per_pixel": m.us.median, "us_min": m.us.min, "us_max": m.us.max,
+            })).collect::<Vec<_>>(),
+            "estimators": curves.iter().map(|(l, c)| serde_json::json!({
+                "name": l,
+                "curve": c.iter().map(|p| serde_json::json!({
+                    "spp": p.spp, "rel_rmse_noise_free": p.rel_rmse,
+                    "us_per_pixel": p.us.median, "us_min": p.us.min, "us_max": p.us.max,
+                })).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+            "equal_error": equal,
+        });
+        std::fs::create_dir_all(out).unwrap();
+        let json = out.join(format!("{tag}-summary.json"));
+        lobefit_core::io::write_atomic(&json, serde_json::to_string_pretty(&summary).unwrap().as_bytes()).unwrap();
+        let mut series: Vec<lobefit_core::plot::Series> = curves
+            .iter()
+            .map(|(l, c)| lobefit_core::plot::Series {
+                name: format!("{l} (4 … {} spp)", c.last().map_or(0, |p| p.spp)),
+                points: c.iter().map(|p| (p.us.median, p.rel_rmse)).collect(),
+            })
+            .collect();
+        series.extend(methods.iter().map(|m| lobefit_core::plot::Series {
+            name: m.name.clone(),
+            points: vec![(m.us.median, m.rel_rmse)],
+        }));
+        let png = lobefit_core::plot::line_chart(
+            &out.join(format!("{tag}-pareto.png")),
+            &lobefit_core::plot::LineChart {
+                title: format!(
+                    "{tag}: error vs time per pixel ({} px, {} threads)",
+                    b.pixels(),
+                    rayon::current_num_threads()
+                ),
+                x_label: "µs per pixel (median)".into(),
+                y_label: "relative RMSE (reference noise removed)".into(),
+                log_x: true,
+                log_y: true,
+                series,
+            },
+        )
+        .unwrap();
+        println!("  wrote {} and {}", json.display(), png.display());
     }
 
     fn env_or<T: std::str::FromStr>(var: &str, default: T) -> T {
@@ -388,6 +480,9 @@ mod tests {
             }
             c
         };
+        let out = std::path::PathBuf::from(env_or("LF_OUT", "target/baselines".to_string()));
+        // Curves run past a quarter of the default configuration's error (the
+        // hybrid's and the strongest estimators' regime).
         for name in scenes.split(',') {
             let t0 = Instant::now();
             if name == "fig13" {
@@ -408,26 +503,61 @@ mod tests {
                 };
                 // The reference: QMC (no control variate here), two runs.
                 let b = Bench::new(&scene, width, ref_spp, runs, &est(Sampling::Qmc)).unwrap();
-                let settings = lobefit_tables::meunier::MaskSettings::default();
-                let shade = |h: &Hit| {
-                    m.radiance(
-                        h.x,
-                        h.n,
-                        h.t,
-                        h.wo,
-                        scene.brdf(h),
-                        &[light],
-                        &scene.blockers(h),
-                        &settings,
-                    )
-                    .map_err(|e| e.to_string())
-                };
-                let a = b.analytic(&shade).unwrap();
+                use lobefit_tables::meunier::{LightModel, MaskSettings};
+                let mut configs = vec![("default (depth 5, cap light)".to_string(), MaskSettings::default())];
+                for depth in [3, 4] {
+                    configs.push((
+                        format!("depth {depth}"),
+                        MaskSettings {
+                            depth,
+                            ..MaskSettings::default()
+                        },
+                    ));
+                }
+                configs.push((
+                    "lobe light (paper)".into(),
+                    MaskSettings {
+                        light: LightModel::Lobe,
+                        ..MaskSettings::default()
+                    },
+                ));
+                configs.push((
+                    "t_i = 1e-3".into(),
+                    MaskSettings {
+                        threshold: 1e-3,
+                        ..MaskSettings::default()
+                    },
+                ));
+                let methods: Vec<Method> = configs
+                    .iter()
+                    .map(|(label, settings)| {
+                        let shade = |h: &Hit| {
+                            m.radiance(
+                                h.x,
+                                h.n,
+                                h.t,
+                                h.wo,
+                                scene.brdf(h),
+                                &[light],
+                                &scene.blockers(h),
+                                settings,
+                            )
+                            .map_err(|e| e.to_string())
+                        };
+                        let (rel_rmse, us) = b.analytic(&shade).unwrap();
+                        Method {
+                            name: label.clone(),
+                            rel_rmse,
+                            us,
+                        }
+                    })
+                    .collect();
+                let target = methods[0].rel_rmse / 4.0;
                 let curves = [
-                    ("plain", measure(&b, a.0, plain_max, &est(Sampling::Plain))),
-                    ("qmc", measure(&b, a.0, 1 << 14, &est(Sampling::Qmc))),
+                    ("plain", measure(&b, target, plain_max, &est(Sampling::Plain))),
+                    ("qmc", measure(&b, target, 1 << 14, &est(Sampling::Qmc))),
                 ];
-                report(name, &b, a, &curves);
+                report(&format!("meunier-{name}"), &out, &b, &methods, &curves);
             } else {
                 let isg = name.starts_with("fig12");
                 let scene = if isg {
@@ -442,38 +572,93 @@ mod tests {
                     Kind::Qmc
                 };
                 let b = Bench::new(&scene, width, ref_spp, runs, &environment(&scene, kind)).unwrap();
-                let a = if isg {
-                    use crate::isg::shade::{radiance, Settings, Tables};
+                let methods: Vec<Method> = if isg {
+                    use crate::isg::shade::{radiance, Model, Patches, Settings, Tables};
                     let t = Tables::embedded().unwrap();
-                    let s = Settings::default();
-                    b.analytic(&|h| {
-                        let brdf = Phong::of(scene.brdf(h))?;
-                        radiance(
-                            &t,
-                            &s,
-                            &scene.environment,
-                            &brdf,
-                            &crate::isg::render::blockers_of(&scene, h),
-                            h,
-                        )
-                    })
-                    .unwrap()
+                    let mut configs = vec![("default (best, adaptive)".to_string(), Settings::default())];
+                    for model in Model::ALL {
+                        for (pl, patches) in [("10×10", Patches::Grid(10)), ("20×20", Patches::Grid(20))] {
+                            configs.push((
+                                format!("{} {pl}", model.name()),
+                                Settings {
+                                    model,
+                                    patches,
+                                    ..Settings::default()
+                                },
+                            ));
+                        }
+                    }
+                    configs
+                        .iter()
+                        .map(|(label, s)| {
+                            let (rel_rmse, us) = b
+                                .analytic(&|h| {
+                                    let brdf = Phong::of(scene.brdf(h))?;
+                                    radiance(
+                                        &t,
+                                        s,
+                                        &scene.environment,
+                                        &brdf,
+                                        &crate::isg::render::blockers_of(&scene, h),
+                                        h,
+                                    )
+                                })
+                                .unwrap();
+                            Method {
+                                name: label.clone(),
+                                rel_rmse,
+                                us,
+                            }
+                        })
+                        .collect()
                 } else {
                     use crate::shexp::shade::{radiance, Settings, Tables};
                     let t = Tables::embedded().unwrap();
-                    let s = Settings::default();
-                    let light = crate::shexp::light_sh(&scene, s.order).unwrap();
-                    b.analytic(&|h| radiance(&t, &s, &light, &Phong::of(scene.brdf(h))?, &scene, h))
-                        .unwrap()
+                    [4, 3, 5, 6]
+                        .into_iter()
+                        .map(|order| {
+                            let s = Settings {
+                                order,
+                                ..Settings::default()
+                            };
+                            let light = crate::shexp::light_sh(&scene, s.order).unwrap();
+                            let (rel_rmse, us) = b
+                                .analytic(&|h| radiance(&t, &s, &light, &Phong::of(scene.brdf(h))?, &scene, h))
+                                .unwrap();
+                            Method {
+                                name: if order == 4 {
+                                    "default (order 4)".into()
+                                } else {
+                                    format!("order {order}")
+                                },
+                                rel_rmse,
+                                us,
+                            }
+                        })
+                        .collect()
                 };
+                let target = methods[0].rel_rmse / 4.0;
                 let mut curves = vec![
-                    ("plain", measure(&b, a.0, plain_max, &environment(&scene, Kind::Plain))),
-                    ("qmc", measure(&b, a.0, 1 << 14, &environment(&scene, Kind::Qmc))),
+                    (
+                        "plain",
+                        measure(&b, target, plain_max, &environment(&scene, Kind::Plain)),
+                    ),
+                    ("qmc", measure(&b, target, 1 << 14, &environment(&scene, Kind::Qmc))),
                 ];
                 if scene.sh_environment.is_none() {
-                    curves.push(("qmc-cv", measure(&b, a.0, 1 << 14, &environment(&scene, Kind::QmcCv))));
+                    curves.push((
+                        "qmc-cv",
+                        measure(&b, target, 1 << 14, &environment(&scene, Kind::QmcCv)),
+                    ));
                 }
-                report(name, &b, a, &curves);
+                if isg {
+                    curves.push((
+                        "hybrid",
+                        measure(&b, target, 1 << 14, &environment(&scene, Kind::Hybrid)),
+                    ));
+                }
+                let pipeline = if isg { "isg" } else { "shexp" };
+                report(&format!("{pipeline}-{name}"), &out, &b, &methods, &curves);
             }
             println!("  ({width} px wide, {:.0} s)", t0.elapsed().as_secs_f64());
         }

@@ -237,27 +237,39 @@ impl Integrand {
     }
 }
 
-/// One product SG's occluded patches as a piecewise-constant function of direction:
-/// on patch (i, j) of the product's grid, what the pipeline subtracted there (its
-/// amplitude × the patch's ISG × its weight) over the patch's solid angle, 0 on the
-/// patches it counted as visible and outside the grid.
+/// One product SG's occluded patches as a function of direction: on patch (i, j) of
+/// the product's grid, the product G itself scaled so that its integral over the
+/// patch is what the pipeline subtracted there (amplitude × the patch's ISG × its
+/// weight): G(ω) × that / ∫_patch G, the patch integral by 8 × 8 Gauss–Legendre
+/// (exact to rounding on a patch a third of the SG's width); 0 on the patches it
+/// counted as visible and outside the grid. Shaped like G, so that f − a vanishes
+/// inside a patch where the pipeline is right, not only on average.
 #[derive(Debug, Clone)]
 struct HiddenPatches {
-    /// The ISG frame: θ from `y`, φ from `x` towards `z`.
+    /// The ISG frame: θ from `y`, φ from `x` towards `z` (G's axis).
     x: DVec3,
     y: DVec3,
     z: DVec3,
+    /// G's sharpness.
+    sharpness: f64,
+    /// cos² of the cone: directions with z·ω below it lie outside the grid.
+    cull: f64,
     /// The grid's first edge and step (rad), both angles.
     lo: f64,
     step: f64,
     /// Patches per side.
     k: usize,
-    /// Per patch (θ row-major), per steradian.
+    /// Per patch (θ row-major): the factor of exp(λ(z·ω − 1)).
     density: Vec<f64>,
 }
 
 impl HiddenPatches {
     fn eval(&self, w: DVec3) -> f64 {
+        let zw = self.z.dot(w);
+        // |θ − π/2| ≤ cone and |φ − π/2| ≤ cone give z·ω = sin θ sin φ ≥ cos² cone.
+        if zw < self.cull {
+            return 0.0;
+        }
         let theta = self.y.dot(w).clamp(-1.0, 1.0).acos();
         let phi = self.z.dot(w).atan2(self.x.dot(w));
         let cell = |a: f64| {
@@ -265,7 +277,9 @@ impl HiddenPatches {
             (i >= 0.0 && i < self.k as f64).then_some(i as usize)
         };
         match (cell(theta), cell(phi)) {
-            (Some(i), Some(j)) => self.density[i * self.k + j],
+            (Some(i), Some(j)) if self.density[i * self.k + j] != 0.0 => {
+                self.density[i * self.k + j] * (self.sharpness * (zw - 1.0)).exp()
+            }
             _ => 0.0,
         }
     }
@@ -510,11 +524,10 @@ fn visible_patches(
                 })
             };
             hidden += part;
-            if keep {
-                // The patch's solid angle ∫∫ sin θ dθ dφ, exact.
-                let area = (edge(i).cos() - edge(i + 1).cos()) * (edge(j + 1) - edge(j));
-                if area > 0.0 {
-                    density[i * k + j] = g.amplitude * part / area;
+            if keep && part != 0.0 {
+                let unit = gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |_, _| 1.0);
+                if unit > 0.0 {
+                    density[i * k + j] = g.amplitude * part / unit;
                 }
             }
         }
@@ -523,6 +536,8 @@ fn visible_patches(
         x: xa,
         y,
         z,
+        sharpness: g.sharpness,
+        cull: cone.cos().powi(2),
         lo,
         step,
         k,
