@@ -269,13 +269,21 @@ mod tests {
         Qmc,
         QmcCv,
         /// QMC with the ISG pipeline (default settings) as the control variate.
-        Hybrid,
+        HybridIsg,
+        /// QMC with the SH-exponentiation pipeline (default settings) as the control
+        /// variate.
+        HybridSh,
     }
 
     /// `kind` at a hit of the environment scene `scene` (its SGs sampled, its light
     /// through `shexp::light`: the SGs or its SH, visibility exact).
     fn environment(scene: &Scene, kind: Kind) -> impl Fn(&Hit, usize, u64) -> Result<Estimate, String> + Sync + '_ {
-        let isg = (kind == Kind::Hybrid).then(|| crate::isg::shade::Tables::embedded().unwrap());
+        let isg = (kind == Kind::HybridIsg).then(|| crate::isg::shade::Tables::embedded().unwrap());
+        let sh = (kind == Kind::HybridSh).then(|| {
+            let s = crate::shexp::shade::Settings::default();
+            let light = crate::shexp::light_sh(scene, s.order).unwrap();
+            (crate::shexp::shade::Tables::embedded().unwrap(), s, light)
+        });
         move |hit, n, seed| {
             let brdf = Phong::of(scene.brdf(hit))?;
             let occluded = |v| scene.occluded(hit, v);
@@ -293,7 +301,7 @@ mod tests {
                 ),
                 Kind::Qmc => reference_sampled(Sampling::Qmc, &scene.environment, light, &brdf, occluded, hit, n, seed),
                 Kind::QmcCv => reference_cv(Sampling::Qmc, &scene.environment, &brdf, occluded, hit, n, seed),
-                Kind::Hybrid => {
+                Kind::HybridIsg => {
                     let t = isg.as_ref().expect("the ISG tables");
                     let blockers = crate::isg::render::blockers_of(scene, hit);
                     let s = crate::isg::shade::Settings::default();
@@ -301,6 +309,7 @@ mod tests {
                     reference_hybrid(
                         Sampling::Qmc,
                         &scene.environment,
+                        light,
                         &brdf,
                         occluded,
                         hit,
@@ -308,6 +317,22 @@ mod tests {
                         seed,
                         a.value,
                         |w| a.eval(w),
+                    )
+                }
+                Kind::HybridSh => {
+                    let (t, s, l) = sh.as_ref().expect("the SH tables");
+                    let a = crate::shexp::shade::integrand(t, s, l, &brdf, scene, hit)?;
+                    reference_hybrid(
+                        Sampling::Qmc,
+                        &scene.environment,
+                        light,
+                        &brdf,
+                        occluded,
+                        hit,
+                        n,
+                        seed,
+                        a.value,
+                        |w| light(w) * a.eval(w),
                     )
                 }
             })
@@ -651,12 +676,8 @@ mod tests {
                         measure(&b, target, 1 << 14, &environment(&scene, Kind::QmcCv)),
                     ));
                 }
-                if isg {
-                    curves.push((
-                        "hybrid",
-                        measure(&b, target, 1 << 14, &environment(&scene, Kind::Hybrid)),
-                    ));
-                }
+                let hybrid = if isg { Kind::HybridIsg } else { Kind::HybridSh };
+                curves.push(("hybrid", measure(&b, target, 1 << 14, &environment(&scene, hybrid))));
                 let pipeline = if isg { "isg" } else { "shexp" };
                 report(&format!("{pipeline}-{name}"), &out, &b, &methods, &curves);
             }

@@ -131,15 +131,17 @@ pub fn reference_sampled(
 /// `a(ω)` the method's integrand (radiance × BRDF × cosine per steradian, any sign,
 /// over the whole sphere) and `a_integral` its exact integral (the method's
 /// unclamped result), ∫ f = ∫ a + ∫ (f − a): the method's result plus Monte Carlo of
-/// its residual, f the true integrand under the environment `env` with exact
-/// visibility `occluded`. Unbiased for any `sampling` wherever the mixture covers
-/// a's support (the SG strategies cover the whole sphere, so below the horizon too);
-/// its variance is the residual's, small where the method is right. Not clamped at
-/// 0: clamping would bias it; a caller that shows it clamps.
+/// its residual, f the true integrand under the distant light `light(ω)` with exact
+/// visibility `occluded`, directions drawn as in [`reference_sampled`] (the SGs of
+/// `sample` as strategies) plus a uniform-sphere strategy, so that every direction
+/// where a ≠ 0 (below the horizon too) has a positive density. Unbiased for any
+/// `sampling`; its variance is the residual's, small where the method is right. Not
+/// clamped at 0: clamping would bias it; a caller that shows it clamps.
 #[allow(clippy::too_many_arguments)]
 pub fn reference_hybrid(
     sampling: Sampling,
-    env: &[Sg],
+    sample: &[Sg],
+    light: impl Fn(DVec3) -> f64,
     brdf: &Phong,
     occluded: impl Fn(DVec3) -> bool,
     h: &Hit,
@@ -148,11 +150,11 @@ pub fn reference_hybrid(
     a_integral: f64,
     a: impl Fn(DVec3) -> f64,
 ) -> Estimate {
-    let e = mis(sampling, env, brdf, h, n, seed, true, |w, c, pdf, f_d, f_s| {
+    let e = mis(sampling, sample, brdf, h, n, seed, true, |w, c, pdf, f_d, f_s| {
         let f = if c <= 0.0 || occluded(w) {
             0.0
         } else {
-            environment(env, w) * (f_d + f_s) * c
+            light(w) * (f_d + f_s) * c
         };
         (f - a(w)) / pdf
     });
@@ -202,9 +204,10 @@ pub fn reference_cv(
 }
 
 /// The mixture estimator behind the references: each sample's direction ω from the
-/// cosine, the Phong lobe or an SG of `env`, and `term(ω, cos, pdf, f_d, f_s)` its
-/// value for pdf > 0 and cos > 0 (any cos with `below`: an integrand that lives
-/// below the horizon too), 0 otherwise; f_d = k_d/π and f_s the specular BRDF at ω.
+/// cosine, the Phong lobe or an SG of `env` (with `below`, also the uniform sphere, so
+/// that an integrand living below the horizon is covered), and
+/// `term(ω, cos, pdf, f_d, f_s)` its value for pdf > 0 and cos > 0 (any cos with
+/// `below`), 0 otherwise; f_d = k_d/π and f_s the specular BRDF at ω.
 #[allow(clippy::too_many_arguments)]
 fn mis(
     sampling: Sampling,
@@ -225,13 +228,23 @@ fn mis(
     let total: f64 = energy.iter().sum();
     // Strategy probabilities: cosine, Phong, the SGs.
     let (p_cos, p_phong) = if spec { (0.3, 0.3) } else { (0.5, 0.0) };
-    let p_env = if total > 0.0 { 1.0 - p_cos - p_phong } else { 0.0 };
-    let p_cos = 1.0 - p_phong - p_env;
+    let p_uni = if below { 0.1 } else { 0.0 };
+    let p_env = if total > 0.0 {
+        1.0 - p_cos - p_phong - p_uni
+    } else {
+        0.0
+    };
+    let p_cos = 1.0 - p_phong - p_env - p_uni;
     let e = brdf.exponent;
     let f_d = brdf.diffuse / PI;
     estimate_with(sampling, n, seed, |rng| {
         let pick = rng.uniform();
-        let w = if pick < p_cos {
+        let w = if pick >= 1.0 - p_uni {
+            let z = rng.range(-1.0, 1.0);
+            let p = rng.range(0.0, TAU);
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            s * (p.cos() * t + p.sin() * b) + z * nrm
+        } else if pick < p_cos {
             let (u1, u2) = (rng.uniform(), rng.range(0.0, TAU));
             let s = u1.sqrt();
             s * (u2.cos() * t + u2.sin() * b) + (1.0 - u1).sqrt() * nrm
@@ -253,7 +266,7 @@ fn mis(
         if c <= 0.0 && !below {
             return 0.0;
         }
-        let mut pdf = p_cos * c.max(0.0) / PI;
+        let mut pdf = p_cos * c.max(0.0) / PI + p_uni / (4.0 * PI);
         if spec {
             pdf += p_phong * (e + 1.0) / TAU * r.dot(w).max(0.0).powf(e);
         }

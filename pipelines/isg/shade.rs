@@ -383,7 +383,7 @@ fn shade(
         };
         total += cos_r * spec;
     }
-    let integrand = keep.then(|| Integrand {
+    let integrand = keep.then_some(Integrand {
         value: total,
         n,
         open,
@@ -821,25 +821,39 @@ mod hybrid_tests {
             let a = integrand(&t, &s, &env, &brdf, &blockers, &h).unwrap();
             let plain = radiance(&t, &s, &env, &brdf, &blockers, &h).unwrap();
             assert_eq!(a.value.max(0.0), plain);
-            let v: Vec<f64> = (0..64)
-                .map(|k| {
-                    reference_hybrid(Sampling::Qmc, &env, &brdf, occluded, &h, 4096, 1000 + k, a.value, |w| {
-                        a.eval(w)
+            let run = |offset: f64| {
+                let v: Vec<f64> = (0..64)
+                    .map(|k| {
+                        reference_hybrid(
+                            Sampling::Qmc,
+                            &env,
+                            |w| crate::sky::environment(&env, w),
+                            &brdf,
+                            occluded,
+                            &h,
+                            4096,
+                            1000 + k,
+                            a.value * offset,
+                            |w| a.eval(w),
+                        )
+                        .mean
                     })
-                    .mean
-                })
-                .collect();
-            let m = v.iter().sum::<f64>() / v.len() as f64;
-            let se = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / ((v.len() - 1) * v.len()) as f64).sqrt();
-            let tol = 4.0 * (se * se + want.std_error * want.std_error).sqrt();
+                    .collect();
+                let m = v.iter().sum::<f64>() / v.len() as f64;
+                let se = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / ((v.len() - 1) * v.len()) as f64).sqrt();
+                (m, 4.0 * (se * se + want.std_error * want.std_error).sqrt())
+            };
+            let (m, tol) = run(1.0);
             assert!(
                 (m - want.mean).abs() < tol,
-                "{s:?}: hybrid {m} ± {se} vs plain {want:?}"
+                "{s:?}: hybrid {m} ± {tol} vs plain {want:?}"
             );
             assert!(
                 (plain - want.mean).abs() > tol,
                 "{s:?}: the pipeline {plain} is already within {tol} of {want:?}"
             );
+            let (m, tol) = run(1.01);
+            assert!((m - want.mean).abs() > tol, "{s:?}: a 1 % offset passes: {m} ± {tol}");
         }
     }
 }

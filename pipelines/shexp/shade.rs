@@ -326,6 +326,42 @@ enum Term {
 /// Outgoing radiance at hit `h` with the pipeline `s`, the light's SH vector `light`
 /// (order `s.order`).
 pub fn radiance(t: &Tables, s: &Settings, light: &[f64], brdf: &Phong, scene: &Scene, h: &Hit) -> Result<f64, String> {
+    // A band-limited product rings below zero in dark places; radiance cannot.
+    Ok(integrand(t, s, light, brdf, scene, h)?.value.max(0.0))
+}
+
+/// The pipeline's shading at one point as a function of direction, without the light:
+/// Σ_t w_t g_t(ω), each BRDF term's band-limited visibility × BRDF × cosine (the
+/// exponentiated log sum, or the Gaunt product) with its weight. The pipeline's
+/// radiance is Σ_t w_t ⟨g_t, light⟩ = ∫ L(ω) Σ_t w_t g_t(ω) dω exactly for the true
+/// light L whose order-n projection `light` is (the SH are orthonormal, and g_t has no
+/// higher bands), so a(ω) = L(ω) [`Integrand::eval`](ω) has the pipeline's value as
+/// its exact integral: the `hybrid` estimator's control variate.
+#[derive(Debug, Clone)]
+pub struct Integrand {
+    /// The pipeline's radiance, not clamped at 0.
+    pub value: f64,
+    /// (w_t, g_t's SH coefficients).
+    terms: Vec<(f64, Vec<f64>)>,
+}
+
+impl Integrand {
+    /// Σ_t w_t g_t(ω) at the unit direction `w` (per steradian, per unit radiance;
+    /// any sign, non-zero below the horizon).
+    pub fn eval(&self, w: DVec3) -> f64 {
+        self.terms.iter().map(|(k, g)| k * sh_value(g, w)).sum()
+    }
+}
+
+/// The pipeline's [`Integrand`] at hit `h` (inputs as [`radiance`]).
+pub fn integrand(
+    t: &Tables,
+    s: &Settings,
+    light: &[f64],
+    brdf: &Phong,
+    scene: &Scene,
+    h: &Hit,
+) -> Result<Integrand, String> {
     let n = s.order;
     let nc = n * n;
     if light.len() != nc {
@@ -338,37 +374,34 @@ pub fn radiance(t: &Tables, s: &Settings, light: &[f64], brdf: &Phong, scene: &S
     let vis = checked_visibility(t, s.exp, &fv)?;
     let mut total = 0.0;
     let mut turned = vec![0.0; nc];
+    let mut kept = Vec::new();
     for (weight, zh, axis, term) in terms(s, brdf, h)? {
-        let value = match s.brdf {
+        let (k, g) = match s.brdf {
             BrdfMode::Log => {
                 rt::zh_to_sh(&zh, axis, &mut turned).map_err(|e| e.to_string())?;
                 let f: Vec<f64> = fv.iter().zip(&turned).map(|(a, b)| a + b).collect();
-                let g = exponentiate(t, s.exp, &f)?;
-                weight * g.iter().zip(light).map(|(a, b)| a * b).sum::<f64>()
+                (weight, exponentiate(t, s.exp, &f)?)
             }
             BrdfMode::Triple => {
-                let v = &vis;
                 let rho = project_term(term, h, n);
                 let gaunt = Gaunt::cached(n).map_err(|e| e.to_string())?;
                 let k = match term {
                     Term::Diffuse => brdf.diffuse,
                     Term::Specular(..) => 1.0,
                 };
-                k * gaunt
-                    .product(v, &rho)
-                    .iter()
-                    .zip(light)
-                    .map(|(a, b)| a * b)
-                    .sum::<f64>()
+                (k, gaunt.product(&vis, &rho))
             }
         };
-        total += value;
+        total += k * g.iter().zip(light).map(|(a, b)| a * b).sum::<f64>();
+        kept.push((k, g));
     }
     if !total.is_finite() {
         return Err(format!("non-finite radiance at {:?}", h.x));
     }
-    // A band-limited product rings below zero in dark places; radiance cannot.
-    Ok(total.max(0.0))
+    Ok(Integrand {
+        value: total,
+        terms: kept,
+    })
 }
 
 /// The exact SH projection (order n) of one BRDF × cosine term at `h`, by a product
