@@ -80,7 +80,7 @@ fn runtime_offgrid_matches_quadrature() {
     assert!(worst64 <= OFFGRID_REL && worst32 <= OFFGRID_REL);
 }
 
-/// What bilinear interpolation of the stored grid costs (documented in the README;
+/// What bilinear interpolation of the stored grid costs (documented in docs/sh.md;
 /// the bound asserts the documented figure stays true).
 #[test]
 fn table_interpolation_error_is_as_documented() {
