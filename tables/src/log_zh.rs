@@ -344,8 +344,9 @@ impl LogZh {
 
     /// Bilinear interpolation (linear in r and in ln ε) of the stored Phong vectors at
     /// (ε, r), r ∈ [1, 128]: z_0..z_{n−1} into `out`. Exact to f32 rounding at the
-    /// nodes; between them the error is up to a few 1e-3 absolute (measured in the
-    /// `lobefit` tests and the repository's docs/sh.md): prefer [`LogZh::lookup`] (closed form).
+    /// nodes; between them the error is up to 6e-4 absolute at integer r and 1.7e-2
+    /// at real r (measured in the `lobefit` tests and the repository's docs/sh.md):
+    /// prefer [`LogZh::lookup`] (closed form).
     pub fn table_lookup(&self, order: usize, eps: f64, r: f64, out: &mut [f64]) -> Result<(), LookupError> {
         let n = sh::check_order(order)?;
         finite("eps", eps)?;
