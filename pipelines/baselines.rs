@@ -481,19 +481,83 @@ mod tests {
     /// The study (run with --ignored; scripts/studies.sh): on each scene of `LF_SCENES`
     /// (default all: fig12, fig12-diffuse, whale, wrecking, fig13) at `LF_WIDTH` px
     /// (default 24; × ¾ rows) against a reference of two runs of `LF_REF_SPP` (2¹⁷)
-    /// spp each (QMC with the control variate under SGs, QMC on fig13), the analytic
-    /// method (ISG, SH exponentiation, Meunier's lobes, each with its default
-    /// settings) and the estimators' curves at 4, 16, 64, … spp until past the
-    /// analytic error (plain to `LF_PLAIN_MAX`, 2¹⁶; QMC to 2¹⁴); each time the
-    /// median of `LF_RUNS` (5) runs after a warm-up on rayon's pool.
+    /// spp each (QMC with the control variate under SGs, QMC on fig13), each
+    /// pipeline's configurations (ISG models × patches, SH orders, Meunier depths,
+    /// light models and t_i) and the estimators' curves at 4, 16, 64, … spp until past
+    /// a quarter of the default configuration's error (plain to `LF_PLAIN_MAX`, 2¹⁶;
+    /// the others to `LF_QMC_MAX`, 2¹⁴); each time the median of `LF_RUNS` (5) runs
+    /// after a warm-up on rayon's pool; summaries and Pareto charts into `LF_OUT`
+    /// (target/baselines).
     #[test]
     #[ignore]
     fn study_baselines() {
-        let width: usize = env_or("LF_WIDTH", 24);
-        let runs: usize = env_or("LF_RUNS", 5);
-        let scenes: String = env_or("LF_SCENES", "fig12,fig12-diffuse,whale,wrecking,fig13".to_string());
-        let ref_spp: usize = env_or("LF_REF_SPP", 1 << 17);
-        let plain_max: usize = env_or("LF_PLAIN_MAX", 1 << 16);
+        study(&Study {
+            width: env_or("LF_WIDTH", 24),
+            runs: env_or("LF_RUNS", 5),
+            scenes: env_or("LF_SCENES", "fig12,fig12-diffuse,whale,wrecking,fig13".to_string()),
+            ref_spp: env_or("LF_REF_SPP", 1 << 17),
+            plain_max: env_or("LF_PLAIN_MAX", 1 << 16),
+            qmc_max: env_or("LF_QMC_MAX", 1 << 14),
+            out: std::path::PathBuf::from(env_or("LF_OUT", "target/baselines".to_string())),
+        });
+    }
+
+    /// The study's code at a tiny size (every scene, 8 px wide, a 256-sample
+    /// reference, curves to 16 spp): each scene's summary reads back with its
+    /// methods, estimators (the hybrid on the environment scenes) and finite errors,
+    /// and its chart is a PNG.
+    #[test]
+    fn study_writes_summaries_and_charts() {
+        let dir = tempfile::tempdir().unwrap();
+        study(&Study {
+            width: 8,
+            runs: 1,
+            scenes: "fig12,whale,fig13".into(),
+            ref_spp: 256,
+            plain_max: 16,
+            qmc_max: 16,
+            out: dir.path().to_path_buf(),
+        });
+        for (tag, estimators) in [("isg-fig12", 4), ("shexp-whale", 4), ("meunier-fig13", 2)] {
+            let s: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(dir.path().join(format!("{tag}-summary.json"))).unwrap())
+                    .unwrap();
+            let est = s["estimators"].as_array().unwrap();
+            assert_eq!(est.len(), estimators, "{tag}");
+            assert!(s["methods"].as_array().unwrap().len() >= 4, "{tag}");
+            assert!(
+                est.iter()
+                    .flat_map(|e| e["curve"].as_array().unwrap())
+                    .all(|p| p["rel_rmse_noise_free"].as_f64().unwrap().is_finite()),
+                "{tag}"
+            );
+            let png = std::fs::read(dir.path().join(format!("{tag}-pareto.png"))).unwrap();
+            assert!(png.starts_with(b"\x89PNG"), "{tag}");
+        }
+    }
+
+    /// The study's knobs.
+    struct Study {
+        width: usize,
+        runs: usize,
+        scenes: String,
+        ref_spp: usize,
+        plain_max: usize,
+        qmc_max: usize,
+        out: std::path::PathBuf,
+    }
+
+    fn study(cfg: &Study) {
+        let Study {
+            width,
+            runs,
+            ref_spp,
+            plain_max,
+            qmc_max,
+            ..
+        } = *cfg;
+        let scenes = &cfg.scenes;
+        let out = cfg.out.clone();
         // 4, 16, 64, … until past `target` (from 256 on) or at `max`.
         let measure = |b: &Bench, target: f64, max: usize, est: Estimator| {
             let mut c: Vec<Point> = Vec::new();
@@ -505,7 +569,6 @@ mod tests {
             }
             c
         };
-        let out = std::path::PathBuf::from(env_or("LF_OUT", "target/baselines".to_string()));
         // Curves run past a quarter of the default configuration's error (the
         // hybrid's and the strongest estimators' regime).
         for name in scenes.split(',') {
@@ -580,7 +643,7 @@ mod tests {
                 let target = methods[0].rel_rmse / 4.0;
                 let curves = [
                     ("plain", measure(&b, target, plain_max, &est(Sampling::Plain))),
-                    ("qmc", measure(&b, target, 1 << 14, &est(Sampling::Qmc))),
+                    ("qmc", measure(&b, target, qmc_max, &est(Sampling::Qmc))),
                 ];
                 report(&format!("meunier-{name}"), &out, &b, &methods, &curves);
             } else {
@@ -668,16 +731,16 @@ mod tests {
                         "plain",
                         measure(&b, target, plain_max, &environment(&scene, Kind::Plain)),
                     ),
-                    ("qmc", measure(&b, target, 1 << 14, &environment(&scene, Kind::Qmc))),
+                    ("qmc", measure(&b, target, qmc_max, &environment(&scene, Kind::Qmc))),
                 ];
                 if scene.sh_environment.is_none() {
                     curves.push((
                         "qmc-cv",
-                        measure(&b, target, 1 << 14, &environment(&scene, Kind::QmcCv)),
+                        measure(&b, target, qmc_max, &environment(&scene, Kind::QmcCv)),
                     ));
                 }
                 let hybrid = if isg { Kind::HybridIsg } else { Kind::HybridSh };
-                curves.push(("hybrid", measure(&b, target, 1 << 14, &environment(&scene, hybrid))));
+                curves.push(("hybrid", measure(&b, target, qmc_max, &environment(&scene, hybrid))));
                 let pipeline = if isg { "isg" } else { "shexp" };
                 report(&format!("{pipeline}-{name}"), &out, &b, &methods, &curves);
             }
