@@ -729,6 +729,10 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
                 for f in s.files {
                     let _ = writeln!(text, "{}", f.display());
                 }
+                // The one-line summary last: the line a person reads first.
+                for l in s.headline {
+                    let _ = writeln!(text, "{l}");
+                }
             }
             emit(&text)?;
         }

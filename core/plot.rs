@@ -50,6 +50,35 @@ pub struct Heatmap {
     pub colour_label: String,
     /// Colour by log10 of the value (non-positive values are drawn grey).
     pub log_colour: bool,
+    /// Which colours over which range ([`ColourScale::Own`]: viridis over the panel's
+    /// own minimum to maximum).
+    pub scale: ColourScale,
+}
+
+/// The colour map of a [`Heatmap`] and the range it spans. Ranges are in the plotted
+/// coordinate: log10 of the value when `log_colour` is set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ColourScale {
+    /// Viridis from the panel's smallest to its largest finite value.
+    Own,
+    /// Viridis over `[lo, hi]`, values beyond drawn in the end colours: panels shown
+    /// side by side for comparison take one range, so a colour means one value in
+    /// each. `hi <= lo` or a non-finite end falls back to [`ColourScale::Own`].
+    Fixed {
+        /// Value drawn in the dark end.
+        lo: f64,
+        /// Value drawn in the bright end.
+        hi: f64,
+    },
+    /// A diverging blue–white–red map ([`diverging_colour`]) over
+    /// `[−limit, +limit]`: 0 white, negative values blue, positive red, values beyond
+    /// ±limit drawn in the end colours (for signed errors; the caller states the limit
+    /// in the title or colour label). A `limit` that is not finite and > 0 (an
+    /// all-zero map) is taken as 1.
+    Diverging {
+        /// The symmetric limit (> 0).
+        limit: f64,
+    },
 }
 
 /// One polyline of a [`LineChart`].
@@ -135,7 +164,60 @@ pub fn colour(t: f64) -> RGBColor {
     RGBColor(lerp(a.0, b.0), lerp(a.1, b.1), lerp(a.2, b.2))
 }
 
+/// Diverging colour map for signed values, `t` in [−1, 1]: −1 dark blue, 0 pure white,
+/// +1 dark red, linear in RGB between anchors; clipped to [−1, 1], NaN drawn white.
+///
+/// The anchors are ColorBrewer's 11-class RdBu (Brewer 2002; colourblind-safe, blue for
+/// negative), with its centre (247, 247, 247) made pure white so that a zero error reads
+/// as "no colour".
+pub fn diverging_colour(t: f64) -> RGBColor {
+    const ANCHORS: [(u8, u8, u8); 11] = [
+        (5, 48, 97),
+        (33, 102, 172),
+        (67, 147, 195),
+        (146, 197, 222),
+        (209, 229, 240),
+        (255, 255, 255),
+        (253, 219, 199),
+        (244, 165, 130),
+        (214, 96, 77),
+        (178, 24, 43),
+        (103, 0, 31),
+    ];
+    let t = if t.is_finite() { t.clamp(-1.0, 1.0) } else { 0.0 };
+    let x = (t + 1.0) / 2.0 * (ANCHORS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(ANCHORS.len() - 2);
+    let f = x - i as f64;
+    let lerp = |a: u8, b: u8| (a as f64 + f * (b as f64 - a as f64)).round() as u8;
+    let (a, b) = (ANCHORS[i], ANCHORS[i + 1]);
+    RGBColor(lerp(a.0, b.0), lerp(a.1, b.1), lerp(a.2, b.2))
+}
+
 const NO_DATA: RGBColor = RGBColor(190, 190, 190);
+
+/// The smallest and largest finite value over `panels` (log10 of the positive values
+/// for a panel with `log_colour`): a [`ColourScale::Fixed`] range that panels compared
+/// side by side share. `None` when no value is finite.
+pub fn shared_range(panels: &[Heatmap]) -> Option<(f64, f64)> {
+    let (lo, hi) = panels
+        .iter()
+        .flat_map(|p| p.values.iter().map(move |&v| plotted(p.log_colour, v)))
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    lo.is_finite().then_some((lo, hi))
+}
+
+/// The coordinate a value is coloured by: itself, or log10 (NaN for v ≤ 0) on a log
+/// colour scale.
+fn plotted(log_colour: bool, v: f64) -> f64 {
+    if !log_colour {
+        v
+    } else if v > 0.0 {
+        v.log10()
+    } else {
+        f64::NAN
+    }
+}
 
 /// Writes `panels` side by side, `columns` per row, each with its own colour bar.
 pub fn heatmaps(path: &Path, panels: &[Heatmap], columns: usize) -> PlotResult<PathBuf> {
@@ -166,32 +248,28 @@ fn heatmap_panel(
     let e = |x| err(path, x);
     let w = area.dim_in_pixel().0;
     let (main, bar) = area.split_horizontally(w - 110);
-    let transform = |v: f64| {
-        if p.log_colour {
-            if v > 0.0 {
-                v.log10()
-            } else {
-                f64::NAN
-            }
-        } else {
-            v
+    let transform = |v: f64| plotted(p.log_colour, v);
+    let own = || {
+        let (lo, mut hi) = shared_range(std::slice::from_ref(p)).unwrap_or((0.0, 1.0));
+        if hi <= lo {
+            hi = lo + 1.0;
+        }
+        (lo, hi)
+    };
+    let (lo, hi) = match p.scale {
+        ColourScale::Own => own(),
+        ColourScale::Fixed { lo, hi } if lo.is_finite() && hi.is_finite() && hi > lo => (lo, hi),
+        ColourScale::Fixed { .. } => own(),
+        ColourScale::Diverging { limit } => {
+            let l = if limit.is_finite() && limit > 0.0 { limit } else { 1.0 };
+            (-l, l)
         }
     };
-    let shown: Vec<f64> = p
-        .values
-        .iter()
-        .map(|&v| transform(v))
-        .filter(|v| v.is_finite())
-        .collect();
-    let (mut lo, mut hi) = shown
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-    if !lo.is_finite() {
-        (lo, hi) = (0.0, 1.0);
-    }
-    if hi <= lo {
-        hi = lo + 1.0;
-    }
+    // The colour at a plotted value, and at a fraction `u` in [0, 1] of the bar.
+    let at = |u: f64| match p.scale {
+        ColourScale::Diverging { .. } => diverging_colour(2.0 * u - 1.0),
+        _ => colour(u),
+    };
     let t = |v: f64| (v - lo) / (hi - lo);
     let mut chart = ChartBuilder::on(&main)
         .caption(&p.title, (FAMILY, 20))
@@ -215,7 +293,11 @@ fn heatmap_panel(
         .draw_series((0..p.ny).flat_map(|iy| {
             (0..p.nx).map(move |ix| {
                 let v = transform(p.values[iy * p.nx + ix]);
-                let c = if v.is_finite() { colour(t(v)) } else { NO_DATA };
+                let c = if v.is_finite() {
+                    at(t(v).clamp(0.0, 1.0))
+                } else {
+                    NO_DATA
+                };
                 let x0 = p.x_range.0 + ix as f64 * dx;
                 let y0 = p.y_range.0 + iy as f64 * dy;
                 Rectangle::new([(x0, y0), (x0 + dx, y0 + dy)], c.filled())
@@ -247,7 +329,7 @@ fn heatmap_panel(
     cb.draw_series((0..STEPS).map(|k| {
         let a = lo + (hi - lo) * k as f64 / STEPS as f64;
         let b = lo + (hi - lo) * (k + 1) as f64 / STEPS as f64;
-        Rectangle::new([(0.0, a), (1.0, b)], colour((k as f64 + 0.5) / STEPS as f64).filled())
+        Rectangle::new([(0.0, a), (1.0, b)], at((k as f64 + 0.5) / STEPS as f64).filled())
     }))
     .map_err(e)?;
     Ok(())
@@ -395,6 +477,7 @@ mod tests {
             values: (0..32).map(|k| k as f64 - 3.0).collect(),
             colour_label: "v".into(),
             log_colour: true,
+            scale: ColourScale::Own,
         };
         let p = heatmaps(&dir.path().join("h.png"), &[h.clone(), h], 2).unwrap();
         assert!(is_png(&p));
@@ -447,6 +530,7 @@ mod tests {
             values: vec![0.0; 8],
             colour_label: String::new(),
             log_colour: false,
+            scale: ColourScale::Own,
         };
         assert!(heatmaps(&dir.path().join("h.png"), &[h], 1)
             .unwrap_err()
@@ -460,6 +544,62 @@ mod tests {
         assert_eq!(short(1e-6), "1e-6");
         assert_eq!(short(2.5e7), "2.5e7");
         assert_eq!(short(0.0), "0");
+    }
+
+    /// The diverging map against its definition: 0 pure white, +1 the red end and −1
+    /// the blue end of ColorBrewer's RdBu (its published hex #67001f and #053061),
+    /// clipped beyond, and the anchors next to white.
+    #[test]
+    fn diverging_map_is_white_at_zero_and_clipped() {
+        assert_eq!(diverging_colour(0.0), RGBColor(255, 255, 255));
+        assert_eq!(diverging_colour(1.0), RGBColor(0x67, 0x00, 0x1f));
+        assert_eq!(diverging_colour(-1.0), RGBColor(0x05, 0x30, 0x61));
+        assert_eq!(diverging_colour(7.5), diverging_colour(1.0));
+        assert_eq!(diverging_colour(-1e300), diverging_colour(-1.0));
+        assert_eq!(diverging_colour(f64::NAN), RGBColor(255, 255, 255));
+        // The anchors next to white, a tenth of the way out on either side: #fddbc7
+        // (red side) at t = 0.2, #d1e5f0 (blue side) at t = −0.2.
+        assert_eq!(diverging_colour(0.2), RGBColor(0xfd, 0xdb, 0xc7));
+        assert_eq!(diverging_colour(-0.2), RGBColor(0xd1, 0xe5, 0xf0));
+        // Positive is warm (red above blue), negative cool.
+        let (r, b) = (diverging_colour(0.5), diverging_colour(-0.5));
+        assert!(r.0 > r.2 && b.2 > b.0, "{r:?} {b:?}");
+    }
+
+    /// One range over several panels: the extremes of both, NaN cells ignored, log10
+    /// of the positive values on a log panel; no finite value gives none.
+    #[test]
+    fn shared_range_spans_every_panel() {
+        let panel = |values: Vec<f64>, log_colour: bool| Heatmap {
+            title: String::new(),
+            x_label: String::new(),
+            y_label: String::new(),
+            x_range: (0.0, 1.0),
+            y_range: (0.0, 1.0),
+            nx: values.len(),
+            ny: 1,
+            values,
+            colour_label: String::new(),
+            log_colour,
+            scale: ColourScale::Own,
+        };
+        let a = panel(vec![0.5, f64::NAN, 2.0], false);
+        let b = panel(vec![-1.0, 1.5], false);
+        assert_eq!(shared_range(&[a.clone(), b.clone()]), Some((-1.0, 2.0)));
+        let c = panel(vec![0.01, 100.0, -3.0], true);
+        assert_eq!(shared_range(&[c]), Some((-2.0, 2.0)));
+        assert_eq!(shared_range(&[panel(vec![f64::NAN], false)]), None);
+        // Fixed and diverging panels draw (including a degenerate limit).
+        let dir = tempfile::tempdir().unwrap();
+        let fixed = Heatmap {
+            scale: ColourScale::Fixed { lo: -1.0, hi: 2.0 },
+            ..a
+        };
+        let div = Heatmap {
+            scale: ColourScale::Diverging { limit: 0.0 },
+            ..b
+        };
+        assert!(is_png(&heatmaps(&dir.path().join("s.png"), &[fixed, div], 2).unwrap()));
     }
 
     #[test]

@@ -742,7 +742,7 @@ pub fn summary(v: &[f64]) -> (f64, f64, f64) {
 /// and of the table against the exact order-3 SH irradiance, over (log10 R/d, τ), for
 /// two receiver normals. Prints the summary statistics it draws.
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use lobefit_core::plot::{heatmaps, Heatmap};
+    use lobefit_core::plot::{heatmaps, ColourScale, Heatmap};
     const NX: usize = 48;
     const NY: usize = 40;
     let mut panels = Vec::new();
@@ -768,6 +768,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
                 values: v,
                 colour_label: "relative error".into(),
                 log_colour: true,
+                scale: ColourScale::Own,
             });
         }
     }

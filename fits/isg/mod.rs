@@ -844,7 +844,7 @@ pub fn model_errors(gamma: f64) -> Result<[f64; 3], String> {
 /// γ = 100 and 1000 for the published model, with the refit and best differences
 /// beside it, and max |f − Ŝ| against γ for the three models.
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use lobefit_core::plot::{heatmaps, line_chart, Heatmap, LineChart, Series};
+    use lobefit_core::plot::{heatmaps, line_chart, ColourScale, Heatmap, LineChart, Series};
     const N: usize = 121;
     let models = runtime_models()?;
     let mut files = Vec::new();
@@ -879,6 +879,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
             values,
             colour_label: colour_label.into(),
             log_colour: log,
+            scale: ColourScale::Own,
         };
         let mut panels = vec![panel(format!("Ŝ, γ = {gamma}"), exact.clone(), "Ŝ", false)];
         let paper = eval(&*models[0].1);

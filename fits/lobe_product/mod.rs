@@ -655,7 +655,7 @@ fn paper_grid_errors(lp: &LobeProduct, stride: usize) -> Result<Vec<(f64, f64)>,
 /// Writes the error maps (the analogues of the paper's Figures 3 and 6) for the
 /// committed tables into `dir`.
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use lobefit_core::plot::{heatmaps, Heatmap};
+    use lobefit_core::plot::{heatmaps, ColourScale, Heatmap};
     let energy = LobeProduct::embedded().map_err(|e| e.to_string())?;
     let l2 = LobeProduct::embedded_l2().map_err(|e| e.to_string())?;
     const N: usize = 64;
@@ -694,6 +694,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
                 values: grid(&|i, j| rel(t, e_of(i), e_of(j), alpha)),
                 colour_label: "relative integral error".into(),
                 log_colour: true,
+                scale: ColourScale::Own,
             });
         }
     }
@@ -716,6 +717,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
                 }),
                 colour_label: "relative integral error".into(),
                 log_colour: true,
+                scale: ColourScale::Own,
             });
         }
     }
@@ -737,6 +739,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
             }),
             colour_label: "e_r / max(e1, e2)".into(),
             log_colour: true,
+            scale: ColourScale::Own,
         })
         .collect();
     out.push(heatmaps(&dir.join("lobe-product-exponent.png"), &panels, 2)?);

@@ -106,6 +106,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             let s = render_scene(&sweep_scene(count)?, opts, dir, progress)?;
             sum.lines.extend(s.lines);
             sum.files.extend(s.files);
+            sum.headline.extend(s.headline);
             sum.rel_rmse = sum.rel_rmse.max(s.rel_rmse);
             sum.ref_rel_se = sum.ref_rel_se.max(s.ref_rel_se);
         }
@@ -329,6 +330,23 @@ fn render_scene(
     sum.files.extend(files);
     sum.rel_rmse = rmse_best;
     sum.ref_rel_se = ref_rel_se;
+    sum.headline.push(
+        crate::Headline {
+            render: format!("isg {tag}"),
+            scope: format!("{w}×{h}"),
+            method: "ISG (best model)".into(),
+            error: format!(
+                "relative RMSE {rmse_best:.4} against a {}-sample reference on {} pixels",
+                opts.spp * PRECISE_FACTOR,
+                picks.len()
+            ),
+            cost_us: 1e6 * eq.pipeline_per_pixel,
+            unit: "px".into(),
+            baseline: "plain Monte Carlo at that error".into(),
+            baseline_us: 1e6 * eq.reference_per_pixel,
+        }
+        .line(),
+    );
     sum.write(dir, &format!("isg-{tag}"))?;
     Ok(sum)
 }

@@ -660,6 +660,22 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     ));
     sum.rel_rmse = rmse_default;
     sum.ref_rel_se = ref_rel_se;
+    sum.headline.push(
+        crate::Headline {
+            render: format!("meunier {tag}"),
+            scope: format!("{w}×{h}"),
+            method: format!("lobes (light {}, depth 5, fitted weights)", default.light.name()),
+            error: format!(
+                "relative RMSE {rmse_default:.4} against the {}-sample reference on {pixels} pixels",
+                opts.spp
+            ),
+            cost_us: 1e6 * eq.pipeline_per_pixel,
+            unit: "px".into(),
+            baseline: "plain Monte Carlo at that error".into(),
+            baseline_us: 1e6 * eq.reference_per_pixel,
+        }
+        .line(),
+    );
     sum.write(dir, &format!("meunier-{tag}"))?;
     Ok(sum)
 }

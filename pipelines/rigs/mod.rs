@@ -468,7 +468,7 @@ const FIGURE_RIGS: [(usize, &str); 6] = [
 /// `lobefit plot rigs`: irradiance on the car's +y side, exact vs rigs
 /// (least squares), and the error maps; prints the comparison table (Markdown).
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use lobefit_core::plot::{heatmaps, Heatmap};
+    use lobefit_core::plot::{heatmaps, ColourScale, Heatmap};
     for tol in DIRECT_TOLERANCES {
         println!("{}", markdown(&compare(tol)?));
     }
@@ -517,6 +517,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         values,
         colour_label: label.into(),
         log_colour: log,
+        scale: ColourScale::Own,
     };
     let mut irr = vec![panel(
         "exact irradiance, +y side (all lights)".into(),

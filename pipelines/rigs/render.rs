@@ -17,7 +17,9 @@ use rayon::prelude::*;
 
 use super::{car_box, exact_wrapped, field, rig_configs, scene_lights, shade, surface_points, Receiver};
 use super::{CAR_HALF, FIT_POINTS, RIDGE, TEST_POINTS};
-use crate::image::{compare, mean_over, panel, write_pfm};
+use crate::image::{
+    compare, error_panel, exposure_for, mean_over, panel, shared_scale, write_beauty, write_float_image,
+};
 use crate::scene::Camera;
 use crate::timing::timed;
 use crate::{Pipeline, RenderOptions, Summary};
@@ -247,6 +249,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         direct.iter().map(|&i| scene_lights()[i].0).collect::<Vec<_>>().join("; ")
     ));
     let mut first = f64::NAN;
+    let mut split_rmse = f64::NAN;
     for a in [0.0, WRAP_A] {
         let tag = if a == 0.0 {
             "fig1".to_string()
@@ -296,6 +299,10 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             if first.is_nan() {
                 first = vs_exact.rel_rmse;
             }
+            if a == 0.0 {
+                // The last panel (the split) is the headline's method.
+                split_rmse = vs_exact.rel_rmse;
+            }
             images.push((label.clone(), img));
         }
         let stem = if a == 0.0 {
@@ -310,18 +317,19 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             .collect();
         sum.files.push(lobefit_core::plot::heatmaps(
             &dir.join(format!("{stem}-images.png")),
-            &shown,
+            &shared_scale(shown),
             4,
         )?);
+        // Each error map on its own diverging scale (± its p99, in its label): the rigs'
+        // errors differ tenfold, and one scale would leave the small ones white.
         let errors: Vec<_> = images[1..]
             .iter()
             .map(|(label, v)| {
-                panel(
+                error_panel(
                     format!("{tag}: ({label} − exact) / mean exact"),
                     w,
                     h,
                     &crate::image::error_map(v, &exact, &lit, mean),
-                    "relative error",
                 )
             })
             .collect();
@@ -330,13 +338,41 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             &errors,
             4,
         )?);
+        // The beauty image: the split (the harness's choice, the last panel) | exact.
+        if let Some((_, split_img)) = images.last() {
+            sum.files.push(write_beauty(
+                &dir.join(format!("{stem}-beauty.png")),
+                (w, h),
+                &[split_img, &exact],
+                &lit,
+                exposure_for(mean),
+            )?);
+        }
         for (label, v) in &images {
             let name = slug(label);
             sum.files
-                .push(write_pfm(&dir.join(format!("{stem}-{name}.pfm")), w, h, v)?);
+                .extend(write_float_image(dir, &format!("{stem}-{name}"), w, h, v)?);
         }
     }
     sum.rel_rmse = first;
+    // Per pixel with the fit shared over the image's pixels: the cost of shading this
+    // view once (the fit is paid per frame, as in the animated pass).
+    let per_px = |(_, _, t_fit, t): &(String, Vec<[f64; COEFFS]>, f64, f64)| 1e6 * (t_fit + t) / pixels as f64;
+    if let (Some(sh), Some(split)) = (panels.first(), panels.last()) {
+        sum.headline.push(
+            crate::Headline {
+                render: "rigs fig1".into(),
+                scope: format!("{w}×{h}"),
+                method: format!("{} (its {:.2} ms fit shared over the pixels)", split.0, 1e3 * split.2),
+                error: format!("relative RMSE {split_rmse:.4} against exact irradiance on {pixels} pixels"),
+                cost_us: per_px(split),
+                unit: "px".into(),
+                baseline: "every light per point (per-point SH)".into(),
+                baseline_us: per_px(sh),
+            }
+            .line(),
+        );
+    }
     sum.write(dir, "rigs-fig1")?;
     Ok(sum)
 }
@@ -502,6 +538,30 @@ pub fn drive(dir: &Path, frames: usize, progress: &(dyn Fn() + Sync)) -> Result<
         s.sort_by(f64::total_cmp);
         s[s.len() / 2]
     });
+    // The headline: the split (the last method) against every light per point (the
+    // first), per point with the fit shared over the frame's points, as printed above.
+    if let (Some(sh), Some(split)) = (methods.first(), methods.last()) {
+        let per_point = |m: &(String, Vec<f64>, f64, f64)| 1e6 * (m.3 + m.2) / points;
+        let mut errs = split.1.clone();
+        errs.sort_by(f64::total_cmp);
+        sum.headline.push(
+            crate::Headline {
+                render: "rigs drive".into(),
+                scope: format!("{frames} frames × {TEST_POINTS} points"),
+                method: split.0.clone(),
+                error: format!(
+                    "relative RMSE against exact irradiance {:.4} (median over the frames; max {:.4})",
+                    errs[errs.len() / 2],
+                    errs[errs.len() - 1]
+                ),
+                cost_us: per_point(split),
+                unit: "point".into(),
+                baseline: "every light per point (SH)".into(),
+                baseline_us: per_point(sh),
+            }
+            .line(),
+        );
+    }
     sum.write(dir, "rigs-drive")?;
     Ok(sum)
 }

@@ -394,10 +394,32 @@ fn render_scene(
         mean_ref,
     )?;
     sum.files.extend(files);
-    let ideal_pfm = dir.join(format!("shexp-{tag}-sh-ideal.pfm"));
-    sum.files.push(crate::image::write_pfm(&ideal_pfm, w, h, &ideal_img)?);
+    sum.files.extend(crate::image::write_float_image(
+        dir,
+        &format!("shexp-{tag}-sh-ideal"),
+        w,
+        h,
+        &ideal_img,
+    )?);
     sum.rel_rmse = rmse_pipe;
     sum.ref_rel_se = ref_rel_se;
+    sum.headline.push(
+        crate::Headline {
+            render: format!("shexp {tag}"),
+            scope: format!("{w}×{h}"),
+            method: format!("SH exponentiation (order {})", default.order),
+            error: format!(
+                "relative RMSE {rmse_pipe:.4} against a {}-sample reference on {} pixels",
+                opts.spp * PRECISE_FACTOR,
+                picks.len()
+            ),
+            cost_us: 1e6 * eq.pipeline_per_pixel,
+            unit: "px".into(),
+            baseline: "plain Monte Carlo at that error".into(),
+            baseline_us: 1e6 * eq.reference_per_pixel,
+        }
+        .line(),
+    );
     sum.write(dir, &format!("shexp-{tag}"))?;
     Ok(sum)
 }

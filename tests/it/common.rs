@@ -44,3 +44,38 @@ pub fn run_text(args: &[&str], stdin: &str) -> (Option<i32>, String, String) {
     let o = run(args, stdin);
     (o.status.code(), text(&o.stdout), text(&o.stderr))
 }
+
+/// Asserts that `path` is a render's beauty image: a PNG (signature, then the IHDR
+/// chunk read by hand: big-endian width and height, bit depth 8, colour type 2 = RGB)
+/// of `width` × `height` pixels.
+pub fn assert_beauty_png(path: &std::path::Path, width: u32, height: u32) {
+    let b = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert!(
+        b.starts_with(b"\x89PNG\r\n\x1a\n") && &b[12..16] == b"IHDR",
+        "{}",
+        path.display()
+    );
+    let be = |o: usize| u32::from_be_bytes(b[o..o + 4].try_into().unwrap());
+    assert_eq!(
+        (be(16), be(20), b[24], b[25]),
+        (width, height, 8, 2),
+        "{}",
+        path.display()
+    );
+}
+
+/// Asserts that `path` is an OpenEXR file (its magic number 0x762f3101, little-endian).
+pub fn assert_exr(path: &std::path::Path) {
+    let b = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert!(b.starts_with(&[0x76, 0x2f, 0x31, 0x01]), "{}", path.display());
+}
+
+/// Asserts that the last line of a render's stdout is its summary line for `render`
+/// (`summary: isg fig12 …`), with a relative RMSE and a time ratio.
+pub fn assert_summary_last(stdout: &str, render: &str) {
+    let last = stdout.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with(&format!("summary: {render} ")) && last.contains("relative RMSE") && last.contains("time)"),
+        "{last}"
+    );
+}

@@ -38,14 +38,19 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
             .map(str::to_string)
             .collect()
     };
-    assert_eq!(keep(&render(a.path(), "1")), keep(&render(b.path(), "2")));
+    let one = render(a.path(), "1");
+    assert_eq!(keep(&one), keep(&render(b.path(), "2")));
+    common::assert_summary_last(&one, "isg fig12 16×12");
     for fig in ["images", "error"] {
         let bytes = std::fs::read(a.path().join(format!("isg-fig12-{fig}.png"))).unwrap();
         assert_eq!(&bytes[..4], b"\x89PNG");
     }
+    // 2 × 16 px wide, upscaled ×16 to ≥ 512, and the 4 px separator.
+    common::assert_beauty_png(&a.path().join("isg-fig12-beauty.png"), 2 * 16 * 16 + 4, 12 * 16);
     for img in ["isg", "reference", "error"] {
         let bytes = std::fs::read(a.path().join(format!("isg-fig12-{img}.pfm"))).unwrap();
         assert!(bytes.starts_with(b"Pf\n16 12\n-1.0\n") && bytes.len() == 14 + 16 * 12 * 4);
+        common::assert_exr(&a.path().join(format!("isg-fig12-{img}.exr")));
     }
     let summary = std::fs::read_to_string(a.path().join("isg-fig12-summary.txt")).unwrap();
     for what in [

@@ -32,7 +32,7 @@ fn run(dir: &std::path::Path, threads: &str) -> String {
 fn results(stdout: &str) -> Vec<String> {
     stdout
         .lines()
-        .filter(|l| !l.contains("µs") && !l.ends_with(".png") && !l.ends_with(".txt") && !l.ends_with(".pfm"))
+        .filter(|l| !l.contains("µs") && ![".png", ".txt", ".pfm", ".exr"].iter().any(|e| l.ends_with(e)))
         .map(str::to_string)
         .collect()
 }
@@ -44,7 +44,16 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
     let one = run(a.path(), "1");
     let two = run(b.path(), "2");
     assert_eq!(results(&one), results(&two));
+    // One summary line per scene; the output ends with the last scene's.
+    assert_eq!(one.lines().filter(|l| l.starts_with("summary: meunier ")).count(), 2);
+    common::assert_summary_last(&one, "meunier glossy 12×9");
     for scene in ["fig13", "glossy"] {
+        // 2 × 12 px wide, upscaled ×22 (⌈512 / 24⌉), and the 4 px separator.
+        common::assert_beauty_png(
+            &a.path().join(format!("meunier-{scene}-beauty.png")),
+            2 * 12 * 22 + 4,
+            9 * 22,
+        );
         for fig in ["images", "error", "figure10", "profile"] {
             let p = a.path().join(format!("meunier-{scene}-{fig}.png"));
             let bytes = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
@@ -54,6 +63,7 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
             let bytes = std::fs::read(a.path().join(format!("meunier-{scene}-{img}.pfm"))).unwrap();
             // 12 × 9 pixels of f32 after the header.
             assert!(bytes.starts_with(b"Pf\n12 9\n-1.0\n") && bytes.len() == 13 + 12 * 9 * 4);
+            common::assert_exr(&a.path().join(format!("meunier-{scene}-{img}.exr")));
         }
         let summary = std::fs::read_to_string(a.path().join(format!("meunier-{scene}-summary.txt"))).unwrap();
         assert!(summary.contains("standard error"), "{summary}");
@@ -66,7 +76,7 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
                 .split("relative RMSE ")
                 .nth(1)
                 .unwrap()
-                .split(',')
+                .split([',', ' '])
                 .next()
                 .unwrap()
                 .parse()

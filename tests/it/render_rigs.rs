@@ -6,7 +6,7 @@ use crate::common;
 #[test]
 fn tiny_fig1_writes_every_panel() {
     let dir = tempfile::tempdir().unwrap();
-    let (code, _, err) = common::run_text(
+    let (code, stdout, err) = common::run_text(
         &[
             "render",
             "rigs",
@@ -20,11 +20,13 @@ fn tiny_fig1_writes_every_panel() {
         "",
     );
     assert_eq!(code, Some(0), "{err}");
+    common::assert_summary_last(&stdout, "rigs fig1 16×12");
     for stem in ["rigs-fig1", "rigs-fig1-wrap"] {
         for fig in ["images", "error"] {
             let bytes = std::fs::read(dir.path().join(format!("{stem}-{fig}.png"))).unwrap();
             assert_eq!(&bytes[..4], b"\x89PNG");
         }
+        common::assert_beauty_png(&dir.path().join(format!("{stem}-beauty.png")), 2 * 16 * 16 + 4, 12 * 16);
         for img in [
             "exact",
             "per-point-sh",
@@ -35,6 +37,7 @@ fn tiny_fig1_writes_every_panel() {
         ] {
             let bytes = std::fs::read(dir.path().join(format!("{stem}-{img}.pfm"))).unwrap();
             assert!(bytes.starts_with(b"Pf\n16 12\n-1.0\n"), "{stem}-{img}");
+            common::assert_exr(&dir.path().join(format!("{stem}-{img}.exr")));
         }
     }
     let summary = std::fs::read_to_string(dir.path().join("rigs-fig1-summary.txt")).unwrap();
@@ -95,6 +98,13 @@ fn drive_at_its_two_ends() {
         s.lines.iter().any(|l| l.contains("mixed + error-driven split")),
         "{:?}",
         s.lines
+    );
+    // The headline: the split against every light per point, over the two frames.
+    assert_eq!(s.headline.len(), 1, "{:?}", s.headline);
+    assert!(
+        s.headline[0].starts_with("summary: rigs drive 2 frames × 800 points — mixed + error-driven split: "),
+        "{}",
+        s.headline[0]
     );
     for f in ["rigs-drive-error.png", "rigs-drive-cost.png"] {
         assert_eq!(&std::fs::read(dir.path().join(f)).unwrap()[..4], b"\x89PNG", "{f}");
