@@ -82,6 +82,13 @@ impl Summary {
     }
 }
 
+/// The baseline the renders time themselves against: plain Monte Carlo with its
+/// samples for the method's error extrapolated as σ²/ε² from one run. A weak baseline,
+/// and said so: scrambled Sobol and control variates, measured at equal error, cut the
+/// ratios to 0.2–5× (docs/pipelines.md, "Stronger baselines").
+pub const BASELINE_PLAIN: &str =
+    "plain Monte Carlo at that error (extrapolated σ²/ε²; a weak baseline: docs/pipelines.md, Stronger baselines)";
+
 /// The one-line summary of a render, assembled from numbers the render already
 /// printed: what it rendered, the method's error, its cost next to a baseline's and the
 /// ratio. [`Headline::line`]:

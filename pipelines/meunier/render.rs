@@ -24,6 +24,7 @@ use crate::estimate::{estimate, estimate_with, Estimate, Sampling};
 use crate::image::{compare, masked, mean_over, panel, write_comparison};
 use crate::scene::{brdf_value, visible, Hit, Scene};
 use crate::timing::{timed, EqualError};
+use crate::BASELINE_PLAIN;
 use crate::{RenderOptions, Summary};
 use lobefit_core::plot::{heatmaps, line_chart, LineChart, Series};
 
@@ -388,7 +389,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         let st = compare(&img, &reference_img, &lit);
         let eq = EqualError::from_estimates(t, t_ref, &refs, &lit, opts.spp, st.rel_rmse * mean_ref);
         sum.lines.push(format!(
-            "{tag}: light {}: shading time per pixel {:.2} µs; the reference reaches its RMSE with {:.1} samples → {:.2} µs; ratio reference/lobes {:.2} (one run, same process)",
+            "{tag}: light {}: shading time per pixel {:.2} µs; the reference reaches its RMSE with {:.1} samples → {:.2} µs; ratio reference/lobes {:.2} (one run, same process; plain Monte Carlo extrapolated σ²/ε², a weak baseline: docs/pipelines.md, Stronger baselines)",
             light_model.name(),
             1e6 * eq.pipeline_per_pixel,
             eq.samples,
@@ -420,7 +421,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     }
     let eq = EqualError::from_estimates(t_lobe, t_ref, &refs, &lit, opts.spp, rmse_default * mean_ref);
     sum.lines.push(format!(
-        "{tag}: shading time per pixel (default light {}): lobes {:.2} µs; reference {:.3} µs per sample, {:.1} samples for the lobes' RMSE → {:.2} µs; ratio reference/lobes {:.2} (one run, same process)",
+        "{tag}: shading time per pixel (default light {}): lobes {:.2} µs; reference {:.3} µs per sample, {:.1} samples for the lobes' RMSE → {:.2} µs; ratio reference/lobes {:.2} (one run, same process; plain Monte Carlo extrapolated σ²/ε², a weak baseline: docs/pipelines.md, Stronger baselines)",
         default.light.name(),
         1e6 * eq.pipeline_per_pixel,
         1e6 * eq.reference_per_sample,
@@ -671,7 +672,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             ),
             cost_us: 1e6 * eq.pipeline_per_pixel,
             unit: "px".into(),
-            baseline: "plain Monte Carlo at that error".into(),
+            baseline: BASELINE_PLAIN.into(),
             baseline_us: 1e6 * eq.reference_per_pixel,
         }
         .line(),

@@ -21,6 +21,7 @@ use crate::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_com
 use crate::scene::{Hit, Scene};
 use crate::sky::Phong;
 use crate::timing::{timed, EqualError};
+use crate::BASELINE_PLAIN;
 use crate::{RenderOptions, Summary};
 
 /// The breakdown subset's reference takes this many times the image's samples.
@@ -371,7 +372,7 @@ fn render_scene(
 
     let eq = EqualError::from_estimates(t_pipe, t_ref, &refs, &lit, opts.spp, rmse_pipe * mean_ref);
     sum.lines.push(format!(
-        "{tag}: time per pixel: pipeline {:.2} µs; reference {:.3} µs per sample, {:.0} samples for the pipeline's RMSE against the precise reference → {:.0} µs; ratio reference/pipeline {:.1} (one run, same process, the same BVH)",
+        "{tag}: time per pixel: pipeline {:.2} µs; reference {:.3} µs per sample, {:.0} samples for the pipeline's RMSE against the precise reference → {:.0} µs; ratio reference/pipeline {:.1} (one run, same process, the same BVH; plain Monte Carlo extrapolated σ²/ε², a weak baseline: docs/pipelines.md, Stronger baselines)",
         1e6 * eq.pipeline_per_pixel,
         1e6 * eq.reference_per_sample,
         eq.samples,
@@ -415,7 +416,7 @@ fn render_scene(
             ),
             cost_us: 1e6 * eq.pipeline_per_pixel,
             unit: "px".into(),
-            baseline: "plain Monte Carlo at that error".into(),
+            baseline: BASELINE_PLAIN.into(),
             baseline_us: 1e6 * eq.reference_per_pixel,
         }
         .line(),
