@@ -479,7 +479,8 @@ mod tests {
     }
 
     /// The study (run with --ignored; scripts/studies.sh): on each scene of `LF_SCENES`
-    /// (default all: fig12, fig12-diffuse, whale, wrecking, fig13) at `LF_WIDTH` px
+    /// (default all: fig12, fig12-diffuse, whale, wrecking, fig13; also Meunier's
+    /// blocker-scaling scenes `cluster-N`, `torus-N`) at `LF_WIDTH` px
     /// (default 24; × ¾ rows) against a reference of two runs of `LF_REF_SPP` (2¹⁷)
     /// spp each (QMC with the control variate under SGs, QMC on fig13), each
     /// pipeline's configurations (ISG models × patches, SH orders, Meunier depths,
@@ -573,8 +574,14 @@ mod tests {
         // hybrid's and the strongest estimators' regime).
         for name in scenes.split(',') {
             let t0 = Instant::now();
-            if name == "fig13" {
-                let scene = crate::meunier::render::scene(name).unwrap();
+            // Meunier: fig13, or a blocker-scaling scene (`cluster-N`, `torus-N`).
+            let scaling = |kind: &str| name.strip_prefix(kind).and_then(|n| n.parse::<usize>().ok());
+            if name == "fig13" || scaling("cluster-").is_some() || scaling("torus-").is_some() {
+                let scene = match (scaling("cluster-"), scaling("torus-")) {
+                    (Some(n), _) => crate::meunier::scaling::cluster(n).unwrap(),
+                    (_, Some(n)) => crate::meunier::scaling::torus(n).unwrap(),
+                    _ => crate::meunier::render::scene(name).unwrap(),
+                };
                 let light = scene.lights[0];
                 let m = lobefit_tables::Meunier {
                     products: lobefit_tables::LobeProduct::embedded().unwrap(),
@@ -627,7 +634,9 @@ mod tests {
                                 h.wo,
                                 scene.brdf(h),
                                 &[light],
-                                &scene.blockers(h),
+                                // The blockers culled by the light's cone through the
+                                // BVH: the same image as every sphere, faster.
+                                &crate::meunier::scaling::culled(&scene, &light, h),
                                 settings,
                             )
                             .map_err(|e| e.to_string())
