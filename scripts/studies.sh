@@ -26,4 +26,6 @@ run $bin plot rigs --out "$out/rigs"
 base="$(pwd)/docs/figures/baselines"
 LF_OUT="$base" LF_SCENES=fig12,fig12-diffuse,whale,fig13 run cargo test -q -p lobefit-pipelines --lib study_baselines -- --ignored --nocapture
 LF_OUT="$base" LF_WIDTH=16 LF_SCENES=wrecking run cargo test -q -p lobefit-pipelines --lib study_baselines -- --ignored --nocapture
+LF_OUT="$base" LF_SCENES=cluster-1,cluster-16,cluster-256,cluster-1024,torus-1,torus-16,torus-252,torus-1020 \
+  run cargo test -q -p lobefit-pipelines --lib study_baselines -- --ignored --nocapture
 run python3 scripts/pareto_front.py "$base"
