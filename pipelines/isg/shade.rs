@@ -665,11 +665,15 @@ fn visible_patches_in(
     let k = s.patches.per_side(g.sharpness, cone);
     let (lo, step) = (FRAC_PI_2 - cone, 2.0 * cone / k as f64);
     let edge = |i: usize| (lo + i as f64 * step).clamp(0.0, PI);
-    // Patch centres' sines and cosines, shared by rows and columns. With the cosine a
-    // patch counts only where a cap covers it (below the horizon it weighs 0), so
-    // without caps nothing is hidden and the grid is left empty, unvisited.
+    // Whether the tangent plane may hide a patch centre: not with the cosine (there a
+    // patch below it weighs 0), nor where the grid lies wholly above it. Its centres
+    // lie within acos(cos² Γ) of the axis (z·ω = sin θ sin φ ≥ cos² Γ); the slack
+    // dwarfs the rounding of n·ω. Else a patch counts only where a cap covers it.
+    let horizon = cosine.is_none() && n.dot(z).clamp(-1.0, 1.0).acos() + cone.cos().powi(2).acos() >= FRAC_PI_2 - 1e-6;
+    // Patch centres' sines and cosines, shared by rows and columns; left empty, the
+    // grid unvisited, where nothing can be hidden: no horizon, no cap.
     trig.clear();
-    if cosine.is_none() || !caps.is_empty() {
+    if horizon || !caps.is_empty() {
         trig.extend((0..k).map(|i| (lo + (i as f64 + 0.5) * step).sin_cos()));
     }
     if s.binary {
@@ -706,15 +710,15 @@ fn visible_patches_in(
     let mut hidden = 0.0;
     let mut density = if keep { vec![0.0; k * k] } else { Vec::new() };
     for (i, &(st, ct)) in trig.iter().enumerate() {
-        // With the cosine, a patch counts only where a cap covers it: a row no cap
-        // reaches has none (binary occlusion). Without it, the horizon hides patches too.
-        if s.binary && cosine.is_some() && masks.row(i).iter().all(|&m| m == 0) {
+        // Without the horizon a patch counts only where a cap covers it: a row no cap
+        // reaches has none (binary occlusion).
+        if s.binary && !horizon && masks.row(i).iter().all(|&m| m == 0) {
             continue;
         }
         for (j, &(sp, cp)) in trig.iter().enumerate() {
             let part = if s.binary {
                 let (row, col) = (masks.row(i), masks.col(j));
-                if cosine.is_some() && row.iter().zip(col).all(|(r, c)| r & c == 0) {
+                if !horizon && row.iter().zip(col).all(|(r, c)| r & c == 0) {
                     continue;
                 }
                 let d = patch_centre((xa, y, z), (st, ct), (sp, cp));
