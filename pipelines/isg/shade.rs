@@ -516,11 +516,11 @@ impl CapMasks {
             let (ux, uy, uz) = (cap.u.dot(x), cap.u.dot(y), cap.u.dot(z));
             let su2 = ux * ux + uz * uz;
             let su = su2.sqrt();
-            // cos(θ_i − θ_u) = cos θ_i cos θ_u + sin θ_i sin θ_u ≥ cos β.
-            for (i, &(st, ct)) in trig.iter().enumerate() {
-                if ct * uy + st * su >= cap.c - Self::ROW_SLACK {
-                    self.rows[i * words + w] |= bit;
-                }
+            // cos(θ_i − θ_u) = cos θ_i cos θ_u + sin θ_i sin θ_u ≥ cos β. (Branch-free:
+            // the bit, or 0.)
+            let least = cap.c - Self::ROW_SLACK;
+            for (m, &(st, ct)) in self.rows.chunks_exact_mut(words).zip(trig) {
+                m[w] |= bit * u64::from(ct * uy + st * su >= least);
             }
             // sin θ_u cos(φ_j − φ_u) ≥ √(sin²θ_u − sin²β): the cap's azimuths (and
             // cos(φ_j − φ_u) ≥ 0); every column when the cap holds a pole.
@@ -530,10 +530,8 @@ impl CapMasks {
             } else {
                 f64::NEG_INFINITY
             };
-            for (j, &(sp, cp)) in trig.iter().enumerate() {
-                if cp * ux + sp * uz >= floor {
-                    self.cols[j * words + w] |= bit;
-                }
+            for (m, &(sp, cp)) in self.cols.chunks_exact_mut(words).zip(trig) {
+                m[w] |= bit * u64::from(cp * ux + sp * uz >= floor);
             }
         }
     }
@@ -549,12 +547,14 @@ impl CapMasks {
 
 /// The centre of the patch in the row of (sin θ, cos θ) `t` and the column of (sin φ,
 /// cos φ) `p`, in the frame (x, y, z).
+#[inline]
 fn patch_centre((x, y, z): (DVec3, DVec3, DVec3), (st, ct): (f64, f64), (sp, cp): (f64, f64)) -> DVec3 {
     x * (st * cp) + y * ct + z * (st * sp)
 }
 
 /// Whether a cap in both `row` and `col` (masks of [`CapMasks`]) covers `d`: the
 /// same answer as testing every cap.
+#[inline]
 fn covered(caps: &[Cap], row: &[u64], col: &[u64], d: DVec3) -> bool {
     for (w, (&r, &c)) in row.iter().zip(col).enumerate() {
         let mut m = r & c;
@@ -571,6 +571,7 @@ fn covered(caps: &[Cap], row: &[u64], col: &[u64], d: DVec3) -> bool {
 /// The weight of direction `d` in the occluded integral: 1, or the cosine
 /// correction, if it is occluded (`blocked`, asked only when the horizon does not
 /// decide); 0 if visible.
+#[inline]
 fn occluded_weight(n: DVec3, cosine: Option<&Sg>, d: DVec3, blocked: impl Fn() -> bool) -> f64 {
     let c = n.dot(d);
     match cosine {
@@ -714,10 +715,11 @@ fn visible_patches_in(
         *f
     };
     let normaliser = isg_normaliser(gamma);
-    let combine = match s.model {
-        Model::Paper | Model::Quadrature => PaperIsg::combine,
-        Model::Refit => RefitIsg::combine,
-        Model::Best => BestIsg::combine,
+    // The model's combination, matched here rather than called through a pointer.
+    let combine = |a: [f64; 2], b: [f64; 2]| match s.model {
+        Model::Paper | Model::Quadrature => PaperIsg::combine(a, b),
+        Model::Refit => RefitIsg::combine(a, b),
+        Model::Best => BestIsg::combine(a, b),
     };
     let mut hidden = 0.0;
     let mut density = if keep { vec![0.0; k * k] } else { Vec::new() };

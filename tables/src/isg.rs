@@ -541,6 +541,7 @@ pub trait SeparableIsg: IsgModel {
 
 /// The logistic factors σ(g(θ − π/2)) (axis 0) and σ(h(φ − π/2)) (axis 1) of slopes
 /// `(g, h)`.
+#[inline]
 fn logistic_factors((g, h): (f64, f64), axis: usize, x: f64) -> [f64; 2] {
     let slope = if axis == 0 { g } else { h };
     [sigmoid(slope * (x - FRAC_PI_2)), 0.0]
@@ -548,12 +549,15 @@ fn logistic_factors((g, h): (f64, f64), axis: usize, x: f64) -> [f64; 2] {
 
 impl SeparableIsg for PaperIsg {
     type AtGamma = (f64, f64);
+    #[inline]
     fn at_gamma_unchecked(&self, gamma: f64) -> (f64, f64) {
         (paper_poly(&PAPER_G, gamma), paper_poly(&PAPER_H, gamma))
     }
+    #[inline]
     fn factors_unchecked(&self, at: &(f64, f64), axis: usize, x: f64) -> [f64; 2] {
         logistic_factors(*at, axis, x)
     }
+    #[inline]
     fn combine(a: [f64; 2], b: [f64; 2]) -> f64 {
         a[0] * b[0]
     }
@@ -561,12 +565,15 @@ impl SeparableIsg for PaperIsg {
 
 impl SeparableIsg for RefitIsg {
     type AtGamma = (f64, f64);
+    #[inline]
     fn at_gamma_unchecked(&self, gamma: f64) -> (f64, f64) {
         self.slopes_unchecked(gamma)
     }
+    #[inline]
     fn factors_unchecked(&self, at: &(f64, f64), axis: usize, x: f64) -> [f64; 2] {
         logistic_factors(*at, axis, x)
     }
+    #[inline]
     fn combine(a: [f64; 2], b: [f64; 2]) -> f64 {
         a[0] * b[0]
     }
@@ -587,6 +594,7 @@ pub struct BestAtGamma {
 /// 1 − e^{−γ} shared by all factors (test `best_fast_path_matches_table_interpolation`).
 impl SeparableIsg for BestIsg {
     type AtGamma = BestAtGamma;
+    #[inline]
     fn at_gamma_unchecked(&self, gamma: f64) -> BestAtGamma {
         let n0 = self.n.0;
         let s0 = (gamma.ln() - GAMMA_MIN.ln()) / (GAMMA_MAX.ln() - GAMMA_MIN.ln()) * (n0 - 1) as f64;
@@ -600,6 +608,7 @@ impl SeparableIsg for BestIsg {
         }
     }
     /// (marginal, correction) of axis k: channels k and k + 2.
+    #[inline]
     fn factors_unchecked(&self, at: &BestAtGamma, k: usize, x: f64) -> [f64; 2] {
         let n1 = self.n.1;
         let v = self.table.values();
@@ -623,6 +632,7 @@ impl SeparableIsg for BestIsg {
             [m, c]
         }
     }
+    #[inline]
     fn combine(a: [f64; 2], b: [f64; 2]) -> f64 {
         a[0] * b[0] + a[1] * b[1]
     }
