@@ -455,6 +455,8 @@ struct Scratch {
     caps: Vec<Cap>,
     trig: Vec<(f64, f64)>,
     factors: Vec<[f64; 2]>,
+    need: Vec<bool>,
+    occluded: Vec<(usize, usize, f64)>,
     masks: CapMasks,
 }
 
@@ -627,6 +629,8 @@ fn visible_patches_in(
         caps,
         trig,
         factors,
+        need,
+        occluded,
         masks,
     } = scratch;
     // The ISG tables hold γ in [GAMMA_MIN, GAMMA_MAX]; a product outside them is
@@ -692,74 +696,103 @@ fn visible_patches_in(
     if s.binary {
         masks.fill(caps, (xa, y, z), trig);
     }
-    // Ŝ at the patch corners from the model's separable factors at each edge angle
-    // (θ edges, then φ edges), each evaluated once (NaN: not yet), and the part they
-    // share at γ once per product: bit for bit the model's checked Ŝ, at a fraction of
-    // its cost (fig12: 680 Ŝ per pixel, two factors each, before). An edge outside
-    // [0, π] or a non-finite Ŝ, an error of the checked Ŝ, gives NaN here, hence the
-    // non-finite integral's error below.
-    factors.clear();
-    factors.resize(2 * (k + 1), [f64::NAN; 2]);
-    let mut at = None;
-    let mut factor = |axis: usize, e: usize| -> [f64; 2] {
-        let f = &mut factors[axis * (k + 1) + e];
-        if f[0].is_nan() {
-            let x = edge(e);
-            let at = at.get_or_insert_with(|| AtGamma::new(t, s.model, gamma));
-            *f = if (0.0..=PI).contains(&x) {
-                at.factors(axis, x)
-            } else {
-                [f64::NAN; 2]
-            };
-        }
-        *f
-    };
-    let normaliser = isg_normaliser(gamma);
-    // The model's combination, matched here rather than called through a pointer.
-    let combine = |a: [f64; 2], b: [f64; 2]| match s.model {
-        Model::Paper | Model::Quadrature => PaperIsg::combine(a, b),
-        Model::Refit => RefitIsg::combine(a, b),
-        Model::Best => BestIsg::combine(a, b),
-    };
     let mut hidden = 0.0;
     let mut density = if keep { vec![0.0; k * k] } else { Vec::new() };
-    for (i, &(st, ct)) in trig.iter().enumerate() {
-        // Without the horizon a patch counts only where a cap covers it: a row no cap
-        // reaches has none (binary occlusion).
-        if s.binary && !horizon && masks.row(i).iter().all(|&m| m == 0) {
-            continue;
+    // Adds patch (i, j)'s occluded part: the patches in row-major order, as ever, so
+    // the sum's terms and order are unchanged.
+    let mut add = |i: usize, j: usize, part: f64| {
+        hidden += part;
+        if keep && part != 0.0 {
+            let unit = gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |_, _| 1.0);
+            if unit > 0.0 {
+                density[i * k + j] = g.amplitude * part / unit;
+            }
         }
-        for (j, &(sp, cp)) in trig.iter().enumerate() {
-            let part = if s.binary {
+    };
+    if !s.binary {
+        for i in 0..trig.len() {
+            for j in 0..trig.len() {
+                add(
+                    i,
+                    j,
+                    gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |th, ph| {
+                        let d = dir(th, ph);
+                        occluded_weight(n, cosine, d, || caps.iter().any(|cap| cap.covers(d)))
+                    }),
+                );
+            }
+        }
+    } else {
+        // The occluded patches with their weights, row-major.
+        occluded.clear();
+        for (i, &(st, ct)) in trig.iter().enumerate() {
+            // Without the horizon a patch counts only where a cap covers it: a row no
+            // cap reaches has none.
+            if !horizon && masks.row(i).iter().all(|&m| m == 0) {
+                continue;
+            }
+            for (j, &(sp, cp)) in trig.iter().enumerate() {
                 let (row, col) = (masks.row(i), masks.col(j));
                 if !horizon && row.iter().zip(col).all(|(r, c)| r & c == 0) {
                     continue;
                 }
                 let d = patch_centre((xa, y, z), (st, ct), (sp, cp));
                 let w = occluded_weight(n, cosine, d, || covered(caps, row, col, d));
-                if w == 0.0 {
-                    continue;
+                if w != 0.0 {
+                    occluded.push((i, j, w));
                 }
-                w * if quadrature {
-                    gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |_, _| 1.0)
-                } else {
-                    let (t0, t1) = (factor(0, i), factor(0, i + 1));
-                    let (p0, p1) = (factor(1, j), factor(1, j + 1));
-                    let s_hat = |a, b| combine(a, b);
-                    (s_hat(t1, p1) - s_hat(t0, p1) - s_hat(t1, p0) + s_hat(t0, p0)) * normaliser
+            }
+        }
+        if quadrature {
+            for &(i, j, w) in occluded.iter() {
+                add(
+                    i,
+                    j,
+                    w * gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |_, _| 1.0),
+                );
+            }
+        } else {
+            // Ŝ at the corners from the model's separable factors at the edge angles the
+            // occluded patches touch (θ edges, then φ edges), each evaluated once, and
+            // the part they share at γ: bit for bit the model's checked Ŝ, at a fraction
+            // of its cost (fig12: 680 Ŝ per pixel, two factors each, before). An edge
+            // outside [0, π] or a non-finite Ŝ, an error of the checked Ŝ, gives NaN
+            // here, hence the non-finite integral's error below.
+            need.clear();
+            need.resize(2 * (k + 1), false);
+            for &(i, j, _) in occluded.iter() {
+                need[i] = true;
+                need[i + 1] = true;
+                need[k + 1 + j] = true;
+                need[k + 1 + j + 1] = true;
+            }
+            factors.clear();
+            factors.resize(2 * (k + 1), [f64::NAN; 2]);
+            if !occluded.is_empty() {
+                let at = AtGamma::new(t, s.model, gamma);
+                for (e, f) in factors.iter_mut().enumerate() {
+                    let (axis, x) = (e / (k + 1), edge(e % (k + 1)));
+                    if need[e] && (0.0..=PI).contains(&x) {
+                        *f = at.factors(axis, x);
+                    }
                 }
-            } else {
-                gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |th, ph| {
-                    let d = dir(th, ph);
-                    occluded_weight(n, cosine, d, || caps.iter().any(|cap| cap.covers(d)))
-                })
+            }
+            let (ft, fp) = factors.split_at(k + 1);
+            let normaliser = isg_normaliser(gamma);
+            // The model's combination, matched here rather than called through a
+            // pointer.
+            let s_hat = |a: [f64; 2], b: [f64; 2]| match s.model {
+                Model::Paper | Model::Quadrature => PaperIsg::combine(a, b),
+                Model::Refit => RefitIsg::combine(a, b),
+                Model::Best => BestIsg::combine(a, b),
             };
-            hidden += part;
-            if keep && part != 0.0 {
-                let unit = gauss_patch(edge(i), edge(i + 1), edge(j), edge(j + 1), g.sharpness, |_, _| 1.0);
-                if unit > 0.0 {
-                    density[i * k + j] = g.amplitude * part / unit;
-                }
+            for &(i, j, w) in occluded.iter() {
+                let (t0, t1, p0, p1) = (ft[i], ft[i + 1], fp[j], fp[j + 1]);
+                add(
+                    i,
+                    j,
+                    w * ((s_hat(t1, p1) - s_hat(t0, p1) - s_hat(t1, p0) + s_hat(t0, p0)) * normaliser),
+                );
             }
         }
     }
