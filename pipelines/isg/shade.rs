@@ -846,16 +846,27 @@ fn clamped_cosine_at(lambda: f64, c: f64) -> f64 {
         x * (lambda * (c * x - 1.0) + z).exp() * bessel_i0e(z)
     };
     let w = (s / lambda.sqrt()).max(1e-6);
-    let mut cuts = vec![0.0, 1.0];
-    for k in [0.5, 1.0, 2.0, 4.0, 8.0, 16.0] {
-        cuts.extend([c - k * w, c + k * w]);
+    // The panels' ends, sorted, repeats dropped (in an array: no allocation per call).
+    let mut cuts = [0.0; 15];
+    cuts[1] = 1.0;
+    for (q, k) in [0.5, 1.0, 2.0, 4.0, 8.0, 16.0].into_iter().enumerate() {
+        cuts[2 + 2 * q] = c - k * w;
+        cuts[3 + 2 * q] = c + k * w;
     }
-    cuts.push(c);
-    let mut cuts: Vec<f64> = cuts.into_iter().map(|x| x.clamp(0.0, 1.0)).collect();
-    cuts.sort_by(f64::total_cmp);
-    cuts.dedup();
+    cuts[14] = c;
+    for x in &mut cuts {
+        *x = x.clamp(0.0, 1.0);
+    }
+    cuts.sort_unstable_by(f64::total_cmp);
+    let mut len = 1;
+    for q in 1..cuts.len() {
+        if cuts[q] != cuts[len - 1] {
+            cuts[len] = cuts[q];
+            len += 1;
+        }
+    }
     let mut sum = 0.0;
-    for p in cuts.windows(2) {
+    for p in cuts[..len].windows(2) {
         let (m, h) = (0.5 * (p[0] + p[1]), 0.5 * (p[1] - p[0]));
         sum += h * GL8.iter().map(|&(a, wa)| wa * f(m + h * a)).sum::<f64>();
     }
