@@ -707,10 +707,11 @@ fn visible_patches_in(
     let k = s.patches.per_side(g.sharpness, cone);
     let (lo, step) = (FRAC_PI_2 - cone, 2.0 * cone / k as f64);
     let edge = |i: usize| (lo + i as f64 * step).clamp(0.0, PI);
-    // Whether the tangent plane may hide a patch centre: not with the cosine (there a
-    // patch below it weighs 0), nor where the grid lies wholly above it. Its centres
-    // lie within acos(cos² Γ) of the axis (z·ω = sin θ sin φ ≥ cos² Γ); the slack
-    // dwarfs the rounding of n·ω. Else a patch counts only where a cap covers it.
+    // Whether the tangent plane may hide a direction of the grid (a patch centre, or a
+    // quadrature node for exact coverage): not with the cosine (there a direction
+    // below it weighs 0), nor where the grid lies wholly above it. The grid lies within
+    // acos(cos² Γ) of the axis (z·ω = sin θ sin φ ≥ cos² Γ); the slack dwarfs the
+    // rounding of n·ω. Else a patch counts only where a cap covers it.
     let horizon = cosine.is_none() && n.dot(z).clamp(-1.0, 1.0).acos() + cone.cos().powi(2).acos() >= FRAC_PI_2 - 1e-6;
     // Patch centres' sines and cosines, shared by rows and columns; left empty, the
     // grid unvisited, where nothing can be hidden: no horizon, no cap.
@@ -904,9 +905,10 @@ fn clamped_cosine_at(lambda: f64, c: f64) -> f64 {
 /// was an eighth of fig12's pixel. Bit for bit the function.
 fn clamped_cosine_memo(l: &Sg, n: DVec3) -> f64 {
     const SLOTS: usize = 64;
+    /// A slot: the bits of (λ, n·μ) and the integral.
+    type Slot = Option<((u64, u64), f64)>;
     thread_local! {
-        static MEMO: std::cell::RefCell<[Option<((u64, u64), f64)>; SLOTS]> =
-            const { std::cell::RefCell::new([None; SLOTS]) };
+        static MEMO: std::cell::RefCell<[Slot; SLOTS]> = const { std::cell::RefCell::new([None; SLOTS]) };
     }
     let (lambda, c) = (l.sharpness, n.dot(l.axis).clamp(-1.0, 1.0));
     let key = (lambda.to_bits(), c.to_bits());
