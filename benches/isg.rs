@@ -1,5 +1,6 @@
 //! Cost of one Ŝ(θ, φ; γ) evaluation per ISG model, side by side, plus the
-//! references and the lobe→SG lookup. `cargo bench --bench isg`. Inputs cycle through
+//! references, the lobe→SG lookup and the ISG pipeline's shading of a pixel.
+//! `cargo bench --bench isg`. Inputs cycle through
 //! a fixed set of (θ, φ, γ) so no model is timed on a single cached point.
 
 use std::f64::consts::FRAC_PI_2;
@@ -112,4 +113,28 @@ fn sg_fit_lookup(bencher: divan::Bencher) {
         e = if e > 9.0e4 { 0.0 } else { e * 1.01 + 0.1 };
         t.fit(black_box(e)).unwrap()
     });
+}
+
+/// The ISG pipeline (default settings) at every pixel of fig12 at 24 × 18 that sees
+/// geometry (264, the baselines study's image), one thread: the time per item is µs
+/// per pixel (docs/isg-render.md, "Per-pixel cost").
+#[divan::bench(sample_count = 20)]
+fn pixel_fig12(bencher: divan::Bencher) {
+    use lobefit::pipelines::isg::render::{blockers_of, scene};
+    use lobefit::pipelines::isg::shade::{radiance, Phong, Settings, Tables};
+    let scene = scene("fig12").unwrap();
+    let t = Tables::embedded().unwrap();
+    let s = Settings::default();
+    let (w, h) = (24, 18);
+    let hits: Vec<_> = (0..w * h).filter_map(|p| scene.primary(p % w, p / w, w, h)).collect();
+    bencher
+        .counter(divan::counter::ItemsCount::new(hits.len()))
+        .bench_local(|| {
+            hits.iter()
+                .map(|h| {
+                    let brdf = Phong::of(scene.brdf(h)).unwrap();
+                    radiance(&t, &s, &scene.environment, &brdf, &blockers_of(&scene, h), h).unwrap()
+                })
+                .sum::<f64>()
+        });
 }

@@ -349,18 +349,17 @@ fn valid(q: &[f64; 3]) -> bool {
     (q[0] >= 0.0) & (q[0] <= PI) & (q[1] >= 0.0) & (q[1] <= PI) & (q[2] >= GAMMA_MIN) & (q[2] <= GAMMA_MAX)
 }
 
-/// Logistic product σ(g(θ − π/2)) σ(h(φ − π/2)).
-fn logistic(theta: f64, phi: f64, g: f64, h: f64) -> f64 {
-    sigmoid(g * (theta - FRAC_PI_2)) * sigmoid(h * (phi - FRAC_PI_2))
-}
-
 /// The paper's published model (no table). Valid only near γ ∈ [100, 1000] (docs/math.md, erratum E3).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PaperIsg;
 
 impl IsgModel for PaperIsg {
     fn s_hat_unchecked(&self, theta: f64, phi: f64, gamma: f64) -> f64 {
-        logistic(theta, phi, paper_poly(&PAPER_G, gamma), paper_poly(&PAPER_H, gamma))
+        let at = self.at_gamma_unchecked(gamma);
+        Self::combine(
+            self.factors_unchecked(&at, 0, theta),
+            self.factors_unchecked(&at, 1, phi),
+        )
     }
     fn limiting_angle_unchecked(&self, gamma: f64, eps: f64) -> f64 {
         let s = paper_poly(&PAPER_G, gamma).min(paper_poly(&PAPER_H, gamma));
@@ -407,8 +406,11 @@ impl RefitIsg {
 
 impl IsgModel for RefitIsg {
     fn s_hat_unchecked(&self, theta: f64, phi: f64, gamma: f64) -> f64 {
-        let (g, h) = self.slopes_unchecked(gamma);
-        logistic(theta, phi, g, h)
+        let at = self.at_gamma_unchecked(gamma);
+        Self::combine(
+            self.factors_unchecked(&at, 0, theta),
+            self.factors_unchecked(&at, 1, phi),
+        )
     }
     fn limiting_angle_unchecked(&self, gamma: f64, eps: f64) -> f64 {
         let (g, h) = self.slopes_unchecked(gamma);
@@ -482,47 +484,13 @@ impl BestIsg {
     }
 }
 
-impl BestIsg {
-    /// Direct bilinear path of [`IsgModel::s_hat`]: the same interpolation as
-    /// [`Table::interpolate`] (linear in ln γ and u, Endpoints nodes), with ln γ and
-    /// 1 − e^{−γ} shared by all factors (test `best_fast_path_matches_table_interpolation`).
-    fn product(&self, theta: f64, phi: f64, gamma: f64) -> f64 {
-        let (n0, n1) = self.n;
-        let v = self.table.values();
-        let s0 = (gamma.ln() - GAMMA_MIN.ln()) / (GAMMA_MAX.ln() - GAMMA_MIN.ln()) * (n0 - 1) as f64;
-        let s0 = s0.clamp(0.0, (n0 - 1) as f64);
-        let i0 = (s0 as usize).min(n0 - 2);
-        let f0 = s0 - i0 as f64;
-        let em = (-gamma).exp_m1();
-        // (marginal, correction) of axis k: channels k and k + 2.
-        let factor = |k: usize, x: f64| {
-            let (mirrored, y) = if x > FRAC_PI_2 { (true, PI - x) } else { (false, x) };
-            let h = (0.5 * (y - FRAC_PI_2)).sin();
-            let u = ((-gamma * 2.0 * h * h).exp_m1() / em).sqrt().min(1.0);
-            let s1 = u * (n1 - 1) as f64;
-            let i1 = (s1 as usize).min(n1 - 2);
-            let f1 = s1 - i1 as f64;
-            let bilinear = |c: usize| {
-                let at = |a: usize, b: usize| v[(a * n1 + b) * 4 + c] as f64;
-                let lo = at(i0, i1) + f1 * (at(i0, i1 + 1) - at(i0, i1));
-                let hi = at(i0 + 1, i1) + f1 * (at(i0 + 1, i1 + 1) - at(i0 + 1, i1));
-                lo + f0 * (hi - lo)
-            };
-            let (m, c) = (bilinear(k), bilinear(k + 2));
-            if mirrored {
-                (1.0 - m, -c)
-            } else {
-                (m, c)
-            }
-        };
-        let ((a, c), (b, d)) = (factor(0, theta), factor(1, phi));
-        a * b + c * d
-    }
-}
-
 impl IsgModel for BestIsg {
     fn s_hat_unchecked(&self, theta: f64, phi: f64, gamma: f64) -> f64 {
-        self.product(theta, phi, gamma)
+        let at = self.at_gamma_unchecked(gamma);
+        Self::combine(
+            self.factors_unchecked(&at, 0, theta),
+            self.factors_unchecked(&at, 1, phi),
+        )
     }
     fn limiting_angle_unchecked(&self, gamma: f64, eps: f64) -> f64 {
         // Bisection on each monotone marginal: A(π/2 − Γ) = ε.
@@ -542,6 +510,131 @@ impl IsgModel for BestIsg {
             0.5 * (lo + hi)
         };
         root(0).max(root(1))
+    }
+}
+
+/// A model whose Ŝ is a sum of products of one-angle factors,
+/// Ŝ(θ, φ; γ) = Σ_r a_r(θ; γ) b_r(φ; γ): rank 1 for the logistic models
+/// (σ(g(θ − π/2)) · σ(h(φ − π/2))), rank 2 for [`BestIsg`] (A B + C D).
+///
+/// Where many Ŝ share their angles — the corners of an n × n grid of patches lie on
+/// n + 1 angles per side — the factors at each angle, computed once, give every
+/// corner by [`SeparableIsg::combine`]: 2(n + 1) factor evaluations instead of
+/// 2(n + 1)². Bit for bit [`IsgModel::s_hat_unchecked`], which each model computes
+/// as that very combination.
+pub trait SeparableIsg: IsgModel {
+    /// What the factors at one γ share: the slopes (g, h) of the logistic models; the
+    /// γ cell, its weight and e^{−γ} − 1 of [`BestIsg`].
+    type AtGamma: Copy + std::fmt::Debug;
+
+    /// The shared part at γ ∈ [0.5, 10⁴], without input checks.
+    fn at_gamma_unchecked(&self, gamma: f64) -> Self::AtGamma;
+
+    /// The factors at the angle x ∈ [0, π] (rad) of the θ axis (`axis` 0: a₁, a₂) or
+    /// of the φ axis (1: b₁, b₂), without input checks; rank-1 models return 0 as
+    /// the second.
+    fn factors_unchecked(&self, at: &Self::AtGamma, axis: usize, x: f64) -> [f64; 2];
+
+    /// Ŝ from the θ axis's factors `a` and the φ axis's `b`.
+    fn combine(a: [f64; 2], b: [f64; 2]) -> f64;
+}
+
+/// The logistic factors σ(g(θ − π/2)) (axis 0) and σ(h(φ − π/2)) (axis 1) of slopes
+/// `(g, h)`.
+#[inline]
+fn logistic_factors((g, h): (f64, f64), axis: usize, x: f64) -> [f64; 2] {
+    let slope = if axis == 0 { g } else { h };
+    [sigmoid(slope * (x - FRAC_PI_2)), 0.0]
+}
+
+impl SeparableIsg for PaperIsg {
+    type AtGamma = (f64, f64);
+    #[inline]
+    fn at_gamma_unchecked(&self, gamma: f64) -> (f64, f64) {
+        (paper_poly(&PAPER_G, gamma), paper_poly(&PAPER_H, gamma))
+    }
+    #[inline]
+    fn factors_unchecked(&self, at: &(f64, f64), axis: usize, x: f64) -> [f64; 2] {
+        logistic_factors(*at, axis, x)
+    }
+    #[inline]
+    fn combine(a: [f64; 2], b: [f64; 2]) -> f64 {
+        a[0] * b[0]
+    }
+}
+
+impl SeparableIsg for RefitIsg {
+    type AtGamma = (f64, f64);
+    #[inline]
+    fn at_gamma_unchecked(&self, gamma: f64) -> (f64, f64) {
+        self.slopes_unchecked(gamma)
+    }
+    #[inline]
+    fn factors_unchecked(&self, at: &(f64, f64), axis: usize, x: f64) -> [f64; 2] {
+        logistic_factors(*at, axis, x)
+    }
+    #[inline]
+    fn combine(a: [f64; 2], b: [f64; 2]) -> f64 {
+        a[0] * b[0]
+    }
+}
+
+/// [`BestIsg`]'s part shared at one γ: the cell of ln γ and the weight in it, γ, and
+/// e^{−γ} − 1 (the warp's denominator).
+#[derive(Debug, Clone, Copy)]
+pub struct BestAtGamma {
+    cell: usize,
+    weight: f64,
+    gamma: f64,
+    em: f64,
+}
+
+/// The direct bilinear path of [`IsgModel::s_hat`]: the same interpolation as
+/// [`Table::interpolate`] (linear in ln γ and u, Endpoints nodes), with ln γ and
+/// 1 − e^{−γ} shared by all factors (test `best_fast_path_matches_table_interpolation`).
+impl SeparableIsg for BestIsg {
+    type AtGamma = BestAtGamma;
+    #[inline]
+    fn at_gamma_unchecked(&self, gamma: f64) -> BestAtGamma {
+        let n0 = self.n.0;
+        let s0 = (gamma.ln() - GAMMA_MIN.ln()) / (GAMMA_MAX.ln() - GAMMA_MIN.ln()) * (n0 - 1) as f64;
+        let s0 = s0.clamp(0.0, (n0 - 1) as f64);
+        let cell = (s0 as usize).min(n0 - 2);
+        BestAtGamma {
+            cell,
+            weight: s0 - cell as f64,
+            gamma,
+            em: (-gamma).exp_m1(),
+        }
+    }
+    /// (marginal, correction) of axis k: channels k and k + 2.
+    #[inline]
+    fn factors_unchecked(&self, at: &BestAtGamma, k: usize, x: f64) -> [f64; 2] {
+        let n1 = self.n.1;
+        let v = self.table.values();
+        let (i0, f0, gamma, em) = (at.cell, at.weight, at.gamma, at.em);
+        let (mirrored, y) = if x > FRAC_PI_2 { (true, PI - x) } else { (false, x) };
+        let h = (0.5 * (y - FRAC_PI_2)).sin();
+        let u = ((-gamma * 2.0 * h * h).exp_m1() / em).sqrt().min(1.0);
+        let s1 = u * (n1 - 1) as f64;
+        let i1 = (s1 as usize).min(n1 - 2);
+        let f1 = s1 - i1 as f64;
+        let bilinear = |c: usize| {
+            let at = |a: usize, b: usize| v[(a * n1 + b) * 4 + c] as f64;
+            let lo = at(i0, i1) + f1 * (at(i0, i1 + 1) - at(i0, i1));
+            let hi = at(i0 + 1, i1) + f1 * (at(i0 + 1, i1 + 1) - at(i0 + 1, i1));
+            lo + f0 * (hi - lo)
+        };
+        let (m, c) = (bilinear(k), bilinear(k + 2));
+        if mirrored {
+            [1.0 - m, -c]
+        } else {
+            [m, c]
+        }
+    }
+    #[inline]
+    fn combine(a: [f64; 2], b: [f64; 2]) -> f64 {
+        a[0] * b[0] + a[1] * b[1]
     }
 }
 

@@ -183,7 +183,7 @@ pub use cap_exponent::CapExponent;
 pub use disk_light::DiskLight;
 pub use error::{LoadError, LookupError};
 pub use format::{Axis, Channel, Encoding, Mapping, Meta, Placement, Storage};
-pub use isg::{BestIsg, IsgModel, PaperIsg, RefitIsg, Sg, Sg32};
+pub use isg::{BestAtGamma, BestIsg, IsgModel, PaperIsg, RefitIsg, SeparableIsg, Sg, Sg32};
 pub use lobe_integral::LobeIntegral;
 pub use lobe_product::{Lobe, Lobe32, LobeProduct, ProductParams, Variant};
 pub use log_zh::LogZh;

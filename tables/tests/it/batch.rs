@@ -5,6 +5,7 @@
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::{
     BestIsg, CapExponent, IsgModel, Lobe, Lobe32, LobeIntegral, LobeProduct, LookupError, PaperIsg, RefitIsg,
+    SeparableIsg,
 };
 
 /// A fixed stream of uniform numbers in [0, 1).
@@ -128,6 +129,40 @@ fn isg_batches_are_bitwise_and_refuse_bad_items() {
     bad_item(BestIsg::embedded().unwrap().s_hats(&qs, &mut out), 5);
     qs[2][0] = f64::NAN;
     bad_item(PaperIsg.s_hats(&qs, &mut out), 2);
+}
+
+/// Ŝ on a grid from [`SeparableIsg`]'s factors, each angle's computed once and the
+/// corners combined from them, is the checked Ŝ bit for bit (what the ISG pipeline's
+/// per-edge cache relies on): every model, γ over the tables' range, angles on both
+/// sides of π/2 (the mirrored half) and at 0 and π.
+#[test]
+fn isg_separable_factors_give_s_hat_bitwise() {
+    fn check<M: SeparableIsg>(m: &M) {
+        let pi = std::f64::consts::PI;
+        let mut angles: Vec<f64> = (0..=16).map(|i| i as f64 / 16.0 * pi).collect();
+        angles.extend(stream(7, 24).iter().map(|u| u * pi));
+        for u in stream(8, 12) {
+            let gamma = (0.5f64.ln() + u * (2e4f64).ln()).exp().min(1e4);
+            let at = m.at_gamma_unchecked(gamma);
+            let f: Vec<[[f64; 2]; 2]> = angles
+                .iter()
+                .map(|&x| [m.factors_unchecked(&at, 0, x), m.factors_unchecked(&at, 1, x)])
+                .collect();
+            for (ft, &theta) in f.iter().zip(&angles) {
+                for (fp, &phi) in f.iter().zip(&angles) {
+                    let want = m.s_hat(theta, phi, gamma).unwrap();
+                    assert_eq!(
+                        M::combine(ft[0], fp[1]).to_bits(),
+                        want.to_bits(),
+                        "θ {theta} φ {phi} γ {gamma}"
+                    );
+                }
+            }
+        }
+    }
+    check(&PaperIsg);
+    check(RefitIsg::embedded().unwrap());
+    check(BestIsg::embedded().unwrap());
 }
 
 #[test]
