@@ -165,8 +165,10 @@ enum Command {
         /// Family name.
         #[arg(value_parser = PossibleValuesParser::new(lobefit::catalog::eval_names()))]
         family: String,
-        #[command(flatten)]
-        flags: EvalFlagArgs,
+        /// The family's or pipeline's own flags (built from their declarations: see
+        /// [`eval_flag_args`]).
+        #[arg(skip)]
+        flags: EvalFlags,
         /// Directory holding the tables (default: the tables compiled into this binary).
         #[arg(long, conflicts_with = "table")]
         tables: Option<PathBuf>,
@@ -215,43 +217,47 @@ enum Command {
     },
 }
 
-/// Family-specific flags of `eval`; each family says which it takes.
-#[derive(clap::Args)]
-struct EvalFlagArgs {
-    /// lobe-product: energy | l2.
-    #[arg(long)]
-    variant: Option<String>,
-    /// isg: paper | refit | best.
-    #[arg(long)]
-    model: Option<String>,
-    /// log-zh: diffuse | phong | blocker.
-    #[arg(long)]
-    kind: Option<String>,
-    /// SH families: order N (bands 0..N-1): 1..=8 (log-zh, wedge, wrap), 3..=8 (shexp,
-    /// shexp-shade); a value outside the family's range is a usage error.
-    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=8))]
-    order: Option<u8>,
-    /// shexp: ren | naive.
-    #[arg(long)]
-    log: Option<String>,
-    /// direct-light: maximal visibility-mask depth, 1..=5 (default 5).
-    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=5))]
-    depth: Option<u8>,
-    /// direct-light: aggressive | conservative (default aggressive).
-    #[arg(long)]
-    mask: Option<String>,
-    /// direct-light: fitted | paper | one (default fitted).
-    #[arg(long)]
-    weights: Option<String>,
-    /// direct-light: lobe | cap, how the light enters (default cap).
-    #[arg(long)]
-    light: Option<String>,
-    /// isg-shade: the scene file (environment, spheres, top-level brdf).
-    #[arg(long)]
-    scene: Option<String>,
-    /// isg-shade: N × N patches per product SG (default adaptive).
-    #[arg(long)]
-    patches: Option<usize>,
+/// `eval`'s `--NAME` arguments, one per flag the families and pipelines declare
+/// (`lobefit::catalog::eval_flags`), its help the queries that take it and their values.
+fn eval_flag_args() -> Vec<clap::Arg> {
+    lobefit::catalog::eval_flags()
+        .into_iter()
+        .map(|(flag, takers)| {
+            // Queries saying the same of the flag share one clause.
+            let mut clauses: Vec<(Vec<&str>, &str)> = Vec::new();
+            for (query, help) in takers {
+                match clauses.iter_mut().find(|(_, h)| *h == help) {
+                    Some((qs, _)) => qs.push(query),
+                    None => clauses.push((vec![query], help)),
+                }
+            }
+            let help: Vec<String> = clauses
+                .iter()
+                .map(|(qs, h)| format!("{}: {h}", qs.join(", ")))
+                .collect();
+            let arg = clap::Arg::new(flag.name).long(flag.name).help(help.join("; "));
+            if flag.count {
+                arg.value_name("N").value_parser(clap::value_parser!(usize))
+            } else {
+                arg.value_name("VALUE")
+            }
+        })
+        .collect()
+}
+
+/// The declared flags given in `eval`'s matches.
+fn eval_flags_of(m: &clap::ArgMatches) -> EvalFlags {
+    let mut flags = EvalFlags::default();
+    for (flag, _) in lobefit::catalog::eval_flags() {
+        if flag.count {
+            if let Some(n) = m.get_one::<usize>(flag.name) {
+                flags = flags.with_count(flag.name, *n);
+            }
+        } else if let Some(v) = m.get_one::<String>(flag.name) {
+            flags = flags.with(flag.name, v.clone());
+        }
+    }
+    flags
 }
 
 fn backend(b: BackendArg) -> Result<Backend, String> {
@@ -600,28 +606,14 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             table,
             exact,
         } => {
-            let flags = EvalFlags {
-                variant: flags.variant,
-                model: flags.model,
-                kind: flags.kind,
-                order: flags.order.map(usize::from),
-                log: flags.log,
-                depth: flags.depth.map(usize::from),
-                mask: flags.mask,
-                weights: flags.weights,
-                light: flags.light,
-                scene: flags.scene,
-                patches: flags.patches,
-            };
             // The family and its flags: what clap cannot check (a flag the family does
             // not take, a value outside its range, a scene the family cannot shade) is
             // a usage error too; a scene file that cannot be read or parsed is the
             // file's error, as a table file's is.
             let f = lobefit::catalog::for_eval(&family, &flags, FitOptions::default()).map_err(|e| {
                 let scene_file = flags
-                    .scene
-                    .as_deref()
-                    .is_some_and(|s| lobefit::pipelines::scene::check_file(s).err().as_ref() == Some(&e));
+                    .text("scene")
+                    .is_some_and(|s| lobefit::pipelines::scene::check_file(&s).err().as_ref() == Some(&e));
                 if scene_file {
                     Failure::Run(e)
                 } else {
@@ -768,7 +760,18 @@ fn note(text: &str) {
 /// output is kept; usage errors exit 2 as clap does.
 fn parse() -> Result<Cli, ExitCode> {
     use clap::error::ErrorKind;
-    match Cli::try_parse() {
+    use clap::{CommandFactory, FromArgMatches};
+    let parsed = Cli::command()
+        .mut_subcommand("eval", |c| c.args(eval_flag_args()))
+        .try_get_matches()
+        .and_then(|m| {
+            let mut cli = Cli::from_arg_matches(&m)?;
+            if let (Command::Eval { flags, .. }, Some(("eval", em))) = (&mut cli.command, m.subcommand()) {
+                *flags = eval_flags_of(em);
+            }
+            Ok(cli)
+        });
+    match parsed {
         Ok(cli) => Ok(cli),
         Err(e) if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) => {
             if std::io::stdout().is_terminal() {

@@ -9,72 +9,115 @@ use lobefit_tables::{Axis, Channel, LoadError, LookupError, Table};
 
 use crate::rng::Rng;
 
-/// Family-specific flags of `lobefit eval`. Each family reads the ones it
-/// documents; `lobefit_fits::for_eval` rejects a flag the family does not take.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct EvalFlags {
-    /// `--variant` (lobe-product: `energy` | `l2`).
-    pub variant: Option<String>,
-    /// `--model` (isg: `paper` | `refit` | `best`).
-    pub model: Option<String>,
-    /// `--kind` (log-zh: `diffuse` | `phong` | `blocker`).
-    pub kind: Option<String>,
-    /// `--order` (SH families: 1..=8).
-    pub order: Option<usize>,
-    /// `--log` (shexp: `ren` | `naive`).
-    pub log: Option<String>,
-    /// `--depth` (direct-light: maximal mask depth 1..=5).
-    pub depth: Option<usize>,
-    /// `--mask` (direct-light: `aggressive` | `conservative`).
-    pub mask: Option<String>,
-    /// `--weights` (direct-light: `fitted` | `paper` | `one`).
-    pub weights: Option<String>,
-    /// `--light` (direct-light: `lobe` | `cap`).
-    pub light: Option<String>,
-    /// `--scene` (isg-shade: a scene file).
-    pub scene: Option<String>,
-    /// `--patches` (isg-shade: patches per side).
-    pub patches: Option<usize>,
+/// One flag of `lobefit eval`, declared by the family or pipeline query that takes it
+/// (`Entry::eval_flags` in `lobefit_fits`, `EvalView::flags` in `lobefit_pipelines`).
+/// The command line offers the union of the declarations and refuses, for a query,
+/// every flag it does not declare: a new flag is one declaration beside the code that
+/// reads it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EvalFlag {
+    /// Its name without the dashes (`order` for `--order`).
+    pub name: &'static str,
+    /// Its values and default, for `eval --help` (`paper | refit | best (default best)`).
+    pub help: &'static str,
+    /// Whether its value is a whole number (the command line parses it as one).
+    pub count: bool,
 }
 
+/// A flag's value as parsed by the command line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum FlagValue {
+    /// A word (`--model best`).
+    Text(String),
+    /// A whole number (`--order 6`).
+    Count(usize),
+}
+
+/// The flags given to `lobefit eval`, by name (without the dashes). Built by the
+/// command line from the declared [`EvalFlag`]s; a query reads the ones it declares.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct EvalFlags(std::collections::BTreeMap<&'static str, FlagValue>);
+
 impl EvalFlags {
-    /// The names of the flags that are set, as typed on the command line.
-    pub fn given(&self) -> Vec<&'static str> {
-        let mut v = Vec::new();
-        if self.variant.is_some() {
-            v.push("--variant");
+    /// These flags with `--name value` added (a word).
+    pub fn with(mut self, name: &'static str, value: impl Into<String>) -> Self {
+        self.0.insert(name, FlagValue::Text(value.into()));
+        self
+    }
+
+    /// These flags with `--name n` added (a whole number).
+    pub fn with_count(mut self, name: &'static str, n: usize) -> Self {
+        self.0.insert(name, FlagValue::Count(n));
+        self
+    }
+
+    /// The word given for `--name`. A number given for it reads as its digits.
+    pub fn text(&self, name: &str) -> Option<String> {
+        self.0.get(name).map(|v| match v {
+            FlagValue::Text(s) => s.clone(),
+            FlagValue::Count(n) => n.to_string(),
+        })
+    }
+
+    /// The whole number given for `--name`; a word that is not one is an error naming
+    /// the flag.
+    pub fn count(&self, name: &str) -> Result<Option<usize>, String> {
+        match self.0.get(name) {
+            None => Ok(None),
+            Some(FlagValue::Count(n)) => Ok(Some(*n)),
+            Some(FlagValue::Text(s)) => s
+                .parse()
+                .map(Some)
+                .map_err(|_| format!("--{name} {s}: expected a whole number")),
         }
-        if self.model.is_some() {
-            v.push("--model");
+    }
+
+    /// The flags that are set, as typed on the command line (`--order`), sorted.
+    pub fn given(&self) -> Vec<String> {
+        self.0.keys().map(|k| format!("--{k}")).collect()
+    }
+
+    /// Refuses the first flag `query` does not declare in `takes`, naming the ones it
+    /// does.
+    pub fn only(&self, query: &str, takes: &[EvalFlag]) -> Result<(), String> {
+        let Some(bad) = self.0.keys().find(|k| !takes.iter().any(|f| f.name == **k)) else {
+            return Ok(());
+        };
+        if takes.is_empty() {
+            return Err(format!("{query} takes no --{bad} flag (it takes no flags)"));
         }
-        if self.kind.is_some() {
-            v.push("--kind");
-        }
-        if self.order.is_some() {
-            v.push("--order");
-        }
-        if self.log.is_some() {
-            v.push("--log");
-        }
-        if self.depth.is_some() {
-            v.push("--depth");
-        }
-        if self.mask.is_some() {
-            v.push("--mask");
-        }
-        if self.weights.is_some() {
-            v.push("--weights");
-        }
-        if self.light.is_some() {
-            v.push("--light");
-        }
-        if self.scene.is_some() {
-            v.push("--scene");
-        }
-        if self.patches.is_some() {
-            v.push("--patches");
-        }
-        v
+        let names: Vec<String> = takes.iter().map(|f| format!("--{}", f.name)).collect();
+        Err(format!("{query} takes no --{bad} flag (only {})", names.join(", ")))
+    }
+}
+
+#[cfg(test)]
+mod eval_flag_tests {
+    use super::*;
+
+    const ORDER: EvalFlag = EvalFlag {
+        name: "order",
+        help: "1..=8",
+        count: true,
+    };
+
+    #[test]
+    fn flags_read_back_and_undeclared_ones_are_refused() {
+        let f = EvalFlags::default().with("model", "best").with_count("order", 6);
+        assert_eq!(f.text("model").as_deref(), Some("best"));
+        assert_eq!(f.count("order"), Ok(Some(6)));
+        assert_eq!(f.count("depth"), Ok(None));
+        assert_eq!(f.given(), ["--model", "--order"]);
+        let e = f.only("wedge", &[ORDER]).unwrap_err();
+        assert_eq!(e, "wedge takes no --model flag (only --order)");
+        assert!(EvalFlags::default()
+            .with_count("order", 3)
+            .only("wedge", &[ORDER])
+            .is_ok());
+        let e = EvalFlags::default().with("x", "1").only("sg-fit", &[]).unwrap_err();
+        assert_eq!(e, "sg-fit takes no --x flag (it takes no flags)");
+        let e = EvalFlags::default().with("order", "six").count("order").unwrap_err();
+        assert_eq!(e, "--order six: expected a whole number");
     }
 }
 

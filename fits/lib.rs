@@ -19,7 +19,7 @@ pub mod wrap;
 use std::path::{Path, PathBuf};
 
 use lobefit_core::export::families::{ClosedForm, GpuFamily};
-use lobefit_core::family::{EvalFlags, Fit, View};
+use lobefit_core::family::{EvalFlag, EvalFlags, Fit, View};
 
 /// Optimizer backend for families fitted by a 1-D minimiser.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -82,6 +82,9 @@ pub struct Entry {
     pub eval: Option<EvalFn>,
     /// `lobefit eval` names beyond its tables' kinds (e.g. `isg --model ...`).
     pub eval_names: &'static [&'static str],
+    /// The flags each of its `eval` names takes (a name not listed takes none); the
+    /// command line offers them and [`for_eval`] refuses every other.
+    pub eval_flags: &'static [(&'static str, &'static [EvalFlag])],
     /// Its textured GPU exports (one per exported table kind; empty if none).
     pub gpu: &'static [GpuFamily],
     /// A table a shader evaluates in closed form instead, with no texture.
@@ -137,6 +140,15 @@ pub fn eval_names() -> Vec<&'static str> {
     v
 }
 
+/// The flags `lobefit eval name` takes (none for a name no family declares them for).
+pub fn eval_flags(name: &str) -> &'static [EvalFlag] {
+    entries()
+        .iter()
+        .flat_map(|e| e.eval_flags.iter())
+        .find(|(n, _)| *n == name)
+        .map_or(&[], |(_, f)| *f)
+}
+
 /// The family `lobefit eval NAME [flags]` queries, configured by its flags.
 /// Errors name the flag a family does not take or the value it does not know.
 pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn View>, String> {
@@ -145,6 +157,7 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
         .into_iter()
         .find(owns)
         .ok_or_else(|| format!("unknown family {name}"))?;
+    flags.only(name, eval_flags(name))?;
     match entry.eval {
         Some(eval) => eval(name, flags, opts),
         None => without_flags(name, flags, opts),
@@ -153,11 +166,10 @@ pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<d
 
 /// `name`'s table as built, refusing every flag (the default of [`Entry::eval`]).
 pub fn without_flags(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn View>, String> {
-    let f = by_name(name, opts).ok_or_else(|| format!("unknown family {name}"))?;
-    if let Some(flag) = flags.given().first() {
-        return Err(format!("{name} takes no {flag} flag"));
-    }
-    Ok(f)
+    flags.only(name, &[])?;
+    by_name(name, opts)
+        .map(|f| -> Box<dyn View> { f })
+        .ok_or_else(|| format!("unknown family {name}"))
 }
 
 /// The families exported as textures, in build order.

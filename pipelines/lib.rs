@@ -29,7 +29,7 @@ pub mod timing;
 
 use std::path::{Path, PathBuf};
 
-use lobefit_core::family::{EvalFlags, View};
+use lobefit_core::family::{EvalFlag, EvalFlags, View};
 use lobefit_fits::PlotFn;
 
 /// Most Monte Carlo samples (pixels × samples per pixel) one image may take: 14 times
@@ -272,8 +272,18 @@ pub const MAX_WORK: u64 = 10_000_000_000_000;
 /// A pipeline's query for `lobefit eval NAME [flags]` (the pipeline without images).
 pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn View>, String>;
 
-/// A pipeline's `lobefit eval` name, its paragraph of `eval --help`, its query.
-pub type EvalView = (&'static str, &'static str, EvalFn);
+/// A pipeline's `lobefit eval` query.
+#[derive(Debug, Clone, Copy)]
+pub struct EvalView {
+    /// Its `eval` name (`isg-shade`).
+    pub name: &'static str,
+    /// Its paragraph of `eval --help`.
+    pub help: &'static str,
+    /// The flags it takes; the command line refuses every other before [`Self::view`].
+    pub flags: &'static [EvalFlag],
+    /// The view its flags configure.
+    pub view: EvalFn,
+}
 
 /// The `lobefit eval` names the pipelines add to the families', from [`registry`].
 pub fn eval_views() -> Vec<EvalView> {

@@ -542,6 +542,7 @@ pub const ENTRY: crate::Entry = crate::Entry {
     },
     eval: None,
     eval_names: &[],
+    eval_flags: &[],
     gpu: &[gpu::GPU],
     closed_form: None,
     plot: None,

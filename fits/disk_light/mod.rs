@@ -784,6 +784,7 @@ pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(DiskLightFamily)],
     eval: None,
     eval_names: &[],
+    eval_flags: &[],
     gpu: &[gpu::GPU],
     closed_form: None,
     plot: Some(("disk-light", plot)),

@@ -799,13 +799,18 @@ impl Fit for IsgFamily {
 /// good to ~1e-9, so a larger defect is a failed evaluation.
 const SYMMETRY_TOL: f64 = 1e-8;
 
+/// `eval isg --model`.
+const MODEL_FLAG: lobefit_core::family::EvalFlag = lobefit_core::family::EvalFlag {
+    name: "model",
+    help: "paper | refit | best (default best)",
+    count: false,
+};
+
 /// The family `lobefit eval isg --model paper|refit|best` queries (default `best`, the
 /// most accurate); other flags are refused.
 pub fn for_eval(flags: &lobefit_core::family::EvalFlags) -> Result<Box<dyn View>, String> {
-    if let Some(flag) = flags.given().into_iter().find(|f| *f != "--model") {
-        return Err(format!("isg takes no {flag} flag"));
-    }
-    let model = IsgModelKind::parse(flags.model.as_deref().unwrap_or("best"))?;
+    flags.only("isg", &[MODEL_FLAG])?;
+    let model = IsgModelKind::parse(flags.text("model").as_deref().unwrap_or("best"))?;
     Ok(Box::new(IsgFamily { model }))
 }
 
@@ -945,6 +950,7 @@ pub const ENTRY: crate::Entry = crate::Entry {
         _ => crate::without_flags(name, flags, opts),
     }),
     eval_names: &["isg"],
+    eval_flags: &[("isg", &[MODEL_FLAG])],
     gpu: &[gpu::REFIT, gpu::BEST],
     closed_form: None,
     plot: Some(("isg", plot)),

@@ -156,6 +156,7 @@ pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(LobeIntegralFamily)],
     eval: None,
     eval_names: &[],
+    eval_flags: &[],
     gpu: &[],
     closed_form: Some(gpu::CLOSED),
     plot: None,

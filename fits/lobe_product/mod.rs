@@ -1182,10 +1182,10 @@ pub const ENTRY: crate::Entry = crate::Entry {
         ]
     },
     eval: Some(|name, flags, opts| {
-        if name != lobefit_tables::lobe_product::KIND_ENERGY || !flags.given().iter().all(|f| *f == "--variant") {
+        if name != lobefit_tables::lobe_product::KIND_ENERGY {
             return crate::without_flags(name, flags, opts);
         }
-        let variant = match flags.variant.as_deref() {
+        let variant = match flags.text("variant").as_deref() {
             None | Some("energy") => Variant::Energy,
             Some("l2") => Variant::L2,
             Some(v) => return Err(format!("--variant {v}: expected energy or l2")),
@@ -1196,6 +1196,14 @@ pub const ENTRY: crate::Entry = crate::Entry {
         }))
     }),
     eval_names: &[],
+    eval_flags: &[(
+        lobefit_tables::lobe_product::KIND_ENERGY,
+        &[lobefit_core::family::EvalFlag {
+            name: "variant",
+            help: "energy | l2 (default energy)",
+            count: false,
+        }],
+    )],
     gpu: &[gpu::ENERGY, gpu::L2],
     closed_form: None,
     plot: Some(("lobe-product", plot)),

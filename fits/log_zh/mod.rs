@@ -18,7 +18,7 @@ use lobefit_tables::log_zh::{self as rt, Kind, LogZh, CHANNELS, EPS_MAX, EPS_MIN
 use lobefit_tables::sh::MAX_ORDER;
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
-use lobefit_core::family::{Checked, Fit, Fitted, Lookup, View};
+use lobefit_core::family::{Checked, EvalFlag, Fit, Fitted, Lookup, View};
 use lobefit_core::rng::Rng;
 use lobefit_core::sh::legendre_seq;
 use lobefit_tables::error::short;
@@ -47,6 +47,13 @@ pub const TABLE_INTERP_ABS: f64 = 1e-3;
 
 /// Default SH order of `lobefit eval` (docs/math.md §1).
 pub const DEFAULT_ORDER: usize = 4;
+
+/// `eval log-zh|wedge|wrap --order N`.
+pub const ORDER_FLAG: EvalFlag = EvalFlag {
+    name: "order",
+    help: "1..=8 (bands 0..N-1; default 4)",
+    count: true,
+};
 
 /// The log-ZH family: `kind` and `order` select the `lobefit eval` view; the
 /// registry's instance (Phong, order 8) builds and checks the table.
@@ -373,12 +380,23 @@ impl Fit for LogZhFamily {
 pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(LogZhFamily::default())],
     eval: Some(|_, flags, _| {
-        if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() {
-            return Err("log-zh takes only --kind and --order".into());
-        }
-        Ok(Box::new(LogZhFamily::from_flags(flags.kind.as_deref(), flags.order)?))
+        Ok(Box::new(LogZhFamily::from_flags(
+            flags.text("kind").as_deref(),
+            flags.count("order")?,
+        )?))
     }),
     eval_names: &[],
+    eval_flags: &[(
+        rt::KIND,
+        &[
+            EvalFlag {
+                name: "kind",
+                help: "diffuse | phong | blocker (default phong)",
+                count: false,
+            },
+            ORDER_FLAG,
+        ],
+    )],
     gpu: &[],
     closed_form: Some(gpu::CLOSED),
     plot: Some(("log-zh", eps_study::plot)),

@@ -342,6 +342,7 @@ pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(SgFitFamily)],
     eval: None,
     eval_names: &[],
+    eval_flags: &[],
     gpu: &[gpu::GPU],
     closed_form: None,
     plot: None,

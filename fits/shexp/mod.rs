@@ -26,7 +26,7 @@ use lobefit_tables::shexp::{self as rt, ab_of_pair, cap_visibility_zh, one_minus
 use lobefit_tables::{Axis, Channel, Encoding, LoadError, LookupError, Table};
 
 use crate::shexp::exp_log::{ren_log_zonal, ren_log_zonal_reference};
-use lobefit_core::family::{Checked, Extra, Fit, Fitted, Lookup, View};
+use lobefit_core::family::{Checked, EvalFlag, Extra, Fit, Fitted, Lookup, View};
 use lobefit_core::rng::Rng;
 use lobefit_core::sh::Gaunt;
 use lobefit_tables::error::short;
@@ -569,12 +569,27 @@ fn naive_reference(theta_b: f64, eps: f64, order: usize) -> Result<Vec<f64>, Str
 pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(ShExpFamily::default())],
     eval: Some(|_, flags, _| {
-        if flags.variant.is_some() || flags.model.is_some() || flags.kind.is_some() {
-            return Err("shexp takes only --order and --log".into());
-        }
-        Ok(Box::new(ShExpFamily::from_flags(flags.order, flags.log.as_deref())?))
+        Ok(Box::new(ShExpFamily::from_flags(
+            flags.count("order")?,
+            flags.text("log").as_deref(),
+        )?))
     }),
     eval_names: &[],
+    eval_flags: &[(
+        lobefit_tables::shexp::KIND,
+        &[
+            EvalFlag {
+                name: "order",
+                help: "3..=8 (bands 0..N-1; default 4)",
+                count: true,
+            },
+            EvalFlag {
+                name: "log",
+                help: "ren | naive (default ren)",
+                count: false,
+            },
+        ],
+    )],
     gpu: &[gpu::GPU],
     closed_form: None,
     plot: Some(("shexp", study::plot)),

@@ -370,16 +370,14 @@ impl View for WedgeSliceView {
 pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(WedgeFamily)],
     eval: Some(|_, flags, _| {
-        if flags.variant.is_some() || flags.model.is_some() || flags.log.is_some() || flags.kind.is_some() {
-            return Err("wedge takes only --order".into());
-        }
-        let order = flags.order.unwrap_or(crate::log_zh::DEFAULT_ORDER);
+        let order = flags.count("order")?.unwrap_or(crate::log_zh::DEFAULT_ORDER);
         if !(1..=8).contains(&order) {
             return Err(format!("wedge: --order {order} is outside 1..=8"));
         }
         Ok(Box::new(WedgeSliceView { order }))
     }),
     eval_names: &[],
+    eval_flags: &[(rt::KIND, &[crate::log_zh::ORDER_FLAG])],
     gpu: &[gpu::GPU],
     closed_form: None,
     plot: None,

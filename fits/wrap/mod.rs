@@ -288,16 +288,14 @@ impl Fit for WrapFamily {
 pub const ENTRY: crate::Entry = crate::Entry {
     tables: |_| vec![Box::new(WrapFamily::default())],
     eval: Some(|_, flags, _| {
-        if flags.given().iter().any(|f| *f != "--order") {
-            return Err("wrap takes only --order".into());
-        }
-        let order = flags.order.unwrap_or(DEFAULT_ORDER);
+        let order = flags.count("order")?.unwrap_or(DEFAULT_ORDER);
         if !(1..=8).contains(&order) {
             return Err(format!("wrap: --order {order} is outside 1..=8"));
         }
         Ok(Box::new(WrapFamily { order }))
     }),
     eval_names: &[],
+    eval_flags: &[(rt::KIND, &[crate::log_zh::ORDER_FLAG])],
     gpu: &[],
     closed_form: Some(gpu::CLOSED),
     plot: None,

@@ -96,13 +96,11 @@ fn settings(a: &Args) -> Result<MaskSettings, String> {
             "--threshold {threshold}: t_i overflows f32 (the kernel's type)"
         ));
     }
-    let flags = lobefit::family::EvalFlags {
-        depth: Some(a.depth as usize),
-        mask: Some(a.mask.clone()),
-        weights: Some(a.weights.clone()),
-        light: Some(a.light.clone()),
-        ..Default::default()
-    };
+    let flags = lobefit::family::EvalFlags::default()
+        .with_count("depth", a.depth as usize)
+        .with("mask", a.mask.clone())
+        .with("weights", a.weights.clone())
+        .with("light", a.light.clone());
     Ok(MaskSettings {
         threshold,
         ..lobefit::pipelines::meunier::direct_light::DirectLightView::from_flags(&flags)?.settings

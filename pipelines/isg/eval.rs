@@ -10,7 +10,26 @@ use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Tables};
 use crate::scene::Bvh;
 use crate::sky::{exact_estimate, hit_of_row, POINT_INPUTS};
-use lobefit_core::family::{EvalFlags, Lookup, View};
+use lobefit_core::family::{EvalFlag, EvalFlags, Lookup, View};
+
+/// The flags `eval isg-shade` takes.
+pub const FLAGS: &[EvalFlag] = &[
+    EvalFlag {
+        name: "scene",
+        help: "FILE (required: environment SGs, spheres, top-level brdf)",
+        count: false,
+    },
+    EvalFlag {
+        name: "model",
+        help: "paper | refit | best (default best)",
+        count: false,
+    },
+    EvalFlag {
+        name: "patches",
+        help: "N × N patches per product SG, 1..=64 (default adaptive)",
+        count: true,
+    },
+];
 
 /// `eval --help`'s paragraph.
 pub const EVAL_HELP: &str = "
@@ -38,17 +57,9 @@ pub struct IsgShadeView {
 impl IsgShadeView {
     /// From `eval`'s flags (`--scene` required, `--model`, `--patches`).
     pub fn from_flags(flags: &EvalFlags) -> Result<Self, String> {
-        if let Some(f) = flags
-            .given()
-            .into_iter()
-            .find(|f| !["--scene", "--model", "--patches"].contains(f))
-        {
-            return Err(format!(
-                "isg-shade takes no {f} flag (only --scene, --model, --patches)"
-            ));
-        }
-        let path = flags.scene.as_deref().ok_or("isg-shade needs --scene FILE")?;
-        let scene = crate::scene::load_for(path, &super::PIPELINE.accepts)?;
+        flags.only("isg-shade", FLAGS)?;
+        let path = flags.text("scene").ok_or("isg-shade needs --scene FILE")?;
+        let scene = crate::scene::load_for(&path, &super::PIPELINE.accepts)?;
         if scene.environment.is_empty() {
             return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name));
         }
@@ -57,8 +68,8 @@ impl IsgShadeView {
             .as_ref()
             .ok_or_else(|| format!("scene {}: isg-shade needs the top-level brdf", scene.name))?;
         let brdf = Phong::of(brdf).map_err(|e| format!("scene {}: brdf: {e}", scene.name))?;
-        let model = flags.model.as_deref().map_or(Ok(Model::Best), Model::parse)?;
-        let patches = match flags.patches {
+        let model = flags.text("model").as_deref().map_or(Ok(Model::Best), Model::parse)?;
+        let patches = match flags.count("patches")? {
             None => Patches::Adaptive,
             Some(n) if (1..=64).contains(&n) => Patches::Grid(n),
             Some(n) => return Err(format!("--patches {n} is outside 1..=64")),

@@ -17,7 +17,12 @@ pub const PIPELINE: Pipeline = Pipeline {
     about: "Iwasaki et al. 2012: spheres under an SG environment, ISG shadows (docs/isg-render.md)",
     scenes: &["fig12", "fig12-diffuse", "sweep"],
     render: render::render,
-    eval: &[("isg-shade", eval::EVAL_HELP, eval::view)],
+    eval: &[super::EvalView {
+        name: "isg-shade",
+        help: eval::EVAL_HELP,
+        flags: eval::FLAGS,
+        view: eval::view,
+    }],
     plots: &[],
     accepts: super::scene::Accepts {
         pipeline: "the ISG pipeline",

@@ -16,7 +16,7 @@ use lobefit_tables::meunier::{check_scene, LightModel, MaskSettings};
 use lobefit_tables::{CapExponent, LoadError, LobeProduct, LookupError, Meunier, MeunierError, Table};
 
 use crate::scene::visible;
-use lobefit_core::family::{EvalFlags, Lookup, View};
+use lobefit_core::family::{EvalFlag, EvalFlags, Lookup, View};
 use lobefit_core::quad::gauss_kronrod;
 use lobefit_core::rng::Rng;
 use lobefit_fits::mask_weights::MaskWeightsFamily;
@@ -40,6 +40,30 @@ direct-light  [--depth N] (1..5, default 5)  [--mask aggressive|conservative]
 /// Relative tolerance of the reference's nested Gauss–Kronrod.
 pub const EXACT_REL_TOL: f64 = 1e-8;
 
+/// The flags `eval direct-light` takes.
+pub const FLAGS: &[EvalFlag] = &[
+    EvalFlag {
+        name: "depth",
+        help: "maximal visibility-mask depth, 1..=5 (default 5)",
+        count: true,
+    },
+    EvalFlag {
+        name: "mask",
+        help: "aggressive | conservative (default aggressive)",
+        count: false,
+    },
+    EvalFlag {
+        name: "weights",
+        help: "fitted | paper | one (default fitted)",
+        count: false,
+    },
+    EvalFlag {
+        name: "light",
+        help: "lobe | cap, how the light enters (default cap)",
+        count: false,
+    },
+];
+
 /// The `eval direct-light` view (reads the mask-weights table).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DirectLightView {
@@ -51,31 +75,23 @@ impl DirectLightView {
     /// From `eval`'s flags: `--depth N` (1..=5, default 5), `--mask aggressive|conservative`
     /// (default aggressive), `--weights fitted|paper|one` (default fitted).
     pub fn from_flags(flags: &EvalFlags) -> Result<Self, String> {
-        if let Some(f) = flags
-            .given()
-            .into_iter()
-            .find(|f| !["--depth", "--mask", "--weights", "--light"].contains(f))
-        {
-            return Err(format!(
-                "direct-light takes no {f} flag (only --depth, --mask, --weights, --light)"
-            ));
-        }
-        let depth = flags.depth.unwrap_or(MAX_DEPTH as usize);
+        flags.only("direct-light", FLAGS)?;
+        let depth = flags.count("depth")?.unwrap_or(MAX_DEPTH as usize);
         if !(1..=MAX_DEPTH as usize).contains(&depth) {
             return Err(format!("direct-light: --depth {depth} is outside 1..={MAX_DEPTH}"));
         }
-        let mode = match flags.mask.as_deref() {
+        let mode = match flags.text("mask").as_deref() {
             None | Some("aggressive") => MaskMode::Aggressive,
             Some("conservative") => MaskMode::Conservative,
             Some(m) => return Err(format!("--mask {m}: expected aggressive or conservative")),
         };
-        let weights = match flags.weights.as_deref() {
+        let weights = match flags.text("weights").as_deref() {
             None | Some("fitted") => WeightSet::Fitted,
             Some("paper") => WeightSet::Paper,
             Some("one") => WeightSet::Ones,
             Some(w) => return Err(format!("--weights {w}: expected fitted, paper or one")),
         };
-        let light = match flags.light.as_deref() {
+        let light = match flags.text("light").as_deref() {
             None => MaskSettings::default().light,
             Some(l) => LightModel::ALL
                 .into_iter()

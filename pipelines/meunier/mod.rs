@@ -17,7 +17,12 @@ pub const PIPELINE: Pipeline = Pipeline {
     about: "Meunier et al. 2009: spheres over a plane under a spherical light (docs/meunier.md)",
     scenes: &["fig13", "glossy"],
     render: render::render,
-    eval: &[("direct-light", direct_light::EVAL_HELP, direct_light::view)],
+    eval: &[super::EvalView {
+        name: "direct-light",
+        help: direct_light::EVAL_HELP,
+        flags: direct_light::FLAGS,
+        view: direct_light::view,
+    }],
     plots: &[("meunier", direct_light::plot), ("meunier-scaling", scaling::plot)],
     accepts: super::scene::Accepts {
         pipeline: "the Meunier pipeline",

@@ -8,7 +8,21 @@ use lobefit_tables::{LoadError, LookupError, ShExp, Table};
 use super::shade::{radiance, Settings, Tables};
 use crate::scene::Scene;
 use crate::sky::{exact_estimate, hit_of_row, Phong, POINT_INPUTS};
-use lobefit_core::family::{EvalFlags, Lookup, View};
+use lobefit_core::family::{EvalFlag, EvalFlags, Lookup, View};
+
+/// The flags `eval shexp-shade` takes.
+pub const FLAGS: &[EvalFlag] = &[
+    EvalFlag {
+        name: "scene",
+        help: "FILE (required: a distant light, spheres, top-level brdf)",
+        count: false,
+    },
+    EvalFlag {
+        name: "order",
+        help: "3..=8 (bands 0..N-1; default 4)",
+        count: true,
+    },
+];
 
 /// `eval --help`'s paragraph.
 pub const EVAL_HELP: &str = "
@@ -36,17 +50,15 @@ pub struct ShExpShadeView {
 impl ShExpShadeView {
     /// From `eval`'s flags (`--scene` required, `--order`).
     pub fn from_flags(flags: &EvalFlags) -> Result<Self, String> {
-        if let Some(f) = flags.given().into_iter().find(|f| !["--scene", "--order"].contains(f)) {
-            return Err(format!("shexp-shade takes no {f} flag (only --scene, --order)"));
-        }
-        let path = flags.scene.as_deref().ok_or("shexp-shade needs --scene FILE")?;
+        flags.only("shexp-shade", FLAGS)?;
+        let path = flags.text("scene").ok_or("shexp-shade needs --scene FILE")?;
         // The render's rule, but planes: they are only seen (not blockers), and eval
         // shades given points, so they change nothing here.
         let accepts = crate::scene::Accepts {
             planes: true,
             ..super::PIPELINE.accepts
         };
-        let scene = crate::scene::load_for(path, &accepts)?;
+        let scene = crate::scene::load_for(&path, &accepts)?;
         if scene.environment.is_empty() && scene.sh_environment.is_none() {
             return Err(format!(
                 "scene {}: shexp-shade needs a distant light (environment or sh_environment)",
@@ -59,7 +71,7 @@ impl ShExpShadeView {
             .ok_or_else(|| format!("scene {}: shexp-shade needs the top-level brdf", scene.name))?;
         let brdf = Phong::of(brdf).map_err(|e| format!("scene {}: brdf: {e}", scene.name))?;
         let settings = Settings {
-            order: flags.order.unwrap_or(Settings::default().order),
+            order: flags.count("order")?.unwrap_or(Settings::default().order),
             ..Settings::default()
         };
         settings.validate().map_err(|e| format!("--order: {e}"))?;

@@ -21,7 +21,12 @@ pub const PIPELINE: Pipeline = Pipeline {
     about: "Ren et al. 2006 / Giraud 2015: height field and spheres under an SH sky, SH-exponentiation shadows (docs/shexp-render.md)",
     scenes: &["whale", "whale-diffuse", "wrecking"],
     render: render::render,
-    eval: &[("shexp-shade", eval::EVAL_HELP, eval::view)],
+    eval: &[super::EvalView {
+        name: "shexp-shade",
+        help: eval::EVAL_HELP,
+        flags: eval::FLAGS,
+        view: eval::view,
+    }],
     plots: &[],
     accepts: super::scene::Accepts {
         pipeline: "the SH-exponentiation pipeline",
