@@ -283,7 +283,7 @@ pub fn time_at(curve: &[Point], error: f64) -> Option<Timing> {
 mod tests {
     use super::*;
     use crate::estimate::Sampling;
-    use crate::sky::{reference_cv, reference_hybrid, reference_sampled, Phong};
+    use crate::sky::{reference_cv, reference_hybrid, reference_sampled, Phong, Select};
 
     fn point(spp: usize, rel_rmse: f64, us: f64) -> Point {
         Point {
@@ -399,7 +399,11 @@ mod tests {
     enum Kind {
         Plain,
         Qmc,
+        /// QMC with the control variate, the SGs picked by their integral.
         QmcCv,
+        /// QMC with the control variate, the SGs picked by their contribution at the
+        /// point (`sky::Select::Contribution`).
+        QmcCvMis,
         /// QMC with the ISG pipeline (default settings) as the control variate.
         HybridIsg,
         /// QMC with the SH-exponentiation pipeline (default settings) as the control
@@ -432,7 +436,26 @@ mod tests {
                     seed,
                 ),
                 Kind::Qmc => reference_sampled(Sampling::Qmc, &scene.environment, light, &brdf, occluded, hit, n, seed),
-                Kind::QmcCv => reference_cv(Sampling::Qmc, &scene.environment, &brdf, occluded, hit, n, seed),
+                Kind::QmcCv => reference_cv(
+                    Sampling::Qmc,
+                    Select::Integral,
+                    &scene.environment,
+                    &brdf,
+                    occluded,
+                    hit,
+                    n,
+                    seed,
+                ),
+                Kind::QmcCvMis => reference_cv(
+                    Sampling::Qmc,
+                    Select::Contribution,
+                    &scene.environment,
+                    &brdf,
+                    occluded,
+                    hit,
+                    n,
+                    seed,
+                ),
                 Kind::HybridIsg => {
                     let t = isg.as_ref().expect("the ISG tables");
                     let blockers = crate::isg::render::blockers_of(scene, hit);
@@ -651,7 +674,7 @@ mod tests {
             qmc_max: 16,
             out: dir.path().to_path_buf(),
         });
-        for (tag, estimators) in [("isg-fig12", 5), ("shexp-whale", 5), ("meunier-fig13", 3)] {
+        for (tag, estimators) in [("isg-fig12", 6), ("shexp-whale", 6), ("meunier-fig13", 3)] {
             let s: serde_json::Value =
                 serde_json::from_slice(&std::fs::read(dir.path().join(format!("{tag}-summary.json"))).unwrap())
                     .unwrap();
@@ -807,7 +830,7 @@ mod tests {
                 };
                 // The reference: QMC with the control variate (an SG light), two runs.
                 let kind = if scene.sh_environment.is_none() {
-                    Kind::QmcCv
+                    Kind::QmcCvMis
                 } else {
                     Kind::Qmc
                 };
@@ -889,6 +912,10 @@ mod tests {
                     curves.push((
                         "qmc-cv",
                         measure(&b, target, qmc_max, &environment(&scene, Kind::QmcCv)),
+                    ));
+                    curves.push((
+                        "qmc-cv-mis",
+                        measure(&b, target, qmc_max, &environment(&scene, Kind::QmcCvMis)),
                     ));
                 }
                 curves.push(("adaptive", adaptive(&b, target, qmc_max, &environment(&scene, kind))));

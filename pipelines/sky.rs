@@ -118,13 +118,23 @@ pub fn reference_sampled(
     n: usize,
     seed: u64,
 ) -> Estimate {
-    mis(sampling, sample, brdf, h, n, seed, false, |w, c, pdf, f_d, f_s| {
-        if occluded(w) {
-            0.0
-        } else {
-            light(w) * (f_d + f_s) * c / pdf
-        }
-    })
+    mis(
+        sampling,
+        Select::Integral,
+        sample,
+        brdf,
+        h,
+        n,
+        seed,
+        false,
+        |w, c, pdf, f_d, f_s| {
+            if occluded(w) {
+                0.0
+            } else {
+                light(w) * (f_d + f_s) * c / pdf
+            }
+        },
+    )
 }
 
 /// The `hybrid` estimator: an analytic method's shading as the control variate. With
@@ -150,14 +160,24 @@ pub fn reference_hybrid(
     a_integral: f64,
     a: impl Fn(DVec3) -> f64,
 ) -> Estimate {
-    let e = mis(sampling, sample, brdf, h, n, seed, true, |w, c, pdf, f_d, f_s| {
-        let f = if c <= 0.0 || occluded(w) {
-            0.0
-        } else {
-            light(w) * (f_d + f_s) * c
-        };
-        (f - a(w)) / pdf
-    });
+    let e = mis(
+        sampling,
+        Select::Integral,
+        sample,
+        brdf,
+        h,
+        n,
+        seed,
+        true,
+        |w, c, pdf, f_d, f_s| {
+            let f = if c <= 0.0 || occluded(w) {
+                0.0
+            } else {
+                light(w) * (f_d + f_s) * c
+            };
+            (f - a(w)) / pdf
+        },
+    );
     Estimate {
         mean: a_integral + e.mean,
         ..e
@@ -169,13 +189,15 @@ pub fn reference_hybrid(
 /// k_d/π Σ μ ∫ G max(n·ω, 0) dω ([`clamped_cosine_integral`]), minus the Monte Carlo
 /// estimate of what the blockers hide of it, L k_d/π cos / pdf over the occluded
 /// samples; the specular term is estimated as in [`reference_sampled`] (visible
-/// samples, L f_s cos / pdf) from the same samples. Unbiased for any `sampling` (the
+/// samples, L f_s cos / pdf) from the same samples, the SGs picked as `select` says. Unbiased for any `sampling` (the
 /// mixture covers the hemisphere); an unoccluded diffuse point has no variance. The
 /// standard error is the samples' (the constant adds none).
 ///
 /// [`clamped_cosine_integral`]: crate::isg::shade::clamped_cosine_integral
+#[allow(clippy::too_many_arguments)]
 pub fn reference_cv(
     sampling: Sampling,
+    select: Select,
     env: &[Sg],
     brdf: &Phong,
     occluded: impl Fn(DVec3) -> bool,
@@ -189,7 +211,7 @@ pub fn reference_cv(
         .sum::<f64>()
         * brdf.diffuse
         / PI;
-    let e = mis(sampling, env, brdf, h, n, seed, false, |w, c, pdf, f_d, f_s| {
+    let e = mis(sampling, select, env, brdf, h, n, seed, false, |w, c, pdf, f_d, f_s| {
         let l = environment(env, w);
         if occluded(w) {
             -l * f_d * c / pdf
@@ -203,14 +225,51 @@ pub fn reference_cv(
     }
 }
 
+/// How the mixture picks among the SGs of its light.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Select {
+    /// In proportion to each SG's integral over the sphere (what the renders'
+    /// references do: blind to the horizon, the cosine and the BRDF).
+    Integral,
+    /// In proportion to an estimate of what each SG contributes at the point: its
+    /// clamped-cosine integral × k_d/π (exact) plus its overlap with the Phong lobe
+    /// taken as an SG of sharpness n, × k_s (n+2)/(2π) (n·r)₊ (approximate: it only
+    /// shapes the variance). An SG below the horizon gets (almost) no samples, the sun
+    /// its share of the radiance.
+    Contribution,
+}
+
+/// [`Select::Contribution`]'s weight of the SG `g` at a point of normal `nrm` and
+/// mirror direction `r`.
+fn contribution(g: &Sg, brdf: &Phong, nrm: DVec3, r: DVec3) -> f64 {
+    let diffuse = brdf.diffuse / PI * crate::isg::shade::clamped_cosine_integral(g, nrm);
+    let specular = if brdf.specular > 0.0 {
+        // ∫ e^{λ(a·ω − 1)} e^{n(r·ω − 1)} dω = 4π e^{m − λ − n} (1 − e^{−2m})/(2m),
+        // m = |λa + n r| (→ 4π e^{−λ−n} as m → 0).
+        let (l, e) = (g.sharpness, brdf.exponent);
+        let m = (l * g.axis + e * r).length();
+        let shape = if m > 1e-12 {
+            -(-2.0 * m).exp_m1() / (2.0 * m)
+        } else {
+            1.0
+        };
+        let overlap = 4.0 * PI * (m - l - e).exp() * shape;
+        brdf.specular * (e + 2.0) / TAU * nrm.dot(r).max(0.0) * overlap
+    } else {
+        0.0
+    };
+    g.amplitude * (diffuse + specular)
+}
+
 /// The mixture estimator behind the references: each sample's direction ω from the
-/// cosine, the Phong lobe or an SG of `env` (with `below`, also the uniform sphere, so
+/// cosine, the Phong lobe or an SG of `env` picked as `select` says (with `below`, also the uniform sphere, so
 /// that an integrand living below the horizon is covered), and
 /// `term(ω, cos, pdf, f_d, f_s)` its value for pdf > 0 and cos > 0 (any cos with
 /// `below`), 0 otherwise; f_d = k_d/π and f_s the specular BRDF at ω.
 #[allow(clippy::too_many_arguments)]
 fn mis(
     sampling: Sampling,
+    select: Select,
     env: &[Sg],
     brdf: &Phong,
     h: &Hit,
@@ -224,7 +283,10 @@ fn mis(
     let (t, b) = nrm.any_orthonormal_pair();
     let (rt, rb) = r.any_orthonormal_pair();
     let spec = brdf.specular > 0.0;
-    let energy: Vec<f64> = env.iter().map(Sg::integral).collect();
+    let energy: Vec<f64> = match select {
+        Select::Integral => env.iter().map(Sg::integral).collect(),
+        Select::Contribution => env.iter().map(|g| contribution(g, brdf, nrm, r)).collect(),
+    };
     let total: f64 = energy.iter().sum();
     // Strategy probabilities: cosine, Phong, the SGs.
     let (p_cos, p_phong) = if spec { (0.3, 0.3) } else { (0.5, 0.0) };
@@ -479,17 +541,47 @@ mod tests {
             let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
             (m, (var / v.len() as f64).sqrt())
         };
-        let none = reference_cv(Sampling::Qmc, &[g], &diffuse, |_| false, &h, 64, 5);
+        let none = reference_cv(
+            Sampling::Qmc,
+            Select::Contribution,
+            &[g],
+            &diffuse,
+            |_| false,
+            &h,
+            64,
+            5,
+        );
         assert!(
             (none.mean / open - 1.0).abs() < 1e-3 && none.std_error == 0.0,
             "{none:?} vs {open}"
         );
         let v: Vec<f64> = (0..64)
-            .map(|k| reference_cv(Sampling::Qmc, &[g], &diffuse, half, &h, 256, 1000 + k).mean)
+            .map(|k| {
+                reference_cv(
+                    Sampling::Qmc,
+                    Select::Contribution,
+                    &[g],
+                    &diffuse,
+                    half,
+                    &h,
+                    256,
+                    1000 + k,
+                )
+                .mean
+            })
             .collect();
         let (m, se) = mean_se(&v);
         assert!((m - open / 2.0).abs() < 4.0 * se, "QMC-CV {m} ± {se} vs {}", open / 2.0);
-        let p = reference_cv(Sampling::Plain, &[g], &diffuse, half, &h, 20_000, 9);
+        let p = reference_cv(
+            Sampling::Plain,
+            Select::Contribution,
+            &[g],
+            &diffuse,
+            half,
+            &h,
+            20_000,
+            9,
+        );
         assert!((p.mean - open / 2.0).abs() < 4.0 * p.std_error, "plain CV {p:?}");
 
         let phong = Phong {
@@ -500,11 +592,82 @@ mod tests {
         let env = [g, Sg::new(DVec3::new(0.8, 0.0, 0.6), 5.0, 1.0).unwrap()];
         let want = reference(&env, &phong, half, &h, 200_000, 3);
         let v: Vec<f64> = (0..64)
-            .map(|k| reference_cv(Sampling::Qmc, &env, &phong, half, &h, 256, 1000 + k).mean)
+            .map(|k| {
+                reference_cv(
+                    Sampling::Qmc,
+                    Select::Contribution,
+                    &env,
+                    &phong,
+                    half,
+                    &h,
+                    256,
+                    1000 + k,
+                )
+                .mean
+            })
             .collect();
         let (m, se) = mean_se(&v);
         let tol = 4.0 * (se * se + want.std_error * want.std_error).sqrt();
         assert!((m - want.mean).abs() < tol, "QMC-CV {m} ± {se} vs plain {want:?}");
+    }
+
+    /// [`Select::Contribution`]'s SG–Phong overlap against a product rule over the
+    /// sphere, and what it is for: at a Phong point under a sun and a broad SG mostly
+    /// below the horizon, the control-variate estimator's per-sample variance falls
+    /// (plain sampling, 20 000 samples each).
+    #[test]
+    fn contribution_selection_weighs_what_reaches_the_point() {
+        let (l, e) = (12.0, 20.0);
+        let a = DVec3::new(0.6, 0.0, 0.8);
+        let r = DVec3::new(0.0, 0.6, 0.8);
+        let (nt, np) = (800, 1600);
+        let mut brute = 0.0;
+        for i in 0..nt {
+            let th = PI * (i as f64 + 0.5) / nt as f64;
+            for j in 0..np {
+                let ph = TAU * (j as f64 + 0.5) / np as f64;
+                let w = DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+                brute += (l * (a.dot(w) - 1.0) + e * (r.dot(w) - 1.0)).exp() * th.sin();
+            }
+        }
+        brute *= PI / nt as f64 * TAU / np as f64;
+        let phong = Phong {
+            diffuse: 0.0,
+            specular: 1.0,
+            exponent: e,
+        };
+        let g = Sg::new(a, l, 1.0).unwrap();
+        let want = (e + 2.0) / TAU * DVec3::Z.dot(r) * brute;
+        let got = contribution(&g, &phong, DVec3::Z, r);
+        assert!((got / want - 1.0).abs() < 1e-4, "{got} vs {want}");
+
+        let h = Hit {
+            x: DVec3::ZERO,
+            n: DVec3::Z,
+            t: DVec3::X,
+            wo: DVec3::new(0.0, -0.6, 0.8),
+            sphere: None,
+            material: 0,
+        };
+        let env = [
+            Sg::new(DVec3::new(0.3, 0.1, 0.95).normalize(), 200.0, 40.0).unwrap(),
+            Sg::new(DVec3::new(0.0, 0.0, -1.0), 1.0, 3.0).unwrap(),
+        ];
+        let brdf = Phong {
+            diffuse: 0.5,
+            specular: 0.3,
+            exponent: 20.0,
+        };
+        let half = |w: DVec3| w.x > 0.2;
+        let var = |select| {
+            let e = reference_cv(Sampling::Plain, select, &env, &brdf, half, &h, 20_000, 11);
+            e.std_error.powi(2) * e.samples as f64
+        };
+        let (by_integral, by_contribution) = (var(Select::Integral), var(Select::Contribution));
+        assert!(
+            by_contribution < 0.5 * by_integral,
+            "per-sample variance {by_contribution} (contribution) vs {by_integral} (integral)"
+        );
     }
 
     #[test]
