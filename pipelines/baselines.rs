@@ -30,6 +30,9 @@ pub struct Point {
     /// removed: √((E[(x − r)²] − E[noise_r²]) / E[r²]) (note: over the reference's RMS,
     /// not its mean as in the renders).
     pub rel_rmse: f64,
+    /// Mean ꟻLIP (LDR, 67 pixels per degree) of the tone-mapped image against the
+    /// tone-mapped reference ([`Bench::flip`]); `None` without the `flip` feature.
+    pub flip: Option<f64>,
     /// Time per pixel.
     pub us: Timing,
 }
@@ -103,6 +106,32 @@ impl Bench {
         ((mse - self.ref_var).max(0.0) / self.mean_sq).sqrt()
     }
 
+    /// The mean ꟻLIP error (NVIDIA's LDR-ꟻLIP through the `nv-flip` crate, at its
+    /// default 67 pixels per degree) between `img` and the reference, both tone-mapped
+    /// as the renders' beauty images are (one exposure from the reference's mean, ACES,
+    /// sRGB, 8-bit grey); `None` unless built with the `flip` feature (the crate
+    /// compiles NVIDIA's C++, which the default build does not assume).
+    pub fn flip(&self, img: &[Estimate]) -> Option<f64> {
+        #[cfg(feature = "flip")]
+        {
+            let mean = self.idx.iter().map(|&p| self.refs[p]).sum::<f64>() / self.idx.len() as f64;
+            let exposure = crate::image::exposure_for(mean);
+            let rgb = |v: &mut dyn Iterator<Item = f64>| -> Vec<u8> {
+                v.flat_map(|x| [crate::image::tone_map_8bit(x, exposure); 3]).collect()
+            };
+            let (w, h) = (self.w as u32, (self.hits.len() / self.w) as u32);
+            let reference = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(&mut self.refs.iter().copied()));
+            let test = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(&mut img.iter().map(|e| e.mean)));
+            let map = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+            Some(f64::from(nv_flip::FlipPool::from_image(&map).mean()))
+        }
+        #[cfg(not(feature = "flip"))]
+        {
+            let _ = img;
+            None
+        }
+    }
+
     /// The image `shade(hit, pixel)` gives (one warm-up run) and its time per pixel.
     fn timed(
         &self,
@@ -148,6 +177,7 @@ impl Bench {
                 Ok(Point {
                     spp: n,
                     rel_rmse: self.error(&img),
+                    flip: self.flip(&img),
                     us,
                 })
             })
@@ -165,14 +195,19 @@ impl Bench {
                 Ok(Point {
                     spp: n,
                     rel_rmse: self.error(&img),
+                    flip: self.flip(&img),
                     us,
                 })
             })
             .collect()
     }
 
-    /// The analytic method `shade(hit)`'s error and time per pixel, timed the same way.
-    pub fn analytic(&self, shade: &(dyn Fn(&Hit) -> Result<f64, String> + Sync)) -> Result<(f64, Timing), String> {
+    /// The analytic method `shade(hit)`'s error, ꟻLIP and time per pixel, timed the
+    /// same way.
+    pub fn analytic(
+        &self,
+        shade: &(dyn Fn(&Hit) -> Result<f64, String> + Sync),
+    ) -> Result<(f64, Option<f64>, Timing), String> {
         let (img, us) = self.timed(&|hit, _| {
             Ok(Estimate {
                 mean: shade(hit)?,
@@ -180,7 +215,7 @@ impl Bench {
                 samples: 1,
             })
         })?;
-        Ok((self.error(&img), us))
+        Ok((self.error(&img), self.flip(&img), us))
     }
 }
 
@@ -289,6 +324,7 @@ mod tests {
         Point {
             spp,
             rel_rmse,
+            flip: None,
             us: Timing {
                 median: us,
                 min: 0.5 * us,
@@ -350,6 +386,28 @@ mod tests {
         assert!(adapt < 0.5 * uniform, "adaptive MSE {adapt} against uniform {uniform}");
     }
 
+    /// ꟻLIP is 0 for the reference itself and grows with a darkening of the image
+    /// (`--features flip`).
+    #[cfg(feature = "flip")]
+    #[test]
+    fn flip_is_zero_on_the_reference_and_grows_with_the_error() {
+        let scene = crate::isg::PIPELINE.scene("fig12-diffuse").unwrap();
+        let b = Bench::new(&scene, 16, 16, 1, &environment(&scene, Kind::Plain)).unwrap();
+        let img = |scale: f64| -> Vec<Estimate> {
+            b.refs
+                .iter()
+                .map(|&r| Estimate {
+                    mean: r * scale,
+                    std_error: 0.0,
+                    samples: 1,
+                })
+                .collect()
+        };
+        assert_eq!(b.flip(&img(1.0)), Some(0.0));
+        let (a, c) = (b.flip(&img(0.9)).unwrap(), b.flip(&img(0.5)).unwrap());
+        assert!(0.0 < a && a < c && c < 1.0, "ꟻLIP {a} at 0.9, {c} at 0.5");
+    }
+
     /// Interpolation recovers n and its time from a 1/√n curve exactly, and refuses to
     /// extrapolate.
     #[test]
@@ -384,7 +442,7 @@ mod tests {
             let [a, b] = REF_SEEDS.map(|s| est(hit, 64, seed(s, p)).unwrap().mean);
             Ok(0.5 * (a + b))
         };
-        let (e, t) = b.analytic(&same).unwrap();
+        let (e, _, t) = b.analytic(&same).unwrap();
         assert_eq!(e, 0.0);
         assert!(t.min <= t.median && t.median <= t.max);
         let c = b.curve(&[4, 16], &est).unwrap();
@@ -498,6 +556,7 @@ mod tests {
     struct Method {
         name: String,
         rel_rmse: f64,
+        flip: Option<f64>,
         us: Timing,
     }
 
@@ -513,10 +572,16 @@ mod tests {
             rayon::current_num_threads(),
             b.reference_error(),
         );
+        let flip = |f: Option<f64>| f.map_or(String::new(), |f| format!(", ꟻLIP {f:.4}"));
         for m in methods {
             println!(
-                "  method {:<22} rel RMSE {:.4}, {:.2} µs/px [{:.2}–{:.2}]",
-                m.name, m.rel_rmse, m.us.median, m.us.min, m.us.max
+                "  method {:<22} rel RMSE {:.4}{}, {:.2} µs/px [{:.2}–{:.2}]",
+                m.name,
+                m.rel_rmse,
+                flip(m.flip),
+                m.us.median,
+                m.us.min,
+                m.us.max
             );
         }
         for (label, c) in curves {
@@ -524,8 +589,13 @@ mod tests {
                 .iter()
                 .map(|p| {
                     format!(
-                        "{} spp {:.4} {:.1} µs [{:.1}–{:.1}]",
-                        p.spp, p.rel_rmse, p.us.median, p.us.min, p.us.max
+                        "{} spp {:.4}{} {:.1} µs [{:.1}–{:.1}]",
+                        p.spp,
+                        p.rel_rmse,
+                        flip(p.flip),
+                        p.us.median,
+                        p.us.min,
+                        p.us.max
                     )
                 })
                 .collect();
@@ -582,15 +652,14 @@ mod tests {
             "pixels": b.pixels(),
             "threads": rayon::current_num_threads(),
             "reference_rel_rmse": b.reference_error(),
-            "flip": null,
             "methods": methods.iter().map(|m| serde_json::json!({
-                "name": m.name, "rel_rmse_noise_free": m.rel_rmse,
+                "name": m.name, "rel_rmse_noise_free": m.rel_rmse, "flip": m.flip,
                 "us_per_pixel": m.us.median, "us_min": m.us.min, "us_max": m.us.max,
             })).collect::<Vec<_>>(),
             "estimators": curves.iter().map(|(l, c)| serde_json::json!({
                 "name": l,
                 "curve": c.iter().map(|p| serde_json::json!({
-                    "spp": p.spp, "rel_rmse_noise_free": p.rel_rmse,
+                    "spp": p.spp, "rel_rmse_noise_free": p.rel_rmse, "flip": p.flip,
                     "us_per_pixel": p.us.median, "us_min": p.us.min, "us_max": p.us.max,
                 })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
@@ -806,10 +875,11 @@ mod tests {
                             )
                             .map_err(|e| e.to_string())
                         };
-                        let (rel_rmse, us) = b.analytic(&shade).unwrap();
+                        let (rel_rmse, flip, us) = b.analytic(&shade).unwrap();
                         Method {
                             name: label.clone(),
                             rel_rmse,
+                            flip,
                             us,
                         }
                     })
@@ -854,7 +924,7 @@ mod tests {
                     configs
                         .iter()
                         .map(|(label, s)| {
-                            let (rel_rmse, us) = b
+                            let (rel_rmse, flip, us) = b
                                 .analytic(&|h| {
                                     let brdf = Phong::of(scene.brdf(h))?;
                                     radiance(
@@ -870,6 +940,7 @@ mod tests {
                             Method {
                                 name: label.clone(),
                                 rel_rmse,
+                                flip,
                                 us,
                             }
                         })
@@ -885,7 +956,7 @@ mod tests {
                                 ..Settings::default()
                             };
                             let light = crate::shexp::light_sh(&scene, s.order).unwrap();
-                            let (rel_rmse, us) = b
+                            let (rel_rmse, flip, us) = b
                                 .analytic(&|h| radiance(&t, &s, &light, &Phong::of(scene.brdf(h))?, &scene, h))
                                 .unwrap();
                             Method {
@@ -895,6 +966,7 @@ mod tests {
                                     format!("order {order}")
                                 },
                                 rel_rmse,
+                                flip,
                                 us,
                             }
                         })
