@@ -18,14 +18,16 @@ run $bin render rigs --scene drive --out "$out/rigs"
 # The direct-light study and the rigs' figures.
 run $bin plot meunier --out "$out/meunier"
 run $bin plot rigs --out "$out/rigs"
-# Plain Monte Carlo, scrambled Sobol, Sobol with a control variate and the hybrid (the
+# Plain Monte Carlo, scrambled Sobol, Sobol with a control variate (SGs picked by their
+# integral, or by their contribution at the point), adaptive sampling and the hybrid (the
 # pipeline as control variate) against each pipeline's configurations at equal error,
 # samples and time measured; per scene a summary JSON and a Pareto chart in
 # docs/figures/baselines, then the Pareto fronts (docs/pipelines.md, "Stronger baselines";
-# ~4 min on 2 cores). The dev profile: the workspace optimises it (opt-level 2).
+# ~4 min on 2 cores). The dev profile: the workspace optimises it (opt-level 2); the flip
+# feature adds ꟻLIP (nv-flip compiles NVIDIA's C++ with the machine's g++).
 base="$(pwd)/docs/figures/baselines"
-LF_OUT="$base" LF_SCENES=fig12,fig12-diffuse,whale,fig13 run cargo test -q -p lobefit-pipelines --lib study_baselines -- --ignored --nocapture
-LF_OUT="$base" LF_WIDTH=16 LF_SCENES=wrecking run cargo test -q -p lobefit-pipelines --lib study_baselines -- --ignored --nocapture
+LF_OUT="$base" LF_SCENES=fig12,fig12-diffuse,whale,fig13 run cargo test -q -p lobefit-pipelines --features flip --lib study_baselines -- --ignored --nocapture
+LF_OUT="$base" LF_WIDTH=16 LF_SCENES=wrecking run cargo test -q -p lobefit-pipelines --features flip --lib study_baselines -- --ignored --nocapture
 LF_OUT="$base" LF_SCENES=cluster-1,cluster-16,cluster-256,cluster-1024,torus-1,torus-16,torus-252,torus-1020 \
-  run cargo test -q -p lobefit-pipelines --lib study_baselines -- --ignored --nocapture
+  run cargo test -q -p lobefit-pipelines --features flip --lib study_baselines -- --ignored --nocapture
 run python3 scripts/pareto_front.py "$base"
