@@ -946,25 +946,53 @@ mod tests {
                         })
                         .collect()
                 } else {
-                    use crate::shexp::shade::{radiance, Settings, Tables};
+                    use crate::shexp::shade::{radiance, BlockerLog, BrdfMode, Settings, Tables};
                     let t = Tables::embedded().unwrap();
-                    [4, 3, 5, 6]
+                    let mut configs: Vec<(String, Settings)> = [4, 3, 5, 6]
                         .into_iter()
                         .map(|order| {
-                            let s = Settings {
-                                order,
-                                ..Settings::default()
+                            let name = if order == 4 {
+                                "default (order 4)".into()
+                            } else {
+                                format!("order {order}")
                             };
+                            (
+                                name,
+                                Settings {
+                                    order,
+                                    ..Settings::default()
+                                },
+                            )
+                        })
+                        .collect();
+                    // The machinery's alternatives (docs/shexp-render.md): the BRDF by
+                    // the exact triple product instead of its log lobe, Ren's blocker log.
+                    for order in [4, 6] {
+                        configs.push((
+                            format!("order {order}, triple-product BRDF"),
+                            Settings {
+                                order,
+                                brdf: BrdfMode::Triple,
+                                ..Settings::default()
+                            },
+                        ));
+                    }
+                    configs.push((
+                        "order 4, Ren's blocker log".into(),
+                        Settings {
+                            blocker_log: BlockerLog::Ren,
+                            ..Settings::default()
+                        },
+                    ));
+                    configs
+                        .iter()
+                        .map(|(name, s)| {
                             let light = crate::shexp::light_sh(&scene, s.order).unwrap();
                             let (rel_rmse, flip, us) = b
-                                .analytic(&|h| radiance(&t, &s, &light, &Phong::of(scene.brdf(h))?, &scene, h))
+                                .analytic(&|h| radiance(&t, s, &light, &Phong::of(scene.brdf(h))?, &scene, h))
                                 .unwrap();
                             Method {
-                                name: if order == 4 {
-                                    "default (order 4)".into()
-                                } else {
-                                    format!("order {order}")
-                                },
+                                name: name.clone(),
                                 rel_rmse,
                                 flip,
                                 us,
