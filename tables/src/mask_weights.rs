@@ -376,7 +376,8 @@ pub fn build_mask(light: Cap, blockers: &[Cap], max_depth: u32) -> Result<Mask, 
     };
     if !b.caps.is_empty() {
         let n = b.candidates.len();
-        b.visit(-0.5, -0.5, 1.0, 0, 0..n);
+        let c = [b.dir(-0.5, -0.5), b.dir(0.5, -0.5), b.dir(0.5, 0.5), b.dir(-0.5, 0.5)];
+        b.visit(-0.5, -0.5, 1.0, c, 0, 0..n);
     }
     Ok(Mask {
         dist: dist_of_cap(alpha),
@@ -448,13 +449,12 @@ impl Builder {
     /// its children, and one containing the parent ends the descent there, so the
     /// classification is the one a test of every cap gives, at the cost of the caps
     /// near the cell: the cost follows the blockers in the penumbra, not their number.
-    fn visit(&mut self, s0: f64, t0: f64, h: f64, depth: u32, parent: std::ops::Range<usize>) {
-        let c = [
-            self.dir(s0, t0),
-            self.dir(s0 + h, t0),
-            self.dir(s0 + h, t0 + h),
-            self.dir(s0, t0 + h),
-        ];
+    ///
+    /// `c` are the cell's corners, (s0, t0), (s0 + h, t0), (s0 + h, t0 + h), (s0, t0 + h)
+    /// through [`Builder::dir`]; children take theirs from it and five new points (the
+    /// coordinates are dyadic, so every sum is exact and a shared corner is the very
+    /// value its own call would give).
+    fn visit(&mut self, s0: f64, t0: f64, h: f64, c: [DVec3; 4], depth: u32, parent: std::ops::Range<usize>) {
         let axis = (c[0] + c[1] + c[2] + c[3]).normalize();
         let min_cos = c.iter().map(|x| axis.dot(*x)).fold(1.0, f64::min).clamp(-1.0, 1.0);
         // The cell lies in the cap about `axis` of half-angle β = acos(min_cos) (a
@@ -495,8 +495,17 @@ impl Builder {
         });
         if !full && depth < self.max_depth {
             let g = 0.5 * h;
-            for (ds, dt) in [(0.0, 0.0), (g, 0.0), (g, g), (0.0, g)] {
-                self.visit(s0 + ds, t0 + dt, g, depth + 1, start..end);
+            let (bottom, right) = (self.dir(s0 + g, t0), self.dir(s0 + h, t0 + g));
+            let (top, left) = (self.dir(s0 + g, t0 + h), self.dir(s0, t0 + g));
+            let centre = self.dir(s0 + g, t0 + g);
+            let children = [
+                (0.0, 0.0, [c[0], bottom, centre, left]),
+                (g, 0.0, [bottom, c[1], right, centre]),
+                (g, g, [centre, right, c[2], top]),
+                (0.0, g, [left, centre, top, c[3]]),
+            ];
+            for (ds, dt, corners) in children {
+                self.visit(s0 + ds, t0 + dt, g, corners, depth + 1, start..end);
             }
         }
         self.candidates.truncate(start);
