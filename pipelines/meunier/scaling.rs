@@ -107,7 +107,7 @@ pub fn torus(n: usize) -> Result<Scene, String> {
 }
 
 /// The blockers of `h` whose caps may meet the light's cone, through the BVH.
-pub(crate) fn culled(scene: &Scene, light: &SphereLight, h: &Hit) -> Vec<Sphere> {
+pub fn culled(scene: &Scene, light: &SphereLight, h: &Hit) -> Vec<Sphere> {
     let to = light.sphere.centre - h.x;
     let d = to.length();
     let mut out = Vec::new();
