@@ -2,7 +2,8 @@
 //! `cargo bench --bench meunier`. One point in a penumbra (light of radius 1 at
 //! distance 4, a blocker half-way, off-centre): the lobe pipeline at depths 2 and 5
 //! (the light's cap) and at depth 5 with the paper's light lobe,
-//! the mask alone, the quadrature reference, and 64 Monte Carlo light samples.
+//! the mask alone, the quadrature reference, and 64 Monte Carlo light samples; and the
+//! pipeline per pixel of the blocker-scaling scenes at 16 and 1024 spheres.
 //! Wall-clock numbers live here (and in `lobefit render meunier`'s summary), never in
 //! tests.
 
@@ -94,4 +95,33 @@ fn monte_carlo_64_samples() -> usize {
             visible(black_box(DVec3::ZERO), d, &l.sphere, &b)
         })
         .count()
+}
+
+/// The lobe pipeline (default settings) at every lit pixel of the blocker-scaling
+/// scenes (`lobefit plot meunier-scaling`) at 24 × 18, the blockers culled by the
+/// light's cone through the BVH as the study does, one thread: the time per item is
+/// µs per pixel (docs/meunier.md, "Blocker scaling"). 16 against 1024 spheres: how the
+/// cost grows with the blockers.
+#[divan::bench(args = ["cluster-16", "cluster-1024", "torus-16", "torus-1024"], sample_count = 20)]
+fn pixel_scaling(bencher: divan::Bencher, name: &str) {
+    use lobefit::pipelines::meunier::scaling::{cluster, culled, torus};
+    let (kind, n) = name.split_once('-').unwrap();
+    let n: usize = n.parse().unwrap();
+    let scene = if kind == "cluster" { cluster(n) } else { torus(n) }.unwrap();
+    let m = Meunier::embedded().unwrap();
+    let s = MaskSettings::default();
+    let light = scene.lights[0];
+    let (hits, _) = scene.primary_hits(24, 18).unwrap();
+    let hits: Vec<_> = hits.into_iter().flatten().collect();
+    bencher
+        .counter(divan::counter::ItemsCount::new(hits.len()))
+        .bench_local(|| {
+            hits.iter()
+                .map(|h| {
+                    let b = culled(&scene, &light, h);
+                    m.radiance(h.x, h.n, h.t, h.wo, scene.brdf(h), &[light], &b, &s)
+                        .unwrap()
+                })
+                .sum::<f64>()
+        });
 }

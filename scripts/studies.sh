@@ -13,6 +13,9 @@ run() { printf '\n== %s\n' "$*" >&2; "$@"; }
 # Meunier: 1–1024 sphere blockers, lobes against Monte Carlo at equal error
 # (docs/meunier.md, "Blocker scaling").
 run $bin plot meunier-scaling --out "$out/meunier"
+# The lobes alone per N on one thread: µs per pixel (median of 5), RMSE, image hash
+# (docs/meunier.md, "The cost per pixel against the blocker count").
+run cargo test -q -p lobefit-pipelines --lib study_meunier_lobes_scaling -- --ignored --nocapture
 # Irradiance rigs: the 24-frame drive past the lamps (docs/rigs.md, "--scene drive").
 run $bin render rigs --scene drive --out "$out/rigs"
 # The direct-light study and the rigs' figures.

@@ -107,7 +107,7 @@ pub fn torus(n: usize) -> Result<Scene, String> {
 }
 
 /// The blockers of `h` whose caps may meet the light's cone, through the BVH.
-pub(crate) fn culled(scene: &Scene, light: &SphereLight, h: &Hit) -> Vec<Sphere> {
+pub fn culled(scene: &Scene, light: &SphereLight, h: &Hit) -> Vec<Sphere> {
     let to = light.sphere.centre - h.x;
     let d = to.length();
     let mut out = Vec::new();
@@ -267,4 +267,88 @@ pub fn plot(dir: &Path) -> Result<Vec<PathBuf>, String> {
         },
     )?;
     Ok(vec![txt, png])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
+        std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d)
+    }
+
+    /// The lobes' cost per pixel at N blockers, one thread (run with --ignored;
+    /// docs/meunier.md, "Blocker scaling"): per scene (cluster and torus at
+    /// `LF_COUNTS`, default 1,16,64,256,1024) at `LF_WIDTH` px (64), the culled lobe
+    /// image shaded serially `LF_RUNS` (5) times (µs per lit pixel: median, min, max),
+    /// its relative RMSE against the study's reference ([`SPP`] spp with the BVH) and
+    /// a hash of its bytes (equal hashes: the same image, bit for bit). Checks nothing.
+    #[test]
+    #[ignore]
+    fn study_meunier_lobes_scaling() {
+        let width: usize = env_or("LF_WIDTH", WIDTH);
+        let runs: usize = env_or("LF_RUNS", 5);
+        let counts: String = env_or("LF_COUNTS", "1,16,64,256,1024".to_string());
+        let m = Meunier::embedded().unwrap();
+        let settings = MaskSettings::default();
+        println!(
+            "scene          spheres  pixels  µs/px median [min, max] ({runs} runs, one thread)  rel RMSE  image hash"
+        );
+        for kind in ["cluster", "torus"] {
+            for n in counts.split(',').map(|s| s.trim().parse::<usize>().unwrap()) {
+                let scene = if kind == "cluster" { cluster(n) } else { torus(n) }.unwrap();
+                let light = scene.lights[0];
+                let (hits, lit) = scene.primary_hits(width, width * 3 / 4).unwrap();
+                let pixels = lit.iter().filter(|&&l| l).count();
+                let shade = || -> Vec<f64> {
+                    hits.iter()
+                        .map(|o| match o {
+                            None => 0.0,
+                            Some(hit) => m
+                                .radiance(
+                                    hit.x,
+                                    hit.n,
+                                    hit.t,
+                                    hit.wo,
+                                    scene.brdf(hit),
+                                    &[light],
+                                    &culled(&scene, &light, hit),
+                                    &settings,
+                                )
+                                .unwrap(),
+                        })
+                        .collect()
+                };
+                let img = shade();
+                let mut t: Vec<f64> = (0..runs).map(|_| 1e6 * timed(shade).1 / pixels as f64).collect();
+                t.sort_by(f64::total_cmp);
+                let refs: Vec<f64> = hits
+                    .par_iter()
+                    .enumerate()
+                    .map(|(p, o)| match o {
+                        None => 0.0,
+                        Some(hit) => {
+                            reference_with(&scene, &light, hit, SPP, super::super::render::MC_SEED ^ p as u64, true)
+                                .mean
+                        }
+                    })
+                    .collect();
+                let st = compare(&img, &refs, &lit);
+                let mut hash = 0xcbf2_9ce4_8422_2325_u64;
+                for b in img.iter().flat_map(|v| v.to_le_bytes()) {
+                    hash = (hash ^ b as u64).wrapping_mul(0x100_0000_01b3);
+                }
+                println!(
+                    "{:<14} {:>7}  {:>6}  {:>8.2} [{:.2}, {:.2}]  {:>8.4}  {hash:016x}",
+                    scene.name,
+                    scene.spheres.len(),
+                    pixels,
+                    t[runs / 2],
+                    t[0],
+                    t[runs - 1],
+                    st.rel_rmse
+                );
+            }
+        }
+    }
 }

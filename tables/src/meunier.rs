@@ -146,14 +146,17 @@ pub fn lobe_fraction_in_cap(gamma: f64, alpha: f64, e: f64) -> f64 {
     if gamma - 6.0 * sigma >= alpha {
         return 0.0;
     }
-    // The integrand is even in φ: the midpoint rule on [0, π].
-    let n = 24;
+    // The integrand is even in φ: the midpoint rule on [0, π], its nodes' sines and
+    // cosines computed once (the same values as per call: a leaf lobe calls this).
+    const N: usize = 24;
+    static NODES: std::sync::OnceLock<[(f64, f64); N]> = std::sync::OnceLock::new();
+    let nodes =
+        NODES.get_or_init(|| std::array::from_fn(|k| (std::f64::consts::PI * (k as f64 + 0.5) / N as f64).sin_cos()));
+    let n = N;
     let mut sum = 0.0;
-    for k in 0..n {
-        let phi = std::f64::consts::PI * (k as f64 + 0.5) / n as f64;
+    for &(sp, cp) in nodes {
         // Along the ray from the lobe's axis at azimuth φ (φ = 0 towards the cap's
         // centre): |γ − ρ cos φ, ρ sin φ| = α.
-        let (sp, cp) = phi.sin_cos();
         let disc = alpha * alpha - gamma * gamma * sp * sp;
         if disc <= 0.0 {
             continue;
@@ -309,13 +312,16 @@ fn unit(name: &str, d: DVec3) -> Result<DVec3, MeunierError> {
     Ok(d / length)
 }
 
-fn check_sphere(what: &str, s: &Sphere) -> Result<(), MeunierError> {
+/// `what` names the sphere (`blocker 3`); it is formatted only for an error, since
+/// scenes with many blockers check every one per point.
+fn check_sphere(what: impl Fn() -> String, s: &Sphere) -> Result<(), MeunierError> {
+    if s.centre.is_finite() && s.radius.is_finite() && s.radius > 0.0 {
+        return Ok(());
+    }
+    let what = what();
     point(&format!("{what} centre"), s.centre)?;
     if finite(&format!("{what} radius"), s.radius)? <= 0.0 {
-        return Err(MeunierError::BadRadius {
-            what: what.into(),
-            radius: s.radius,
-        });
+        return Err(MeunierError::BadRadius { what, radius: s.radius });
     }
     Ok(())
 }
@@ -325,7 +331,7 @@ fn check_sphere(what: &str, s: &Sphere) -> Result<(), MeunierError> {
 pub fn check_scene(x: DVec3, lights: &[SphereLight], blockers: &[Sphere]) -> Result<(), MeunierError> {
     point("shading point", x)?;
     for (i, b) in blockers.iter().enumerate() {
-        check_sphere(&format!("blocker {i}"), b)?;
+        check_sphere(|| format!("blocker {i}"), b)?;
         let distance = dist(b.centre, x);
         if distance <= b.radius {
             return Err(MeunierError::PointInsideBlocker {
@@ -336,8 +342,10 @@ pub fn check_scene(x: DVec3, lights: &[SphereLight], blockers: &[Sphere]) -> Res
         }
     }
     for (i, l) in lights.iter().enumerate() {
-        check_sphere(&format!("light {i}"), &l.sphere)?;
-        nonneg(&format!("light {i} radiance"), l.radiance)?;
+        check_sphere(|| format!("light {i}"), &l.sphere)?;
+        if !(l.radiance >= 0.0 && l.radiance.is_finite()) {
+            nonneg(&format!("light {i} radiance"), l.radiance)?;
+        }
         let distance = dist(l.sphere.centre, x);
         if distance <= l.sphere.radius {
             return Err(MeunierError::PointInsideLight {
