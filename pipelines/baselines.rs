@@ -7,8 +7,9 @@
 
 use std::time::Instant;
 
-use crate::estimate::{per_pixel, Estimate};
+use crate::estimate::{per_pixel, Estimate, Sampling};
 use crate::scene::{Hit, Scene};
+use crate::sky::{reference_cv, reference_hybrid, reference_sampled, Phong, Select};
 
 /// Wall time per shaded pixel (µs) over repeated runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -314,11 +315,584 @@ pub fn time_at(curve: &[Point], error: f64) -> Option<Timing> {
     })
 }
 
+/// An environment scene's estimators.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    Plain,
+    Qmc,
+    /// QMC with the control variate, the SGs picked by their integral.
+    QmcCv,
+    /// QMC with the control variate, the SGs picked by their contribution at the
+    /// point (`sky::Select::Contribution`).
+    QmcCvMis,
+    /// QMC with the ISG pipeline (default settings) as the control variate.
+    HybridIsg,
+    /// QMC with the SH-exponentiation pipeline (default settings) as the control
+    /// variate.
+    HybridSh,
+}
+
+/// `kind` at a hit of the environment scene `scene` (its SGs sampled, its light
+/// through `shexp::light`: the SGs or its SH, visibility exact).
+fn environment(
+    scene: &Scene,
+    kind: Kind,
+) -> Result<impl Fn(&Hit, usize, u64) -> Result<Estimate, String> + Sync + '_, String> {
+    let isg = match kind {
+        Kind::HybridIsg => Some(crate::isg::shade::Tables::embedded().map_err(|e| e.to_string())?),
+        _ => None,
+    };
+    let sh = match kind {
+        Kind::HybridSh => {
+            let s = crate::shexp::shade::Settings::default();
+            let light = crate::shexp::light_sh(scene, s.order)?;
+            Some((
+                crate::shexp::shade::Tables::embedded().map_err(|e| e.to_string())?,
+                s,
+                light,
+            ))
+        }
+        _ => None,
+    };
+    Ok(move |hit: &Hit, n: usize, seed: u64| {
+        let brdf = Phong::of(scene.brdf(hit))?;
+        let occluded = |v| scene.occluded(hit, v);
+        let light = |v| crate::shexp::light(scene, v);
+        Ok(match kind {
+            Kind::Plain => reference_sampled(
+                Sampling::Plain,
+                &scene.environment,
+                light,
+                &brdf,
+                occluded,
+                hit,
+                n,
+                seed,
+            ),
+            Kind::Qmc => reference_sampled(Sampling::Qmc, &scene.environment, light, &brdf, occluded, hit, n, seed),
+            Kind::QmcCv => reference_cv(
+                Sampling::Qmc,
+                Select::Integral,
+                &scene.environment,
+                &brdf,
+                occluded,
+                hit,
+                n,
+                seed,
+            ),
+            Kind::QmcCvMis => reference_cv(
+                Sampling::Qmc,
+                Select::Contribution,
+                &scene.environment,
+                &brdf,
+                occluded,
+                hit,
+                n,
+                seed,
+            ),
+            Kind::HybridIsg => {
+                let t = isg.as_ref().ok_or("the ISG tables")?;
+                let blockers = crate::isg::render::blockers_of(scene, hit);
+                let s = crate::isg::shade::Settings::default();
+                let a = crate::isg::shade::integrand(t, &s, &scene.environment, &brdf, &blockers, hit)?;
+                reference_hybrid(
+                    Sampling::Qmc,
+                    &scene.environment,
+                    light,
+                    &brdf,
+                    occluded,
+                    hit,
+                    n,
+                    seed,
+                    a.value,
+                    |w| a.eval(w),
+                )
+            }
+            Kind::HybridSh => {
+                let (t, s, l) = sh.as_ref().ok_or("the SH tables")?;
+                let a = crate::shexp::shade::integrand(t, s, l, &brdf, scene, hit)?;
+                reference_hybrid(
+                    Sampling::Qmc,
+                    &scene.environment,
+                    light,
+                    &brdf,
+                    occluded,
+                    hit,
+                    n,
+                    seed,
+                    a.value,
+                    |w| light(w) * a.eval(w),
+                )
+            }
+        })
+    })
+}
+
+/// One analytic configuration's measured error and time.
+struct Method {
+    name: String,
+    rel_rmse: f64,
+    flip: Option<f64>,
+    us: Timing,
+}
+
+/// Prints the curves and each estimator's samples and time at the default
+/// configuration's error (`methods[0]`) and at a quarter of it, with the factors
+/// against plain and against the analytic time; writes
+/// `<out>/<tag>-summary.json` and the Pareto chart `<out>/<tag>-pareto.png`.
+fn report(
+    tag: &str,
+    out: &std::path::Path,
+    b: &Bench,
+    methods: &[Method],
+    curves: &[(&str, Vec<Point>)],
+) -> Result<Vec<std::path::PathBuf>, String> {
+    let (err, ta) = (methods[0].rel_rmse, methods[0].us);
+    println!(
+        "{tag}: {} px shaded, {} threads; reference error {:.1e}",
+        b.pixels(),
+        rayon::current_num_threads(),
+        b.reference_error(),
+    );
+    let flip = |f: Option<f64>| f.map_or(String::new(), |f| format!(", ꟻLIP {f:.4}"));
+    for m in methods {
+        println!(
+            "  method {:<22} rel RMSE {:.4}{}, {:.2} µs/px [{:.2}–{:.2}]",
+            m.name,
+            m.rel_rmse,
+            flip(m.flip),
+            m.us.median,
+            m.us.min,
+            m.us.max
+        );
+    }
+    for (label, c) in curves {
+        let pts: Vec<String> = c
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} spp {:.4}{} {:.1} µs [{:.1}–{:.1}]",
+                    p.spp,
+                    p.rel_rmse,
+                    flip(p.flip),
+                    p.us.median,
+                    p.us.min,
+                    p.us.max
+                )
+            })
+            .collect();
+        println!("  {label:<7} {}", pts.join("; "));
+    }
+    let mut equal = Vec::new();
+    for (what, target) in [("the analytic error", err), ("a quarter of it", err / 4.0)] {
+        // Plain at the target, or (beyond its measured range, below its last
+        // error) its last point: a lower bound of its samples and time.
+        let plain = curves.iter().find(|(l, _)| *l == "plain").and_then(|(_, c)| {
+            let last = c.last()?;
+            match (spp_at(c, target), time_at(c, target)) {
+                (Some(n), Some(t)) => Some((n, t.median, "")),
+                _ if target < last.rel_rmse => Some((last.spp as f64, last.us.median, "> ")),
+                _ => None,
+            }
+        });
+        for (label, c) in curves {
+            match (spp_at(c, target), time_at(c, target)) {
+                (Some(n), Some(t)) => {
+                    let vs_plain = match plain {
+                        Some((pn, pt, bound)) => format!(
+                            "{bound}{:.1}× fewer samples, {bound}{:.1}× less time than plain",
+                            pn / n,
+                            pt / t.median
+                        ),
+                        None => "plain beyond measured range".into(),
+                    };
+                    println!(
+                        "  at {what} ({target:.4}), {label:<7}: {n:.0} spp, {:.1} µs/px [{:.1}–{:.1}]; {vs_plain}; {:.2}× the analytic time [{:.2}–{:.2}]",
+                        t.median,
+                        t.min,
+                        t.max,
+                        t.median / ta.median,
+                        t.min / ta.max,
+                        t.max / ta.min
+                    );
+                    equal.push(serde_json::json!({
+                        "method": methods[0].name, "target": target, "estimator": label,
+                        "spp": n, "us_per_pixel": t.median, "us_min": t.min, "us_max": t.max,
+                        "ratio": t.median / ta.median,
+                    }));
+                }
+                _ => println!(
+                    "  at {what} ({target:.4}), {label:<7}: beyond measured range (last: {} spp, {:.4})",
+                    c.last().map_or(0, |p| p.spp),
+                    c.last().map_or(f64::NAN, |p| p.rel_rmse)
+                ),
+            }
+        }
+    }
+    let summary = serde_json::json!({
+        "scene": tag,
+        "pixels": b.pixels(),
+        "threads": rayon::current_num_threads(),
+        "reference_rel_rmse": b.reference_error(),
+        "methods": methods.iter().map(|m| serde_json::json!({
+            "name": m.name, "rel_rmse_noise_free": m.rel_rmse, "flip": m.flip,
+            "us_per_pixel": m.us.median, "us_min": m.us.min, "us_max": m.us.max,
+        })).collect::<Vec<_>>(),
+        "estimators": curves.iter().map(|(l, c)| serde_json::json!({
+            "name": l,
+            "curve": c.iter().map(|p| serde_json::json!({
+                "spp": p.spp, "rel_rmse_noise_free": p.rel_rmse, "flip": p.flip,
+                "us_per_pixel": p.us.median, "us_min": p.us.min, "us_max": p.us.max,
+            })).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "equal_error": equal,
+    });
+    std::fs::create_dir_all(out).map_err(|e| e.to_string())?;
+    let json = out.join(format!("{tag}-summary.json"));
+    lobefit_core::io::write_atomic(
+        &json,
+        serde_json::to_string_pretty(&summary)
+            .map_err(|e| e.to_string())?
+            .as_bytes(),
+    )
+    .map_err(|e| e.to_string())?;
+    let mut series: Vec<lobefit_core::plot::Series> = curves
+        .iter()
+        .map(|(l, c)| lobefit_core::plot::Series {
+            name: format!("{l} (4 … {} spp)", c.last().map_or(0, |p| p.spp)),
+            points: c.iter().map(|p| (p.us.median, p.rel_rmse)).collect(),
+        })
+        .collect();
+    series.extend(methods.iter().map(|m| lobefit_core::plot::Series {
+        name: m.name.clone(),
+        points: vec![(m.us.median, m.rel_rmse)],
+    }));
+    let png = lobefit_core::plot::line_chart(
+        &out.join(format!("{tag}-pareto.png")),
+        &lobefit_core::plot::LineChart {
+            title: format!(
+                "{tag}: error vs time per pixel ({} px, {} threads)",
+                b.pixels(),
+                rayon::current_num_threads()
+            ),
+            x_label: "µs per pixel (median)".into(),
+            y_label: "relative RMSE (reference noise removed)".into(),
+            log_x: true,
+            log_y: true,
+            series,
+        },
+    )?;
+    println!("  wrote {} and {}", json.display(), png.display());
+    Ok(vec![json, png])
+}
+
+/// `lobefit plot baselines --out DIR`: the study at full size (several minutes on 2
+/// cores), as `scripts/studies.sh` runs it: fig12, fig12-diffuse, whale and fig13 at
+/// 24 px wide, wrecking at 16, Meunier's blocker-scaling scenes at 24; per scene
+/// `<pipeline>-<scene>-summary.json` and `-pareto.png` in DIR (docs/pipelines.md,
+/// "Stronger baselines").
+pub fn plot(out: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
+    let mut written = Vec::new();
+    for (width, scenes) in [
+        (24, "fig12,fig12-diffuse,whale,fig13"),
+        (16, "wrecking"),
+        (
+            24,
+            "cluster-1,cluster-16,cluster-256,cluster-1024,torus-1,torus-16,torus-252,torus-1020",
+        ),
+    ] {
+        written.extend(study(&Study {
+            width,
+            scenes: scenes.into(),
+            out: out.to_path_buf(),
+            ..Study::default()
+        })?);
+    }
+    Ok(written)
+}
+
+/// The study's knobs.
+struct Study {
+    width: usize,
+    runs: usize,
+    scenes: String,
+    ref_spp: usize,
+    plain_max: usize,
+    qmc_max: usize,
+    out: std::path::PathBuf,
+}
+
+impl Default for Study {
+    /// The full-size study's knobs (the `LF_*` defaults of the ignored test).
+    fn default() -> Self {
+        Study {
+            width: 24,
+            runs: 5,
+            scenes: "fig12,fig12-diffuse,whale,wrecking,fig13".into(),
+            ref_spp: 1 << 17,
+            plain_max: 1 << 16,
+            qmc_max: 1 << 14,
+            out: "target/baselines".into(),
+        }
+    }
+}
+
+/// Each scene of `cfg.scenes` measured (see [`plot`]); the files written.
+fn study(cfg: &Study) -> Result<Vec<std::path::PathBuf>, String> {
+    let Study {
+        width,
+        runs,
+        ref_spp,
+        plain_max,
+        qmc_max,
+        ..
+    } = *cfg;
+    let scenes = &cfg.scenes;
+    let out = cfg.out.clone();
+    let mut written = Vec::new();
+    // 4, 16, 64, … until past `target` (from 256 on) or at `max`.
+    let measure_with = |adaptive: bool, b: &Bench, target: f64, max: usize, est: Estimator| {
+        let mut c: Vec<Point> = Vec::new();
+        for n in (1..).map(|k| 1usize << (2 * k)).take_while(|&n| n <= max) {
+            c.extend(if adaptive {
+                b.adaptive_curve(&[n], est)
+            } else {
+                b.curve(&[n], est)
+            }?);
+            if n >= 256 && c[c.len() - 1].rel_rmse < target {
+                break;
+            }
+        }
+        Ok::<_, String>(c)
+    };
+    let measure = |b: &Bench, target: f64, max: usize, est: Estimator| measure_with(false, b, target, max, est);
+    // The strongest estimator's samples spread by a pilot (`adaptive_image`).
+    let adaptive = |b: &Bench, target: f64, max: usize, est: Estimator| measure_with(true, b, target, max, est);
+    // Curves run past a quarter of the default configuration's error (the
+    // hybrid's and the strongest estimators' regime).
+    for name in scenes.split(',') {
+        let t0 = Instant::now();
+        // Meunier: fig13, or a blocker-scaling scene (`cluster-N`, `torus-N`).
+        let scaling = |kind: &str| name.strip_prefix(kind).and_then(|n| n.parse::<usize>().ok());
+        if name == "fig13" || scaling("cluster-").is_some() || scaling("torus-").is_some() {
+            let scene = match (scaling("cluster-"), scaling("torus-")) {
+                (Some(n), _) => crate::meunier::scaling::cluster(n)?,
+                (_, Some(n)) => crate::meunier::scaling::torus(n)?,
+                _ => crate::meunier::render::scene(name)?,
+            };
+            let light = scene.lights[0];
+            let m = lobefit_tables::Meunier {
+                products: lobefit_tables::LobeProduct::embedded().map_err(|e| e.to_string())?,
+                caps: lobefit_tables::CapExponent::embedded().map_err(|e| e.to_string())?,
+                weights: lobefit_tables::MaskWeights::embedded().map_err(|e| e.to_string())?,
+            };
+            let est = |s: Sampling| {
+                let scene = &scene;
+                move |hit: &Hit, n: usize, seed: u64| {
+                    Ok(crate::meunier::render::reference_sampled(
+                        s, scene, &light, hit, n, seed, true,
+                    ))
+                }
+            };
+            // The reference: QMC (no control variate here), two runs.
+            let b = Bench::new(&scene, width, ref_spp, runs, &est(Sampling::Qmc))?;
+            use lobefit_tables::meunier::{LightModel, MaskSettings};
+            let mut configs = vec![("default (depth 5, cap light)".to_string(), MaskSettings::default())];
+            for depth in [3, 4] {
+                configs.push((
+                    format!("depth {depth}"),
+                    MaskSettings {
+                        depth,
+                        ..MaskSettings::default()
+                    },
+                ));
+            }
+            configs.push((
+                "lobe light (paper)".into(),
+                MaskSettings {
+                    light: LightModel::Lobe,
+                    ..MaskSettings::default()
+                },
+            ));
+            configs.push((
+                "t_i = 1e-3".into(),
+                MaskSettings {
+                    threshold: 1e-3,
+                    ..MaskSettings::default()
+                },
+            ));
+            let methods: Vec<Method> = configs
+                .iter()
+                .map(|(label, settings)| {
+                    let shade = |h: &Hit| {
+                        m.radiance(
+                            h.x,
+                            h.n,
+                            h.t,
+                            h.wo,
+                            scene.brdf(h),
+                            &[light],
+                            // The blockers culled by the light's cone through the
+                            // BVH: the same image as every sphere, faster.
+                            &crate::meunier::scaling::culled(&scene, &light, h),
+                            settings,
+                        )
+                        .map_err(|e| e.to_string())
+                    };
+                    let (rel_rmse, flip, us) = b.analytic(&shade)?;
+                    Ok(Method {
+                        name: label.clone(),
+                        rel_rmse,
+                        flip,
+                        us,
+                    })
+                })
+                .collect::<Result<Vec<_>, String>>()?;
+            let target = methods[0].rel_rmse / 4.0;
+            let curves = [
+                ("plain", measure(&b, target, plain_max, &est(Sampling::Plain))?),
+                ("qmc", measure(&b, target, qmc_max, &est(Sampling::Qmc))?),
+                ("adaptive", adaptive(&b, target, qmc_max, &est(Sampling::Qmc))?),
+            ];
+            written.extend(report(&format!("meunier-{name}"), &out, &b, &methods, &curves)?);
+        } else {
+            let isg = name.starts_with("fig12");
+            let scene = if isg {
+                crate::isg::render::scene(name)?
+            } else {
+                crate::shexp::render::scene(name)?
+            };
+            // The reference: QMC with the control variate (an SG light), two runs.
+            let kind = if scene.sh_environment.is_none() {
+                Kind::QmcCvMis
+            } else {
+                Kind::Qmc
+            };
+            let b = Bench::new(&scene, width, ref_spp, runs, &environment(&scene, kind)?)?;
+            let methods: Vec<Method> = if isg {
+                use crate::isg::shade::{radiance, Model, Patches, Settings, Tables};
+                let t = Tables::embedded()?;
+                let mut configs = vec![("default (best, adaptive)".to_string(), Settings::default())];
+                for model in Model::ALL {
+                    for (pl, patches) in [("10×10", Patches::Grid(10)), ("20×20", Patches::Grid(20))] {
+                        configs.push((
+                            format!("{} {pl}", model.name()),
+                            Settings {
+                                model,
+                                patches,
+                                ..Settings::default()
+                            },
+                        ));
+                    }
+                }
+                configs
+                    .iter()
+                    .map(|(label, s)| {
+                        let (rel_rmse, flip, us) = b.analytic(&|h| {
+                            let brdf = Phong::of(scene.brdf(h))?;
+                            radiance(
+                                &t,
+                                s,
+                                &scene.environment,
+                                &brdf,
+                                &crate::isg::render::blockers_of(&scene, h),
+                                h,
+                            )
+                        })?;
+                        Ok(Method {
+                            name: label.clone(),
+                            rel_rmse,
+                            flip,
+                            us,
+                        })
+                    })
+                    .collect::<Result<Vec<_>, String>>()?
+            } else {
+                use crate::shexp::shade::{radiance, BlockerLog, BrdfMode, Settings, Tables};
+                let t = Tables::embedded()?;
+                let mut configs: Vec<(String, Settings)> = [4, 3, 5, 6]
+                    .into_iter()
+                    .map(|order| {
+                        let name = if order == 4 {
+                            "default (order 4)".into()
+                        } else {
+                            format!("order {order}")
+                        };
+                        (
+                            name,
+                            Settings {
+                                order,
+                                ..Settings::default()
+                            },
+                        )
+                    })
+                    .collect();
+                // The machinery's alternatives (docs/shexp-render.md): the BRDF by
+                // the exact triple product instead of its log lobe, Ren's blocker log.
+                for order in [4, 6] {
+                    configs.push((
+                        format!("order {order}, triple-product BRDF"),
+                        Settings {
+                            order,
+                            brdf: BrdfMode::Triple,
+                            ..Settings::default()
+                        },
+                    ));
+                }
+                configs.push((
+                    "order 4, Ren's blocker log".into(),
+                    Settings {
+                        blocker_log: BlockerLog::Ren,
+                        ..Settings::default()
+                    },
+                ));
+                configs
+                    .iter()
+                    .map(|(name, s)| {
+                        let light = crate::shexp::light_sh(&scene, s.order)?;
+                        let (rel_rmse, flip, us) =
+                            b.analytic(&|h| radiance(&t, s, &light, &Phong::of(scene.brdf(h))?, &scene, h))?;
+                        Ok(Method {
+                            name: name.clone(),
+                            rel_rmse,
+                            flip,
+                            us,
+                        })
+                    })
+                    .collect::<Result<Vec<_>, String>>()?
+            };
+            let target = methods[0].rel_rmse / 4.0;
+            let mut curves = vec![
+                (
+                    "plain",
+                    measure(&b, target, plain_max, &environment(&scene, Kind::Plain)?)?,
+                ),
+                ("qmc", measure(&b, target, qmc_max, &environment(&scene, Kind::Qmc)?)?),
+            ];
+            if scene.sh_environment.is_none() {
+                curves.push((
+                    "qmc-cv",
+                    measure(&b, target, qmc_max, &environment(&scene, Kind::QmcCv)?)?,
+                ));
+                curves.push((
+                    "qmc-cv-mis",
+                    measure(&b, target, qmc_max, &environment(&scene, Kind::QmcCvMis)?)?,
+                ));
+            }
+            curves.push(("adaptive", adaptive(&b, target, qmc_max, &environment(&scene, kind)?)?));
+            let hybrid = if isg { Kind::HybridIsg } else { Kind::HybridSh };
+            curves.push(("hybrid", measure(&b, target, qmc_max, &environment(&scene, hybrid)?)?));
+            let pipeline = if isg { "isg" } else { "shexp" };
+            written.extend(report(&format!("{pipeline}-{name}"), &out, &b, &methods, &curves)?);
+        }
+        println!("  ({width} px wide, {:.0} s)", t0.elapsed().as_secs_f64());
+    }
+    Ok(written)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::Sampling;
-    use crate::sky::{reference_cv, reference_hybrid, reference_sampled, Phong, Select};
 
     fn point(spp: usize, rel_rmse: f64, us: f64) -> Point {
         Point {
@@ -392,7 +966,7 @@ mod tests {
     #[test]
     fn flip_is_zero_on_the_reference_and_grows_with_the_error() {
         let scene = crate::isg::PIPELINE.scene("fig12-diffuse").unwrap();
-        let b = Bench::new(&scene, 16, 16, 1, &environment(&scene, Kind::Plain)).unwrap();
+        let b = Bench::new(&scene, 16, 16, 1, &environment(&scene, Kind::Plain).unwrap()).unwrap();
         let img = |scale: f64| -> Vec<Estimate> {
             b.refs
                 .iter()
@@ -431,7 +1005,7 @@ mod tests {
     #[test]
     fn bench_measures_against_its_reference() {
         let scene = crate::isg::PIPELINE.scene("fig12-diffuse").unwrap();
-        let est = environment(&scene, Kind::Plain);
+        let est = environment(&scene, Kind::Plain).unwrap();
         let b = Bench::new(&scene, 8, 64, 1, &est).unwrap();
         let same = |hit: &Hit| -> Result<f64, String> {
             let p = b
@@ -452,252 +1026,6 @@ mod tests {
         );
     }
 
-    /// An environment scene's estimators.
-    #[derive(Debug, Clone, Copy, PartialEq)]
-    enum Kind {
-        Plain,
-        Qmc,
-        /// QMC with the control variate, the SGs picked by their integral.
-        QmcCv,
-        /// QMC with the control variate, the SGs picked by their contribution at the
-        /// point (`sky::Select::Contribution`).
-        QmcCvMis,
-        /// QMC with the ISG pipeline (default settings) as the control variate.
-        HybridIsg,
-        /// QMC with the SH-exponentiation pipeline (default settings) as the control
-        /// variate.
-        HybridSh,
-    }
-
-    /// `kind` at a hit of the environment scene `scene` (its SGs sampled, its light
-    /// through `shexp::light`: the SGs or its SH, visibility exact).
-    fn environment(scene: &Scene, kind: Kind) -> impl Fn(&Hit, usize, u64) -> Result<Estimate, String> + Sync + '_ {
-        let isg = (kind == Kind::HybridIsg).then(|| crate::isg::shade::Tables::embedded().unwrap());
-        let sh = (kind == Kind::HybridSh).then(|| {
-            let s = crate::shexp::shade::Settings::default();
-            let light = crate::shexp::light_sh(scene, s.order).unwrap();
-            (crate::shexp::shade::Tables::embedded().unwrap(), s, light)
-        });
-        move |hit, n, seed| {
-            let brdf = Phong::of(scene.brdf(hit))?;
-            let occluded = |v| scene.occluded(hit, v);
-            let light = |v| crate::shexp::light(scene, v);
-            Ok(match kind {
-                Kind::Plain => reference_sampled(
-                    Sampling::Plain,
-                    &scene.environment,
-                    light,
-                    &brdf,
-                    occluded,
-                    hit,
-                    n,
-                    seed,
-                ),
-                Kind::Qmc => reference_sampled(Sampling::Qmc, &scene.environment, light, &brdf, occluded, hit, n, seed),
-                Kind::QmcCv => reference_cv(
-                    Sampling::Qmc,
-                    Select::Integral,
-                    &scene.environment,
-                    &brdf,
-                    occluded,
-                    hit,
-                    n,
-                    seed,
-                ),
-                Kind::QmcCvMis => reference_cv(
-                    Sampling::Qmc,
-                    Select::Contribution,
-                    &scene.environment,
-                    &brdf,
-                    occluded,
-                    hit,
-                    n,
-                    seed,
-                ),
-                Kind::HybridIsg => {
-                    let t = isg.as_ref().expect("the ISG tables");
-                    let blockers = crate::isg::render::blockers_of(scene, hit);
-                    let s = crate::isg::shade::Settings::default();
-                    let a = crate::isg::shade::integrand(t, &s, &scene.environment, &brdf, &blockers, hit)?;
-                    reference_hybrid(
-                        Sampling::Qmc,
-                        &scene.environment,
-                        light,
-                        &brdf,
-                        occluded,
-                        hit,
-                        n,
-                        seed,
-                        a.value,
-                        |w| a.eval(w),
-                    )
-                }
-                Kind::HybridSh => {
-                    let (t, s, l) = sh.as_ref().expect("the SH tables");
-                    let a = crate::shexp::shade::integrand(t, s, l, &brdf, scene, hit)?;
-                    reference_hybrid(
-                        Sampling::Qmc,
-                        &scene.environment,
-                        light,
-                        &brdf,
-                        occluded,
-                        hit,
-                        n,
-                        seed,
-                        a.value,
-                        |w| light(w) * a.eval(w),
-                    )
-                }
-            })
-        }
-    }
-
-    /// One analytic configuration's measured error and time.
-    struct Method {
-        name: String,
-        rel_rmse: f64,
-        flip: Option<f64>,
-        us: Timing,
-    }
-
-    /// Prints the curves and each estimator's samples and time at the default
-    /// configuration's error (`methods[0]`) and at a quarter of it, with the factors
-    /// against plain and against the analytic time; writes
-    /// `<out>/<tag>-summary.json` and the Pareto chart `<out>/<tag>-pareto.png`.
-    fn report(tag: &str, out: &std::path::Path, b: &Bench, methods: &[Method], curves: &[(&str, Vec<Point>)]) {
-        let (err, ta) = (methods[0].rel_rmse, methods[0].us);
-        println!(
-            "{tag}: {} px shaded, {} threads; reference error {:.1e}",
-            b.pixels(),
-            rayon::current_num_threads(),
-            b.reference_error(),
-        );
-        let flip = |f: Option<f64>| f.map_or(String::new(), |f| format!(", ꟻLIP {f:.4}"));
-        for m in methods {
-            println!(
-                "  method {:<22} rel RMSE {:.4}{}, {:.2} µs/px [{:.2}–{:.2}]",
-                m.name,
-                m.rel_rmse,
-                flip(m.flip),
-                m.us.median,
-                m.us.min,
-                m.us.max
-            );
-        }
-        for (label, c) in curves {
-            let pts: Vec<String> = c
-                .iter()
-                .map(|p| {
-                    format!(
-                        "{} spp {:.4}{} {:.1} µs [{:.1}–{:.1}]",
-                        p.spp,
-                        p.rel_rmse,
-                        flip(p.flip),
-                        p.us.median,
-                        p.us.min,
-                        p.us.max
-                    )
-                })
-                .collect();
-            println!("  {label:<7} {}", pts.join("; "));
-        }
-        let mut equal = Vec::new();
-        for (what, target) in [("the analytic error", err), ("a quarter of it", err / 4.0)] {
-            // Plain at the target, or (beyond its measured range, below its last
-            // error) its last point: a lower bound of its samples and time.
-            let plain = curves.iter().find(|(l, _)| *l == "plain").and_then(|(_, c)| {
-                let last = c.last()?;
-                match (spp_at(c, target), time_at(c, target)) {
-                    (Some(n), Some(t)) => Some((n, t.median, "")),
-                    _ if target < last.rel_rmse => Some((last.spp as f64, last.us.median, "> ")),
-                    _ => None,
-                }
-            });
-            for (label, c) in curves {
-                match (spp_at(c, target), time_at(c, target)) {
-                    (Some(n), Some(t)) => {
-                        let vs_plain = match plain {
-                            Some((pn, pt, bound)) => format!(
-                                "{bound}{:.1}× fewer samples, {bound}{:.1}× less time than plain",
-                                pn / n,
-                                pt / t.median
-                            ),
-                            None => "plain beyond measured range".into(),
-                        };
-                        println!(
-                            "  at {what} ({target:.4}), {label:<7}: {n:.0} spp, {:.1} µs/px [{:.1}–{:.1}]; {vs_plain}; {:.2}× the analytic time [{:.2}–{:.2}]",
-                            t.median,
-                            t.min,
-                            t.max,
-                            t.median / ta.median,
-                            t.min / ta.max,
-                            t.max / ta.min
-                        );
-                        equal.push(serde_json::json!({
-                            "method": methods[0].name, "target": target, "estimator": label,
-                            "spp": n, "us_per_pixel": t.median, "us_min": t.min, "us_max": t.max,
-                            "ratio": t.median / ta.median,
-                        }));
-                    }
-                    _ => println!(
-                        "  at {what} ({target:.4}), {label:<7}: beyond measured range (last: {} spp, {:.4})",
-                        c.last().map_or(0, |p| p.spp),
-                        c.last().map_or(f64::NAN, |p| p.rel_rmse)
-                    ),
-                }
-            }
-        }
-        let summary = serde_json::json!({
-            "scene": tag,
-            "pixels": b.pixels(),
-            "threads": rayon::current_num_threads(),
-            "reference_rel_rmse": b.reference_error(),
-            "methods": methods.iter().map(|m| serde_json::json!({
-                "name": m.name, "rel_rmse_noise_free": m.rel_rmse, "flip": m.flip,
-                "us_per_pixel": m.us.median, "us_min": m.us.min, "us_max": m.us.max,
-            })).collect::<Vec<_>>(),
-            "estimators": curves.iter().map(|(l, c)| serde_json::json!({
-                "name": l,
-                "curve": c.iter().map(|p| serde_json::json!({
-                    "spp": p.spp, "rel_rmse_noise_free": p.rel_rmse, "flip": p.flip,
-                    "us_per_pixel": p.us.median, "us_min": p.us.min, "us_max": p.us.max,
-                })).collect::<Vec<_>>(),
-            })).collect::<Vec<_>>(),
-            "equal_error": equal,
-        });
-        std::fs::create_dir_all(out).unwrap();
-        let json = out.join(format!("{tag}-summary.json"));
-        lobefit_core::io::write_atomic(&json, serde_json::to_string_pretty(&summary).unwrap().as_bytes()).unwrap();
-        let mut series: Vec<lobefit_core::plot::Series> = curves
-            .iter()
-            .map(|(l, c)| lobefit_core::plot::Series {
-                name: format!("{l} (4 … {} spp)", c.last().map_or(0, |p| p.spp)),
-                points: c.iter().map(|p| (p.us.median, p.rel_rmse)).collect(),
-            })
-            .collect();
-        series.extend(methods.iter().map(|m| lobefit_core::plot::Series {
-            name: m.name.clone(),
-            points: vec![(m.us.median, m.rel_rmse)],
-        }));
-        let png = lobefit_core::plot::line_chart(
-            &out.join(format!("{tag}-pareto.png")),
-            &lobefit_core::plot::LineChart {
-                title: format!(
-                    "{tag}: error vs time per pixel ({} px, {} threads)",
-                    b.pixels(),
-                    rayon::current_num_threads()
-                ),
-                x_label: "µs per pixel (median)".into(),
-                y_label: "relative RMSE (reference noise removed)".into(),
-                log_x: true,
-                log_y: true,
-                series,
-            },
-        )
-        .unwrap();
-        println!("  wrote {} and {}", json.display(), png.display());
-    }
-
     fn env_or<T: std::str::FromStr>(var: &str, default: T) -> T {
         std::env::var(var).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
     }
@@ -716,15 +1044,17 @@ mod tests {
     #[test]
     #[ignore]
     fn study_baselines() {
+        let d = Study::default();
         study(&Study {
-            width: env_or("LF_WIDTH", 24),
-            runs: env_or("LF_RUNS", 5),
-            scenes: env_or("LF_SCENES", "fig12,fig12-diffuse,whale,wrecking,fig13".to_string()),
-            ref_spp: env_or("LF_REF_SPP", 1 << 17),
-            plain_max: env_or("LF_PLAIN_MAX", 1 << 16),
-            qmc_max: env_or("LF_QMC_MAX", 1 << 14),
+            width: env_or("LF_WIDTH", d.width),
+            runs: env_or("LF_RUNS", d.runs),
+            scenes: env_or("LF_SCENES", d.scenes),
+            ref_spp: env_or("LF_REF_SPP", d.ref_spp),
+            plain_max: env_or("LF_PLAIN_MAX", d.plain_max),
+            qmc_max: env_or("LF_QMC_MAX", d.qmc_max),
             out: std::path::PathBuf::from(env_or("LF_OUT", "target/baselines".to_string())),
-        });
+        })
+        .unwrap();
     }
 
     /// The study's code at a tiny size (every scene, 8 px wide, a 256-sample
@@ -742,7 +1072,8 @@ mod tests {
             plain_max: 16,
             qmc_max: 16,
             out: dir.path().to_path_buf(),
-        });
+        })
+        .unwrap();
         for (tag, estimators) in [("isg-fig12", 6), ("shexp-whale", 6), ("meunier-fig13", 3)] {
             let s: serde_json::Value =
                 serde_json::from_slice(&std::fs::read(dir.path().join(format!("{tag}-summary.json"))).unwrap())
@@ -758,273 +1089,6 @@ mod tests {
             );
             let png = std::fs::read(dir.path().join(format!("{tag}-pareto.png"))).unwrap();
             assert!(png.starts_with(b"\x89PNG"), "{tag}");
-        }
-    }
-
-    /// The study's knobs.
-    struct Study {
-        width: usize,
-        runs: usize,
-        scenes: String,
-        ref_spp: usize,
-        plain_max: usize,
-        qmc_max: usize,
-        out: std::path::PathBuf,
-    }
-
-    fn study(cfg: &Study) {
-        let Study {
-            width,
-            runs,
-            ref_spp,
-            plain_max,
-            qmc_max,
-            ..
-        } = *cfg;
-        let scenes = &cfg.scenes;
-        let out = cfg.out.clone();
-        // 4, 16, 64, … until past `target` (from 256 on) or at `max`.
-        let measure_with = |adaptive: bool, b: &Bench, target: f64, max: usize, est: Estimator| {
-            let mut c: Vec<Point> = Vec::new();
-            for n in (1..).map(|k| 1usize << (2 * k)).take_while(|&n| n <= max) {
-                c.extend(
-                    if adaptive {
-                        b.adaptive_curve(&[n], est)
-                    } else {
-                        b.curve(&[n], est)
-                    }
-                    .unwrap(),
-                );
-                if n >= 256 && c[c.len() - 1].rel_rmse < target {
-                    break;
-                }
-            }
-            c
-        };
-        let measure = |b: &Bench, target: f64, max: usize, est: Estimator| measure_with(false, b, target, max, est);
-        // The strongest estimator's samples spread by a pilot (`adaptive_image`).
-        let adaptive = |b: &Bench, target: f64, max: usize, est: Estimator| measure_with(true, b, target, max, est);
-        // Curves run past a quarter of the default configuration's error (the
-        // hybrid's and the strongest estimators' regime).
-        for name in scenes.split(',') {
-            let t0 = Instant::now();
-            // Meunier: fig13, or a blocker-scaling scene (`cluster-N`, `torus-N`).
-            let scaling = |kind: &str| name.strip_prefix(kind).and_then(|n| n.parse::<usize>().ok());
-            if name == "fig13" || scaling("cluster-").is_some() || scaling("torus-").is_some() {
-                let scene = match (scaling("cluster-"), scaling("torus-")) {
-                    (Some(n), _) => crate::meunier::scaling::cluster(n).unwrap(),
-                    (_, Some(n)) => crate::meunier::scaling::torus(n).unwrap(),
-                    _ => crate::meunier::render::scene(name).unwrap(),
-                };
-                let light = scene.lights[0];
-                let m = lobefit_tables::Meunier {
-                    products: lobefit_tables::LobeProduct::embedded().unwrap(),
-                    caps: lobefit_tables::CapExponent::embedded().unwrap(),
-                    weights: lobefit_tables::MaskWeights::embedded().unwrap(),
-                };
-                let est = |s: Sampling| {
-                    let scene = &scene;
-                    move |hit: &Hit, n: usize, seed: u64| {
-                        Ok(crate::meunier::render::reference_sampled(
-                            s, scene, &light, hit, n, seed, true,
-                        ))
-                    }
-                };
-                // The reference: QMC (no control variate here), two runs.
-                let b = Bench::new(&scene, width, ref_spp, runs, &est(Sampling::Qmc)).unwrap();
-                use lobefit_tables::meunier::{LightModel, MaskSettings};
-                let mut configs = vec![("default (depth 5, cap light)".to_string(), MaskSettings::default())];
-                for depth in [3, 4] {
-                    configs.push((
-                        format!("depth {depth}"),
-                        MaskSettings {
-                            depth,
-                            ..MaskSettings::default()
-                        },
-                    ));
-                }
-                configs.push((
-                    "lobe light (paper)".into(),
-                    MaskSettings {
-                        light: LightModel::Lobe,
-                        ..MaskSettings::default()
-                    },
-                ));
-                configs.push((
-                    "t_i = 1e-3".into(),
-                    MaskSettings {
-                        threshold: 1e-3,
-                        ..MaskSettings::default()
-                    },
-                ));
-                let methods: Vec<Method> = configs
-                    .iter()
-                    .map(|(label, settings)| {
-                        let shade = |h: &Hit| {
-                            m.radiance(
-                                h.x,
-                                h.n,
-                                h.t,
-                                h.wo,
-                                scene.brdf(h),
-                                &[light],
-                                // The blockers culled by the light's cone through the
-                                // BVH: the same image as every sphere, faster.
-                                &crate::meunier::scaling::culled(&scene, &light, h),
-                                settings,
-                            )
-                            .map_err(|e| e.to_string())
-                        };
-                        let (rel_rmse, flip, us) = b.analytic(&shade).unwrap();
-                        Method {
-                            name: label.clone(),
-                            rel_rmse,
-                            flip,
-                            us,
-                        }
-                    })
-                    .collect();
-                let target = methods[0].rel_rmse / 4.0;
-                let curves = [
-                    ("plain", measure(&b, target, plain_max, &est(Sampling::Plain))),
-                    ("qmc", measure(&b, target, qmc_max, &est(Sampling::Qmc))),
-                    ("adaptive", adaptive(&b, target, qmc_max, &est(Sampling::Qmc))),
-                ];
-                report(&format!("meunier-{name}"), &out, &b, &methods, &curves);
-            } else {
-                let isg = name.starts_with("fig12");
-                let scene = if isg {
-                    crate::isg::render::scene(name).unwrap()
-                } else {
-                    crate::shexp::render::scene(name).unwrap()
-                };
-                // The reference: QMC with the control variate (an SG light), two runs.
-                let kind = if scene.sh_environment.is_none() {
-                    Kind::QmcCvMis
-                } else {
-                    Kind::Qmc
-                };
-                let b = Bench::new(&scene, width, ref_spp, runs, &environment(&scene, kind)).unwrap();
-                let methods: Vec<Method> = if isg {
-                    use crate::isg::shade::{radiance, Model, Patches, Settings, Tables};
-                    let t = Tables::embedded().unwrap();
-                    let mut configs = vec![("default (best, adaptive)".to_string(), Settings::default())];
-                    for model in Model::ALL {
-                        for (pl, patches) in [("10×10", Patches::Grid(10)), ("20×20", Patches::Grid(20))] {
-                            configs.push((
-                                format!("{} {pl}", model.name()),
-                                Settings {
-                                    model,
-                                    patches,
-                                    ..Settings::default()
-                                },
-                            ));
-                        }
-                    }
-                    configs
-                        .iter()
-                        .map(|(label, s)| {
-                            let (rel_rmse, flip, us) = b
-                                .analytic(&|h| {
-                                    let brdf = Phong::of(scene.brdf(h))?;
-                                    radiance(
-                                        &t,
-                                        s,
-                                        &scene.environment,
-                                        &brdf,
-                                        &crate::isg::render::blockers_of(&scene, h),
-                                        h,
-                                    )
-                                })
-                                .unwrap();
-                            Method {
-                                name: label.clone(),
-                                rel_rmse,
-                                flip,
-                                us,
-                            }
-                        })
-                        .collect()
-                } else {
-                    use crate::shexp::shade::{radiance, BlockerLog, BrdfMode, Settings, Tables};
-                    let t = Tables::embedded().unwrap();
-                    let mut configs: Vec<(String, Settings)> = [4, 3, 5, 6]
-                        .into_iter()
-                        .map(|order| {
-                            let name = if order == 4 {
-                                "default (order 4)".into()
-                            } else {
-                                format!("order {order}")
-                            };
-                            (
-                                name,
-                                Settings {
-                                    order,
-                                    ..Settings::default()
-                                },
-                            )
-                        })
-                        .collect();
-                    // The machinery's alternatives (docs/shexp-render.md): the BRDF by
-                    // the exact triple product instead of its log lobe, Ren's blocker log.
-                    for order in [4, 6] {
-                        configs.push((
-                            format!("order {order}, triple-product BRDF"),
-                            Settings {
-                                order,
-                                brdf: BrdfMode::Triple,
-                                ..Settings::default()
-                            },
-                        ));
-                    }
-                    configs.push((
-                        "order 4, Ren's blocker log".into(),
-                        Settings {
-                            blocker_log: BlockerLog::Ren,
-                            ..Settings::default()
-                        },
-                    ));
-                    configs
-                        .iter()
-                        .map(|(name, s)| {
-                            let light = crate::shexp::light_sh(&scene, s.order).unwrap();
-                            let (rel_rmse, flip, us) = b
-                                .analytic(&|h| radiance(&t, s, &light, &Phong::of(scene.brdf(h))?, &scene, h))
-                                .unwrap();
-                            Method {
-                                name: name.clone(),
-                                rel_rmse,
-                                flip,
-                                us,
-                            }
-                        })
-                        .collect()
-                };
-                let target = methods[0].rel_rmse / 4.0;
-                let mut curves = vec![
-                    (
-                        "plain",
-                        measure(&b, target, plain_max, &environment(&scene, Kind::Plain)),
-                    ),
-                    ("qmc", measure(&b, target, qmc_max, &environment(&scene, Kind::Qmc))),
-                ];
-                if scene.sh_environment.is_none() {
-                    curves.push((
-                        "qmc-cv",
-                        measure(&b, target, qmc_max, &environment(&scene, Kind::QmcCv)),
-                    ));
-                    curves.push((
-                        "qmc-cv-mis",
-                        measure(&b, target, qmc_max, &environment(&scene, Kind::QmcCvMis)),
-                    ));
-                }
-                curves.push(("adaptive", adaptive(&b, target, qmc_max, &environment(&scene, kind))));
-                let hybrid = if isg { Kind::HybridIsg } else { Kind::HybridSh };
-                curves.push(("hybrid", measure(&b, target, qmc_max, &environment(&scene, hybrid))));
-                let pipeline = if isg { "isg" } else { "shexp" };
-                report(&format!("{pipeline}-{name}"), &out, &b, &methods, &curves);
-            }
-            println!("  ({width} px wide, {:.0} s)", t0.elapsed().as_secs_f64());
         }
     }
 }

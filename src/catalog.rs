@@ -57,6 +57,7 @@ pub fn plots() -> Vec<(&'static str, PlotFn)> {
     let mut v = fits::plots();
     v.extend(pipelines::plots());
     v.push(("export", crate::export::run::plot));
+    v.push(("baselines", pipelines::baselines::plot));
     v.sort_by_key(|(n, _)| *n);
     v
 }
