@@ -53,8 +53,8 @@ enum Command {
     /// the RMS difference exceeds 1e-4 of the CPU image's peak. Its subcommands come
     /// from the list of renders (`renders::RENDERS`).
     Render,
-    /// Per shader function: SPIR-V instructions of its kernel (naga) and GPU
-    /// evaluations per second on this device.
+    /// Per shader function: static counts of its kernel's SPIR-V (naga: instructions,
+    /// texture instructions, loops) and GPU evaluations per second on this device.
     Cost {
         /// A `lobefit export` directory.
         #[arg(long, value_name = "DIR")]
@@ -81,9 +81,23 @@ fn cost(export: &Path) -> Result<ExitCode, String> {
         gpu.info.backend,
         gpu.info.driver_info
     );
-    out!("{:<28} {:>16} {:>14}", "function", "SPIR-V instr.", "evals/s");
+    out!(
+        "{:<28} {:>14} {:>8} {:>6} {:>14}",
+        "function",
+        "SPIR-V instr.",
+        "texture",
+        "loops",
+        "evals/s"
+    );
     for c in cost::costs(&gpu, &ex)? {
-        out!("{:<28} {:>16} {:>14.3e}", c.function, c.spirv, c.per_second);
+        out!(
+            "{:<28} {:>14} {:>8} {:>6} {:>14.3e}",
+            c.function,
+            c.counts.instructions,
+            c.counts.texture_ops,
+            c.counts.loops.len(),
+            c.per_second
+        );
     }
     Ok(ExitCode::SUCCESS)
 }
