@@ -19,6 +19,7 @@ macro_rules! out {
     };
 }
 
+mod bench;
 mod budget;
 mod conformance;
 mod cost;
@@ -53,6 +54,10 @@ enum Command {
     /// the RMS difference exceeds 1e-4 of the CPU image's peak. Its subcommands come
     /// from the list of renders (`renders::RENDERS`).
     Render,
+    /// Each analytic render kernel (isg, shexp, meunier, rigs) timed per frame on this
+    /// device, its error against the CPU pipeline and its static SPIR-V counts:
+    /// OUT/bench.json and OUT/bench.md.
+    Bench(bench::Args),
     /// Per shader function: static counts of its kernel's SPIR-V (naga: instructions,
     /// texture instructions, loops) and GPU evaluations per second on this device.
     Cost {
@@ -67,6 +72,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         // Dispatched in `main`, through the list of renders.
         Command::Render => Err("render: no render named (lobefit-gpu render --help lists them)".into()),
         Command::Cost { export } => cost(&export),
+        Command::Bench(a) => bench::run(a),
         Command::GpuCheck { export } => gpu_check(&export),
     }
 }
