@@ -35,6 +35,11 @@ pub struct Args {
     /// mean much; CI runs 3).
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub frames: u32,
+    /// Time by the wall clock around submit + poll(wait) even where the adapter has
+    /// timestamp queries (a check of the timestamps' scale: the wall clock includes
+    /// submission and the wait, so it reads longer).
+    #[arg(long)]
+    pub wall_clock: bool,
     /// Output directory (created if missing): bench.json, bench.md and each
     /// kernel's image.
     #[arg(long, value_name = "DIR")]
@@ -138,7 +143,10 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     let ex_shexp = VerifiedExport::open(&a.export, crate::shexp::FAMILIES).map_err(all)?;
     let ex_meunier = VerifiedExport::open(&a.export, crate::meunier::FAMILIES).map_err(all)?;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("--out {}: {e}", a.out.display()))?;
-    let gpu = Gpu::new()?;
+    let mut gpu = Gpu::new()?;
+    if a.wall_clock {
+        gpu.timestamps = false;
+    }
     gpu.bench_frames(a.frames as usize);
     let width = a.width as usize;
     let (w, h) = (width.max(4), (width * 3 / 4).max(3));
@@ -235,7 +243,7 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
         "bench: {} kernels on {} ({}); {}",
         rows.len(),
         gpu.info.name,
-        gpu.timing_source(),
+        timing(&gpu),
         if software { SOFTWARE } else { "" }
     );
     for r in &rows {
@@ -253,6 +261,18 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     }
     out!("report: {}", a.out.join("bench.md").display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// How the bench timed, and why so when by wall clock.
+fn timing(gpu: &Gpu) -> String {
+    let why = if gpu.timestamps {
+        ""
+    } else if gpu.has_timestamp_queries() {
+        " (--wall-clock)"
+    } else {
+        " (the adapter has no TIMESTAMP_QUERY)"
+    };
+    format!("{}{why}", gpu.timing_source())
 }
 
 /// The note on a CPU adapter's numbers.
@@ -306,7 +326,7 @@ fn write_reports(out: &Path, gpu: &Gpu, software: bool, frames: u32, rows: &[Row
             })
         })
         .collect();
-    let timing = gpu.timing_source();
+    let timing = timing(gpu);
     let doc = json!({
         "adapter": {
             "name": gpu.info.name,

@@ -100,6 +100,12 @@ impl Gpu {
         })
     }
 
+    /// Whether the device was created with timestamp queries (whatever
+    /// [`Gpu::timestamps`] now says).
+    pub fn has_timestamp_queries(&self) -> bool {
+        self.device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
     /// Bench mode: from now on every kernel run also dispatches itself once more
     /// untimed (warm-up, after the run that compiled it) and then `frames` times timed
     /// (timestamp queries where [`Gpu::timestamps`], else wall clock around submit and
@@ -123,7 +129,7 @@ impl Gpu {
         if self.timestamps {
             "timestamp queries (TIMESTAMP_QUERY, compute pass begin to end)"
         } else {
-            "wall clock around submit + poll(wait) (no TIMESTAMP_QUERY)"
+            "wall clock around submit + poll(wait)"
         }
     }
 
