@@ -2,6 +2,8 @@
 //! textures uploaded as GPU textures, and compute kernels run over input arrays.
 
 use std::borrow::Cow;
+use std::cell::RefCell;
+use std::time::Instant;
 
 use lobefit::export::{Storage, Texture};
 use wgpu::util::DeviceExt;
@@ -15,6 +17,23 @@ pub struct Gpu {
     /// Whether 32-bit float textures may be linearly filtered (hardware filtering of
     /// f32 exports).
     pub float32_filterable: bool,
+    /// Whether the device writes timestamp queries (`Features::TIMESTAMP_QUERY`): the
+    /// bench then times kernels on the device's clock, else by wall clock.
+    pub timestamps: bool,
+    /// Bench mode ([`Gpu::bench_frames`]): frames to time per dispatch, and what was
+    /// timed.
+    bench: RefCell<Option<(usize, Vec<Dispatched>)>>,
+}
+
+/// One kernel timed in bench mode: its source, items and per-frame times.
+#[derive(Debug, Clone)]
+pub struct Dispatched {
+    /// The WGSL it ran.
+    pub source: String,
+    /// Invocations per frame (pixels).
+    pub count: usize,
+    /// Milliseconds per frame, one per timed frame.
+    pub ms: Vec<f64>,
 }
 
 /// A texture on the device with its view (1D tables: 2D of height 1; layered: 2D array).
@@ -56,11 +75,14 @@ impl Gpu {
         })?;
         let info = adapter.get_info();
         let float32_filterable = adapter.features().contains(wgpu::Features::FLOAT32_FILTERABLE);
-        let required_features = if float32_filterable {
-            wgpu::Features::FLOAT32_FILTERABLE
-        } else {
-            wgpu::Features::empty()
-        };
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let mut required_features = wgpu::Features::empty();
+        if float32_filterable {
+            required_features |= wgpu::Features::FLOAT32_FILTERABLE;
+        }
+        if timestamps {
+            required_features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("lobefit-gpu"),
             required_features,
@@ -73,7 +95,116 @@ impl Gpu {
             device,
             queue,
             float32_filterable,
+            timestamps,
+            bench: RefCell::new(None),
         })
+    }
+
+    /// Whether the device was created with timestamp queries (whatever
+    /// [`Gpu::timestamps`] now says).
+    pub fn has_timestamp_queries(&self) -> bool {
+        self.device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// Bench mode: from now on every kernel run also dispatches itself once more
+    /// untimed (warm-up, after the run that compiled it) and then `frames` times timed
+    /// (timestamp queries where [`Gpu::timestamps`], else wall clock around submit and
+    /// wait), recorded for [`Gpu::take_dispatches`]. The run's results are those of its
+    /// first dispatch, as without bench mode.
+    pub fn bench_frames(&self, frames: usize) {
+        *self.bench.borrow_mut() = Some((frames, Vec::new()));
+    }
+
+    /// The kernels timed since [`Gpu::bench_frames`] (bench mode stays on).
+    pub fn take_dispatches(&self) -> Vec<Dispatched> {
+        self.bench
+            .borrow_mut()
+            .as_mut()
+            .map(|(_, d)| std::mem::take(d))
+            .unwrap_or_default()
+    }
+
+    /// How [`Gpu::take_dispatches`]'s times are measured, for the report.
+    pub fn timing_source(&self) -> &'static str {
+        if self.timestamps {
+            "timestamp queries (TIMESTAMP_QUERY, compute pass begin to end)"
+        } else {
+            "wall clock around submit + poll(wait)"
+        }
+    }
+
+    /// Dispatches `pipeline` over `count` invocations alone and returns its time in ms:
+    /// the timestamps of the pass's beginning and end where the device has them, else
+    /// the wall clock from submit to the end of the wait.
+    fn time_dispatch(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        bind: &wgpu::BindGroup,
+        count: usize,
+    ) -> Result<f64, String> {
+        let d = &self.device;
+        let queries = self.timestamps.then(|| {
+            d.create_query_set(&wgpu::QuerySetDescriptor {
+                label: None,
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            })
+        });
+        let mut enc = d.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: None,
+                timestamp_writes: queries.as_ref().map(|q| wgpu::ComputePassTimestampWrites {
+                    query_set: q,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind, &[]);
+            pass.dispatch_workgroups((count as u32).div_ceil(64).max(1), 1, 1);
+        }
+        let read = queries.as_ref().map(|q| {
+            let resolve = d.create_buffer(&wgpu::BufferDescriptor {
+                label: None,
+                size: 16,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let read = d.create_buffer(&wgpu::BufferDescriptor {
+                label: None,
+                size: 16,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            enc.resolve_query_set(q, 0..2, &resolve, 0);
+            enc.copy_buffer_to_buffer(&resolve, 0, &read, 0, 16);
+            read
+        });
+        let t = Instant::now();
+        self.queue.submit([enc.finish()]);
+        d.poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| format!("wgpu poll: {e}"))?;
+        let wall = t.elapsed().as_secs_f64() * 1e3;
+        let Some(read) = read else { return Ok(wall) };
+        let slice = read.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |_| {});
+        d.poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| format!("wgpu poll: {e}"))?;
+        let data = slice.get_mapped_range().map_err(|e| format!("wgpu map: {e}"))?;
+        let ticks: [u64; 2] = [
+            u64::from_le_bytes(data[0..8].try_into().map_err(|_| "timestamp readback")?),
+            u64::from_le_bytes(data[8..16].try_into().map_err(|_| "timestamp readback")?),
+        ];
+        drop(data);
+        read.unmap();
+        if ticks[1] < ticks[0] {
+            return Err(format!(
+                "timestamp queries: end {} before beginning {}",
+                ticks[1], ticks[0]
+            ));
+        }
+        Ok((ticks[1] - ticks[0]) as f64 * f64::from(self.queue.get_timestamp_period()) * 1e-6)
     }
 
     /// Uploads an exported texture in its storage precision (R/RG/RGBA 32F or 16F).
@@ -309,7 +440,22 @@ impl Gpu {
             layout: &layout,
             entries: &bind_entries,
         });
-        self.dispatch_and_read(&pipeline, &bind, &out_buf, out_size, scope, count, n_out)
+        let out = self.dispatch_and_read(&pipeline, &bind, &out_buf, out_size, scope, count, n_out)?;
+        let frames = self.bench.borrow().as_ref().map(|(f, _)| *f);
+        if let Some(frames) = frames {
+            self.time_dispatch(&pipeline, &bind, count)?;
+            let ms = (0..frames)
+                .map(|_| self.time_dispatch(&pipeline, &bind, count))
+                .collect::<Result<Vec<f64>, String>>()?;
+            if let Some((_, d)) = self.bench.borrow_mut().as_mut() {
+                d.push(Dispatched {
+                    source: source.to_string(),
+                    count,
+                    ms,
+                });
+            }
+        }
+        Ok(out)
     }
 
     /// Dispatches `pipeline` over `count` invocations (64 per workgroup), then reads

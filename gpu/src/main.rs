@@ -19,6 +19,7 @@ macro_rules! out {
     };
 }
 
+mod bench;
 mod budget;
 mod conformance;
 mod cost;
@@ -53,8 +54,12 @@ enum Command {
     /// the RMS difference exceeds 1e-4 of the CPU image's peak. Its subcommands come
     /// from the list of renders (`renders::RENDERS`).
     Render,
-    /// Per shader function: SPIR-V instructions of its kernel (naga) and GPU
-    /// evaluations per second on this device.
+    /// Each analytic render kernel (isg, shexp, meunier, rigs) timed per frame on this
+    /// device, its error against the CPU pipeline and its static SPIR-V counts:
+    /// OUT/bench.json and OUT/bench.md.
+    Bench(bench::Args),
+    /// Per shader function: static counts of its kernel's SPIR-V (naga: instructions,
+    /// texture instructions, loops) and GPU evaluations per second on this device.
     Cost {
         /// A `lobefit export` directory.
         #[arg(long, value_name = "DIR")]
@@ -67,6 +72,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         // Dispatched in `main`, through the list of renders.
         Command::Render => Err("render: no render named (lobefit-gpu render --help lists them)".into()),
         Command::Cost { export } => cost(&export),
+        Command::Bench(a) => bench::run(a),
         Command::GpuCheck { export } => gpu_check(&export),
     }
 }
@@ -81,9 +87,23 @@ fn cost(export: &Path) -> Result<ExitCode, String> {
         gpu.info.backend,
         gpu.info.driver_info
     );
-    out!("{:<28} {:>16} {:>14}", "function", "SPIR-V instr.", "evals/s");
+    out!(
+        "{:<28} {:>14} {:>8} {:>6} {:>14}",
+        "function",
+        "SPIR-V instr.",
+        "texture",
+        "loops",
+        "evals/s"
+    );
     for c in cost::costs(&gpu, &ex)? {
-        out!("{:<28} {:>16} {:>14.3e}", c.function, c.spirv, c.per_second);
+        out!(
+            "{:<28} {:>14} {:>8} {:>6} {:>14.3e}",
+            c.function,
+            c.counts.instructions,
+            c.counts.texture_ops,
+            c.counts.loops.len(),
+            c.per_second
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -107,6 +107,19 @@ fn settings(a: &Args) -> Result<MaskSettings, String> {
     })
 }
 
+/// The settings of `render meunier` without options (`lobefit-gpu bench`'s).
+pub fn default_settings() -> Result<MaskSettings, String> {
+    let flags = lobefit::family::EvalFlags::default()
+        .with_count("depth", 5)
+        .with("mask", "aggressive".to_string())
+        .with("weights", "fitted".to_string())
+        .with("light", "cap".to_string());
+    Ok(MaskSettings {
+        threshold: 0.0,
+        ..lobefit::pipelines::meunier::direct_light::DirectLightView::from_flags(&flags)?.settings
+    })
+}
+
 fn run(a: Args) -> Result<ExitCode, String> {
     let settings = settings(&a)?;
     crate::render::check_out(&a.out)?;

@@ -1,0 +1,413 @@
+//! `lobefit-gpu bench --export DIR --out OUT`: each analytic render kernel (`render
+//! isg`, `shexp`, `meunier`, `rigs`) timed on this device per frame (median of the
+//! timed frames after a warm-up, with min–max; timestamp queries where the device has
+//! them, else wall clock), beside its image's error against the CPU pipeline (the
+//! renders' own comparison) and its static SPIR-V counts (`cost::kernel_counts`);
+//! writes `OUT/bench.json` and `OUT/bench.md`. On a CPU adapter (lavapipe) the times
+//! say how a software rasteriser runs the kernels, nothing about a GPU.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use serde_json::json;
+
+use crate::cost::{kernel_counts, KernelCounts};
+use crate::device::Gpu;
+use crate::render::VerifiedExport;
+
+/// `lobefit-gpu bench`'s options.
+#[derive(clap::Args)]
+pub struct Args {
+    /// A `lobefit export` directory with the textures of isg (isg-best, sg-fit),
+    /// shexp (wedge, shexp) and meunier (lobe-product, cap-exponent, mask-weights).
+    #[arg(long, value_name = "DIR")]
+    pub export: PathBuf,
+    /// A pipeline's scene as PIPELINE=SCENE (isg, shexp or meunier; a built-in scene
+    /// or a scene file), repeatable; default: isg=fig12, shexp=whale, meunier=fig13
+    /// (rigs: Figure 1's car, fixed).
+    #[arg(long, value_name = "PIPELINE=SCENE")]
+    pub scene: Vec<String>,
+    /// Image width (height 3/4 of it).
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    pub width: u32,
+    /// Timed frames per kernel, after one warm-up frame (the median needs ≥ 10 to
+    /// mean much; CI runs 3).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub frames: u32,
+    /// Time by the wall clock around submit + poll(wait) even where the adapter has
+    /// timestamp queries (a check of the timestamps' scale: the wall clock includes
+    /// submission and the wait, so it reads longer).
+    #[arg(long)]
+    pub wall_clock: bool,
+    /// Output directory (created if missing): bench.json, bench.md and each
+    /// kernel's image.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+/// The pipelines benched, in order, with their default scenes.
+const PIPELINES: [(&str, &str); 4] = [
+    ("isg", "fig12"),
+    ("shexp", "whale"),
+    ("meunier", "fig13"),
+    ("rigs", "fig1"),
+];
+
+/// One kernel's row.
+struct Row {
+    pipeline: &'static str,
+    scene: String,
+    method: String,
+    width: usize,
+    height: usize,
+    /// Invocations per frame (the pixels that see geometry).
+    pixels: usize,
+    ms: Vec<f64>,
+    rel_rmse: f64,
+    counts: KernelCounts,
+}
+
+/// The scene of each pipeline from `--scene` values (PIPELINE=SCENE); an unknown
+/// pipeline, a repeated one, rigs, or a value without `=` is an error.
+fn scenes(values: &[String]) -> Result<Vec<(&'static str, String)>, String> {
+    let mut out: Vec<(&'static str, String)> = PIPELINES.iter().map(|(p, s)| (*p, s.to_string())).collect();
+    let mut seen = Vec::new();
+    for v in values {
+        let (p, s) = v
+            .split_once('=')
+            .filter(|(p, s)| !p.is_empty() && !s.is_empty())
+            .ok_or_else(|| format!("--scene {v}: expected PIPELINE=SCENE (e.g. isg=fig12-diffuse)"))?;
+        if p == "rigs" {
+            return Err(format!("--scene {v}: the rigs render has one scene (Figure 1's car)"));
+        }
+        let slot = out
+            .iter_mut()
+            .find(|(q, _)| *q == p)
+            .ok_or_else(|| format!("--scene {v}: no pipeline {p} (isg, shexp, meunier)"))?;
+        if seen.contains(&p) {
+            return Err(format!("--scene {v}: pipeline {p} named twice"));
+        }
+        seen.push(p);
+        slot.1 = s.to_string();
+    }
+    Ok(out)
+}
+
+/// Median, min and max of `v` (not empty).
+fn spread(v: &[f64]) -> (f64, f64, f64) {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    let median = if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        0.5 * (s[n / 2 - 1] + s[n / 2])
+    };
+    (median, s[0], s[n - 1])
+}
+
+/// Runs `render` with `gpu` in bench mode; its timed kernel (exactly one) becomes the
+/// row's times and counts.
+fn timed(
+    gpu: &Gpu,
+    what: &str,
+    render: impl FnOnce() -> Result<f64, String>,
+) -> Result<(Vec<f64>, usize, f64, KernelCounts), String> {
+    gpu.take_dispatches();
+    let rel_rmse = render()?;
+    let d = gpu.take_dispatches();
+    let [k] = d.as_slice() else {
+        return Err(format!("bench {what}: {} kernels dispatched, expected one", d.len()));
+    };
+    Ok((k.ms.clone(), k.count, rel_rmse, kernel_counts(&k.source)?))
+}
+
+/// `bench`.
+pub fn run(a: Args) -> Result<ExitCode, String> {
+    let scenes = scenes(&a.scene)?;
+    if std::fs::metadata(&a.out).is_ok_and(|m| !m.is_dir()) {
+        return Err(format!("--out {}: is a file; name a directory", a.out.display()));
+    }
+    // The export first: a missing or wrong one is an error before anything runs.
+    let all = |e: String| {
+        format!(
+            "bench: {e}; bench reads the textures of {}, {} and {} (an export of every family has them: \
+             lobefit export --format ktx2 --out DIR)",
+            crate::isg::FAMILIES.1,
+            crate::shexp::FAMILIES.1,
+            crate::meunier::FAMILIES.1
+        )
+    };
+    let ex_isg = VerifiedExport::open(&a.export, crate::isg::FAMILIES).map_err(all)?;
+    let ex_shexp = VerifiedExport::open(&a.export, crate::shexp::FAMILIES).map_err(all)?;
+    let ex_meunier = VerifiedExport::open(&a.export, crate::meunier::FAMILIES).map_err(all)?;
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("--out {}: {e}", a.out.display()))?;
+    let mut gpu = Gpu::new()?;
+    if a.wall_clock {
+        gpu.timestamps = false;
+    }
+    gpu.bench_frames(a.frames as usize);
+    let width = a.width as usize;
+    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    let mut rows = Vec::new();
+    for (pipeline, scene) in &scenes {
+        let png = a.out.join(format!("{pipeline}.png"));
+        let (method, (ms, pixels, rel_rmse, counts)) = match *pipeline {
+            "isg" => {
+                let sc = lobefit::pipelines::isg::render::scene(scene)?;
+                crate::isg::check_spheres(&sc)?;
+                crate::isg::check_sharpness(&sc)?;
+                crate::budget::refuse_over(
+                    "bench isg",
+                    crate::isg::iterations(sc.spheres.len(), sc.environment.len()),
+                    &format!("{} SGs, {} spheres", sc.environment.len(), sc.spheres.len()),
+                )?;
+                let method = format!(
+                    "ISG best, adaptive patches ({} SGs, {} spheres)",
+                    sc.environment.len(),
+                    sc.spheres.len()
+                );
+                (
+                    method,
+                    timed(&gpu, "isg", || {
+                        Ok(crate::isg::render_isg(&gpu, &ex_isg, &sc, width, &png)?.rms)
+                    })?,
+                )
+            }
+            "shexp" => {
+                let sc = lobefit::pipelines::shexp::render::scene(scene)?;
+                crate::budget::refuse_over(
+                    "bench shexp",
+                    crate::shexp::iterations(sc.spheres.len()),
+                    &format!("{} spheres", sc.spheres.len()),
+                )?;
+                let s = lobefit::pipelines::shexp::shade::Settings::default();
+                let method = format!(
+                    "HYB order {}, {} wedges, {:?} blocker log ({} spheres)",
+                    s.order,
+                    s.wedges,
+                    s.blocker_log,
+                    sc.spheres.len()
+                );
+                (
+                    method,
+                    timed(&gpu, "shexp", || {
+                        Ok(crate::shexp::render_shexp(&gpu, &ex_shexp, &sc, width, &s, &png)?.rms)
+                    })?,
+                )
+            }
+            "meunier" => {
+                let sc = lobefit::pipelines::meunier::render::scene(scene)?;
+                let s = crate::meunier::default_settings()?;
+                let method = format!(
+                    "mask depth {} {}, fitted weights, exact cap ({} spheres)",
+                    s.depth,
+                    s.mode.name(),
+                    sc.spheres.len()
+                );
+                (
+                    method,
+                    timed(&gpu, "meunier", || {
+                        Ok(crate::meunier::render_meunier(&gpu, &ex_meunier, &sc, width, &s, &png)?.rms)
+                    })?,
+                )
+            }
+            _ => {
+                let wraps = [0.0, f64::from(lobefit::pipelines::rigs::render::WRAP_A as f32)];
+                let mut nrigs = 0;
+                let t = timed(&gpu, "rigs", || {
+                    let (_, r) = crate::rigs::render_rigs(&gpu, width, &wraps, &png)?;
+                    nrigs = r.len() / wraps.len();
+                    // The worst of its images (a rig at a wrap each).
+                    Ok(r.iter().map(|r| r.rms).fold(0.0, f64::max))
+                })?;
+                (format!("Figure 1's {nrigs} rigs × {} wraps per pixel", wraps.len()), t)
+            }
+        };
+        rows.push(Row {
+            pipeline,
+            scene: scene.clone(),
+            method,
+            width: w,
+            height: h,
+            pixels,
+            ms,
+            rel_rmse,
+            counts,
+        });
+    }
+    let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    write_reports(&a.out, &gpu, software, a.frames, &rows)?;
+    out!(
+        "bench: {} kernels on {} ({}); {}",
+        rows.len(),
+        gpu.info.name,
+        timing(&gpu),
+        if software { SOFTWARE } else { "" }
+    );
+    for r in &rows {
+        let (med, lo, hi) = spread(&r.ms);
+        out!(
+            "  {:<8} {:<8} {:>9.3} ms/frame ({lo:.3}–{hi:.3})  RMS/peak vs CPU {:.2e}  {} instr., {} tex, {} loops",
+            r.pipeline,
+            r.scene,
+            med,
+            r.rel_rmse,
+            r.counts.instructions,
+            r.counts.texture_ops,
+            r.counts.loops.len()
+        );
+    }
+    out!("report: {}", a.out.join("bench.md").display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// How the bench timed, and why so when by wall clock.
+fn timing(gpu: &Gpu) -> String {
+    let why = if gpu.timestamps {
+        ""
+    } else if gpu.has_timestamp_queries() {
+        " (--wall-clock)"
+    } else {
+        " (the adapter has no TIMESTAMP_QUERY)"
+    };
+    format!("{}{why}", gpu.timing_source())
+}
+
+/// The note on a CPU adapter's numbers.
+const SOFTWARE: &str = "software rasteriser, indicative only";
+
+/// A loop list as text: constant bounds, then how many are data-dependent.
+fn loops_text(c: &KernelCounts) -> String {
+    let consts: Vec<String> = c
+        .loops
+        .iter()
+        .filter(|b| matches!(b, crate::cost::LoopBound::Constant(_)))
+        .map(|b| b.to_string())
+        .collect();
+    let data = c.loops.len() - consts.len();
+    format!(
+        "{} (constant bounds: {}; data-dependent: {data})",
+        c.loops.len(),
+        if consts.is_empty() {
+            "none".into()
+        } else {
+            consts.join(", ")
+        }
+    )
+}
+
+/// Writes `out/bench.json` and `out/bench.md`.
+fn write_reports(out: &Path, gpu: &Gpu, software: bool, frames: u32, rows: &[Row]) -> Result<(), String> {
+    let kernels: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|r| {
+            let (med, lo, hi) = spread(&r.ms);
+            json!({
+                "pipeline": r.pipeline,
+                "scene": r.scene,
+                "method": r.method,
+                "width": r.width,
+                "height": r.height,
+                "pixels": r.pixels,
+                "frames": r.ms.len(),
+                "ms_per_frame": med,
+                "ms_min": lo,
+                "ms_max": hi,
+                "rel_rmse_vs_cpu": r.rel_rmse,
+                "spirv_instructions": r.counts.instructions,
+                "texture_ops": r.counts.texture_ops,
+                "loops": r.counts.loops.len(),
+                "loop_bounds": r.counts.loops.iter().map(|b| match b {
+                    crate::cost::LoopBound::Constant(n) => json!(n),
+                    crate::cost::LoopBound::DataDependent => json!("data"),
+                }).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    let timing = timing(gpu);
+    let doc = json!({
+        "adapter": {
+            "name": gpu.info.name,
+            "driver": format!("{} {}", gpu.info.driver, gpu.info.driver_info),
+            "backend": format!("{:?}", gpu.info.backend),
+            "device_type": format!("{:?}", gpu.info.device_type),
+            "timing_source": timing,
+            "note": if software { SOFTWARE } else { "" },
+        },
+        "frames": frames,
+        "rel_rmse_vs_cpu": "RMS of |GPU − CPU| over the pixels that see geometry, relative to the CPU image's peak",
+        "kernels": kernels,
+    });
+    let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n";
+    lobefit::io::write_atomic(&out.join("bench.json"), text.as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", out.join("bench.json").display()))?;
+    let mut md = format!(
+        "# lobefit-gpu bench\n\nAdapter: {} ({:?}, {:?}, driver {} {}){}\n\nTiming: {timing}; median of {frames} \
+         frames after one warm-up frame, min–max beside it.\nError: RMS |GPU − CPU pipeline| over the pixels that \
+         see geometry / the CPU image's peak.\nStatic counts: the kernel's SPIR-V (naga, compacted); a function's \
+         loops and texture instructions count once however often it is called.\n\n\
+         | pipeline | scene | method | size | pixels | ms/frame | min–max | RMS/peak vs CPU | SPIR-V instr. | \
+         texture ops | loops |\n|---|---|---|---|---:|---:|---|---:|---:|---:|---|\n",
+        gpu.info.name,
+        gpu.info.backend,
+        gpu.info.device_type,
+        gpu.info.driver,
+        gpu.info.driver_info,
+        if software {
+            format!(" — **{SOFTWARE}**")
+        } else {
+            String::new()
+        }
+    );
+    for r in rows {
+        let (med, lo, hi) = spread(&r.ms);
+        md += &format!(
+            "| {} | {} | {} | {}×{} | {} | {med:.3} | {lo:.3}–{hi:.3} | {:.2e} | {} | {} | {} |\n",
+            r.pipeline,
+            r.scene,
+            r.method,
+            r.width,
+            r.height,
+            r.pixels,
+            r.rel_rmse,
+            r.counts.instructions,
+            r.counts.texture_ops,
+            loops_text(&r.counts)
+        );
+    }
+    lobefit::io::write_atomic(&out.join("bench.md"), md.as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", out.join("bench.md").display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--scene` values: defaults, an override, and each bad form with its error.
+    #[test]
+    fn scene_arguments() {
+        let d = scenes(&[]).unwrap();
+        assert_eq!(d[0], ("isg", "fig12".to_string()));
+        let s = scenes(&["shexp=wrecking".into()]).unwrap();
+        assert_eq!(s[1], ("shexp", "wrecking".to_string()));
+        for (v, want) in [
+            (vec!["whale"], "PIPELINE=SCENE"),
+            (vec!["isg="], "PIPELINE=SCENE"),
+            (vec!["nope=x"], "no pipeline nope"),
+            (vec!["rigs=x"], "one scene"),
+            (vec!["isg=fig12", "isg=fig12"], "named twice"),
+        ] {
+            let v: Vec<String> = v.into_iter().map(String::from).collect();
+            let e = scenes(&v).unwrap_err();
+            assert!(e.contains(want), "{v:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn spread_is_median_min_max() {
+        assert_eq!(spread(&[3.0, 1.0, 2.0]), (2.0, 1.0, 3.0));
+        assert_eq!(spread(&[4.0, 1.0, 2.0, 3.0]), (2.5, 1.0, 4.0));
+    }
+}
