@@ -85,7 +85,7 @@ struct ShadeLookup {
 impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         let h = hit_of_row(x, &self.view.spheres, None)?;
-        let own = h.sphere;
+        let own = h.sphere.map_or(0..0, |i| i..i + 1);
         let blockers = Blockers {
             spheres: &self.view.spheres,
             bvh: Some(&self.view.bvh),

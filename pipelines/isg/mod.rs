@@ -26,6 +26,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         sg_environment: true,
         sh_environment: false,
         planes: true,
+        meshes: true,
     },
     references: (1, 1),
     precise_factor: render::PRECISE_FACTOR as u64,
@@ -59,6 +60,7 @@ mod unoccluded {
                     t: DVec3::X,
                     wo,
                     sphere: None,
+                    mesh: None,
                     material: 0,
                 };
                 let p = radiance(

@@ -41,12 +41,13 @@ pub fn scene(name: &str) -> Result<Scene, String> {
     Ok(scene)
 }
 
-/// The blockers of a hit: the scene's spheres but the hit's own, through its BVH.
+/// The blockers of a hit: the scene's spheres and its meshes' sphere sets
+/// ([`Scene::proxies`]) but the hit's own, through their BVH.
 pub fn blockers_of<'a>(scene: &'a Scene, h: &Hit) -> Blockers<'a> {
     Blockers {
-        spheres: &scene.spheres,
-        bvh: Some(scene.bvh()),
-        own: h.sphere,
+        spheres: &scene.proxies,
+        bvh: Some(scene.proxy_bvh()),
+        own: scene.own_proxies(h),
     }
 }
 
