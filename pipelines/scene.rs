@@ -985,6 +985,11 @@ pub fn parse(name: &str, text: &str) -> Result<Scene, String> {
     Ok(parse_inner(name, text, None, &Accepts::ALL, true)?.expect("built"))
 }
 
+/// [`parse`] of a file's text whose relative paths (meshes, sphere sets) lie in `folder`.
+pub fn parse_in(name: &str, text: &str, folder: &Path) -> Result<Scene, String> {
+    Ok(parse_inner(name, text, Some(folder), &Accepts::ALL, true)?.expect("built"))
+}
+
 /// [`parse`] with the pipeline's kinds checked before anything expensive is built;
 /// `build` false: validate only (the same errors but the camera's), `Ok(None)`.
 fn parse_inner(

@@ -5,6 +5,7 @@
 //! visibility, `render` the images.
 
 pub mod eval;
+pub mod proxy;
 pub mod render;
 pub mod shade;
 
