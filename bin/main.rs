@@ -44,6 +44,7 @@ enum BackendArg {
 #[derive(Clone, Copy, ValueEnum)]
 enum SphereMethodArg {
     Kmeans,
+    KmeansMoment,
     Tree,
 }
 
@@ -220,8 +221,9 @@ enum Command {
         /// Number of spheres.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
         count: u32,
-        /// kmeans: Lloyd iterations on interior samples; tree: a bounding-sphere
-        /// tree's leaves, split best first.
+        /// kmeans: Lloyd iterations on interior samples, covering spheres;
+        /// kmeans-moment: the same clusters, second-moment radii; tree: a
+        /// bounding-sphere tree's leaves, split best first.
         #[arg(long, value_enum, default_value = "kmeans")]
         method: SphereMethodArg,
         /// Seed of the interior samples (and of k-means++'s start).
@@ -799,6 +801,7 @@ fn spheres(
     let method = match method {
         SphereMethodArg::Kmeans => Method::Kmeans,
         SphereMethodArg::Tree => Method::Tree,
+        SphereMethodArg::KmeansMoment => Method::KmeansMoment,
     };
     let pb = progress(3, "spheres");
     let t0 = Instant::now();

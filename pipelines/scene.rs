@@ -1871,3 +1871,45 @@ mod mesh_tests {
         assert!(load_for(p.to_str().unwrap(), &shexp).unwrap_err().contains("meshes"));
     }
 }
+
+#[cfg(test)]
+mod sphere_set_file_tests {
+    use super::*;
+
+    /// A sphere set read from a file lands in `proxies` under the mesh's transform
+    /// (x ↦ R(s·x) + t, radius s·r, written out by hand here); a bad set is an error
+    /// naming the file.
+    #[test]
+    fn a_sphere_set_file_is_transformed() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(
+            d.path().join("m.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+        )
+        .unwrap();
+        std::fs::write(
+            d.path().join("set.json"),
+            r#"{"version": 1, "mesh": "m.obj", "method": "tree", "seed": 0,
+                "spheres": [{"centre": [1, 0, 0], "radius": 0.25}, {"centre": [0, 1, 0.5], "radius": 0.5}]}"#,
+        )
+        .unwrap();
+        let text = r#"{"version": 2, "camera": {"eye": [0, -6, 3], "target": [0, 0, 0], "fov": 0.8},
+            "meshes": [{"file": "m.obj", "material": {"lambert": {"albedo": 0.5}}, "spheres": "set.json",
+                        "transform": {"scale": 2, "rotation": {"axis": [0, 0, 1], "angle": 1.5707963267948966},
+                                      "translation": [1, 2, 3]}}],
+            "environment": {"sgs": [{"axis": [0, 0, 1], "sharpness": 2, "amplitude": 1}]}}"#;
+        let s = parse_in("t", text, d.path()).unwrap();
+        // Rotation by π/2 about z: (x, y, z) ↦ (−y, x, z).
+        let want = [(DVec3::new(1.0, 4.0, 3.0), 0.5), (DVec3::new(-1.0, 2.0, 4.0), 1.0)];
+        for (p, (c, r)) in s.proxies.iter().zip(want) {
+            assert!((p.centre - c).length() < 1e-12 && (p.radius - r).abs() < 1e-15, "{p:?}");
+        }
+        std::fs::write(
+            d.path().join("set.json"),
+            r#"{"version": 1, "mesh": "m.obj", "method": "tree", "seed": 0, "spheres": [{"centre": [1, 0, 0], "radius": -1}]}"#,
+        )
+        .unwrap();
+        let e = parse_in("t", text, d.path()).unwrap_err();
+        assert!(e.contains("set.json") && e.contains("spheres[0]"), "{e}");
+    }
+}

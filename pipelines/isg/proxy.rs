@@ -32,6 +32,9 @@ pub struct ProxyRow {
     /// Relative RMSE of the sphere-set reference against the mesh reference (the
     /// proxy's error; same samples, so nearly noise-free).
     pub proxy: f64,
+    /// [`ProxyRow::proxy`] over the pixels that see no mesh (the mesh's shadow on the
+    /// plane; its self-shadowing, which its own sphere set cannot give, left out).
+    pub proxy_off_mesh: f64,
     /// Relative RMSE of the pipeline against the sphere-set reference, its noise
     /// taken out (the pipeline's own error).
     pub pipeline: f64,
@@ -59,7 +62,8 @@ pub struct ProxyStudy {
 /// The scene file `path` with every mesh's sphere set replaced by a fit of `count`
 /// spheres with `method` and `seed`.
 pub fn scene_with_fit(path: &Path, count: usize, method: Method, seed: u64) -> Result<Scene, String> {
-    let text = lobefit_core::io::read_text(path, crate::scene::MAX_SCENE_LEN).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = lobefit_core::io::read_text(path, crate::scene::MAX_SCENE_LEN)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     let mut v: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
     let meshes = v["meshes"]
         .as_array_mut()
@@ -67,8 +71,13 @@ pub fn scene_with_fit(path: &Path, count: usize, method: Method, seed: u64) -> R
     for m in meshes {
         m["spheres"] = serde_json::json!({"count": count, "method": method.name(), "seed": seed});
     }
-    let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-    let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let stem = path
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let folder = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     crate::scene::parse_in(&stem, &v.to_string(), folder)
 }
 
@@ -162,11 +171,14 @@ pub fn proxy_study(
             let npx = lit.iter().filter(|&&l| l).count();
             let d2: Vec<f64> = sref.iter().zip(&mref).map(|(a, b)| (a - b) * (a - b)).collect();
             let m = &scene.meshes[0];
+            let off_mesh: Vec<bool> = hits.iter().map(|h| h.is_some_and(|h| h.mesh.is_none())).collect();
+            let mean_off = mean_over(&mref, &off_mesh);
             rows.push(ProxyRow {
                 method,
                 count,
                 quality: quality(&m.mesh, &scene.proxies[m.proxy.clone()], quality_samples, 1),
                 proxy: mean_over(&d2, &lit).sqrt() / mean_ref,
+                proxy_off_mesh: mean_over(&d2, &off_mesh).sqrt() / mean_off,
                 pipeline: noise_free_rel_rmse(&img, &sref, &sse, &lit),
                 total: noise_free_rel_rmse(&img, &mref, &mse, &lit),
                 us_per_pixel: 1e6 * t / npx as f64,
@@ -188,18 +200,19 @@ impl ProxyStudy {
     pub fn table(&self) -> String {
         let mut s = format!(
             "{}×{} pixels ({} see geometry, {} of them the mesh), {} samples/pixel (mesh reference's standard error {:.4} of its mean)\n\n\
-             | method | spheres | volume error | Hausdorff mesh→spheres / diag | spheres→mesh / diag | proxy error (spheres ref. vs mesh ref.) | pipeline's own error (ISG vs spheres ref.) | ISG vs mesh ref. | ISG µs/pixel |\n|---|---|---|---|---|---|---|---|---|\n",
+             | method | spheres | volume error | Hausdorff mesh→spheres / diag | spheres→mesh / diag | proxy error (spheres ref. vs mesh ref.) | proxy error off the mesh | pipeline's own error (ISG vs spheres ref.) | ISG vs mesh ref. | ISG µs/pixel |\n|---|---|---|---|---|---|---|---|---|---|\n",
             self.size.0, self.size.1, self.pixels.0, self.pixels.1, self.spp, self.ref_rel_se
         );
         for r in &self.rows {
             s += &format!(
-                "| {} | {} | {:.3} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} |\n",
+                "| {} | {} | {:.3} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} |\n",
                 r.method.name(),
                 r.count,
                 r.quality.volume_error,
                 r.quality.hausdorff_mesh_to_spheres / r.quality.diagonal,
                 r.quality.hausdorff_spheres_to_mesh / r.quality.diagonal,
                 r.proxy,
+                r.proxy_off_mesh,
                 r.pipeline,
                 r.total,
                 r.us_per_pixel
@@ -221,7 +234,15 @@ mod tests {
     #[test]
     #[ignore = "study: minutes; docs/meshes.md"]
     fn proxy_error_study() {
-        let s = proxy_study(&bunny_scene(), 160, 256, &Method::ALL, &[8, 16, 32, 64, 128, 256], 100_000).unwrap();
+        let s = proxy_study(
+            &bunny_scene(),
+            160,
+            1024,
+            &Method::ALL,
+            &[8, 16, 32, 64, 128, 256],
+            100_000,
+        )
+        .unwrap();
         println!("{}", s.table());
     }
 
@@ -233,7 +254,10 @@ mod tests {
         let (a, b) = (run(), run());
         assert!(a.pixels.1 > 10, "{:?}", a.pixels);
         for (x, y) in a.rows.iter().zip(&b.rows) {
-            assert_eq!((x.proxy.to_bits(), x.pipeline.to_bits(), x.total.to_bits()), (y.proxy.to_bits(), y.pipeline.to_bits(), y.total.to_bits()));
+            assert_eq!(
+                (x.proxy.to_bits(), x.pipeline.to_bits(), x.total.to_bits()),
+                (y.proxy.to_bits(), y.pipeline.to_bits(), y.total.to_bits())
+            );
             assert!(x.proxy.is_finite() && x.pipeline.is_finite() && x.total.is_finite());
         }
         assert!(a.rows[1].proxy < a.rows[0].proxy, "{}", a.table());

@@ -61,21 +61,43 @@ fn spheres_argument_errors() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("s.json");
     let o = out.to_str().unwrap();
-    let (code, _, err) = run_text(&["spheres", "--mesh", "/nonexistent/m.obj", "--count", "4", "--out", o], "");
+    let (code, _, err) = run_text(
+        &["spheres", "--mesh", "/nonexistent/m.obj", "--count", "4", "--out", o],
+        "",
+    );
     assert_eq!(code, Some(1));
     assert!(err.contains("/nonexistent/m.obj"), "{err}");
     let (code, _, _) = run_text(&["spheres", "--mesh", "x.obj", "--count", "0", "--out", o], "");
     assert_eq!(code, Some(2));
-    let (code, _, _) = run_text(&["spheres", "--mesh", "x.obj", "--count", "4", "--method", "octopus", "--out", o], "");
+    let (code, _, _) = run_text(
+        &[
+            "spheres", "--mesh", "x.obj", "--count", "4", "--method", "octopus", "--out", o,
+        ],
+        "",
+    );
     assert_eq!(code, Some(2));
     let garbage = d.path().join("g.obj");
     std::fs::write(&garbage, b"\x00\xff not an obj \x01\nf 1 2 3\n").unwrap();
-    let (code, _, err) = run_text(&["spheres", "--mesh", garbage.to_str().unwrap(), "--count", "4", "--out", o], "");
+    let (code, _, err) = run_text(
+        &[
+            "spheres",
+            "--mesh",
+            garbage.to_str().unwrap(),
+            "--count",
+            "4",
+            "--out",
+            o,
+        ],
+        "",
+    );
     assert_eq!(code, Some(1));
     assert!(err.contains("g.obj"), "{err}");
     let open = d.path().join("open.obj");
     std::fs::write(&open, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n").unwrap();
-    let (code, _, err) = run_text(&["spheres", "--mesh", open.to_str().unwrap(), "--count", "4", "--out", o], "");
+    let (code, _, err) = run_text(
+        &["spheres", "--mesh", open.to_str().unwrap(), "--count", "4", "--out", o],
+        "",
+    );
     assert_eq!(code, Some(1));
     assert!(err.contains("open.obj") && err.contains("closed"), "{err}");
     assert!(!out.exists());
