@@ -48,7 +48,12 @@ impl IsgShadeView {
             ));
         }
         let path = flags.scene.as_deref().ok_or("isg-shade needs --scene FILE")?;
-        let scene = crate::scene::load_for(path, &super::PIPELINE.accepts)?;
+        // Meshes are the renders' so far: the view's rows carry no mesh to lie on.
+        let accepts = crate::scene::Accepts {
+            meshes: false,
+            ..super::PIPELINE.accepts
+        };
+        let scene = crate::scene::load_for(path, &accepts)?;
         if scene.environment.is_empty() {
             return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name));
         }

@@ -237,7 +237,7 @@ mod tests {
         let s = proxy_study(
             &bunny_scene(),
             160,
-            1024,
+            4096,
             &Method::ALL,
             &[8, 16, 32, 64, 128, 256],
             100_000,

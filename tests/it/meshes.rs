@@ -102,3 +102,59 @@ fn spheres_argument_errors() {
     assert!(err.contains("open.obj") && err.contains("closed"), "{err}");
     assert!(!out.exists());
 }
+
+/// `render isg` on the bunny scene: the summary names the mesh and its proxy, and the
+/// error breakdown has the sphere sets → true meshes row, not zero (the proxy's error
+/// measured there is 0.03–0.11 of the mean at 160 px: docs/meshes.md).
+#[test]
+fn render_isg_breaks_down_the_proxy_error() {
+    let d = tempfile::tempdir().unwrap();
+    let (code, stdout, stderr) = run_text(
+        &[
+            "render",
+            "isg",
+            "--scene",
+            "assets/meshes/isg-bunny.json",
+            "--width",
+            "32",
+            "--spp",
+            "16",
+            "--breakdown-stride",
+            "2",
+            "--out",
+            d.path().to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    assert!(
+        stdout.contains("19048 triangles, shaded with 64 proxy spheres"),
+        "{stdout}"
+    );
+    let row = stdout
+        .lines()
+        .find(|l| l.contains("sphere sets → true meshes"))
+        .unwrap_or_else(|| panic!("no proxy row in {stdout}"));
+    let rms: f64 = row
+        .split("RMS ")
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(rms > 1e-3 && rms < 0.5, "{row}");
+}
+
+/// `eval isg-shade` takes the scene's spheres only: a scene with meshes is refused by
+/// name, not shaded without them.
+#[test]
+fn eval_isg_shade_refuses_meshes() {
+    let (code, stdout, stderr) = run_text(
+        &["eval", "isg-shade", "--scene", "assets/meshes/isg-bunny.json"],
+        "px,py,pz,nx,ny,nz,vx,vy,vz\n3,3,0,0,0,1,0,0,1\n",
+    );
+    assert_eq!(code, Some(2), "{stdout}{stderr}");
+    assert!(stderr.contains("cannot shade meshes"), "{stderr}");
+}
