@@ -35,6 +35,11 @@ pub struct ProxyRow {
     /// [`ProxyRow::proxy`] over the pixels that see no mesh (the mesh's shadow on the
     /// plane; its self-shadowing, which its own sphere set cannot give, left out).
     pub proxy_off_mesh: f64,
+    /// Off-mesh pixels whose point lies inside a sphere of the set (a sphere reaching
+    /// through the plane the mesh stands on).
+    pub buried: usize,
+    /// [`ProxyRow::proxy_off_mesh`] over the off-mesh pixels no sphere holds.
+    pub proxy_clear: f64,
     /// Relative RMSE of the pipeline against the sphere-set reference, its noise
     /// taken out (the pipeline's own error).
     pub pipeline: f64,
@@ -173,12 +178,25 @@ pub fn proxy_study(
             let m = &scene.meshes[0];
             let off_mesh: Vec<bool> = hits.iter().map(|h| h.is_some_and(|h| h.mesh.is_none())).collect();
             let mean_off = mean_over(&mref, &off_mesh);
+            let inside = |h: &crate::scene::Hit| {
+                scene
+                    .proxies
+                    .iter()
+                    .any(|s| (h.x - s.centre).length_squared() < s.radius * s.radius)
+            };
+            let clear: Vec<bool> = hits
+                .iter()
+                .map(|h| h.is_some_and(|h| h.mesh.is_none() && !inside(&h)))
+                .collect();
+            let buried = off_mesh.iter().zip(&clear).filter(|(o, c)| **o && !**c).count();
             rows.push(ProxyRow {
                 method,
                 count,
                 quality: quality(&m.mesh, &scene.proxies[m.proxy.clone()], quality_samples, 1),
                 proxy: mean_over(&d2, &lit).sqrt() / mean_ref,
                 proxy_off_mesh: mean_over(&d2, &off_mesh).sqrt() / mean_off,
+                buried,
+                proxy_clear: mean_over(&d2, &clear).sqrt() / mean_over(&mref, &clear),
                 pipeline: noise_free_rel_rmse(&img, &sref, &sse, &lit),
                 total: noise_free_rel_rmse(&img, &mref, &mse, &lit),
                 us_per_pixel: 1e6 * t / npx as f64,
@@ -200,12 +218,12 @@ impl ProxyStudy {
     pub fn table(&self) -> String {
         let mut s = format!(
             "{}×{} pixels ({} see geometry, {} of them the mesh), {} samples/pixel (mesh reference's standard error {:.4} of its mean)\n\n\
-             | method | spheres | volume error | Hausdorff mesh→spheres / diag | spheres→mesh / diag | proxy error (spheres ref. vs mesh ref.) | proxy error off the mesh | pipeline's own error (ISG vs spheres ref.) | ISG vs mesh ref. | ISG µs/pixel |\n|---|---|---|---|---|---|---|---|---|---|\n",
+             | method | spheres | volume error | Hausdorff mesh→spheres / diag | spheres→mesh / diag | proxy error (spheres ref. vs mesh ref.) | proxy error off the mesh | off-mesh pixels inside a sphere | proxy error off the mesh, outside every sphere | pipeline's own error (ISG vs spheres ref.) | ISG vs mesh ref. | ISG µs/pixel |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
             self.size.0, self.size.1, self.pixels.0, self.pixels.1, self.spp, self.ref_rel_se
         );
         for r in &self.rows {
             s += &format!(
-                "| {} | {} | {:.3} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} |\n",
+                "| {} | {} | {:.3} | {:.4} | {:.4} | {:.4} | {:.4} | {} | {:.4} | {:.4} | {:.4} | {:.1} |\n",
                 r.method.name(),
                 r.count,
                 r.quality.volume_error,
@@ -213,6 +231,8 @@ impl ProxyStudy {
                 r.quality.hausdorff_spheres_to_mesh / r.quality.diagonal,
                 r.proxy,
                 r.proxy_off_mesh,
+                r.buried,
+                r.proxy_clear,
                 r.pipeline,
                 r.total,
                 r.us_per_pixel
@@ -230,14 +250,19 @@ mod tests {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/isg-bunny.json")
     }
 
-    /// The study at full size (docs/meshes.md): prints its table.
+    /// The study at full size (docs/meshes.md): prints its table; `LF_SPP` sets the
+    /// references' samples per pixel (default 4096).
     #[test]
     #[ignore = "study: minutes; docs/meshes.md"]
     fn proxy_error_study() {
         let s = proxy_study(
             &bunny_scene(),
             160,
-            4096,
+            // LF_SPP: samples per pixel of the references (docs/meshes.md's table: 4096).
+            std::env::var("LF_SPP")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(4096),
             &Method::ALL,
             &[8, 16, 32, 64, 128, 256],
             100_000,
