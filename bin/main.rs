@@ -42,6 +42,13 @@ enum BackendArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+enum SphereMethodArg {
+    Kmeans,
+    KmeansMoment,
+    Tree,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 enum MethodArg {
     Fast,
     Paper,
@@ -205,6 +212,31 @@ enum Command {
         /// Worker threads (default: all cores). Results do not depend on it.
         #[arg(long, value_parser = threads_arg)]
         threads: Option<usize>,
+    },
+    /// Fit a sphere set to a closed triangle mesh (OBJ) and report its fit quality:
+    /// volume error and one-sided Hausdorff distances, by sampling (docs/meshes.md).
+    Spheres {
+        /// The mesh (OBJ; closed, or nearly: the inside test takes the majority of
+        /// three rays' parities).
+        #[arg(long)]
+        mesh: PathBuf,
+        /// Number of spheres.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+        count: u32,
+        /// kmeans: Lloyd iterations on interior samples, covering spheres;
+        /// kmeans-moment: the same clusters, second-moment radii; tree: a
+        /// bounding-sphere tree's leaves, split best first.
+        #[arg(long, value_enum, default_value = "kmeans")]
+        method: SphereMethodArg,
+        /// Seed of the interior samples (and of k-means++'s start).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Points drawn to measure the fit's quality.
+        #[arg(long, default_value_t = 200_000, value_parser = clap::value_parser!(u32).range(1000..=100_000_000))]
+        samples: u32,
+        /// The sphere-set file to write (JSON, in the mesh's coordinates).
+        #[arg(long)]
+        out: PathBuf,
     },
     /// Write a family's figures (PNG) into a directory.
     Plot {
@@ -728,6 +760,14 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             }
             emit(&text)?;
         }
+        Command::Spheres {
+            mesh,
+            count,
+            method,
+            seed,
+            samples,
+            out,
+        } => spheres(&mesh, count as usize, method, seed, samples as usize, &out)?,
         Command::Plot { name, out } => {
             let (_, plot) = lobefit::catalog::plots()
                 .into_iter()
@@ -738,6 +778,65 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `lobefit spheres`: fit, measure, write, report.
+fn spheres(
+    mesh_path: &Path,
+    count: usize,
+    method: SphereMethodArg,
+    seed: u64,
+    samples: usize,
+    out: &Path,
+) -> Result<(), String> {
+    use lobefit::pipelines::spheres::{fit, quality, FileSphere, Method, SphereSetFile};
+    let method = match method {
+        SphereMethodArg::Kmeans => Method::Kmeans,
+        SphereMethodArg::Tree => Method::Tree,
+        SphereMethodArg::KmeansMoment => Method::KmeansMoment,
+    };
+    let pb = progress(3, "spheres");
+    let t0 = Instant::now();
+    let mesh = lobefit::pipelines::mesh::Mesh::load_obj(mesh_path)?;
+    pb.inc(1);
+    let set = fit(&mesh, count, method, seed).map_err(|e| format!("mesh {}: {e}", mesh_path.display()))?;
+    let t_fit = t0.elapsed().as_secs_f64();
+    pb.inc(1);
+    let q = quality(&mesh, &set, samples, seed);
+    pb.finish_and_clear();
+    let file = SphereSetFile {
+        version: 1,
+        mesh: mesh_path.display().to_string(),
+        method,
+        seed,
+        spheres: set
+            .iter()
+            .map(|s| FileSphere {
+                centre: s.centre.to_array(),
+                radius: s.radius,
+            })
+            .collect(),
+        quality: Some(q),
+    };
+    let json = serde_json::to_string_pretty(&file).map_err(|e| e.to_string())?;
+    lobefit::io::write_atomic(out, json.as_bytes()).map_err(|e| format!("{}: {e}", out.display()))?;
+    emit(&format!(
+        "{}: {} triangles, volume {:.6e}; {count} spheres ({}, seed {seed}) in {t_fit:.2} s\n\
+         volume error {:.4} (excess {:.4}, missed {:.4}) of the mesh's volume; Hausdorff mesh → spheres {:.4e} ({:.4} of the diagonal), spheres → mesh {:.4e} ({:.4}); {samples} samples\n\
+         wrote {}\n",
+        mesh_path.display(),
+        mesh.triangles.len(),
+        mesh.volume(),
+        method.name(),
+        q.volume_error,
+        q.excess,
+        q.missed,
+        q.hausdorff_mesh_to_spheres,
+        q.hausdorff_mesh_to_spheres / q.diagonal,
+        q.hausdorff_spheres_to_mesh,
+        q.hausdorff_spheres_to_mesh / q.diagonal,
+        out.display()
+    ))
 }
 
 /// Writes `text` to stdout and flushes it. A closed pipe or a full disk becomes an

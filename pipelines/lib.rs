@@ -20,11 +20,13 @@ pub mod estimate;
 pub mod heightfield;
 pub mod image;
 pub mod isg;
+pub mod mesh;
 pub mod meunier;
 pub mod rigs;
 pub mod scene;
 pub mod shexp;
 pub mod sky;
+pub mod spheres;
 pub mod timing;
 
 use std::path::{Path, PathBuf};

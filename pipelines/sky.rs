@@ -432,6 +432,7 @@ pub fn hit_of_row(x: &[f64], spheres: &[Sphere], terrain: Option<&HeightField>) 
         t: n.any_orthonormal_vector(),
         wo,
         sphere: own,
+        mesh: None,
         material: 0,
     })
 }
@@ -473,6 +474,7 @@ mod tests {
             t: DVec3::X,
             wo: DVec3::new(0.6, 0.0, 0.8),
             sphere: None,
+            mesh: None,
             material: 0,
         };
         let brdf = Phong {

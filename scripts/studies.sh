@@ -34,3 +34,7 @@ LF_OUT="$base" LF_WIDTH=16 LF_SCENES=wrecking run cargo test -q -p lobefit-pipel
 LF_OUT="$base" LF_SCENES=cluster-1,cluster-16,cluster-256,cluster-1024,torus-1,torus-16,torus-252,torus-1020 \
   run cargo test -q -p lobefit-pipelines --features flip --lib study_baselines -- --ignored --nocapture
 run python3 scripts/pareto_front.py "$base"
+# The sphere proxy's error: the bunny shaded by the ISG pipeline with fitted sphere sets
+# of 8–256 spheres per method against the reference with its true triangles, next to
+# the pipeline's own error (docs/meshes.md; ~15 min on 2 cores at 4096 samples/pixel).
+run cargo test -q -p lobefit-pipelines --lib isg::proxy::tests::proxy_error_study -- --ignored --nocapture

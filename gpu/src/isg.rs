@@ -78,8 +78,15 @@ pub const WIDTH: u32 = 64;
 /// a 4 × 3 image; 1000 spheres 46 s, 4000 spheres 471 s and 2.86 GB).
 pub const MAX_SPHERES: usize = 256;
 
-/// Refuses a scene with more than [`MAX_SPHERES`] spheres.
+/// Refuses a scene with more than [`MAX_SPHERES`] spheres, or with meshes.
 pub fn check_spheres(scene: &lobefit::pipelines::scene::Scene) -> Result<(), String> {
+    // The kernel takes the scene's spheres only; meshes' sphere sets are CPU-only so far.
+    if !scene.meshes.is_empty() {
+        return Err(format!(
+            "render isg: scene {} holds meshes, which the GPU kernel does not take yet",
+            scene.name
+        ));
+    }
     if scene.spheres.len() > MAX_SPHERES {
         return Err(format!(
             "render isg: scene {} has {} spheres; the kernel takes at most {MAX_SPHERES} (its per-patch \

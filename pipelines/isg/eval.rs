@@ -59,7 +59,12 @@ impl IsgShadeView {
     pub fn from_flags(flags: &EvalFlags) -> Result<Self, String> {
         flags.only("isg-shade", FLAGS)?;
         let path = flags.text("scene").ok_or("isg-shade needs --scene FILE")?;
-        let scene = crate::scene::load_for(&path, &super::PIPELINE.accepts)?;
+        // Meshes are the renders' so far: the view's rows carry no mesh to lie on.
+        let accepts = crate::scene::Accepts {
+            meshes: false,
+            ..super::PIPELINE.accepts
+        };
+        let scene = crate::scene::load_for(&path, &accepts)?;
         if scene.environment.is_empty() {
             return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name));
         }
@@ -96,7 +101,7 @@ struct ShadeLookup {
 impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         let h = hit_of_row(x, &self.view.spheres, None)?;
-        let own = h.sphere;
+        let own = h.sphere.map_or(0..0, |i| i..i + 1);
         let blockers = Blockers {
             spheres: &self.view.spheres,
             bvh: Some(&self.view.bvh),

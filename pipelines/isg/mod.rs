@@ -5,6 +5,7 @@
 //! visibility, `render` the images.
 
 pub mod eval;
+pub mod proxy;
 pub mod render;
 pub mod shade;
 
@@ -31,6 +32,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         sg_environment: true,
         sh_environment: false,
         planes: true,
+        meshes: true,
     },
     references: (1, 1),
     precise_factor: render::PRECISE_FACTOR as u64,
@@ -64,6 +66,7 @@ mod unoccluded {
                     t: DVec3::X,
                     wo,
                     sphere: None,
+                    mesh: None,
                     material: 0,
                 };
                 let p = radiance(

@@ -41,12 +41,13 @@ pub fn scene(name: &str) -> Result<Scene, String> {
     Ok(scene)
 }
 
-/// The blockers of a hit: the scene's spheres but the hit's own, through its BVH.
+/// The blockers of a hit: the scene's spheres and its meshes' sphere sets
+/// ([`Scene::proxies`]) but the hit's own, through their BVH.
 pub fn blockers_of<'a>(scene: &'a Scene, h: &Hit) -> Blockers<'a> {
     Blockers {
-        spheres: &scene.spheres,
-        bvh: Some(scene.bvh()),
-        own: h.sphere,
+        spheres: &scene.proxies,
+        bvh: Some(scene.proxy_bvh()),
+        own: scene.own_proxies(h),
     }
 }
 
@@ -156,8 +157,18 @@ fn render_scene(
     let ref_rel_se = mean_over(&se, &lit) / mean_ref;
     let pixels = lit.iter().filter(|&&l| l).count();
     sum.lines.push(format!(
-        "{tag}: {w}×{h}, {pixels} lit pixels, {} spheres, {} lighting SGs; reference {} samples/pixel, standard error mean {:.2e} of the mean radiance {:.4}",
+        "{tag}: {w}×{h}, {pixels} lit pixels, {} spheres{}, {} lighting SGs; reference {} samples/pixel, standard error mean {:.2e} of the mean radiance {:.4}",
         scene.spheres.len(),
+        if scene.meshes.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", {} meshes ({} triangles, shaded with {} proxy spheres, the reference with the triangles)",
+                scene.meshes.len(),
+                scene.meshes.iter().map(|m| m.mesh.triangles.len()).sum::<usize>(),
+                scene.proxies.len() - scene.spheres.len()
+            )
+        },
         scene.environment.len(),
         opts.spp,
         ref_rel_se,
@@ -237,6 +248,9 @@ fn render_scene(
             ..default
         },
     ];
+    // With meshes, a last stage: the sphere sets → the true triangles.
+    let meshes = !scene.meshes.is_empty();
+    let at = stages.len() + usize::from(meshes);
     let parts: Vec<Vec<f64>> = picks
         .par_iter()
         .map(|&p| {
@@ -258,14 +272,37 @@ fn render_scene(
                 MC_SEED ^ 0x9e37 ^ p as u64,
             )
             .finite(|| format!("the breakdown's reference at pixel ({}, {})", p % w, p / w))?;
+            if meshes {
+                // The precise reference on the sphere sets (their exact visibility, the
+                // hit's own mesh's set left out as the pipeline does), with the same
+                // samples as the one with the true triangles: their difference is the
+                // proxy's alone.
+                let own = scene.own_proxies(&hit);
+                let on_spheres = reference(
+                    &scene.environment,
+                    &brdf,
+                    |v| {
+                        scene
+                            .proxies
+                            .iter()
+                            .enumerate()
+                            .any(|(i, s)| !own.contains(&i) && crate::scene::ray_sphere(hit.x, v, s).is_some())
+                    },
+                    &hit,
+                    opts.spp * PRECISE_FACTOR,
+                    MC_SEED ^ 0x9e37 ^ p as u64,
+                )
+                .finite(|| format!("the breakdown's sphere-set reference at pixel ({}, {})", p % w, p / w))?;
+                v.push(on_spheres.mean);
+            }
             v.extend([precise.mean, precise.std_error]);
             Ok(v)
         })
         .collect::<Result<_, String>>()?;
     // The subset against the precise reference, per model, its noise taken out.
     let sub_mask = vec![true; picks.len()];
-    let precise: Vec<f64> = parts.iter().map(|p| p[4]).collect();
-    let precise_se: Vec<f64> = parts.iter().map(|p| p[5]).collect();
+    let precise: Vec<f64> = parts.iter().map(|p| p[at]).collect();
+    let precise_se: Vec<f64> = parts.iter().map(|p| p[at + 1]).collect();
     let mean_sub = mean_over(&precise, &sub_mask);
     sum.lines.push(format!(
         "{tag}: on {} pixels (every {}th) against a reference of {} samples (standard error mean {:.2e} of the mean):",
@@ -289,12 +326,17 @@ fn render_scene(
             st.rel_rmse, st.p99, st.max
         ));
     }
-    let names = [
+    let mut names = vec![
         "ISG model best (→ Gauss–Legendre patch integrals)",
         "binary patch occlusion (→ the covered part of each patch, 8 × 8 nodes at exact visibility)",
         "eq. 9 (→ every lighting SG times the BRDF SG)",
         "Phong as one SG, the limiting cone, patch resolution (→ the precise Monte Carlo reference)",
     ];
+    if meshes {
+        names[3] =
+            "Phong as one SG, the limiting cone, patch resolution (→ the precise reference on the meshes' sphere sets)";
+        names.push("sphere sets → true meshes (→ the precise reference with the triangles, same samples)");
+    }
     sum.lines.extend(breakdown(
         &tag,
         "the paper's configuration (best model, binary, eq. 9)",

@@ -145,16 +145,17 @@ impl Tables {
 }
 
 /// The spheres that may occlude a point: all of `spheres` but `own` (the one the
-/// point lies on), culled against each product's cone through `bvh` (§4.2) when given,
+/// point lies on, or its mesh's sphere set), culled against each product's cone through `bvh` (§4.2) when given,
 /// else by a scan.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 pub struct Blockers<'a> {
     /// The spheres.
     pub spheres: &'a [Sphere],
     /// A hierarchy over `spheres`.
     pub bvh: Option<&'a Bvh>,
-    /// The sphere the point lies on (not a blocker).
-    pub own: Option<usize>,
+    /// The spheres the point lies on or in (not blockers): its sphere, or its mesh's
+    /// sphere set ([`crate::scene::Scene::own_proxies`]); empty for none.
+    pub own: std::ops::Range<usize>,
 }
 
 impl<'a> Blockers<'a> {
@@ -163,7 +164,7 @@ impl<'a> Blockers<'a> {
         Blockers {
             spheres,
             bvh: None,
-            own: None,
+            own: 0..0,
         }
     }
 
@@ -171,7 +172,7 @@ impl<'a> Blockers<'a> {
     /// `cone`, from `x` may meet: a superset of those whose caps meet it.
     fn candidates(&self, x: DVec3, axis: DVec3, cone: f64, mut visit: impl FnMut(usize)) {
         let mut keep = |i: usize| {
-            if Some(i) != self.own {
+            if !self.own.contains(&i) {
                 visit(i);
             }
         };
@@ -1199,6 +1200,7 @@ mod hybrid_tests {
             t: DVec3::X,
             wo: DVec3::new(-0.3, 0.0, 0.95).normalize(),
             sphere: None,
+            mesh: None,
             material: 0,
         };
         let brdf = Phong {

@@ -31,6 +31,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         sg_environment: false,
         sh_environment: false,
         planes: true,
+        meshes: false,
     },
     // The image's reference; the breakdown is quadrature.
     references: (1, 0),

@@ -40,6 +40,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         sg_environment: false,
         sh_environment: false,
         planes: false,
+        meshes: false,
     },
     references: (0, 0),
     precise_factor: 0,

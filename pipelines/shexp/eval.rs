@@ -56,6 +56,7 @@ impl ShExpShadeView {
         // shades given points, so they change nothing here.
         let accepts = crate::scene::Accepts {
             planes: true,
+            meshes: false,
             ..super::PIPELINE.accepts
         };
         let scene = crate::scene::load_for(&path, &accepts)?;

@@ -35,6 +35,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         sg_environment: true,
         sh_environment: true,
         planes: false,
+        meshes: false,
     },
     // The reference and the SH-ideal render; in the breakdown those two and SH-ideal at
     // each higher order.
@@ -121,6 +122,7 @@ mod tests {
             t: n.any_orthonormal_vector(),
             wo: n,
             sphere: None,
+            mesh: None,
             material: 0,
         }
     }

@@ -23,6 +23,7 @@ mod io;
 mod isg;
 mod lobe_product;
 mod log_zh;
+mod meshes;
 mod meunier;
 mod render_isg;
 mod render_meunier;

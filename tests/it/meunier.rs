@@ -471,6 +471,7 @@ fn lafortune_lobes_equal_the_definition() {
             t,
             wo,
             sphere: None,
+            mesh: None,
             material: 0,
         };
         for _ in 0..50 {

@@ -1,0 +1,666 @@
+//! Triangle meshes: bounded OBJ loading (through `tobj`), a rigid transform, and a
+//! bounding-volume hierarchy over the triangles for nearest hits, shadow rays, the
+//! inside test and distances (what `--exact` references and `lobefit spheres` need).
+//!
+//! Conventions as in [`crate::scene`]: f64 scene units, rays x + t·v with v unit.
+//! Triangles are two-sided for rays; a hit's normal is the geometric normal of the
+//! triangle (counter-clockwise winding, turned to face the ray's origin by the caller).
+//!
+//! The hierarchy is hand-written rather than taken from a crate (`obvhs`, `bvh`): those
+//! are f32, and the exact references here are f64 throughout (a shadow ray's rounding
+//! must stay far below the 1e-9 scene offsets the scene layer uses); it is the scene
+//! layer's sphere BVH with triangles in its leaves, tested against brute force.
+
+use std::io::Read;
+use std::path::Path;
+
+use lobefit_tables::glam::{DQuat, DVec3};
+
+/// Longest mesh file read (bytes).
+pub const MAX_MESH_BYTES: u64 = 64 << 20;
+/// Most vertices a mesh may hold.
+pub const MAX_MESH_VERTICES: usize = 1 << 21;
+/// Most triangles a mesh may hold (after triangulating polygons).
+pub const MAX_MESH_TRIANGLES: usize = 1 << 21;
+/// Largest |coordinate| of a mesh vertex (after its transform), as the scene's
+/// `MAX_COORD`.
+pub const MAX_MESH_COORD: f64 = 1e6;
+/// Triangles per leaf of the hierarchy.
+const LEAF: usize = 4;
+
+/// A rigid transform with uniform scale: x ↦ R (s x) + t (spheres stay spheres).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transform {
+    /// Uniform scale s > 0.
+    pub scale: f64,
+    /// Rotation R (unit quaternion).
+    pub rotation: DQuat,
+    /// Translation t (scene units).
+    pub translation: DVec3,
+}
+
+impl Transform {
+    /// The identity.
+    pub const IDENTITY: Transform = Transform {
+        scale: 1.0,
+        rotation: DQuat::IDENTITY,
+        translation: DVec3::ZERO,
+    };
+
+    /// The image of point `p`.
+    pub fn point(&self, p: DVec3) -> DVec3 {
+        self.rotation * (self.scale * p) + self.translation
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    lo: DVec3,
+    hi: DVec3,
+    /// Leaf: first triangle in `order` and count (> 0); inner: first child, count 0.
+    first: usize,
+    count: usize,
+}
+
+/// A triangle mesh with its hierarchy.
+#[derive(Debug, Clone)]
+pub struct Mesh {
+    /// Vertex positions (scene units).
+    pub vertices: Vec<DVec3>,
+    /// Triangles as vertex indices, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+    nodes: Vec<Node>,
+    order: Vec<u32>,
+}
+
+/// Möller–Trumbore: distance along x + t·v to triangle (a, b, c), if t in (t_min, t_max).
+fn ray_triangle(x: DVec3, v: DVec3, a: DVec3, b: DVec3, c: DVec3, t_min: f64, t_max: f64) -> Option<f64> {
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = v.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = x - a;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let w = v.dot(q) * inv;
+    if w < 0.0 || u + w > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    (t > t_min && t < t_max).then_some(t)
+}
+
+/// Closest point of triangle (a, b, c) to p (Ericson, Real-Time Collision Detection 5.1.5).
+fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(ap);
+    let d2 = ac.dot(ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let d3 = ab.dot(bp);
+    let d4 = ac.dot(bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + d1 / (d1 - d3) * ab;
+    }
+    let cp = p - c;
+    let d5 = ab.dot(cp);
+    let d6 = ac.dot(cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + d2 / (d2 - d6) * ac;
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+/// Whether the ray x + t·v (inv = 1/v) meets the box before t_max.
+fn hits_box(lo: DVec3, hi: DVec3, x: DVec3, inv: DVec3, t_max: f64) -> bool {
+    let t1 = (lo - x) * inv;
+    let t2 = (hi - x) * inv;
+    // NaN (0·∞ on a face plane) is ignored by min/max: the slab then spans everything.
+    let tn = t1.min(t2).max_element();
+    let tf = t1.max(t2).min_element();
+    tn <= tf && tf >= 0.0 && tn <= t_max
+}
+
+impl Mesh {
+    /// A mesh from vertices and triangles; an error for an index out of range, a
+    /// non-finite or too large coordinate, or too many of either.
+    pub fn new(vertices: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Result<Mesh, String> {
+        if vertices.len() > MAX_MESH_VERTICES {
+            return Err(format!(
+                "{} vertices, more than the {MAX_MESH_VERTICES} a mesh may hold (MAX_MESH_VERTICES)",
+                vertices.len()
+            ));
+        }
+        if triangles.len() > MAX_MESH_TRIANGLES {
+            return Err(format!(
+                "{} triangles, more than the {MAX_MESH_TRIANGLES} a mesh may hold (MAX_MESH_TRIANGLES)",
+                triangles.len()
+            ));
+        }
+        if triangles.is_empty() {
+            return Err("no triangles".into());
+        }
+        if let Some(k) = vertices
+            .iter()
+            .position(|p| !p.is_finite() || p.abs().max_element() > MAX_MESH_COORD)
+        {
+            return Err(format!(
+                "vertex {k} {:?} must be finite with every |coordinate| ≤ {MAX_MESH_COORD:e}",
+                vertices[k].to_array()
+            ));
+        }
+        if let Some(k) = triangles
+            .iter()
+            .position(|t| t.iter().any(|&i| i as usize >= vertices.len()))
+        {
+            return Err(format!(
+                "triangle {k} {:?} names a vertex beyond the {} given",
+                triangles[k],
+                vertices.len()
+            ));
+        }
+        let mut m = Mesh {
+            vertices,
+            triangles,
+            nodes: Vec::new(),
+            order: Vec::new(),
+        };
+        m.build();
+        Ok(m)
+    }
+
+    /// Reads an OBJ file (polygons triangulated; materials, normals and texture
+    /// coordinates ignored), at most [`MAX_MESH_BYTES`] long; errors name the file.
+    pub fn load_obj(path: &Path) -> Result<Mesh, String> {
+        let err = |m: String| format!("mesh {}: {m}", path.display());
+        let f = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
+        let mut bytes = Vec::new();
+        f.take(MAX_MESH_BYTES + 1)
+            .read_to_end(&mut bytes)
+            .map_err(|e| err(e.to_string()))?;
+        if bytes.len() as u64 > MAX_MESH_BYTES {
+            return Err(err(format!(
+                "longer than the {MAX_MESH_BYTES} bytes a mesh file may be (MAX_MESH_BYTES)"
+            )));
+        }
+        Mesh::from_obj_bytes(&bytes).map_err(err)
+    }
+
+    /// Parses OBJ text (see [`Mesh::load_obj`]); every object of the file in one mesh.
+    pub fn from_obj_bytes(bytes: &[u8]) -> Result<Mesh, String> {
+        // Counted before tobj allocates per element: a line per vertex or face at least.
+        let count = |tag: &[u8]| bytes.split(|&b| b == b'\n').filter(|l| l.starts_with(tag)).count();
+        let (nv, nf) = (count(b"v "), count(b"f "));
+        if nv > MAX_MESH_VERTICES {
+            return Err(format!(
+                "{nv} vertices, more than the {MAX_MESH_VERTICES} a mesh may hold (MAX_MESH_VERTICES)"
+            ));
+        }
+        if nf > MAX_MESH_TRIANGLES {
+            return Err(format!(
+                "{nf} faces, more than the {MAX_MESH_TRIANGLES} a mesh may hold (MAX_MESH_TRIANGLES)"
+            ));
+        }
+        let opts = tobj::LoadOptions {
+            triangulate: true,
+            single_index: false,
+            ignore_points: true,
+            ignore_lines: true,
+        };
+        let mut reader = std::io::BufReader::new(bytes);
+        // A parser panic on hostile input becomes an error, never a crash.
+        let loaded = std::panic::catch_unwind(move || {
+            tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::MaterialParseError))
+        })
+        .map_err(|_| "the OBJ parser failed on this file".to_string())?;
+        let (models, _) = loaded.map_err(|e| format!("not a readable OBJ file: {e}"))?;
+        let mut vertices = Vec::new();
+        let mut triangles = Vec::new();
+        for m in models {
+            let base = vertices.len();
+            let p = &m.mesh.positions;
+            if p.len() % 3 != 0 {
+                return Err(format!("object {}: positions not a multiple of 3", m.name));
+            }
+            vertices.extend(p.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])));
+            if m.mesh.indices.len() % 3 != 0 {
+                return Err(format!("object {}: faces are not triangles", m.name));
+            }
+            for t in m.mesh.indices.chunks_exact(3) {
+                let idx = [t[0], t[1], t[2]].map(|i| (base + i as usize).min(u32::MAX as usize) as u32);
+                triangles.push(idx);
+            }
+            if vertices.len() > MAX_MESH_VERTICES || triangles.len() > MAX_MESH_TRIANGLES {
+                break;
+            }
+        }
+        Mesh::new(vertices, triangles)
+    }
+
+    /// This mesh under `t` (its hierarchy rebuilt).
+    pub fn transformed(&self, t: &Transform) -> Result<Mesh, String> {
+        Mesh::new(
+            self.vertices.iter().map(|&p| t.point(p)).collect(),
+            self.triangles.clone(),
+        )
+    }
+
+    /// The corners of triangle `k`.
+    pub fn corners(&self, k: usize) -> [DVec3; 3] {
+        self.triangles[k].map(|i| self.vertices[i as usize])
+    }
+
+    /// Unit geometric normal of triangle `k` ((b − a) × (c − a), normalised).
+    pub fn normal(&self, k: usize) -> DVec3 {
+        let [a, b, c] = self.corners(k);
+        (b - a).cross(c - a).normalize_or_zero()
+    }
+
+    /// Bounding box (min, max corner).
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        (self.nodes[0].lo, self.nodes[0].hi)
+    }
+
+    /// Signed volume Σ a·(b × c)/6 (positive for a closed mesh wound outwards).
+    pub fn volume(&self) -> f64 {
+        (0..self.triangles.len())
+            .map(|k| {
+                let [a, b, c] = self.corners(k);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    /// Total area.
+    pub fn area(&self) -> f64 {
+        (0..self.triangles.len())
+            .map(|k| {
+                let [a, b, c] = self.corners(k);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
+    }
+
+    fn build(&mut self) {
+        let n = self.triangles.len();
+        let cent: Vec<DVec3> = (0..n)
+            .map(|k| {
+                let [a, b, c] = self.corners(k);
+                (a + b + c) / 3.0
+            })
+            .collect();
+        self.order = (0..n as u32).collect();
+        self.nodes = vec![Node {
+            lo: DVec3::ZERO,
+            hi: DVec3::ZERO,
+            first: 0,
+            count: n,
+        }];
+        let mut todo = vec![(0usize, 0usize, n)];
+        while let Some((node, start, end)) = todo.pop() {
+            let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+            let (mut clo, mut chi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+            for &k in &self.order[start..end] {
+                for p in self.corners(k as usize) {
+                    lo = lo.min(p);
+                    hi = hi.max(p);
+                }
+                clo = clo.min(cent[k as usize]);
+                chi = chi.max(cent[k as usize]);
+            }
+            self.nodes[node].lo = lo;
+            self.nodes[node].hi = hi;
+            let ext = chi - clo;
+            if end - start <= LEAF || ext.max_element() == 0.0 {
+                self.nodes[node].first = start;
+                self.nodes[node].count = end - start;
+                continue;
+            }
+            let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                0
+            } else if ext.y >= ext.z {
+                1
+            } else {
+                2
+            };
+            let mid = (start + end) / 2;
+            // Ties broken by index: the hierarchy is a function of the mesh alone.
+            self.order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
+                cent[a as usize][axis]
+                    .total_cmp(&cent[b as usize][axis])
+                    .then(a.cmp(&b))
+            });
+            let first = self.nodes.len();
+            self.nodes.push(self.nodes[node]);
+            self.nodes.push(self.nodes[node]);
+            self.nodes[node].first = first;
+            self.nodes[node].count = 0;
+            todo.push((first, start, mid));
+            todo.push((first + 1, mid, end));
+        }
+    }
+
+    /// Visits every triangle whose leaf box the ray meets before `t_max()` (read at
+    /// each node, so a shrinking bound prunes).
+    fn walk(&self, x: DVec3, v: DVec3, t_max: impl Fn() -> f64, mut visit: impl FnMut(usize) -> bool) {
+        let inv = v.recip();
+        let mut stack = Vec::with_capacity(64);
+        stack.push(0usize);
+        while let Some(k) = stack.pop() {
+            let n = &self.nodes[k];
+            if !hits_box(n.lo, n.hi, x, inv, t_max()) {
+                continue;
+            }
+            if n.count == 0 {
+                stack.push(n.first);
+                stack.push(n.first + 1);
+                continue;
+            }
+            for &t in &self.order[n.first..n.first + n.count] {
+                if visit(t as usize) {
+                    return;
+                }
+            }
+        }
+    }
+
+    /// Nearest hit (t, triangle) of x + t·v with t in (t_min, t_max), skipping
+    /// triangle `skip`; ties broken by the lower triangle index.
+    pub fn nearest(&self, x: DVec3, v: DVec3, t_min: f64, t_max: f64, skip: Option<usize>) -> Option<(f64, usize)> {
+        let best = std::cell::Cell::new((t_max, usize::MAX));
+        self.walk(
+            x,
+            v,
+            || best.get().0,
+            |k| {
+                if Some(k) != skip {
+                    let [a, b, c] = self.corners(k);
+                    let (bt, bk) = best.get();
+                    if let Some(t) = ray_triangle(x, v, a, b, c, t_min, f64::INFINITY) {
+                        if t < bt || (t == bt && k < bk) {
+                            best.set((t, k));
+                        }
+                    }
+                }
+                false
+            },
+        );
+        let (t, k) = best.get();
+        (k != usize::MAX).then_some((t, k))
+    }
+
+    /// Whether some triangle but `skip` meets x + t·v for t in (t_min, t_max).
+    pub fn occluded(&self, x: DVec3, v: DVec3, t_min: f64, t_max: f64, skip: Option<usize>) -> bool {
+        let mut hit = false;
+        self.walk(
+            x,
+            v,
+            || t_max,
+            |k| {
+                if Some(k) != skip {
+                    let [a, b, c] = self.corners(k);
+                    hit = ray_triangle(x, v, a, b, c, t_min, t_max).is_some();
+                }
+                hit
+            },
+        );
+        hit
+    }
+
+    /// [`Mesh::nearest`] by a scan over every triangle (the tests' brute force).
+    pub fn nearest_brute(&self, x: DVec3, v: DVec3, t_min: f64, t_max: f64) -> Option<(f64, usize)> {
+        let mut best: Option<(f64, usize)> = None;
+        for k in 0..self.triangles.len() {
+            let [a, b, c] = self.corners(k);
+            if let Some(t) = ray_triangle(x, v, a, b, c, t_min, t_max) {
+                if best.is_none_or(|(bt, _)| t < bt) {
+                    best = Some((t, k));
+                }
+            }
+        }
+        best
+    }
+
+    /// Number of triangles the whole line's ray x + t·v, t > 0, crosses.
+    fn crossings(&self, x: DVec3, v: DVec3) -> usize {
+        let mut n = 0;
+        self.walk(
+            x,
+            v,
+            || f64::INFINITY,
+            |k| {
+                let [a, b, c] = self.corners(k);
+                n += usize::from(ray_triangle(x, v, a, b, c, 0.0, f64::INFINITY).is_some());
+                false
+            },
+        );
+        n
+    }
+
+    /// Whether `p` lies inside: the majority of the crossing parities of three rays
+    /// in fixed, irrational directions (exact for a closed mesh but on a set of measure
+    /// zero; a small hole or a non-manifold edge flips at most one ray's parity for
+    /// most points).
+    pub fn inside(&self, p: DVec3) -> bool {
+        const DIRS: [[f64; 3]; 3] = [
+            [0.573_462_6, 0.352_173_3, 0.739_711_4],
+            [-0.614_256_7, 0.711_364_8, -0.341_517_2],
+            [0.262_111_4, -0.889_430_1, -0.374_424_3],
+        ];
+        let odd = DIRS
+            .iter()
+            .filter(|d| self.crossings(p, DVec3::from_array(**d).normalize()) % 2 == 1)
+            .count();
+        odd >= 2
+    }
+
+    /// Distance from `p` to the nearest point of the surface.
+    pub fn distance(&self, p: DVec3) -> f64 {
+        let mut best = f64::INFINITY;
+        let mut stack = vec![0usize];
+        while let Some(k) = stack.pop() {
+            let n = &self.nodes[k];
+            let box_d2 = (n.lo - p).max(p - n.hi).max(DVec3::ZERO).length_squared();
+            if box_d2 >= best * best {
+                continue;
+            }
+            if n.count == 0 {
+                // Nearer child last: popped first.
+                let (a, b) = (&self.nodes[n.first], &self.nodes[n.first + 1]);
+                let da = (a.lo - p).max(p - a.hi).max(DVec3::ZERO).length_squared();
+                let db = (b.lo - p).max(p - b.hi).max(DVec3::ZERO).length_squared();
+                if da < db {
+                    stack.extend([n.first + 1, n.first]);
+                } else {
+                    stack.extend([n.first, n.first + 1]);
+                }
+                continue;
+            }
+            for &t in &self.order[n.first..n.first + n.count] {
+                let [a, b, c] = self.corners(t as usize);
+                best = best.min((closest_on_triangle(p, a, b, c) - p).length());
+            }
+        }
+        best
+    }
+
+    /// [`Mesh::distance`] by a scan over every triangle.
+    pub fn distance_brute(&self, p: DVec3) -> f64 {
+        (0..self.triangles.len())
+            .map(|k| {
+                let [a, b, c] = self.corners(k);
+                (closest_on_triangle(p, a, b, c) - p).length()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// `n` points on the surface, uniform by area, from `rng`.
+    pub fn sample_surface(&self, rng: &mut lobefit_core::rng::Rng, n: usize) -> Vec<DVec3> {
+        let mut cdf = Vec::with_capacity(self.triangles.len());
+        let mut acc = 0.0;
+        for k in 0..self.triangles.len() {
+            let [a, b, c] = self.corners(k);
+            acc += 0.5 * (b - a).cross(c - a).length();
+            cdf.push(acc);
+        }
+        (0..n)
+            .map(|_| {
+                let u = rng.uniform() * acc;
+                let k = cdf.partition_point(|&c| c < u).min(cdf.len() - 1);
+                let [a, b, c] = self.corners(k);
+                let (mut s, mut t) = (rng.uniform(), rng.uniform());
+                if s + t > 1.0 {
+                    (s, t) = (1.0 - s, 1.0 - t);
+                }
+                a + s * (b - a) + t * (c - a)
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use lobefit_core::rng::Rng;
+
+    /// A closed, outward-wound icosphere-like mesh: an octahedron subdivided `n` times
+    /// and pushed onto the sphere of `radius` about `centre`.
+    pub(crate) fn ball(centre: DVec3, radius: f64, n: usize) -> Mesh {
+        let mut v = vec![DVec3::X, -DVec3::X, DVec3::Y, -DVec3::Y, DVec3::Z, -DVec3::Z];
+        let mut t: Vec<[u32; 3]> = vec![
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+        ];
+        for _ in 0..n {
+            let mut next = Vec::new();
+            for [a, b, c] in t {
+                let mut mid = |i: u32, j: u32| {
+                    v.push((v[i as usize] + v[j as usize]).normalize());
+                    (v.len() - 1) as u32
+                };
+                let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
+                next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+            }
+            t = next;
+        }
+        Mesh::new(v.into_iter().map(|p| centre + radius * p).collect(), t).unwrap()
+    }
+
+    fn random_dir(rng: &mut Rng) -> DVec3 {
+        let z = rng.range(-1.0, 1.0);
+        let phi = rng.range(0.0, std::f64::consts::TAU);
+        let s = (1.0 - z * z).sqrt();
+        DVec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
+
+    /// Nearest hits and shadow rays through the hierarchy equal a scan over every
+    /// triangle on random rays (the bunny: 19 048 triangles).
+    #[test]
+    fn bvh_equals_brute_force() {
+        let m = Mesh::load_obj(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/bunny.obj")).unwrap();
+        let (lo, hi) = m.bounds();
+        let mut rng = Rng::new(41);
+        let mut hits = 0;
+        for _ in 0..300 {
+            let x = lo + (hi - lo) * DVec3::new(rng.range(-0.5, 1.5), rng.range(-0.5, 1.5), rng.range(-0.5, 1.5));
+            // Half the rays aimed at a point in the box, half in random directions.
+            let aim = lo + (hi - lo) * DVec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+            let v = if rng.uniform() < 0.5 {
+                (aim - x).normalize()
+            } else {
+                random_dir(&mut rng)
+            };
+            let a = m.nearest(x, v, 0.0, f64::INFINITY, None);
+            let b = m.nearest_brute(x, v, 0.0, f64::INFINITY);
+            assert_eq!(a.map(|h| h.0.to_bits()), b.map(|h| h.0.to_bits()), "{x} {v}");
+            let t_max = rng.range(0.0, 0.3);
+            assert_eq!(
+                m.occluded(x, v, 0.0, t_max, None),
+                b.is_some_and(|h| h.0 < t_max),
+                "{x} {v} {t_max}"
+            );
+            hits += usize::from(a.is_some());
+            let p = x + 0.1 * v;
+            assert_eq!(m.distance(p).to_bits(), m.distance_brute(p).to_bits());
+        }
+        assert!(hits > 80, "{hits} rays hit");
+    }
+
+    /// A subdivided octahedron's volume, area, inside test and distance against the
+    /// closed forms of its ball (within its faceting).
+    #[test]
+    fn ball_volume_inside_and_distance() {
+        let m = ball(DVec3::new(0.3, -0.2, 1.0), 2.0, 4);
+        let ball_vol = 4.0 / 3.0 * std::f64::consts::PI * 8.0;
+        assert!((m.volume() / ball_vol - 1.0).abs() < 0.02, "{}", m.volume());
+        assert!((m.area() / (16.0 * std::f64::consts::PI) - 1.0).abs() < 0.02);
+        let mut rng = Rng::new(7);
+        for _ in 0..500 {
+            let p = DVec3::new(0.3, -0.2, 1.0)
+                + 3.0 * DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+            let r = (p - DVec3::new(0.3, -0.2, 1.0)).length();
+            if (r - 2.0).abs() > 0.02 {
+                assert_eq!(m.inside(p), r < 2.0, "{p}");
+                assert!((m.distance(p) - (r - 2.0).abs()).abs() < 0.02, "{p}");
+            }
+        }
+    }
+
+    /// Garbage, truncated and hostile OBJ text are errors, never panics.
+    #[test]
+    fn bad_obj_is_an_error() {
+        let good = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        assert!(Mesh::from_obj_bytes(good).is_ok());
+        for (bad, want) in [
+            (&b""[..], "no triangles"),
+            (b"\x00\xff\xfe garbage \x01\n", ""),
+            (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", ""),
+            (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -9\n", ""),
+            (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", ""),
+            (b"v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n", ""),
+            (b"v 0 0 0\nv 1 0 1e300\nv 0 1 0\nf 1 2 3\n", "finite"),
+            (b"v 0 0 0\nv 1 0 0\nv 0 1", ""),
+            (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1 2/x 3\n", ""),
+            (b"mtllib nothere.mtl\nusemtl a\nv 0 0\nf 1 1 1\n", ""),
+        ] {
+            let r = Mesh::from_obj_bytes(bad);
+            assert!(r.is_err(), "{:?} loaded", String::from_utf8_lossy(bad));
+            assert!(r.unwrap_err().contains(want));
+        }
+        let bunny = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/bunny.obj")).unwrap();
+        for cut in [10, 1000, 100_000, 400_000, bunny.len() - 7] {
+            // A cut file either loads its complete lines or is an error: no panic.
+            let _ = Mesh::from_obj_bytes(&bunny[..cut]);
+        }
+    }
+}
