@@ -649,6 +649,7 @@ mod tests {
             t: DVec3::X,
             wo: DVec3::new(0.0, -0.6, 0.8),
             sphere: None,
+            mesh: None,
             material: 0,
         };
         let env = [

@@ -291,7 +291,10 @@ fn eval_shexp() {
         assert!((row[2 + l] - 0.1f64.ln() * cap[l]).abs() < 1e-9);
     }
     let (ok, _, err) = eval(&["eval", "shexp", "--kind", "phong"], "theta_b\n0.5\n");
-    assert!(!ok && err.contains("only --order and --log"), "{err}");
+    assert!(
+        !ok && err.contains("shexp takes no --kind flag (only --order, --log)"),
+        "{err}"
+    );
     let (ok, _, err) = eval(&["eval", "shexp"], "theta_b\n1.7\n");
     assert!(!ok && err.contains("theta_b"), "{err}");
 }

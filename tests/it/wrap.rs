@@ -160,11 +160,11 @@ fn eval_wrap() {
         .collect();
     assert!((v[3] - 0.1185).abs() < 5e-5, "{v:?}");
     let (code, _, err) = common::run_text(&["eval", "wrap", "--order", "9"], "a\n0.5\n");
-    assert_eq!(code, Some(2)); // refused by the argument parser
-    assert!(err.contains("9 is not in 1..=8"), "{err}");
+    assert_eq!(code, Some(2)); // a usage error
+    assert!(err.contains("wrap: --order 9 is outside 1..=8"), "{err}");
     let (code, _, err) = common::run_text(&["eval", "wrap", "--kind", "phong"], "a\n0.5\n");
     assert_eq!(code, Some(2), "a usage error");
-    assert!(err.contains("wrap takes only --order"), "{err}");
+    assert!(err.contains("wrap takes no --kind flag (only --order)"), "{err}");
 }
 
 /// The f32 twins agree with f64 to f32 rounding and report the same errors.
