@@ -143,7 +143,7 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     let ex_shexp = VerifiedExport::open(&a.export, crate::shexp::FAMILIES).map_err(all)?;
     let ex_meunier = VerifiedExport::open(&a.export, crate::meunier::FAMILIES).map_err(all)?;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("--out {}: {e}", a.out.display()))?;
-    let mut gpu = Gpu::new()?;
+    let mut gpu = Gpu::with_timestamps()?;
     if a.wall_clock {
         gpu.timestamps = false;
     }

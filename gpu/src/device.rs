@@ -59,6 +59,16 @@ impl Gpu {
     /// A device on the first Vulkan adapter (high performance preferred). Errors say
     /// clearly when there is none.
     pub fn new() -> Result<Gpu, String> {
+        Gpu::open(false)
+    }
+
+    /// [`Gpu::new`], asking for timestamp queries where the adapter has them (the
+    /// bench's clock). Only the bench asks: no other run reads the device's clock.
+    pub fn with_timestamps() -> Result<Gpu, String> {
+        Gpu::open(true)
+    }
+
+    fn open(want_timestamps: bool) -> Result<Gpu, String> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends: wgpu::Backends::VULKAN,
             ..wgpu::InstanceDescriptor::new_without_display_handle()
@@ -75,7 +85,7 @@ impl Gpu {
         })?;
         let info = adapter.get_info();
         let float32_filterable = adapter.features().contains(wgpu::Features::FLOAT32_FILTERABLE);
-        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let timestamps = want_timestamps && adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let mut required_features = wgpu::Features::empty();
         if float32_filterable {
             required_features |= wgpu::Features::FLOAT32_FILTERABLE;
