@@ -320,11 +320,9 @@ pub fn time_at(curve: &[Point], error: f64) -> Option<Timing> {
 enum Kind {
     Plain,
     Qmc,
-    /// QMC with the control variate, the SGs picked by their integral.
-    QmcCv,
-    /// QMC with the control variate, the SGs picked by their contribution at the
-    /// point (`sky::Select::Contribution`).
-    QmcCvMis,
+    /// QMC with the control variate, the SGs picked as the `Select` says (by their
+    /// integral, or by their contribution at the point).
+    QmcCv(Select),
     /// QMC with the ISG pipeline (default settings) as the control variate.
     HybridIsg,
     /// QMC with the SH-exponentiation pipeline (default settings) as the control
@@ -370,26 +368,9 @@ fn environment(
                 seed,
             ),
             Kind::Qmc => reference_sampled(Sampling::Qmc, &scene.environment, light, &brdf, occluded, hit, n, seed),
-            Kind::QmcCv => reference_cv(
-                Sampling::Qmc,
-                Select::Integral,
-                &scene.environment,
-                &brdf,
-                occluded,
-                hit,
-                n,
-                seed,
-            ),
-            Kind::QmcCvMis => reference_cv(
-                Sampling::Qmc,
-                Select::Contribution,
-                &scene.environment,
-                &brdf,
-                occluded,
-                hit,
-                n,
-                seed,
-            ),
+            Kind::QmcCv(select) => {
+                reference_cv(Sampling::Qmc, select, &scene.environment, &brdf, occluded, hit, n, seed)
+            }
             Kind::HybridIsg => {
                 let t = isg.as_ref().ok_or("the ISG tables")?;
                 let blockers = crate::isg::render::blockers_of(scene, hit);
@@ -764,7 +745,7 @@ fn study(cfg: &Study) -> Result<Vec<std::path::PathBuf>, String> {
             };
             // The reference: QMC with the control variate (an SG light), two runs.
             let kind = if scene.sh_environment.is_none() {
-                Kind::QmcCvMis
+                Kind::QmcCv(Select::Contribution)
             } else {
                 Kind::Qmc
             };
@@ -872,11 +853,21 @@ fn study(cfg: &Study) -> Result<Vec<std::path::PathBuf>, String> {
             if scene.sh_environment.is_none() {
                 curves.push((
                     "qmc-cv",
-                    measure(&b, target, qmc_max, &environment(&scene, Kind::QmcCv)?)?,
+                    measure(
+                        &b,
+                        target,
+                        qmc_max,
+                        &environment(&scene, Kind::QmcCv(Select::Integral))?,
+                    )?,
                 ));
                 curves.push((
                     "qmc-cv-mis",
-                    measure(&b, target, qmc_max, &environment(&scene, Kind::QmcCvMis)?)?,
+                    measure(
+                        &b,
+                        target,
+                        qmc_max,
+                        &environment(&scene, Kind::QmcCv(Select::Contribution))?,
+                    )?,
                 ));
             }
             curves.push(("adaptive", adaptive(&b, target, qmc_max, &environment(&scene, kind)?)?));
