@@ -72,7 +72,11 @@ pub fn glsl(es: bool) -> Result<String, String> {
 
 /// GLSL of a WGSL function library `src` (no entry point of its own), as [`glsl`].
 pub fn glsl_of(src: &str, es: bool) -> Result<String, String> {
-    let (module, info) = module_of(&format!("{src}{STUB}"))?;
+    glsl_of_module(&module_of(&format!("{src}{STUB}"))?, es)
+}
+
+/// GLSL of a library already parsed with the stub entry point, as [`glsl`].
+fn glsl_of_module((module, info): &(naga::Module, naga::valid::ModuleInfo), es: bool) -> Result<String, String> {
     let version = if es {
         naga::back::glsl::Version::Embedded {
             version: 300,
@@ -94,8 +98,8 @@ pub fn glsl_of(src: &str, es: bool) -> Result<String, String> {
     let mut out = String::new();
     naga::back::glsl::Writer::new(
         &mut out,
-        &module,
-        &info,
+        module,
+        info,
         &options,
         &pipeline,
         naga::proc::BoundsCheckPolicies::default(),
@@ -123,7 +127,11 @@ pub fn hlsl() -> Result<String, String> {
 
 /// HLSL of a WGSL function library `src` (no entry point of its own), as [`hlsl`].
 pub fn hlsl_of(src: &str) -> Result<String, String> {
-    let (module, info) = module_of(&format!("{src}{STUB}"))?;
+    hlsl_of_module(&module_of(&format!("{src}{STUB}"))?)
+}
+
+/// HLSL of a library already parsed with the stub entry point, as [`hlsl`].
+fn hlsl_of_module((module, info): &(naga::Module, naga::valid::ModuleInfo)) -> Result<String, String> {
     let options = naga::back::hlsl::Options {
         shader_model: naga::back::hlsl::ShaderModel::V5_1,
         ..Default::default()
@@ -131,7 +139,7 @@ pub fn hlsl_of(src: &str) -> Result<String, String> {
     let pipeline = naga::back::hlsl::PipelineOptions { entry_point: None };
     let mut out = String::new();
     naga::back::hlsl::Writer::new(&mut out, &options, &pipeline)
-        .write(&module, &info, None)
+        .write(module, info, None)
         .map_err(|e| format!("HLSL writer: {e}"))?;
     let lines: Vec<&str> = out.lines().collect();
     Ok(strip_function(&lines, STUB_NAME).join("\n") + "\n")
@@ -349,14 +357,16 @@ pub fn baked_shader(uniforms: &str, baked: &[super::families::Baked]) -> Result<
     let src = format!(
         "{lib}\n// The export's uniforms as constants.\n{uniforms}\n// Per family: the library's functions with this export's constants.\n{wrappers}"
     );
-    module_of(&format!("{src}{STUB}")).map_err(|e| format!("{}: {e}", BAKED_SHADERS[0]))?;
+    // Parsed and validated once, translated three times (naga's front end and
+    // validator are most of an export's or `check --export`'s time otherwise).
+    let parsed = module_of(&format!("{src}{STUB}")).map_err(|e| format!("{}: {e}", BAKED_SHADERS[0]))?;
     let what = "baked for one export: call the `_baked` functions (manual filtering) or `_baked_hw` \
                 (hardware filtering) with the texture bound";
     Ok(vec![
         header("//", &format!("WGSL, {what}")) + &src,
-        header("//", &format!("GLSL 450 after `#version 450`, {what}")) + &glsl_of(&src, false)?,
-        header("//", &format!("GLSL ES 3.0 after `#version 300 es`, {what}")) + &glsl_of(&src, true)?,
-        header("//", &format!("HLSL, shader model 5.1, {what}")) + &hlsl_of(&src)?,
+        header("//", &format!("GLSL 450 after `#version 450`, {what}")) + &glsl_of_module(&parsed, false)?,
+        header("//", &format!("GLSL ES 3.0 after `#version 300 es`, {what}")) + &glsl_of_module(&parsed, true)?,
+        header("//", &format!("HLSL, shader model 5.1, {what}")) + &hlsl_of_module(&parsed)?,
     ])
 }
 

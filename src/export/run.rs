@@ -350,16 +350,9 @@ pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
         });
     }
     let manifest = manifest_of(opts.format, opts.storage, opts.scale, entries);
+    // The uniforms' WGSL is valid: `companion_files` validated the baked shader, the
+    // library with these uniforms and the wrappers, by naga.
     for (name, text) in companion_files(&manifest)? {
-        if name == super::shaders::BAKED_UNIFORMS {
-            // The uniforms as WGSL constants, validated with the library by naga.
-            super::shaders::module_of(&format!(
-                "{}\n{text}{}",
-                lobefit_tables::shaders::library(),
-                super::shaders::STUB
-            ))
-            .map_err(|e| format!("{name}: {e}"))?;
-        }
         crate::io::write_atomic(&stage.path().join(name), text.as_bytes())
             .map_err(|e| format!("cannot write {}: {e}", dir.join(name).display()))?;
     }
