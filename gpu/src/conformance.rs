@@ -89,45 +89,10 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
                 dummy: &dummy,
                 filter,
             };
-            let mut got = vec![Vec::new(); points.len()];
-            // The baked constants let the shader compiler fold and contract the
-            // unpacking (offset, scale, trend) differently: equal within rounding,
-            // not always bit for bit (f16 exports).
-            let (mut differing, mut words, mut worst, mut wrapped) = (0usize, 0usize, 0.0f64, Vec::new());
-            for k in &kernels {
-                let out = runner.run(k, &points)?;
-                if let Some((name, body)) = baked_call(k, gpu_family.baked, &entries, filter) {
-                    let via = run_baked(&runner, k, &body, baked, &points)?;
-                    for (a, b) in out.iter().flatten().zip(via.iter().flatten()) {
-                        differing += usize::from((*a as f32).to_bits() != (*b as f32).to_bits());
-                        words += 1;
-                    }
-                    worst = worst.max(scaled_diff(&via, &out).0);
-                    wrapped.push(name);
-                } else {
-                    return Err(format!("{}: no baked wrapper covers kernel {}", f.family, k.name));
-                }
-                for (g, out) in got.iter_mut().zip(out) {
-                    g.extend(out);
-                }
-            }
+            let (got, baked_row) = run_kernels(&runner, &kernels, &gpu_family, f, baked, &points)?;
             rows.push(Row {
-                function: format!(
-                    "{} baked: {} ({differing} of {words} words not bit-equal)",
-                    f.family,
-                    match wrapped.as_slice() {
-                        [one] => one.clone(),
-                        [first, ..] => format!("{first} and {} more", wrapped.len() - 1),
-                        [] => "-".into(),
-                    }
-                ),
                 storage: m.storage.to_string(),
-                filter: filter.name().into(),
-                samples: points.len(),
-                vs_cpu: worst,
-                cpu_what: "uniform path",
-                vs_ref: Vec::new(),
-                info: Vec::new(),
+                ..baked_row
             });
             let emu_filter = if filter == Filter::Hardware {
                 hw_emulation
@@ -135,40 +100,6 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
                 filter
             };
             let samplers = samplers(texs, emu_filter);
-            let emu: Vec<Vec<f64>> = points
-                .iter()
-                .map(|x| {
-                    let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-                    (gpu_family.eval)(&samplers, &x32).into_iter().map(f64::from).collect()
-                })
-                .collect();
-            // Keyed by the lookup's inputs: a sample may carry more (mask-weights' seed of
-            // a held-out configuration), which the family's check does not look up.
-            let n_in = family.inputs().len();
-            let lookup = Precomputed(
-                points
-                    .iter()
-                    .map(|x| key(&x[..n_in.min(x.len())]))
-                    .zip(got.iter().cloned())
-                    .collect(),
-            );
-            let errs = errors_of(family.as_ref(), &lookup, &points, filter, &floors)?;
-            let vs_ref = errs
-                .iter()
-                .map(|e| {
-                    let promise = f
-                        .error
-                        .iter()
-                        .find(|p| p.filter == filter && p.output == e.output && p.metric == e.metric)
-                        .map_or(e.export_target(), |p| p.promise);
-                    (
-                        format!("{} {}", e.output, e.metric.trim_start_matches("offgrid.")),
-                        e.measured,
-                        promise * (1.0 + PROMISE_SLACK),
-                    )
-                })
-                .collect();
-            let (vs_cpu, worst) = scaled_diff(&got, &emu);
             let ctx = Context {
                 family: family.as_ref(),
                 entry: f,
@@ -181,29 +112,143 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
                 samples: m.samples,
                 seed: m.seed,
             };
-            for check in gpu_family.checks {
-                rows.extend(check(&ctx, &runner)?);
-            }
-            rows.push(Row {
-                function: format!("{} ({})", f.family, family.outputs().get(worst).unwrap_or(&"?")),
-                storage: m.storage.to_string(),
-                filter: if gpu_family.exact_fetch {
-                    "fetch".into()
-                } else {
-                    filter.name().into()
-                },
-                samples: points.len(),
-                vs_cpu,
-                cpu_what: if filter == Filter::Hardware && emu_filter == Filter::Hardware {
-                    "emulation 8-bit"
-                } else {
-                    "emulation"
-                },
-                vs_ref,
-                info: Vec::new(),
-            });
+            rows.extend(against_emulation_and_reference(
+                &ctx,
+                &runner,
+                &gpu_family,
+                &points,
+                &got,
+                &floors,
+            )?);
         }
     }
+    Ok(rows)
+}
+
+/// Every kernel of one family and filter on the device: the outputs per point (in
+/// kernel order), and the row `<family> baked` from a second run of each kernel
+/// through its `_baked` wrapper (its storage left for the caller to fill in).
+fn run_kernels(
+    runner: &Bound,
+    kernels: &[Kernel],
+    gpu_family: &GpuFamily,
+    f: &lobefit::export::manifest::FamilyEntry,
+    baked: &str,
+    points: &[Vec<f64>],
+) -> Result<(Vec<Vec<f64>>, Row), String> {
+    let mut got = vec![Vec::new(); points.len()];
+    // The baked constants let the shader compiler fold and contract the unpacking
+    // (offset, scale, trend) differently: equal within rounding, not always bit for
+    // bit (f16 exports).
+    let (mut differing, mut words, mut worst, mut wrapped) = (0usize, 0usize, 0.0f64, Vec::new());
+    for k in kernels {
+        let out = runner.run(k, points)?;
+        let Some((name, body)) = baked_call(k, gpu_family.baked, runner.entries, runner.filter) else {
+            return Err(format!("{}: no baked wrapper covers kernel {}", f.family, k.name));
+        };
+        let via = run_baked(runner, k, &body, baked, points)?;
+        for (a, b) in out.iter().flatten().zip(via.iter().flatten()) {
+            differing += usize::from((*a as f32).to_bits() != (*b as f32).to_bits());
+            words += 1;
+        }
+        worst = worst.max(scaled_diff(&via, &out).0);
+        wrapped.push(name);
+        for (g, out) in got.iter_mut().zip(out) {
+            g.extend(out);
+        }
+    }
+    let row = Row {
+        function: format!(
+            "{} baked: {} ({differing} of {words} words not bit-equal)",
+            f.family,
+            match wrapped.as_slice() {
+                [one] => one.clone(),
+                [first, ..] => format!("{first} and {} more", wrapped.len() - 1),
+                [] => "-".into(),
+            }
+        ),
+        storage: String::new(),
+        filter: runner.filter.name().into(),
+        samples: points.len(),
+        vs_cpu: worst,
+        cpu_what: "uniform path",
+        vs_ref: Vec::new(),
+        info: Vec::new(),
+    };
+    Ok((got, row))
+}
+
+/// The device's outputs `got` at `points` against the CPU emulation of the export and
+/// against the family's reference (held to the manifest's promises), then the
+/// family's own checks (`GpuFamily::checks`): the rows of one family and filter.
+fn against_emulation_and_reference(
+    ctx: &Context,
+    runner: &Bound,
+    gpu_family: &GpuFamily,
+    points: &[Vec<f64>],
+    got: &[Vec<f64>],
+    floors: &[lobefit::export::run::ChannelFloor],
+) -> Result<Vec<Row>, String> {
+    let (family, f, filter, emu_filter) = (ctx.family, ctx.entry, ctx.filter, ctx.emu_filter);
+    let emu: Vec<Vec<f64>> = points
+        .iter()
+        .map(|x| {
+            let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+            (gpu_family.eval)(ctx.samplers, &x32)
+                .into_iter()
+                .map(f64::from)
+                .collect()
+        })
+        .collect();
+    // Keyed by the lookup's inputs: a sample may carry more (mask-weights' seed of a
+    // held-out configuration), which the family's check does not look up.
+    let n_in = family.inputs().len();
+    let lookup = Precomputed(
+        points
+            .iter()
+            .map(|x| key(&x[..n_in.min(x.len())]))
+            .zip(got.iter().cloned())
+            .collect(),
+    );
+    let errs = errors_of(family, &lookup, points, filter, floors)?;
+    let vs_ref = errs
+        .iter()
+        .map(|e| {
+            let promise = f
+                .error
+                .iter()
+                .find(|p| p.filter == filter && p.output == e.output && p.metric == e.metric)
+                .map_or(e.export_target(), |p| p.promise);
+            (
+                format!("{} {}", e.output, e.metric.trim_start_matches("offgrid.")),
+                e.measured,
+                promise * (1.0 + PROMISE_SLACK),
+            )
+        })
+        .collect();
+    let (vs_cpu, worst) = scaled_diff(got, &emu);
+    let mut rows = Vec::new();
+    for check in gpu_family.checks {
+        rows.extend(check(ctx, runner)?);
+    }
+    rows.push(Row {
+        function: format!("{} ({})", f.family, family.outputs().get(worst).unwrap_or(&"?")),
+        storage: ctx.storage.to_string(),
+        filter: if gpu_family.exact_fetch {
+            "fetch".into()
+        } else {
+            filter.name().into()
+        },
+        samples: points.len(),
+        vs_cpu,
+        cpu_what: if filter == Filter::Hardware && emu_filter == Filter::Hardware {
+            "emulation 8-bit"
+        } else {
+            "emulation"
+        },
+        vs_ref,
+        info: Vec::new(),
+    });
     Ok(rows)
 }
 
