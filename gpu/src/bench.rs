@@ -107,13 +107,17 @@ fn spread(v: &[f64]) -> (f64, f64, f64) {
     (median, s[0], s[n - 1])
 }
 
+/// A kernel's frames timed (ms), its pixel count, its RMS against the CPU's image
+/// (of the peak) and its static SPIR-V counts.
+type Timed = (Vec<f64>, usize, f64, KernelCounts);
+
 /// Runs `render` with `gpu` in bench mode; its timed kernel (exactly one) becomes the
 /// row's times and counts.
 fn timed(
     gpu: &Gpu,
     what: &str,
     render: impl FnOnce() -> Result<f64, String>,
-) -> Result<(Vec<f64>, usize, f64, KernelCounts), String> {
+) -> Result<Timed, String> {
     gpu.take_dispatches();
     let rel_rmse = render()?;
     let d = gpu.take_dispatches();
@@ -139,9 +143,11 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
             crate::meunier::FAMILIES.1
         )
     };
-    let ex_isg = VerifiedExport::open(&a.export, crate::isg::FAMILIES).map_err(all)?;
-    let ex_shexp = VerifiedExport::open(&a.export, crate::shexp::FAMILIES).map_err(all)?;
-    let ex_meunier = VerifiedExport::open(&a.export, crate::meunier::FAMILIES).map_err(all)?;
+    let exports = Exports {
+        isg: VerifiedExport::open(&a.export, crate::isg::FAMILIES).map_err(all)?,
+        shexp: VerifiedExport::open(&a.export, crate::shexp::FAMILIES).map_err(all)?,
+        meunier: VerifiedExport::open(&a.export, crate::meunier::FAMILIES).map_err(all)?,
+    };
     std::fs::create_dir_all(&a.out).map_err(|e| format!("--out {}: {e}", a.out.display()))?;
     let mut gpu = Gpu::with_timestamps()?;
     if a.wall_clock {
@@ -153,78 +159,7 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     let mut rows = Vec::new();
     for (pipeline, scene) in &scenes {
         let png = a.out.join(format!("{pipeline}.png"));
-        let (method, (ms, pixels, rel_rmse, counts)) = match *pipeline {
-            "isg" => {
-                let sc = lobefit::pipelines::isg::render::scene(scene)?;
-                crate::isg::check_spheres(&sc)?;
-                crate::isg::check_sharpness(&sc)?;
-                crate::budget::refuse_over(
-                    "bench isg",
-                    crate::isg::iterations(sc.spheres.len(), sc.environment.len()),
-                    &format!("{} SGs, {} spheres", sc.environment.len(), sc.spheres.len()),
-                )?;
-                let method = format!(
-                    "ISG best, adaptive patches ({} SGs, {} spheres)",
-                    sc.environment.len(),
-                    sc.spheres.len()
-                );
-                (
-                    method,
-                    timed(&gpu, "isg", || {
-                        Ok(crate::isg::render_isg(&gpu, &ex_isg, &sc, width, &png)?.rms)
-                    })?,
-                )
-            }
-            "shexp" => {
-                let sc = lobefit::pipelines::shexp::render::scene(scene)?;
-                crate::budget::refuse_over(
-                    "bench shexp",
-                    crate::shexp::iterations(sc.spheres.len()),
-                    &format!("{} spheres", sc.spheres.len()),
-                )?;
-                let s = lobefit::pipelines::shexp::shade::Settings::default();
-                let method = format!(
-                    "HYB order {}, {} wedges, {:?} blocker log ({} spheres)",
-                    s.order,
-                    s.wedges,
-                    s.blocker_log,
-                    sc.spheres.len()
-                );
-                (
-                    method,
-                    timed(&gpu, "shexp", || {
-                        Ok(crate::shexp::render_shexp(&gpu, &ex_shexp, &sc, width, &s, &png)?.rms)
-                    })?,
-                )
-            }
-            "meunier" => {
-                let sc = lobefit::pipelines::meunier::render::scene(scene)?;
-                let s = crate::meunier::default_settings()?;
-                let method = format!(
-                    "mask depth {} {}, fitted weights, exact cap ({} spheres)",
-                    s.depth,
-                    s.mode.name(),
-                    sc.spheres.len()
-                );
-                (
-                    method,
-                    timed(&gpu, "meunier", || {
-                        Ok(crate::meunier::render_meunier(&gpu, &ex_meunier, &sc, width, &s, &png)?.rms)
-                    })?,
-                )
-            }
-            _ => {
-                let wraps = [0.0, f64::from(lobefit::pipelines::rigs::render::WRAP_A as f32)];
-                let mut nrigs = 0;
-                let t = timed(&gpu, "rigs", || {
-                    let (_, r) = crate::rigs::render_rigs(&gpu, width, &wraps, &png)?;
-                    nrigs = r.len() / wraps.len();
-                    // The worst of its images (a rig at a wrap each).
-                    Ok(r.iter().map(|r| r.rms).fold(0.0, f64::max))
-                })?;
-                (format!("Figure 1's {nrigs} rigs × {} wraps per pixel", wraps.len()), t)
-            }
-        };
+        let (method, (ms, pixels, rel_rmse, counts)) = bench_one(&gpu, &exports, pipeline, scene, width, &png)?;
         rows.push(Row {
             pipeline,
             scene: scene.clone(),
@@ -261,6 +196,97 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     }
     out!("report: {}", a.out.join("bench.md").display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// The three exports the analytic kernels read (each verified for its families).
+struct Exports {
+    isg: VerifiedExport,
+    shexp: VerifiedExport,
+    meunier: VerifiedExport,
+}
+
+/// One kernel's bench: its method in words, and its frames timed (ms), pixels, RMS
+/// against the CPU's image and static counts (see [`timed`]); its image into `png`.
+fn bench_one(
+    gpu: &Gpu,
+    ex: &Exports,
+    pipeline: &str,
+    scene: &str,
+    width: usize,
+    png: &Path,
+) -> Result<(String, Timed), String> {
+    Ok(match pipeline {
+        "isg" => {
+            let sc = lobefit::pipelines::isg::render::scene(scene)?;
+            crate::isg::check_spheres(&sc)?;
+            crate::isg::check_sharpness(&sc)?;
+            crate::budget::refuse_over(
+                "bench isg",
+                crate::isg::iterations(sc.spheres.len(), sc.environment.len()),
+                &format!("{} SGs, {} spheres", sc.environment.len(), sc.spheres.len()),
+            )?;
+            let method = format!(
+                "ISG best, adaptive patches ({} SGs, {} spheres)",
+                sc.environment.len(),
+                sc.spheres.len()
+            );
+            (
+                method,
+                timed(gpu, "isg", || {
+                    Ok(crate::isg::render_isg(gpu, &ex.isg, &sc, width, png)?.rms)
+                })?,
+            )
+        }
+        "shexp" => {
+            let sc = lobefit::pipelines::shexp::render::scene(scene)?;
+            crate::budget::refuse_over(
+                "bench shexp",
+                crate::shexp::iterations(sc.spheres.len()),
+                &format!("{} spheres", sc.spheres.len()),
+            )?;
+            let s = lobefit::pipelines::shexp::shade::Settings::default();
+            let method = format!(
+                "HYB order {}, {} wedges, {:?} blocker log ({} spheres)",
+                s.order,
+                s.wedges,
+                s.blocker_log,
+                sc.spheres.len()
+            );
+            (
+                method,
+                timed(gpu, "shexp", || {
+                    Ok(crate::shexp::render_shexp(gpu, &ex.shexp, &sc, width, &s, png)?.rms)
+                })?,
+            )
+        }
+        "meunier" => {
+            let sc = lobefit::pipelines::meunier::render::scene(scene)?;
+            let s = crate::meunier::default_settings()?;
+            let method = format!(
+                "mask depth {} {}, fitted weights, exact cap ({} spheres)",
+                s.depth,
+                s.mode.name(),
+                sc.spheres.len()
+            );
+            (
+                method,
+                timed(gpu, "meunier", || {
+                    Ok(crate::meunier::render_meunier(gpu, &ex.meunier, &sc, width, &s, png)?.rms)
+                })?,
+            )
+        }
+        _ => {
+            let wraps = [0.0, f64::from(lobefit::pipelines::rigs::render::WRAP_A as f32)];
+            let mut nrigs = 0;
+            let t = timed(gpu, "rigs", || {
+                let (_, r) = crate::rigs::render_rigs(gpu, width, &wraps, png)?;
+                nrigs = r.len() / wraps.len();
+                // The worst of its images (a rig at a wrap each).
+                Ok(r.iter().map(|r| r.rms).fold(0.0, f64::max))
+            })?;
+            (format!("Figure 1's {nrigs} rigs × {} wraps per pixel", wraps.len()), t)
+        }
+    })
 }
 
 /// How the bench timed, and why so when by wall clock.

@@ -338,28 +338,7 @@ impl Gpu {
         let extra = &textures[1..];
         let d = &self.device;
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("lobefit kernel"),
-            source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(source)),
-        });
-        let layout_entries = layout_entries(texture, extra)?;
-        let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: None,
-            entries: &layout_entries,
-        });
-        let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: None,
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("lobefit kernel"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let (layout, pipeline) = self.compute_pipeline(source, texture, extra)?;
         let filter = if texture.filterable {
             wgpu::FilterMode::Linear
         } else {
@@ -373,19 +352,14 @@ impl Gpu {
             min_filter: filter,
             ..Default::default()
         });
-        let usage_in = wgpu::BufferUsages::STORAGE;
         // Storage buffers may not be empty.
         let mut input_data = inputs.to_vec();
         input_data.push(0.0);
-        let params_buf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: None,
-            contents: params,
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let params_buf = self.uniform(params);
         let in_buf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: None,
             contents: bytemuck::cast_slice(&input_data),
-            usage: usage_in,
+            usage: wgpu::BufferUsages::STORAGE,
         });
         let out_size = ((count * n_out).max(1) * 4) as u64;
         let out_buf = d.create_buffer(&wgpu::BufferDescriptor {
@@ -394,21 +368,8 @@ impl Gpu {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let count_buf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: None,
-            contents: bytemuck::cast_slice(&[count as u32, 0, 0, 0]),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let extra_bufs: Vec<wgpu::Buffer> = extra
-            .iter()
-            .map(|(p, _)| {
-                d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: None,
-                    contents: p,
-                    usage: wgpu::BufferUsages::UNIFORM,
-                })
-            })
-            .collect();
+        let count_buf = self.uniform(bytemuck::cast_slice(&[count as u32, 0, 0, 0]));
+        let extra_bufs: Vec<wgpu::Buffer> = extra.iter().map(|(p, _)| self.uniform(p)).collect();
         let mut bind_entries = vec![
             wgpu::BindGroupEntry {
                 binding: 0,
@@ -451,21 +412,78 @@ impl Gpu {
             entries: &bind_entries,
         });
         let out = self.dispatch_and_read(&pipeline, &bind, &out_buf, out_size, scope, count, n_out)?;
-        let frames = self.bench.borrow().as_ref().map(|(f, _)| *f);
-        if let Some(frames) = frames {
-            self.time_dispatch(&pipeline, &bind, count)?;
-            let ms = (0..frames)
-                .map(|_| self.time_dispatch(&pipeline, &bind, count))
-                .collect::<Result<Vec<f64>, String>>()?;
-            if let Some((_, d)) = self.bench.borrow_mut().as_mut() {
-                d.push(Dispatched {
-                    source: source.to_string(),
-                    count,
-                    ms,
-                });
-            }
-        }
+        self.bench_dispatch(source, &pipeline, &bind, count)?;
         Ok(out)
+    }
+
+    /// The compute pipeline of `source` (entry point `main`) and its bind group layout
+    /// for `texture` and the `extra` textures (see [`Gpu::run_textures`]).
+    fn compute_pipeline(
+        &self,
+        source: &str,
+        texture: &GpuTexture,
+        extra: &[(&[u8], &GpuTexture)],
+    ) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), String> {
+        let d = &self.device;
+        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("lobefit kernel"),
+            source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(source)),
+        });
+        let layout_entries = layout_entries(texture, extra)?;
+        let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: None,
+            entries: &layout_entries,
+        });
+        let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("lobefit kernel"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Ok((layout, pipeline))
+    }
+
+    /// A uniform buffer holding `contents`.
+    fn uniform(&self, contents: &[u8]) -> wgpu::Buffer {
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: None,
+            contents,
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
+    }
+
+    /// When the bench is recording (`lobefit-gpu bench`): one untimed dispatch, then
+    /// its frames timed, kept with the kernel's source.
+    fn bench_dispatch(
+        &self,
+        source: &str,
+        pipeline: &wgpu::ComputePipeline,
+        bind: &wgpu::BindGroup,
+        count: usize,
+    ) -> Result<(), String> {
+        let frames = self.bench.borrow().as_ref().map(|(f, _)| *f);
+        let Some(frames) = frames else {
+            return Ok(());
+        };
+        self.time_dispatch(pipeline, bind, count)?;
+        let ms = (0..frames)
+            .map(|_| self.time_dispatch(pipeline, bind, count))
+            .collect::<Result<Vec<f64>, String>>()?;
+        if let Some((_, d)) = self.bench.borrow_mut().as_mut() {
+            d.push(Dispatched {
+                source: source.to_string(),
+                count,
+                ms,
+            });
+        }
+        Ok(())
     }
 
     /// Dispatches `pipeline` over `count` invocations (64 per workgroup), then reads
