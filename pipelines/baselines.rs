@@ -620,265 +620,245 @@ impl Default for Study {
 
 /// Each scene of `cfg.scenes` measured (see [`plot`]); the files written.
 fn study(cfg: &Study) -> Result<Vec<std::path::PathBuf>, String> {
-    let Study {
-        width,
-        runs,
-        ref_spp,
-        plain_max,
-        qmc_max,
-        ..
-    } = *cfg;
-    let scenes = &cfg.scenes;
-    let out = cfg.out.clone();
     let mut written = Vec::new();
-    // 4, 16, 64, … until past `target` (from 256 on) or at `max`.
-    let measure_with = |adaptive: bool, b: &Bench, target: f64, max: usize, est: Estimator| {
-        let mut c: Vec<Point> = Vec::new();
-        for n in (1..).map(|k| 1usize << (2 * k)).take_while(|&n| n <= max) {
-            c.extend(if adaptive {
-                b.adaptive_curve(&[n], est)
-            } else {
-                b.curve(&[n], est)
-            }?);
-            if n >= 256 && c[c.len() - 1].rel_rmse < target {
-                break;
-            }
-        }
-        Ok::<_, String>(c)
-    };
-    let measure = |b: &Bench, target: f64, max: usize, est: Estimator| measure_with(false, b, target, max, est);
-    // The strongest estimator's samples spread by a pilot (`adaptive_image`).
-    let adaptive = |b: &Bench, target: f64, max: usize, est: Estimator| measure_with(true, b, target, max, est);
-    // Curves run past a quarter of the default configuration's error (the
-    // hybrid's and the strongest estimators' regime).
-    for name in scenes.split(',') {
+    for name in cfg.scenes.split(',') {
         let t0 = Instant::now();
         // Meunier: fig13, or a blocker-scaling scene (`cluster-N`, `torus-N`).
         let scaling = |kind: &str| name.strip_prefix(kind).and_then(|n| n.parse::<usize>().ok());
-        if name == "fig13" || scaling("cluster-").is_some() || scaling("torus-").is_some() {
-            let scene = match (scaling("cluster-"), scaling("torus-")) {
-                (Some(n), _) => crate::meunier::scaling::cluster(n)?,
-                (_, Some(n)) => crate::meunier::scaling::torus(n)?,
-                _ => crate::meunier::render::scene(name)?,
-            };
-            let light = scene.lights[0];
-            let m = lobefit_tables::Meunier {
-                products: lobefit_tables::LobeProduct::embedded().map_err(|e| e.to_string())?,
-                caps: lobefit_tables::CapExponent::embedded().map_err(|e| e.to_string())?,
-                weights: lobefit_tables::MaskWeights::embedded().map_err(|e| e.to_string())?,
-            };
-            let est = |s: Sampling| {
-                let scene = &scene;
-                move |hit: &Hit, n: usize, seed: u64| {
-                    Ok(crate::meunier::render::reference_sampled(
-                        s, scene, &light, hit, n, seed, true,
-                    ))
-                }
-            };
-            // The reference: QMC (no control variate here), two runs.
-            let b = Bench::new(&scene, width, ref_spp, runs, &est(Sampling::Qmc))?;
-            use lobefit_tables::meunier::{LightModel, MaskSettings};
-            let mut configs = vec![("default (depth 5, cap light)".to_string(), MaskSettings::default())];
-            for depth in [3, 4] {
-                configs.push((
-                    format!("depth {depth}"),
-                    MaskSettings {
-                        depth,
-                        ..MaskSettings::default()
-                    },
-                ));
-            }
-            configs.push((
-                "lobe light (paper)".into(),
-                MaskSettings {
-                    light: LightModel::Lobe,
-                    ..MaskSettings::default()
-                },
-            ));
-            configs.push((
-                "t_i = 1e-3".into(),
-                MaskSettings {
-                    threshold: 1e-3,
-                    ..MaskSettings::default()
-                },
-            ));
-            let methods: Vec<Method> = configs
-                .iter()
-                .map(|(label, settings)| {
-                    let shade = |h: &Hit| {
-                        m.radiance(
-                            h.x,
-                            h.n,
-                            h.t,
-                            h.wo,
-                            scene.brdf(h),
-                            &[light],
-                            // The blockers culled by the light's cone through the
-                            // BVH: the same image as every sphere, faster.
-                            &crate::meunier::scaling::culled(&scene, &light, h),
-                            settings,
-                        )
-                        .map_err(|e| e.to_string())
-                    };
-                    let (rel_rmse, flip, us) = b.analytic(&shade)?;
-                    Ok(Method {
-                        name: label.clone(),
-                        rel_rmse,
-                        flip,
-                        us,
-                    })
-                })
-                .collect::<Result<Vec<_>, String>>()?;
-            let target = methods[0].rel_rmse / 4.0;
-            let curves = [
-                ("plain", measure(&b, target, plain_max, &est(Sampling::Plain))?),
-                ("qmc", measure(&b, target, qmc_max, &est(Sampling::Qmc))?),
-                ("adaptive", adaptive(&b, target, qmc_max, &est(Sampling::Qmc))?),
-            ];
-            written.extend(report(&format!("meunier-{name}"), &out, &b, &methods, &curves)?);
-        } else {
-            let isg = name.starts_with("fig12");
-            let scene = if isg {
-                crate::isg::render::scene(name)?
-            } else {
-                crate::shexp::render::scene(name)?
-            };
-            // The reference: QMC with the control variate (an SG light), two runs.
-            let kind = if scene.sh_environment.is_none() {
-                Kind::QmcCv(Select::Contribution)
-            } else {
-                Kind::Qmc
-            };
-            let b = Bench::new(&scene, width, ref_spp, runs, &environment(&scene, kind)?)?;
-            let methods: Vec<Method> = if isg {
-                use crate::isg::shade::{radiance, Model, Patches, Settings, Tables};
-                let t = Tables::embedded()?;
-                let mut configs = vec![("default (best, adaptive)".to_string(), Settings::default())];
-                for model in Model::ALL {
-                    for (pl, patches) in [("10×10", Patches::Grid(10)), ("20×20", Patches::Grid(20))] {
-                        configs.push((
-                            format!("{} {pl}", model.name()),
-                            Settings {
-                                model,
-                                patches,
-                                ..Settings::default()
-                            },
-                        ));
-                    }
-                }
-                configs
-                    .iter()
-                    .map(|(label, s)| {
-                        let (rel_rmse, flip, us) = b.analytic(&|h| {
-                            let brdf = Phong::of(scene.brdf(h))?;
-                            radiance(
-                                &t,
-                                s,
-                                &scene.environment,
-                                &brdf,
-                                &crate::isg::render::blockers_of(&scene, h),
-                                h,
-                            )
-                        })?;
-                        Ok(Method {
-                            name: label.clone(),
-                            rel_rmse,
-                            flip,
-                            us,
-                        })
-                    })
-                    .collect::<Result<Vec<_>, String>>()?
-            } else {
-                use crate::shexp::shade::{radiance, BlockerLog, BrdfMode, Settings, Tables};
-                let t = Tables::embedded()?;
-                let mut configs: Vec<(String, Settings)> = [4, 3, 5, 6]
-                    .into_iter()
-                    .map(|order| {
-                        let name = if order == 4 {
-                            "default (order 4)".into()
-                        } else {
-                            format!("order {order}")
-                        };
-                        (
-                            name,
-                            Settings {
-                                order,
-                                ..Settings::default()
-                            },
-                        )
-                    })
-                    .collect();
-                // The machinery's alternatives (docs/shexp-render.md): the BRDF by
-                // the exact triple product instead of its log lobe, Ren's blocker log.
-                for order in [4, 6] {
-                    configs.push((
-                        format!("order {order}, triple-product BRDF"),
-                        Settings {
-                            order,
-                            brdf: BrdfMode::Triple,
-                            ..Settings::default()
-                        },
-                    ));
-                }
-                configs.push((
-                    "order 4, Ren's blocker log".into(),
-                    Settings {
-                        blocker_log: BlockerLog::Ren,
-                        ..Settings::default()
-                    },
-                ));
-                configs
-                    .iter()
-                    .map(|(name, s)| {
-                        let light = crate::shexp::light_sh(&scene, s.order)?;
-                        let (rel_rmse, flip, us) =
-                            b.analytic(&|h| radiance(&t, s, &light, &Phong::of(scene.brdf(h))?, &scene, h))?;
-                        Ok(Method {
-                            name: name.clone(),
-                            rel_rmse,
-                            flip,
-                            us,
-                        })
-                    })
-                    .collect::<Result<Vec<_>, String>>()?
-            };
-            let target = methods[0].rel_rmse / 4.0;
-            let mut curves = vec![
-                (
-                    "plain",
-                    measure(&b, target, plain_max, &environment(&scene, Kind::Plain)?)?,
-                ),
-                ("qmc", measure(&b, target, qmc_max, &environment(&scene, Kind::Qmc)?)?),
-            ];
-            if scene.sh_environment.is_none() {
-                curves.push((
-                    "qmc-cv",
-                    measure(
-                        &b,
-                        target,
-                        qmc_max,
-                        &environment(&scene, Kind::QmcCv(Select::Integral))?,
-                    )?,
-                ));
-                curves.push((
-                    "qmc-cv-mis",
-                    measure(
-                        &b,
-                        target,
-                        qmc_max,
-                        &environment(&scene, Kind::QmcCv(Select::Contribution))?,
-                    )?,
-                ));
-            }
-            curves.push(("adaptive", adaptive(&b, target, qmc_max, &environment(&scene, kind)?)?));
-            let hybrid = if isg { Kind::HybridIsg } else { Kind::HybridSh };
-            curves.push(("hybrid", measure(&b, target, qmc_max, &environment(&scene, hybrid)?)?));
-            let pipeline = if isg { "isg" } else { "shexp" };
-            written.extend(report(&format!("{pipeline}-{name}"), &out, &b, &methods, &curves)?);
-        }
-        println!("  ({width} px wide, {:.0} s)", t0.elapsed().as_secs_f64());
+        written.extend(match (scaling("cluster-"), scaling("torus-")) {
+            (Some(n), _) => study_meunier(cfg, name, crate::meunier::scaling::cluster(n)?)?,
+            (_, Some(n)) => study_meunier(cfg, name, crate::meunier::scaling::torus(n)?)?,
+            _ if name == "fig13" => study_meunier(cfg, name, crate::meunier::render::scene(name)?)?,
+            _ => study_sky(cfg, name)?,
+        });
+        println!("  ({} px wide, {:.0} s)", cfg.width, t0.elapsed().as_secs_f64());
     }
     Ok(written)
+}
+
+/// An estimator's curve at 4, 16, 64, … samples per pixel, until past `target` (from
+/// 256 on) or at `max`; `adaptive`: the samples spread by a pilot (`adaptive_image`).
+fn curve_until(b: &Bench, target: f64, max: usize, est: Estimator, adaptive: bool) -> Result<Vec<Point>, String> {
+    let mut c: Vec<Point> = Vec::new();
+    for n in (1..).map(|k| 1usize << (2 * k)).take_while(|&n| n <= max) {
+        c.extend(if adaptive {
+            b.adaptive_curve(&[n], est)
+        } else {
+            b.curve(&[n], est)
+        }?);
+        if n >= 256 && c[c.len() - 1].rel_rmse < target {
+            break;
+        }
+    }
+    Ok(c)
+}
+
+/// The analytic configurations' points: each shaded by `shade` against the bench's
+/// reference.
+fn methods<S: Sync>(
+    b: &Bench,
+    configs: &[(String, S)],
+    shade: impl Fn(&S, &Hit) -> Result<f64, String> + Sync,
+) -> Result<Vec<Method>, String> {
+    configs
+        .iter()
+        .map(|(label, s)| {
+            let (rel_rmse, flip, us) = b.analytic(&|h| shade(s, h))?;
+            Ok(Method {
+                name: label.clone(),
+                rel_rmse,
+                flip,
+                us,
+            })
+        })
+        .collect()
+}
+
+/// A Meunier scene (fig13 or a blocker-scaling scene): its mask configurations against
+/// plain, QMC and adaptive Monte Carlo of the light.
+fn study_meunier(cfg: &Study, name: &str, scene: Scene) -> Result<Vec<std::path::PathBuf>, String> {
+    use lobefit_tables::meunier::{LightModel, MaskSettings};
+    let light = scene.lights[0];
+    let m = lobefit_tables::Meunier {
+        products: lobefit_tables::LobeProduct::embedded().map_err(|e| e.to_string())?,
+        caps: lobefit_tables::CapExponent::embedded().map_err(|e| e.to_string())?,
+        weights: lobefit_tables::MaskWeights::embedded().map_err(|e| e.to_string())?,
+    };
+    let est = |s: Sampling| {
+        let scene = &scene;
+        move |hit: &Hit, n: usize, seed: u64| {
+            Ok(crate::meunier::render::reference_sampled(
+                s, scene, &light, hit, n, seed, true,
+            ))
+        }
+    };
+    // The reference: QMC (no control variate here), two runs.
+    let b = Bench::new(&scene, cfg.width, cfg.ref_spp, cfg.runs, &est(Sampling::Qmc))?;
+    let d = MaskSettings::default();
+    let mut configs = vec![("default (depth 5, cap light)".to_string(), d)];
+    for depth in [3, 4] {
+        configs.push((format!("depth {depth}"), MaskSettings { depth, ..d }));
+    }
+    configs.push((
+        "lobe light (paper)".into(),
+        MaskSettings {
+            light: LightModel::Lobe,
+            ..d
+        },
+    ));
+    configs.push(("t_i = 1e-3".into(), MaskSettings { threshold: 1e-3, ..d }));
+    let methods = methods(&b, &configs, |settings, h| {
+        m.radiance(
+            h.x,
+            h.n,
+            h.t,
+            h.wo,
+            scene.brdf(h),
+            &[light],
+            // The blockers culled by the light's cone through the BVH: the same image
+            // as every sphere, faster.
+            &crate::meunier::scaling::culled(&scene, &light, h),
+            settings,
+        )
+        .map_err(|e| e.to_string())
+    })?;
+    // Curves run past a quarter of the default configuration's error.
+    let target = methods[0].rel_rmse / 4.0;
+    let curves = [
+        (
+            "plain",
+            curve_until(&b, target, cfg.plain_max, &est(Sampling::Plain), false)?,
+        ),
+        ("qmc", curve_until(&b, target, cfg.qmc_max, &est(Sampling::Qmc), false)?),
+        (
+            "adaptive",
+            curve_until(&b, target, cfg.qmc_max, &est(Sampling::Qmc), true)?,
+        ),
+    ];
+    report(&format!("meunier-{name}"), &cfg.out, &b, &methods, &curves)
+}
+
+/// An ISG (fig12…) or SH-exponentiation scene under its sky: its analytic
+/// configurations against plain, QMC, the control variates, adaptive and the hybrid.
+fn study_sky(cfg: &Study, name: &str) -> Result<Vec<std::path::PathBuf>, String> {
+    let isg = name.starts_with("fig12");
+    let scene = if isg {
+        crate::isg::render::scene(name)?
+    } else {
+        crate::shexp::render::scene(name)?
+    };
+    // The reference: QMC with the control variate (an SG light), two runs.
+    let kind = if scene.sh_environment.is_none() {
+        Kind::QmcCv(Select::Contribution)
+    } else {
+        Kind::Qmc
+    };
+    let b = Bench::new(&scene, cfg.width, cfg.ref_spp, cfg.runs, &environment(&scene, kind)?)?;
+    let methods = if isg {
+        isg_methods(&b, &scene)?
+    } else {
+        shexp_methods(&b, &scene)?
+    };
+    // Curves run past a quarter of the default configuration's error (the hybrid's
+    // and the strongest estimators' regime).
+    let target = methods[0].rel_rmse / 4.0;
+    let measure =
+        |kind: Kind, max: usize, adaptive: bool| curve_until(&b, target, max, &environment(&scene, kind)?, adaptive);
+    let mut curves = vec![
+        ("plain", measure(Kind::Plain, cfg.plain_max, false)?),
+        ("qmc", measure(Kind::Qmc, cfg.qmc_max, false)?),
+    ];
+    if scene.sh_environment.is_none() {
+        curves.push(("qmc-cv", measure(Kind::QmcCv(Select::Integral), cfg.qmc_max, false)?));
+        curves.push((
+            "qmc-cv-mis",
+            measure(Kind::QmcCv(Select::Contribution), cfg.qmc_max, false)?,
+        ));
+    }
+    curves.push(("adaptive", measure(kind, cfg.qmc_max, true)?));
+    let hybrid = if isg { Kind::HybridIsg } else { Kind::HybridSh };
+    curves.push(("hybrid", measure(hybrid, cfg.qmc_max, false)?));
+    let pipeline = if isg { "isg" } else { "shexp" };
+    report(&format!("{pipeline}-{name}"), &cfg.out, &b, &methods, &curves)
+}
+
+/// The ISG's configurations: the default, and each model with 10×10 and 20×20 patches.
+fn isg_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
+    use crate::isg::shade::{radiance, Model, Patches, Settings, Tables};
+    let t = Tables::embedded()?;
+    let mut configs = vec![("default (best, adaptive)".to_string(), Settings::default())];
+    for model in Model::ALL {
+        for (pl, patches) in [("10×10", Patches::Grid(10)), ("20×20", Patches::Grid(20))] {
+            configs.push((
+                format!("{} {pl}", model.name()),
+                Settings {
+                    model,
+                    patches,
+                    ..Settings::default()
+                },
+            ));
+        }
+    }
+    methods(b, &configs, |s, h| {
+        let brdf = Phong::of(scene.brdf(h))?;
+        radiance(
+            &t,
+            s,
+            &scene.environment,
+            &brdf,
+            &crate::isg::render::blockers_of(scene, h),
+            h,
+        )
+    })
+}
+
+/// SH exponentiation's configurations: orders 3–6, the BRDF by the exact triple
+/// product instead of its log lobe, Ren's blocker log (docs/shexp-render.md).
+fn shexp_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
+    use crate::shexp::shade::{radiance, BlockerLog, BrdfMode, Settings, Tables};
+    let t = Tables::embedded()?;
+    let d = Settings::default();
+    let mut configs: Vec<(String, Settings)> = [4, 3, 5, 6]
+        .into_iter()
+        .map(|order| {
+            let name = if order == 4 {
+                "default (order 4)".into()
+            } else {
+                format!("order {order}")
+            };
+            (name, Settings { order, ..d })
+        })
+        .collect();
+    for order in [4, 6] {
+        configs.push((
+            format!("order {order}, triple-product BRDF"),
+            Settings {
+                order,
+                brdf: BrdfMode::Triple,
+                ..d
+            },
+        ));
+    }
+    configs.push((
+        "order 4, Ren's blocker log".into(),
+        Settings {
+            blocker_log: BlockerLog::Ren,
+            ..d
+        },
+    ));
+    // Each configuration's light projected at its own order.
+    let lights = configs
+        .iter()
+        .map(|(_, s)| crate::shexp::light_sh(scene, s.order))
+        .collect::<Result<Vec<_>, String>>()?;
+    let configs: Vec<(String, (Settings, Vec<f64>))> = configs
+        .into_iter()
+        .zip(lights)
+        .map(|((name, s), light)| (name, (s, light)))
+        .collect();
+    methods(b, &configs, |(s, light), h| {
+        radiance(&t, s, light, &Phong::of(scene.brdf(h))?, scene, h)
+    })
 }
 
 #[cfg(test)]

@@ -113,11 +113,7 @@ type Timed = (Vec<f64>, usize, f64, KernelCounts);
 
 /// Runs `render` with `gpu` in bench mode; its timed kernel (exactly one) becomes the
 /// row's times and counts.
-fn timed(
-    gpu: &Gpu,
-    what: &str,
-    render: impl FnOnce() -> Result<f64, String>,
-) -> Result<Timed, String> {
+fn timed(gpu: &Gpu, what: &str, render: impl FnOnce() -> Result<f64, String>) -> Result<Timed, String> {
     gpu.take_dispatches();
     let rel_rmse = render()?;
     let d = gpu.take_dispatches();
