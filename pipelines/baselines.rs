@@ -428,88 +428,8 @@ fn report(
     methods: &[Method],
     curves: &[(&str, Vec<Point>)],
 ) -> Result<Vec<std::path::PathBuf>, String> {
-    let (err, ta) = (methods[0].rel_rmse, methods[0].us);
-    println!(
-        "{tag}: {} px shaded, {} threads; reference error {:.1e}",
-        b.pixels(),
-        rayon::current_num_threads(),
-        b.reference_error(),
-    );
-    let flip = |f: Option<f64>| f.map_or(String::new(), |f| format!(", ꟻLIP {f:.4}"));
-    for m in methods {
-        println!(
-            "  method {:<22} rel RMSE {:.4}{}, {:.2} µs/px [{:.2}–{:.2}]",
-            m.name,
-            m.rel_rmse,
-            flip(m.flip),
-            m.us.median,
-            m.us.min,
-            m.us.max
-        );
-    }
-    for (label, c) in curves {
-        let pts: Vec<String> = c
-            .iter()
-            .map(|p| {
-                format!(
-                    "{} spp {:.4}{} {:.1} µs [{:.1}–{:.1}]",
-                    p.spp,
-                    p.rel_rmse,
-                    flip(p.flip),
-                    p.us.median,
-                    p.us.min,
-                    p.us.max
-                )
-            })
-            .collect();
-        println!("  {label:<7} {}", pts.join("; "));
-    }
-    let mut equal = Vec::new();
-    for (what, target) in [("the analytic error", err), ("a quarter of it", err / 4.0)] {
-        // Plain at the target, or (beyond its measured range, below its last
-        // error) its last point: a lower bound of its samples and time.
-        let plain = curves.iter().find(|(l, _)| *l == "plain").and_then(|(_, c)| {
-            let last = c.last()?;
-            match (spp_at(c, target), time_at(c, target)) {
-                (Some(n), Some(t)) => Some((n, t.median, "")),
-                _ if target < last.rel_rmse => Some((last.spp as f64, last.us.median, "> ")),
-                _ => None,
-            }
-        });
-        for (label, c) in curves {
-            match (spp_at(c, target), time_at(c, target)) {
-                (Some(n), Some(t)) => {
-                    let vs_plain = match plain {
-                        Some((pn, pt, bound)) => format!(
-                            "{bound}{:.1}× fewer samples, {bound}{:.1}× less time than plain",
-                            pn / n,
-                            pt / t.median
-                        ),
-                        None => "plain beyond measured range".into(),
-                    };
-                    println!(
-                        "  at {what} ({target:.4}), {label:<7}: {n:.0} spp, {:.1} µs/px [{:.1}–{:.1}]; {vs_plain}; {:.2}× the analytic time [{:.2}–{:.2}]",
-                        t.median,
-                        t.min,
-                        t.max,
-                        t.median / ta.median,
-                        t.min / ta.max,
-                        t.max / ta.min
-                    );
-                    equal.push(serde_json::json!({
-                        "method": methods[0].name, "target": target, "estimator": label,
-                        "spp": n, "us_per_pixel": t.median, "us_min": t.min, "us_max": t.max,
-                        "ratio": t.median / ta.median,
-                    }));
-                }
-                _ => println!(
-                    "  at {what} ({target:.4}), {label:<7}: beyond measured range (last: {} spp, {:.4})",
-                    c.last().map_or(0, |p| p.spp),
-                    c.last().map_or(f64::NAN, |p| p.rel_rmse)
-                ),
-            }
-        }
-    }
+    print_points(tag, b, methods, curves);
+    let equal = equal_error(methods, curves);
     let summary = serde_json::json!({
         "scene": tag,
         "pixels": b.pixels(),
@@ -565,6 +485,99 @@ fn report(
     )?;
     println!("  wrote {} and {}", json.display(), png.display());
     Ok(vec![json, png])
+}
+
+/// The measured points, printed: the analytic configurations', then each estimator's.
+fn print_points(tag: &str, b: &Bench, methods: &[Method], curves: &[(&str, Vec<Point>)]) {
+    println!(
+        "{tag}: {} px shaded, {} threads; reference error {:.1e}",
+        b.pixels(),
+        rayon::current_num_threads(),
+        b.reference_error(),
+    );
+    let flip = |f: Option<f64>| f.map_or(String::new(), |f| format!(", ꟻLIP {f:.4}"));
+    for m in methods {
+        println!(
+            "  method {:<22} rel RMSE {:.4}{}, {:.2} µs/px [{:.2}–{:.2}]",
+            m.name,
+            m.rel_rmse,
+            flip(m.flip),
+            m.us.median,
+            m.us.min,
+            m.us.max
+        );
+    }
+    for (label, c) in curves {
+        let pts: Vec<String> = c
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} spp {:.4}{} {:.1} µs [{:.1}–{:.1}]",
+                    p.spp,
+                    p.rel_rmse,
+                    flip(p.flip),
+                    p.us.median,
+                    p.us.min,
+                    p.us.max
+                )
+            })
+            .collect();
+        println!("  {label:<7} {}", pts.join("; "));
+    }
+}
+
+/// Each estimator at the default configuration's error and at a quarter of it
+/// (interpolated between measured points only): printed, and the summary's
+/// `equal_error` entries.
+fn equal_error(methods: &[Method], curves: &[(&str, Vec<Point>)]) -> Vec<serde_json::Value> {
+    let (err, ta) = (methods[0].rel_rmse, methods[0].us);
+    let mut equal = Vec::new();
+    for (what, target) in [("the analytic error", err), ("a quarter of it", err / 4.0)] {
+        // Plain at the target, or (beyond its measured range, below its last
+        // error) its last point: a lower bound of its samples and time.
+        let plain = curves.iter().find(|(l, _)| *l == "plain").and_then(|(_, c)| {
+            let last = c.last()?;
+            match (spp_at(c, target), time_at(c, target)) {
+                (Some(n), Some(t)) => Some((n, t.median, "")),
+                _ if target < last.rel_rmse => Some((last.spp as f64, last.us.median, "> ")),
+                _ => None,
+            }
+        });
+        for (label, c) in curves {
+            match (spp_at(c, target), time_at(c, target)) {
+                (Some(n), Some(t)) => {
+                    let vs_plain = match plain {
+                        Some((pn, pt, bound)) => format!(
+                            "{bound}{:.1}× fewer samples, {bound}{:.1}× less time than plain",
+                            pn / n,
+                            pt / t.median
+                        ),
+                        None => "plain beyond measured range".into(),
+                    };
+                    println!(
+                        "  at {what} ({target:.4}), {label:<7}: {n:.0} spp, {:.1} µs/px [{:.1}–{:.1}]; {vs_plain}; {:.2}× the analytic time [{:.2}–{:.2}]",
+                        t.median,
+                        t.min,
+                        t.max,
+                        t.median / ta.median,
+                        t.min / ta.max,
+                        t.max / ta.min
+                    );
+                    equal.push(serde_json::json!({
+                        "method": methods[0].name, "target": target, "estimator": label,
+                        "spp": n, "us_per_pixel": t.median, "us_min": t.min, "us_max": t.max,
+                        "ratio": t.median / ta.median,
+                    }));
+                }
+                _ => println!(
+                    "  at {what} ({target:.4}), {label:<7}: beyond measured range (last: {} spp, {:.4})",
+                    c.last().map_or(0, |p| p.spp),
+                    c.last().map_or(f64::NAN, |p| p.rel_rmse)
+                ),
+            }
+        }
+    }
+    equal
 }
 
 /// `lobefit plot baselines --out DIR`: the study at full size (several minutes on 2
