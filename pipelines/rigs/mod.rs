@@ -468,7 +468,7 @@ const FIGURE_RIGS: [(usize, &str); 6] = [
 /// `lobefit plot rigs`: irradiance on the car's +y side, exact vs rigs
 /// (least squares), and the error maps; prints the comparison table (Markdown).
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    use lobefit_core::plot::{heatmaps, ColourScale, Heatmap};
+    use lobefit_core::plot::heatmaps;
     for tol in DIRECT_TOLERANCES {
         println!("{}", markdown(&compare(tol)?));
     }
@@ -490,36 +490,9 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
                 .map_err(|e| e.to_string())
         })
         .collect::<Result<_, String>>()?;
-    let (h, nx, ny) = (CAR_HALF, 90usize, 30usize);
-    let mut files = Vec::new();
-    // Side face y = +h_y (x along, z up).
-    let side: Vec<Receiver> = (0..ny)
-        .flat_map(|iy| {
-            (0..nx).map(move |ix| Receiver {
-                p: DVec3::new(
-                    -h[0] + 2.0 * h[0] * (ix as f64 + 0.5) / nx as f64,
-                    h[1],
-                    -h[2] + 2.0 * h[2] * (iy as f64 + 0.5) / ny as f64,
-                ),
-                n: DVec3::Y,
-            })
-        })
-        .collect();
+    let side = car_side();
     let exact = exact_field(&lights, &side)?;
-    let panel = |title: String, values: Vec<f64>, label: &str, log: bool| Heatmap {
-        title,
-        x_label: "x along the car (m)".into(),
-        y_label: "z (m)".into(),
-        x_range: (-h[0], h[0]),
-        y_range: (-h[2], h[2]),
-        nx,
-        ny,
-        values,
-        colour_label: label.into(),
-        log_colour: log,
-        scale: ColourScale::Own,
-    };
-    let mut irr = vec![panel(
+    let mut irr = vec![side_panel(
         "exact irradiance, +y side (all lights)".into(),
         exact.clone(),
         "E",
@@ -531,27 +504,84 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
             .iter()
             .map(|r| rig.eval(r.p).map(|l| shade(&l, r.n)).map_err(|e| e.to_string()))
             .collect::<Result<_, String>>()?;
-        let rel: Vec<f64> = e
-            .iter()
-            .zip(&exact)
-            .map(|(a, b)| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE))
-            .collect();
         let (rms, _) = errors(&e, &exact);
-        irr.push(panel(name.to_string(), e, "E", false));
-        err.push(panel(
+        err.push(side_panel(
             format!("{name}, all in rig: rel. RMS {rms:.1e}"),
-            rel,
+            relative_errors(&e, &exact),
             "|E − exact| / exact",
             true,
         ));
+        irr.push(side_panel(name.to_string(), e, "E", false));
     }
-    files.push(heatmaps(&dir.join("rigs-car-side-irradiance.png"), &irr, 3)?);
-    // The renderer's configuration: error-driven split at the first tolerance (the near
-    // light per point, the rest through the rig).
+    let mut files = vec![heatmaps(&dir.join("rigs-car-side-irradiance.png"), &irr, 3)?];
+    let split_err = split_error_panels(&lights, disks, &fit, &side, &exact)?;
+    files.push(heatmaps(&dir.join("rigs-car-side-error-split.png"), &split_err, 2)?);
+    files.push(heatmaps(&dir.join("rigs-car-side-error.png"), &err, 2)?);
+    Ok(files)
+}
+
+/// Cells of the figures' car side, along x and along z.
+const SIDE_CELLS: (usize, usize) = (90, 30);
+
+/// The car's side face y = +h_y as receivers at the cells' centres (x along, z up),
+/// row by row.
+fn car_side() -> Vec<Receiver> {
+    let (h, (nx, ny)) = (CAR_HALF, SIDE_CELLS);
+    (0..ny)
+        .flat_map(|iy| {
+            (0..nx).map(move |ix| Receiver {
+                p: DVec3::new(
+                    -h[0] + 2.0 * h[0] * (ix as f64 + 0.5) / nx as f64,
+                    h[1],
+                    -h[2] + 2.0 * h[2] * (iy as f64 + 0.5) / ny as f64,
+                ),
+                n: DVec3::Y,
+            })
+        })
+        .collect()
+}
+
+/// A panel of values on [`car_side`].
+fn side_panel(title: String, values: Vec<f64>, label: &str, log: bool) -> lobefit_core::plot::Heatmap {
+    let (h, (nx, ny)) = (CAR_HALF, SIDE_CELLS);
+    lobefit_core::plot::Heatmap {
+        title,
+        x_label: "x along the car (m)".into(),
+        y_label: "z (m)".into(),
+        x_range: (-h[0], h[0]),
+        y_range: (-h[2], h[2]),
+        nx,
+        ny,
+        values,
+        colour_label: label.into(),
+        log_colour: log,
+        scale: lobefit_core::plot::ColourScale::Own,
+    }
+}
+
+/// |e − exact| / |exact| per cell.
+fn relative_errors(e: &[f64], exact: &[f64]) -> Vec<f64> {
+    e.iter()
+        .zip(exact)
+        .map(|(a, b)| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE))
+        .collect()
+}
+
+/// The renderer's configuration: the error-driven split at the first tolerance (the
+/// near light per point, the rest through the rig), each figure rig's relative error
+/// on the car side as a panel.
+fn split_error_panels(
+    lights: &[Light],
+    disks: &DiskLight,
+    fit: &[Receiver],
+    side: &[Receiver],
+    exact: &[f64],
+) -> Result<Vec<lobefit_core::plot::Heatmap>, String> {
+    let (bbox, configs) = (car_box(), rig_configs());
     let tol = DIRECT_TOLERANCES[0];
     let fit_p: Vec<DVec3> = fit.iter().map(|r| r.p).collect();
     let test_p: Vec<DVec3> = surface_points(TEST_POINTS, 0x7e57).iter().map(|r| r.p).collect();
-    let direct: Vec<usize> = select_direct(rig_configs()[2].1, bbox, &lights, disks, &fit_p, &test_p, tol, RIDGE)
+    let direct: Vec<usize> = select_direct(configs[2].1, bbox, lights, disks, &fit_p, &test_p, tol, RIDGE)
         .map_err(|e| e.to_string())?
         .iter()
         .map(|c| c.0)
@@ -565,10 +595,9 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         .iter()
         .map(|r| Ok((r.p, field(&rig_lights, disks, r.p)?)))
         .collect::<Result<_, String>>()?;
-    let mut split_err = Vec::new();
+    let mut panels = Vec::new();
     for &(k, name) in &FIGURE_RIGS {
-        let model = configs[k].1;
-        let rig = Rig::fit_least_squares(model, bbox, &rig_samples, RIDGE).map_err(|e| e.to_string())?;
+        let rig = Rig::fit_least_squares(configs[k].1, bbox, &rig_samples, RIDGE).map_err(|e| e.to_string())?;
         let e: Vec<f64> = side
             .iter()
             .map(|r| {
@@ -580,20 +609,13 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
                 Ok(shade(&v, r.n))
             })
             .collect::<Result<_, String>>()?;
-        let rel: Vec<f64> = e
-            .iter()
-            .zip(&exact)
-            .map(|(a, b)| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE))
-            .collect();
-        let (rms, _) = errors(&e, &exact);
-        split_err.push(panel(
+        let (rms, _) = errors(&e, exact);
+        panels.push(side_panel(
             format!("{name}, near light direct: rel. RMS {rms:.1e}"),
-            rel,
+            relative_errors(&e, exact),
             "|E − exact| / exact",
             true,
         ));
     }
-    files.push(heatmaps(&dir.join("rigs-car-side-error-split.png"), &split_err, 2)?);
-    files.push(heatmaps(&dir.join("rigs-car-side-error.png"), &err, 2)?);
-    Ok(files)
+    Ok(panels)
 }
