@@ -135,7 +135,7 @@ const MAX_PATCHES: u64 = 20;
 /// Loop iterations of `lf_sg_clamped_cosine` at most: its insertion sort's loops
 /// (15 + Σ_{i=1}^{14} (i + 1)) and its panel loop (15); the loops of a constant count
 /// inside are unrolled.
-const CLAMPED_COSINE_ITERATIONS: u64 = 15 + 119 + 15;
+pub(crate) const CLAMPED_COSINE_ITERATIONS: u64 = 15 + 119 + 15;
 
 /// The families render isg reads, and how to export them.
 pub const FAMILIES: (&[&str], &str) = (

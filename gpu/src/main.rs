@@ -26,6 +26,7 @@ mod cost;
 mod device;
 mod isg;
 mod kernel;
+mod mc;
 mod meunier;
 mod render;
 mod renders;
@@ -58,6 +59,10 @@ enum Command {
     /// device, its error against the CPU pipeline and its static SPIR-V counts:
     /// OUT/bench.json and OUT/bench.md.
     Bench(bench::Args),
+    /// The device's Monte Carlo estimate of an ISG scene (spheres under an SG sky)
+    /// against the CPU's with the same estimator and samples: exit 1 when they disagree
+    /// beyond their standard errors.
+    Mc(mc::Args),
     /// Per shader function: static counts of its kernel's SPIR-V (naga: instructions,
     /// texture instructions, loops) and GPU evaluations per second on this device.
     Cost {
@@ -73,6 +78,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         Command::Render => Err("render: no render named (lobefit-gpu render --help lists them)".into()),
         Command::Cost { export } => cost(&export),
         Command::Bench(a) => bench::run(a),
+        Command::Mc(a) => mc::run(a),
         Command::GpuCheck { export } => gpu_check(&export),
     }
 }

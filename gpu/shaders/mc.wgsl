@@ -1,0 +1,193 @@
+// lobefit-gpu's Monte Carlo kernel for the sky pipelines' scenes (spheres under an SG
+// environment, Phong materials): per pixel, SPP samples of the CPU's one-sample
+// mixture (pipelines/sky.rs `mis`: the cosine, the Phong lobe, the SGs; balance
+// heuristic) with exact visibility against every sphere. The kernel's constants and
+// accessors (NS, NE, SPH0, ENV0, SPP, CV, sph, env) and the batch index (X[BATCH]) come
+// from gpu/src/mc.rs. Random numbers: a PCG hash of (pixel, batch, sample, dimension),
+// independent streams per pixel and batch (the CPU draws its own: the two agree in
+// distribution, not sample by sample). CV = true: the control variate of the CPU's
+// `reference_cv` (the unoccluded diffuse term in closed form, lf_sg_clamped_cosine;
+// Monte Carlo of the occluded diffuse and the specular part) with the SGs picked by
+// their contribution at the point (`Select::Contribution`). Outputs per pixel: the sum
+// and the sum of squares of the batch's SPP sample values, the closed form (0 without
+// CV), then the budget flag (gpu/src/budget.rs).
+
+// PCG-RXS-M-XS 32 (O'Neill): a well-mixed hash of one word.
+fn mc_pcg(v: u32) -> u32 {
+    let s = v * 747796405u + 2891336453u;
+    let w = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    return (w >> 22u) ^ w;
+}
+
+// A uniform in [0, 1) from the stream `key` (pixel, batch, sample) at dimension d.
+fn mc_uniform(key: u32, d: u32) -> f32 {
+    return f32(mc_pcg(key ^ mc_pcg(d + 0x9e3779b9u)) >> 8u) * (1.0 / 16777216.0);
+}
+
+// Whether the ray x + t v (t > 0) meets a sphere other than `own`.
+fn mc_occluded(x: vec3<f32>, v: vec3<f32>, own: i32) -> bool {
+    for (var b = 0u; b < NS; b++) {
+        if i32(b) == own {
+            continue;
+        }
+        let s = sph(b);
+        let oc = x - s.xyz;
+        let bb = dot(oc, v);
+        let c = dot(oc, oc) - s.w * s.w;
+        let disc = bb * bb - c;
+        // The far root −b + √disc > 0: the sphere lies ahead (or holds x).
+        if disc >= 0.0 && -bb + sqrt(disc) > 0.0 {
+            return true;
+        }
+    }
+    return false;
+}
+
+// A direction of the SG g's normalised density (the CPU's sample_sg).
+fn mc_sample_sg(g: LfSg, u1: f32, u2: f32) -> vec3<f32> {
+    let l = g.sharpness;
+    let c = clamp(1.0 + log(1.0 - u1 * (1.0 - exp(-2.0 * l))) / l, -1.0, 1.0);
+    let s = sqrt(max(1.0 - c * c, 0.0));
+    let p = 2.0 * LF_PI * u2;
+    let a = lf_any_orthonormal(g.axis);
+    let b = cross(g.axis, a);
+    return c * g.axis + s * (cos(p) * a + sin(p) * b);
+}
+
+// The density (1/sr) of mc_sample_sg at w.
+fn mc_sg_pdf(g: LfSg, w: vec3<f32>) -> f32 {
+    let l = g.sharpness;
+    return l * exp(l * (dot(g.axis, w) - 1.0)) / (2.0 * LF_PI * (1.0 - exp(-2.0 * l)));
+}
+
+// The SG g's weight in the mixture: its integral, or with CV its contribution at the
+// point (the CPU's `contribution`).
+fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f32 {
+    if !CV {
+        return lf_sg_integral(g);
+    }
+    let diffuse = kd / LF_PI * lf_sg_clamped_cosine(g, n);
+    var specular = 0.0;
+    if ks > 0.0 {
+        let m = length(g.sharpness * g.axis + e * r);
+        var shape = 1.0;
+        if m > 1e-6 {
+            shape = (1.0 - exp(-2.0 * m)) / (2.0 * m);
+        }
+        let overlap = 4.0 * LF_PI * exp(m - g.sharpness - e) * shape;
+        specular = ks * (e + 2.0) / (2.0 * LF_PI) * max(dot(n, r), 0.0) * overlap;
+    }
+    return g.amplitude * (diffuse + specular);
+}
+
+// ---- main: the kernel's body (the statements inside its entry point, kernel.rs)
+    var budget_flag = 0.0;
+    let x = vec3<f32>(x0, x1, x2);
+    let n = normalize(vec3<f32>(x3, x4, x5));
+    let wo = normalize(vec3<f32>(x6, x7, x8));
+    let kd = x9;
+    let ks = x10;
+    let e = x11;
+    let own = i32(x12);
+    let r = normalize(2.0 * dot(n, wo) * n - wo);
+    let t = lf_any_orthonormal(n);
+    let bt = cross(n, t);
+    let rt = lf_any_orthonormal(r);
+    let rb = cross(r, rt);
+    let spec = ks > 0.0;
+    var energy: array<f32, NE>;
+    var total = 0.0;
+    for (var k = 0u; k < NE; k++) {
+        energy[k] = mc_weight(env(k), kd, ks, e, n, r);
+        total += energy[k];
+    }
+    var p_cos = 0.5;
+    var p_phong = 0.0;
+    if spec {
+        p_cos = 0.3;
+        p_phong = 0.3;
+    }
+    var p_env = 0.0;
+    if total > 0.0 {
+        p_env = 1.0 - p_cos - p_phong;
+    }
+    p_cos = 1.0 - p_phong - p_env;
+    let f_d = kd / LF_PI;
+    // The control variate's closed form: the unoccluded diffuse radiance.
+    var open = 0.0;
+    if CV {
+        for (var k = 0u; k < NE; k++) {
+                let g = env(k);
+            open += g.amplitude * lf_sg_clamped_cosine(g, n);
+        }
+        open *= f_d;
+    }
+    let batch = u32(X[BATCH]);
+    var sum = 0.0;
+    var sum2 = 0.0;
+    for (var j = 0u; j < SPP; j++) {
+        let key = mc_pcg(i ^ mc_pcg(batch * SPP + j + 0x68e31da4u));
+        let pick = mc_uniform(key, 0u);
+        var w: vec3<f32>;
+        if pick < p_cos {
+            let u1 = mc_uniform(key, 1u);
+            let u2 = 2.0 * LF_PI * mc_uniform(key, 2u);
+            let s = sqrt(u1);
+            w = s * (cos(u2) * t + sin(u2) * bt) + sqrt(1.0 - u1) * n;
+        } else if pick < p_cos + p_phong {
+            let c = pow(mc_uniform(key, 1u), 1.0 / (e + 1.0));
+            let s = sqrt(max(1.0 - c * c, 0.0));
+            let p = 2.0 * LF_PI * mc_uniform(key, 2u);
+            w = c * r + s * (cos(p) * rt + sin(p) * rb);
+        } else {
+            var u = mc_uniform(key, 3u) * total;
+            var k = 0u;
+            while k + 1u < NE && u >= energy[k] {
+                        u -= energy[k];
+                k += 1u;
+            }
+            w = mc_sample_sg(env(k), mc_uniform(key, 1u), mc_uniform(key, 2u));
+        }
+        w = normalize(w);
+        let c = dot(n, w);
+        var f = 0.0;
+        if c > 0.0 {
+            var pdf = p_cos * c / LF_PI;
+            let rw = max(dot(r, w), 0.0);
+            if spec {
+                pdf += p_phong * (e + 1.0) / (2.0 * LF_PI) * pow(rw, e);
+            }
+            var light = 0.0;
+            var mix = 0.0;
+            for (var k = 0u; k < NE; k++) {
+                        let g = env(k);
+                light += lf_sg_eval(g, w);
+                if p_env > 0.0 {
+                    mix += energy[k] / total * mc_sg_pdf(g, w);
+                }
+            }
+            pdf += p_env * mix;
+            if pdf > 0.0 {
+                var f_s = 0.0;
+                if spec {
+                    f_s = ks * (e + 2.0) / (2.0 * LF_PI) * pow(rw, e);
+                }
+                let blocked = mc_occluded(x, w, own);
+                if CV {
+                    // The CPU's reference_cv: −(occluded diffuse), + unoccluded specular.
+                    if blocked {
+                        f = -light * f_d * c / pdf;
+                    } else {
+                        f = light * f_s * c / pdf;
+                    }
+                } else if !blocked {
+                    f = light * (f_d + f_s) * c / pdf;
+                }
+            }
+        }
+        sum += f;
+        sum2 += f * f;
+    }
+    Y[o] = sum;
+    Y[o + 1u] = sum2;
+    Y[o + 2u] = open;
