@@ -8,6 +8,8 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+
+use crate::mc::Estimator;
 use std::process::ExitCode;
 
 use serde_json::json;
@@ -40,6 +42,10 @@ pub struct Args {
     /// submission and the wait, so it reads longer).
     #[arg(long)]
     pub wall_clock: bool,
+    /// The device's Monte Carlo beside the ISG kernel at 1, 4, 16, … samples per pixel
+    /// up to this many (several dispatches a frame past one dispatch's batch).
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    pub mc_spp_max: u32,
     /// Output directory (created if missing): bench.json, bench.md and each
     /// kernel's image.
     #[arg(long, value_name = "DIR")]
@@ -95,7 +101,7 @@ fn scenes(values: &[String]) -> Result<Vec<(&'static str, String)>, String> {
 }
 
 /// Median, min and max of `v` (not empty).
-fn spread(v: &[f64]) -> (f64, f64, f64) {
+pub(crate) fn spread(v: &[f64]) -> (f64, f64, f64) {
     let mut s = v.to_vec();
     s.sort_by(f64::total_cmp);
     let n = s.len();
@@ -168,8 +174,9 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
             counts,
         });
     }
+    let mc = monte_carlo(&gpu, &exports, &scenes, &rows, width, a.mc_spp_max as usize, &a.out)?;
     let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    write_reports(&a.out, &gpu, software, a.frames, &rows)?;
+    write_reports(&a.out, &gpu, software, a.frames, &rows, mc.as_ref())?;
     out!(
         "bench: {} kernels on {} ({}); {}",
         rows.len(),
@@ -189,6 +196,9 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
             r.counts.texture_ops,
             r.counts.loops.len()
         );
+    }
+    if let Some(m) = &mc {
+        out!("{}", mc_summary(m));
     }
     out!("report: {}", a.out.join("bench.md").display());
     Ok(ExitCode::SUCCESS)
@@ -321,7 +331,14 @@ fn loops_text(c: &KernelCounts) -> String {
 }
 
 /// Writes `out/bench.json` and `out/bench.md`.
-fn write_reports(out: &Path, gpu: &Gpu, software: bool, frames: u32, rows: &[Row]) -> Result<(), String> {
+fn write_reports(
+    out: &Path,
+    gpu: &Gpu,
+    software: bool,
+    frames: u32,
+    rows: &[Row],
+    mc: Option<&crate::mc::McBench>,
+) -> Result<(), String> {
     let kernels: Vec<serde_json::Value> = rows
         .iter()
         .map(|r| {
@@ -361,6 +378,14 @@ fn write_reports(out: &Path, gpu: &Gpu, software: bool, frames: u32, rows: &[Row
         "frames": frames,
         "rel_rmse_vs_cpu": "RMS of |GPU − CPU| over the pixels that see geometry, relative to the CPU image's peak",
         "kernels": kernels,
+        "monte_carlo": mc.map(mc_json),
+        "equal_error": mc.map(|m| [Estimator::Plain, Estimator::CvMis].map(|e| {
+            let (spp, ms) = m.equal_error(e).unzip();
+            json!({
+                "pipeline": "isg", "scene": m.scene, "method": "ISG (device kernel)", "estimator": e.name(),
+                "mc_spp": spp, "mc_ms_per_frame": ms, "ratio": ms.map(|ms| ms / m.analytic.1),
+            })
+        })),
     });
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n";
     lobefit::io::write_atomic(&out.join("bench.json"), text.as_bytes())
@@ -399,8 +424,100 @@ fn write_reports(out: &Path, gpu: &Gpu, software: bool, frames: u32, rows: &[Row
             loops_text(&r.counts)
         );
     }
+    if let Some(m) = mc {
+        md += &mc_markdown(m);
+    }
     lobefit::io::write_atomic(&out.join("bench.md"), md.as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", out.join("bench.md").display()))
+}
+
+/// The device's Monte Carlo beside the ISG kernel, when the bench runs the isg
+/// pipeline: the analytic image rendered once more for its values (untimed), then
+/// every estimator at `mc::BENCH_SPP` against the CPU reference.
+fn monte_carlo(
+    gpu: &Gpu,
+    ex: &Exports,
+    scenes: &[(&'static str, String)],
+    rows: &[Row],
+    width: usize,
+    max_spp: usize,
+    out: &Path,
+) -> Result<Option<crate::mc::McBench>, String> {
+    let (Some((_, scene)), Some(row)) = (
+        scenes.iter().find(|(p, _)| *p == "isg"),
+        rows.iter().find(|r| r.pipeline == "isg"),
+    ) else {
+        return Ok(None);
+    };
+    let sc = lobefit::pipelines::isg::render::scene(scene)?;
+    let values = crate::isg::render_isg(gpu, &ex.isg, &sc, width, &out.join("isg.png"))?.values;
+    gpu.take_dispatches();
+    crate::mc::bench(gpu, &sc, width, &values, spread(&row.ms).0, max_spp).map(Some)
+}
+
+/// The Monte Carlo section of bench.json.
+fn mc_json(m: &crate::mc::McBench) -> serde_json::Value {
+    json!({
+        "scene": m.scene,
+        "pixels": m.pixels,
+        "reference": {"estimator": "CPU cv-mis", "spp": m.reference.0, "mean_rel_se": m.reference.1},
+        "error": "relative RMSE against the reference, its noise removed",
+        "analytic": {"method": "ISG (device kernel)", "rel_rmse": m.analytic.0, "ms_per_frame": m.analytic.1},
+        "rows": m.rows.iter().map(|r| {
+            let (med, lo, hi) = spread(&r.ms);
+            json!({"estimator": r.estimator.name(), "spp": r.spp, "ms_per_frame": med, "ms_min": lo,
+                   "ms_max": hi, "rel_rmse": r.rel_rmse})
+        }).collect::<Vec<_>>(),
+    })
+}
+
+/// The Monte Carlo section of bench.md.
+fn mc_markdown(m: &crate::mc::McBench) -> String {
+    let mut md = format!(
+        "\n## Against Monte Carlo on this device ({}, {} pixels)\n\nError: relative RMSE against the CPU's \
+         control-variate estimator at {} spp (mean relative standard error {:.1e}), its noise removed. \
+         The ISG kernel: {:.4} at {:.3} ms/frame.\n\n| estimator | spp | ms/frame | min–max | rel. RMSE |\n\
+         |---|---:|---:|---|---:|\n",
+        m.scene, m.pixels, m.reference.0, m.reference.1, m.analytic.0, m.analytic.1
+    );
+    for r in &m.rows {
+        let (med, lo, hi) = spread(&r.ms);
+        md += &format!(
+            "| {} | {} | {med:.3} | {lo:.3}–{hi:.3} | {:.4} |\n",
+            r.estimator.name(),
+            r.spp,
+            r.rel_rmse
+        );
+    }
+    md += "\n| estimator | spp at the ISG's error | ms/frame there | × the ISG's time |\n|---|---:|---:|---:|\n";
+    for e in [Estimator::Plain, Estimator::CvMis] {
+        md += &match m.equal_error(e) {
+            Some((spp, ms)) => format!("| {} | {spp:.0} | {ms:.3} | {:.2} |\n", e.name(), ms / m.analytic.1),
+            None => format!("| {} | beyond the measured range | | |\n", e.name()),
+        };
+    }
+    md
+}
+
+/// One line: where each estimator reaches the ISG kernel's error.
+fn mc_summary(m: &crate::mc::McBench) -> String {
+    let parts: Vec<String> = [Estimator::Plain, Estimator::CvMis]
+        .iter()
+        .map(|&e| match m.equal_error(e) {
+            Some((spp, ms)) => format!(
+                "{} {spp:.0} spp, {ms:.3} ms/frame ({:.2}× the ISG's time)",
+                e.name(),
+                ms / m.analytic.1
+            ),
+            None => format!("{} beyond {} spp", e.name(), m.rows.last().map_or(0, |r| r.spp)),
+        })
+        .collect();
+    format!(
+        "  Monte Carlo at the ISG kernel's error ({:.4} against a {}-spp CPU reference): {}",
+        m.analytic.0,
+        m.reference.0,
+        parts.join("; ")
+    )
 }
 
 #[cfg(test)]

@@ -351,3 +351,123 @@ mod tests {
         assert!((mz - 2.0 / 2f64.sqrt()).abs() < 1e-12);
     }
 }
+
+/// Samples per pixel of the bench's Monte Carlo rows: 1, 4, 16, … up to `max`.
+pub fn bench_spp(max: usize) -> Vec<usize> {
+    (0..)
+        .map(|k| 1usize << (2 * k))
+        .take_while(|&n| n <= max.max(1))
+        .collect()
+}
+/// Samples per pixel of the bench's reference (the CPU's control-variate estimator).
+const REF_SPP: usize = 1 << 14;
+
+/// One Monte Carlo row of the bench.
+pub struct McRow {
+    /// The estimator.
+    pub estimator: Estimator,
+    /// Samples per pixel.
+    pub spp: usize,
+    /// Frames timed (ms).
+    pub ms: Vec<f64>,
+    /// Relative RMSE against the reference, its noise removed.
+    pub rel_rmse: f64,
+}
+
+/// The bench's comparison on one ISG scene: the analytic kernel and the device's
+/// Monte Carlo at [`BENCH_SPP`], each against the CPU reference, and where each
+/// estimator reaches the analytic kernel's error.
+pub struct McBench {
+    /// The scene's name.
+    pub scene: String,
+    /// Pixels that see geometry.
+    pub pixels: usize,
+    /// The reference's samples per pixel and its mean relative standard error.
+    pub reference: (usize, f64),
+    /// The analytic kernel's relative RMSE against the reference and its ms/frame.
+    pub analytic: (f64, f64),
+    /// The Monte Carlo rows.
+    pub rows: Vec<McRow>,
+}
+
+impl McBench {
+    /// Per estimator: (samples per pixel, ms/frame) where its error reaches the
+    /// analytic kernel's, interpolated log-log between measured points; `None` beyond
+    /// the measured range (then the last point is a lower bound).
+    pub fn equal_error(&self, est: Estimator) -> Option<(f64, f64)> {
+        let pts: Vec<&McRow> = self.rows.iter().filter(|r| r.estimator == est).collect();
+        let target = self.analytic.0;
+        pts.windows(2).find_map(|w| {
+            let (a, b) = (w[0], w[1]);
+            (a.rel_rmse >= target && target >= b.rel_rmse && a.rel_rmse > b.rel_rmse).then(|| {
+                let t = (a.rel_rmse / target).ln() / (a.rel_rmse / b.rel_rmse).ln();
+                let lerp = |x: f64, y: f64| (x.ln() + t * (y.ln() - x.ln())).exp();
+                (
+                    lerp(a.spp as f64, b.spp as f64),
+                    lerp(crate::bench::spread(&a.ms).0, crate::bench::spread(&b.ms).0),
+                )
+            })
+        })
+    }
+}
+
+/// The bench's Monte Carlo comparison on `sc` at `width`: the analytic values
+/// `analytic` (the device's ISG image over the pixels that see geometry, timed at
+/// `analytic_ms` per frame) and every estimator at [`bench_spp`]`(max_spp)` against
+/// the CPU's control-variate estimator at [`REF_SPP`]. A frame of more samples than a
+/// dispatch takes is several dispatches: its time per frame is the sum of their
+/// times, each frame timed as the bench times a kernel.
+pub fn bench(
+    gpu: &Gpu,
+    sc: &Scene,
+    width: usize,
+    analytic: &[f64],
+    analytic_ms: f64,
+    max_spp: usize,
+) -> Result<McBench, String> {
+    use lobefit::pipelines::image::noise_free_rel_rmse;
+    supported(sc)?;
+    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    let hits: Vec<Hit> = (0..w * h).filter_map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let refs: Vec<&Hit> = hits.iter().collect();
+    if analytic.len() != refs.len() {
+        return Err(format!(
+            "bench mc: {} analytic values for {} pixels",
+            analytic.len(),
+            refs.len()
+        ));
+    }
+    let reference = cpu_estimate(sc, &refs, REF_SPP, Estimator::CvMis, 0x7265)?;
+    let mean: Vec<f64> = reference.iter().map(|e| e.mean).collect();
+    let se: Vec<f64> = reference.iter().map(|e| e.std_error).collect();
+    let mask = vec![true; refs.len()];
+    let mean_ref = mean.iter().sum::<f64>() / mean.len() as f64;
+    let ref_rel_se = se.iter().sum::<f64>() / se.len() as f64 / mean_ref;
+    let mut rows = Vec::new();
+    for est in [Estimator::Plain, Estimator::CvMis] {
+        for spp in bench_spp(max_spp) {
+            gpu.take_dispatches();
+            let (got, n) = estimate(gpu, sc, &refs, spp, est)?;
+            let d = gpu.take_dispatches();
+            let frames = d.first().map_or(0, |k| k.ms.len());
+            if d.is_empty() || d.iter().any(|k| k.ms.len() != frames) {
+                return Err(format!("bench mc: {spp} spp: its dispatches were not timed"));
+            }
+            let ms = (0..frames).map(|f| d.iter().map(|k| k.ms[f]).sum()).collect();
+            let img: Vec<f64> = got.iter().map(|e| e.mean).collect();
+            rows.push(McRow {
+                estimator: est,
+                spp: n,
+                ms,
+                rel_rmse: noise_free_rel_rmse(&img, &mean, &se, &mask),
+            });
+        }
+    }
+    Ok(McBench {
+        scene: sc.name.clone(),
+        pixels: refs.len(),
+        reference: (REF_SPP, ref_rel_se),
+        analytic: (noise_free_rel_rmse(analytic, &mean, &se, &mask), analytic_ms),
+        rows,
+    })
+}

@@ -333,6 +333,8 @@ pub struct SceneRender {
     /// Largest |CPU / exact − 1| where every light is whole above the horizon (the
     /// disk table's order-3 SH against π L sin²α cos β), and at how many pixels.
     pub vs_exact: (f64, usize),
+    /// The device's values at the pixels that see geometry, row by row.
+    pub values: Vec<f64>,
 }
 
 /// A scene file (or built-in scene, `lobefit::pipelines::scene`) through the shader
@@ -460,6 +462,7 @@ pub(crate) fn compare_and_write(
         max,
         rms,
         vs_exact: (f64::NAN, 0),
+        values: got.iter().map(|&v| f64::from(v)).collect(),
     })
 }
 
