@@ -312,46 +312,6 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     Ok(if ok { ExitCode::SUCCESS } else { ExitCode::FAILURE })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The kernel of fig12 parses and validates with either estimator; batches fit the
-    /// loop budget; scenes it cannot trace are errors naming what they have.
-    #[test]
-    fn kernel_validates_and_batches_fit() {
-        let sc = lobefit::pipelines::isg::render::scene("fig12").unwrap();
-        for est in [Estimator::Plain, Estimator::CvMis] {
-            let b = batch_size(sc.spheres.len(), sc.environment.len(), est.cv()).unwrap();
-            assert!(b.is_power_of_two() && b <= MAX_BATCH, "{b}");
-            let (setup, per) = iterations(sc.spheres.len(), sc.environment.len(), est.cv());
-            assert!(setup + per * b as u64 <= budget::LOOP_LIMIT);
-            if let Err(e) = lobefit::export::shaders::module_of(&source(&sc, 7, b, est.cv())) {
-                panic!("{est:?}: {e}");
-            }
-        }
-        let whale = lobefit::pipelines::shexp::render::scene("whale").unwrap();
-        let e = supported(&whale).unwrap_err();
-        assert!(e.contains("height field"), "{e}");
-        assert!(batch_size(70_000, 1, false).is_err());
-    }
-
-    /// Agreement of two estimates: equal means give z = 0; a shift of two standard
-    /// errors gives mean z 2/√2.
-    #[test]
-    fn agreement_in_standard_errors() {
-        let e = |mean| Estimate {
-            mean,
-            std_error: 1.0,
-            samples: 4,
-        };
-        let (mz, mz2, far) = agreement(&[e(1.0), e(2.0)], &[e(1.0), e(2.0)]);
-        assert_eq!((mz, mz2, far), (0.0, 0.0, 0.0));
-        let (mz, _, _) = agreement(&[e(3.0)], &[e(1.0)]);
-        assert!((mz - 2.0 / 2f64.sqrt()).abs() < 1e-12);
-    }
-}
-
 /// Samples per pixel of the bench's Monte Carlo rows: 1, 4, 16, … up to `max`.
 pub fn bench_spp(max: usize) -> Vec<usize> {
     (0..)
@@ -470,4 +430,44 @@ pub fn bench(
         analytic: (noise_free_rel_rmse(analytic, &mean, &se, &mask), analytic_ms),
         rows,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The kernel of fig12 parses and validates with either estimator; batches fit the
+    /// loop budget; scenes it cannot trace are errors naming what they have.
+    #[test]
+    fn kernel_validates_and_batches_fit() {
+        let sc = lobefit::pipelines::isg::render::scene("fig12").unwrap();
+        for est in [Estimator::Plain, Estimator::CvMis] {
+            let b = batch_size(sc.spheres.len(), sc.environment.len(), est.cv()).unwrap();
+            assert!(b.is_power_of_two() && b <= MAX_BATCH, "{b}");
+            let (setup, per) = iterations(sc.spheres.len(), sc.environment.len(), est.cv());
+            assert!(setup + per * b as u64 <= budget::LOOP_LIMIT);
+            if let Err(e) = lobefit::export::shaders::module_of(&source(&sc, 7, b, est.cv())) {
+                panic!("{est:?}: {e}");
+            }
+        }
+        let whale = lobefit::pipelines::shexp::render::scene("whale").unwrap();
+        let e = supported(&whale).unwrap_err();
+        assert!(e.contains("height field"), "{e}");
+        assert!(batch_size(70_000, 1, false).is_err());
+    }
+
+    /// Agreement of two estimates: equal means give z = 0; a shift of two standard
+    /// errors gives mean z 2/√2.
+    #[test]
+    fn agreement_in_standard_errors() {
+        let e = |mean| Estimate {
+            mean,
+            std_error: 1.0,
+            samples: 4,
+        };
+        let (mz, mz2, far) = agreement(&[e(1.0), e(2.0)], &[e(1.0), e(2.0)]);
+        assert_eq!((mz, mz2, far), (0.0, 0.0, 0.0));
+        let (mz, _, _) = agreement(&[e(3.0)], &[e(1.0)]);
+        assert!((mz - 2.0 / 2f64.sqrt()).abs() < 1e-12);
+    }
 }
