@@ -9,7 +9,6 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use crate::mc::Estimator;
 use std::process::ExitCode;
 
 use serde_json::json;
@@ -176,7 +175,7 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     }
     let mc = monte_carlo(&gpu, &exports, &scenes, &rows, width, a.mc_spp_max as usize, &a.out)?;
     let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    write_reports(&a.out, &gpu, software, a.frames, &rows, mc.as_ref())?;
+    write_reports(&a.out, &gpu, software, a.frames, &rows, &mc)?;
     out!(
         "bench: {} kernels on {} ({}); {}",
         rows.len(),
@@ -197,7 +196,7 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
             r.counts.loops.len()
         );
     }
-    if let Some(m) = &mc {
+    for m in &mc {
         out!("{}", mc_summary(m));
     }
     out!("report: {}", a.out.join("bench.md").display());
@@ -337,7 +336,7 @@ fn write_reports(
     software: bool,
     frames: u32,
     rows: &[Row],
-    mc: Option<&crate::mc::McBench>,
+    mc: &[crate::mc::McBench],
 ) -> Result<(), String> {
     let kernels: Vec<serde_json::Value> = rows
         .iter()
@@ -378,14 +377,14 @@ fn write_reports(
         "frames": frames,
         "rel_rmse_vs_cpu": "RMS of |GPU − CPU| over the pixels that see geometry, relative to the CPU image's peak",
         "kernels": kernels,
-        "monte_carlo": mc.map(mc_json),
-        "equal_error": mc.map(|m| [Estimator::Plain, Estimator::CvMis].map(|e| {
+        "monte_carlo": mc.iter().map(mc_json).collect::<Vec<_>>(),
+        "equal_error": mc.iter().flat_map(|m| m.estimators().into_iter().map(move |e| {
             let (spp, ms) = m.equal_error(e).unzip();
             json!({
-                "pipeline": "isg", "scene": m.scene, "method": "ISG (device kernel)", "estimator": e.name(),
+                "pipeline": m.pipeline, "scene": m.scene, "method": "device kernel", "estimator": e.name(),
                 "mc_spp": spp, "mc_ms_per_frame": ms, "ratio": ms.map(|ms| ms / m.analytic.1),
             })
-        })),
+        })).collect::<Vec<_>>(),
     });
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n";
     lobefit::io::write_atomic(&out.join("bench.json"), text.as_bytes())
@@ -424,16 +423,16 @@ fn write_reports(
             loops_text(&r.counts)
         );
     }
-    if let Some(m) = mc {
+    for m in mc {
         md += &mc_markdown(m);
     }
     lobefit::io::write_atomic(&out.join("bench.md"), md.as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", out.join("bench.md").display()))
 }
 
-/// The device's Monte Carlo beside the ISG kernel, when the bench runs the isg
-/// pipeline: the analytic image rendered once more for its values (untimed), then
-/// every estimator at `mc::BENCH_SPP` against the CPU reference.
+/// The device's Monte Carlo beside the ISG and Meunier kernels, for each of the two
+/// the bench runs: the analytic image rendered once more for its values (untimed),
+/// then every estimator at `mc::bench_spp(max_spp)` against the CPU reference.
 fn monte_carlo(
     gpu: &Gpu,
     ex: &Exports,
@@ -442,27 +441,51 @@ fn monte_carlo(
     width: usize,
     max_spp: usize,
     out: &Path,
-) -> Result<Option<crate::mc::McBench>, String> {
-    let (Some((_, scene)), Some(row)) = (
-        scenes.iter().find(|(p, _)| *p == "isg"),
-        rows.iter().find(|r| r.pipeline == "isg"),
-    ) else {
-        return Ok(None);
-    };
-    let sc = lobefit::pipelines::isg::render::scene(scene)?;
-    let values = crate::isg::render_isg(gpu, &ex.isg, &sc, width, &out.join("isg.png"))?.values;
-    gpu.take_dispatches();
-    crate::mc::bench(gpu, &sc, width, &values, spread(&row.ms).0, max_spp).map(Some)
+) -> Result<Vec<crate::mc::McBench>, String> {
+    let mut benches = Vec::new();
+    for (pipeline, scene) in scenes {
+        let Some(row) = rows.iter().find(|r| r.pipeline == *pipeline) else {
+            continue;
+        };
+        let png = out.join(format!("{pipeline}.png"));
+        let (sc, values) = match *pipeline {
+            "isg" => {
+                let sc = lobefit::pipelines::isg::render::scene(scene)?;
+                let v = crate::isg::render_isg(gpu, &ex.isg, &sc, width, &png)?.values;
+                (sc, v)
+            }
+            "meunier" => {
+                let sc = lobefit::pipelines::meunier::render::scene(scene)?;
+                let s = crate::meunier::default_settings()?;
+                let v = crate::meunier::render_meunier(gpu, &ex.meunier, &sc, width, &s, &png)?.values;
+                (sc, v)
+            }
+            _ => continue,
+        };
+        gpu.take_dispatches();
+        benches.push(crate::mc::bench(
+            gpu,
+            pipeline,
+            &sc,
+            width,
+            &values,
+            spread(&row.ms).0,
+            max_spp,
+        )?);
+    }
+    Ok(benches)
 }
 
 /// The Monte Carlo section of bench.json.
 fn mc_json(m: &crate::mc::McBench) -> serde_json::Value {
     json!({
+        "pipeline": m.pipeline,
         "scene": m.scene,
         "pixels": m.pixels,
-        "reference": {"estimator": "CPU cv-mis", "spp": m.reference.0, "mean_rel_se": m.reference.1},
+        "reference": {"estimator": format!("CPU {}", m.reference.0.name()), "spp": m.reference.1,
+                      "mean_rel_se": m.reference.2},
         "error": "relative RMSE against the reference, its noise removed",
-        "analytic": {"method": "ISG (device kernel)", "rel_rmse": m.analytic.0, "ms_per_frame": m.analytic.1},
+        "analytic": {"method": "device kernel", "rel_rmse": m.analytic.0, "ms_per_frame": m.analytic.1},
         "rows": m.rows.iter().map(|r| {
             let (med, lo, hi) = spread(&r.ms);
             json!({"estimator": r.estimator.name(), "spp": r.spp, "ms_per_frame": med, "ms_min": lo,
@@ -474,11 +497,19 @@ fn mc_json(m: &crate::mc::McBench) -> serde_json::Value {
 /// The Monte Carlo section of bench.md.
 fn mc_markdown(m: &crate::mc::McBench) -> String {
     let mut md = format!(
-        "\n## Against Monte Carlo on this device ({}, {} pixels)\n\nError: relative RMSE against the CPU's \
-         control-variate estimator at {} spp (mean relative standard error {:.1e}), its noise removed. \
-         The ISG kernel: {:.4} at {:.3} ms/frame.\n\n| estimator | spp | ms/frame | min–max | rel. RMSE |\n\
+        "\n## {} against Monte Carlo on this device ({}, {} pixels)\n\nError: relative RMSE against the CPU's \
+         {} estimator at {} spp (mean relative standard error {:.1e}), its noise removed. \
+         The {} kernel: {:.4} at {:.3} ms/frame.\n\n| estimator | spp | ms/frame | min–max | rel. RMSE |\n\
          |---|---:|---:|---|---:|\n",
-        m.scene, m.pixels, m.reference.0, m.reference.1, m.analytic.0, m.analytic.1
+        m.pipeline,
+        m.scene,
+        m.pixels,
+        m.reference.0.name(),
+        m.reference.1,
+        m.reference.2,
+        m.pipeline,
+        m.analytic.0,
+        m.analytic.1
     );
     for r in &m.rows {
         let (med, lo, hi) = spread(&r.ms);
@@ -489,8 +520,11 @@ fn mc_markdown(m: &crate::mc::McBench) -> String {
             r.rel_rmse
         );
     }
-    md += "\n| estimator | spp at the ISG's error | ms/frame there | × the ISG's time |\n|---|---:|---:|---:|\n";
-    for e in [Estimator::Plain, Estimator::CvMis] {
+    md += &format!(
+        "\n| estimator | spp at the {0} kernel's error | ms/frame there | × the {0} kernel's time |\n|---|---:|---:|---:|\n",
+        m.pipeline
+    );
+    for e in m.estimators() {
         md += &match m.equal_error(e) {
             Some((spp, ms)) => format!("| {} | {spp:.0} | {ms:.3} | {:.2} |\n", e.name(), ms / m.analytic.1),
             None => format!("| {} | beyond the measured range | | |\n", e.name()),
@@ -499,13 +533,14 @@ fn mc_markdown(m: &crate::mc::McBench) -> String {
     md
 }
 
-/// One line: where each estimator reaches the ISG kernel's error.
+/// One line: where each estimator reaches the analytic kernel's error.
 fn mc_summary(m: &crate::mc::McBench) -> String {
-    let parts: Vec<String> = [Estimator::Plain, Estimator::CvMis]
-        .iter()
-        .map(|&e| match m.equal_error(e) {
+    let parts: Vec<String> = m
+        .estimators()
+        .into_iter()
+        .map(|e| match m.equal_error(e) {
             Some((spp, ms)) => format!(
-                "{} {spp:.0} spp, {ms:.3} ms/frame ({:.2}× the ISG's time)",
+                "{} {spp:.0} spp, {ms:.3} ms/frame ({:.2}× the kernel's time)",
                 e.name(),
                 ms / m.analytic.1
             ),
@@ -513,9 +548,10 @@ fn mc_summary(m: &crate::mc::McBench) -> String {
         })
         .collect();
     format!(
-        "  Monte Carlo at the ISG kernel's error ({:.4} against a {}-spp CPU reference): {}",
+        "  Monte Carlo at the {} kernel's error ({:.4} against a {}-spp CPU reference): {}",
+        m.pipeline,
         m.analytic.0,
-        m.reference.0,
+        m.reference.1,
         parts.join("; ")
     )
 }

@@ -30,6 +30,10 @@ use crate::kernel::{kernel, split, LF_TEX_SIZE};
 
 /// The kernel's functions and body.
 const SHADER: &str = include_str!("../shaders/mc.wgsl");
+/// The light kernel's (Meunier's scenes: one spherical light).
+const SHADER_LIGHT: &str = include_str!("../shaders/mc_light.wgsl");
+/// The light kernel's Lafortune lobes per pixel, at most.
+const MAX_LOBES: usize = 2;
 
 /// Inputs per pixel: point, normal, view, k_d, k_s, Phong n, own sphere (−1: none).
 const N_IN: usize = 13;
@@ -87,21 +91,29 @@ fn batch_size(spheres: usize, sgs: usize, cv: bool) -> Result<usize, String> {
     Ok(1 << (63 - m.leading_zeros()))
 }
 
-/// Refuses a scene the kernel does not trace: a height field, meshes, an SH
-/// environment or none at all.
+/// Whether `sc` is a light scene (Meunier's: one spherical light, no distant light).
+fn light_scene(sc: &Scene) -> bool {
+    sc.environment.is_empty() && sc.sh_environment.is_none() && !sc.lights.is_empty()
+}
+
+/// Refuses a scene the kernels do not trace: a height field, meshes, no light, or
+/// more than one spherical light.
 fn supported(sc: &Scene) -> Result<(), String> {
     let why = if sc.heightfield.is_some() {
         Some("a height field")
     } else if !sc.meshes.is_empty() {
         Some("meshes")
-    } else if sc.environment.is_empty() {
-        Some("no SG environment")
+    } else if light_scene(sc) && sc.lights.len() > 1 {
+        Some("more than one spherical light")
+    } else if sc.environment.is_empty() && !light_scene(sc) {
+        Some("neither an SG environment nor a spherical light")
     } else {
         None
     };
     match why {
         Some(w) => Err(format!(
-            "mc: scene {} has {w}; the device's Monte Carlo traces spheres under an SG sky only",
+            "mc: scene {} has {w}; the device's Monte Carlo traces spheres under an SG sky or one \
+             spherical light only",
             sc.name
         )),
         None => Ok(()),
@@ -126,7 +138,8 @@ fn source(sc: &Scene, count: usize, spp: usize, cv: bool) -> String {
 }
 
 /// Per pixel of `hits`: the estimate at `spp` samples (rounded up to whole batches)
-/// and its standard error, as [`Estimate`]s; and the samples taken per pixel.
+/// and its standard error, as [`Estimate`]s; and the samples taken per pixel. A light
+/// scene takes `plain` only (its CPU reference's estimator: uniform in the light's cap).
 pub fn estimate(
     gpu: &Gpu,
     sc: &Scene,
@@ -138,8 +151,31 @@ pub fn estimate(
     if hits.is_empty() || spp == 0 {
         return Err("mc: no pixel or no sample".into());
     }
-    let batch = batch_size(sc.spheres.len(), sc.environment.len(), est.cv())?.min(spp.next_power_of_two());
-    let batches = spp.div_ceil(batch);
+    let light = light_scene(sc);
+    if light && est != Estimator::Plain {
+        return Err(format!("mc: scene {} has a spherical light: plain only", sc.name));
+    }
+    type Source<'a> = Box<dyn Fn(usize) -> String + 'a>;
+    let (inputs, slot, per_batch, src): (Vec<f32>, usize, usize, Source) = if light {
+        let (inputs, n_in, nl) = light_inputs(sc, hits)?;
+        let per = batch_size_light(sc.spheres.len(), nl)?;
+        let slot = inputs.len() - 1 - 4 * sc.spheres.len();
+        let n = hits.len();
+        (inputs, slot, per, Box::new(move |b| source_light(sc, n, n_in, nl, b)))
+    } else {
+        let per = batch_size(sc.spheres.len(), sc.environment.len(), est.cv())?;
+        let inputs = sky_inputs(sc, hits)?;
+        let slot = N_IN * hits.len();
+        let n = hits.len();
+        (inputs, slot, per, Box::new(move |b| source(sc, n, b, est.cv())))
+    };
+    let batch = per_batch.min(spp.next_power_of_two());
+    run_batches(gpu, &src(batch), inputs, slot, hits.len(), spp.div_ceil(batch), batch)
+}
+
+/// The sky kernel's inputs: per pixel point, normal, view, k_d, k_s, Phong n, own
+/// sphere; the batch slot; the spheres; the SGs.
+fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
     let mut inputs = Vec::with_capacity(hits.len() * N_IN + 1 + 4 * sc.spheres.len() + 5 * sc.environment.len());
     for hit in hits {
         let b = Phong::of(sc.brdf(hit))?;
@@ -152,7 +188,6 @@ pub fn estimate(
         inputs.extend([b.diffuse, b.specular, b.exponent].map(|v| v as f32));
         inputs.push(hit.sphere.map_or(-1.0, |i| i as f32));
     }
-    let slot = inputs.len();
     inputs.push(0.0);
     for s in &sc.spheres {
         inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
@@ -160,17 +195,114 @@ pub fn estimate(
     for g in &sc.environment {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
-    let src = source(sc, hits.len(), batch, est.cv());
-    let dummy = gpu.upload(&dummy_texture(), Storage::F32)?;
-    let (mut sum, mut sum2, mut open) = (
-        vec![0.0f64; hits.len()],
-        vec![0.0f64; hits.len()],
-        vec![0.0; hits.len()],
+    Ok(inputs)
+}
+
+/// The light kernel's inputs (see gpu/shaders/mc_light.wgsl): per pixel point, normal,
+/// k_d/π, own sphere and `nl` Lafortune lobes (q, ρ, n); the batch slot; the spheres.
+/// Returns them, the inputs per pixel and `nl` (the most lobes of a material seen).
+fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), String> {
+    use lobefit::pipelines::scene::Brdf;
+    let lobes = |b: &Brdf| match b {
+        Brdf::Lambert { .. } => 0,
+        Brdf::Lafortune { lobes, .. } => lobes.len(),
+    };
+    let nl = hits.iter().map(|h| lobes(sc.brdf(h))).max().unwrap_or(0);
+    if nl > MAX_LOBES {
+        return Err(format!(
+            "mc: a material of {} has {nl} Lafortune lobes (at most {MAX_LOBES})",
+            sc.name
+        ));
+    }
+    let n_in = 8 + 5 * nl;
+    let mut inputs = Vec::with_capacity(hits.len() * n_in + 1 + 4 * sc.spheres.len());
+    for h in hits {
+        inputs.extend([h.x.x, h.x.y, h.x.z, h.n.x, h.n.y, h.n.z].map(|v| v as f32));
+        let (albedo, ls): (f64, &[lobefit_tables::geom::LafortuneLobe]) = match sc.brdf(h) {
+            Brdf::Lambert { albedo } => (*albedo, &[]),
+            Brdf::Lafortune { albedo, lobes } => (*albedo, lobes),
+        };
+        inputs.push((albedo / std::f64::consts::PI) as f32);
+        inputs.push(h.sphere.map_or(-1.0, |i| i as f32));
+        // The CPU's brdf_value: the lobe's value ρ (a · (C ⊙ o))^n in the frame
+        // (t, n × t, n), a and o the light and view directions there.
+        let t = (h.t - h.t.dot(h.n) * h.n).normalize();
+        let bt = h.n.cross(t);
+        let o = [h.wo.dot(t), h.wo.dot(bt), h.wo.dot(h.n)];
+        for k in 0..nl {
+            match ls.get(k) {
+                Some(l) => {
+                    let q = l.c.x * o[0] * t + l.c.y * o[1] * bt + l.c.z * o[2] * h.n;
+                    inputs.extend([q.x, q.y, q.z, l.rho, l.exponent].map(|v| v as f32));
+                }
+                None => inputs.extend([0.0, 0.0, 1.0, 0.0, 1.0]),
+            }
+        }
+    }
+    inputs.push(0.0);
+    for s in &sc.spheres {
+        inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
+    }
+    Ok((inputs, n_in, nl))
+}
+
+/// Samples per dispatch of the light kernel (see [`batch_size`]): per sample the
+/// sphere loop and the lobe loop.
+fn batch_size_light(spheres: usize, lobes: usize) -> Result<usize, String> {
+    let per = 1 + spheres as u64 + lobes as u64;
+    let fit = (budget::LOOP_LIMIT - 2) / per;
+    if fit == 0 {
+        return Err(format!(
+            "mc: {spheres} spheres: one sample is over llvmpipe's loop budget"
+        ));
+    }
+    let m = fit.min(MAX_BATCH as u64);
+    Ok(1 << (63 - m.leading_zeros()))
+}
+
+/// The light kernel for `sc` over `count` pixels of `n_in` inputs, `nl` lobes each,
+/// `spp` samples a dispatch.
+fn source_light(sc: &Scene, count: usize, n_in: usize, nl: usize, spp: usize) -> String {
+    let l = sc.lights[0];
+    let c = l.sphere.centre;
+    let batch = n_in * count;
+    let f = |v: f64| format!("{:?}", v as f32);
+    let consts = format!(
+        "const NS = {}u;\nconst NL = {nl}u;\nconst SPP = {spp}u;\nconst N_IN = {n_in}u;\nconst BATCH = {batch}u;\n\
+         const SPH0 = {}u;\nconst LIGHT = vec4<f32>({}, {}, {}, {});\nconst LIGHT_RADIANCE = {};\n\
+         fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n",
+        sc.spheres.len(),
+        batch + 1,
+        f(c.x),
+        f(c.y),
+        f(c.z),
+        f(l.sphere.radius),
+        f(l.radiance)
     );
+    let (pcg, _) = split(SHADER);
+    let pcg = &pcg[pcg.find("// PCG-RXS-M-XS").unwrap_or(0)..pcg.find("// Whether the ray").unwrap_or(0)];
+    let (functions, body) = split(SHADER_LIGHT);
+    let body = body.to_string() + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
+    kernel("texture_2d<f32>", n_in, N_OUT, &body) + &consts + pcg + functions
+}
+
+/// Runs `batches` dispatches of `src` (`batch` samples each) with the batch index at
+/// `inputs[slot]`, and turns the sums into estimates.
+fn run_batches(
+    gpu: &Gpu,
+    src: &str,
+    mut inputs: Vec<f32>,
+    slot: usize,
+    count: usize,
+    batches: usize,
+    batch: usize,
+) -> Result<(Vec<Estimate>, usize), String> {
+    let dummy = gpu.upload(&dummy_texture(), Storage::F32)?;
+    let (mut sum, mut sum2, mut open) = (vec![0.0f64; count], vec![0.0f64; count], vec![0.0; count]);
     for k in 0..batches {
         inputs[slot] = k as f32;
-        let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, hits.len(), N_OUT)?;
-        budget::flags("mc", got.chunks(N_OUT).map(|c| c[3]), hits.len(), |f| {
+        let got = gpu.run(src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, count, N_OUT)?;
+        budget::flags("mc", got.chunks(N_OUT).map(|c| c[3]), count, |f| {
             format!("unknown flag {f}")
         })?;
         for (p, c) in got.chunks(N_OUT).enumerate() {
@@ -180,7 +312,7 @@ pub fn estimate(
         }
     }
     let n = (batches * batch) as f64;
-    let out = (0..hits.len())
+    let out = (0..count)
         .map(|p| {
             let mean = sum[p] / n;
             let var = ((sum2[p] / n - mean * mean) * n / (n - 1.0).max(1.0)).max(0.0);
@@ -200,8 +332,17 @@ pub fn cpu_estimate(sc: &Scene, hits: &[&Hit], spp: usize, est: Estimator, seed:
     hits.iter()
         .enumerate()
         .map(|(p, h)| {
-            let b = Phong::of(sc.brdf(h))?;
             let seed = seed ^ (p as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            if light_scene(sc) {
+                return Ok(lobefit::pipelines::meunier::render::reference(
+                    sc,
+                    &sc.lights[0],
+                    h,
+                    spp,
+                    seed,
+                ));
+            }
+            let b = Phong::of(sc.brdf(h))?;
             Ok(match est {
                 Estimator::Plain => reference(&sc.environment, &b, |v| sc.occluded(h, v), h, spp, seed),
                 Estimator::CvMis => reference_cv(
@@ -242,7 +383,8 @@ pub fn agreement(a: &[Estimate], b: &[Estimate]) -> (f64, f64, f64) {
 /// `lobefit-gpu mc`'s options.
 #[derive(clap::Parser)]
 pub struct Args {
-    /// An ISG scene (fig12, fig12-diffuse) or a scene file of spheres under an SG sky.
+    /// An ISG scene (fig12, fig12-diffuse: spheres under an SG sky), a Meunier scene
+    /// (fig13, glossy: one spherical light; `plain` only) or such a scene file.
     #[arg(long, default_value = "fig12")]
     scene: String,
     /// Image width (height 3/4 of it).
@@ -272,7 +414,9 @@ const FAR_MAX: f64 = 0.01;
 /// samples per pixel, independent random numbers); exit 1 when they disagree beyond
 /// their standard errors.
 pub fn run(a: Args) -> Result<ExitCode, String> {
-    let sc = lobefit::pipelines::isg::render::scene(&a.scene)?;
+    // An ISG scene, else a Meunier one (its light-scene kernel).
+    let sc = lobefit::pipelines::isg::render::scene(&a.scene)
+        .or_else(|e| lobefit::pipelines::meunier::render::scene(&a.scene).map_err(|e2| format!("{e}; {e2}")))?;
     supported(&sc)?;
     let (w, h) = ((a.width as usize).max(4), (a.width as usize * 3 / 4).max(3));
     sc.check_camera()?;
@@ -334,16 +478,19 @@ pub struct McRow {
     pub rel_rmse: f64,
 }
 
-/// The bench's comparison on one ISG scene: the analytic kernel and the device's
+/// The bench's comparison on one scene: the analytic kernel and the device's
 /// Monte Carlo at [`BENCH_SPP`], each against the CPU reference, and where each
 /// estimator reaches the analytic kernel's error.
 pub struct McBench {
+    /// The pipeline whose device kernel is compared (isg, meunier).
+    pub pipeline: &'static str,
     /// The scene's name.
     pub scene: String,
     /// Pixels that see geometry.
     pub pixels: usize,
-    /// The reference's samples per pixel and its mean relative standard error.
-    pub reference: (usize, f64),
+    /// The reference's estimator (the CPU's), samples per pixel and mean relative
+    /// standard error.
+    pub reference: (Estimator, usize, f64),
     /// The analytic kernel's relative RMSE against the reference and its ms/frame.
     pub analytic: (f64, f64),
     /// The Monte Carlo rows.
@@ -351,6 +498,17 @@ pub struct McBench {
 }
 
 impl McBench {
+    /// The estimators measured, in order.
+    pub fn estimators(&self) -> Vec<Estimator> {
+        let mut v: Vec<Estimator> = Vec::new();
+        for r in &self.rows {
+            if !v.contains(&r.estimator) {
+                v.push(r.estimator);
+            }
+        }
+        v
+    }
+
     /// Per estimator: (samples per pixel, ms/frame) where its error reaches the
     /// analytic kernel's, interpolated log-log between measured points; `None` beyond
     /// the measured range (then the last point is a lower bound).
@@ -372,13 +530,14 @@ impl McBench {
 }
 
 /// The bench's Monte Carlo comparison on `sc` at `width`: the analytic values
-/// `analytic` (the device's ISG image over the pixels that see geometry, timed at
-/// `analytic_ms` per frame) and every estimator at [`bench_spp`]`(max_spp)` against
-/// the CPU's control-variate estimator at [`REF_SPP`]. A frame of more samples than a
+/// `analytic` (the device's image of `pipeline` over the pixels that see geometry, timed at
+/// `analytic_ms` per frame) and every estimator the scene takes at
+/// [`bench_spp`]`(max_spp)` against the CPU's strongest of them at [`REF_SPP`]. A frame of more samples than a
 /// dispatch takes is several dispatches: its time per frame is the sum of their
 /// times, each frame timed as the bench times a kernel.
 pub fn bench(
     gpu: &Gpu,
+    pipeline: &'static str,
     sc: &Scene,
     width: usize,
     analytic: &[f64],
@@ -397,14 +556,21 @@ pub fn bench(
             refs.len()
         ));
     }
-    let reference = cpu_estimate(sc, &refs, REF_SPP, Estimator::CvMis, 0x7265)?;
+    // The CPU's strongest estimator the device has too: cv-mis under a sky, plain
+    // (uniform in the cap) for a light.
+    let estimators: &[Estimator] = if light_scene(sc) {
+        &[Estimator::Plain]
+    } else {
+        &[Estimator::Plain, Estimator::CvMis]
+    };
+    let reference = cpu_estimate(sc, &refs, REF_SPP, estimators[estimators.len() - 1], 0x7265)?;
     let mean: Vec<f64> = reference.iter().map(|e| e.mean).collect();
     let se: Vec<f64> = reference.iter().map(|e| e.std_error).collect();
     let mask = vec![true; refs.len()];
     let mean_ref = mean.iter().sum::<f64>() / mean.len() as f64;
     let ref_rel_se = se.iter().sum::<f64>() / se.len() as f64 / mean_ref;
     let mut rows = Vec::new();
-    for est in [Estimator::Plain, Estimator::CvMis] {
+    for &est in estimators {
         for spp in bench_spp(max_spp) {
             gpu.take_dispatches();
             let (got, n) = estimate(gpu, sc, &refs, spp, est)?;
@@ -424,9 +590,10 @@ pub fn bench(
         }
     }
     Ok(McBench {
+        pipeline,
         scene: sc.name.clone(),
         pixels: refs.len(),
-        reference: (REF_SPP, ref_rel_se),
+        reference: (estimators[estimators.len() - 1], REF_SPP, ref_rel_se),
         analytic: (noise_free_rel_rmse(analytic, &mean, &se, &mask), analytic_ms),
         rows,
     })

@@ -1,0 +1,87 @@
+// lobefit-gpu's Monte Carlo kernel for Meunier's scenes (spheres, one spherical light,
+// Lambert and Lafortune materials): per pixel, SPP directions uniform in the light's
+// cap (the CPU's `meunier::render::reference`), each lit when no sphere but the pixel's
+// own meets the ray before the light. The constants and accessors (NS, NL, SPP, BATCH,
+// SPH0, LIGHT, sph) come from gpu/src/mc.rs; random numbers as mc.wgsl's (mc_pcg,
+// mc_uniform, shared through the kernel's source). Inputs per pixel: the point, the
+// normal, k_d/π, the own sphere (−1: none), then NL Lafortune lobes as (q, ρ, n) with
+// the lobe's value ρ max(q·v, 0)^n (q = C ⊙ the view direction in the surface's frame,
+// back in world space: exact). Outputs: Σ f, Σ f², 0, the budget flag.
+
+// Whether the ray x + t v meets a sphere other than `own` before t_light.
+fn mcl_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_light: f32) -> bool {
+    for (var b = 0u; b < NS; b++) {
+        if i32(b) == own {
+            continue;
+        }
+        let s = sph(b);
+        let oc = x - s.xyz;
+        let bb = dot(oc, v);
+        let c = dot(oc, oc) - s.w * s.w;
+        let disc = bb * bb - c;
+        if disc >= 0.0 {
+            let sq = sqrt(disc);
+            let hi = -bb + sq;
+            let lo = -bb - sq;
+            // The nearest root ahead, as the CPU's ray_sphere.
+            var t = hi;
+            if lo > 0.0 {
+                t = lo;
+            }
+            if hi > 0.0 && t < t_light {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// ---- main: the kernel's body (the statements inside its entry point, kernel.rs)
+    var budget_flag = 0.0;
+    let x = vec3<f32>(x0, x1, x2);
+    let n = normalize(vec3<f32>(x3, x4, x5));
+    let f_d = x6;
+    let own = i32(x7);
+    let to = LIGHT.xyz - x;
+    let d = length(to);
+    let w = to / d;
+    let cos_a = sqrt(max(1.0 - (LIGHT.w / d) * (LIGHT.w / d), 0.0));
+    let omega = 2.0 * LF_PI * (1.0 - cos_a);
+    let u = lf_any_orthonormal(w);
+    let v = cross(w, u);
+    let batch = u32(X[BATCH]);
+    var sum = 0.0;
+    var sum2 = 0.0;
+    for (var j = 0u; j < SPP; j++) {
+        let key = mc_pcg(i ^ mc_pcg(batch * SPP + j + 0x68e31da4u));
+        let mu = 1.0 - mc_uniform(key, 0u) * (1.0 - cos_a);
+        let phi = 2.0 * LF_PI * mc_uniform(key, 1u);
+        let st = sqrt(max(1.0 - mu * mu, 0.0));
+        let dir = normalize(mu * w + st * (cos(phi) * u + sin(phi) * v));
+        let c = dot(n, dir);
+        var f = 0.0;
+        if c > 0.0 {
+            // The light's near surface along dir.
+            let oc = x - LIGHT.xyz;
+            let bb = dot(oc, dir);
+            let disc = max(bb * bb - (dot(oc, oc) - LIGHT.w * LIGHT.w), 0.0);
+            let t_light = -bb - sqrt(disc);
+            if !mcl_blocked(x, dir, own, t_light) {
+                var brdf = f_d;
+                for (var k = 0u; k < NL; k++) {
+                    let lo = i * N_IN + 8u + 5u * k;
+                    let q = vec3<f32>(X[lo], X[lo + 1u], X[lo + 2u]);
+                    let s = dot(q, dir);
+                    if s > 0.0 {
+                        brdf += X[lo + 3u] * pow(s, X[lo + 4u]);
+                    }
+                }
+                f = brdf * LIGHT_RADIANCE * c * omega;
+            }
+        }
+        sum += f;
+        sum2 += f * f;
+    }
+    Y[o] = sum;
+    Y[o + 1u] = sum2;
+    Y[o + 2u] = 0.0;
