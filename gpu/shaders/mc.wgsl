@@ -2,10 +2,12 @@
 // environment, Phong materials): per pixel, SPP samples of the CPU's one-sample
 // mixture (pipelines/sky.rs `mis`: the cosine, the Phong lobe, the SGs; balance
 // heuristic) with exact visibility against every sphere. The kernel's constants and
-// accessors (NS, NE, SPH0, ENV0, SPP, CV, sph, env) and the batch index (X[BATCH]) come
-// from gpu/src/mc.rs. Random numbers: a PCG hash of (pixel, batch, sample, dimension),
-// independent streams per pixel and batch (the CPU draws its own: the two agree in
-// distribution, not sample by sample). CV = true: the control variate of the CPU's
+// accessors (NS, NE, SPH0, ENV0, SPP, CV, QMC, SOBOL, sph, env) and the batch index
+// (X[BATCH]) come from gpu/src/mc.rs. Uniforms (mc_point): a PCG hash of (pixel,
+// sample, dimension), or with QMC Owen-scrambled Sobol points seeded per pixel, the
+// sample index running on across batches (the CPU draws its own: the two agree in
+// distribution, not sample by sample). Dimension 0 picks the strategy, 1 and 2 draw
+// its direction, 3 the SG. CV = true: the control variate of the CPU's
 // `reference_cv` (the unoccluded diffuse term in closed form, lf_sg_clamped_cosine;
 // Monte Carlo of the occluded diffuse and the specular part) with the SGs picked by
 // their contribution at the point (`Select::Contribution`). Outputs per pixel: the sum
@@ -22,6 +24,55 @@ fn mc_pcg(v: u32) -> u32 {
 // A uniform in [0, 1) from the stream `key` (pixel, batch, sample) at dimension d.
 fn mc_uniform(key: u32, d: u32) -> f32 {
     return f32(mc_pcg(key ^ mc_pcg(d + 0x9e3779b9u)) >> 8u) * (1.0 / 16777216.0);
+}
+
+// Owen-scrambled Sobol points (Burley 2020, "Practical Hash-based Owen Scrambling"):
+// the index shuffled by a nested uniform scramble, each of 4 dimensions scrambled with
+// its own seed; SOBOL holds the first 4 dimensions' direction numbers (gpu/src/mc.rs).
+fn mc_lk(x0: u32, seed: u32) -> u32 {
+    var x = x0 + seed;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return x;
+}
+
+fn mc_nus(x: u32, seed: u32) -> u32 {
+    return reverseBits(mc_lk(reverseBits(x), seed));
+}
+
+fn mc_sobol(index: u32, dim: u32) -> u32 {
+    var x = 0u;
+    var v = index;
+    var b = 0u;
+    while v != 0u {
+        if (v & 1u) != 0u {
+            x ^= SOBOL[dim * 32u + b];
+        }
+        v >>= 1u;
+        b += 1u;
+    }
+    return x;
+}
+
+// The 4 uniforms of sample `index` of pixel `pixel`: Owen-scrambled Sobol (QMC) or
+// the PCG hash.
+fn mc_point(pixel: u32, index: u32) -> vec4<f32> {
+    var u: vec4<f32>;
+    if QMC {
+        let seed = mc_pcg(pixel ^ 0x2545f491u);
+        let k = mc_nus(index, seed);
+        for (var d = 0u; d < 4u; d++) {
+            u[d] = f32(mc_nus(mc_sobol(k, d), mc_pcg(seed ^ ((d + 1u) * 0x9e3779b9u))) >> 8u) * (1.0 / 16777216.0);
+        }
+        return u;
+    }
+    let key = mc_pcg(pixel ^ mc_pcg(index + 0x68e31da4u));
+    for (var d = 0u; d < 4u; d++) {
+        u[d] = mc_uniform(key, d);
+    }
+    return u;
 }
 
 // Whether the ray x + t v (t > 0) meets a sphere other than `own`.
@@ -126,27 +177,27 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
     var sum = 0.0;
     var sum2 = 0.0;
     for (var j = 0u; j < SPP; j++) {
-        let key = mc_pcg(i ^ mc_pcg(batch * SPP + j + 0x68e31da4u));
-        let pick = mc_uniform(key, 0u);
+        let u4 = mc_point(i, batch * SPP + j);
+        let pick = u4.x;
         var w: vec3<f32>;
         if pick < p_cos {
-            let u1 = mc_uniform(key, 1u);
-            let u2 = 2.0 * LF_PI * mc_uniform(key, 2u);
+            let u1 = u4.y;
+            let u2 = 2.0 * LF_PI * u4.z;
             let s = sqrt(u1);
             w = s * (cos(u2) * t + sin(u2) * bt) + sqrt(1.0 - u1) * n;
         } else if pick < p_cos + p_phong {
-            let c = pow(mc_uniform(key, 1u), 1.0 / (e + 1.0));
+            let c = pow(u4.y, 1.0 / (e + 1.0));
             let s = sqrt(max(1.0 - c * c, 0.0));
-            let p = 2.0 * LF_PI * mc_uniform(key, 2u);
+            let p = 2.0 * LF_PI * u4.z;
             w = c * r + s * (cos(p) * rt + sin(p) * rb);
         } else {
-            var u = mc_uniform(key, 3u) * total;
+            var u = u4.w * total;
             var k = 0u;
             while k + 1u < NE && u >= energy[k] {
                         u -= energy[k];
                 k += 1u;
             }
-            w = mc_sample_sg(env(k), mc_uniform(key, 1u), mc_uniform(key, 2u));
+            w = mc_sample_sg(env(k), u4.y, u4.z);
         }
         w = normalize(w);
         let c = dot(n, w);

@@ -2,8 +2,8 @@
 // Lambert and Lafortune materials): per pixel, SPP directions uniform in the light's
 // cap (the CPU's `meunier::render::reference`), each lit when no sphere but the pixel's
 // own meets the ray before the light. The constants and accessors (NS, NL, SPP, BATCH,
-// SPH0, LIGHT, sph) come from gpu/src/mc.rs; random numbers as mc.wgsl's (mc_pcg,
-// mc_uniform, shared through the kernel's source). Inputs per pixel: the point, the
+// SPH0, LIGHT, QMC, SOBOL, sph) come from gpu/src/mc.rs; uniforms as mc.wgsl's
+// (mc_point and its helpers, shared through the kernel's source). Inputs per pixel: the point, the
 // normal, k_d/π, the own sphere (−1: none), then NL Lafortune lobes as (q, ρ, n) with
 // the lobe's value ρ max(q·v, 0)^n (q = C ⊙ the view direction in the surface's frame,
 // back in world space: exact). Outputs: Σ f, Σ f², 0, the budget flag.
@@ -53,9 +53,9 @@ fn mcl_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_light: f32) -> bool {
     var sum = 0.0;
     var sum2 = 0.0;
     for (var j = 0u; j < SPP; j++) {
-        let key = mc_pcg(i ^ mc_pcg(batch * SPP + j + 0x68e31da4u));
-        let mu = 1.0 - mc_uniform(key, 0u) * (1.0 - cos_a);
-        let phi = 2.0 * LF_PI * mc_uniform(key, 1u);
+        let u4 = mc_point(i, batch * SPP + j);
+        let mu = 1.0 - u4.x * (1.0 - cos_a);
+        let phi = 2.0 * LF_PI * u4.y;
         let st = sqrt(max(1.0 - mu * mu, 0.0));
         let dir = normalize(mu * w + st * (cos(phi) * u + sin(phi) * v));
         let c = dot(n, dir);
