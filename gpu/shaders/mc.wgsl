@@ -2,7 +2,7 @@
 // environment, Phong materials): per pixel, SPP samples of the CPU's one-sample
 // mixture (pipelines/sky.rs `mis`: the cosine, the Phong lobe, the SGs; balance
 // heuristic) with exact visibility against every sphere. The kernel's constants and
-// accessors (NS, NE, SPH0, ENV0, SPP, CV, QMC, SOBOL, sph, env) and the batch index
+// accessors (NS, NE, SPH0, ENV0, SOBOL0, SPP, CV, QMC, sph, env) and the batch index
 // (X[BATCH]) come from gpu/src/mc.rs. Uniforms (mc_point): a PCG hash of (pixel,
 // sample, dimension), or with QMC Owen-scrambled Sobol points seeded per pixel, the
 // sample index running on across batches (the CPU draws its own: the two agree in
@@ -28,7 +28,8 @@ fn mc_uniform(key: u32, d: u32) -> f32 {
 
 // Owen-scrambled Sobol points (Burley 2020, "Practical Hash-based Owen Scrambling"):
 // the index shuffled by a nested uniform scramble, each of 4 dimensions scrambled with
-// its own seed; SOBOL holds the first 4 dimensions' direction numbers (gpu/src/mc.rs).
+// its own seed; the first 4 dimensions' direction numbers follow the scene in the
+// input buffer (gpu/src/mc.rs).
 fn mc_lk(x0: u32, seed: u32) -> u32 {
     var x = x0 + seed;
     x ^= x * 0x6c50b47cu;
@@ -42,13 +43,22 @@ fn mc_nus(x: u32, seed: u32) -> u32 {
     return reverseBits(mc_lk(reverseBits(x), seed));
 }
 
-fn mc_sobol(index: u32, dim: u32) -> u32 {
-    var x = 0u;
+// The direction number of dimension `dim`, bit `b`: two 16-bit halves stored as exact
+// f32 integers in the input buffer at SOBOL0 (uniform across the invocations: plain
+// loads, where a private or constant array indexed at run time costs a copy per lane).
+fn mc_direction(dim: u32, b: u32) -> u32 {
+    let k = SOBOL0 + 2u * (dim * 32u + b);
+    return u32(X[k]) | (u32(X[k + 1u]) << 16u);
+}
+
+// The 4 dimensions' Sobol values of `index` at once (one pass over its bits).
+fn mc_sobol4(index: u32) -> vec4<u32> {
+    var x = vec4<u32>(0u);
     var v = index;
     var b = 0u;
     while v != 0u {
         if (v & 1u) != 0u {
-            x ^= SOBOL[dim * 32u + b];
+            x ^= vec4<u32>(mc_direction(0u, b), mc_direction(1u, b), mc_direction(2u, b), mc_direction(3u, b));
         }
         v >>= 1u;
         b += 1u;
@@ -56,23 +66,26 @@ fn mc_sobol(index: u32, dim: u32) -> u32 {
     return x;
 }
 
+// A uniform in [0, 1) from 32 random bits (their top 24).
+fn mc_unit(x: u32) -> f32 {
+    return f32(x >> 8u) * (1.0 / 16777216.0);
+}
+
 // The 4 uniforms of sample `index` of pixel `pixel`: Owen-scrambled Sobol (QMC) or
 // the PCG hash.
 fn mc_point(pixel: u32, index: u32) -> vec4<f32> {
-    var u: vec4<f32>;
     if QMC {
         let seed = mc_pcg(pixel ^ 0x2545f491u);
-        let k = mc_nus(index, seed);
-        for (var d = 0u; d < 4u; d++) {
-            u[d] = f32(mc_nus(mc_sobol(k, d), mc_pcg(seed ^ ((d + 1u) * 0x9e3779b9u))) >> 8u) * (1.0 / 16777216.0);
-        }
-        return u;
+        let x = mc_sobol4(mc_nus(index, seed));
+        return vec4<f32>(
+            mc_unit(mc_nus(x.x, mc_pcg(seed ^ 0x9e3779b9u))),
+            mc_unit(mc_nus(x.y, mc_pcg(seed ^ 0x3c6ef372u))),
+            mc_unit(mc_nus(x.z, mc_pcg(seed ^ 0xdaa66d2bu))),
+            mc_unit(mc_nus(x.w, mc_pcg(seed ^ 0x78dde6e4u))),
+        );
     }
     let key = mc_pcg(pixel ^ mc_pcg(index + 0x68e31da4u));
-    for (var d = 0u; d < 4u; d++) {
-        u[d] = mc_uniform(key, d);
-    }
-    return u;
+    return vec4<f32>(mc_uniform(key, 0u), mc_uniform(key, 1u), mc_uniform(key, 2u), mc_uniform(key, 3u));
 }
 
 // Whether the ray x + t v (t > 0) meets a sphere other than `own`.

@@ -2,7 +2,7 @@
 // Lambert and Lafortune materials): per pixel, SPP directions uniform in the light's
 // cap (the CPU's `meunier::render::reference`), each lit when no sphere but the pixel's
 // own meets the ray before the light. The constants and accessors (NS, NL, SPP, BATCH,
-// SPH0, LIGHT, QMC, SOBOL, sph) come from gpu/src/mc.rs; uniforms as mc.wgsl's
+// SPH0, SOBOL0, LIGHT, QMC, sph) come from gpu/src/mc.rs; uniforms as mc.wgsl's
 // (mc_point and its helpers, shared through the kernel's source). Inputs per pixel: the point, the
 // normal, k_d/π, the own sphere (−1: none), then NL Lafortune lobes as (q, ρ, n) with
 // the lobe's value ρ max(q·v, 0)^n (q = C ⊙ the view direction in the surface's frame,

@@ -113,13 +113,13 @@ fn sobol_directions() -> [u32; 128] {
     out
 }
 
-/// The WGSL constants of the uniforms: `QMC` and the direction numbers `SOBOL`.
-fn uniforms_consts(qmc: bool) -> String {
-    let dirs: Vec<String> = sobol_directions().iter().map(|d| format!("{d}u")).collect();
-    format!(
-        "const QMC = {qmc};\nconst SOBOL = array<u32, 128>({});\n",
-        dirs.join(", ")
-    )
+/// The direction numbers as the kernels read them (`mc_direction`): each as two 16-bit
+/// halves, exact in f32; they end the input buffer, at `SOBOL0`.
+fn direction_inputs() -> Vec<f32> {
+    sobol_directions()
+        .iter()
+        .flat_map(|&d| [(d & 0xffff) as f32, (d >> 16) as f32])
+        .collect()
 }
 
 /// Loop iterations of one pixel before its samples (the SG weights, with the control
@@ -136,13 +136,13 @@ fn iterations(spheres: usize, sgs: usize, est: Estimator) -> (u64, u64) {
     (setup, 1 + point_iterations(est) + ne + (ne + 1) + ns)
 }
 
-/// Loop iterations of one sample's uniforms (`mc_point`): 4 dimensions, each with
-/// QMC a loop over the index's 32 bits at most.
+/// Loop iterations of one sample's uniforms (`mc_point`): with QMC one loop over the
+/// index's 32 bits at most.
 fn point_iterations(est: Estimator) -> u64 {
     if est.qmc() {
-        4 * (1 + 33) + 1
+        33
     } else {
-        5
+        0
     }
 }
 
@@ -197,16 +197,18 @@ fn source(sc: &Scene, count: usize, spp: usize, est: Estimator) -> String {
     let (ns, ne) = (sc.spheres.len(), sc.environment.len());
     let batch = N_IN * count;
     let consts = format!(
-        "const NS = {ns}u;\nconst NE = {ne}u;\nconst SPP = {spp}u;\nconst CV = {cv};\nconst BATCH = {batch}u;\n\
-         const SPH0 = {}u;\nconst ENV0 = {}u;\n\
+        "const NS = {ns}u;\nconst NE = {ne}u;\nconst SPP = {spp}u;\nconst CV = {cv};\nconst QMC = {};\n\
+         const BATCH = {batch}u;\nconst SPH0 = {}u;\nconst ENV0 = {}u;\nconst SOBOL0 = {}u;\n\
          fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
          fn env(e: u32) -> LfSg {{\n    let k = ENV0 + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n",
+        est.qmc(),
         batch + 1,
-        batch + 1 + 4 * ns
+        batch + 1 + 4 * ns,
+        batch + 1 + 4 * ns + 5 * ne
     );
     let (functions, body) = split(SHADER);
     let body = body.to_string() + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
-    kernel("texture_2d<f32>", N_IN, N_OUT, &body) + &consts + &uniforms_consts(est.qmc()) + functions
+    kernel("texture_2d<f32>", N_IN, N_OUT, &body) + &consts + functions
 }
 
 /// Per pixel of `hits`: the estimate at `spp` samples (rounded up to whole batches)
@@ -234,7 +236,7 @@ pub fn estimate(
     let (inputs, slot, per_batch, src): (Vec<f32>, usize, usize, Source) = if light {
         let (inputs, n_in, nl) = light_inputs(sc, hits)?;
         let per = batch_size_light(sc.spheres.len(), nl, est)?;
-        let slot = inputs.len() - 1 - 4 * sc.spheres.len();
+        let slot = n_in * hits.len();
         let n = hits.len();
         (
             inputs,
@@ -275,6 +277,7 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
     for g in &sc.environment {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
+    inputs.extend(direction_inputs());
     Ok(inputs)
 }
 
@@ -323,6 +326,7 @@ fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), S
     for s in &sc.spheres {
         inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
     }
+    inputs.extend(direction_inputs());
     Ok((inputs, n_in, nl))
 }
 
@@ -349,10 +353,12 @@ fn source_light(sc: &Scene, count: usize, n_in: usize, nl: usize, spp: usize, qm
     let f = |v: f64| format!("{:?}", v as f32);
     let consts = format!(
         "const NS = {}u;\nconst NL = {nl}u;\nconst SPP = {spp}u;\nconst N_IN = {n_in}u;\nconst BATCH = {batch}u;\n\
-         const SPH0 = {}u;\nconst LIGHT = vec4<f32>({}, {}, {}, {});\nconst LIGHT_RADIANCE = {};\n\
+         const QMC = {qmc};\nconst SPH0 = {}u;\nconst SOBOL0 = {}u;\n\
+         const LIGHT = vec4<f32>({}, {}, {}, {});\nconst LIGHT_RADIANCE = {};\n\
          fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n",
         sc.spheres.len(),
         batch + 1,
+        batch + 1 + 4 * sc.spheres.len(),
         f(c.x),
         f(c.y),
         f(c.z),
@@ -363,7 +369,7 @@ fn source_light(sc: &Scene, count: usize, n_in: usize, nl: usize, spp: usize, qm
     let pcg = &pcg[pcg.find("// PCG-RXS-M-XS").unwrap_or(0)..pcg.find("// Whether the ray").unwrap_or(0)];
     let (functions, body) = split(SHADER_LIGHT);
     let body = body.to_string() + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
-    kernel("texture_2d<f32>", n_in, N_OUT, &body) + &consts + &uniforms_consts(qmc) + pcg + functions
+    kernel("texture_2d<f32>", n_in, N_OUT, &body) + &consts + pcg + functions
 }
 
 /// Runs `batches` dispatches of `src` (`batch` samples each) with the batch index at
