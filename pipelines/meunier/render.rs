@@ -14,7 +14,7 @@ use std::path::Path;
 
 use lobefit_tables::geom::SphereLight;
 use lobefit_tables::glam::DVec3;
-use lobefit_tables::mask_weights::{build_mask, Cap, MaskMode, WeightSet};
+use lobefit_tables::mask_weights::{build_mask, Cap, MaskCell, MaskMode, WeightSet};
 use lobefit_tables::meunier::{LightModel, MaskSettings};
 use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
@@ -206,30 +206,7 @@ fn breakdown(
     } else {
         Vec::new()
     };
-    let light_dist = (light.sphere.centre - h.x).length();
-    let caps: Vec<Cap> = blockers
-        .iter()
-        .filter(|b| (b.centre - h.x).length() - b.radius < light_dist)
-        .map(|b| {
-            let to = b.centre - h.x;
-            let d = to.length();
-            Cap {
-                axis: to / d,
-                half_angle: (b.radius / d).asin(),
-            }
-        })
-        .collect();
-    let mask = build_mask(lcap, &caps, settings.depth).map_err(|e| e.to_string())?;
-    let leaves: Vec<_> = mask.leaves(settings.depth, settings.mode).collect();
-    let mut w = [0.0; lobefit_tables::mask_weights::MAX_DEPTH as usize];
-    m.weights
-        .weights(settings.weights, settings.mode, settings.depth, mask.dist, &mut w)
-        .map_err(|e| e.to_string())?;
-    // Each leaf's bounding cap as (axis, cos half-angle, weight).
-    let bounding: Vec<(DVec3, f64, f64)> = leaves
-        .iter()
-        .map(|c| (c.axis, c.half_angle.cos(), w[c.depth.max(1) as usize - 1]))
-        .collect();
+    let (leaves, bounding) = leaf_caps(m, h, light, lcap, &blockers, settings)?;
     // Rule: Gauss–Legendre in θ on [0, α] and [α, θ_max] (θ_max where the light lobe
     // falls below 1e-9 of its peak), uniform in φ.
     let alpha = lcap.half_angle;
@@ -307,6 +284,45 @@ fn breakdown(
         }
     }
     Ok(out)
+}
+
+/// The mask of the light's cap `lcap` under the blockers nearer than the light, at
+/// `settings`' depth and mode: its leaf cells, and each leaf's bounding cap as (axis,
+/// cos half-angle, weight) with the settings' weights.
+#[allow(clippy::type_complexity)]
+fn leaf_caps(
+    m: &Meunier<'_>,
+    h: &Hit,
+    light: &SphereLight,
+    lcap: Cap,
+    blockers: &[crate::scene::Sphere],
+    settings: &MaskSettings,
+) -> Result<(Vec<MaskCell>, Vec<(DVec3, f64, f64)>), String> {
+    let light_dist = (light.sphere.centre - h.x).length();
+    let caps: Vec<Cap> = blockers
+        .iter()
+        .filter(|b| (b.centre - h.x).length() - b.radius < light_dist)
+        .map(|b| {
+            let to = b.centre - h.x;
+            let d = to.length();
+            Cap {
+                axis: to / d,
+                half_angle: (b.radius / d).asin(),
+            }
+        })
+        .collect();
+    let mask = build_mask(lcap, &caps, settings.depth).map_err(|e| e.to_string())?;
+    let leaves: Vec<MaskCell> = mask.leaves(settings.depth, settings.mode).cloned().collect();
+    let mut w = [0.0; lobefit_tables::mask_weights::MAX_DEPTH as usize];
+    m.weights
+        .weights(settings.weights, settings.mode, settings.depth, mask.dist, &mut w)
+        .map_err(|e| e.to_string())?;
+    // Each leaf's bounding cap as (axis, cos half-angle, weight).
+    let bounding: Vec<(DVec3, f64, f64)> = leaves
+        .iter()
+        .map(|c| (c.axis, c.half_angle.cos(), w[c.depth.max(1) as usize - 1]))
+        .collect();
+    Ok((leaves, bounding))
 }
 
 /// Renders the scene `name` (a built-in, [`super::PIPELINE`]'s `scenes`, or a scene
@@ -613,70 +629,15 @@ fn breakdown_lines(
     r: &Reference,
     lines: &mut Vec<String>,
 ) -> Result<(), String> {
-    let (tag, scene, hits, stride, mean_ref) = (&f.tag, f.scene, &f.hits, f.stride(), r.mean);
+    let (tag, scene, hits, mean_ref) = (&f.tag, f.scene, &f.hits, r.mean);
     let default = MaskSettings::default();
     let picks = f.picks();
     let rms_of = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt() / mean_ref;
     let mut parts: Vec<Parts> = Vec::new();
     for light_model in LightModel::ALL {
-        let s = MaskSettings {
-            light: light_model,
-            ..default
-        };
-        let run: Vec<(f64, Parts)> = picks
-            .par_iter()
-            .map(|&p| {
-                let hit = hits[p].expect("lit");
-                let pipeline = m
-                    .radiance(
-                        hit.x,
-                        hit.n,
-                        hit.t,
-                        hit.wo,
-                        scene.brdf(&hit),
-                        &[*light],
-                        &scene.blockers(&hit),
-                        &s,
-                    )
-                    .map_err(|e| e.to_string())?;
-                Ok((pipeline, breakdown(m, scene, light, &hit, &s)?))
-            })
-            .collect::<Result<_, String>>()?;
-        let chain: Vec<[f64; 6]> = run
-            .iter()
-            .map(|(p, q)| [*p, q.model, q.exact[0], q.exact[1], q.exact[2], q.exact[3]])
-            .collect();
-        let total_rms = rms_of(&chain.iter().map(|c| c[0] - c[5]).collect::<Vec<_>>());
-        lines.push(format!(
-            "{tag}: light {}: error breakdown over {} pixels (every {stride}th): total RMS {total_rms:.4} of the mean reference (quadrature, not MC); each switch to exact, in order:",
-            light_model.name(),
-            chain.len()
-        ));
-        let names = [
-            "lobe-product algebra (tables → quadrature of the same sums)",
-            "light (→ the light's cap)",
-            "leaf cap → lobe fit (→ the leaves' bounding caps, same weights)",
-            "weights / overlaps (weighted bounding caps → the leaf cells' union)",
-            "mask depth / aggressive (→ exact visibility)",
-        ];
-        for (k, name) in names.iter().enumerate() {
-            let d: Vec<f64> = chain.iter().map(|c| c[k] - c[k + 1]).collect();
-            let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_ref;
-            lines.push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
-        }
-        if light_model == LightModel::Lobe {
-            // The studied fitted coaxial lobes in place of the paper's, by the same rule.
-            for k in 0..light_fit::MAX_LOBES {
-                let term = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[0]).collect::<Vec<_>>());
-                let total = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[3]).collect::<Vec<_>>());
-                lines.push(format!(
-                    "{tag}:   studied: {} fitted coaxial lobe(s) per light: light term RMS {term:.4}, total (exact algebra) {total:.4}",
-                    k + 1
-                ));
-            }
-        }
+        let run = light_breakdown(f, m, light, mean_ref, &picks, light_model, lines)?;
         if light_model == default.light {
-            parts = run.into_iter().map(|(_, q)| q).collect();
+            parts = run;
         }
     }
     // The mask's lobes under the light's exact cap (E2 − E5), for each weight set: what
@@ -719,4 +680,78 @@ fn breakdown_lines(
         "{tag}:   (the breakdown's exact quadrature against the MC reference: RMS {quad_vs_mc:.4})"
     ));
     Ok(())
+}
+
+/// One light model's breakdown on `picks` (lines in `lines`): the chain of
+/// approximations switched to exact in turn, and with the paper's lobe light the
+/// studied fitted lobes. Returns each pick's [`Parts`].
+fn light_breakdown(
+    f: &Frame<'_>,
+    m: &Meunier<'_>,
+    light: &SphereLight,
+    mean_ref: f64,
+    picks: &[usize],
+    light_model: LightModel,
+    lines: &mut Vec<String>,
+) -> Result<Vec<Parts>, String> {
+    let (tag, scene, hits, stride) = (&f.tag, f.scene, &f.hits, f.stride());
+    let rms_of = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt() / mean_ref;
+    let default = MaskSettings::default();
+    let s = MaskSettings {
+        light: light_model,
+        ..default
+    };
+    let run: Vec<(f64, Parts)> = picks
+        .par_iter()
+        .map(|&p| {
+            let hit = hits[p].expect("lit");
+            let pipeline = m
+                .radiance(
+                    hit.x,
+                    hit.n,
+                    hit.t,
+                    hit.wo,
+                    scene.brdf(&hit),
+                    &[*light],
+                    &scene.blockers(&hit),
+                    &s,
+                )
+                .map_err(|e| e.to_string())?;
+            Ok((pipeline, breakdown(m, scene, light, &hit, &s)?))
+        })
+        .collect::<Result<_, String>>()?;
+    let chain: Vec<[f64; 6]> = run
+        .iter()
+        .map(|(p, q)| [*p, q.model, q.exact[0], q.exact[1], q.exact[2], q.exact[3]])
+        .collect();
+    let total_rms = rms_of(&chain.iter().map(|c| c[0] - c[5]).collect::<Vec<_>>());
+    lines.push(format!(
+        "{tag}: light {}: error breakdown over {} pixels (every {stride}th): total RMS {total_rms:.4} of the mean reference (quadrature, not MC); each switch to exact, in order:",
+        light_model.name(),
+        chain.len()
+    ));
+    let names = [
+        "lobe-product algebra (tables → quadrature of the same sums)",
+        "light (→ the light's cap)",
+        "leaf cap → lobe fit (→ the leaves' bounding caps, same weights)",
+        "weights / overlaps (weighted bounding caps → the leaf cells' union)",
+        "mask depth / aggressive (→ exact visibility)",
+    ];
+    for (k, name) in names.iter().enumerate() {
+        let d: Vec<f64> = chain.iter().map(|c| c[k] - c[k + 1]).collect();
+        let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_ref;
+        lines.push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
+    }
+    if light_model == LightModel::Lobe {
+        // The studied fitted coaxial lobes in place of the paper's, by the same rule.
+        for k in 0..light_fit::MAX_LOBES {
+            let term = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[0]).collect::<Vec<_>>());
+            let total = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[3]).collect::<Vec<_>>());
+            lines.push(format!(
+                "{tag}:   studied: {} fitted coaxial lobe(s) per light: light term RMS {term:.4}, total (exact algebra) {total:.4}",
+                k + 1
+            ));
+        }
+    }
+    Ok(run.into_iter().map(|(_, q)| q).collect())
 }
