@@ -417,53 +417,11 @@ struct Method {
     us: Timing,
 }
 
-/// Prints the curves and each estimator's samples and time at the default
-/// configuration's error (`methods[0]`) and at a quarter of it, with the factors
-/// against plain and against the analytic time; writes
-/// `<out>/<tag>-summary.json` and the Pareto chart `<out>/<tag>-pareto.png`.
-fn report(
-    tag: &str,
-    out: &std::path::Path,
-    b: &Bench,
-    methods: &[Method],
-    curves: &[(&str, Vec<Point>)],
-) -> Result<Vec<std::path::PathBuf>, String> {
+/// Prints each estimator's samples and time at the default configuration's error
+/// (`methods[0]`) and at a quarter of it, with the factors against plain and against
+/// the analytic time; returns those points for the summary's `equal_error`.
+fn equal_error(methods: &[Method], curves: &[(&str, Vec<Point>)]) -> Vec<serde_json::Value> {
     let (err, ta) = (methods[0].rel_rmse, methods[0].us);
-    println!(
-        "{tag}: {} px shaded, {} threads; reference error {:.1e}",
-        b.pixels(),
-        rayon::current_num_threads(),
-        b.reference_error(),
-    );
-    let flip = |f: Option<f64>| f.map_or(String::new(), |f| format!(", ꟻLIP {f:.4}"));
-    for m in methods {
-        println!(
-            "  method {:<22} rel RMSE {:.4}{}, {:.2} µs/px [{:.2}–{:.2}]",
-            m.name,
-            m.rel_rmse,
-            flip(m.flip),
-            m.us.median,
-            m.us.min,
-            m.us.max
-        );
-    }
-    for (label, c) in curves {
-        let pts: Vec<String> = c
-            .iter()
-            .map(|p| {
-                format!(
-                    "{} spp {:.4}{} {:.1} µs [{:.1}–{:.1}]",
-                    p.spp,
-                    p.rel_rmse,
-                    flip(p.flip),
-                    p.us.median,
-                    p.us.min,
-                    p.us.max
-                )
-            })
-            .collect();
-        println!("  {label:<7} {}", pts.join("; "));
-    }
     let mut equal = Vec::new();
     for (what, target) in [("the analytic error", err), ("a quarter of it", err / 4.0)] {
         // Plain at the target, or (beyond its measured range, below its last
@@ -510,6 +468,56 @@ fn report(
             }
         }
     }
+    equal
+}
+
+/// Prints the curves and each estimator's samples and time at the default
+/// configuration's error (`methods[0]`) and at a quarter of it, with the factors
+/// against plain and against the analytic time; writes
+/// `<out>/<tag>-summary.json` and the Pareto chart `<out>/<tag>-pareto.png`.
+fn report(
+    tag: &str,
+    out: &std::path::Path,
+    b: &Bench,
+    methods: &[Method],
+    curves: &[(&str, Vec<Point>)],
+) -> Result<Vec<std::path::PathBuf>, String> {
+    println!(
+        "{tag}: {} px shaded, {} threads; reference error {:.1e}",
+        b.pixels(),
+        rayon::current_num_threads(),
+        b.reference_error(),
+    );
+    let flip = |f: Option<f64>| f.map_or(String::new(), |f| format!(", ꟻLIP {f:.4}"));
+    for m in methods {
+        println!(
+            "  method {:<22} rel RMSE {:.4}{}, {:.2} µs/px [{:.2}–{:.2}]",
+            m.name,
+            m.rel_rmse,
+            flip(m.flip),
+            m.us.median,
+            m.us.min,
+            m.us.max
+        );
+    }
+    for (label, c) in curves {
+        let pts: Vec<String> = c
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} spp {:.4}{} {:.1} µs [{:.1}–{:.1}]",
+                    p.spp,
+                    p.rel_rmse,
+                    flip(p.flip),
+                    p.us.median,
+                    p.us.min,
+                    p.us.max
+                )
+            })
+            .collect();
+        println!("  {label:<7} {}", pts.join("; "));
+    }
+    let equal = equal_error(methods, curves);
     let summary = serde_json::json!({
         "scene": tag,
         "pixels": b.pixels(),
@@ -677,58 +685,7 @@ fn study(cfg: &Study) -> Result<Vec<std::path::PathBuf>, String> {
             };
             // The reference: QMC (no control variate here), two runs.
             let b = Bench::new(&scene, width, ref_spp, runs, &est(Sampling::Qmc))?;
-            use lobefit_tables::meunier::{LightModel, MaskSettings};
-            let mut configs = vec![("default (depth 5, cap light)".to_string(), MaskSettings::default())];
-            for depth in [3, 4] {
-                configs.push((
-                    format!("depth {depth}"),
-                    MaskSettings {
-                        depth,
-                        ..MaskSettings::default()
-                    },
-                ));
-            }
-            configs.push((
-                "lobe light (paper)".into(),
-                MaskSettings {
-                    light: LightModel::Lobe,
-                    ..MaskSettings::default()
-                },
-            ));
-            configs.push((
-                "t_i = 1e-3".into(),
-                MaskSettings {
-                    threshold: 1e-3,
-                    ..MaskSettings::default()
-                },
-            ));
-            let methods: Vec<Method> = configs
-                .iter()
-                .map(|(label, settings)| {
-                    let shade = |h: &Hit| {
-                        m.radiance(
-                            h.x,
-                            h.n,
-                            h.t,
-                            h.wo,
-                            scene.brdf(h),
-                            &[light],
-                            // The blockers culled by the light's cone through the
-                            // BVH: the same image as every sphere, faster.
-                            &crate::meunier::scaling::culled(&scene, &light, h),
-                            settings,
-                        )
-                        .map_err(|e| e.to_string())
-                    };
-                    let (rel_rmse, flip, us) = b.analytic(&shade)?;
-                    Ok(Method {
-                        name: label.clone(),
-                        rel_rmse,
-                        flip,
-                        us,
-                    })
-                })
-                .collect::<Result<Vec<_>, String>>()?;
+            let methods = meunier_methods(&b, &scene, &m)?;
             let target = methods[0].rel_rmse / 4.0;
             let curves = [
                 ("plain", measure(&b, target, plain_max, &est(Sampling::Plain))?),
@@ -750,97 +707,10 @@ fn study(cfg: &Study) -> Result<Vec<std::path::PathBuf>, String> {
                 Kind::Qmc
             };
             let b = Bench::new(&scene, width, ref_spp, runs, &environment(&scene, kind)?)?;
-            let methods: Vec<Method> = if isg {
-                use crate::isg::shade::{radiance, Model, Patches, Settings, Tables};
-                let t = Tables::embedded()?;
-                let mut configs = vec![("default (best, adaptive)".to_string(), Settings::default())];
-                for model in Model::ALL {
-                    for (pl, patches) in [("10×10", Patches::Grid(10)), ("20×20", Patches::Grid(20))] {
-                        configs.push((
-                            format!("{} {pl}", model.name()),
-                            Settings {
-                                model,
-                                patches,
-                                ..Settings::default()
-                            },
-                        ));
-                    }
-                }
-                configs
-                    .iter()
-                    .map(|(label, s)| {
-                        let (rel_rmse, flip, us) = b.analytic(&|h| {
-                            let brdf = Phong::of(scene.brdf(h))?;
-                            radiance(
-                                &t,
-                                s,
-                                &scene.environment,
-                                &brdf,
-                                &crate::isg::render::blockers_of(&scene, h),
-                                h,
-                            )
-                        })?;
-                        Ok(Method {
-                            name: label.clone(),
-                            rel_rmse,
-                            flip,
-                            us,
-                        })
-                    })
-                    .collect::<Result<Vec<_>, String>>()?
+            let methods = if isg {
+                isg_methods(&b, &scene)?
             } else {
-                use crate::shexp::shade::{radiance, BlockerLog, BrdfMode, Settings, Tables};
-                let t = Tables::embedded()?;
-                let mut configs: Vec<(String, Settings)> = [4, 3, 5, 6]
-                    .into_iter()
-                    .map(|order| {
-                        let name = if order == 4 {
-                            "default (order 4)".into()
-                        } else {
-                            format!("order {order}")
-                        };
-                        (
-                            name,
-                            Settings {
-                                order,
-                                ..Settings::default()
-                            },
-                        )
-                    })
-                    .collect();
-                // The machinery's alternatives (docs/shexp-render.md): the BRDF by
-                // the exact triple product instead of its log lobe, Ren's blocker log.
-                for order in [4, 6] {
-                    configs.push((
-                        format!("order {order}, triple-product BRDF"),
-                        Settings {
-                            order,
-                            brdf: BrdfMode::Triple,
-                            ..Settings::default()
-                        },
-                    ));
-                }
-                configs.push((
-                    "order 4, Ren's blocker log".into(),
-                    Settings {
-                        blocker_log: BlockerLog::Ren,
-                        ..Settings::default()
-                    },
-                ));
-                configs
-                    .iter()
-                    .map(|(name, s)| {
-                        let light = crate::shexp::light_sh(&scene, s.order)?;
-                        let (rel_rmse, flip, us) =
-                            b.analytic(&|h| radiance(&t, s, &light, &Phong::of(scene.brdf(h))?, &scene, h))?;
-                        Ok(Method {
-                            name: name.clone(),
-                            rel_rmse,
-                            flip,
-                            us,
-                        })
-                    })
-                    .collect::<Result<Vec<_>, String>>()?
+                shexp_methods(&b, &scene)?
             };
             let target = methods[0].rel_rmse / 4.0;
             let mut curves = vec![
@@ -879,6 +749,162 @@ fn study(cfg: &Study) -> Result<Vec<std::path::PathBuf>, String> {
         println!("  ({width} px wide, {:.0} s)", t0.elapsed().as_secs_f64());
     }
     Ok(written)
+}
+
+/// The Meunier pipeline's configurations measured on `b` (the default first): their
+/// errors and times.
+fn meunier_methods(b: &Bench, scene: &Scene, m: &lobefit_tables::Meunier<'_>) -> Result<Vec<Method>, String> {
+    use lobefit_tables::meunier::{LightModel, MaskSettings};
+    let light = scene.lights[0];
+    let mut configs = vec![("default (depth 5, cap light)".to_string(), MaskSettings::default())];
+    for depth in [3, 4] {
+        configs.push((
+            format!("depth {depth}"),
+            MaskSettings {
+                depth,
+                ..MaskSettings::default()
+            },
+        ));
+    }
+    configs.push((
+        "lobe light (paper)".into(),
+        MaskSettings {
+            light: LightModel::Lobe,
+            ..MaskSettings::default()
+        },
+    ));
+    configs.push((
+        "t_i = 1e-3".into(),
+        MaskSettings {
+            threshold: 1e-3,
+            ..MaskSettings::default()
+        },
+    ));
+    configs
+        .iter()
+        .map(|(label, settings)| {
+            let shade = |h: &Hit| {
+                m.radiance(
+                    h.x,
+                    h.n,
+                    h.t,
+                    h.wo,
+                    scene.brdf(h),
+                    &[light],
+                    // The blockers culled by the light's cone through the
+                    // BVH: the same image as every sphere, faster.
+                    &crate::meunier::scaling::culled(scene, &light, h),
+                    settings,
+                )
+                .map_err(|e| e.to_string())
+            };
+            let (rel_rmse, flip, us) = b.analytic(&shade)?;
+            Ok(Method {
+                name: label.clone(),
+                rel_rmse,
+                flip,
+                us,
+            })
+        })
+        .collect::<Result<Vec<_>, String>>()
+}
+
+/// The ISG pipeline's configurations measured on `b` (the default first).
+fn isg_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
+    use crate::isg::shade::{radiance, Model, Patches, Settings, Tables};
+    let t = Tables::embedded()?;
+    let mut configs = vec![("default (best, adaptive)".to_string(), Settings::default())];
+    for model in Model::ALL {
+        for (pl, patches) in [("10×10", Patches::Grid(10)), ("20×20", Patches::Grid(20))] {
+            configs.push((
+                format!("{} {pl}", model.name()),
+                Settings {
+                    model,
+                    patches,
+                    ..Settings::default()
+                },
+            ));
+        }
+    }
+    configs
+        .iter()
+        .map(|(label, s)| {
+            let (rel_rmse, flip, us) = b.analytic(&|h| {
+                let brdf = Phong::of(scene.brdf(h))?;
+                radiance(
+                    &t,
+                    s,
+                    &scene.environment,
+                    &brdf,
+                    &crate::isg::render::blockers_of(scene, h),
+                    h,
+                )
+            })?;
+            Ok(Method {
+                name: label.clone(),
+                rel_rmse,
+                flip,
+                us,
+            })
+        })
+        .collect::<Result<Vec<_>, String>>()
+}
+
+/// The SH-exponentiation pipeline's configurations measured on `b` (the default
+/// first): orders, the triple-product BRDF, Ren's blocker log.
+fn shexp_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
+    use crate::shexp::shade::{radiance, BlockerLog, BrdfMode, Settings, Tables};
+    let t = Tables::embedded()?;
+    let mut configs: Vec<(String, Settings)> = [4, 3, 5, 6]
+        .into_iter()
+        .map(|order| {
+            let name = if order == 4 {
+                "default (order 4)".into()
+            } else {
+                format!("order {order}")
+            };
+            (
+                name,
+                Settings {
+                    order,
+                    ..Settings::default()
+                },
+            )
+        })
+        .collect();
+    // The machinery's alternatives (docs/shexp-render.md): the BRDF by
+    // the exact triple product instead of its log lobe, Ren's blocker log.
+    for order in [4, 6] {
+        configs.push((
+            format!("order {order}, triple-product BRDF"),
+            Settings {
+                order,
+                brdf: BrdfMode::Triple,
+                ..Settings::default()
+            },
+        ));
+    }
+    configs.push((
+        "order 4, Ren's blocker log".into(),
+        Settings {
+            blocker_log: BlockerLog::Ren,
+            ..Settings::default()
+        },
+    ));
+    configs
+        .iter()
+        .map(|(name, s)| {
+            let light = crate::shexp::light_sh(scene, s.order)?;
+            let (rel_rmse, flip, us) =
+                b.analytic(&|h| radiance(&t, s, &light, &Phong::of(scene.brdf(h))?, scene, h))?;
+            Ok(Method {
+                name: name.clone(),
+                rel_rmse,
+                flip,
+                us,
+            })
+        })
+        .collect::<Result<Vec<_>, String>>()
 }
 
 #[cfg(test)]

@@ -465,6 +465,66 @@ const FIGURE_RIGS: [(usize, &str); 6] = [
     (7, "lattice 8×4×2 (64)"),
 ];
 
+/// The relative error maps on the car's side (`side`, exact irradiance `exact`) of the
+/// renderer's configuration: the error-driven split at the first tolerance (the near
+/// light per point, the rest through each Figure rig fitted at `fit`), as `panel`s.
+fn split_errors(
+    lights: &[Light],
+    disks: &DiskLight,
+    fit: &[Receiver],
+    side: &[Receiver],
+    exact: &[f64],
+    panel: &dyn Fn(String, Vec<f64>, &str, bool) -> lobefit_core::plot::Heatmap,
+) -> Result<Vec<lobefit_core::plot::Heatmap>, String> {
+    let (configs, bbox) = (rig_configs(), car_box());
+    let tol = DIRECT_TOLERANCES[0];
+    let fit_p: Vec<DVec3> = fit.iter().map(|r| r.p).collect();
+    let test_p: Vec<DVec3> = surface_points(TEST_POINTS, 0x7e57).iter().map(|r| r.p).collect();
+    let direct: Vec<usize> = select_direct(rig_configs()[2].1, bbox, lights, disks, &fit_p, &test_p, tol, RIDGE)
+        .map_err(|e| e.to_string())?
+        .iter()
+        .map(|c| c.0)
+        .collect();
+    let rig_lights: Vec<Light> = (0..lights.len())
+        .filter(|i| !direct.contains(i))
+        .map(|i| lights[i])
+        .collect();
+    let direct_lights: Vec<Light> = direct.iter().map(|&i| lights[i]).collect();
+    let rig_samples: Vec<(DVec3, [f64; COEFFS])> = fit
+        .iter()
+        .map(|r| Ok((r.p, field(&rig_lights, disks, r.p)?)))
+        .collect::<Result<_, String>>()?;
+    let mut split_err = Vec::new();
+    for &(k, name) in &FIGURE_RIGS {
+        let model = configs[k].1;
+        let rig = Rig::fit_least_squares(model, bbox, &rig_samples, RIDGE).map_err(|e| e.to_string())?;
+        let e: Vec<f64> = side
+            .iter()
+            .map(|r| {
+                let mut v = rig.eval(r.p).map_err(|e| e.to_string())?;
+                let d = field(&direct_lights, disks, r.p)?;
+                for i in 0..COEFFS {
+                    v[i] += d[i];
+                }
+                Ok(shade(&v, r.n))
+            })
+            .collect::<Result<_, String>>()?;
+        let rel: Vec<f64> = e
+            .iter()
+            .zip(exact)
+            .map(|(a, b)| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE))
+            .collect();
+        let (rms, _) = errors(&e, exact);
+        split_err.push(panel(
+            format!("{name}, near light direct: rel. RMS {rms:.1e}"),
+            rel,
+            "|E − exact| / exact",
+            true,
+        ));
+    }
+    Ok(split_err)
+}
+
 /// `lobefit plot rigs`: irradiance on the car's +y side, exact vs rigs
 /// (least squares), and the error maps; prints the comparison table (Markdown).
 pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
@@ -546,53 +606,7 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
         ));
     }
     files.push(heatmaps(&dir.join("rigs-car-side-irradiance.png"), &irr, 3)?);
-    // The renderer's configuration: error-driven split at the first tolerance (the near
-    // light per point, the rest through the rig).
-    let tol = DIRECT_TOLERANCES[0];
-    let fit_p: Vec<DVec3> = fit.iter().map(|r| r.p).collect();
-    let test_p: Vec<DVec3> = surface_points(TEST_POINTS, 0x7e57).iter().map(|r| r.p).collect();
-    let direct: Vec<usize> = select_direct(rig_configs()[2].1, bbox, &lights, disks, &fit_p, &test_p, tol, RIDGE)
-        .map_err(|e| e.to_string())?
-        .iter()
-        .map(|c| c.0)
-        .collect();
-    let rig_lights: Vec<Light> = (0..lights.len())
-        .filter(|i| !direct.contains(i))
-        .map(|i| lights[i])
-        .collect();
-    let direct_lights: Vec<Light> = direct.iter().map(|&i| lights[i]).collect();
-    let rig_samples: Vec<(DVec3, [f64; COEFFS])> = fit
-        .iter()
-        .map(|r| Ok((r.p, field(&rig_lights, disks, r.p)?)))
-        .collect::<Result<_, String>>()?;
-    let mut split_err = Vec::new();
-    for &(k, name) in &FIGURE_RIGS {
-        let model = configs[k].1;
-        let rig = Rig::fit_least_squares(model, bbox, &rig_samples, RIDGE).map_err(|e| e.to_string())?;
-        let e: Vec<f64> = side
-            .iter()
-            .map(|r| {
-                let mut v = rig.eval(r.p).map_err(|e| e.to_string())?;
-                let d = field(&direct_lights, disks, r.p)?;
-                for i in 0..COEFFS {
-                    v[i] += d[i];
-                }
-                Ok(shade(&v, r.n))
-            })
-            .collect::<Result<_, String>>()?;
-        let rel: Vec<f64> = e
-            .iter()
-            .zip(&exact)
-            .map(|(a, b)| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE))
-            .collect();
-        let (rms, _) = errors(&e, &exact);
-        split_err.push(panel(
-            format!("{name}, near light direct: rel. RMS {rms:.1e}"),
-            rel,
-            "|E − exact| / exact",
-            true,
-        ));
-    }
+    let split_err = split_errors(&lights, disks, &fit, &side, &exact, &panel)?;
     files.push(heatmaps(&dir.join("rigs-car-side-error-split.png"), &split_err, 2)?);
     files.push(heatmaps(&dir.join("rigs-car-side-error.png"), &err, 2)?);
     Ok(files)
