@@ -252,6 +252,9 @@ fn intro(f: &Frame<'_>, r: &Reference) -> String {
 /// Which of [`models`]' images is the best model's (the one timed and written).
 const BEST: usize = 2;
 
+/// A labelled image (row-major radiance).
+type Labelled = (String, Vec<f64>);
+
 /// Every model's image, then the best model's with eq. 9, each timed and compared
 /// with the reference (a line each in `lines`): the labelled images and the best
 /// model's time (s).
@@ -260,7 +263,7 @@ fn models(
     tables: &Tables,
     r: &Reference,
     lines: &mut Vec<String>,
-) -> Result<(Vec<(String, Vec<f64>)>, f64), String> {
+) -> Result<(Vec<Labelled>, f64), String> {
     let default = Settings::default();
     let mut variants: Vec<(String, Settings)> = Model::ALL
         .iter()

@@ -465,6 +465,9 @@ const FIGURE_RIGS: [(usize, &str); 6] = [
     (7, "lattice 8×4×2 (64)"),
 ];
 
+/// A heat-map panel of the car's side: (title, values, colour label, log colour).
+type PanelFn<'a> = dyn Fn(String, Vec<f64>, &str, bool) -> lobefit_core::plot::Heatmap + 'a;
+
 /// The relative error maps on the car's side (`side`, exact irradiance `exact`) of the
 /// renderer's configuration: the error-driven split at the first tolerance (the near
 /// light per point, the rest through each Figure rig fitted at `fit`), as `panel`s.
@@ -474,7 +477,7 @@ fn split_errors(
     fit: &[Receiver],
     side: &[Receiver],
     exact: &[f64],
-    panel: &dyn Fn(String, Vec<f64>, &str, bool) -> lobefit_core::plot::Heatmap,
+    panel: &PanelFn<'_>,
 ) -> Result<Vec<lobefit_core::plot::Heatmap>, String> {
     let (configs, bbox) = (rig_configs(), car_box());
     let tol = DIRECT_TOLERANCES[0];
