@@ -43,14 +43,17 @@ pub struct Frame<'a> {
 }
 
 impl<'a> Frame<'a> {
-    /// Checks the render's work against the limits ([`Pipeline::check_work`]), traces
-    /// the primary hits and creates `dir`.
-    pub fn new(
+    /// Checks the render's work against the limits ([`Pipeline::check_work`]), runs
+    /// the pipeline's `setup` (its tables, its light: what may fail before any file is
+    /// written), traces the primary hits and creates `dir`; returns the frame and what
+    /// `setup` returned.
+    pub fn new<T>(
         pipeline: &'a Pipeline,
         scene: &'a Scene,
         opts: &'a RenderOptions,
         dir: &'a Path,
-    ) -> Result<Self, String> {
+        setup: impl FnOnce() -> Result<T, String>,
+    ) -> Result<(Self, T), String> {
         let tag = scene
             .name
             .strip_prefix(&format!("{}-", pipeline.name))
@@ -58,10 +61,11 @@ impl<'a> Frame<'a> {
             .to_string();
         let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
         pipeline.check_work(scene, opts)?;
+        let prepared = setup()?;
         let (hits, lit) = scene.primary_hits(w, h)?;
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         let pixels = lit.iter().filter(|&&l| l).count();
-        Ok(Self {
+        let frame = Self {
             pipeline,
             scene,
             opts,
@@ -72,7 +76,8 @@ impl<'a> Frame<'a> {
             hits,
             lit,
             pixels,
-        })
+        };
+        Ok((frame, prepared))
     }
 
     /// `<pipeline>-<tag>`: the stem of the scene's files.

@@ -125,8 +125,7 @@ fn render_scene(
     dir: &Path,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Summary, String> {
-    let f = Frame::new(&PIPELINE, scene, opts, dir)?;
-    let tables = Tables::embedded()?;
+    let (f, tables) = Frame::new(&PIPELINE, scene, opts, dir, Tables::embedded)?;
     let mut sum = Summary::default();
     let r = image_reference(&f, progress)?;
     sum.lines.push(intro(&f, &r));

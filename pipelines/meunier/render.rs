@@ -347,7 +347,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         caps: CapExponent::embedded().map_err(|e| e.to_string())?,
         weights: MaskWeights::embedded().map_err(|e| e.to_string())?,
     };
-    let f = Frame::new(&super::PIPELINE, &scene, opts, dir)?;
+    let (f, ()) = Frame::new(&super::PIPELINE, &scene, opts, dir, || Ok(()))?;
     let tag = f.tag.clone();
     let mut sum = Summary::default();
     let r = image_reference(&f, &light, progress)?;

@@ -109,12 +109,14 @@ fn render_scene(
     dir: &Path,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Summary, String> {
-    let f = Frame::new(&PIPELINE, scene, opts, dir)?;
-    let tables = Tables::embedded()?;
-    let light_n = light_sh(scene, Settings::default().order)?;
-    if let Some(w) = super::truncation_warning(scene, Settings::default().order) {
-        eprintln!("{w}");
-    }
+    let (f, (tables, light_n)) = Frame::new(&PIPELINE, scene, opts, dir, || {
+        let tables = Tables::embedded()?;
+        let light_n = light_sh(scene, Settings::default().order)?;
+        if let Some(w) = super::truncation_warning(scene, Settings::default().order) {
+            eprintln!("{w}");
+        }
+        Ok((tables, light_n))
+    })?;
     let default = Settings::default();
     let mut sum = Summary::default();
 
