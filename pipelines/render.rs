@@ -247,6 +247,23 @@ impl Subset {
     }
 }
 
+/// A method's image: `shade(pixel, hit)` at every pixel that sees geometry (row-major
+/// index), 0 on the background, in parallel (each pixel on its own, so the image does
+/// not depend on the thread count).
+pub fn shade_image(
+    hits: &[Option<Hit>],
+    shade: impl Fn(usize, &Hit) -> Result<f64, String> + Sync,
+) -> Result<Vec<f64>, String> {
+    use rayon::prelude::*;
+    hits.par_iter()
+        .enumerate()
+        .map(|(p, h)| match h {
+            None => Ok(0.0),
+            Some(h) => shade(p, h),
+        })
+        .collect()
+}
+
 /// Column `k` of per-pick rows (one value per pick).
 pub fn column(parts: &[Vec<f64>], k: usize) -> Vec<f64> {
     parts.iter().map(|p| p[k]).collect()

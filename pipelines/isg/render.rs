@@ -15,7 +15,7 @@ use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Specular
 use super::{reference, PIPELINE};
 use crate::estimate::per_pixel;
 use crate::image::{breakdown, compare, noise_free_rel_rmse};
-use crate::render::{column, Frame, Reference, Subset};
+use crate::render::{column, shade_image, Frame, Reference, Subset};
 use crate::scene::{Hit, Scene};
 use crate::timing::timed;
 use crate::{RenderOptions, Summary};
@@ -53,15 +53,10 @@ pub fn blockers_of<'a>(scene: &'a Scene, h: &Hit) -> Blockers<'a> {
 
 /// The pipeline's radiance at every hit with `s` (0 for background).
 fn image(t: &Tables, s: &Settings, scene: &Scene, hits: &[Option<Hit>]) -> Result<Vec<f64>, String> {
-    hits.par_iter()
-        .map(|h| match h {
-            None => Ok(0.0),
-            Some(h) => {
-                let brdf = Phong::of(scene.brdf(h))?;
-                radiance(t, s, &scene.environment, &brdf, &blockers_of(scene, h), h)
-            }
-        })
-        .collect()
+    shade_image(hits, |_, h| {
+        let brdf = Phong::of(scene.brdf(h))?;
+        radiance(t, s, &scene.environment, &brdf, &blockers_of(scene, h), h)
+    })
 }
 
 /// Sphere counts of the sweep (Table 1's range, 46 to 306 spheres).

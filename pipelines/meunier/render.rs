@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use super::light_fit;
 use crate::estimate::{estimate, estimate_with, Estimate, Sampling};
 use crate::image::{compare, masked, panel};
-use crate::render::{Frame, Reference};
+use crate::render::{shade_image, Frame, Reference};
 use crate::scene::{brdf_value, visible, Hit, Scene};
 use crate::timing::timed;
 use crate::{RenderOptions, Summary};
@@ -98,23 +98,19 @@ fn lobe_image(
     hits: &[Option<Hit>],
     settings: &MaskSettings,
 ) -> Result<Vec<f64>, String> {
-    hits.par_iter()
-        .map(|h| match h {
-            None => Ok(0.0),
-            Some(h) => m
-                .radiance(
-                    h.x,
-                    h.n,
-                    h.t,
-                    h.wo,
-                    scene.brdf(h),
-                    &[*light],
-                    &scene.blockers(h),
-                    settings,
-                )
-                .map_err(|e| e.to_string()),
-        })
-        .collect()
+    shade_image(hits, |_, h| {
+        m.radiance(
+            h.x,
+            h.n,
+            h.t,
+            h.wo,
+            scene.brdf(h),
+            &[*light],
+            &scene.blockers(h),
+            settings,
+        )
+        .map_err(|e| e.to_string())
+    })
 }
 
 /// The thresholds t_i (sr) `render meunier` sweeps; the paper's is 0.001.

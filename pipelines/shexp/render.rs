@@ -18,7 +18,7 @@ use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, Exp, Horizon, Setti
 use super::{light, light_sh, reference, PIPELINE};
 use crate::estimate::{per_pixel, Estimate};
 use crate::image::{breakdown, compare, noise_free_rel_rmse};
-use crate::render::{column, Frame, Reference, Subset};
+use crate::render::{column, shade_image, Frame, Reference, Subset};
 use crate::scene::{Hit, Scene};
 use crate::sky::Phong;
 use crate::timing::timed;
@@ -58,14 +58,10 @@ pub fn scene(name: &str) -> Result<Scene, String> {
 
 /// The pipeline's radiance at every hit with `s` (0 for background).
 fn image(t: &Tables, s: &Settings, light: &[f64], scene: &Scene, hits: &[Option<Hit>]) -> Result<Vec<f64>, String> {
-    hits.par_iter()
-        .enumerate()
-        .map(|(p, h)| match h {
-            None => Ok(0.0),
-            Some(h) => radiance(t, s, light, &Phong::of(scene.brdf(h))?, scene, h)
-                .map_err(|e| format!("pixel {p} (row-major), point {:?}: {e}", h.x.to_array())),
-        })
-        .collect()
+    shade_image(hits, |p, h| {
+        radiance(t, s, light, &Phong::of(scene.brdf(h))?, scene, h)
+            .map_err(|e| format!("pixel {p} (row-major), point {:?}: {e}", h.x.to_array()))
+    })
 }
 
 /// Per-pixel Monte Carlo estimates at `spp` samples under `light_of` (seeded per
