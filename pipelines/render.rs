@@ -7,7 +7,8 @@
 //! shading, their variants, their breakdown rows and their extra panels.
 //!
 //! Every statistic is relative to the reference's mean over the lit pixels (those
-//! that see geometry).
+//! that see geometry). `render rigs` does not use it: its truth is the exact
+//! irradiance on a box built in code (no scene file, no Monte Carlo reference).
 
 use std::path::Path;
 
