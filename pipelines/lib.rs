@@ -22,6 +22,7 @@ pub mod image;
 pub mod isg;
 pub mod mesh;
 pub mod meunier;
+pub mod render;
 pub mod rigs;
 pub mod scene;
 pub mod shexp;

@@ -991,7 +991,9 @@ pub fn parse_in(name: &str, text: &str, folder: &Path) -> Result<Scene, String> 
 }
 
 /// [`parse`] with the pipeline's kinds checked before anything expensive is built;
-/// `build` false: validate only (the same errors but the camera's), `Ok(None)`.
+/// `build` false: validate only (the same errors but the camera's), `Ok(None)`. The
+/// sections are checked in the file's order of cost (sizes and kinds first, the height
+/// field and the meshes built last), each by its own helper.
 fn parse_inner(
     name: &str,
     text: &str,
@@ -999,8 +1001,63 @@ fn parse_inner(
     accepts: &Accepts,
     build: bool,
 ) -> Result<Option<Scene>, String> {
+    let f = read_file(name, text, accepts)?;
+    let mut c = Checker {
+        name,
+        materials: Vec::new(),
+    };
+    let (eye, target, fov) = c.camera(f.camera)?;
+    let brdf = f.brdf.map(|m| c.material("brdf", m)).transpose()?;
+    let (spheres, sphere_materials) = c.spheres(f.spheres)?;
+    let (planes, plane_materials) = c.planes(f.planes)?;
+    let mesh_specs = c.mesh_specs(f.meshes, folder)?;
+    if f.lights.is_empty() && f.environment.as_ref().is_none_or(|e| e.sgs.is_empty()) && f.sh_environment.is_none() {
+        return Err(c.err("no lights and no environment".into()));
+    }
+    if f.environment.is_some() && f.sh_environment.is_some() {
+        return Err(c.err("environment and sh_environment: give one distant light, not both".into()));
+    }
+    let sh_environment = f.sh_environment.map(|e| c.sh_environment(e)).transpose()?;
+    // The height field's parameters are checked here; it is built (O(n²) time and
+    // memory) only once every other check has passed.
+    let heightfield = f.heightfield.map(|h| c.heightfield(h)).transpose()?;
+    let environment = c.environment(f.environment.map(|e| e.sgs).unwrap_or_default())?;
+    let lights = c.lights(f.lights)?;
+    let materials = brdfs(std::mem::take(&mut c.materials));
+    let brdf = brdf.map(|i| materials[i].clone());
+    if !build {
+        return Ok(None);
+    }
+    let heightfield = heightfield.map(|h| c.build_heightfield(h)).transpose()?;
+    let (meshes, proxies) = c.build_meshes(mesh_specs, &spheres)?;
+    let proxy_bvh = Bvh::new(&proxies);
+    let bvh = Bvh::new(&spheres);
+    Ok(Some(Scene {
+        name: name.into(),
+        spheres,
+        sphere_materials,
+        planes,
+        plane_materials,
+        materials,
+        lights,
+        environment,
+        sh_environment,
+        heightfield,
+        brdf,
+        camera: Camera { eye, target, fov },
+        meshes,
+        proxies,
+        bvh,
+        proxy_bvh,
+    }))
+}
+
+/// The scene file's structure from `text`, its version, sizes and kinds checked:
+/// the version first (a newer file's other fields are not this build's to judge), then
+/// the sizes (what follows is linear in them), then the kinds `accepts` shades (before
+/// the height field is built).
+fn read_file(name: &str, text: &str, accepts: &Accepts) -> Result<File, String> {
     let err = |m: String| format!("scene {name}: {m}");
-    // The version first: a newer file's other fields are not this build's to judge.
     #[derive(Deserialize)]
     struct Versioned {
         version: u32,
@@ -1013,7 +1070,6 @@ fn parse_inner(
         )));
     }
     let f: File = serde_json::from_str(text).map_err(|e| err(e.to_string()))?;
-    // Sizes first: what follows is linear in them.
     let sgs = f.environment.as_ref().map_or(0, |e| e.sgs.len());
     for (what, count, max, limit) in [
         ("spheres", f.spheres.len(), MAX_SPHERES, "MAX_SPHERES"),
@@ -1028,7 +1084,6 @@ fn parse_inner(
             )));
         }
     }
-    // The kinds the pipeline shades, before the height field is built.
     if !accepts.pipeline.is_empty() {
         let kinds = [
             (
@@ -1056,288 +1111,401 @@ fn parse_inner(
     if v.version < 2 && !f.meshes.is_empty() {
         return Err(err("meshes need \"version\": 2".into()));
     }
-    let vec3 = |what: &str, v: [f64; 3]| -> Result<DVec3, String> {
+    Ok(f)
+}
+
+/// A height field's checked parameters: (size, extent, heights, procedural terrain,
+/// material index); built by [`Checker::build_heightfield`].
+type HeightFieldSpec = (usize, f64, Option<Vec<f64>>, Option<FileTerrain>, usize);
+
+/// A mesh's checked specification: (its field's name, OBJ path, transform, sphere set,
+/// material index); read by [`Checker::build_meshes`].
+type MeshSpec = (String, std::path::PathBuf, Transform, SetSpec, usize);
+
+/// The scene file's checks, each naming the scene (`scene <name>: …`) and the field,
+/// and the materials met so far (equal ones share an index: the material list is the
+/// set of BRDFs).
+struct Checker<'a> {
+    name: &'a str,
+    materials: Vec<FileMaterial>,
+}
+
+impl Checker<'_> {
+    fn err(&self, m: String) -> String {
+        format!("scene {}: {m}", self.name)
+    }
+
+    /// A point or vector: finite, every |coordinate| ≤ [`MAX_COORD`].
+    fn vec3(&self, what: &str, v: [f64; 3]) -> Result<DVec3, String> {
         if v.iter().all(|x| x.is_finite() && x.abs() <= MAX_COORD) {
             Ok(DVec3::from_array(v))
         } else {
-            Err(err(format!(
+            Err(self.err(format!(
                 "{what} {v:?} must be finite with every |coordinate| ≤ {MAX_COORD:e} (MAX_COORD)"
             )))
         }
-    };
-    let positive = |what: &str, x: f64| -> Result<f64, String> {
+    }
+
+    fn positive(&self, what: &str, x: f64) -> Result<f64, String> {
         if x.is_finite() && x > 0.0 {
             Ok(x)
         } else {
-            Err(err(format!("{what} {x} must be finite and > 0")))
+            Err(self.err(format!("{what} {x} must be finite and > 0")))
         }
-    };
-    let length = |what: &str, x: f64| -> Result<f64, String> {
+    }
+
+    /// A length (scene units): finite, > 0, ≤ [`MAX_COORD`].
+    fn length(&self, what: &str, x: f64) -> Result<f64, String> {
         if x.is_finite() && x > 0.0 && x <= MAX_COORD {
             Ok(x)
         } else {
-            Err(err(format!(
+            Err(self.err(format!(
                 "{what} {x:?} must be finite, > 0 and ≤ {MAX_COORD:e} (MAX_COORD)"
             )))
         }
-    };
-    let radiance = |what: &str, x: f64| -> Result<f64, String> {
+    }
+
+    /// A radiance: finite, in [0, [`MAX_RADIANCE`]].
+    fn radiance(&self, what: &str, x: f64) -> Result<f64, String> {
         if x.is_finite() && (0.0..=MAX_RADIANCE).contains(&x) {
             Ok(x)
         } else {
-            Err(err(format!(
+            Err(self.err(format!(
                 "{what} {x:?} must be finite, ≥ 0 and ≤ {MAX_RADIANCE:e} (MAX_RADIANCE)"
             )))
         }
-    };
-    let unit = |what: &str, v: [f64; 3]| -> Result<DVec3, String> {
-        let d = vec3(what, v)?;
+    }
+
+    /// A unit vector (to 1e-9).
+    fn unit(&self, what: &str, v: [f64; 3]) -> Result<DVec3, String> {
+        let d = self.vec3(what, v)?;
         if (d.length() - 1.0).abs() > 1e-9 {
-            return Err(err(format!("{what} {v:?} is not a unit vector")));
+            return Err(self.err(format!("{what} {v:?} is not a unit vector")));
         }
         Ok(d)
-    };
-    let camera = f.camera.unwrap_or(FileCamera {
-        eye: DEFAULT_CAMERA.0,
-        target: DEFAULT_CAMERA.1,
-        fov: DEFAULT_CAMERA.2,
-    });
-    let eye = vec3("camera.eye", camera.eye)?;
-    let target = vec3("camera.target", camera.target)?;
-    let dir = target - eye;
-    if dir.length() == 0.0 || dir.normalize().cross(DVec3::Z).length() < 1e-6 {
-        return Err(err(
-            "camera: eye and target must differ and not lie on one vertical line".into(),
-        ));
     }
-    if !(camera.fov > 0.0 && camera.fov < PI) {
-        return Err(err(format!("camera.fov {} must lie in (0, π)", camera.fov)));
+
+    /// The camera (the default's when absent): eye, target, fov (rad).
+    fn camera(&self, camera: Option<FileCamera>) -> Result<(DVec3, DVec3, f64), String> {
+        let camera = camera.unwrap_or(FileCamera {
+            eye: DEFAULT_CAMERA.0,
+            target: DEFAULT_CAMERA.1,
+            fov: DEFAULT_CAMERA.2,
+        });
+        let eye = self.vec3("camera.eye", camera.eye)?;
+        let target = self.vec3("camera.target", camera.target)?;
+        let dir = target - eye;
+        if dir.length() == 0.0 || dir.normalize().cross(DVec3::Z).length() < 1e-6 {
+            return Err(self.err("camera: eye and target must differ and not lie on one vertical line".into()));
+        }
+        if !(camera.fov > 0.0 && camera.fov < PI) {
+            return Err(self.err(format!("camera.fov {} must lie in (0, π)", camera.fov)));
+        }
+        Ok((eye, target, camera.fov))
     }
-    let mut materials: Vec<FileMaterial> = Vec::new();
-    let mut material = |what: &str, m: FileMaterial| -> Result<usize, String> {
+
+    /// A material, checked: its index in the materials (equal ones share one).
+    fn material(&mut self, what: &str, m: FileMaterial) -> Result<usize, String> {
         let (albedo, lobes) = match &m {
             FileMaterial::Lambert { albedo } => (*albedo, &[][..]),
             FileMaterial::Lafortune { albedo, lobes } => (*albedo, &lobes[..]),
         };
         if !(0.0..=1.0).contains(&albedo) {
-            return Err(err(format!("{what}: albedo {albedo} must lie in [0, 1]")));
+            return Err(self.err(format!("{what}: albedo {albedo} must lie in [0, 1]")));
         }
         for l in lobes {
-            vec3(&format!("{what}: lobe c"), l.c)?;
+            self.vec3(&format!("{what}: lobe c"), l.c)?;
             if !(l.exponent.is_finite() && l.exponent >= 0.0 && l.specular.is_finite() && l.specular >= 0.0) {
-                return Err(err(format!(
+                return Err(self.err(format!(
                     "{what}: lobe exponent {} and specular {} must be finite and ≥ 0",
                     l.exponent, l.specular
                 )));
             }
         }
-        // Equal materials share an index: the material list is the set of BRDFs.
-        Ok(match materials.iter().position(|x| *x == m) {
+        Ok(match self.materials.iter().position(|x| *x == m) {
             Some(i) => i,
             None => {
-                materials.push(m);
-                materials.len() - 1
+                self.materials.push(m);
+                self.materials.len() - 1
             }
         })
-    };
-    let brdf = f.brdf.map(|m| material("brdf", m)).transpose()?;
-    let mut spheres = Vec::new();
-    let mut sphere_materials = Vec::new();
-    for (k, s) in f.spheres.into_iter().enumerate() {
-        let what = format!("spheres[{k}]");
-        spheres.push(Sphere {
-            centre: vec3(&format!("{what}.centre"), s.centre)?,
-            radius: length(&format!("{what}.radius"), s.radius)?,
-        });
-        sphere_materials.push(material(&what, s.material)?);
     }
-    let mut planes = Vec::new();
-    let mut plane_materials = Vec::new();
-    for (k, p) in f.planes.into_iter().enumerate() {
-        let what = format!("planes[{k}]");
-        let normal = unit(&format!("{what}.normal"), p.normal)?;
-        let tangent = unit(&format!("{what}.tangent"), p.tangent)?;
-        if normal.dot(tangent).abs() > 1e-9 {
-            return Err(err(format!("{what}: tangent is not perpendicular to the normal")));
+
+    /// The spheres and their material indices.
+    fn spheres(&mut self, file: Vec<FileSphere>) -> Result<(Vec<Sphere>, Vec<usize>), String> {
+        let mut spheres = Vec::new();
+        let mut sphere_materials = Vec::new();
+        for (k, s) in file.into_iter().enumerate() {
+            let what = format!("spheres[{k}]");
+            spheres.push(Sphere {
+                centre: self.vec3(&format!("{what}.centre"), s.centre)?,
+                radius: self.length(&format!("{what}.radius"), s.radius)?,
+            });
+            sphere_materials.push(self.material(&what, s.material)?);
         }
-        if !(p.offset.is_finite() && p.offset.abs() <= MAX_COORD) {
-            return Err(err(format!(
-                "{what}.offset {} must be finite with |offset| ≤ {MAX_COORD:e} (MAX_COORD)",
-                p.offset
+        Ok((spheres, sphere_materials))
+    }
+
+    /// The planes and their material indices.
+    fn planes(&mut self, file: Vec<FilePlane>) -> Result<(Vec<Plane>, Vec<usize>), String> {
+        let mut planes = Vec::new();
+        let mut plane_materials = Vec::new();
+        for (k, p) in file.into_iter().enumerate() {
+            let what = format!("planes[{k}]");
+            let normal = self.unit(&format!("{what}.normal"), p.normal)?;
+            let tangent = self.unit(&format!("{what}.tangent"), p.tangent)?;
+            if normal.dot(tangent).abs() > 1e-9 {
+                return Err(self.err(format!("{what}: tangent is not perpendicular to the normal")));
+            }
+            if !(p.offset.is_finite() && p.offset.abs() <= MAX_COORD) {
+                return Err(self.err(format!(
+                    "{what}.offset {} must be finite with |offset| ≤ {MAX_COORD:e} (MAX_COORD)",
+                    p.offset
+                )));
+            }
+            planes.push(Plane {
+                normal,
+                offset: p.offset,
+                tangent,
+                half_extent: self.length(&format!("{what}.half_extent"), p.half_extent)?,
+            });
+            plane_materials.push(self.material(&what, p.material)?);
+        }
+        Ok((planes, plane_materials))
+    }
+
+    /// Meshes: paths (inside `folder`), transforms and sphere-set specifications now;
+    /// the files are read (and sphere sets fitted) only once everything else has
+    /// passed.
+    fn mesh_specs(&mut self, file: Vec<FileMesh>, folder: Option<&Path>) -> Result<Vec<MeshSpec>, String> {
+        let mut mesh_specs = Vec::new();
+        for (k, m) in file.into_iter().enumerate() {
+            let what = format!("meshes[{k}]");
+            let dir = folder.ok_or_else(|| {
+                self.err(format!(
+                    "{what}: a scene given as text has no folder to read {:?} from",
+                    m.file
+                ))
+            })?;
+            let path = inside_folder(dir, &m.file).map_err(|e| self.err(format!("{what}.file: {e}")))?;
+            let transform = match m.transform {
+                None => Transform::IDENTITY,
+                Some(t) => self.transform(&what, t)?,
+            };
+            let set = match m.spheres {
+                FileSphereSet::File(file) => {
+                    SetSpec::File(inside_folder(dir, &file).map_err(|e| self.err(format!("{what}.spheres: {e}")))?)
+                }
+                FileSphereSet::Fit { count, method, seed } => {
+                    let method = Method::parse(method.as_deref().unwrap_or("kmeans"))
+                        .map_err(|e| self.err(format!("{what}.spheres.method: {e}")))?;
+                    if !(1..=MAX_FIT_SPHERES).contains(&count) {
+                        return Err(self.err(format!(
+                            "{what}.spheres.count {count} must lie in 1..={MAX_FIT_SPHERES}"
+                        )));
+                    }
+                    SetSpec::Fit(count, method, seed.unwrap_or(0))
+                }
+            };
+            let material = self.material(&what, m.material)?;
+            mesh_specs.push((what, path, transform, set, material));
+        }
+        Ok(mesh_specs)
+    }
+
+    /// The mesh `what`'s transform: scale in (0, [`MAX_COORD`]], a rotation about a
+    /// non-zero axis, a translation.
+    fn transform(&self, what: &str, t: FileTransform) -> Result<Transform, String> {
+        let scale = t.scale.unwrap_or(1.0);
+        if !(scale.is_finite() && scale > 0.0 && scale <= MAX_COORD) {
+            return Err(self.err(format!(
+                "{what}.transform.scale {scale} must be finite, > 0 and ≤ {MAX_COORD:e}"
             )));
         }
-        planes.push(Plane {
-            normal,
-            offset: p.offset,
-            tangent,
-            half_extent: length(&format!("{what}.half_extent"), p.half_extent)?,
-        });
-        plane_materials.push(material(&what, p.material)?);
-    }
-    // Meshes: paths, transforms and sphere-set specifications now; the files are read
-    // (and sphere sets fitted) only once everything else has passed.
-    let mut mesh_specs = Vec::new();
-    for (k, m) in f.meshes.into_iter().enumerate() {
-        let what = format!("meshes[{k}]");
-        let dir = folder.ok_or_else(|| {
-            err(format!(
-                "{what}: a scene given as text has no folder to read {:?} from",
-                m.file
-            ))
-        })?;
-        let path = inside_folder(dir, &m.file).map_err(|e| err(format!("{what}.file: {e}")))?;
-        let transform = match m.transform {
-            None => Transform::IDENTITY,
-            Some(t) => {
-                let scale = t.scale.unwrap_or(1.0);
-                if !(scale.is_finite() && scale > 0.0 && scale <= MAX_COORD) {
-                    return Err(err(format!(
-                        "{what}.transform.scale {scale} must be finite, > 0 and ≤ {MAX_COORD:e}"
+        let rotation = match t.rotation {
+            None => DQuat::IDENTITY,
+            Some(r) => {
+                let axis = self.vec3(&format!("{what}.transform.rotation.axis"), r.axis)?;
+                if axis.length() == 0.0 || !r.angle.is_finite() {
+                    return Err(self.err(format!(
+                        "{what}.transform.rotation: axis {:?} must not be zero and angle {} finite",
+                        r.axis, r.angle
                     )));
                 }
-                let rotation = match t.rotation {
-                    None => DQuat::IDENTITY,
-                    Some(r) => {
-                        let axis = vec3(&format!("{what}.transform.rotation.axis"), r.axis)?;
-                        if axis.length() == 0.0 || !r.angle.is_finite() {
-                            return Err(err(format!(
-                                "{what}.transform.rotation: axis {:?} must not be zero and angle {} finite",
-                                r.axis, r.angle
-                            )));
-                        }
-                        DQuat::from_axis_angle(axis.normalize(), r.angle)
-                    }
-                };
-                let translation = vec3(
-                    &format!("{what}.transform.translation"),
-                    t.translation.unwrap_or([0.0; 3]),
-                )?;
-                Transform {
-                    scale,
-                    rotation,
-                    translation,
-                }
+                DQuat::from_axis_angle(axis.normalize(), r.angle)
             }
         };
-        let set = match m.spheres {
-            FileSphereSet::File(file) => {
-                SetSpec::File(inside_folder(dir, &file).map_err(|e| err(format!("{what}.spheres: {e}")))?)
-            }
-            FileSphereSet::Fit { count, method, seed } => {
-                let method = Method::parse(method.as_deref().unwrap_or("kmeans"))
-                    .map_err(|e| err(format!("{what}.spheres.method: {e}")))?;
-                if !(1..=MAX_FIT_SPHERES).contains(&count) {
-                    return Err(err(format!(
-                        "{what}.spheres.count {count} must lie in 1..={MAX_FIT_SPHERES}"
+        let translation = self.vec3(
+            &format!("{what}.transform.translation"),
+            t.translation.unwrap_or([0.0; 3]),
+        )?;
+        Ok(Transform {
+            scale,
+            rotation,
+            translation,
+        })
+    }
+
+    /// The SH environment's coefficients: order 1..=8, order² finite values.
+    fn sh_environment(&self, e: FileShEnvironment) -> Result<Vec<f64>, String> {
+        if !(1..=8).contains(&e.order) {
+            return Err(self.err(format!("sh_environment.order {} must lie in 1..=8", e.order)));
+        }
+        if e.coefficients.len() != e.order * e.order {
+            return Err(self.err(format!(
+                "sh_environment.coefficients has {} values, order {} needs {}",
+                e.coefficients.len(),
+                e.order,
+                e.order * e.order
+            )));
+        }
+        if let Some(k) = e
+            .coefficients
+            .iter()
+            .position(|c| !(c.is_finite() && c.abs() <= MAX_RADIANCE))
+        {
+            return Err(self.err(format!(
+                "sh_environment.coefficients[{k}] {} must be finite with |c| ≤ {MAX_RADIANCE:e} (MAX_RADIANCE)",
+                e.coefficients[k]
+            )));
+        }
+        Ok(e.coefficients)
+    }
+
+    /// The height field's parameters, checked (it is built later).
+    fn heightfield(&mut self, h: FileHeightField) -> Result<HeightFieldSpec, String> {
+        let hf_err = |e: String| self.err(format!("heightfield: {e}"));
+        if h.extent > MAX_COORD {
+            return Err(hf_err(format!(
+                "extent {} must be ≤ {MAX_COORD:e} (MAX_COORD)",
+                h.extent
+            )));
+        }
+        match (&h.heights, &h.procedural) {
+            (Some(heights), None) => {
+                crate::heightfield::check_heights(h.size, h.extent, heights).map_err(hf_err)?;
+                if let Some(k) = heights.iter().position(|z| z.abs() > MAX_COORD) {
+                    return Err(hf_err(format!(
+                        "heights[{k}] = {} must have |height| ≤ {MAX_COORD:e} (MAX_COORD)",
+                        heights[k]
                     )));
                 }
-                SetSpec::Fit(count, method, seed.unwrap_or(0))
             }
-        };
-        let material = material(&what, m.material)?;
-        mesh_specs.push((what, path, transform, set, material));
-    }
-    if f.lights.is_empty() && f.environment.as_ref().is_none_or(|e| e.sgs.is_empty()) && f.sh_environment.is_none() {
-        return Err(err("no lights and no environment".into()));
-    }
-    if f.environment.is_some() && f.sh_environment.is_some() {
-        return Err(err(
-            "environment and sh_environment: give one distant light, not both".into()
-        ));
-    }
-    let sh_environment = match f.sh_environment {
-        None => None,
-        Some(e) => {
-            if !(1..=8).contains(&e.order) {
-                return Err(err(format!("sh_environment.order {} must lie in 1..=8", e.order)));
-            }
-            if e.coefficients.len() != e.order * e.order {
-                return Err(err(format!(
-                    "sh_environment.coefficients has {} values, order {} needs {}",
-                    e.coefficients.len(),
-                    e.order,
-                    e.order * e.order
-                )));
-            }
-            if let Some(k) = e
-                .coefficients
-                .iter()
-                .position(|c| !(c.is_finite() && c.abs() <= MAX_RADIANCE))
-            {
-                return Err(err(format!(
-                    "sh_environment.coefficients[{k}] {} must be finite with |c| ≤ {MAX_RADIANCE:e} (MAX_RADIANCE)",
-                    e.coefficients[k]
-                )));
-            }
-            Some(e.coefficients)
-        }
-    };
-    // The height field's parameters are checked here; it is built (O(n²) time and
-    // memory) only once every other check has passed.
-    let heightfield = match f.heightfield {
-        None => None,
-        Some(h) => {
-            let hf_err = |e: String| err(format!("heightfield: {e}"));
-            if h.extent > MAX_COORD {
-                return Err(hf_err(format!(
-                    "extent {} must be ≤ {MAX_COORD:e} (MAX_COORD)",
-                    h.extent
-                )));
-            }
-            match (&h.heights, &h.procedural) {
-                (Some(heights), None) => {
-                    crate::heightfield::check_heights(h.size, h.extent, heights).map_err(hf_err)?;
-                    if let Some(k) = heights.iter().position(|z| z.abs() > MAX_COORD) {
-                        return Err(hf_err(format!(
-                            "heights[{k}] = {} must have |height| ≤ {MAX_COORD:e} (MAX_COORD)",
-                            heights[k]
-                        )));
-                    }
+            (None, Some(p)) => {
+                crate::heightfield::check_procedural(h.size, h.extent, p.amplitude, p.octaves).map_err(hf_err)?;
+                if p.amplitude > MAX_COORD {
+                    return Err(hf_err(format!(
+                        "amplitude {} must be ≤ {MAX_COORD:e} (MAX_COORD)",
+                        p.amplitude
+                    )));
                 }
-                (None, Some(p)) => {
-                    crate::heightfield::check_procedural(h.size, h.extent, p.amplitude, p.octaves).map_err(hf_err)?;
-                    if p.amplitude > MAX_COORD {
-                        return Err(hf_err(format!(
-                            "amplitude {} must be ≤ {MAX_COORD:e} (MAX_COORD)",
-                            p.amplitude
-                        )));
-                    }
-                }
-                _ => return Err(hf_err("give exactly one of heights and procedural".into())),
             }
-            let m = material("heightfield", h.material)?;
-            Some((h.size, h.extent, h.heights, h.procedural, m))
+            _ => return Err(hf_err("give exactly one of heights and procedural".into())),
         }
-    };
-    let mut environment = Vec::new();
-    for (k, g) in f.environment.map(|e| e.sgs).unwrap_or_default().into_iter().enumerate() {
-        let what = format!("environment.sgs[{k}]");
-        let axis = vec3(&format!("{what}.axis"), g.axis)?;
-        if axis.length() == 0.0 {
-            return Err(err(format!("{what}.axis is the zero vector")));
+        let m = self.material("heightfield", h.material)?;
+        Ok((h.size, h.extent, h.heights, h.procedural, m))
+    }
+
+    /// The environment's SGs (axes normalised).
+    fn environment(&self, sgs: Vec<FileSg>) -> Result<Vec<Sg>, String> {
+        let mut environment = Vec::new();
+        for (k, g) in sgs.into_iter().enumerate() {
+            let what = format!("environment.sgs[{k}]");
+            let axis = self.vec3(&format!("{what}.axis"), g.axis)?;
+            if axis.length() == 0.0 {
+                return Err(self.err(format!("{what}.axis is the zero vector")));
+            }
+            let sharpness = self.positive(&format!("{what}.sharpness"), g.sharpness)?;
+            self.radiance(&format!("{what}.amplitude"), g.amplitude)?;
+            environment
+                .push(Sg::new(axis.normalize(), sharpness, g.amplitude).map_err(|e| self.err(format!("{what}: {e}")))?);
         }
-        let sharpness = positive(&format!("{what}.sharpness"), g.sharpness)?;
-        radiance(&format!("{what}.amplitude"), g.amplitude)?;
-        environment.push(Sg::new(axis.normalize(), sharpness, g.amplitude).map_err(|e| err(format!("{what}: {e}")))?);
+        Ok(environment)
     }
-    let mut lights = Vec::new();
-    for (k, l) in f.lights.into_iter().enumerate() {
-        let FileLight::Sphere {
-            centre,
-            radius,
-            radiance: value,
-        } = l;
-        let what = format!("lights[{k}]");
-        let value = radiance(&format!("{what}.radiance"), value)?;
-        lights.push(SphereLight {
-            sphere: Sphere {
-                centre: vec3(&format!("{what}.centre"), centre)?,
-                radius: length(&format!("{what}.radius"), radius)?,
-            },
-            radiance: value,
-        });
+
+    /// The sphere lights.
+    fn lights(&self, file: Vec<FileLight>) -> Result<Vec<SphereLight>, String> {
+        let mut lights = Vec::new();
+        for (k, l) in file.into_iter().enumerate() {
+            let FileLight::Sphere {
+                centre,
+                radius,
+                radiance: value,
+            } = l;
+            let what = format!("lights[{k}]");
+            let value = self.radiance(&format!("{what}.radiance"), value)?;
+            lights.push(SphereLight {
+                sphere: Sphere {
+                    centre: self.vec3(&format!("{what}.centre"), centre)?,
+                    radius: self.length(&format!("{what}.radius"), radius)?,
+                },
+                radiance: value,
+            });
+        }
+        Ok(lights)
     }
-    let materials: Vec<Brdf> = materials
+
+    /// Builds the checked height field (O(n²) time and memory).
+    fn build_heightfield(&self, spec: HeightFieldSpec) -> Result<(HeightField, usize), String> {
+        let (n, extent, heights, procedural, m) = spec;
+        let hf = match (heights, procedural) {
+            (Some(heights), _) => HeightField::new(n, extent, heights),
+            (None, Some(p)) => HeightField::procedural(n, extent, p.amplitude, p.octaves, p.seed),
+            (None, None) => unreachable!("checked above"),
+        }
+        .map_err(|e| self.err(format!("heightfield: {e}")))?;
+        Ok((hf, m))
+    }
+
+    /// Reads the meshes and their sphere sets (read or fitted), transformed into the
+    /// scene: the meshes, and the proxies (`spheres`, then each mesh's set).
+    fn build_meshes(&self, specs: Vec<MeshSpec>, spheres: &[Sphere]) -> Result<(Vec<SceneMesh>, Vec<Sphere>), String> {
+        let err = |m: String| self.err(m);
+        let mut meshes = Vec::new();
+        let mut proxies = spheres.to_vec();
+        for (what, path, t, set, material) in specs {
+            let local = Mesh::load_obj(&path).map_err(|e| err(format!("{what}: {e}")))?;
+            let local_spheres = match set {
+                SetSpec::File(p) => {
+                    let text = lobefit_core::io::read_text(&p, MAX_SCENE_LEN)
+                        .map_err(|e| err(format!("{what}.spheres {}: {e}", p.display())))?;
+                    serde_json::from_str::<SphereSetFile>(&text)
+                        .map_err(|e| e.to_string())
+                        .and_then(|f| f.spheres())
+                        .map_err(|e| err(format!("{what}.spheres {}: {e}", p.display())))?
+                }
+                SetSpec::Fit(count, method, seed) => {
+                    crate::spheres::fit(&local, count, method, seed).map_err(|e| err(format!("{what}.spheres: {e}")))?
+                }
+            };
+            let mesh = local.transformed(&t).map_err(|e| err(format!("{what}: {e}")))?;
+            let start = proxies.len();
+            proxies.extend(local_spheres.iter().map(|s| Sphere {
+                centre: t.point(s.centre),
+                radius: t.scale * s.radius,
+            }));
+            if proxies.len() > MAX_SPHERES {
+                return Err(err(format!(
+                    "spheres and the meshes' sphere sets hold {} spheres, more than {MAX_SPHERES} (MAX_SPHERES)",
+                    proxies.len()
+                )));
+            }
+            let (lo, hi) = mesh.bounds();
+            meshes.push(SceneMesh {
+                t_min: MESH_T_MIN * (hi - lo).length(),
+                mesh,
+                material,
+                proxy: start..proxies.len(),
+            });
+        }
+        Ok((meshes, proxies))
+    }
+}
+
+/// The materials as BRDFs (a Lafortune lobe's specular factor ρ_s as its ρ =
+/// ρ_s (n + 2) / 2π).
+fn brdfs(materials: Vec<FileMaterial>) -> Vec<Brdf> {
+    materials
         .into_iter()
         .map(|m| match m {
             FileMaterial::Lambert { albedo } => Brdf::Lambert { albedo },
@@ -1353,84 +1521,7 @@ fn parse_inner(
                     .collect(),
             },
         })
-        .collect();
-    let brdf = brdf.map(|i| materials[i].clone());
-    if !build {
-        return Ok(None);
-    }
-    let heightfield = match heightfield {
-        None => None,
-        Some((n, extent, heights, procedural, m)) => {
-            let hf = match (heights, procedural) {
-                (Some(heights), _) => HeightField::new(n, extent, heights),
-                (None, Some(p)) => HeightField::procedural(n, extent, p.amplitude, p.octaves, p.seed),
-                (None, None) => unreachable!("checked above"),
-            }
-            .map_err(|e| err(format!("heightfield: {e}")))?;
-            Some((hf, m))
-        }
-    };
-    let mut meshes = Vec::new();
-    let mut proxies = spheres.clone();
-    for (what, path, t, set, material) in mesh_specs {
-        let local = Mesh::load_obj(&path).map_err(|e| err(format!("{what}: {e}")))?;
-        let local_spheres = match set {
-            SetSpec::File(p) => {
-                let text = lobefit_core::io::read_text(&p, MAX_SCENE_LEN)
-                    .map_err(|e| err(format!("{what}.spheres {}: {e}", p.display())))?;
-                serde_json::from_str::<SphereSetFile>(&text)
-                    .map_err(|e| e.to_string())
-                    .and_then(|f| f.spheres())
-                    .map_err(|e| err(format!("{what}.spheres {}: {e}", p.display())))?
-            }
-            SetSpec::Fit(count, method, seed) => {
-                crate::spheres::fit(&local, count, method, seed).map_err(|e| err(format!("{what}.spheres: {e}")))?
-            }
-        };
-        let mesh = local.transformed(&t).map_err(|e| err(format!("{what}: {e}")))?;
-        let start = proxies.len();
-        proxies.extend(local_spheres.iter().map(|s| Sphere {
-            centre: t.point(s.centre),
-            radius: t.scale * s.radius,
-        }));
-        if proxies.len() > MAX_SPHERES {
-            return Err(err(format!(
-                "spheres and the meshes' sphere sets hold {} spheres, more than {MAX_SPHERES} (MAX_SPHERES)",
-                proxies.len()
-            )));
-        }
-        let (lo, hi) = mesh.bounds();
-        meshes.push(SceneMesh {
-            t_min: MESH_T_MIN * (hi - lo).length(),
-            mesh,
-            material,
-            proxy: start..proxies.len(),
-        });
-    }
-    let proxy_bvh = Bvh::new(&proxies);
-    let bvh = Bvh::new(&spheres);
-    Ok(Some(Scene {
-        name: name.into(),
-        spheres,
-        sphere_materials,
-        planes,
-        plane_materials,
-        materials,
-        lights,
-        environment,
-        sh_environment,
-        heightfield,
-        brdf,
-        camera: Camera {
-            eye,
-            target,
-            fov: camera.fov,
-        },
-        meshes,
-        proxies,
-        bvh,
-        proxy_bvh,
-    }))
+        .collect()
 }
 
 #[cfg(test)]

@@ -14,10 +14,10 @@ use rayon::prelude::*;
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Specular, Tables};
 use super::{reference, PIPELINE};
 use crate::estimate::per_pixel;
-use crate::image::{breakdown, compare, mean_over, noise_free_rel_rmse, write_comparison};
+use crate::image::{breakdown, compare, noise_free_rel_rmse};
+use crate::render::{column, shade_image, Frame, Reference, Subset};
 use crate::scene::{Hit, Scene};
-use crate::timing::{timed, EqualError};
-use crate::BASELINE_PLAIN;
+use crate::timing::timed;
 use crate::{RenderOptions, Summary};
 
 /// The breakdown subset's reference takes this many times the image's samples.
@@ -53,15 +53,10 @@ pub fn blockers_of<'a>(scene: &'a Scene, h: &Hit) -> Blockers<'a> {
 
 /// The pipeline's radiance at every hit with `s` (0 for background).
 fn image(t: &Tables, s: &Settings, scene: &Scene, hits: &[Option<Hit>]) -> Result<Vec<f64>, String> {
-    hits.par_iter()
-        .map(|h| match h {
-            None => Ok(0.0),
-            Some(h) => {
-                let brdf = Phong::of(scene.brdf(h))?;
-                radiance(t, s, &scene.environment, &brdf, &blockers_of(scene, h), h)
-            }
-        })
-        .collect()
+    shade_image(hits, |_, h| {
+        let brdf = Phong::of(scene.brdf(h))?;
+        radiance(t, s, &scene.environment, &brdf, &blockers_of(scene, h), h)
+    })
 }
 
 /// Sphere counts of the sweep (Table 1's range, 46 to 306 spheres).
@@ -117,25 +112,93 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     render_scene(&scene(name)?, opts, dir, progress)
 }
 
-/// Renders `scene` into `dir`.
+/// Renders `scene` into `dir`: the skeleton ([`crate::render`]) filled in with the
+/// ISG's models, its patch resolutions and its breakdown.
 fn render_scene(
     scene: &Scene,
     opts: &RenderOptions,
     dir: &Path,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Summary, String> {
-    let tag = scene.name.strip_prefix("isg-").unwrap_or(&scene.name).to_string();
-    let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
-    PIPELINE.check_work(scene, opts)?;
-    let tables = Tables::embedded()?;
-    let (hits, lit) = scene.primary_hits(w, h)?;
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let (f, tables) = Frame::new(&PIPELINE, scene, opts, dir, Tables::embedded)?;
     let mut sum = Summary::default();
+    let r = image_reference(&f, progress)?;
+    sum.lines.push(intro(&f, &r));
+    let (model_imgs, t_best) = models(&f, &tables, &r, &mut sum.lines)?;
+    let default = Settings::default();
+    for (label, patches) in [("100", Patches::Grid(10)), ("400", Patches::Grid(20))] {
+        let s = Settings { patches, ..default };
+        let img = image(&tables, &s, scene, &f.hits)?;
+        let st = compare(&img, &r.img, &f.lit);
+        sum.lines.push(format!(
+            "{}: model best, {label} patches: relative RMSE {:.4} ({:.4} without the reference's noise), p99 {:.4}, max {:.4}",
+            f.tag,
+            st.rel_rmse,
+            noise_free_rel_rmse(&img, &r.img, &r.se, &f.lit),
+            st.p99,
+            st.max
+        ));
+    }
+    // The breakdown on a strided subset: each approximation made exact in turn.
+    let picks = f.picks();
+    let (parts, names) = breakdown_parts(&f, &tables, &picks)?;
+    let at = names.len();
+    let sub = Subset::new(column(&parts, at), column(&parts, at + 1));
+    sum.lines.push(sub.header(&f));
+    let mut rmse_best = f64::NAN;
+    for (k, (label, img)) in model_imgs.iter().enumerate() {
+        let v: Vec<f64> = picks.iter().map(|&p| img[p]).collect();
+        let st = compare(&v, &sub.precise, &sub.mask);
+        let nf = noise_free_rel_rmse(&v, &sub.precise, &sub.precise_se, &sub.mask);
+        if k == BEST {
+            // The raw RMSE: an upper bound of the error (the reference's noise in it),
+            // so the equal-error ratio below is a lower bound.
+            rmse_best = st.rel_rmse;
+        }
+        sum.lines.push(format!(
+            "{}:   {label:<18}: relative RMSE {:.4} ({nf:.4} without the reference's noise), p99 {:.4}, max {:.4}",
+            f.tag, st.rel_rmse, st.p99, st.max
+        ));
+    }
+    sum.lines.extend(breakdown(
+        &f.tag,
+        "the paper's configuration (best model, binary, eq. 9)",
+        &names,
+        &parts,
+        sub.mean,
+        f.stride(),
+    ));
 
+    let eq = r.equal_error(&f, t_best, rmse_best);
+    sum.lines.push(format!(
+        "{}: time per pixel: ISG (best) {:.2} µs; reference {:.3} µs per sample, {:.0} samples for the ISG's RMSE against the precise reference → {:.0} µs; ratio reference/ISG {:.0} (at least: that RMSE includes the precise reference's noise; one run, same process, the same BVH; plain Monte Carlo extrapolated σ²/ε², a weak baseline: docs/pipelines.md, Stronger baselines)",
+        f.tag,
+        1e6 * eq.pipeline_per_pixel,
+        1e6 * eq.reference_per_sample,
+        eq.samples,
+        1e6 * eq.reference_per_pixel,
+        eq.ratio
+    ));
+    let titles = [
+        &format!("{}: ISG pipeline (best model)", f.tag),
+        &format!("{}: Monte Carlo reference ({} spp)", f.tag, opts.spp),
+    ];
+    f.write_images(&mut sum, titles.map(String::as_str), "isg", &model_imgs[BEST].1, &r)?;
+    let error = format!(
+        "relative RMSE {rmse_best:.4} against a {}-sample reference on {} pixels",
+        opts.spp * PRECISE_FACTOR,
+        picks.len()
+    );
+    f.finish(sum, &r, rmse_best, "ISG (best model)".into(), error, &eq)
+}
+
+/// The image's Monte Carlo reference ([`MC_SEED`]-seeded per pixel), timed.
+fn image_reference(f: &Frame<'_>, progress: &(dyn Fn() + Sync)) -> Result<Reference, String> {
+    let scene = f.scene;
     let (refs, t_ref) = timed(|| {
         per_pixel(
-            &hits,
-            w,
+            &f.hits,
+            f.w,
             |hit, p| {
                 let brdf = Phong::of(scene.brdf(hit))?;
                 Ok(reference(
@@ -143,21 +206,25 @@ fn render_scene(
                     &brdf,
                     |v| scene.occluded(hit, v),
                     hit,
-                    opts.spp,
+                    f.opts.spp,
                     MC_SEED ^ p as u64,
                 ))
             },
             progress,
         )
     });
-    let refs = refs?;
-    let reference_img: Vec<f64> = refs.iter().map(|r| r.mean).collect();
-    let se: Vec<f64> = refs.iter().map(|r| r.std_error).collect();
-    let mean_ref = mean_over(&reference_img, &lit);
-    let ref_rel_se = mean_over(&se, &lit) / mean_ref;
-    let pixels = lit.iter().filter(|&&l| l).count();
-    sum.lines.push(format!(
-        "{tag}: {w}×{h}, {pixels} lit pixels, {} spheres{}, {} lighting SGs; reference {} samples/pixel, standard error mean {:.2e} of the mean radiance {:.4}",
+    Ok(Reference::new(f, refs?, t_ref))
+}
+
+/// The summary's first line: the scene and its reference.
+fn intro(f: &Frame<'_>, r: &Reference) -> String {
+    let scene = f.scene;
+    format!(
+        "{}: {}×{}, {} lit pixels, {} spheres{}, {} lighting SGs; reference {} samples/pixel, standard error mean {:.2e} of the mean radiance {:.4}",
+        f.tag,
+        f.w,
+        f.h,
+        f.pixels,
         scene.spheres.len(),
         if scene.meshes.is_empty() {
             String::new()
@@ -170,13 +237,28 @@ fn render_scene(
             )
         },
         scene.environment.len(),
-        opts.spp,
-        ref_rel_se,
-        mean_ref
-    ));
+        f.opts.spp,
+        r.rel_se,
+        r.mean
+    )
+}
+
+/// Which of [`models`]' images is the best model's (the one timed and written).
+const BEST: usize = 2;
+
+/// A labelled image (row-major radiance).
+type Labelled = (String, Vec<f64>);
+
+/// Every model's image, then the best model's with eq. 9, each timed and compared
+/// with the reference (a line each in `lines`): the labelled images and the best
+/// model's time (s).
+fn models(
+    f: &Frame<'_>,
+    tables: &Tables,
+    r: &Reference,
+    lines: &mut Vec<String>,
+) -> Result<(Vec<Labelled>, f64), String> {
     let default = Settings::default();
-    let mut best = (Vec::new(), 0.0, 0.0);
-    let mut model_imgs = Vec::new();
     let mut variants: Vec<(String, Settings)> = Model::ALL
         .iter()
         .map(|&model| (format!("model {}", model.name()), Settings { model, ..default }))
@@ -188,44 +270,39 @@ fn render_scene(
             ..default
         },
     ));
+    let mut t_best = 0.0;
+    let mut model_imgs = Vec::new();
     for (k, (label, s)) in variants.iter().enumerate() {
-        let (img, t) = timed(|| image(&tables, s, scene, &hits));
+        let (img, t) = timed(|| image(tables, s, f.scene, &f.hits));
         let img = img?;
-        let st = compare(&img, &reference_img, &lit);
-        let nf = noise_free_rel_rmse(&img, &reference_img, &se, &lit);
-        sum.lines.push(format!(
-            "{tag}: {label:<18} (adaptive patches, ε = 0.01, binary): relative RMSE {:.4} ({nf:.4} without the reference's noise), p99 {:.4}, max {:.4}; {:.2} µs/pixel",
+        let st = compare(&img, &r.img, &f.lit);
+        let nf = noise_free_rel_rmse(&img, &r.img, &r.se, &f.lit);
+        lines.push(format!(
+            "{}: {label:<18} (adaptive patches, ε = 0.01, binary): relative RMSE {:.4} ({nf:.4} without the reference's noise), p99 {:.4}, max {:.4}; {:.2} µs/pixel",
+            f.tag,
             st.rel_rmse,
             st.p99,
             st.max,
-            1e6 * t / pixels as f64
+            1e6 * t / f.pixels as f64
         ));
-        model_imgs.push((label.clone(), img.clone()));
-        if k == 2 {
-            best = (img, t, nf);
+        model_imgs.push((label.clone(), img));
+        if k == BEST {
+            t_best = t;
         }
     }
-    let (best_img, t_best, _) = best;
-    for (label, patches) in [("100", Patches::Grid(10)), ("400", Patches::Grid(20))] {
-        let s = Settings { patches, ..default };
-        let img = image(&tables, &s, scene, &hits)?;
-        let st = compare(&img, &reference_img, &lit);
-        sum.lines.push(format!(
-            "{tag}: model best, {label} patches: relative RMSE {:.4} ({:.4} without the reference's noise), p99 {:.4}, max {:.4}",
-            st.rel_rmse,
-            noise_free_rel_rmse(&img, &reference_img, &se, &lit),
-            st.p99,
-            st.max
-        ));
-    }
-    // The breakdown on a strided subset: each approximation made exact in turn.
-    let stride = opts.breakdown_stride.max(1);
-    let picks: Vec<usize> = (0..h)
-        .step_by(stride)
-        .flat_map(|j| (0..w).step_by(stride).map(move |i| j * w + i))
-        .filter(|&p| lit[p])
-        .collect();
-    // From the paper's configuration (best model, binary, eq. 9).
+    Ok((model_imgs, t_best))
+}
+
+/// The breakdown at each pick, from the paper's configuration (best model, binary,
+/// eq. 9), each approximation made exact in turn: one row per pick (the stages, then
+/// the precise reference's mean and standard error), and the stages' names.
+fn breakdown_parts(
+    f: &Frame<'_>,
+    tables: &Tables,
+    picks: &[usize],
+) -> Result<(Vec<Vec<f64>>, Vec<&'static str>), String> {
+    let (scene, w, spp) = (f.scene, f.w, f.opts.spp);
+    let default = Settings::default();
     let paper = Settings {
         specular: Specular::Eq9,
         ..default
@@ -250,16 +327,15 @@ fn render_scene(
     ];
     // With meshes, a last stage: the sphere sets → the true triangles.
     let meshes = !scene.meshes.is_empty();
-    let at = stages.len() + usize::from(meshes);
     let parts: Vec<Vec<f64>> = picks
         .par_iter()
         .map(|&p| {
-            let hit = hits[p].expect("lit");
+            let hit = f.hits[p].expect("lit");
             let brdf = Phong::of(scene.brdf(&hit))?;
             let blockers = blockers_of(scene, &hit);
             let mut v = stages
                 .iter()
-                .map(|s| radiance(&tables, s, &scene.environment, &brdf, &blockers, &hit))
+                .map(|s| radiance(tables, s, &scene.environment, &brdf, &blockers, &hit))
                 .collect::<Result<Vec<f64>, String>>()?;
             // A reference with PRECISE_FACTOR × the samples: the subset's errors are
             // measured against it (its noise far below the pipeline's error).
@@ -268,7 +344,7 @@ fn render_scene(
                 &brdf,
                 |v| scene.occluded(&hit, v),
                 &hit,
-                opts.spp * PRECISE_FACTOR,
+                spp * PRECISE_FACTOR,
                 MC_SEED ^ 0x9e37 ^ p as u64,
             )
             .finite(|| format!("the breakdown's reference at pixel ({}, {})", p % w, p / w))?;
@@ -289,7 +365,7 @@ fn render_scene(
                             .any(|(i, s)| !own.contains(&i) && crate::scene::ray_sphere(hit.x, v, s).is_some())
                     },
                     &hit,
-                    opts.spp * PRECISE_FACTOR,
+                    spp * PRECISE_FACTOR,
                     MC_SEED ^ 0x9e37 ^ p as u64,
                 )
                 .finite(|| format!("the breakdown's sphere-set reference at pixel ({}, {})", p % w, p / w))?;
@@ -299,33 +375,6 @@ fn render_scene(
             Ok(v)
         })
         .collect::<Result<_, String>>()?;
-    // The subset against the precise reference, per model, its noise taken out.
-    let sub_mask = vec![true; picks.len()];
-    let precise: Vec<f64> = parts.iter().map(|p| p[at]).collect();
-    let precise_se: Vec<f64> = parts.iter().map(|p| p[at + 1]).collect();
-    let mean_sub = mean_over(&precise, &sub_mask);
-    sum.lines.push(format!(
-        "{tag}: on {} pixels (every {}th) against a reference of {} samples (standard error mean {:.2e} of the mean):",
-        picks.len(),
-        opts.breakdown_stride.max(1),
-        opts.spp * PRECISE_FACTOR,
-        mean_over(&precise_se, &sub_mask) / mean_sub
-    ));
-    let mut rmse_best = f64::NAN;
-    for (k, (label, img)) in model_imgs.iter().enumerate() {
-        let v: Vec<f64> = picks.iter().map(|&p| img[p]).collect();
-        let st = compare(&v, &precise, &sub_mask);
-        let nf = noise_free_rel_rmse(&v, &precise, &precise_se, &sub_mask);
-        if k == 2 {
-            // The raw RMSE: an upper bound of the error (the reference's noise in it),
-            // so the equal-error ratio below is a lower bound.
-            rmse_best = st.rel_rmse;
-        }
-        sum.lines.push(format!(
-            "{tag}:   {label:<18}: relative RMSE {:.4} ({nf:.4} without the reference's noise), p99 {:.4}, max {:.4}",
-            st.rel_rmse, st.p99, st.max
-        ));
-    }
     let mut names = vec![
         "ISG model best (→ Gauss–Legendre patch integrals)",
         "binary patch occlusion (→ the covered part of each patch, 8 × 8 nodes at exact visibility)",
@@ -337,59 +386,5 @@ fn render_scene(
             "Phong as one SG, the limiting cone, patch resolution (→ the precise reference on the meshes' sphere sets)";
         names.push("sphere sets → true meshes (→ the precise reference with the triangles, same samples)");
     }
-    sum.lines.extend(breakdown(
-        &tag,
-        "the paper's configuration (best model, binary, eq. 9)",
-        &names,
-        &parts,
-        mean_sub,
-        stride,
-    ));
-
-    let eq = EqualError::from_estimates(t_best, t_ref, &refs, &lit, opts.spp, rmse_best * mean_ref);
-    sum.lines.push(format!(
-        "{tag}: time per pixel: ISG (best) {:.2} µs; reference {:.3} µs per sample, {:.0} samples for the ISG's RMSE against the precise reference → {:.0} µs; ratio reference/ISG {:.0} (at least: that RMSE includes the precise reference's noise; one run, same process, the same BVH; plain Monte Carlo extrapolated σ²/ε², a weak baseline: docs/pipelines.md, Stronger baselines)",
-        1e6 * eq.pipeline_per_pixel,
-        1e6 * eq.reference_per_sample,
-        eq.samples,
-        1e6 * eq.reference_per_pixel,
-        eq.ratio
-    ));
-
-    let (files, _) = write_comparison(
-        dir,
-        &format!("isg-{tag}"),
-        [
-            &format!("{tag}: ISG pipeline (best model)"),
-            &format!("{tag}: Monte Carlo reference ({} spp)", opts.spp),
-        ],
-        "isg",
-        (w, h),
-        &best_img,
-        &reference_img,
-        &lit,
-        mean_ref,
-    )?;
-    sum.files.extend(files);
-    sum.rel_rmse = rmse_best;
-    sum.ref_rel_se = ref_rel_se;
-    sum.headline.push(
-        crate::Headline {
-            render: format!("isg {tag}"),
-            scope: format!("{w}×{h}"),
-            method: "ISG (best model)".into(),
-            error: format!(
-                "relative RMSE {rmse_best:.4} against a {}-sample reference on {} pixels",
-                opts.spp * PRECISE_FACTOR,
-                picks.len()
-            ),
-            cost_us: 1e6 * eq.pipeline_per_pixel,
-            unit: "px".into(),
-            baseline: BASELINE_PLAIN.into(),
-            baseline_us: 1e6 * eq.reference_per_pixel,
-        }
-        .line(),
-    );
-    sum.write(dir, &format!("isg-{tag}"))?;
-    Ok(sum)
+    Ok((parts, names))
 }

@@ -14,17 +14,17 @@ use std::path::Path;
 
 use lobefit_tables::geom::SphereLight;
 use lobefit_tables::glam::DVec3;
-use lobefit_tables::mask_weights::{build_mask, Cap, MaskMode, WeightSet};
+use lobefit_tables::mask_weights::{build_mask, Cap, MaskCell, MaskMode, WeightSet};
 use lobefit_tables::meunier::{LightModel, MaskSettings};
 use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
 
 use super::light_fit;
 use crate::estimate::{estimate, estimate_with, Estimate, Sampling};
-use crate::image::{compare, masked, mean_over, panel, write_comparison};
+use crate::image::{compare, masked, panel};
+use crate::render::{shade_image, Frame, Reference};
 use crate::scene::{brdf_value, visible, Hit, Scene};
-use crate::timing::{timed, EqualError};
-use crate::BASELINE_PLAIN;
+use crate::timing::timed;
 use crate::{RenderOptions, Summary};
 use lobefit_core::plot::{heatmaps, line_chart, LineChart, Series};
 
@@ -98,23 +98,19 @@ fn lobe_image(
     hits: &[Option<Hit>],
     settings: &MaskSettings,
 ) -> Result<Vec<f64>, String> {
-    hits.par_iter()
-        .map(|h| match h {
-            None => Ok(0.0),
-            Some(h) => m
-                .radiance(
-                    h.x,
-                    h.n,
-                    h.t,
-                    h.wo,
-                    scene.brdf(h),
-                    &[*light],
-                    &scene.blockers(h),
-                    settings,
-                )
-                .map_err(|e| e.to_string()),
-        })
-        .collect()
+    shade_image(hits, |_, h| {
+        m.radiance(
+            h.x,
+            h.n,
+            h.t,
+            h.wo,
+            scene.brdf(h),
+            &[*light],
+            &scene.blockers(h),
+            settings,
+        )
+        .map_err(|e| e.to_string())
+    })
 }
 
 /// The thresholds t_i (sr) `render meunier` sweeps; the paper's is 0.001.
@@ -206,30 +202,7 @@ fn breakdown(
     } else {
         Vec::new()
     };
-    let light_dist = (light.sphere.centre - h.x).length();
-    let caps: Vec<Cap> = blockers
-        .iter()
-        .filter(|b| (b.centre - h.x).length() - b.radius < light_dist)
-        .map(|b| {
-            let to = b.centre - h.x;
-            let d = to.length();
-            Cap {
-                axis: to / d,
-                half_angle: (b.radius / d).asin(),
-            }
-        })
-        .collect();
-    let mask = build_mask(lcap, &caps, settings.depth).map_err(|e| e.to_string())?;
-    let leaves: Vec<_> = mask.leaves(settings.depth, settings.mode).collect();
-    let mut w = [0.0; lobefit_tables::mask_weights::MAX_DEPTH as usize];
-    m.weights
-        .weights(settings.weights, settings.mode, settings.depth, mask.dist, &mut w)
-        .map_err(|e| e.to_string())?;
-    // Each leaf's bounding cap as (axis, cos half-angle, weight).
-    let bounding: Vec<(DVec3, f64, f64)> = leaves
-        .iter()
-        .map(|c| (c.axis, c.half_angle.cos(), w[c.depth.max(1) as usize - 1]))
-        .collect();
+    let (leaves, bounding) = leaf_caps(m, h, light, lcap, &blockers, settings)?;
     // Rule: Gauss–Legendre in θ on [0, α] and [α, θ_max] (θ_max where the light lobe
     // falls below 1e-9 of its peak), uniform in φ.
     let alpha = lcap.half_angle;
@@ -309,9 +282,50 @@ fn breakdown(
     Ok(out)
 }
 
+/// The mask of the light's cap `lcap` under the blockers nearer than the light, at
+/// `settings`' depth and mode: its leaf cells, and each leaf's bounding cap as (axis,
+/// cos half-angle, weight) with the settings' weights.
+#[allow(clippy::type_complexity)]
+fn leaf_caps(
+    m: &Meunier<'_>,
+    h: &Hit,
+    light: &SphereLight,
+    lcap: Cap,
+    blockers: &[crate::scene::Sphere],
+    settings: &MaskSettings,
+) -> Result<(Vec<MaskCell>, Vec<(DVec3, f64, f64)>), String> {
+    let light_dist = (light.sphere.centre - h.x).length();
+    let caps: Vec<Cap> = blockers
+        .iter()
+        .filter(|b| (b.centre - h.x).length() - b.radius < light_dist)
+        .map(|b| {
+            let to = b.centre - h.x;
+            let d = to.length();
+            Cap {
+                axis: to / d,
+                half_angle: (b.radius / d).asin(),
+            }
+        })
+        .collect();
+    let mask = build_mask(lcap, &caps, settings.depth).map_err(|e| e.to_string())?;
+    let leaves: Vec<MaskCell> = mask.leaves(settings.depth, settings.mode).cloned().collect();
+    let mut w = [0.0; lobefit_tables::mask_weights::MAX_DEPTH as usize];
+    m.weights
+        .weights(settings.weights, settings.mode, settings.depth, mask.dist, &mut w)
+        .map_err(|e| e.to_string())?;
+    // Each leaf's bounding cap as (axis, cos half-angle, weight).
+    let bounding: Vec<(DVec3, f64, f64)> = leaves
+        .iter()
+        .map(|c| (c.axis, c.half_angle.cos(), w[c.depth.max(1) as usize - 1]))
+        .collect();
+    Ok((leaves, bounding))
+}
+
 /// Renders the scene `name` (a built-in, [`super::PIPELINE`]'s `scenes`, or a scene
 /// file's path) and writes its figures into `dir`. `progress` is called once per
-/// finished image row of the reference.
+/// finished image row of the reference. The skeleton ([`crate::render`]) filled in
+/// with the light models × weight sets, the thresholds, Figure 10, the shadow profile
+/// and the breakdown.
 pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
     let scene = scene(name)?;
     let light = match scene.lights[..] {
@@ -324,20 +338,60 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             ))
         }
     };
-    let tag = scene.name.strip_prefix("meunier-").unwrap_or(&scene.name).to_string();
-    let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
     let m = Meunier {
         products: LobeProduct::embedded().map_err(|e| e.to_string())?,
         caps: CapExponent::embedded().map_err(|e| e.to_string())?,
         weights: MaskWeights::embedded().map_err(|e| e.to_string())?,
     };
-    super::PIPELINE.check_work(&scene, opts)?;
-    // Every statistic is relative to the reference's mean over the lit pixels.
-    let (hits, lit) = scene.primary_hits(w, h)?;
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let (f, ()) = Frame::new(&super::PIPELINE, &scene, opts, dir, || Ok(()))?;
+    let tag = f.tag.clone();
     let mut sum = Summary::default();
+    let r = image_reference(&f, &light, progress)?;
+    let max_se =
+        r.se.iter()
+            .zip(&f.lit)
+            .filter(|(_, &l)| l)
+            .map(|(s, _)| *s)
+            .fold(0.0, f64::max)
+            / r.mean;
+    let default = MaskSettings::default();
+    sum.lines.push(format!(
+        "{tag}: {}×{}, {} lit pixels; reference {} light samples/pixel, standard error mean {:.2e}, max {:.2e} (of the mean radiance {:.4})",
+        f.w, f.h, f.pixels, opts.spp, r.rel_se, max_se, r.mean
+    ));
+    let (lobes, t_lobe, rmse_default) = light_models(&f, &m, &light, &r, &mut sum.lines)?;
+    let eq = r.equal_error(&f, t_lobe, rmse_default);
+    sum.lines.push(format!(
+        "{tag}: shading time per pixel (default light {}): lobes {:.2} µs; reference {:.3} µs per sample, {:.1} samples for the lobes' RMSE → {:.2} µs; ratio reference/lobes {:.2} (one run, same process; plain Monte Carlo extrapolated σ²/ε², a weak baseline: docs/pipelines.md, Stronger baselines)",
+        default.light.name(),
+        1e6 * eq.pipeline_per_pixel,
+        1e6 * eq.reference_per_sample,
+        eq.samples,
+        1e6 * eq.reference_per_pixel,
+        eq.ratio
+    ));
+    thresholds(&f, &m, &light, &r, &mut sum.lines)?;
 
-    // Reference (row by row for the progress bar), timed.
+    // Images: PNG panels, and the float images for other tools.
+    let titles = [
+        format!("{tag}: lobe pipeline (depth 5, fitted)"),
+        format!("{tag}: Monte Carlo reference ({} spp)", opts.spp),
+    ];
+    f.write_images(&mut sum, [&titles[0], &titles[1]], "lobes", &lobes, &r)?;
+    figure10(&f, &m, &light, &r, &mut sum)?;
+    sum.files.push(profile(&f, &m, &light, &r, &lobes)?);
+    breakdown_lines(&f, &m, &light, &r, &mut sum.lines)?;
+    let error = format!(
+        "relative RMSE {rmse_default:.4} against the {}-sample reference on {} pixels",
+        opts.spp, f.pixels
+    );
+    let method = format!("lobes (light {}, depth 5, fitted weights)", default.light.name());
+    f.finish(sum, &r, rmse_default, method, error, &eq)
+}
+
+/// The image's reference (row by row for the progress bar), timed.
+fn image_reference(f: &Frame<'_>, light: &SphereLight, progress: &(dyn Fn() + Sync)) -> Result<Reference, String> {
+    let (w, h, hits, scene) = (f.w, f.h, &f.hits, f.scene);
     let (refs, t_ref) = timed(|| -> Vec<Estimate> {
         (0..h)
             .into_par_iter()
@@ -345,7 +399,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
                 let row: Vec<Estimate> = (0..w)
                     .map(|i| match &hits[j * w + i] {
                         None => estimate(0, 0, |_| 0.0),
-                        Some(hit) => reference(&scene, &light, hit, opts.spp, MC_SEED ^ (j * w + i) as u64),
+                        Some(hit) => reference(scene, light, hit, f.opts.spp, MC_SEED ^ (j * w + i) as u64),
                     })
                     .collect();
                 progress();
@@ -356,26 +410,21 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     for (p, r) in refs.iter().enumerate() {
         r.finite(|| format!("scene {}: the reference at pixel ({}, {})", scene.name, p % w, p / w))?;
     }
-    let reference_img: Vec<f64> = refs.iter().map(|r| r.mean).collect();
-    let se: Vec<f64> = refs.iter().map(|r| r.std_error).collect();
-    let mean_ref = mean_over(&reference_img, &lit);
-    let ref_rel_se = mean_over(&se, &lit) / mean_ref;
-    let max_se = se
-        .iter()
-        .zip(&lit)
-        .filter(|(_, &l)| l)
-        .map(|(s, _)| *s)
-        .fold(0.0, f64::max)
-        / mean_ref;
+    Ok(Reference::new(f, refs, t_ref))
+}
 
-    // Lobe pipeline: both light models × three weight sets, each light's default
-    // weights timed.
+/// The lobe pipeline: both light models × three weight sets, each light's default
+/// weights timed (a line each in `lines`). Returns the default light's image, time (s)
+/// and relative RMSE.
+fn light_models(
+    f: &Frame<'_>,
+    m: &Meunier<'_>,
+    light: &SphereLight,
+    r: &Reference,
+    lines: &mut Vec<String>,
+) -> Result<(Vec<f64>, f64, f64), String> {
+    let (tag, scene, hits) = (&f.tag, f.scene, &f.hits);
     let default = MaskSettings::default();
-    let pixels = lit.iter().filter(|&&l| l).count();
-    sum.lines.push(format!(
-        "{tag}: {w}×{h}, {pixels} lit pixels; reference {} light samples/pixel, standard error mean {:.2e}, max {:.2e} (of the mean radiance {:.4})",
-        opts.spp, ref_rel_se, max_se, mean_ref
-    ));
     let mut lobes = Vec::new();
     let mut t_lobe = 0.0;
     let mut rmse_default = f64::NAN;
@@ -384,11 +433,11 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             light: light_model,
             ..default
         };
-        let (img, t) = timed(|| lobe_image(&m, &scene, &light, &hits, &base));
+        let (img, t) = timed(|| lobe_image(m, scene, light, hits, &base));
         let img = img?;
-        let st = compare(&img, &reference_img, &lit);
-        let eq = EqualError::from_estimates(t, t_ref, &refs, &lit, opts.spp, st.rel_rmse * mean_ref);
-        sum.lines.push(format!(
+        let st = compare(&img, &r.img, &f.lit);
+        let eq = r.equal_error(f, t, st.rel_rmse);
+        lines.push(format!(
             "{tag}: light {}: shading time per pixel {:.2} µs; the reference reaches its RMSE with {:.1} samples → {:.2} µs; ratio reference/lobes {:.2} (one run, same process; plain Monte Carlo extrapolated σ²/ε², a weak baseline: docs/pipelines.md, Stronger baselines)",
             light_model.name(),
             1e6 * eq.pipeline_per_pixel,
@@ -401,10 +450,10 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             let other = if set == WeightSet::Fitted {
                 None
             } else {
-                Some(lobe_image(&m, &scene, &light, &hits, &s)?)
+                Some(lobe_image(m, scene, light, hits, &s)?)
             };
-            let st = compare(other.as_ref().unwrap_or(&img), &reference_img, &lit);
-            sum.lines.push(format!(
+            let st = compare(other.as_ref().unwrap_or(&img), &r.img, &f.lit);
+            lines.push(format!(
                 "{tag}: light {} weights {:<6} depth 5 aggressive: relative RMSE {:.4}, p99 {:.4}, max {:.4}",
                 light_model.name(),
                 set.name(),
@@ -419,67 +468,69 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             lobes = img;
         }
     }
-    let eq = EqualError::from_estimates(t_lobe, t_ref, &refs, &lit, opts.spp, rmse_default * mean_ref);
-    sum.lines.push(format!(
-        "{tag}: shading time per pixel (default light {}): lobes {:.2} µs; reference {:.3} µs per sample, {:.1} samples for the lobes' RMSE → {:.2} µs; ratio reference/lobes {:.2} (one run, same process; plain Monte Carlo extrapolated σ²/ε², a weak baseline: docs/pipelines.md, Stronger baselines)",
-        default.light.name(),
-        1e6 * eq.pipeline_per_pixel,
-        1e6 * eq.reference_per_sample,
-        eq.samples,
-        1e6 * eq.reference_per_pixel,
-        eq.ratio
-    ));
+    Ok((lobes, t_lobe, rmse_default))
+}
 
-    // The threshold t_i (§5.4): products kept, time and error, per light model.
+/// The threshold t_i (§5.4): products kept, time and error, per light model (a line
+/// each in `lines`).
+fn thresholds(
+    f: &Frame<'_>,
+    m: &Meunier<'_>,
+    light: &SphereLight,
+    r: &Reference,
+    lines: &mut Vec<String>,
+) -> Result<(), String> {
+    let (scene, hits) = (f.scene, &f.hits);
     for light_model in LightModel::ALL {
         for t in THRESHOLDS {
             let s = MaskSettings {
                 light: light_model,
                 threshold: t,
-                ..default
+                ..MaskSettings::default()
             };
-            let (img, secs) = timed(|| lobe_image(&m, &scene, &light, &hits, &s));
-            let st = compare(&img?, &reference_img, &lit);
+            let (img, secs) = timed(|| lobe_image(m, scene, light, hits, &s));
+            let st = compare(&img?, &r.img, &f.lit);
             let kept: Vec<usize> = hits
                 .par_iter()
                 .flatten()
-                .map(|h| products_kept(&m, &scene, &light, h, &s))
+                .map(|h| products_kept(m, scene, light, h, &s))
                 .collect::<Result<_, String>>()?;
-            sum.lines.push(format!(
-                "{tag}: light {} t_i {t:.0e}: products kept per pixel {:.1}, shading {:.2} µs/pixel, relative RMSE {:.4}",
+            lines.push(format!(
+                "{}: light {} t_i {t:.0e}: products kept per pixel {:.1}, shading {:.2} µs/pixel, relative RMSE {:.4}",
+                f.tag,
                 light_model.name(),
-                kept.iter().sum::<usize>() as f64 / pixels as f64,
-                1e6 * secs / pixels as f64,
+                kept.iter().sum::<usize>() as f64 / f.pixels as f64,
+                1e6 * secs / f.pixels as f64,
                 st.rel_rmse
             ));
         }
     }
+    Ok(())
+}
 
-    // Images: PNG panels, and the float images for other tools.
-    let (files, _) = write_comparison(
-        dir,
-        &format!("meunier-{tag}"),
-        [
-            &format!("{tag}: lobe pipeline (depth 5, fitted)"),
-            &format!("{tag}: Monte Carlo reference ({} spp)", opts.spp),
-        ],
-        "lobes",
-        (w, h),
-        &lobes,
-        &reference_img,
-        &lit,
-        mean_ref,
-    )?;
-    sum.files.extend(files);
-    // Figure 10: aggressive and conservative × depth 2, 3, 5.
+/// Figure 10: aggressive and conservative × depth 2, 3, 5 (a line each and the
+/// panels' file in `sum`).
+fn figure10(
+    f: &Frame<'_>,
+    m: &Meunier<'_>,
+    light: &SphereLight,
+    r: &Reference,
+    sum: &mut Summary,
+) -> Result<(), String> {
+    let (w, h) = (f.w, f.h);
     let mut fig10 = Vec::new();
     for mode in MaskMode::ALL {
         for depth in [2, 3, 5] {
-            let s = MaskSettings { depth, mode, ..default };
-            let img = lobe_image(&m, &scene, &light, &hits, &s)?;
-            let st = compare(&img, &reference_img, &lit);
+            let s = MaskSettings {
+                depth,
+                mode,
+                ..MaskSettings::default()
+            };
+            let img = lobe_image(m, f.scene, light, &f.hits, &s)?;
+            let st = compare(&img, &r.img, &f.lit);
             sum.lines.push(format!(
-                "{tag}: Figure 10 {} depth {depth}: relative RMSE {:.4}",
+                "{}: Figure 10 {} depth {depth}: relative RMSE {:.4}",
+                f.tag,
                 mode.name(),
                 st.rel_rmse
             ));
@@ -487,20 +538,33 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
                 format!("{} depth {depth}", mode.name()),
                 w,
                 h,
-                &masked(&img, &lit),
+                &masked(&img, &f.lit),
                 "radiance",
             ));
         }
     }
     sum.files
-        .push(heatmaps(&dir.join(format!("meunier-{tag}-figure10.png")), &fig10, 3)?);
-    // Shadow profile: the image row through the deepest shadow on the plane.
+        .push(heatmaps(&f.dir.join(format!("{}-figure10.png", f.stem())), &fig10, 3)?);
+    Ok(())
+}
+
+/// The shadow profile: radiance along the image row through the deepest shadow on the
+/// plane (the lobes' largest error there), for the lobes' weight sets and the
+/// reference. Returns the chart's file.
+fn profile(
+    f: &Frame<'_>,
+    m: &Meunier<'_>,
+    light: &SphereLight,
+    r: &Reference,
+    lobes: &[f64],
+) -> Result<std::path::PathBuf, String> {
+    let (w, h, hits, tag) = (f.w, f.h, &f.hits, &f.tag);
     let row = (0..h)
         .max_by(|&a, &b| {
             let shade = |j: usize| -> f64 {
                 (0..w)
                     .filter(|&i| hits[j * w + i].is_some_and(|x| x.sphere.is_none()))
-                    .map(|i| (lobes[j * w + i] - reference_img[j * w + i]).abs())
+                    .map(|i| (lobes[j * w + i] - r.img[j * w + i]).abs())
                     .sum()
             };
             shade(a).total_cmp(&shade(b))
@@ -515,20 +579,20 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     let mut series = vec![
         Series {
             name: "lobes, fitted".into(),
-            points: line(&lobes),
+            points: line(lobes),
         },
         Series {
-            name: format!("reference ({} spp)", opts.spp),
-            points: line(&reference_img),
+            name: format!("reference ({} spp)", f.opts.spp),
+            points: line(&r.img),
         },
     ];
     for set in [WeightSet::Paper, WeightSet::Ones] {
         let s = MaskSettings {
             weights: set,
-            ..default
+            ..MaskSettings::default()
         };
         let row_hits: Vec<Option<Hit>> = (0..w).map(|i| hits[row * w + i]).collect();
-        let img = lobe_image(&m, &scene, &light, &row_hits, &s)?;
+        let img = lobe_image(m, f.scene, light, &row_hits, &s)?;
         series.push(Series {
             name: format!("lobes, {}", set.name()),
             points: (0..w)
@@ -537,8 +601,8 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
                 .collect(),
         });
     }
-    sum.files.push(line_chart(
-        &dir.join(format!("meunier-{tag}-profile.png")),
+    line_chart(
+        &f.dir.join(format!("{}-profile.png", f.stem())),
         &LineChart {
             title: format!("{tag}: radiance along image row {row} (through the penumbrae)"),
             x_label: "pixel x".into(),
@@ -547,77 +611,29 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
             log_y: false,
             series,
         },
-    )?);
+    )
+}
 
-    // Breakdown on a strided subset of pixels, for each light model.
-    let stride = opts.breakdown_stride.max(1);
-    let picks: Vec<usize> = (0..h)
-        .step_by(stride)
-        .flat_map(|j| (0..w).step_by(stride).map(move |i| j * w + i))
-        .filter(|&p| lit[p])
-        .collect();
+/// The breakdown on [`Frame::picks`], for each light model, by quadrature (not Monte
+/// Carlo): each approximation switched to exact in turn, the studied fitted lobes, the
+/// weight sets under the light's exact cap, and the quadrature against the reference
+/// (lines in `lines`).
+fn breakdown_lines(
+    f: &Frame<'_>,
+    m: &Meunier<'_>,
+    light: &SphereLight,
+    r: &Reference,
+    lines: &mut Vec<String>,
+) -> Result<(), String> {
+    let (tag, scene, hits, mean_ref) = (&f.tag, f.scene, &f.hits, r.mean);
+    let default = MaskSettings::default();
+    let picks = f.picks();
     let rms_of = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt() / mean_ref;
     let mut parts: Vec<Parts> = Vec::new();
     for light_model in LightModel::ALL {
-        let s = MaskSettings {
-            light: light_model,
-            ..default
-        };
-        let run: Vec<(f64, Parts)> = picks
-            .par_iter()
-            .map(|&p| {
-                let hit = hits[p].expect("lit");
-                let pipeline = m
-                    .radiance(
-                        hit.x,
-                        hit.n,
-                        hit.t,
-                        hit.wo,
-                        scene.brdf(&hit),
-                        &[light],
-                        &scene.blockers(&hit),
-                        &s,
-                    )
-                    .map_err(|e| e.to_string())?;
-                Ok((pipeline, breakdown(&m, &scene, &light, &hit, &s)?))
-            })
-            .collect::<Result<_, String>>()?;
-        let chain: Vec<[f64; 6]> = run
-            .iter()
-            .map(|(p, q)| [*p, q.model, q.exact[0], q.exact[1], q.exact[2], q.exact[3]])
-            .collect();
-        let total_rms = rms_of(&chain.iter().map(|c| c[0] - c[5]).collect::<Vec<_>>());
-        sum.lines.push(format!(
-            "{tag}: light {}: error breakdown over {} pixels (every {stride}th): total RMS {total_rms:.4} of the mean reference (quadrature, not MC); each switch to exact, in order:",
-            light_model.name(),
-            chain.len()
-        ));
-        let names = [
-            "lobe-product algebra (tables → quadrature of the same sums)",
-            "light (→ the light's cap)",
-            "leaf cap → lobe fit (→ the leaves' bounding caps, same weights)",
-            "weights / overlaps (weighted bounding caps → the leaf cells' union)",
-            "mask depth / aggressive (→ exact visibility)",
-        ];
-        for (k, name) in names.iter().enumerate() {
-            let d: Vec<f64> = chain.iter().map(|c| c[k] - c[k + 1]).collect();
-            let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_ref;
-            sum.lines
-                .push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
-        }
-        if light_model == LightModel::Lobe {
-            // The studied fitted coaxial lobes in place of the paper's, by the same rule.
-            for k in 0..light_fit::MAX_LOBES {
-                let term = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[0]).collect::<Vec<_>>());
-                let total = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[3]).collect::<Vec<_>>());
-                sum.lines.push(format!(
-                    "{tag}:   studied: {} fitted coaxial lobe(s) per light: light term RMS {term:.4}, total (exact algebra) {total:.4}",
-                    k + 1
-                ));
-            }
-        }
+        let run = light_breakdown(f, m, light, mean_ref, &picks, light_model, lines)?;
         if light_model == default.light {
-            parts = run.into_iter().map(|(_, q)| q).collect();
+            parts = run;
         }
     }
     // The mask's lobes under the light's exact cap (E2 − E5), for each weight set: what
@@ -634,13 +650,13 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         let d: Vec<f64> = picks
             .par_iter()
             .map(|&p| {
-                let b = breakdown(&m, &scene, &light, &hits[p].expect("lit"), &s)?;
+                let b = breakdown(m, scene, light, &hits[p].expect("lit"), &s)?;
                 Ok(b.exact[0] - b.exact[3])
             })
             .collect::<Result<_, String>>()?;
         per_set.push((set, rms_of(&d)));
     }
-    sum.lines.push(format!(
+    lines.push(format!(
         "{tag}:   with the light's exact cap, the mask's lobes against exact visibility (RMS): {}",
         per_set
             .iter()
@@ -651,32 +667,87 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     let quad_vs_mc = (picks
         .iter()
         .zip(&parts)
-        .map(|(&p, q)| (q.exact[3] - reference_img[p]).powi(2))
+        .map(|(&p, q)| (q.exact[3] - r.img[p]).powi(2))
         .sum::<f64>()
         / parts.len().max(1) as f64)
         .sqrt()
         / mean_ref;
-    sum.lines.push(format!(
+    lines.push(format!(
         "{tag}:   (the breakdown's exact quadrature against the MC reference: RMS {quad_vs_mc:.4})"
     ));
-    sum.rel_rmse = rmse_default;
-    sum.ref_rel_se = ref_rel_se;
-    sum.headline.push(
-        crate::Headline {
-            render: format!("meunier {tag}"),
-            scope: format!("{w}×{h}"),
-            method: format!("lobes (light {}, depth 5, fitted weights)", default.light.name()),
-            error: format!(
-                "relative RMSE {rmse_default:.4} against the {}-sample reference on {pixels} pixels",
-                opts.spp
-            ),
-            cost_us: 1e6 * eq.pipeline_per_pixel,
-            unit: "px".into(),
-            baseline: BASELINE_PLAIN.into(),
-            baseline_us: 1e6 * eq.reference_per_pixel,
+    Ok(())
+}
+
+/// One light model's breakdown on `picks` (lines in `lines`): the chain of
+/// approximations switched to exact in turn, and with the paper's lobe light the
+/// studied fitted lobes. Returns each pick's [`Parts`].
+fn light_breakdown(
+    f: &Frame<'_>,
+    m: &Meunier<'_>,
+    light: &SphereLight,
+    mean_ref: f64,
+    picks: &[usize],
+    light_model: LightModel,
+    lines: &mut Vec<String>,
+) -> Result<Vec<Parts>, String> {
+    let (tag, scene, hits, stride) = (&f.tag, f.scene, &f.hits, f.stride());
+    let rms_of = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt() / mean_ref;
+    let default = MaskSettings::default();
+    let s = MaskSettings {
+        light: light_model,
+        ..default
+    };
+    let run: Vec<(f64, Parts)> = picks
+        .par_iter()
+        .map(|&p| {
+            let hit = hits[p].expect("lit");
+            let pipeline = m
+                .radiance(
+                    hit.x,
+                    hit.n,
+                    hit.t,
+                    hit.wo,
+                    scene.brdf(&hit),
+                    &[*light],
+                    &scene.blockers(&hit),
+                    &s,
+                )
+                .map_err(|e| e.to_string())?;
+            Ok((pipeline, breakdown(m, scene, light, &hit, &s)?))
+        })
+        .collect::<Result<_, String>>()?;
+    let chain: Vec<[f64; 6]> = run
+        .iter()
+        .map(|(p, q)| [*p, q.model, q.exact[0], q.exact[1], q.exact[2], q.exact[3]])
+        .collect();
+    let total_rms = rms_of(&chain.iter().map(|c| c[0] - c[5]).collect::<Vec<_>>());
+    lines.push(format!(
+        "{tag}: light {}: error breakdown over {} pixels (every {stride}th): total RMS {total_rms:.4} of the mean reference (quadrature, not MC); each switch to exact, in order:",
+        light_model.name(),
+        chain.len()
+    ));
+    let names = [
+        "lobe-product algebra (tables → quadrature of the same sums)",
+        "light (→ the light's cap)",
+        "leaf cap → lobe fit (→ the leaves' bounding caps, same weights)",
+        "weights / overlaps (weighted bounding caps → the leaf cells' union)",
+        "mask depth / aggressive (→ exact visibility)",
+    ];
+    for (k, name) in names.iter().enumerate() {
+        let d: Vec<f64> = chain.iter().map(|c| c[k] - c[k + 1]).collect();
+        let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_ref;
+        lines.push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
+    }
+    if light_model == LightModel::Lobe {
+        // The studied fitted coaxial lobes in place of the paper's, by the same rule.
+        for k in 0..light_fit::MAX_LOBES {
+            let term = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[0]).collect::<Vec<_>>());
+            let total = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[3]).collect::<Vec<_>>());
+            lines.push(format!(
+                "{tag}:   studied: {} fitted coaxial lobe(s) per light: light term RMS {term:.4}, total (exact algebra) {total:.4}",
+                k + 1
+            ));
         }
-        .line(),
-    );
-    sum.write(dir, &format!("meunier-{tag}"))?;
-    Ok(sum)
+    }
+    Ok(run.into_iter().map(|(_, q)| q).collect())
 }

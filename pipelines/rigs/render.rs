@@ -214,151 +214,39 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     }
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut sum = Summary::default();
-
-    // Every panel's SH irradiance vector per pixel (order 3), with its time: the
-    // per-point evaluation of every light, and each rig's fit and reconstruction.
-    // On one thread, as the animated pass's costs.
-    let per_pixel = |f: &(dyn Fn(DVec3) -> Result<[f64; COEFFS], String> + Sync)| {
-        timed(|| -> Result<Vec<[f64; COEFFS]>, String> {
-            hits.iter()
-                .map(|r| r.as_ref().map_or(Ok([0.0; COEFFS]), |r| f(r.p)))
-                .collect()
-        })
+    let v = View {
+        w,
+        h,
+        hits,
+        lit,
+        pixels,
+        lights,
+        dir,
     };
-    // (label, SH vectors, fit time s, per-pixel time s)
-    let mut panels: Vec<(String, Vec<[f64; COEFFS]>, f64, f64)> = Vec::new();
-    let (v, t) = per_pixel(&|p| field(&lights, disks, p));
-    panels.push(("per-point SH".into(), v?, 0.0, t));
-    for (label, rig, t_fit) in figure_rigs(&lights, disks)? {
-        let (v, t) = per_pixel(&|p| rig.eval(p).map_err(|e| e.to_string()));
-        panels.push((label, v?, t_fit, t));
-    }
-    let split = Split::new(&lights, disks)?;
-    let direct = split.direct.clone();
-    let (v, t) = per_pixel(&|p| split.eval(p, disks));
-    panels.push((
-        format!("mixed + {} light(s) per point", direct.len()),
-        v?,
-        split.fit_s,
-        t,
-    ));
-
+    let (panels, direct) = sh_panels(&v, disks)?;
     sum.lines.push(format!(
         "fig1: {w}×{h}, {pixels} pixels see the car ({} lights); error-driven split at {SPLIT_TOLERANCE}: {} per point ({})",
-        lights.len(),
+        v.lights.len(),
         direct.len(),
         direct.iter().map(|&i| scene_lights()[i].0).collect::<Vec<_>>().join("; ")
     ));
     let mut first = f64::NAN;
     let mut split_rmse = f64::NAN;
     for a in [0.0, WRAP_A] {
-        let tag = if a == 0.0 {
-            "fig1".to_string()
-        } else {
-            format!("fig1, wrap a = {a}")
-        };
-        // Ground truth: the exact (wrapped) irradiance of every light (nested
-        // Gauss–Kronrod for the sphere and disk lights), one image row at a time.
-        let exact: Vec<f64> = (0..h)
-            .into_par_iter()
-            .map(|j| {
-                let row = (0..w)
-                    .map(|i| match &hits[j * w + i] {
-                        None => Ok(0.0),
-                        Some(r) => lights
-                            .iter()
-                            .map(|l| exact_wrapped(l, r, a))
-                            .sum::<Result<f64, String>>(),
-                    })
-                    .collect::<Result<Vec<f64>, String>>();
-                progress();
-                row
-            })
-            .collect::<Result<Vec<_>, _>>()?
-            .concat();
-        let mean = mean_over(&exact, &lit);
-        sum.lines.push(format!("{tag}: mean exact irradiance {mean:.4}"));
-        let mut images = vec![("exact".to_string(), exact.clone())];
-        for (label, v, t_fit, t) in &panels {
-            let img: Vec<f64> = hits
-                .iter()
-                .zip(v)
-                .map(|(r, l)| r.as_ref().map_or(Ok(0.0), |r| shade_wrapped(l, r.n, a)))
-                .collect::<Result<_, String>>()?;
-            let vs_exact = compare(&img, &exact, &lit);
-            // images[1] is the per-point SH image once it exists (the first panel).
-            let vs_sh = compare(&img, images.get(1).map_or(&img, |x| &x.1), &lit);
-            sum.lines.push(format!(
-                "{tag}: {label:<28}: against exact relative RMSE {:.4}, p99 {:.4}, max {:.4}; against per-point SH {:.4}; fit {:.2} ms, per point {:.3} µs",
-                vs_exact.rel_rmse,
-                vs_exact.p99,
-                vs_exact.max,
-                vs_sh.rel_rmse,
-                1e3 * t_fit,
-                1e6 * t / pixels as f64
-            ));
+        for rmse in wrap_pass(&v, &panels, a, progress, &mut sum)? {
             if first.is_nan() {
-                first = vs_exact.rel_rmse;
+                first = rmse;
             }
             if a == 0.0 {
                 // The last panel (the split) is the headline's method.
-                split_rmse = vs_exact.rel_rmse;
+                split_rmse = rmse;
             }
-            images.push((label.clone(), img));
-        }
-        let stem = if a == 0.0 {
-            "rigs-fig1".to_string()
-        } else {
-            "rigs-fig1-wrap".to_string()
-        };
-        let masked = |v: &[f64]| crate::image::masked(v, &lit);
-        let shown: Vec<_> = images
-            .iter()
-            .map(|(label, v)| panel(format!("{tag}: {label}"), w, h, &masked(v), "irradiance"))
-            .collect();
-        sum.files.push(lobefit_core::plot::heatmaps(
-            &dir.join(format!("{stem}-images.png")),
-            &shared_scale(shown),
-            4,
-        )?);
-        // Each error map on its own diverging scale (± its p99, in its label): the rigs'
-        // errors differ tenfold, and one scale would leave the small ones white.
-        let errors: Vec<_> = images[1..]
-            .iter()
-            .map(|(label, v)| {
-                error_panel(
-                    format!("{tag}: ({label} − exact) / mean exact"),
-                    w,
-                    h,
-                    &crate::image::error_map(v, &exact, &lit, mean),
-                )
-            })
-            .collect();
-        sum.files.push(lobefit_core::plot::heatmaps(
-            &dir.join(format!("{stem}-error.png")),
-            &errors,
-            4,
-        )?);
-        // The beauty image: the split (the harness's choice, the last panel) | exact.
-        if let Some((_, split_img)) = images.last() {
-            sum.files.push(write_beauty(
-                &dir.join(format!("{stem}-beauty.png")),
-                (w, h),
-                &[split_img, &exact],
-                &lit,
-                exposure_for(mean),
-            )?);
-        }
-        for (label, v) in &images {
-            let name = slug(label);
-            sum.files
-                .extend(write_float_image(dir, &format!("{stem}-{name}"), w, h, v)?);
         }
     }
     sum.rel_rmse = first;
     // Per pixel with the fit shared over the image's pixels: the cost of shading this
     // view once (the fit is paid per frame, as in the animated pass).
-    let per_px = |(_, _, t_fit, t): &(String, Vec<[f64; COEFFS]>, f64, f64)| 1e6 * (t_fit + t) / pixels as f64;
+    let per_px = |(_, _, t_fit, t): &Panel| 1e6 * (t_fit + t) / pixels as f64;
     if let (Some(sh), Some(split)) = (panels.first(), panels.last()) {
         sum.headline.push(
             crate::Headline {
@@ -376,6 +264,185 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     }
     sum.write(dir, "rigs-fig1")?;
     Ok(sum)
+}
+
+/// Figure 1's view: the image, what each pixel sees of the car, the lights and where
+/// the files go.
+struct View<'a> {
+    /// Image width and height (pixels).
+    w: usize,
+    h: usize,
+    /// Row-major: the box's point and normal a pixel sees, `None` for the background.
+    hits: Vec<Option<Receiver>>,
+    /// Row-major: the pixel sees the car.
+    lit: Vec<bool>,
+    /// How many pixels see the car.
+    pixels: usize,
+    /// The scene's lights.
+    lights: Vec<Light>,
+    /// Output directory.
+    dir: &'a Path,
+}
+
+/// One panel's method: (label, SH irradiance vector per pixel, fit time s, per-pixel
+/// evaluation time s over the image).
+type Panel = (String, Vec<[f64; COEFFS]>, f64, f64);
+
+/// Every panel's SH irradiance vector per pixel (order 3), with its time: the
+/// per-point evaluation of every light, each rig's fit and reconstruction, and the
+/// error-driven split (last). On one thread, as the animated pass's costs. Also the
+/// split's per-point lights.
+fn sh_panels(v: &View<'_>, disks: &DiskLight) -> Result<(Vec<Panel>, Vec<usize>), String> {
+    let (hits, lights) = (&v.hits, &v.lights);
+    let per_pixel = |f: &(dyn Fn(DVec3) -> Result<[f64; COEFFS], String> + Sync)| {
+        timed(|| -> Result<Vec<[f64; COEFFS]>, String> {
+            hits.iter()
+                .map(|r| r.as_ref().map_or(Ok([0.0; COEFFS]), |r| f(r.p)))
+                .collect()
+        })
+    };
+    let mut panels: Vec<Panel> = Vec::new();
+    let (sh, t) = per_pixel(&|p| field(lights, disks, p));
+    panels.push(("per-point SH".into(), sh?, 0.0, t));
+    for (label, rig, t_fit) in figure_rigs(lights, disks)? {
+        let (sh, t) = per_pixel(&|p| rig.eval(p).map_err(|e| e.to_string()));
+        panels.push((label, sh?, t_fit, t));
+    }
+    let split = Split::new(lights, disks)?;
+    let direct = split.direct.clone();
+    let (sh, t) = per_pixel(&|p| split.eval(p, disks));
+    panels.push((
+        format!("mixed + {} light(s) per point", direct.len()),
+        sh?,
+        split.fit_s,
+        t,
+    ));
+    Ok((panels, direct))
+}
+
+/// One set of Figure 1's panels at wrap `a` (0: Lambert): the exact irradiance, each
+/// panel's image against it and against per-point SH (a line each in `sum`), and the
+/// images. Returns each panel's relative RMSE against exact.
+fn wrap_pass(
+    v: &View<'_>,
+    panels: &[Panel],
+    a: f64,
+    progress: &(dyn Fn() + Sync),
+    sum: &mut Summary,
+) -> Result<Vec<f64>, String> {
+    let (w, h, hits, lit) = (v.w, v.h, &v.hits, &v.lit);
+    let tag = if a == 0.0 {
+        "fig1".to_string()
+    } else {
+        format!("fig1, wrap a = {a}")
+    };
+    // Ground truth: the exact (wrapped) irradiance of every light (nested
+    // Gauss–Kronrod for the sphere and disk lights), one image row at a time.
+    let exact: Vec<f64> = (0..h)
+        .into_par_iter()
+        .map(|j| {
+            let row = (0..w)
+                .map(|i| match &hits[j * w + i] {
+                    None => Ok(0.0),
+                    Some(r) => v
+                        .lights
+                        .iter()
+                        .map(|l| exact_wrapped(l, r, a))
+                        .sum::<Result<f64, String>>(),
+                })
+                .collect::<Result<Vec<f64>, String>>();
+            progress();
+            row
+        })
+        .collect::<Result<Vec<_>, _>>()?
+        .concat();
+    let mean = mean_over(&exact, lit);
+    sum.lines.push(format!("{tag}: mean exact irradiance {mean:.4}"));
+    let mut images = vec![("exact".to_string(), exact.clone())];
+    let mut rmses = Vec::new();
+    for (label, sh, t_fit, t) in panels {
+        let img: Vec<f64> = hits
+            .iter()
+            .zip(sh)
+            .map(|(r, l)| r.as_ref().map_or(Ok(0.0), |r| shade_wrapped(l, r.n, a)))
+            .collect::<Result<_, String>>()?;
+        let vs_exact = compare(&img, &exact, lit);
+        // images[1] is the per-point SH image once it exists (the first panel).
+        let vs_sh = compare(&img, images.get(1).map_or(&img, |x| &x.1), lit);
+        sum.lines.push(format!(
+            "{tag}: {label:<28}: against exact relative RMSE {:.4}, p99 {:.4}, max {:.4}; against per-point SH {:.4}; fit {:.2} ms, per point {:.3} µs",
+            vs_exact.rel_rmse,
+            vs_exact.p99,
+            vs_exact.max,
+            vs_sh.rel_rmse,
+            1e3 * t_fit,
+            1e6 * t / v.pixels as f64
+        ));
+        rmses.push(vs_exact.rel_rmse);
+        images.push((label.clone(), img));
+    }
+    let stem = if a == 0.0 { "rigs-fig1" } else { "rigs-fig1-wrap" };
+    write_panels(v, &tag, stem, &images, mean, sum)?;
+    Ok(rmses)
+}
+
+/// Writes one wrap's panels (`images`, exact first, the split last): the shared-scale
+/// irradiance panels, the error maps, the beauty image (split | exact) and the float
+/// images, all recorded in `sum`.
+fn write_panels(
+    v: &View<'_>,
+    tag: &str,
+    stem: &str,
+    images: &[(String, Vec<f64>)],
+    mean: f64,
+    sum: &mut Summary,
+) -> Result<(), String> {
+    let (w, h, lit, dir) = (v.w, v.h, &v.lit, v.dir);
+    let exact = &images[0].1;
+    let masked = |x: &[f64]| crate::image::masked(x, lit);
+    let shown: Vec<_> = images
+        .iter()
+        .map(|(label, x)| panel(format!("{tag}: {label}"), w, h, &masked(x), "irradiance"))
+        .collect();
+    sum.files.push(lobefit_core::plot::heatmaps(
+        &dir.join(format!("{stem}-images.png")),
+        &shared_scale(shown),
+        4,
+    )?);
+    // Each error map on its own diverging scale (± its p99, in its label): the rigs'
+    // errors differ tenfold, and one scale would leave the small ones white.
+    let errors: Vec<_> = images[1..]
+        .iter()
+        .map(|(label, x)| {
+            error_panel(
+                format!("{tag}: ({label} − exact) / mean exact"),
+                w,
+                h,
+                &crate::image::error_map(x, exact, lit, mean),
+            )
+        })
+        .collect();
+    sum.files.push(lobefit_core::plot::heatmaps(
+        &dir.join(format!("{stem}-error.png")),
+        &errors,
+        4,
+    )?);
+    // The beauty image: the split (the harness's choice, the last panel) | exact.
+    if let Some((_, split_img)) = images.last() {
+        sum.files.push(write_beauty(
+            &dir.join(format!("{stem}-beauty.png")),
+            (w, h),
+            &[split_img, exact],
+            lit,
+            exposure_for(mean),
+        )?);
+    }
+    for (label, x) in images {
+        let name = slug(label);
+        sum.files
+            .extend(write_float_image(dir, &format!("{stem}-{name}"), w, h, x)?);
+    }
+    Ok(())
 }
 
 /// Frames of the animated pass.
@@ -433,64 +500,121 @@ pub fn drive(dir: &Path, frames: usize, progress: &(dyn Fn() + Sync)) -> Result<
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let disks = DiskLight::embedded().map_err(|e| e.to_string())?;
     let test = surface_points(TEST_POINTS, 0x7e57);
-    let names: Vec<&str> = scene_lights().iter().map(|l| l.0).collect();
     let mut sum = Summary::default();
-    // Per method: (label, per-frame errors, total fit s, total per-point s).
-    let mut methods: Vec<(String, Vec<f64>, f64, f64)> = Vec::new();
-    let mut add = |k: usize, label: &str, err: f64, t_fit: f64, t_point: f64| {
-        if methods.len() <= k {
-            methods.push((label.to_string(), Vec::new(), 0.0, 0.0));
-        }
-        let m = &mut methods[k];
-        m.1.push(err);
-        m.2 += t_fit;
-        m.3 += t_point;
-    };
+    let mut methods: Vec<Method> = Vec::new();
     for frame in 0..frames {
-        let x = -DRIVE_X + 2.0 * DRIVE_X * frame as f64 / (frames - 1) as f64;
-        let lights = lights_at(x);
-        let exact: Vec<f64> = test
-            .par_iter()
-            .map(|r| {
-                lights
-                    .iter()
-                    .map(|l| exact_wrapped(l, r, 0.0))
-                    .sum::<Result<f64, String>>()
-            })
-            .collect::<Result<_, String>>()?;
-        let shade_all = |f: &(dyn Fn(DVec3) -> Result<[f64; COEFFS], String> + Sync)| {
-            timed(|| -> Result<Vec<f64>, String> { test.iter().map(|r| Ok(shade(&f(r.p)?, r.n))).collect() })
-        };
-        let rel = |img: &[f64]| crate::image::compare(img, &exact, &vec![true; exact.len()]).rel_rmse;
-        // Every light per point: the per-point SH baseline.
-        let (img, t) = shade_all(&|p| field(&lights, disks, p));
-        add(0, "every light per point (SH)", rel(&img?), 0.0, t);
-        for (k, (label, rig, t_fit)) in figure_rigs(&lights, disks)?.into_iter().enumerate() {
-            let (img, t) = shade_all(&|p| rig.eval(p).map_err(|e| e.to_string()));
-            add(1 + k, &label, rel(&img?), t_fit, t);
-        }
-        let split = Split::new(&lights, disks)?;
-        let direct = &split.direct;
-        let (img, t) = shade_all(&|p| split.eval(p, disks));
-        let err = rel(&img?);
-        add(1 + FIGURE_RIGS.len(), "mixed + error-driven split", err, split.fit_s, t);
-        sum.lines.push(format!(
-            "drive: frame {frame:>2}, car at x = {x:+.2} m: per point: {}; mixed + split {err:.4}",
-            if direct.is_empty() {
-                "none".to_string()
-            } else {
-                direct.iter().map(|&i| names[i]).collect::<Vec<_>>().join("; ")
+        let (runs, line) = drive_frame(frame, frames, &test, disks)?;
+        for (k, (label, err, t_fit, t_point)) in runs.into_iter().enumerate() {
+            if methods.len() <= k {
+                methods.push((label, Vec::new(), 0.0, 0.0));
             }
-        ));
+            let m = &mut methods[k];
+            m.1.push(err);
+            m.2 += t_fit;
+            m.3 += t_point;
+        }
+        sum.lines.push(line);
         progress();
     }
+    drive_report(dir, frames, &methods, &mut sum)?;
+    sum.rel_rmse = methods.get(3).map_or(f64::NAN, |m| {
+        let mut s = m.1.clone();
+        s.sort_by(f64::total_cmp);
+        s[s.len() / 2]
+    });
+    // The headline: the split (the last method) against every light per point (the
+    // first), per point with the fit shared over the frame's points, as printed above.
+    let points = TEST_POINTS as f64 * frames as f64;
+    if let (Some(sh), Some(split)) = (methods.first(), methods.last()) {
+        let per_point = |m: &Method| 1e6 * (m.3 + m.2) / points;
+        let mut errs = split.1.clone();
+        errs.sort_by(f64::total_cmp);
+        sum.headline.push(
+            crate::Headline {
+                render: "rigs drive".into(),
+                scope: format!("{frames} frames × {TEST_POINTS} points"),
+                method: split.0.clone(),
+                error: format!(
+                    "relative RMSE against exact irradiance {:.4} (median over the frames; max {:.4})",
+                    errs[errs.len() / 2],
+                    errs[errs.len() - 1]
+                ),
+                cost_us: per_point(split),
+                unit: "point".into(),
+                baseline: "every light per point (SH)".into(),
+                baseline_us: per_point(sh),
+            }
+            .line(),
+        );
+    }
+    sum.write(dir, "rigs-drive")?;
+    Ok(sum)
+}
+
+/// One method of the animated pass over the frames: (label, per-frame relative RMSE,
+/// total fit s, total per-point s).
+type Method = (String, Vec<f64>, f64, f64);
+
+/// One frame of the animated pass (of `frames`): each method (every light per point,
+/// the Figure 1 rigs, the split) against the exact irradiance at the `test` points, as
+/// (label, relative RMSE, fit s, per-point s over the points), and the frame's line.
+#[allow(clippy::type_complexity)]
+fn drive_frame(
+    frame: usize,
+    frames: usize,
+    test: &[Receiver],
+    disks: &DiskLight,
+) -> Result<(Vec<(String, f64, f64, f64)>, String), String> {
+    let names: Vec<&str> = scene_lights().iter().map(|l| l.0).collect();
+    let x = -DRIVE_X + 2.0 * DRIVE_X * frame as f64 / (frames - 1) as f64;
+    let lights = lights_at(x);
+    let exact: Vec<f64> = test
+        .par_iter()
+        .map(|r| {
+            lights
+                .iter()
+                .map(|l| exact_wrapped(l, r, 0.0))
+                .sum::<Result<f64, String>>()
+        })
+        .collect::<Result<_, String>>()?;
+    let shade_all = |f: &(dyn Fn(DVec3) -> Result<[f64; COEFFS], String> + Sync)| {
+        timed(|| -> Result<Vec<f64>, String> { test.iter().map(|r| Ok(shade(&f(r.p)?, r.n))).collect() })
+    };
+    let rel = |img: &[f64]| crate::image::compare(img, &exact, &vec![true; exact.len()]).rel_rmse;
+    let mut runs = Vec::new();
+    // Every light per point: the per-point SH baseline.
+    let (img, t) = shade_all(&|p| field(&lights, disks, p));
+    runs.push(("every light per point (SH)".to_string(), rel(&img?), 0.0, t));
+    for (label, rig, t_fit) in figure_rigs(&lights, disks)? {
+        let (img, t) = shade_all(&|p| rig.eval(p).map_err(|e| e.to_string()));
+        runs.push((label, rel(&img?), t_fit, t));
+    }
+    let split = Split::new(&lights, disks)?;
+    let direct = &split.direct;
+    let (img, t) = shade_all(&|p| split.eval(p, disks));
+    let err = rel(&img?);
+    runs.push(("mixed + error-driven split".to_string(), err, split.fit_s, t));
+    let line = format!(
+        "drive: frame {frame:>2}, car at x = {x:+.2} m: per point: {}; mixed + split {err:.4}",
+        if direct.is_empty() {
+            "none".to_string()
+        } else {
+            direct.iter().map(|&i| names[i]).collect::<Vec<_>>().join("; ")
+        }
+    );
+    Ok((runs, line))
+}
+
+/// The animated pass's statistics per method (lines in `sum`) and its two charts:
+/// error per frame, and median error against cost.
+fn drive_report(dir: &Path, frames: usize, methods: &[Method], sum: &mut Summary) -> Result<(), String> {
     let points = TEST_POINTS as f64 * frames as f64;
     sum.lines.push(format!(
         "drive: {frames} frames, {TEST_POINTS} points a frame; relative RMSE against exact irradiance over the frames (min, median, max), fit ms per frame, µs per point (one thread, one run, same process):"
     ));
     let mut series = Vec::new();
     let mut scatter = Vec::new();
-    for (label, errs, t_fit, t_point) in &methods {
+    for (label, errs, t_fit, t_point) in methods {
         let mut sorted = errs.clone();
         sorted.sort_by(f64::total_cmp);
         let per_point = 1e6 * (t_point + t_fit) / points;
@@ -534,37 +658,7 @@ pub fn drive(dir: &Path, frames: usize, progress: &(dyn Fn() + Sync)) -> Result<
             series: scatter,
         },
     )?);
-    sum.rel_rmse = methods.get(3).map_or(f64::NAN, |m| {
-        let mut s = m.1.clone();
-        s.sort_by(f64::total_cmp);
-        s[s.len() / 2]
-    });
-    // The headline: the split (the last method) against every light per point (the
-    // first), per point with the fit shared over the frame's points, as printed above.
-    if let (Some(sh), Some(split)) = (methods.first(), methods.last()) {
-        let per_point = |m: &(String, Vec<f64>, f64, f64)| 1e6 * (m.3 + m.2) / points;
-        let mut errs = split.1.clone();
-        errs.sort_by(f64::total_cmp);
-        sum.headline.push(
-            crate::Headline {
-                render: "rigs drive".into(),
-                scope: format!("{frames} frames × {TEST_POINTS} points"),
-                method: split.0.clone(),
-                error: format!(
-                    "relative RMSE against exact irradiance {:.4} (median over the frames; max {:.4})",
-                    errs[errs.len() / 2],
-                    errs[errs.len() - 1]
-                ),
-                cost_us: per_point(split),
-                unit: "point".into(),
-                baseline: "every light per point (SH)".into(),
-                baseline_us: per_point(sh),
-            }
-            .line(),
-        );
-    }
-    sum.write(dir, "rigs-drive")?;
-    Ok(sum)
+    Ok(())
 }
 
 #[cfg(test)]

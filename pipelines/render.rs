@@ -1,0 +1,271 @@
+//! The skeleton every `lobefit render` pipeline fills in. A render of one scene is:
+//! a [`Frame`] (image size, primary hits, output directory), the Monte Carlo
+//! [`Reference`] over it, the pipeline's own images and statistics, the error
+//! breakdown on [`Frame::picks`] (against a [`Subset`] reference where the pipeline
+//! has one), the comparison images ([`Frame::write_images`]) and the summary with its
+//! headline ([`Frame::finish`]). The pipelines own only what differs: their
+//! shading, their variants, their breakdown rows and their extra panels.
+//!
+//! Every statistic is relative to the reference's mean over the lit pixels (those
+//! that see geometry). `render rigs` does not use it: its truth is the exact
+//! irradiance on a box built in code (no scene file, no Monte Carlo reference).
+
+use std::path::Path;
+
+use crate::estimate::Estimate;
+use crate::image::{mean_over, write_comparison};
+use crate::scene::{Hit, Scene};
+use crate::timing::EqualError;
+use crate::{Headline, Pipeline, RenderOptions, Summary, BASELINE_PLAIN};
+
+/// One scene's render: its size, its primary hits and where its files go.
+pub struct Frame<'a> {
+    /// The pipeline (its name prefixes the scene's files and headline).
+    pub pipeline: &'a Pipeline,
+    /// The scene rendered.
+    pub scene: &'a Scene,
+    /// The command line's options.
+    pub opts: &'a RenderOptions,
+    /// Output directory (created by [`Frame::new`]).
+    pub dir: &'a Path,
+    /// The scene's name without the `<pipeline>-` prefix: the first word of every
+    /// summary line.
+    pub tag: String,
+    /// Image width and height (pixels; the height is 3/4 of the width).
+    pub w: usize,
+    /// See [`Frame::w`].
+    pub h: usize,
+    /// Row-major primary hits, `None` where the pixel sees the background.
+    pub hits: Vec<Option<Hit>>,
+    /// Row-major: the pixel sees geometry.
+    pub lit: Vec<bool>,
+    /// How many pixels are lit.
+    pub pixels: usize,
+}
+
+impl<'a> Frame<'a> {
+    /// Checks the render's work against the limits ([`Pipeline::check_work`]), runs
+    /// the pipeline's `setup` (its tables, its light: what may fail before any file is
+    /// written), traces the primary hits and creates `dir`; returns the frame and what
+    /// `setup` returned.
+    pub fn new<T>(
+        pipeline: &'a Pipeline,
+        scene: &'a Scene,
+        opts: &'a RenderOptions,
+        dir: &'a Path,
+        setup: impl FnOnce() -> Result<T, String>,
+    ) -> Result<(Self, T), String> {
+        let tag = scene
+            .name
+            .strip_prefix(&format!("{}-", pipeline.name))
+            .unwrap_or(&scene.name)
+            .to_string();
+        let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
+        pipeline.check_work(scene, opts)?;
+        let prepared = setup()?;
+        let (hits, lit) = scene.primary_hits(w, h)?;
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let pixels = lit.iter().filter(|&&l| l).count();
+        let frame = Self {
+            pipeline,
+            scene,
+            opts,
+            dir,
+            tag,
+            w,
+            h,
+            hits,
+            lit,
+            pixels,
+        };
+        Ok((frame, prepared))
+    }
+
+    /// `<pipeline>-<tag>`: the stem of the scene's files.
+    pub fn stem(&self) -> String {
+        format!("{}-{}", self.pipeline.name, self.tag)
+    }
+
+    /// The breakdown's stride (`--breakdown-stride`, at least 1).
+    pub fn stride(&self) -> usize {
+        self.opts.breakdown_stride.max(1)
+    }
+
+    /// The lit pixels of every [`Frame::stride`]-th row and column (row-major
+    /// indices): the error breakdown's subset.
+    pub fn picks(&self) -> Vec<usize> {
+        let (w, stride) = (self.w, self.stride());
+        (0..self.h)
+            .step_by(stride)
+            .flat_map(|j| (0..w).step_by(stride).map(move |i| j * w + i))
+            .filter(|&p| self.lit[p])
+            .collect()
+    }
+
+    /// The PNG panels (method, reference, error), the beauty image and the float
+    /// images of `method` against `reference` ([`write_comparison`]), recorded in
+    /// `sum`; `titles` are the two panels' titles, `short` the method's file name.
+    pub fn write_images(
+        &self,
+        sum: &mut Summary,
+        titles: [&str; 2],
+        short: &str,
+        method: &[f64],
+        reference: &Reference,
+    ) -> Result<(), String> {
+        let (files, _) = write_comparison(
+            self.dir,
+            &self.stem(),
+            titles,
+            short,
+            (self.w, self.h),
+            method,
+            &reference.img,
+            &self.lit,
+            reference.mean,
+        )?;
+        sum.files.extend(files);
+        Ok(())
+    }
+
+    /// Completes `sum`: the method's relative RMSE, the reference's relative standard
+    /// error, the [`Headline`] (the method's cost per pixel against plain Monte Carlo
+    /// at its error, from `eq`) and the `<stem>-summary.txt` file.
+    pub fn finish(
+        &self,
+        mut sum: Summary,
+        reference: &Reference,
+        rel_rmse: f64,
+        method: String,
+        error: String,
+        eq: &EqualError,
+    ) -> Result<Summary, String> {
+        sum.rel_rmse = rel_rmse;
+        sum.ref_rel_se = reference.rel_se;
+        sum.headline.push(
+            Headline {
+                render: format!("{} {}", self.pipeline.name, self.tag),
+                scope: format!("{}×{}", self.w, self.h),
+                method,
+                error,
+                cost_us: 1e6 * eq.pipeline_per_pixel,
+                unit: "px".into(),
+                baseline: BASELINE_PLAIN.into(),
+                baseline_us: 1e6 * eq.reference_per_pixel,
+            }
+            .line(),
+        );
+        sum.write(self.dir, &self.stem())?;
+        Ok(sum)
+    }
+}
+
+/// The Monte Carlo reference over a [`Frame`]: its per-pixel estimates and what every
+/// pipeline derives from them.
+pub struct Reference {
+    /// Per-pixel estimates (empty ones on the background).
+    pub refs: Vec<Estimate>,
+    /// Its wall time (s).
+    pub time: f64,
+    /// The estimates' means (radiance).
+    pub img: Vec<f64>,
+    /// The estimates' standard errors.
+    pub se: Vec<f64>,
+    /// The mean radiance over the lit pixels: every relative statistic's denominator.
+    pub mean: f64,
+    /// The mean standard error over the lit pixels, relative to [`Reference::mean`].
+    pub rel_se: f64,
+}
+
+impl Reference {
+    /// From the estimates `refs` over `frame`, taken in `time` seconds.
+    pub fn new(frame: &Frame<'_>, refs: Vec<Estimate>, time: f64) -> Self {
+        let img: Vec<f64> = refs.iter().map(|r| r.mean).collect();
+        let se: Vec<f64> = refs.iter().map(|r| r.std_error).collect();
+        let mean = mean_over(&img, &frame.lit);
+        let rel_se = mean_over(&se, &frame.lit) / mean;
+        Self {
+            refs,
+            time,
+            img,
+            se,
+            mean,
+            rel_se,
+        }
+    }
+
+    /// The reference's cost at a method's error: the method took `method_s` seconds
+    /// over the frame and has relative RMSE `rel_rmse`.
+    pub fn equal_error(&self, frame: &Frame<'_>, method_s: f64, rel_rmse: f64) -> EqualError {
+        EqualError::from_estimates(
+            method_s,
+            self.time,
+            &self.refs,
+            &frame.lit,
+            frame.opts.spp,
+            rel_rmse * self.mean,
+        )
+    }
+}
+
+/// The breakdown subset's precise reference ([`Frame::picks`] at `spp` × the
+/// pipeline's precise factor): the subset's errors are measured against it.
+pub struct Subset {
+    /// Its radiance per pick.
+    pub precise: Vec<f64>,
+    /// Its standard error per pick.
+    pub precise_se: Vec<f64>,
+    /// All true: every pick is lit.
+    pub mask: Vec<bool>,
+    /// Its mean over the picks: the subset's relative statistics' denominator.
+    pub mean: f64,
+}
+
+impl Subset {
+    /// From the precise reference's means and standard errors per pick.
+    pub fn new(precise: Vec<f64>, precise_se: Vec<f64>) -> Self {
+        let mask = vec![true; precise.len()];
+        let mean = mean_over(&precise, &mask);
+        Self {
+            precise,
+            precise_se,
+            mask,
+            mean,
+        }
+    }
+
+    /// The line that opens the subset's statistics: how many pixels, the reference's
+    /// samples and its relative standard error.
+    pub fn header(&self, frame: &Frame<'_>) -> String {
+        format!(
+            "{}: on {} pixels (every {}th) against a reference of {} samples (standard error mean {:.2e} of the mean):",
+            frame.tag,
+            self.precise.len(),
+            frame.stride(),
+            frame.opts.spp * frame.pipeline.precise_factor as usize,
+            mean_over(&self.precise_se, &self.mask) / self.mean
+        )
+    }
+}
+
+/// A method's image: `shade(pixel, hit)` at every pixel that sees geometry (row-major
+/// index), 0 on the background, in parallel (each pixel on its own, so the image does
+/// not depend on the thread count).
+pub fn shade_image(
+    hits: &[Option<Hit>],
+    shade: impl Fn(usize, &Hit) -> Result<f64, String> + Sync,
+) -> Result<Vec<f64>, String> {
+    use rayon::prelude::*;
+    hits.par_iter()
+        .enumerate()
+        .map(|(p, h)| match h {
+            None => Ok(0.0),
+            Some(h) => shade(p, h),
+        })
+        .collect()
+}
+
+/// Column `k` of per-pick rows (one value per pick).
+pub fn column(parts: &[Vec<f64>], k: usize) -> Vec<f64> {
+    parts.iter().map(|p| p[k]).collect()
+}
