@@ -7,6 +7,8 @@
 #   Iwasaki et al. Table 1: 640 × 480; Giraud: 960 × 540 (here 960 × 720);
 #   Meunier Fig. 17: 16 384 points (here 148 × 111 = 16 428 pixels).
 # The CPU pipeline renders the same image for the comparison: minutes at these sizes.
+# Then the analytic kernels against the device's Monte Carlo (1 … 65 536 spp) at width
+# 64, where the CPU reference (16 384 spp a pixel) takes a minute or two.
 # Usage: bash scripts/gpu-bench.sh [OUT] [FRAMES]   (default gpu-bench/, 10 frames)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,6 +21,10 @@ for size in 640:iwasaki 960:giraud 148:meunier; do
   width=${size%%:*}
   name=${size##*:}
   printf '\n== width %s (%s)\n' "$width" "$name"
-  target/release/lobefit-gpu bench --export "$out/export" --width "$width" --frames "$frames" --out "$out/$name"
+  target/release/lobefit-gpu bench --export "$out/export" --width "$width" --frames "$frames" \
+    --mc-spp-max 0 --out "$out/$name"
 done
+printf '\n== width 64 (against Monte Carlo on the device)\n'
+target/release/lobefit-gpu bench --export "$out/export" --width 64 --frames "$frames" \
+  --mc-spp-max 65536 --out "$out/monte-carlo"
 cat "$out"/*/bench.md

@@ -41,9 +41,11 @@ pub struct Args {
     /// submission and the wait, so it reads longer).
     #[arg(long)]
     pub wall_clock: bool,
-    /// The device's Monte Carlo beside the ISG kernel at 1, 4, 16, … samples per pixel
-    /// up to this many (several dispatches a frame past one dispatch's batch).
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    /// The device's Monte Carlo beside the ISG and Meunier kernels at 1, 4, 16, …
+    /// samples per pixel up to this many (several dispatches a frame past one
+    /// dispatch's batch); 0: none (its CPU reference, 16 384 spp a pixel, takes minutes
+    /// past a few thousand pixels).
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(0..=1 << 20))]
     pub mc_spp_max: u32,
     /// Output directory (created if missing): bench.json, bench.md and each
     /// kernel's image.
@@ -443,6 +445,9 @@ fn monte_carlo(
     out: &Path,
 ) -> Result<Vec<crate::mc::McBench>, String> {
     let mut benches = Vec::new();
+    if max_spp == 0 {
+        return Ok(benches);
+    }
     for (pipeline, scene) in scenes {
         let Some(row) = rows.iter().find(|r| r.pipeline == *pipeline) else {
             continue;
