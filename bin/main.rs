@@ -213,10 +213,10 @@ enum Command {
         #[arg(long, value_parser = threads_arg)]
         threads: Option<usize>,
     },
-    /// Fit a sphere set to a closed triangle mesh (OBJ) and report its fit quality:
+    /// Fit a sphere set to a closed triangle mesh (OBJ, glTF, GLB) and report its fit quality:
     /// volume error and one-sided Hausdorff distances, by sampling (docs/meshes.md).
     Spheres {
-        /// The mesh (OBJ; closed, or nearly: the inside test takes the majority of
+        /// The mesh (.obj, .gltf or .glb; closed, or nearly: the inside test takes the majority of
         /// three rays' parities).
         #[arg(long)]
         mesh: PathBuf,
@@ -797,7 +797,7 @@ fn spheres(
     };
     let pb = progress(3, "spheres");
     let t0 = Instant::now();
-    let mesh = lobefit::pipelines::mesh::Mesh::load_obj(mesh_path)?;
+    let mesh = lobefit::pipelines::mesh::Mesh::load(mesh_path)?;
     pb.inc(1);
     let set = fit(&mesh, count, method, seed).map_err(|e| format!("mesh {}: {e}", mesh_path.display()))?;
     let t_fit = t0.elapsed().as_secs_f64();

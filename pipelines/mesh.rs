@@ -145,6 +145,104 @@ fn hits_box(lo: DVec3, hi: DVec3, x: DVec3, inv: DVec3, t_max: f64) -> bool {
     tn <= tf && tf >= 0.0 && tn <= t_max
 }
 
+/// The buffers of a glTF document: the binary chunk, or decoded `data:` URIs.
+fn gltf_buffers(doc: &gltf::Gltf) -> Result<Vec<Vec<u8>>, String> {
+    use base64::Engine as _;
+    doc.buffers()
+        .map(|b| {
+            let data = match b.source() {
+                gltf::buffer::Source::Bin => doc
+                    .blob
+                    .clone()
+                    .ok_or_else(|| format!("buffer {}: no binary chunk", b.index()))?,
+                gltf::buffer::Source::Uri(uri) => {
+                    let Some((_, payload)) = uri.strip_prefix("data:").and_then(|u| u.split_once(";base64,")) else {
+                        return Err(format!(
+                            "buffer {} names {:.40?}: only embedded buffers (the binary chunk, base64 data: URIs) are read",
+                            b.index(),
+                            uri
+                        ));
+                    };
+                    base64::engine::general_purpose::STANDARD
+                        .decode(payload)
+                        .map_err(|e| format!("buffer {}: {e}", b.index()))?
+                }
+            };
+            if data.len() < b.length() {
+                return Err(format!(
+                    "buffer {} holds {} bytes, its byteLength says {}",
+                    b.index(),
+                    data.len(),
+                    b.length()
+                ));
+            }
+            Ok(data)
+        })
+        .collect()
+}
+
+/// [`Mesh::from_gltf_bytes`] (may panic on hostile input: called under catch_unwind).
+fn gltf_mesh(bytes: &[u8]) -> Result<Mesh, String> {
+    let doc = gltf::Gltf::from_slice(bytes).map_err(|e| format!("not a readable glTF file: {e}"))?;
+    let buffers = gltf_buffers(&doc)?;
+    let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or("no scene")?;
+    let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
+    // Depth-first over the nodes with their world transforms (column-major 4×4).
+    let mut stack: Vec<(gltf::Node, lobefit_tables::glam::DMat4)> = scene
+        .nodes()
+        .map(|n| (n, lobefit_tables::glam::DMat4::IDENTITY))
+        .collect();
+    let mut visited = 0usize;
+    while let Some((node, parent)) = stack.pop() {
+        visited += 1;
+        if visited > MAX_MESH_TRIANGLES {
+            return Err("too many nodes".into());
+        }
+        let local = lobefit_tables::glam::Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
+        let world = parent * local;
+        stack.extend(node.children().map(|c| (c, world)));
+        let Some(mesh) = node.mesh() else { continue };
+        for p in mesh.primitives() {
+            if p.mode() != gltf::mesh::Mode::Triangles {
+                return Err(format!(
+                    "mesh {}: primitive mode {:?}, triangles only",
+                    mesh.index(),
+                    p.mode()
+                ));
+            }
+            let count = p.get(&gltf::Semantic::Positions).map_or(0, |a| a.count());
+            if vertices.len() + count > MAX_MESH_VERTICES {
+                return Err(format!(
+                    "more than the {MAX_MESH_VERTICES} vertices a mesh may hold (MAX_MESH_VERTICES)"
+                ));
+            }
+            let reader = p.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+            let base = vertices.len() as u32;
+            let positions = reader
+                .read_positions()
+                .ok_or_else(|| format!("mesh {}: a primitive without positions", mesh.index()))?;
+            vertices.extend(positions.map(|q| world.transform_point3(DVec3::from(q.map(f64::from)))));
+            let n = vertices.len() as u32 - base;
+            let idx: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..n).collect(),
+            };
+            if !idx.len().is_multiple_of(3) || triangles.len() + idx.len() / 3 > MAX_MESH_TRIANGLES {
+                return Err(format!(
+                    "mesh {}: {} indices: not whole triangles, or more than {MAX_MESH_TRIANGLES} in all",
+                    mesh.index(),
+                    idx.len()
+                ));
+            }
+            if let Some(&i) = idx.iter().find(|&&i| i >= n) {
+                return Err(format!("mesh {}: index {i} beyond its {n} vertices", mesh.index()));
+            }
+            triangles.extend(idx.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
+        }
+    }
+    Mesh::new(vertices, triangles)
+}
+
 impl Mesh {
     /// A mesh from vertices and triangles; an error for an index out of range, a
     /// non-finite or too large coordinate, or too many of either.
@@ -208,6 +306,41 @@ impl Mesh {
             )));
         }
         Mesh::from_obj_bytes(&bytes).map_err(err)
+    }
+
+    /// Reads a mesh file by its extension: `.obj` ([`Mesh::from_obj_bytes`]), `.gltf`
+    /// or `.glb` ([`Mesh::from_gltf_bytes`]); at most [`MAX_MESH_BYTES`] long; errors
+    /// name the file.
+    pub fn load(path: &Path) -> Result<Mesh, String> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if ext.as_deref() == Some("obj") {
+            return Mesh::load_obj(path);
+        }
+        let err = |m: String| format!("mesh {}: {m}", path.display());
+        if !matches!(ext.as_deref(), Some("gltf" | "glb")) {
+            return Err(err("not a mesh file: .obj, .gltf or .glb".into()));
+        }
+        let f = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
+        let mut bytes = Vec::new();
+        f.take(MAX_MESH_BYTES + 1)
+            .read_to_end(&mut bytes)
+            .map_err(|e| err(e.to_string()))?;
+        if bytes.len() as u64 > MAX_MESH_BYTES {
+            return Err(err(format!(
+                "longer than the {MAX_MESH_BYTES} bytes a mesh file may be (MAX_MESH_BYTES)"
+            )));
+        }
+        Mesh::from_gltf_bytes(&bytes).map_err(err)
+    }
+
+    /// Parses glTF 2.0 (JSON or binary): the triangles of every mesh the default scene
+    /// (else the first) places, each in its node's world transform, in one mesh.
+    /// Buffers are the binary chunk or base64 `data:` URIs; a buffer named by another
+    /// URI is refused (a mesh file reads nothing beside itself). Triangle lists only
+    /// (strips, fans, lines and points are refused).
+    pub fn from_gltf_bytes(bytes: &[u8]) -> Result<Mesh, String> {
+        // A parser panic on hostile input becomes an error, never a crash.
+        std::panic::catch_unwind(|| gltf_mesh(bytes)).map_err(|_| "the glTF reader failed on this file".to_string())?
     }
 
     /// Parses OBJ text (see [`Mesh::load_obj`]); every object of the file in one mesh.
@@ -661,6 +794,130 @@ pub(crate) mod tests {
         for cut in [10, 1000, 100_000, 400_000, bunny.len() - 7] {
             // A cut file either loads its complete lines or is an error: no panic.
             let _ = Mesh::from_obj_bytes(&bunny[..cut]);
+        }
+    }
+
+    /// A unit cube's 8 corners and 12 triangles (outward), as raw glTF buffer bytes:
+    /// positions (f32 × 3) then u16 indices.
+    fn cube_buffer() -> (Vec<u8>, usize) {
+        let mut b = Vec::new();
+        for k in 0..8u32 {
+            for axis in 0..3 {
+                b.extend(((k >> axis & 1) as f32).to_le_bytes());
+            }
+        }
+        let pos_len = b.len();
+        let tris: [[u16; 3]; 12] = [
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
+        ];
+        for t in tris {
+            for i in t {
+                b.extend(i.to_le_bytes());
+            }
+        }
+        (b, pos_len)
+    }
+
+    /// The glTF JSON of [`cube_buffer`] with buffer `uri` (None: the binary chunk) and
+    /// the mesh's node translated by `t` and scaled by 2.
+    fn cube_gltf(uri: Option<&str>, len: usize, pos_len: usize, t: [f64; 3]) -> String {
+        let buffer = match uri {
+            Some(u) => format!(r#"{{"byteLength": {len}, "uri": "{u}"}}"#),
+            None => format!(r#"{{"byteLength": {len}}}"#),
+        };
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+              "nodes": [{{"children": [1], "translation": [{}, {}, {}]}}, {{"mesh": 0, "scale": [2, 2, 2]}}],
+              "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+              "buffers": [{buffer}],
+              "bufferViews": [{{"buffer": 0, "byteLength": {pos_len}}},
+                              {{"buffer": 0, "byteOffset": {pos_len}, "byteLength": {}}}],
+              "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3",
+                              "min": [0, 0, 0], "max": [1, 1, 1]}},
+                            {{"bufferView": 1, "componentType": 5123, "count": 36, "type": "SCALAR"}}]}}"#,
+            t[0],
+            t[1],
+            t[2],
+            len - pos_len
+        )
+    }
+
+    /// A GLB container of `json` and the binary chunk `bin`.
+    fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+        let pad = |mut v: Vec<u8>, with: u8| {
+            while !v.len().is_multiple_of(4) {
+                v.push(with);
+            }
+            v
+        };
+        let (j, b) = (pad(json.as_bytes().to_vec(), b' '), pad(bin.to_vec(), 0));
+        let mut out = Vec::new();
+        out.extend(b"glTF");
+        out.extend(2u32.to_le_bytes());
+        out.extend(((12 + 8 + j.len() + 8 + b.len()) as u32).to_le_bytes());
+        out.extend((j.len() as u32).to_le_bytes());
+        out.extend(b"JSON");
+        out.extend(j);
+        out.extend((b.len() as u32).to_le_bytes());
+        out.extend(b"BIN\0");
+        out.extend(b);
+        out
+    }
+
+    /// A cube as glTF (a base64 data URI) and as GLB (the binary chunk) reads as the
+    /// same mesh, placed by its nodes' transforms (a parent's translation, the mesh
+    /// node's scale 2): volume 8, bounds [t, t + 2]; a buffer named by a file URI, a
+    /// line primitive, an index out of range and garbage are errors, never panics.
+    #[test]
+    fn gltf_and_glb_read_the_same_mesh() {
+        use base64::Engine as _;
+        let (bin, pos_len) = cube_buffer();
+        let t = [1.0, -2.0, 0.5];
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bin)
+        );
+        let a = Mesh::from_gltf_bytes(cube_gltf(Some(&uri), bin.len(), pos_len, t).as_bytes()).unwrap();
+        let b = Mesh::from_gltf_bytes(&glb(&cube_gltf(None, bin.len(), pos_len, t), &bin)).unwrap();
+        for m in [&a, &b] {
+            assert_eq!(m.triangles.len(), 12);
+            assert!((m.volume() - 8.0).abs() < 1e-12, "{}", m.volume());
+            let (lo, hi) = m.bounds();
+            assert!((lo - DVec3::from(t)).abs().max_element() < 1e-12, "{lo}");
+            assert!(
+                (hi - DVec3::from(t) - DVec3::splat(2.0)).abs().max_element() < 1e-12,
+                "{hi}"
+            );
+        }
+        assert_eq!(a.vertices, b.vertices);
+        assert_eq!(a.triangles, b.triangles);
+        let file = cube_gltf(Some("cube.bin"), bin.len(), pos_len, t);
+        let e = Mesh::from_gltf_bytes(file.as_bytes()).unwrap_err();
+        assert!(e.contains("only embedded buffers"), "{e}");
+        let lines =
+            cube_gltf(Some(&uri), bin.len(), pos_len, t).replace(r#""indices": 1}"#, r#""indices": 1, "mode": 1}"#);
+        let e = Mesh::from_gltf_bytes(lines.as_bytes()).unwrap_err();
+        assert!(e.contains("triangles only"), "{e}");
+        let mut bad = bin.clone();
+        bad[pos_len] = 9; // the first index: vertex 9 of 8
+        let e = Mesh::from_gltf_bytes(&glb(&cube_gltf(None, bad.len(), pos_len, t), &bad)).unwrap_err();
+        assert!(e.contains("index 9 beyond"), "{e}");
+        let short = &bin[..bin.len() - 8];
+        let e = Mesh::from_gltf_bytes(&glb(&cube_gltf(None, bin.len(), pos_len, t), short)).unwrap_err();
+        assert!(!e.is_empty());
+        for junk in [&b"glTF"[..], b"{}", b"", &[0xff; 64]] {
+            assert!(Mesh::from_gltf_bytes(junk).is_err());
         }
     }
 }

@@ -1464,7 +1464,7 @@ impl Checker<'_> {
         let mut meshes = Vec::new();
         let mut proxies = spheres.to_vec();
         for (what, path, t, set, material) in specs {
-            let local = Mesh::load_obj(&path).map_err(|e| err(format!("{what}: {e}")))?;
+            let local = Mesh::load(&path).map_err(|e| err(format!("{what}: {e}")))?;
             let local_spheres = match set {
                 SetSpec::File(p) => {
                     let text = lobefit_core::io::read_text(&p, MAX_SCENE_LEN)
