@@ -212,6 +212,11 @@ enum Command {
         /// Worker threads (default: all cores). Results do not depend on it.
         #[arg(long, value_parser = threads_arg)]
         threads: Option<usize>,
+        /// Render an animated scene as N frames (times 0 to 1): per frame the method, its
+        /// reference and the strongest Monte Carlo at the method's time, with the temporal
+        /// error (isg; docs/meshes.md, Motion). `--scene all`: the pipeline's animations.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
+        frames: Option<u32>,
     },
     /// Fit a sphere set to a closed triangle mesh (OBJ, glTF, GLB) and report its fit quality:
     /// volume error and one-sided Hausdorff distances, by sampling (docs/meshes.md).
@@ -690,10 +695,24 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             spp,
             breakdown_stride,
             threads,
+            frames,
         } => {
             let pipeline = lobefit::pipelines::by_name(&name)
                 .ok_or_else(|| Failure::Usage(format!("no pipeline named {name}")))?;
-            let scenes: Vec<&str> = if scene == "all" {
+            let animate = match frames {
+                None => None,
+                Some(n) => Some((
+                    n as usize,
+                    pipeline.animate.ok_or_else(|| {
+                        Failure::Usage(format!(
+                            "render {name} --frames: the pipeline renders no animations (isg does)"
+                        ))
+                    })?,
+                )),
+            };
+            let scenes: Vec<&str> = if scene == "all" && animate.is_some() {
+                pipeline.animations.to_vec()
+            } else if scene == "all" {
                 pipeline.scenes.to_vec()
             } else {
                 vec![scene.as_str()]
@@ -743,9 +762,12 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             let mut text = String::new();
             for scene in scenes {
                 let rows = (opts.width * 3 / 4).max(3) as u64;
-                let pb = progress(rows, scene);
+                let pb = progress(rows * animate.map_or(1, |(n, _)| n as u64), scene);
                 let tick = || pb.inc(1);
-                let s = pool(threads)?.install(|| (pipeline.render)(scene, &opts, &out, &tick))?;
+                let s = pool(threads)?.install(|| match animate {
+                    None => (pipeline.render)(scene, &opts, &out, &tick),
+                    Some((n, run)) => run(scene, &opts, n, &out, &tick),
+                })?;
                 pb.finish_and_clear();
                 for l in s.lines {
                     let _ = writeln!(text, "{l}");

@@ -321,6 +321,41 @@ pub fn encode_png(b: &Beauty) -> Result<Vec<u8>, String> {
     Ok(bytes)
 }
 
+/// Encodes equal-sized [`Beauty`] frames as an animated PNG (APNG) in memory, shown
+/// at `fps` frames per second and looping forever; the first frame is also the image a
+/// viewer without APNG support shows.
+pub fn encode_apng(frames: &[Beauty], fps: u16) -> Result<Vec<u8>, String> {
+    let first = frames.first().ok_or("an animation of no frames")?;
+    if let Some(k) = frames
+        .iter()
+        .position(|f| (f.width, f.height) != (first.width, first.height))
+    {
+        return Err(format!(
+            "animation frame {k} is {}×{}, frame 0 {}×{}",
+            frames[k].width, frames[k].height, first.width, first.height
+        ));
+    }
+    let e = |e: png::EncodingError| e.to_string();
+    let (w, h) = (
+        u32::try_from(first.width).map_err(|e| e.to_string())?,
+        u32::try_from(first.height).map_err(|e| e.to_string())?,
+    );
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, w, h);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    enc.set_animated(u32::try_from(frames.len()).map_err(|e| e.to_string())?, 0)
+        .map_err(e)?;
+    enc.set_frame_delay(1, fps.max(1)).map_err(e)?;
+    let mut writer = enc.write_header().map_err(e)?;
+    for f in frames {
+        writer.write_image_data(&f.rgb).map_err(e)?;
+    }
+    writer.finish().map_err(e)?;
+    Ok(bytes)
+}
+
 /// Writes the [`beauty`] image of `images` (the method's first, the reference last) to
 /// `path` as a PNG, atomically (encoded in memory, then [`lobefit_core::io::write_atomic`]).
 /// `exposure`: one factor for every image, chosen from the reference

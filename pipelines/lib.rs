@@ -15,6 +15,7 @@
 //! Each pipeline is one module ([`meunier`], [`isg`], [`shexp`], [`rigs`]) and one entry of [`registry`],
 //! which `lobefit render NAME` lists.
 
+pub mod animate;
 pub mod baselines;
 pub mod estimate;
 pub mod heightfield;
@@ -197,6 +198,10 @@ pub struct Pipeline {
     pub references: (u64, u64),
     /// The breakdown's references take this many times `spp`.
     pub precise_factor: u64,
+    /// Its animation renderer (`lobefit render NAME --frames N`), if it has one.
+    pub animate: Option<animate::AnimateFn>,
+    /// Its built-in animated scenes (`--frames N --scene all` renders each).
+    pub animations: &'static [&'static str],
 }
 
 impl Pipeline {

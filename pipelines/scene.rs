@@ -13,6 +13,9 @@
 //! Version 2 adds `meshes` (docs/meshes.md): triangle meshes seen by primary rays and
 //! blocking light with their true triangles in every exact visibility test, each with
 //! the sphere set the analytic pipelines take as its blockers ([`Scene::proxies`]).
+//! Version 2 also adds motion: a sphere or a mesh may carry `keys`, a keyframed
+//! translation ([`Track`]); a parsed scene is the still at time 0 and [`Scene::at`]
+//! gives the still at any time of the animation (docs/meshes.md, Motion).
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::path::Path;
@@ -62,6 +65,8 @@ pub const MAX_SGS: usize = 256;
 pub const MAX_LIGHTS: usize = 64;
 /// Most plane patches a scene may hold (the built-ins hold 1).
 pub const MAX_PLANES: usize = 64;
+/// Most keys one object's track may hold.
+pub const MAX_KEYS: usize = 1024;
 
 /// What a pipeline shades, checked right after a scene file is parsed and before
 /// anything expensive (a height field's quadtree and pyramid, the BVH) is built: a
@@ -484,8 +489,48 @@ pub struct Scene {
     /// The analytic pipelines' blockers: [`Scene::spheres`] (same indices), then each
     /// mesh's sphere set ([`SceneMesh::proxy`]).
     pub proxies: Vec<Sphere>,
+    /// The objects that move (empty: a still scene), each with its keys relative to
+    /// its place in this still ([`Scene::at`]).
+    pub tracks: Vec<Track>,
     bvh: Bvh,
     proxy_bvh: Bvh,
+}
+
+/// An object a [`Track`] moves: an index into [`Scene::spheres`] or [`Scene::meshes`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Moving {
+    /// A sphere (and its proxy, the same index of [`Scene::proxies`]).
+    Sphere(usize),
+    /// A mesh, its true triangles and its sphere set together (a rigid motion).
+    Mesh(usize),
+}
+
+/// A keyframed translation: (time, translation) keys, times strictly increasing in
+/// [0, 1] (the animation's span), translations in scene units. Between keys the
+/// translation is linear in time; before the first key it is the first's, after the
+/// last the last's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Track {
+    /// What moves.
+    pub object: Moving,
+    /// The keys.
+    pub keys: Vec<(f64, DVec3)>,
+}
+
+impl Track {
+    /// The translation at `time` (piecewise linear through the keys, held constant
+    /// outside them).
+    pub fn at(&self, time: f64) -> DVec3 {
+        let k = &self.keys;
+        match k.iter().position(|(t, _)| *t > time) {
+            Some(0) => k[0].1,
+            None => k[k.len() - 1].1,
+            Some(i) => {
+                let ((t0, a), (t1, b)) = (k[i - 1], k[i]);
+                a.lerp(b, (time - t0) / (t1 - t0))
+            }
+        }
+    }
 }
 
 /// A mesh of a scene.
@@ -502,6 +547,46 @@ pub struct SceneMesh {
 }
 
 impl Scene {
+    /// The still at `time` of the animation (a parsed scene is the still at time 0): every tracked object moved by its track's translation
+    /// at `time` less its translation at 0, the hierarchies rebuilt, no tracks. Errors
+    /// only where a moved mesh cannot be rebuilt.
+    pub fn at(&self, time: f64) -> Result<Scene, String> {
+        let mut s = self.moved(|tr| tr.at(time) - tr.at(0.0))?;
+        s.tracks.clear();
+        Ok(s)
+    }
+
+    /// This scene with each tracked object moved by `by(track)` (tracks kept).
+    fn moved(&self, by: impl Fn(&Track) -> DVec3) -> Result<Scene, String> {
+        let mut s = self.clone();
+        for tr in &self.tracks {
+            let d = by(tr);
+            match tr.object {
+                Moving::Sphere(i) => {
+                    s.spheres[i].centre += d;
+                    s.proxies[i].centre += d;
+                }
+                Moving::Mesh(m) => {
+                    let sm = &mut s.meshes[m];
+                    let shift = Transform {
+                        translation: d,
+                        ..Transform::IDENTITY
+                    };
+                    sm.mesh = sm
+                        .mesh
+                        .transformed(&shift)
+                        .map_err(|e| format!("scene {}: meshes[{m}]: {e}", self.name))?;
+                    for p in sm.proxy.clone() {
+                        s.proxies[p].centre += d;
+                    }
+                }
+            }
+        }
+        s.bvh = Bvh::new(&s.spheres);
+        s.proxy_bvh = Bvh::new(&s.proxies);
+        Ok(s)
+    }
+
     /// What the primary ray of pixel (i, j) of a w × h image sees, if anything.
     pub fn primary(&self, i: usize, j: usize, w: usize, h: usize) -> Option<Hit> {
         let eye = self.camera.eye;
@@ -711,11 +796,12 @@ impl Scene {
 }
 
 /// The built-in scenes: (name, JSON text).
-pub const BUILTIN: [(&str, &str); 7] = [
+pub const BUILTIN: [(&str, &str); 8] = [
     ("meunier-fig13", include_str!("scenes/meunier-fig13.json")),
     ("meunier-glossy", include_str!("scenes/meunier-glossy.json")),
     ("isg-fig12", include_str!("scenes/isg-fig12.json")),
     ("isg-fig12-diffuse", include_str!("scenes/isg-fig12-diffuse.json")),
+    ("isg-falling", include_str!("scenes/isg-falling.json")),
     ("shexp-whale", include_str!("scenes/shexp-whale.json")),
     ("shexp-whale-diffuse", include_str!("scenes/shexp-whale-diffuse.json")),
     ("shexp-wrecking", include_str!("scenes/shexp-wrecking.json")),
@@ -818,6 +904,9 @@ struct FileMesh {
     spheres: FileSphereSet,
     #[serde(default)]
     transform: Option<FileTransform>,
+    /// Keyframed translation after `transform` (optional).
+    #[serde(default)]
+    keys: Vec<FileKey>,
 }
 
 #[derive(Deserialize)]
@@ -942,6 +1031,18 @@ struct FileSphere {
     centre: [f64; 3],
     radius: f64,
     material: FileMaterial,
+    /// Keyframed translation (version 2; optional).
+    #[serde(default)]
+    keys: Vec<FileKey>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileKey {
+    /// In [0, 1], the animation's span.
+    time: f64,
+    /// Added to the object's place in the file (scene units).
+    translation: [f64; 3],
 }
 
 #[derive(Deserialize)]
@@ -1008,6 +1109,7 @@ fn parse_inner(
     };
     let (eye, target, fov) = c.camera(f.camera)?;
     let brdf = f.brdf.map(|m| c.material("brdf", m)).transpose()?;
+    let tracks = c.tracks(&f.spheres, &f.meshes)?;
     let (spheres, sphere_materials) = c.spheres(f.spheres)?;
     let (planes, plane_materials) = c.planes(f.planes)?;
     let mesh_specs = c.mesh_specs(f.meshes, folder)?;
@@ -1032,7 +1134,7 @@ fn parse_inner(
     let (meshes, proxies) = c.build_meshes(mesh_specs, &spheres)?;
     let proxy_bvh = Bvh::new(&proxies);
     let bvh = Bvh::new(&spheres);
-    Ok(Some(Scene {
+    let scene = Scene {
         name: name.into(),
         spheres,
         sphere_materials,
@@ -1047,8 +1149,15 @@ fn parse_inner(
         camera: Camera { eye, target, fov },
         meshes,
         proxies,
+        tracks,
         bvh,
         proxy_bvh,
+    };
+    // The still at time 0: keys are translations added to the file's places.
+    Ok(Some(if scene.tracks.is_empty() {
+        scene
+    } else {
+        scene.moved(|tr| tr.at(0.0))?
     }))
 }
 
@@ -1110,6 +1219,9 @@ fn read_file(name: &str, text: &str, accepts: &Accepts) -> Result<File, String> 
     }
     if v.version < 2 && !f.meshes.is_empty() {
         return Err(err("meshes need \"version\": 2".into()));
+    }
+    if v.version < 2 && f.spheres.iter().any(|s| !s.keys.is_empty()) {
+        return Err(err("keys (motion) need \"version\": 2".into()));
     }
     Ok(f)
 }
@@ -1229,6 +1341,44 @@ impl Checker<'_> {
                 self.materials.len() - 1
             }
         })
+    }
+
+    /// The tracks of the spheres and meshes that carry `keys`: at most [`MAX_KEYS`]
+    /// each, times finite, strictly increasing and in [0, 1], translations as points.
+    fn tracks(&self, spheres: &[FileSphere], meshes: &[FileMesh]) -> Result<Vec<Track>, String> {
+        let keyed = spheres
+            .iter()
+            .enumerate()
+            .map(|(k, s)| (format!("spheres[{k}]"), Moving::Sphere(k), &s.keys))
+            .chain(
+                meshes
+                    .iter()
+                    .enumerate()
+                    .map(|(k, m)| (format!("meshes[{k}]"), Moving::Mesh(k), &m.keys)),
+            )
+            .filter(|(_, _, keys)| !keys.is_empty());
+        let mut tracks = Vec::new();
+        for (what, object, keys) in keyed {
+            if keys.len() > MAX_KEYS {
+                return Err(self.err(format!(
+                    "{what}.keys has {} keys, more than {MAX_KEYS} (MAX_KEYS)",
+                    keys.len()
+                )));
+            }
+            let mut out: Vec<(f64, DVec3)> = Vec::with_capacity(keys.len());
+            for (i, key) in keys.iter().enumerate() {
+                let at = format!("{what}.keys[{i}]");
+                if !(key.time.is_finite() && (0.0..=1.0).contains(&key.time)) {
+                    return Err(self.err(format!("{at}.time {} must lie in [0, 1]", key.time)));
+                }
+                if out.last().is_some_and(|(t, _)| key.time <= *t) {
+                    return Err(self.err(format!("{at}.time {} must be greater than the key before it", key.time)));
+                }
+                out.push((key.time, self.vec3(&format!("{at}.translation"), key.translation)?));
+            }
+            tracks.push(Track { object, keys: out });
+        }
+        Ok(tracks)
     }
 
     /// The spheres and their material indices.

@@ -36,6 +36,8 @@ pub const PIPELINE: Pipeline = Pipeline {
     },
     references: (1, 1),
     precise_factor: render::PRECISE_FACTOR as u64,
+    animate: Some(render::animate),
+    animations: &["falling"],
 };
 
 #[cfg(test)]

@@ -112,6 +112,48 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
     render_scene(&scene(name)?, opts, dir, progress)
 }
 
+/// Renders the animated scene `name` ([`crate::animate`]): the ISG with the best model
+/// against the control variate with QMC and per-point SG selection (`qmc-cv-mis`, the
+/// strongest estimator on the ISG scenes in the baselines study), at `--spp` for the
+/// reference and at the ISG's time.
+pub fn animate(
+    name: &str,
+    opts: &RenderOptions,
+    frames: usize,
+    dir: &Path,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Summary, String> {
+    use crate::animate::Methods;
+    use crate::estimate::Sampling;
+    use crate::sky::{reference_cv, Select};
+    let scene = scene(name)?;
+    let tables = Tables::embedded()?;
+    let settings = Settings::default();
+    let shade = |s: &Scene, hits: &[Option<Hit>]| image(&tables, &settings, s, hits);
+    let estimate = |s: &Scene, h: &Hit, n: usize, seed: u64| {
+        let brdf = Phong::of(s.brdf(h))?;
+        let occluded = |v| s.occluded(h, v);
+        let env = &s.environment;
+        Ok(reference_cv(
+            Sampling::Qmc,
+            Select::Contribution,
+            env,
+            &brdf,
+            occluded,
+            h,
+            n,
+            seed,
+        ))
+    };
+    let methods = Methods {
+        method: "ISG (best model)",
+        shade: &shade,
+        strongest: "qmc-cv-mis",
+        estimate: &estimate,
+    };
+    crate::animate::animate(&PIPELINE, &scene, opts, frames, dir, progress, &methods)
+}
+
 /// Renders `scene` into `dir`: the skeleton ([`crate::render`]) filled in with the
 /// ISG's models, its patch resolutions and its breakdown.
 fn render_scene(

@@ -44,6 +44,8 @@ pub const PIPELINE: Pipeline = Pipeline {
     },
     references: (0, 0),
     precise_factor: 0,
+    animate: None,
+    animations: &[],
 };
 
 /// The camera: a three-quarter view from above the car's front left.

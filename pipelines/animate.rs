@@ -1,0 +1,355 @@
+//! `lobefit render PIPELINE --scene S --frames N`: an animated scene (keyframed
+//! spheres and meshes, [`crate::scene::Track`]) rendered frame by frame with the
+//! pipeline's method, a reference, and the strongest Monte Carlo estimator given the
+//! method's time (equal time, measured); per frame the error, the cost and the
+//! **temporal error** of each (docs/meshes.md, Motion). The reference is that same
+//! strongest estimator at `--spp` samples per pixel with its own seeds: the most
+//! precise reference for its time, independent of the equal-time run.
+//!
+//! The temporal error of frame k ≥ 1 is the RMS over the pixels lit in frames k − 1
+//! and k of (x_k − x_{k−1}) − (r_k − r_{k−1}), x the method's image and r the
+//! reference's, relative to the references' mean radiance: how far the image's change
+//! from one frame to the next is from the true change, which is what a viewer sees as
+//! flicker. The reference draws the same samples at a pixel in every frame (one seed
+//! per pixel), so where nothing changes its own noise cancels in r_k − r_{k−1}; the
+//! equal-time Monte Carlo draws new samples every frame (one seed per pixel and frame),
+//! as a real-time renderer without temporal accumulation does, so its noise flickers.
+
+use std::path::{Path, PathBuf};
+
+use crate::estimate::{per_pixel, Estimate};
+use crate::image::{beauty, compare, encode_apng, encode_png, exposure_for, mean_over, Beauty};
+use crate::scene::{Hit, Scene};
+use crate::timing::timed;
+use crate::{Headline, Pipeline, RenderOptions, Summary, MAX_RENDER_SAMPLES};
+
+/// Most frames an animation may have.
+pub const MAX_FRAMES: usize = 240;
+
+/// Samples per pixel of the pilot that measures the strongest estimator's cost per
+/// sample (on frame 0, its own seeds).
+pub const PILOT_SPP: usize = 16;
+
+/// Seed of the references' per-pixel samples (the same in every frame).
+pub const REFERENCE_SEED: u64 = 0x5eed_a410;
+
+/// Seed of the equal-time Monte Carlo's samples, mixed with the frame and the pixel.
+pub const EQUAL_TIME_SEED: u64 = 0x5eed_a411;
+
+/// Playback rate of the animated PNG (frames per second).
+pub const FPS: u16 = 12;
+
+/// Renders the animated scene `name` with `frames` frames (a pipeline's
+/// [`Pipeline::animate`]); `progress` is called once per finished reference row.
+pub type AnimateFn = fn(&str, &RenderOptions, usize, &Path, &(dyn Fn() + Sync)) -> Result<Summary, String>;
+
+/// What a pipeline gives its animation.
+pub struct Methods<'a> {
+    /// The method's name (`ISG (best model)`).
+    pub method: &'a str,
+    /// The method's image of a still at its primary hits (0 on the background).
+    pub shade: &'a (dyn Fn(&Scene, &[Option<Hit>]) -> Result<Vec<f64>, String> + Sync),
+    /// The strongest estimator's name (`qmc-cv-mis`): the one the baselines study found
+    /// best on the pipeline's scenes.
+    pub strongest: &'a str,
+    /// Its estimate of the radiance at a hit of a still: `n` samples, seeded.
+    pub estimate: &'a (dyn Fn(&Scene, &Hit, usize, u64) -> Result<Estimate, String> + Sync),
+}
+
+/// One rendered frame.
+struct Rendered {
+    time: f64,
+    lit: Vec<bool>,
+    method: Vec<f64>,
+    method_s: f64,
+    reference: Vec<f64>,
+    reference_se: f64,
+    mc: Vec<f64>,
+    mc_s: f64,
+    pixels: usize,
+}
+
+/// The frame's time in [0, 1]: k / (frames − 1).
+fn time_of(k: usize, frames: usize) -> f64 {
+    k as f64 / (frames - 1) as f64
+}
+
+/// The temporal error of `x` against the reference `r` from frame `a` to frame `b`
+/// (module docs), relative to `mean`.
+pub fn temporal_error(x: [&[f64]; 2], r: [&[f64]; 2], lit: [&[bool]; 2], mean: f64) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for p in 0..x[0].len() {
+        if lit[0][p] && lit[1][p] {
+            let d = (x[1][p] - x[0][p]) - (r[1][p] - r[0][p]);
+            sum += d * d;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        (sum / n as f64).sqrt() / mean
+    }
+}
+
+/// Refuses an animation whose frame count or Monte Carlo work is out of bounds.
+fn check(pipeline: &Pipeline, scene: &Scene, opts: &RenderOptions, frames: usize) -> Result<(), String> {
+    if !(2..=MAX_FRAMES).contains(&frames) {
+        return Err(format!(
+            "render {} --frames {frames}: an animation has 2 to {MAX_FRAMES} frames (MAX_FRAMES)",
+            pipeline.name
+        ));
+    }
+    pipeline.check_work(scene, opts)?;
+    // Per frame: the reference (spp) and the equal-time estimator (≤ spp).
+    let (w, h) = (opts.width.max(4) as u64, (opts.width * 3 / 4).max(3) as u64);
+    let samples = (frames as u64).saturating_mul(2 * w * h * opts.spp as u64);
+    if samples > MAX_RENDER_SAMPLES {
+        return Err(format!(
+            "render {} --frames {frames} --width {} --spp {}: up to {samples} Monte Carlo samples, more than the \
+             {MAX_RENDER_SAMPLES} a render may take (MAX_RENDER_SAMPLES); lower --frames, --width or --spp",
+            pipeline.name, opts.width, opts.spp
+        ));
+    }
+    Ok(())
+}
+
+/// Renders every frame of `scene` (its tracks at times 0, 1/(N−1), …, 1) into `dir`:
+/// `<stem>-frame-KKK.png` (method | reference | equal-time Monte Carlo, one exposure
+/// for the whole animation), `<stem>-animation.png` (the same frames as an animated
+/// PNG at [`FPS`]), `<stem>-frames.csv` and the summary.
+pub fn animate(
+    pipeline: &Pipeline,
+    scene: &Scene,
+    opts: &RenderOptions,
+    frames: usize,
+    dir: &Path,
+    progress: &(dyn Fn() + Sync),
+    m: &Methods<'_>,
+) -> Result<Summary, String> {
+    check(pipeline, scene, opts, frames)?;
+    let tag = scene
+        .name
+        .strip_prefix(&format!("{}-", pipeline.name))
+        .unwrap_or(&scene.name)
+        .to_string();
+    let stem = format!("{}-{tag}", pipeline.name);
+    let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut shots = Vec::with_capacity(frames);
+    let mut all_hits = Vec::with_capacity(frames);
+    for k in 0..frames {
+        let still = scene.at(time_of(k, frames))?;
+        let (hits, lit) = still.primary_hits(w, h)?;
+        let (method, method_s) = timed(|| (m.shade)(&still, &hits));
+        let (refs, _) = timed(|| {
+            per_pixel(
+                &hits,
+                w,
+                |hit, p| (m.estimate)(&still, hit, opts.spp, REFERENCE_SEED ^ p as u64),
+                progress,
+            )
+        });
+        let refs = refs?;
+        let reference: Vec<f64> = refs.iter().map(|e| e.mean).collect();
+        let se: Vec<f64> = refs.iter().map(|e| e.std_error).collect();
+        let pixels = lit.iter().filter(|&&l| l).count();
+        shots.push(Rendered {
+            time: time_of(k, frames),
+            reference_se: mean_over(&se, &lit) / mean_over(&reference, &lit),
+            lit,
+            method: method?,
+            method_s,
+            reference,
+            mc: Vec::new(),
+            mc_s: 0.0,
+            pixels,
+        });
+        all_hits.push(hits);
+    }
+    let spp = equal_time_spp(scene, &all_hits[0], &shots, w, opts.spp, m)?;
+    for (k, (shot, hits)) in shots.iter_mut().zip(&all_hits).enumerate() {
+        let still = scene.at(shot.time)?;
+        let seed = EQUAL_TIME_SEED ^ (k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        let (mc, mc_s) = timed(|| {
+            per_pixel(
+                hits,
+                w,
+                |hit, p| (m.estimate)(&still, hit, spp, seed ^ p as u64),
+                &|| (),
+            )
+        });
+        shot.mc = mc?.iter().map(|e| e.mean.max(0.0)).collect();
+        shot.mc_s = mc_s;
+    }
+    report(pipeline, &tag, &stem, (w, h), spp, &shots, dir, m)
+}
+
+/// The equal-time estimator's samples per pixel: its time per lit pixel is modelled as
+/// a + b n (a fixed cost per pixel, b per sample), a and b measured by two pilots on
+/// frame 0 (at [`PILOT_SPP`] / 2 and 2 × [`PILOT_SPP`], their own seeds); n solves
+/// a + b n = the method's mean time per lit pixel over the frames, rounded, in
+/// 1..=`max`.
+fn equal_time_spp(
+    scene: &Scene,
+    hits: &[Option<Hit>],
+    shots: &[Rendered],
+    w: usize,
+    max: usize,
+    m: &Methods<'_>,
+) -> Result<usize, String> {
+    let still = scene.at(0.0)?;
+    let pixels = shots[0].pixels.max(1) as f64;
+    let pilot = |n: usize| -> Result<f64, String> {
+        let (r, t) = timed(|| {
+            per_pixel(
+                hits,
+                w,
+                |hit, p| (m.estimate)(&still, hit, n, !EQUAL_TIME_SEED ^ p as u64),
+                &|| (),
+            )
+        });
+        r?;
+        Ok(t / pixels)
+    };
+    let (lo, hi) = (PILOT_SPP / 2, 2 * PILOT_SPP);
+    let (t_lo, t_hi) = (pilot(lo)?, pilot(hi)?);
+    let b = ((t_hi - t_lo) / (hi - lo) as f64).max(1e-12);
+    let a = (t_lo - b * lo as f64).max(0.0);
+    let method_per_pixel =
+        shots.iter().map(|s| s.method_s).sum::<f64>() / shots.iter().map(|s| s.pixels).sum::<usize>().max(1) as f64;
+    Ok((((method_per_pixel - a) / b).round().max(1.0) as usize).min(max))
+}
+
+/// Per-frame statistics, files and the summary.
+#[allow(clippy::too_many_arguments)]
+fn report(
+    pipeline: &Pipeline,
+    tag: &str,
+    stem: &str,
+    (w, h): (usize, usize),
+    spp: usize,
+    shots: &[Rendered],
+    dir: &Path,
+    m: &Methods<'_>,
+) -> Result<Summary, String> {
+    let mut sum = Summary::default();
+    let exposure = exposure_for(mean_over(&shots[0].reference, &shots[0].lit));
+    let mut csv = String::from(
+        "frame,time,method_rel_rmse,mc_rel_rmse,method_temporal,mc_temporal,method_us_per_px,mc_us_per_px,reference_rel_se\n",
+    );
+    let mut images: Vec<Beauty> = Vec::with_capacity(shots.len());
+    let (mut e_m, mut e_mc, mut t_m, mut t_mc, mut us_m, mut us_mc) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for (k, s) in shots.iter().enumerate() {
+        let mean = mean_over(&s.reference, &s.lit);
+        let em = compare(&s.method, &s.reference, &s.lit).rel_rmse;
+        let emc = compare(&s.mc, &s.reference, &s.lit).rel_rmse;
+        let (tm, tmc) = match k.checked_sub(1).map(|j| &shots[j]) {
+            None => (f64::NAN, f64::NAN),
+            Some(p) => {
+                let both = 0.5 * (mean + mean_over(&p.reference, &p.lit));
+                let r = [&p.reference[..], &s.reference[..]];
+                let lit = [&p.lit[..], &s.lit[..]];
+                (
+                    temporal_error([&p.method, &s.method], r, lit, both),
+                    temporal_error([&p.mc, &s.mc], r, lit, both),
+                )
+            }
+        };
+        let px = s.pixels.max(1) as f64;
+        let (um, umc) = (1e6 * s.method_s / px, 1e6 * s.mc_s / px);
+        sum.lines.push(format!(
+            "{tag}: frame {k} (t = {:.3}, {} lit pixels): {} relative RMSE {em:.4}, temporal {tm:.4}, {um:.2} µs/px; \
+             {} at {spp} spp relative RMSE {emc:.4}, temporal {tmc:.4}, {umc:.2} µs/px; reference standard error {:.2e} (the i.i.d. formula: QMC's is smaller)",
+            s.time, s.pixels, m.method, m.strongest, s.reference_se
+        ));
+        csv.push_str(&format!(
+            "{k},{},{em},{emc},{tm},{tmc},{um},{umc},{}\n",
+            s.time, s.reference_se
+        ));
+        let b = beauty(w, h, &[&s.method, &s.reference, &s.mc], &s.lit, exposure)?;
+        let path = dir.join(format!("{stem}-frame-{k:03}.png"));
+        sum.files.push(write_bytes(&path, &encode_png(&b)?)?);
+        images.push(b);
+        let n = shots.len() as f64;
+        e_m += em / n;
+        e_mc += emc / n;
+        us_m += um / n;
+        us_mc += umc / n;
+        if k > 0 {
+            t_m += tm / (n - 1.0);
+            t_mc += tmc / (n - 1.0);
+        }
+    }
+    sum.files.push(write_bytes(
+        &dir.join(format!("{stem}-animation.png")),
+        &encode_apng(&images, FPS)?,
+    )?);
+    sum.files
+        .push(write_bytes(&dir.join(format!("{stem}-frames.csv")), csv.as_bytes())?);
+    sum.lines.push(format!(
+        "{tag}: {} frames of {w}×{h}, means over the frames: {} relative RMSE {e_m:.4}, temporal {t_m:.4}, {us_m:.2} \
+         µs/px; {} at {spp} spp (the method's time by two pilots) relative RMSE {e_mc:.4}, temporal \
+         {t_mc:.4}, {us_mc:.2} µs/px; temporal error ratio {} / method {:.1}",
+        shots.len(),
+        m.method,
+        m.strongest,
+        m.strongest,
+        t_mc / t_m
+    ));
+    sum.rel_rmse = e_m;
+    sum.headline.push(
+        Headline {
+            render: format!("{} {tag}", pipeline.name),
+            scope: format!("{} frames × {w}×{h}", shots.len()),
+            method: m.method.into(),
+            error: format!(
+                "relative RMSE {e_m:.4}, temporal {t_m:.4} (at equal time {}: {e_mc:.4}, temporal {t_mc:.4})",
+                m.strongest
+            ),
+            cost_us: us_m,
+            unit: "px".into(),
+            baseline: format!("{} at {spp} spp", m.strongest),
+            baseline_us: us_mc,
+        }
+        .line(),
+    );
+    sum.write(dir, stem)?;
+    Ok(sum)
+}
+
+/// Writes `bytes` to `path` atomically.
+fn write_bytes(path: &Path, bytes: &[u8]) -> Result<PathBuf, String> {
+    lobefit_core::io::write_atomic(path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(path.to_path_buf())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The temporal error is 0 when the image changes as the reference does (whatever
+    /// its own constant error), and the RMS of the difference otherwise, over the
+    /// pixels lit in both frames only.
+    #[test]
+    fn temporal_error_measures_the_change_against_the_reference() {
+        let r0 = [1.0, 2.0, 3.0, 4.0];
+        let r1 = [1.5, 2.0, 2.0, 9.0];
+        let offset: Vec<f64> = r0.iter().map(|x| x + 0.3).collect();
+        let offset1: Vec<f64> = r1.iter().map(|x| x + 0.3).collect();
+        let lit = [true, true, true, false];
+        assert_eq!(temporal_error([&offset, &offset1], [&r0, &r1], [&lit, &lit], 1.0), 0.0);
+        // A still image where the reference changes by 0.5, 0, −1 on the lit pixels.
+        let e = temporal_error([&r0, &r0], [&r0, &r1], [&lit, &lit], 2.0);
+        assert!((e - ((0.25 + 0.0 + 1.0) / 3.0f64).sqrt() / 2.0).abs() < 1e-15, "{e}");
+        let none = [false; 4];
+        assert_eq!(temporal_error([&r0, &r1], [&r0, &r0], [&lit, &none], 1.0), 0.0);
+    }
+
+    #[test]
+    fn times_span_zero_to_one() {
+        assert_eq!(time_of(0, 5), 0.0);
+        assert_eq!(time_of(2, 5), 0.5);
+        assert_eq!(time_of(4, 5), 1.0);
+    }
+}

@@ -1,0 +1,62 @@
+#!/usr/bin/env python3
+"""Writes the animated scenes (docs/meshes.md, Motion) from the still ones, so that
+their keys are reproducible: pipelines/scenes/isg-falling.json (Figure 12's spheres,
+every third dropped from above and bouncing once onto where it rests) and
+assets/meshes/isg-bunny-walk.json (the bunny hopping across the plane through the
+sun's shadow). Run from the repository root: python3 scripts/animations.py"""
+import json
+import math
+import random
+
+G = 40.0          # gravity (scene units per squared animation span: a 2-unit drop takes 0.32)
+RESTITUTION = 0.4  # bounce height / drop height
+
+def fall_keys(height, start):
+    """(time, z-offset) keys: rest `height` above, fall, one bounce, rest at 0."""
+    t_fall = math.sqrt(2 * height / G)
+    h2 = RESTITUTION * height
+    t_up = math.sqrt(2 * h2 / G)
+    keys = [(0.0, height)] if start > 0 else []
+    for i in range(7):  # the fall, a parabola sampled at 7 times
+        u = i / 6
+        keys.append((start + u * t_fall, height * (1 - u * u)))
+    for i in range(1, 7):  # the bounce: up and down again
+        u = i / 6 * 2 * t_up
+        keys.append((start + t_fall + u, max(0.0, math.sqrt(2 * G * h2) * u - 0.5 * G * u * u)))
+    keys = [(round(t, 6), round(z, 6)) for t, z in keys if t <= 1.0]
+    out = []
+    for t, z in keys:  # strictly increasing times
+        if not out or t > out[-1][0]:
+            out.append((t, z))
+    return [{"time": t, "translation": [0.0, 0.0, z]} for t, z in out]
+
+def falling():
+    scene = json.load(open("pipelines/scenes/isg-fig12.json"))
+    scene["version"] = 2
+    rng = random.Random(12)
+    for k, s in enumerate(scene["spheres"]):
+        if k % 3 == 0:
+            s["keys"] = fall_keys(rng.uniform(1.5, 3.0), rng.uniform(0.0, 0.45))
+    with open("pipelines/scenes/isg-falling.json", "w") as f:
+        json.dump(scene, f, indent=1)
+        f.write("\n")
+
+def bunny_walk():
+    scene = json.load(open("assets/meshes/isg-bunny.json"))
+    hops, x0, x1, lift = 4, -3.0, 3.0, 0.3
+    keys = []
+    for i in range(hops):
+        for j in range(4):  # take-off, rising, falling (each hop a sampled parabola)
+            u = (i + j / 4) / hops
+            phase = j / 4
+            keys.append({"time": round(u, 6),
+                         "translation": [round(x0 + (x1 - x0) * u, 6), 0.0,
+                                         round(4 * lift * phase * (1 - phase), 6)]})
+    keys.append({"time": 1.0, "translation": [x1, 0.0, 0.0]})
+    scene["meshes"][0]["keys"] = keys
+    with open("assets/meshes/isg-bunny-walk.json", "w") as f:
+        json.dump(scene, f, indent=1)
+        f.write("\n")
+
+falling()
+bunny_walk()
