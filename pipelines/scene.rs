@@ -1920,7 +1920,7 @@ mod mesh_tests {
 
     /// A lumpy closed mesh (an octahedron subdivided 3 times, 512 triangles, its
     /// vertices pushed to radius 1 ± 0.25 by a seeded bump) as OBJ text.
-    fn lumpy_obj() -> String {
+    pub(super) fn lumpy_obj() -> String {
         let m = crate::mesh::tests::ball(DVec3::ZERO, 1.0, 3);
         let mut s = String::new();
         for p in &m.vertices {
@@ -1936,7 +1936,7 @@ mod mesh_tests {
 
     /// A version 2 scene: a plane, the lumpy mesh lifted to z = 1.6, a sphere light
     /// above it, an SG environment; the mesh's sphere set fitted on load.
-    fn scene_text(file: &str) -> String {
+    pub(super) fn scene_text(file: &str) -> String {
         format!(
             r#"{{"version": 2,
               "camera": {{"eye": [0, -6, 3], "target": [0, 0, 1], "fov": 0.8}},
@@ -2152,5 +2152,105 @@ mod sphere_set_file_tests {
         .unwrap();
         let e = parse_in("t", text, d.path()).unwrap_err();
         assert!(e.contains("set.json") && e.contains("spheres[0]"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod motion_tests {
+    use super::mesh_tests::{lumpy_obj, scene_text};
+    use super::*;
+
+    /// The mesh scene with a keyed mesh (`mesh_keys`) and a keyed sphere.
+    fn moving_scene(mesh_keys: &str) -> (tempfile::TempDir, Scene) {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("lumpy.obj"), lumpy_obj()).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(&scene_text("lumpy.obj")).unwrap();
+        v["meshes"][0]["keys"] = serde_json::from_str(mesh_keys).unwrap();
+        v["spheres"] = serde_json::json!([{"centre": [2, 0, 0.5], "radius": 0.5,
+            "material": {"lambert": {"albedo": 0.5}},
+            "keys": [{"time": 0.5, "translation": [0, 0, 2]}, {"time": 1, "translation": [0, 0, 0]}]}]);
+        let s = parse_in("t", &v.to_string(), d.path()).unwrap();
+        (d, s)
+    }
+
+    /// Keys interpolate linearly and hold outside their span; the parsed scene is the
+    /// still at time 0 (the first key's translation applied) and `at` moves the sphere,
+    /// the mesh's triangles and its sphere set together, with the hierarchies rebuilt
+    /// (primary hits equal a scan over the moved triangles).
+    #[test]
+    fn tracks_move_spheres_meshes_and_their_proxies() {
+        let keys = r#"[{"time": 0, "translation": [-1, 0, 0]}, {"time": 0.25, "translation": [1, 0, 0]},
+                       {"time": 0.75, "translation": [1, 0, 1]}]"#;
+        let (_d, s0) = moving_scene(keys);
+        let (_d2, rest) = moving_scene(r#"[{"time": 0, "translation": [0, 0, 0]}]"#);
+        let tr = &s0.tracks[1];
+        assert_eq!(tr.object, Moving::Mesh(0));
+        assert_eq!(tr.at(0.125), DVec3::new(0.0, 0.0, 0.0));
+        assert_eq!(tr.at(0.5), DVec3::new(1.0, 0.0, 0.5));
+        assert_eq!(tr.at(0.9), DVec3::new(1.0, 0.0, 1.0));
+        let sphere = &s0.tracks[0];
+        assert_eq!(
+            (sphere.object, sphere.at(0.0), sphere.at(0.75)),
+            (Moving::Sphere(0), DVec3::new(0.0, 0.0, 2.0), DVec3::new(0.0, 0.0, 1.0))
+        );
+        // Time 0: the sphere 2 up, the mesh 1 to −x of the file's places.
+        assert_eq!(s0.spheres[0].centre, DVec3::new(2.0, 0.0, 2.5));
+        let shift = |a: &Scene, b: &Scene| a.meshes[0].mesh.vertices[7] - b.meshes[0].mesh.vertices[7];
+        assert!((shift(&s0, &rest) - DVec3::new(-1.0, 0.0, 0.0)).length() < 1e-12);
+        let s = s0.at(0.5).unwrap();
+        assert!(s.tracks.is_empty());
+        assert_eq!(s.spheres[0].centre, DVec3::new(2.0, 0.0, 2.5));
+        assert_eq!(s.proxies[0].centre, s.spheres[0].centre);
+        assert!((shift(&s, &rest) - DVec3::new(1.0, 0.0, 0.5)).length() < 1e-12);
+        for p in s.meshes[0].proxy.clone() {
+            assert!((s.proxies[p].centre - rest.proxies[p].centre - DVec3::new(1.0, 0.0, 0.5)).length() < 1e-12);
+        }
+        let (w, h) = (24, 18);
+        let mut on_mesh = 0;
+        for px in 0..w * h {
+            let d = s.camera.ray(px % w, px / w, w, h);
+            let brute = s.meshes[0].mesh.nearest_brute(s.camera.eye, d, 0.0, f64::INFINITY);
+            if let (Some(hit), Some((_, k))) = (s.primary(px % w, px / w, w, h), brute) {
+                if hit.mesh.is_some() {
+                    assert_eq!(hit.mesh, Some((0, k)), "pixel {px}");
+                    on_mesh += 1;
+                }
+            }
+        }
+        assert!(on_mesh > 20, "{on_mesh}");
+        assert_eq!(s0.at(0.0).unwrap().spheres, s0.spheres);
+    }
+
+    /// Bad keys are errors naming the key: times out of [0, 1] or not increasing, a
+    /// non-finite translation, keys in a version 1 file.
+    #[test]
+    fn bad_keys_are_errors() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("lumpy.obj"), lumpy_obj()).unwrap();
+        for (keys, want) in [
+            (
+                r#"[{"time": -0.1, "translation": [0, 0, 0]}]"#,
+                "meshes[0].keys[0].time -0.1 must lie in [0, 1]",
+            ),
+            (
+                r#"[{"time": 0.5, "translation": [0, 0, 0]}, {"time": 0.5, "translation": [0, 0, 0]}]"#,
+                "meshes[0].keys[1].time 0.5 must be greater",
+            ),
+            (
+                r#"[{"time": 0.5, "translation": [0, 0, 1e300]}]"#,
+                "meshes[0].keys[0].translation",
+            ),
+            (r#"[{"time": 0.5}]"#, "missing field `translation`"),
+        ] {
+            let mut v: serde_json::Value = serde_json::from_str(&scene_text("lumpy.obj")).unwrap();
+            v["meshes"][0]["keys"] = serde_json::from_str(keys).unwrap();
+            let e = parse_in("t", &v.to_string(), d.path()).unwrap_err();
+            assert!(e.contains(want), "{e} (want {want})");
+        }
+        let mut v: serde_json::Value = serde_json::from_str(BUILTIN[0].1).unwrap();
+        v["version"] = 1.into();
+        v["spheres"][0]["keys"] = serde_json::json!([{"time": 0, "translation": [0, 0, 1]}]);
+        let e = parse("t", &v.to_string()).unwrap_err();
+        assert!(e.contains("keys (motion) need \"version\": 2"), "{e}");
     }
 }

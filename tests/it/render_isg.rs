@@ -278,3 +278,79 @@ fn expensive_scenes_and_renders_are_refused_first() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("MAX_RENDER_SAMPLES"), "{err}");
 }
+
+/// `render isg --frames 3` on the built-in animation: the frames, the animated PNG
+/// (an acTL chunk of 3 frames), the CSV (a row per frame, finite values, no temporal
+/// error on frame 0) and the summary line last; the method's and the reference's
+/// numbers do not depend on the thread count (the equal-time estimator's samples
+/// follow measured times, so its column may). Pipelines without animations and a
+/// single frame are refused.
+#[test]
+fn animation_writes_frames_and_temporal_errors() {
+    let frames_csv = |threads: &str| -> (String, Vec<Vec<String>>) {
+        let d = tempfile::tempdir().unwrap();
+        let args = [
+            "render",
+            "isg",
+            "--scene",
+            "falling",
+            "--frames",
+            "3",
+            "--width",
+            "16",
+            "--spp",
+            "32",
+            "--threads",
+            threads,
+            "--out",
+        ];
+        let (code, stdout, err) = common::run_text(&[&args[..], &[d.path().to_str().unwrap()]].concat(), "");
+        assert_eq!(code, Some(0), "{err}");
+        common::assert_summary_last(&stdout, "isg falling");
+        for k in 0..3 {
+            // method | reference | Monte Carlo, 16 × 12 each, ×11 to reach 512 wide, 4-pixel gaps.
+            common::assert_beauty_png(
+                &d.path().join(format!("isg-falling-frame-{k:03}.png")),
+                3 * 16 * 11 + 8,
+                132,
+            );
+        }
+        let apng = std::fs::read(d.path().join("isg-falling-animation.png")).unwrap();
+        let at = apng.windows(4).position(|w| w == b"acTL").expect("an acTL chunk");
+        assert_eq!(apng[at + 4..at + 8], 3u32.to_be_bytes());
+        let csv = std::fs::read_to_string(d.path().join("isg-falling-frames.csv")).unwrap();
+        let rows: Vec<Vec<String>> = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(String::from).collect())
+            .collect();
+        assert_eq!(rows.len(), 3, "{csv}");
+        for (k, r) in rows.iter().enumerate() {
+            let v: Vec<f64> = r.iter().map(|x| x.parse().unwrap()).collect();
+            assert_eq!(v.len(), 9, "{csv}");
+            assert_eq!(v[4].is_nan(), k == 0, "{csv}");
+            assert!(v
+                .iter()
+                .enumerate()
+                .all(|(i, x)| x.is_finite() || (k == 0 && (i == 4 || i == 5))));
+        }
+        (stdout, rows)
+    };
+    let (_, one) = frames_csv("1");
+    let (_, two) = frames_csv("2");
+    for (a, b) in one.iter().zip(&two) {
+        assert_eq!((&a[..3], &a[4], &a[8]), (&b[..3], &b[4], &b[8]));
+    }
+    for (args, want) in [
+        (
+            vec!["render", "meunier", "--frames", "2"],
+            "the pipeline renders no animations",
+        ),
+        (vec!["render", "isg", "--frames", "1"], "--frames"),
+    ] {
+        let d = tempfile::tempdir().unwrap();
+        let (code, _, err) = common::run_text(&[&args[..], &["--out", d.path().to_str().unwrap()]].concat(), "");
+        assert_eq!(code, Some(2), "{err}");
+        assert!(err.contains(want), "{err}");
+    }
+}
