@@ -214,7 +214,7 @@ enum Command {
         threads: Option<usize>,
         /// Render an animated scene as N frames (times 0 to 1): per frame the method, its
         /// reference and the strongest Monte Carlo at the method's time, with the temporal
-        /// error (isg; docs/meshes.md, Motion). `--scene all`: the pipeline's animations.
+        /// error (isg, meunier; docs/meshes.md, Motion). `--scene all`: the pipeline's animations.
         #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
         frames: Option<u32>,
     },
@@ -705,7 +705,7 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
                     n as usize,
                     pipeline.animate.ok_or_else(|| {
                         Failure::Usage(format!(
-                            "render {name} --frames: the pipeline renders no animations (isg does)"
+                            "render {name} --frames: the pipeline renders no animations (isg and meunier do)"
                         ))
                     })?,
                 )),

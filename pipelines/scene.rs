@@ -796,8 +796,9 @@ impl Scene {
 }
 
 /// The built-in scenes: (name, JSON text).
-pub const BUILTIN: [(&str, &str); 8] = [
+pub const BUILTIN: [(&str, &str); 9] = [
     ("meunier-fig13", include_str!("scenes/meunier-fig13.json")),
+    ("meunier-orbit", include_str!("scenes/meunier-orbit.json")),
     ("meunier-glossy", include_str!("scenes/meunier-glossy.json")),
     ("isg-fig12", include_str!("scenes/isg-fig12.json")),
     ("isg-fig12-diffuse", include_str!("scenes/isg-fig12-diffuse.json")),

@@ -3,7 +3,7 @@
 their keys are reproducible: pipelines/scenes/isg-falling.json (Figure 12's spheres,
 every third dropped from above and bouncing once onto where it rests) and
 assets/meshes/isg-bunny-walk.json (the bunny hopping across the plane through the
-sun's shadow). Run from the repository root: python3 scripts/animations.py"""
+sun's shadow) and pipelines/scenes/meunier-orbit.json (Figure 13's blockers turning). Run from the repository root: python3 scripts/animations.py"""
 import json
 import math
 import random
@@ -58,5 +58,25 @@ def bunny_walk():
         json.dump(scene, f, indent=1)
         f.write("\n")
 
+def orbit():
+    """Meunier's Figure 13 with its five blockers turning half a turn about the
+    vertical axis (alternate ones the other way), their shadows sweeping the plane."""
+    scene = json.load(open("pipelines/scenes/meunier-fig13.json"))
+    scene["version"] = 2
+    for k, s in enumerate(scene["spheres"]):
+        x, y, _ = s["centre"]
+        sign = 1 if k % 2 == 0 else -1
+        keys = []
+        for i in range(17):
+            t = i / 16
+            a = sign * math.pi * t
+            rx, ry = x * math.cos(a) - y * math.sin(a), x * math.sin(a) + y * math.cos(a)
+            keys.append({"time": round(t, 6), "translation": [round(rx - x, 6), round(ry - y, 6), 0.0]})
+        s["keys"] = keys
+    with open("pipelines/scenes/meunier-orbit.json", "w") as f:
+        json.dump(scene, f, indent=1)
+        f.write("\n")
+
 falling()
 bunny_walk()
+orbit()

@@ -36,6 +36,6 @@ pub const PIPELINE: Pipeline = Pipeline {
     // The image's reference; the breakdown is quadrature.
     references: (1, 0),
     precise_factor: 0,
-    animate: None,
-    animations: &[],
+    animate: Some(render::animate),
+    animations: &["orbit"],
 };

@@ -113,6 +113,46 @@ fn lobe_image(
     })
 }
 
+/// Renders the animated scene `name` ([`crate::animate`]): the lobes with the default
+/// settings against the reference sampling the light's cap with Owen-scrambled Sobol
+/// points (`qmc`, the strongest estimator on Meunier's scenes in the baselines study),
+/// at `--spp` for the reference and at the lobes' time.
+pub fn animate(
+    name: &str,
+    opts: &RenderOptions,
+    frames: usize,
+    dir: &Path,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Summary, String> {
+    let scene = scene(name)?;
+    let light = match scene.lights[..] {
+        [l] => l,
+        _ => {
+            return Err(format!(
+                "render meunier --frames: scene {} has {} lights; an animation takes one",
+                scene.name,
+                scene.lights.len()
+            ))
+        }
+    };
+    let m = Meunier {
+        products: LobeProduct::embedded().map_err(|e| e.to_string())?,
+        caps: CapExponent::embedded().map_err(|e| e.to_string())?,
+        weights: MaskWeights::embedded().map_err(|e| e.to_string())?,
+    };
+    let settings = MaskSettings::default();
+    let shade = |s: &Scene, hits: &[Option<Hit>]| lobe_image(&m, s, &light, hits, &settings);
+    let estimate =
+        |s: &Scene, h: &Hit, n: usize, seed: u64| Ok(reference_sampled(Sampling::Qmc, s, &light, h, n, seed, true));
+    let methods = crate::animate::Methods {
+        method: "lobes (default settings)",
+        shade: &shade,
+        strongest: "qmc",
+        estimate: &estimate,
+    };
+    crate::animate::animate(&super::PIPELINE, &scene, opts, frames, dir, progress, &methods)
+}
+
 /// The thresholds t_i (sr) `render meunier` sweeps; the paper's is 0.001.
 pub const THRESHOLDS: [f64; 5] = [0.0, 1e-5, 1e-4, 1e-3, 1e-2];
 

@@ -283,7 +283,7 @@ fn expensive_scenes_and_renders_are_refused_first() {
 /// (an acTL chunk of 3 frames), the CSV (a row per frame, finite values, no temporal
 /// error on frame 0) and the summary line last; the method's and the reference's
 /// numbers do not depend on the thread count (the equal-time estimator's samples
-/// follow measured times, so its column may). Pipelines without animations and a
+/// follow measured times, so its column may). A pipeline without animations (shexp) and a
 /// single frame are refused.
 #[test]
 fn animation_writes_frames_and_temporal_errors() {
