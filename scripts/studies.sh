@@ -18,6 +18,12 @@ run $bin plot meunier-scaling --out "$out/meunier"
 run cargo test -q -p lobefit-pipelines --lib study_meunier_lobes_scaling -- --ignored --nocapture
 # Irradiance rigs: the 24-frame drive past the lamps (docs/rigs.md, "--scene drive").
 run $bin render rigs --scene drive --out "$out/rigs"
+# Animations (docs/meshes.md, "Motion"): 24 frames at 160 × 120 of each built-in
+# animation and of the walking bunny, with the reference and the strongest Monte Carlo
+# at the method's time; frames, an animated PNG and a CSV each.
+run $bin render isg --scene falling --frames 24 --width 160 --spp 1024 --out "$out/anim"
+run $bin render meunier --scene orbit --frames 24 --width 160 --spp 1024 --out "$out/anim"
+run $bin render isg --scene assets/meshes/isg-bunny-walk.json --frames 24 --width 160 --spp 256 --out "$out/anim"
 # The direct-light study and the rigs' figures.
 run $bin plot meunier --out "$out/meunier"
 run $bin plot rigs --out "$out/rigs"

@@ -43,6 +43,10 @@ pub struct Args {
     /// Output PNG.
     #[arg(long)]
     out: PathBuf,
+    /// Render an animated scene as N frames (times 0 to 1), each against the CPU
+    /// pipeline; the frames go to OUT's stem with `-frame-KKK.png`.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
+    frames: Option<u32>,
 }
 
 /// `render isg`.
@@ -65,6 +69,11 @@ fn run(a: Args) -> Result<ExitCode, String> {
         &format!("{} SGs, {} spheres", sc.environment.len(), sc.spheres.len()),
     )?;
     let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    if let Some(n) = a.frames {
+        return crate::render::animate("render isg", &sc, n as usize, &gpu, &a.out, |still, path| {
+            render_isg(&gpu, &ex, still, a.width as usize, path)
+        });
+    }
     let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out)?;
     crate::render::report("render isg", &a.scene, &r, &gpu, &a.out)
 }

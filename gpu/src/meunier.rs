@@ -70,6 +70,10 @@ pub struct Args {
     /// Output PNG.
     #[arg(long)]
     out: PathBuf,
+    /// Render an animated scene as N frames (times 0 to 1), each against the CPU
+    /// pipeline; the frames go to OUT's stem with `-frame-KKK.png`.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
+    frames: Option<u32>,
 }
 
 /// `render meunier`.
@@ -125,6 +129,11 @@ fn run(a: Args) -> Result<ExitCode, String> {
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::meunier::render::scene(&a.scene)?;
     let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    if let Some(n) = a.frames {
+        return crate::render::animate("render meunier", &sc, n as usize, &gpu, &a.out, |still, path| {
+            render_meunier(&gpu, &ex, still, a.width as usize, &settings, path)
+        });
+    }
     let r = render_meunier(&gpu, &ex, &sc, a.width as usize, &settings, &a.out)?;
     let what = format!(
         "{} (light {}, weights {}, depth {} {}, t_i {:e})",

@@ -133,6 +133,58 @@ pub fn report(command: &str, what: &str, r: &SceneRender, gpu: &Gpu, out: &Path)
     verdict(command, r.rms <= RMS_LIMIT, out)
 }
 
+/// `render NAME --frames N`: the still of `sc` at each time k / (N − 1) rendered by
+/// `one(still, out_k)` (out_k: `out` with `-frame-KKK` before its extension, every
+/// frame compared with the CPU pipeline on that still), a line per frame with its
+/// device time (the whole render: the kernel's build, which bakes the blockers, the
+/// dispatch and the read-back), then the worst frame's verdict.
+pub fn animate(
+    command: &str,
+    sc: &lobefit::pipelines::scene::Scene,
+    frames: usize,
+    gpu: &Gpu,
+    out: &Path,
+    mut one: impl FnMut(&lobefit::pipelines::scene::Scene, &Path) -> Result<SceneRender, String>,
+) -> Result<ExitCode, String> {
+    if !(2..=lobefit::pipelines::animate::MAX_FRAMES).contains(&frames) {
+        return Err(format!(
+            "{command} --frames {frames}: an animation has 2 to {} frames",
+            lobefit::pipelines::animate::MAX_FRAMES
+        ));
+    }
+    let stem = out
+        .file_stem()
+        .map_or("frame".into(), |s| s.to_string_lossy().into_owned());
+    let (mut worst, mut worst_max) = (0.0f64, 0.0f64);
+    for k in 0..frames {
+        let time = k as f64 / (frames - 1) as f64;
+        let still = sc.at(time)?;
+        let path = out.with_file_name(format!("{stem}-frame-{k:03}.png"));
+        let t = std::time::Instant::now();
+        let r = one(&still, &path)?;
+        out!(
+            "{command} {} frame {k} (t = {time:.3}): {} pixels, GPU against the CPU relative to the peak: max {:.2e}, RMS {:.2e}; {:.0} ms (kernel build, dispatch, read-back)",
+            sc.name,
+            r.pixels,
+            r.max,
+            r.rms,
+            1e3 * t.elapsed().as_secs_f64()
+        );
+        worst = worst.max(r.rms);
+        worst_max = worst_max.max(r.max);
+    }
+    out!(
+        "{command} {}: {frames} frames on {}; worst frame RMS {worst:.2e}, max {worst_max:.2e} (limit {RMS_LIMIT:.0e} RMS)",
+        sc.name,
+        gpu.info.name
+    );
+    verdict(
+        command,
+        worst <= RMS_LIMIT,
+        &out.with_file_name(format!("{stem}-frame-000.png")),
+    )
+}
+
 /// Image side (pixels).
 pub const SIZE: usize = 256;
 /// Limit on the RMS difference (relative to the image's peak) of the GPU image from
