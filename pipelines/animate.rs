@@ -43,17 +43,23 @@ pub const FPS: u16 = 12;
 /// [`Pipeline::animate`]); `progress` is called once per finished reference row.
 pub type AnimateFn = fn(&str, &RenderOptions, usize, &Path, &(dyn Fn() + Sync)) -> Result<Summary, String>;
 
+/// A method's image of a still at its primary hits (0 on the background).
+pub type ShadeFn<'a> = dyn Fn(&Scene, &[Option<Hit>]) -> Result<Vec<f64>, String> + Sync + 'a;
+
+/// A Monte Carlo estimate of the radiance at a hit of a still: `n` samples, seeded.
+pub type EstimateFn<'a> = dyn Fn(&Scene, &Hit, usize, u64) -> Result<Estimate, String> + Sync + 'a;
+
 /// What a pipeline gives its animation.
 pub struct Methods<'a> {
     /// The method's name (`ISG (best model)`).
     pub method: &'a str,
     /// The method's image of a still at its primary hits (0 on the background).
-    pub shade: &'a (dyn Fn(&Scene, &[Option<Hit>]) -> Result<Vec<f64>, String> + Sync),
+    pub shade: &'a ShadeFn<'a>,
     /// The strongest estimator's name (`qmc-cv-mis`): the one the baselines study found
     /// best on the pipeline's scenes.
     pub strongest: &'a str,
     /// Its estimate of the radiance at a hit of a still: `n` samples, seeded.
-    pub estimate: &'a (dyn Fn(&Scene, &Hit, usize, u64) -> Result<Estimate, String> + Sync),
+    pub estimate: &'a EstimateFn<'a>,
 }
 
 /// One rendered frame.
