@@ -724,14 +724,17 @@ impl Scene {
         &self.materials[h.material]
     }
 
-    /// Blockers seen from a hit: every sphere but the one it lies on (a sphere hides
-    /// exactly the lower hemisphere of its own surface points, which the cosine
-    /// already removes).
+    /// Blockers seen from a hit, as the analytic pipelines take them: every sphere of
+    /// [`Scene::proxies`] (the spheres, then the meshes' sphere sets) but those the hit
+    /// lies on or in ([`Scene::own_proxies`]: a sphere hides exactly the lower
+    /// hemisphere of its own surface points, which the cosine already removes; a mesh
+    /// point lies inside its own set).
     pub fn blockers(&self, h: &Hit) -> Vec<Sphere> {
-        self.spheres
+        let own = self.own_proxies(h);
+        self.proxies
             .iter()
             .enumerate()
-            .filter(|(i, _)| Some(*i) != h.sphere)
+            .filter(|(i, _)| !own.contains(i))
             .map(|(_, s)| *s)
             .collect()
     }

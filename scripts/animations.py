@@ -3,7 +3,8 @@
 their keys are reproducible: pipelines/scenes/isg-falling.json (Figure 12's spheres,
 every third dropped from above and bouncing once onto where it rests) and
 assets/meshes/isg-bunny-walk.json (the bunny hopping across the plane through the
-sun's shadow) and pipelines/scenes/meunier-orbit.json (Figure 13's blockers turning). Run from the repository root: python3 scripts/animations.py"""
+sun's shadow), pipelines/scenes/meunier-orbit.json (Figure 13's blockers turning)
+and the still assets/meshes/meunier-bunny.json (the bunny under Figure 13's light). Run from the repository root: python3 scripts/animations.py"""
 import json
 import math
 import random
@@ -77,6 +78,19 @@ def orbit():
         json.dump(scene, f, indent=1)
         f.write("\n")
 
+def meunier_bunny():
+    """A still: the bunny of isg-bunny.json over Figure 13's plane under its sphere
+    light (the Meunier pipeline's proxy-error scene)."""
+    scene = json.load(open("pipelines/scenes/meunier-fig13.json"))
+    bunny = json.load(open("assets/meshes/isg-bunny.json"))["meshes"][0]
+    scene["version"] = 2
+    scene["spheres"] = []
+    scene["meshes"] = [bunny]
+    with open("assets/meshes/meunier-bunny.json", "w") as f:
+        json.dump(scene, f, indent=1)
+        f.write("\n")
+
 falling()
 bunny_walk()
 orbit()
+meunier_bunny()

@@ -128,6 +128,13 @@ fn run(a: Args) -> Result<ExitCode, String> {
     let settings = settings(&a)?;
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::meunier::render::scene(&a.scene)?;
+    // The kernel takes the scene's spheres only; meshes' sphere sets are CPU-only so far.
+    if !sc.meshes.is_empty() {
+        return Err(format!(
+            "render meunier: scene {} holds meshes, which the GPU kernel does not take yet",
+            sc.name
+        ));
+    }
     let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
     if let Some(n) = a.frames {
         return crate::render::animate("render meunier", &sc, n as usize, &gpu, &a.out, |still, path| {

@@ -31,7 +31,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         sg_environment: false,
         sh_environment: false,
         planes: true,
-        meshes: false,
+        meshes: true,
     },
     // The image's reference; the breakdown is quadrature.
     references: (1, 0),

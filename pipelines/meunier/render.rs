@@ -15,7 +15,7 @@ use std::path::Path;
 use lobefit_tables::geom::SphereLight;
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::mask_weights::{build_mask, Cap, MaskCell, MaskMode, WeightSet};
-use lobefit_tables::meunier::{LightModel, MaskSettings};
+use lobefit_tables::meunier::{LightModel, MaskSettings, Visibility};
 use lobefit_tables::{CapExponent, Lobe, LobeProduct, MaskWeights, Meunier};
 use rayon::prelude::*;
 
@@ -90,6 +90,31 @@ pub fn scene(name: &str) -> Result<Scene, String> {
     super::PIPELINE.scene(name)
 }
 
+/// Whether `x` lies inside one of `blockers`: only a mesh's sphere set can bury a
+/// visible point (the camera sees a sphere's surface before anything inside it), e.g.
+/// a plane point under a covering sphere that reaches below the ground. The proxy is
+/// a solid, so such a point is in its full shadow; the runtime refuses the point
+/// instead (its domain is points outside every blocker), so the render answers 0.
+fn buried(blockers: &[crate::scene::Sphere], x: DVec3) -> bool {
+    blockers.iter().any(|b| (x - b.centre).length() <= b.radius)
+}
+
+/// The lobes' radiance at `h` with `settings` (0 where [`buried`]).
+fn lobes_at(
+    m: &Meunier<'_>,
+    scene: &Scene,
+    light: &SphereLight,
+    h: &Hit,
+    settings: &MaskSettings,
+) -> Result<f64, String> {
+    let blockers = scene.blockers(h);
+    if buried(&blockers, h.x) {
+        return Ok(0.0);
+    }
+    m.radiance(h.x, h.n, h.t, h.wo, scene.brdf(h), &[*light], &blockers, settings)
+        .map_err(|e| e.to_string())
+}
+
 /// The lobe pipeline over the whole image with `settings`; `None` for background.
 fn lobe_image(
     m: &Meunier<'_>,
@@ -98,19 +123,7 @@ fn lobe_image(
     hits: &[Option<Hit>],
     settings: &MaskSettings,
 ) -> Result<Vec<f64>, String> {
-    shade_image(hits, |_, h| {
-        m.radiance(
-            h.x,
-            h.n,
-            h.t,
-            h.wo,
-            scene.brdf(h),
-            &[*light],
-            &scene.blockers(h),
-            settings,
-        )
-        .map_err(|e| e.to_string())
-    })
+    shade_image(hits, |_, h| lobes_at(m, scene, light, h, settings))
 }
 
 /// Renders the animated scene `name` ([`crate::animate`]): the lobes with the default
@@ -167,9 +180,11 @@ fn products_kept(
 ) -> Result<usize, String> {
     let err = |e: lobefit_tables::LookupError| e.to_string();
     let brdf = scene.brdf(h).lobes(h.n, h.t, h.wo).map_err(|e| e.to_string())?;
-    let vis = m
-        .visibility(h.x, h.n, light, &scene.blockers(h), s)
-        .map_err(|e| e.to_string())?;
+    let blockers = scene.blockers(h);
+    if buried(&blockers, h.x) {
+        return Ok(0);
+    }
+    let vis = m.visibility(h.x, h.n, light, &blockers, s).map_err(|e| e.to_string())?;
     if vis.fully_blocked {
         return Ok(0);
     }
@@ -200,8 +215,10 @@ struct Parts {
     /// The settings' light model with every lobe integrated exactly (E1).
     model: f64,
     /// The light's cap, with the leaf lobes (E2), the leaves' bounding caps (E3), the
-    /// union of the leaf cells (E4), exact visibility (E5).
-    exact: [f64; 4],
+    /// union of the leaf cells (E4), exact visibility of the blockers (E5: the spheres
+    /// and the meshes' sphere sets), exact visibility of the true scene (E6: the
+    /// meshes' triangles; equal to E5 without meshes).
+    exact: [f64; 5],
     /// The studied fitted coaxial lobes (1..=3 per light) with the leaf lobes (0 unless
     /// the settings' light is the paper's lobe).
     fitted: [f64; light_fit::MAX_LOBES],
@@ -228,12 +245,26 @@ fn breakdown(
         light: LightModel::Lobe,
         ..*settings
     };
-    let vis = m
-        .visibility(h.x, h.n, light, &blockers, &lobe_settings)
-        .map_err(|e| e.to_string())?;
-    let vis_model = m
-        .visibility(h.x, h.n, light, &blockers, settings)
-        .map_err(|e| e.to_string())?;
+    // A buried point: no mask (the runtime refuses it), every estimate but the true
+    // scene's is 0 (as when fully blocked).
+    let is_buried = buried(&blockers, h.x);
+    let (blockers, vis, vis_model) = if is_buried {
+        let none = || Visibility {
+            lobes: Vec::new(),
+            dist: 0.0,
+            fully_blocked: true,
+            leaves: 0,
+        };
+        (Vec::new(), none(), none())
+    } else {
+        let vis = m
+            .visibility(h.x, h.n, light, &blockers, &lobe_settings)
+            .map_err(|e| e.to_string())?;
+        let vis_model = m
+            .visibility(h.x, h.n, light, &blockers, settings)
+            .map_err(|e| e.to_string())?;
+        (blockers, vis, vis_model)
+    };
     // The studied lobes are reported beside the paper's light only: fit them there.
     let fitted: Vec<Vec<(f64, f64)>> = if settings.light == LightModel::Lobe {
         (1..=light_fit::MAX_LOBES)
@@ -257,12 +288,15 @@ fn breakdown(
     let (u, v) = lcap.axis.any_orthonormal_pair();
     let mut out = Parts {
         model: 0.0,
-        exact: [0.0; 4],
+        exact: [0.0; 5],
         fitted: [0.0; light_fit::MAX_LOBES],
     };
-    if vis.fully_blocked {
-        // Every estimate but the exact one sees no light (the runtime's short cut);
-        // the exact one (E5) is 0 too.
+    let meshes = !scene.meshes.is_empty();
+    // Fully blocked: every estimate but the exact ones sees no light (the runtime's
+    // short cut) and the exact one on the blockers (E5) is 0 too; only the true
+    // scene's (E6) may not be, where there are meshes.
+    let blocked = vis.fully_blocked || is_buried;
+    if blocked && !meshes {
         return Ok(out);
     }
     let big_l = light.radiance;
@@ -283,6 +317,12 @@ fn breakdown(
                 let b = brdf_value(brdf, h, dir);
                 let f = b * c * wt;
                 if f == 0.0 {
+                    continue;
+                }
+                if blocked {
+                    if inside && scene.light_visible(h, dir, &light.sphere) {
+                        out.exact[4] += f * big_l;
+                    }
                     continue;
                 }
                 let v_lobes: f64 = vis.lobes.iter().map(|l: &Lobe| l.eval(dir)).sum();
@@ -312,8 +352,12 @@ fn breakdown(
                     if !leaves.iter().any(|c| c.contains(dir)) {
                         out.exact[2] += l;
                     }
-                    if visible(h.x, dir, &light.sphere, &blockers) {
+                    let proxies = visible(h.x, dir, &light.sphere, &blockers);
+                    if proxies {
                         out.exact[3] += l;
+                    }
+                    if (meshes && scene.light_visible(h, dir, &light.sphere)) || (!meshes && proxies) {
+                        out.exact[4] += l;
                     }
                 }
             }
@@ -707,7 +751,7 @@ fn breakdown_lines(
     let quad_vs_mc = (picks
         .iter()
         .zip(&parts)
-        .map(|(&p, q)| (q.exact[3] - r.img[p]).powi(2))
+        .map(|(&p, q)| (q.exact[4] - r.img[p]).powi(2))
         .sum::<f64>()
         / parts.len().max(1) as f64)
         .sqrt()
@@ -741,26 +785,17 @@ fn light_breakdown(
         .par_iter()
         .map(|&p| {
             let hit = hits[p].expect("lit");
-            let pipeline = m
-                .radiance(
-                    hit.x,
-                    hit.n,
-                    hit.t,
-                    hit.wo,
-                    scene.brdf(&hit),
-                    &[*light],
-                    &scene.blockers(&hit),
-                    &s,
-                )
-                .map_err(|e| e.to_string())?;
+            let pipeline = lobes_at(m, scene, light, &hit, &s)?;
             Ok((pipeline, breakdown(m, scene, light, &hit, &s)?))
         })
         .collect::<Result<_, String>>()?;
-    let chain: Vec<[f64; 6]> = run
+    let chain: Vec<[f64; 7]> = run
         .iter()
-        .map(|(p, q)| [*p, q.model, q.exact[0], q.exact[1], q.exact[2], q.exact[3]])
+        .map(|(p, q)| [*p, q.model, q.exact[0], q.exact[1], q.exact[2], q.exact[3], q.exact[4]])
         .collect();
-    let total_rms = rms_of(&chain.iter().map(|c| c[0] - c[5]).collect::<Vec<_>>());
+    // With meshes a last stage: the sphere sets → the true triangles.
+    let stages = if scene.meshes.is_empty() { 5 } else { 6 };
+    let total_rms = rms_of(&chain.iter().map(|c| c[0] - c[stages]).collect::<Vec<_>>());
     lines.push(format!(
         "{tag}: light {}: error breakdown over {} pixels (every {stride}th): total RMS {total_rms:.4} of the mean reference (quadrature, not MC); each switch to exact, in order:",
         light_model.name(),
@@ -772,8 +807,9 @@ fn light_breakdown(
         "leaf cap → lobe fit (→ the leaves' bounding caps, same weights)",
         "weights / overlaps (weighted bounding caps → the leaf cells' union)",
         "mask depth / aggressive (→ exact visibility)",
+        "sphere sets → true meshes (exact visibility of the triangles)",
     ];
-    for (k, name) in names.iter().enumerate() {
+    for (k, name) in names.iter().enumerate().take(stages) {
         let d: Vec<f64> = chain.iter().map(|c| c[k] - c[k + 1]).collect();
         let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_ref;
         lines.push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
@@ -782,7 +818,7 @@ fn light_breakdown(
         // The studied fitted coaxial lobes in place of the paper's, by the same rule.
         for k in 0..light_fit::MAX_LOBES {
             let term = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[0]).collect::<Vec<_>>());
-            let total = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[3]).collect::<Vec<_>>());
+            let total = rms_of(&run.iter().map(|(_, q)| q.fitted[k] - q.exact[4]).collect::<Vec<_>>());
             lines.push(format!(
                 "{tag}:   studied: {} fitted coaxial lobe(s) per light: light term RMS {term:.4}, total (exact algebra) {total:.4}",
                 k + 1
