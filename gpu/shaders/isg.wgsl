@@ -14,7 +14,7 @@ fn isg_covers(s: vec4<f32>, x: vec3<f32>, d: vec3<f32>) -> bool {
 // The visible integral of g: `total` minus g over the occluded patches of its cone;
 // with `cosine`, each occluded patch weighted by max(n.d, 0) / cs(d) and patches below
 // the horizon not counted (the CPU's visible_with).
-fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec3<f32>, own: i32) -> f32 {
+fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec3<f32>, own: vec2<i32>) -> f32 {
     if g.amplitude == 0.0 {
         return 0.0;
     }
@@ -31,7 +31,7 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
         let s = sph(b);
         let w = s.xyz - x;
         let d = length(w);
-        if i32(b) != own && d > s.w {
+        if (i32(b) < own.x || i32(b) >= own.y) && d > s.w {
             if lf_angle_between(w / d, z) <= cone + lf_asin(s.w / d) {
                 mask[b / 32u] |= 1u << (b % 32u);
             }
@@ -76,7 +76,8 @@ BLOCKED_TESTS            var wgt = 0.0;
     let p = vec3<f32>(x0, x1, x2);
     let n = vec3<f32>(x3, x4, x5);
     let wo = vec3<f32>(x6, x7, x8);
-    let own = i32(x12);
+    // The blockers the point lies on or in: [x12, x13).
+    let own = vec2<i32>(i32(x12), i32(x13));
     let cs = lf_lobe_to_sg(T2, S, P2, n, 1.0, 1.0);
     let r = normalize(2.0 * dot(n, wo) * n - wo);
     let lobe = lf_lobe_to_sg(T2, S, P2, r, x11, x10 * (x11 + 2.0) / (2.0 * LF_PI));

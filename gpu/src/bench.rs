@@ -229,8 +229,8 @@ fn bench_one(
             crate::isg::check_sharpness(&sc)?;
             crate::budget::refuse_over(
                 "bench isg",
-                crate::isg::iterations(sc.spheres.len(), sc.environment.len()),
-                &format!("{} SGs, {} spheres", sc.environment.len(), sc.spheres.len()),
+                crate::isg::iterations(sc.proxies.len(), sc.environment.len()),
+                &format!("{} SGs, {} blocker spheres", sc.environment.len(), sc.proxies.len()),
             )?;
             let method = format!(
                 "ISG best, adaptive patches ({} SGs, {} spheres)",

@@ -6,8 +6,9 @@
 //! adaptive patches, ε = 0.01, binary occlusion, every lighting SG times the BRDF SG,
 //! the exact clamped cosine) in f32: the library's `lf_isg_best`, `lf_lobe_to_sg`,
 //! `lf_sg_product`, `lf_sg_clamped_cosine`, `lf_isg_cone`, `lf_any_orthonormal`, and
-//! the patch loop. The scene's spheres and SGs follow the pixels in the input buffer;
-//! the per-patch blocker test is unrolled over the spheres (their values as literals):
+//! the patch loop. The scene's blockers (its spheres, then its meshes' sphere sets:
+//! `Scene::proxies`) and SGs follow the pixels in the input buffer; the per-patch
+//! blocker test is unrolled over the blockers (their values as literals):
 //! llvmpipe ends an invocation's loops after 65 535 iterations in all, which a loop
 //! over the blockers inside the patch loop exceeded at busy pixels. So the scene's
 //! spheres are capped ([`MAX_SPHERES`]: the unrolled test's compilation grows as
@@ -65,8 +66,8 @@ fn run(a: Args) -> Result<ExitCode, String> {
     check_sharpness(&sc)?;
     budget::refuse_over(
         "render isg",
-        iterations(sc.spheres.len(), sc.environment.len()),
-        &format!("{} SGs, {} spheres", sc.environment.len(), sc.spheres.len()),
+        iterations(sc.proxies.len(), sc.environment.len()),
+        &format!("{} SGs, {} blocker spheres", sc.environment.len(), sc.proxies.len()),
     )?;
     let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
     if let Some(n) = a.frames {
@@ -81,27 +82,25 @@ fn run(a: Args) -> Result<ExitCode, String> {
 /// Default image width (height 3/4 of it).
 pub const WIDTH: u32 = 64;
 
+/// f32 inputs per pixel.
+const INPUTS: usize = 14;
+
 /// Spheres the kernel takes: its per-patch blocker test is unrolled over them (each
 /// one a line of WGSL with its values), whose compilation grows about as their
 /// square (measured on llvmpipe: 128 spheres 2.4 s, 256 spheres 4.5 s and 273 MB for
 /// a 4 × 3 image; 1000 spheres 46 s, 4000 spheres 471 s and 2.86 GB).
 pub const MAX_SPHERES: usize = 256;
 
-/// Refuses a scene with more than [`MAX_SPHERES`] spheres, or with meshes.
+/// Refuses a scene with more than [`MAX_SPHERES`] blocker spheres (its spheres and its
+/// meshes' sphere sets; the meshes' triangles are only seen, traced on the CPU).
 pub fn check_spheres(scene: &lobefit::pipelines::scene::Scene) -> Result<(), String> {
-    // The kernel takes the scene's spheres only; meshes' sphere sets are CPU-only so far.
-    if !scene.meshes.is_empty() {
+    if scene.proxies.len() > MAX_SPHERES {
         return Err(format!(
-            "render isg: scene {} holds meshes, which the GPU kernel does not take yet",
-            scene.name
-        ));
-    }
-    if scene.spheres.len() > MAX_SPHERES {
-        return Err(format!(
-            "render isg: scene {} has {} spheres; the kernel takes at most {MAX_SPHERES} (its per-patch \
-             blocker test is unrolled over them, and compiling it grows as their square)",
+            "render isg: scene {} has {} blocker spheres (spheres and the meshes' sphere sets); the kernel takes \
+             at most {MAX_SPHERES} (its per-patch blocker test is unrolled over them, and compiling it grows as \
+             their square)",
             scene.name,
-            scene.spheres.len()
+            scene.proxies.len()
         ));
     }
     Ok(())
@@ -173,15 +172,15 @@ const SHADER: &str = include_str!("../shaders/isg.wgsl");
 
 /// The kernel's per-product visible integral (the CPU's `visible_with`) and its body.
 fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(String, String), String> {
-    if scene.spheres.is_empty() {
-        return Err(format!("scene {}: render isg needs at least one sphere", scene.name));
+    if scene.proxies.is_empty() {
+        return Err(format!("scene {}: render isg needs at least one sphere or mesh", scene.name));
     }
     check_spheres(scene)?;
     // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
     // pixels' inputs in the input buffer X: storage, not constant arrays, which a
     // kernel would index dynamically.
-    let (ns, ne) = (scene.spheres.len(), scene.environment.len());
-    let base = 13 * count;
+    let (ns, ne) = (scene.proxies.len(), scene.environment.len());
+    let base = INPUTS * count;
     let consts = format!(
         "const NS = {ns}u;\nconst NW = {}u;\nconst NE = {ne}u;\nconst SPH0 = {base}u;\nconst ENV0 = {}u;\n\
          var<private> isg_flag = 0.0;\n\
@@ -194,7 +193,7 @@ fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(Str
     let body = body.to_string() + budget::SENTINEL + "    Y[o + 1u] = budget_flag;";
     let f = |v: f64| format!("{:e}", v as f32);
     let tests: String = scene
-        .spheres
+        .proxies
         .iter()
         .enumerate()
         .map(|(b, sp)| {
@@ -233,8 +232,9 @@ pub fn render_isg(
     if visible.is_empty() {
         return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
     }
-    // Inputs: point, normal, view, k_d, k_s, Phong n, own sphere (−1: none), as f32.
-    let mut inputs = Vec::with_capacity(visible.len() * 13);
+    // Inputs: point, normal, view, k_d, k_s, Phong n, the blockers it lies on or in
+    // (`Scene::own_proxies`: first, end), as f32.
+    let mut inputs = Vec::with_capacity(visible.len() * INPUTS);
     let mut brdfs = Vec::with_capacity(visible.len());
     for hit in &visible {
         let b = Phong::of(sc.brdf(hit))?;
@@ -248,18 +248,19 @@ pub fn render_isg(
             b.diffuse as f32,
             b.specular as f32,
             b.exponent as f32,
-            hit.sphere.map_or(-1.0, |i| i as f32),
         ]);
+        let own = sc.own_proxies(hit);
+        inputs.extend([own.start as f32, own.end as f32]);
         brdfs.push(b);
     }
-    for s in &sc.spheres {
+    for s in &sc.proxies {
         inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
     }
     for g in &sc.environment {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
     let (extra, body) = source(sc, visible.len())?;
-    let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), 13, 2, &body) + &extra;
+    let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
     let got = gpu.run_with(
         &src,
         &lf_tex(best_e, Filter::Manual)?,
@@ -277,7 +278,7 @@ pub fn render_isg(
     let settings = Settings::default();
     let mut cpu = Vec::with_capacity(visible.len());
     for (k, (hit, b)) in visible.iter().zip(&brdfs).enumerate() {
-        let v = |i: usize| f64::from(inputs[13 * k + i]);
+        let v = |i: usize| f64::from(inputs[INPUTS * k + i]);
         let at = Hit {
             x: lobefit_tables::glam::DVec3::new(v(0), v(1), v(2)),
             n: lobefit_tables::glam::DVec3::new(v(3), v(4), v(5)).normalize(),
