@@ -338,6 +338,18 @@ impl Bvh {
 
     /// Whether some sphere other than `skip` meets x + t·v for t < `t_max`.
     pub fn occluded(&self, spheres: &[Sphere], x: DVec3, v: DVec3, t_max: f64, skip: Option<usize>) -> bool {
+        self.occluded_skipping(spheres, x, v, t_max, skip.map_or(0..0, |i| i..i + 1))
+    }
+
+    /// Whether some sphere outside the indices `skip` meets x + t·v for t < `t_max`.
+    pub fn occluded_skipping(
+        &self,
+        spheres: &[Sphere],
+        x: DVec3,
+        v: DVec3,
+        t_max: f64,
+        skip: std::ops::Range<usize>,
+    ) -> bool {
         let inv = v.recip();
         let mut stack = Stack::new();
         while let Some(k) = stack.pop() {
@@ -352,7 +364,7 @@ impl Bvh {
             }
             let hit = self.order[n.first..n.first + n.count]
                 .iter()
-                .any(|&i| Some(i) != skip && ray_sphere(x, v, &spheres[i]).is_some_and(|t| t < t_max));
+                .any(|&i| !skip.contains(&i) && ray_sphere(x, v, &spheres[i]).is_some_and(|t| t < t_max));
             if hit {
                 return true;
             }
@@ -760,6 +772,28 @@ impl Scene {
         }
     }
 
+    /// Whether `h` lies inside a blocker sphere ([`Scene::blockers`]: a proxy other than
+    /// its own). Only a mesh's sphere set can bury a visible point (the camera sees a
+    /// sphere's surface before anything inside it), e.g. a ground point under a covering
+    /// sphere that reaches below it; the analytic pipelines take the proxy as a solid,
+    /// so such a point is in its full shadow.
+    pub fn buried(&self, h: &Hit) -> bool {
+        let own = self.own_proxies(h);
+        self.proxies
+            .iter()
+            .enumerate()
+            .any(|(i, b)| !own.contains(&i) && (h.x - b.centre).length() <= b.radius)
+    }
+
+    /// Whether a blocker sphere ([`Scene::blockers`]) or the height field meets the ray
+    /// from `h` in direction `v` (unit): exact visibility of the analytic pipelines'
+    /// blockers, the meshes' sphere sets in place of their triangles.
+    pub fn proxies_occlude(&self, h: &Hit, v: DVec3) -> bool {
+        self.proxy_bvh
+            .occluded_skipping(&self.proxies, h.x, v, f64::INFINITY, self.own_proxies(h))
+            || self.terrain_occludes(h, v, f64::INFINITY)
+    }
+
     /// Whether a mesh's true triangles meet the ray from `h` in direction `v` before
     /// `t_max` (the hit's own triangle skipped, from its mesh's `t_min` on).
     fn meshes_occlude(&self, h: &Hit, v: DVec3, t_max: f64) -> bool {
@@ -801,14 +835,15 @@ impl Scene {
 /// The built-in scenes: (name, JSON text).
 pub const BUILTIN: [(&str, &str); 9] = [
     ("meunier-fig13", include_str!("scenes/meunier-fig13.json")),
-    ("meunier-orbit", include_str!("scenes/meunier-orbit.json")),
     ("meunier-glossy", include_str!("scenes/meunier-glossy.json")),
     ("isg-fig12", include_str!("scenes/isg-fig12.json")),
     ("isg-fig12-diffuse", include_str!("scenes/isg-fig12-diffuse.json")),
-    ("isg-falling", include_str!("scenes/isg-falling.json")),
     ("shexp-whale", include_str!("scenes/shexp-whale.json")),
     ("shexp-whale-diffuse", include_str!("scenes/shexp-whale-diffuse.json")),
     ("shexp-wrecking", include_str!("scenes/shexp-wrecking.json")),
+    // The animations (docs/meshes.md, Motion), last: tests index the stills above.
+    ("isg-falling", include_str!("scenes/isg-falling.json")),
+    ("meunier-orbit", include_str!("scenes/meunier-orbit.json")),
 ];
 
 /// The built-in scene `name`, parsed.
@@ -1991,6 +2026,56 @@ mod mesh_tests {
             }
         }
         assert!(on_mesh > 50, "{on_mesh}");
+    }
+
+    /// The analytic pipelines' view of a mesh: `blockers` are the proxies but the hit's
+    /// own, `proxies_occlude` (the proxy BVH) equals a scan over `blockers`, and
+    /// `buried` says whether one of them contains the point; a point on the mesh sees
+    /// past its own set, a plane point under the set is blocked by it.
+    #[test]
+    fn proxies_are_the_blockers_the_analytic_pipelines_see() {
+        let (_d, p) = write_scene();
+        let s = load(p.to_str().unwrap()).unwrap();
+        let mut rng = Rng::new(0x77);
+        let (w, h) = (24, 18);
+        let (mut on_mesh, mut blocked) = (0, 0);
+        for px in 0..w * h {
+            let Some(hit) = s.primary(px % w, px / w, w, h) else {
+                continue;
+            };
+            let blockers = s.blockers(&hit);
+            if hit.mesh.is_some() {
+                assert!(blockers.is_empty(), "pixel {px}: a mesh point ignores its own set");
+                on_mesh += 1;
+            } else {
+                assert_eq!(blockers.len(), s.proxies.len());
+            }
+            assert_eq!(
+                s.buried(&hit),
+                blockers.iter().any(|b| (hit.x - b.centre).length() <= b.radius)
+            );
+            for _ in 0..16 {
+                let v = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(0.05, 1.0)).normalize();
+                let scan = blockers.iter().any(|b| ray_sphere(hit.x, v, b).is_some());
+                assert_eq!(s.proxies_occlude(&hit, v), scan, "pixel {px}, direction {v}");
+                blocked += usize::from(scan);
+            }
+        }
+        assert!(
+            on_mesh > 10 && blocked > 10,
+            "{on_mesh} mesh pixels, {blocked} blocked rays"
+        );
+        // A plane point straight under the set: the set blocks the zenith.
+        let under = Hit {
+            x: DVec3::new(0.0, 0.0, 0.0),
+            n: DVec3::Z,
+            t: DVec3::X,
+            wo: DVec3::Z,
+            sphere: None,
+            mesh: None,
+            material: 0,
+        };
+        assert!(s.proxies_occlude(&under, DVec3::Z));
     }
 
     /// The sphere light's irradiance at random plane points under the mesh: the

@@ -4,7 +4,8 @@ their keys are reproducible: pipelines/scenes/isg-falling.json (Figure 12's sphe
 every third dropped from above and bouncing once onto where it rests) and
 assets/meshes/isg-bunny-walk.json (the bunny hopping across the plane through the
 sun's shadow), pipelines/scenes/meunier-orbit.json (Figure 13's blockers turning)
-and the still assets/meshes/meunier-bunny.json (the bunny under Figure 13's light). Run from the repository root: python3 scripts/animations.py"""
+and the stills assets/meshes/meunier-bunny.json (the bunny under Figure 13's light)
+and assets/meshes/shexp-bunny.json (the bunny under the whale's sky). Run from the repository root: python3 scripts/animations.py"""
 import json
 import math
 import random
@@ -90,7 +91,22 @@ def meunier_bunny():
         json.dump(scene, f, indent=1)
         f.write("\n")
 
+def shexp_bunny():
+    """A still: the bunny of isg-bunny.json on flat ground (a 2 × 2 height field at
+    z = 0: the SH pipeline shades no planes) under the whale's sky."""
+    scene = json.load(open("pipelines/scenes/shexp-whale.json"))
+    bunny = json.load(open("assets/meshes/isg-bunny.json"))["meshes"][0]
+    scene["version"] = 2
+    scene["spheres"] = []
+    scene["meshes"] = [bunny]
+    scene["heightfield"] = {"size": 2, "extent": 10.0, "heights": [0.0] * 4,
+                            "material": scene["heightfield"]["material"]}
+    with open("assets/meshes/shexp-bunny.json", "w") as f:
+        json.dump(scene, f, indent=1)
+        f.write("\n")
+
 falling()
 bunny_walk()
 orbit()
 meunier_bunny()
+shexp_bunny()

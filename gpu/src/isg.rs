@@ -173,7 +173,10 @@ const SHADER: &str = include_str!("../shaders/isg.wgsl");
 /// The kernel's per-product visible integral (the CPU's `visible_with`) and its body.
 fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(String, String), String> {
     if scene.proxies.is_empty() {
-        return Err(format!("scene {}: render isg needs at least one sphere or mesh", scene.name));
+        return Err(format!(
+            "scene {}: render isg needs at least one sphere or mesh",
+            scene.name
+        ));
     }
     check_spheres(scene)?;
     // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
@@ -244,11 +247,7 @@ pub fn render_isg(
             ]
             .map(|v| v as f32),
         );
-        inputs.extend([
-            b.diffuse as f32,
-            b.specular as f32,
-            b.exponent as f32,
-        ]);
+        inputs.extend([b.diffuse as f32, b.specular as f32, b.exponent as f32]);
         let own = sc.own_proxies(hit);
         inputs.extend([own.start as f32, own.end as f32]);
         brdfs.push(b);

@@ -74,6 +74,13 @@ fn run(a: Args) -> Result<ExitCode, String> {
     }
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::shexp::render::scene(&a.scene)?;
+    // The kernel takes the scene's spheres only; meshes' sphere sets are CPU-only so far.
+    if !sc.meshes.is_empty() {
+        return Err(format!(
+            "render shexp: scene {} holds meshes, which the GPU kernel does not take yet",
+            sc.name
+        ));
+    }
     budget::refuse_over(
         "render shexp",
         iterations(sc.spheres.len()),

@@ -180,10 +180,10 @@ fn products_kept(
 ) -> Result<usize, String> {
     let err = |e: lobefit_tables::LookupError| e.to_string();
     let brdf = scene.brdf(h).lobes(h.n, h.t, h.wo).map_err(|e| e.to_string())?;
-    let blockers = scene.blockers(h);
-    if buried(&blockers, h.x) {
+    if scene.buried(h) {
         return Ok(0);
     }
+    let blockers = scene.blockers(h);
     let vis = m.visibility(h.x, h.n, light, &blockers, s).map_err(|e| e.to_string())?;
     if vis.fully_blocked {
         return Ok(0);
@@ -247,7 +247,7 @@ fn breakdown(
     };
     // A buried point: no mask (the runtime refuses it), every estimate but the true
     // scene's is 0 (as when fully blocked).
-    let is_buried = buried(&blockers, h.x);
+    let is_buried = scene.buried(h);
     let (blockers, vis, vis_model) = if is_buried {
         let none = || Visibility {
             lobes: Vec::new(),

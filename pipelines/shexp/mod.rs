@@ -35,7 +35,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         sg_environment: true,
         sh_environment: true,
         planes: false,
-        meshes: false,
+        meshes: true,
     },
     // The reference and the SH-ideal render; in the breakdown those two and SH-ideal at
     // each higher order.

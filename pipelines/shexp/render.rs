@@ -145,7 +145,7 @@ fn render_scene(
         .collect::<Result<_, _>>()?;
     let parts = breakdown_parts(&f, &tables, &light_n, &higher, &picks)?;
     let (rmse_pipe, mean_sub) = subset_lines(&f, &parts, &higher, &mut sum.lines);
-    let names = [
+    let mut names = vec![
         "pyramid horizon (→ the exact horizon)",
         "16 wedges (→ 64)",
         "HYB (→ exp* by its Taylor series)",
@@ -153,8 +153,24 @@ fn render_scene(
         "log visibility: ε floor, truncated exp*, wedge interpolation (→ SH-ideal)",
         "the band limit (→ the precise reference)",
     ];
+    // The chain: the stages, SH-ideal, the precise reference; with meshes SH-ideal on
+    // the sphere sets (the row's last value) before SH-ideal on the triangles.
+    let chain: Vec<Vec<f64>> = if scene.meshes.is_empty() {
+        parts.clone()
+    } else {
+        names[4] = "log visibility: ε floor, truncated exp*, wedge interpolation (→ SH-ideal on the sphere sets)";
+        names.insert(5, "sphere sets → true meshes (SH-ideal on the triangles)");
+        parts
+            .iter()
+            .map(|p| {
+                let mut c = p[..STAGES].to_vec();
+                c.extend([p[p.len() - 1], p[STAGES], p[STAGES + 1]]);
+                c
+            })
+            .collect()
+    };
     sum.lines
-        .extend(breakdown(&f.tag, "the defaults", &names, &parts, mean_sub, f.stride()));
+        .extend(breakdown(&f.tag, "the defaults", &names, &chain, mean_sub, f.stride()));
 
     let eq = r.equal_error(&f, t_pipe, rmse_pipe);
     sum.lines.push(format!(
@@ -382,12 +398,21 @@ fn breakdown_parts(
             let ideal = reference(scene, banded, &brdf, &hit, n, seed).finite(at)?;
             let precise = reference(scene, full, &brdf, &hit, n, seed).finite(at)?;
             v.extend([ideal.mean, precise.mean, precise.std_error, ideal.std_error]);
+            // With meshes, last: SH-ideal with the analytic pipeline's blockers (the
+            // meshes' sphere sets), on the same samples as SH-ideal.
+            let proxied = (!scene.meshes.is_empty())
+                .then(|| {
+                    let occluded = |v| scene.proxies_occlude(&hit, v);
+                    crate::sky::reference_with(&scene.environment, banded, &brdf, occluded, &hit, n, seed).finite(at)
+                })
+                .transpose()?;
             // Higher orders: the pipeline (defaults) and SH-ideal at each.
             for (s, light) in higher {
                 v.push(radiance(tables, s, light, &brdf, scene, &hit)?);
                 let e = reference(scene, |w| sh_value(light, w), &brdf, &hit, n, seed).finite(at)?;
                 v.extend([e.mean, e.std_error]);
             }
+            v.extend(proxied.map(|e| e.mean));
             Ok(v)
         })
         .collect()

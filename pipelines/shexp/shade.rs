@@ -210,8 +210,11 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
     }
     let mut zh = [0.0; 8];
     let mut turned = [0.0; rt::MAX_COEFFS];
-    for (i, b) in scene.spheres.iter().enumerate() {
-        if Some(i) == h.sphere {
+    // The blockers: the spheres and the meshes' sphere sets, but those the point lies
+    // on or in.
+    let own = scene.own_proxies(h);
+    for (i, b) in scene.proxies.iter().enumerate() {
+        if own.contains(&i) {
             continue;
         }
         let (dir, theta_b) = log_zh::sphere_cap(h.x, b.centre, b.radius).map_err(|e| e.to_string())?;
@@ -369,6 +372,13 @@ pub fn integrand(
             "light has {} SH coefficients, order {n} needs {nc}",
             light.len()
         ));
+    }
+    if scene.buried(h) {
+        // Inside a blocker (a mesh's covering sphere): its full shadow.
+        return Ok(Integrand {
+            value: 0.0,
+            terms: Vec::new(),
+        });
     }
     let fv = log_visibility(t, s, scene, h)?;
     let vis = checked_visibility(t, s.exp, &fv)?;

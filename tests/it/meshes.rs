@@ -191,6 +191,47 @@ fn render_meunier_breaks_down_the_proxy_error() {
     }
 }
 
+/// `render shexp` on the bunny under the whale's sky: the pipeline on the bunny's
+/// sphere set, the breakdown's SH-ideal on the sets, then on the triangles (the proxy's
+/// row, not zero: 0.031 of the mean at 48 px).
+#[test]
+fn render_shexp_breaks_down_the_proxy_error() {
+    let d = tempfile::tempdir().unwrap();
+    let (code, stdout, stderr) = run_text(
+        &[
+            "render",
+            "shexp",
+            "--scene",
+            "assets/meshes/shexp-bunny.json",
+            "--width",
+            "24",
+            "--spp",
+            "16",
+            "--breakdown-stride",
+            "2",
+            "--out",
+            d.path().to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    let row = stdout
+        .lines()
+        .find(|l| l.contains("sphere sets → true meshes"))
+        .unwrap_or_else(|| panic!("no proxy row in {stdout}"));
+    let rms: f64 = row
+        .split("RMS ")
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(rms > 1e-3 && rms < 0.5, "{row}");
+    assert!(stdout.contains("(→ SH-ideal on the sphere sets)"), "{stdout}");
+}
+
 /// `eval isg-shade` takes the scene's spheres only: a scene with meshes is refused by
 /// name, not shaded without them.
 #[test]

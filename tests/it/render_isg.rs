@@ -343,7 +343,7 @@ fn animation_writes_frames_and_temporal_errors() {
     }
     for (args, want) in [
         (
-            vec!["render", "meunier", "--frames", "2"],
+            vec!["render", "shexp", "--frames", "2"],
             "the pipeline renders no animations",
         ),
         (vec!["render", "isg", "--frames", "1"], "--frames"),
