@@ -65,8 +65,10 @@ pub const MAX_SGS: usize = 256;
 pub const MAX_LIGHTS: usize = 64;
 /// Most plane patches a scene may hold (the built-ins hold 1).
 pub const MAX_PLANES: usize = 64;
-/// Most keys one object's track may hold.
+/// Most keys one object's track (or bend) may hold.
 pub const MAX_KEYS: usize = 1024;
+/// Largest |angle| of a bend's key (rad): two turns.
+pub const MAX_BEND_ANGLE: f64 = 4.0 * PI;
 
 /// What a pipeline shades, checked right after a scene file is parsed and before
 /// anything expensive (a height field's quadtree and pyramid, the BVH) is built: a
@@ -533,15 +535,61 @@ impl Track {
     /// The translation at `time` (piecewise linear through the keys, held constant
     /// outside them).
     pub fn at(&self, time: f64) -> DVec3 {
-        let k = &self.keys;
-        match k.iter().position(|(t, _)| *t > time) {
-            Some(0) => k[0].1,
-            None => k[k.len() - 1].1,
-            Some(i) => {
-                let ((t0, a), (t1, b)) = (k[i - 1], k[i]);
-                a.lerp(b, (time - t0) / (t1 - t0))
-            }
+        keyed(&self.keys, time, |a, b, u| a.lerp(b, u))
+    }
+}
+
+/// The value of (time, value) keys at `time`: `lerp(a, b, u)` between the keys around
+/// it, the first key's value before them, the last's after.
+fn keyed<T: Copy>(keys: &[(f64, T)], time: f64, lerp: impl Fn(T, T, f64) -> T) -> T {
+    match keys.iter().position(|(t, _)| *t > time) {
+        Some(0) => keys[0].1,
+        None => keys[keys.len() - 1].1,
+        Some(i) => {
+            let ((t0, a), (t1, b)) = (keys[i - 1], keys[i]);
+            lerp(a, b, (time - t0) / (t1 - t0))
         }
+    }
+}
+
+/// A mesh deformed by two bones (linear blend skinning): a fixed bone, and a bone that
+/// turns by a keyframed angle about `axis` through `pivot`. A point p's weight on the
+/// turning bone is a smoothstep of s = (p − pivot)·`along` over [−width/2, width/2]
+/// (0 below, 1 above); its skinned place is (1 − w) p + w (pivot + R (p − pivot)). The
+/// mesh's sphere set is carried by the bones: each centre skinned the same way, its
+/// radius kept (Meunier §5.3's skeleton-driven sets). Applied to the mesh in scene
+/// coordinates (after its transform), before its track's translation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bend {
+    /// A point on the turning axis (scene units).
+    pub pivot: DVec3,
+    /// The turning axis (unit).
+    pub axis: DVec3,
+    /// The direction along which the weight rises from the fixed bone to the turning
+    /// one (unit).
+    pub along: DVec3,
+    /// The width of the blend (scene units, > 0).
+    pub width: f64,
+    /// (time, angle in rad) keys, times as [`Track::keys`].
+    pub keys: Vec<(f64, f64)>,
+}
+
+impl Bend {
+    /// The angle at `time` (rad; as [`Track::at`]).
+    pub fn angle(&self, time: f64) -> f64 {
+        keyed(&self.keys, time, |a, b, u| a + (b - a) * u)
+    }
+
+    /// The turning bone's weight at `p`, in [0, 1].
+    pub fn weight(&self, p: DVec3) -> f64 {
+        let s = ((p - self.pivot).dot(self.along) / self.width + 0.5).clamp(0.0, 1.0);
+        s * s * (3.0 - 2.0 * s)
+    }
+
+    /// `p` skinned with the turning bone at `angle` (rad).
+    pub fn skin(&self, p: DVec3, angle: f64) -> DVec3 {
+        let q = self.pivot + DQuat::from_axis_angle(self.axis, angle) * (p - self.pivot);
+        p.lerp(q, self.weight(p))
     }
 }
 
@@ -556,6 +604,9 @@ pub struct SceneMesh {
     pub proxy: std::ops::Range<usize>,
     /// Where its shadow rays start ([`MESH_T_MIN`] × its diagonal).
     pub t_min: f64,
+    /// Its two-bone deformation with its rest pose (the mesh and its sphere set as the
+    /// file places them, unbent and untranslated), if it bends.
+    pub bend: Option<(Bend, crate::mesh::Mesh, Vec<Sphere>)>,
 }
 
 impl Scene {
@@ -563,17 +614,25 @@ impl Scene {
     /// at `time` less its translation at 0, the hierarchies rebuilt, no tracks. Errors
     /// only where a moved mesh cannot be rebuilt.
     pub fn at(&self, time: f64) -> Result<Scene, String> {
-        let mut s = self.moved(|tr| tr.at(time) - tr.at(0.0))?;
+        let mut s = self.moved(time, Some(0.0))?;
         s.tracks.clear();
+        for m in &mut s.meshes {
+            m.bend = None;
+        }
         Ok(s)
     }
 
-    /// This scene with each tracked object moved by `by(track)` (tracks kept).
-    fn moved(&self, by: impl Fn(&Track) -> DVec3) -> Result<Scene, String> {
+    /// This scene at `time`: each tracked object moved by its translation at `time`
+    /// less that at `base` (`None`: less nothing, from the file's places), each bending
+    /// mesh rebuilt from its rest pose at `time` (bent, then translated by its whole
+    /// translation at `time`). Tracks and bends kept.
+    fn moved(&self, time: f64, base: Option<f64>) -> Result<Scene, String> {
         let mut s = self.clone();
+        let bent = |m: usize| self.meshes[m].bend.is_some();
         for tr in &self.tracks {
-            let d = by(tr);
+            let d = tr.at(time) - base.map_or(DVec3::ZERO, |b| tr.at(b));
             match tr.object {
+                Moving::Mesh(m) if bent(m) => {}
                 Moving::Sphere(i) => {
                     s.spheres[i].centre += d;
                     s.proxies[i].centre += d;
@@ -592,6 +651,25 @@ impl Scene {
                         s.proxies[p].centre += d;
                     }
                 }
+            }
+        }
+        for (m, sm) in s.meshes.iter_mut().enumerate() {
+            let Some((bend, rest, rest_set)) = &sm.bend else {
+                continue;
+            };
+            let shift = self
+                .tracks
+                .iter()
+                .find(|tr| tr.object == Moving::Mesh(m))
+                .map_or(DVec3::ZERO, |tr| tr.at(time));
+            let angle = bend.angle(time);
+            sm.mesh = crate::mesh::Mesh::new(
+                rest.vertices.iter().map(|&p| bend.skin(p, angle) + shift).collect(),
+                rest.triangles.clone(),
+            )
+            .map_err(|e| format!("scene {}: meshes[{m}]: {e}", self.name))?;
+            for (p, r) in sm.proxy.clone().zip(rest_set) {
+                s.proxies[p].centre = bend.skin(r.centre, angle) + shift;
             }
         }
         s.bvh = Bvh::new(&s.spheres);
@@ -946,6 +1024,28 @@ struct FileMesh {
     /// Keyframed translation after `transform` (optional).
     #[serde(default)]
     keys: Vec<FileKey>,
+    /// A two-bone deformation (optional).
+    #[serde(default)]
+    bend: Option<FileBend>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileBend {
+    pivot: [f64; 3],
+    axis: [f64; 3],
+    along: [f64; 3],
+    width: f64,
+    keys: Vec<FileAngleKey>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileAngleKey {
+    /// In [0, 1], the animation's span.
+    time: f64,
+    /// rad.
+    angle: f64,
 }
 
 #[derive(Deserialize)]
@@ -1192,12 +1292,15 @@ fn parse_inner(
         bvh,
         proxy_bvh,
     };
-    // The still at time 0: keys are translations added to the file's places.
-    Ok(Some(if scene.tracks.is_empty() {
-        scene
-    } else {
-        scene.moved(|tr| tr.at(0.0))?
-    }))
+    // The still at time 0: keys are translations added to the file's places, bends
+    // applied to the rest pose.
+    Ok(Some(
+        if scene.tracks.is_empty() && scene.meshes.iter().all(|m| m.bend.is_none()) {
+            scene
+        } else {
+            scene.moved(0.0, None)?
+        },
+    ))
 }
 
 /// The scene file's structure from `text`, its version, sizes and kinds checked:
@@ -1271,7 +1374,7 @@ type HeightFieldSpec = (usize, f64, Option<Vec<f64>>, Option<FileTerrain>, usize
 
 /// A mesh's checked specification: (its field's name, OBJ path, transform, sphere set,
 /// material index); read by [`Checker::build_meshes`].
-type MeshSpec = (String, std::path::PathBuf, Transform, SetSpec, usize);
+type MeshSpec = (String, std::path::PathBuf, Transform, SetSpec, usize, Option<Bend>);
 
 /// The scene file's checks, each naming the scene (`scene <name>: …`) and the field,
 /// and the materials met so far (equal ones share an index: the material list is the
@@ -1407,17 +1510,62 @@ impl Checker<'_> {
             let mut out: Vec<(f64, DVec3)> = Vec::with_capacity(keys.len());
             for (i, key) in keys.iter().enumerate() {
                 let at = format!("{what}.keys[{i}]");
-                if !(key.time.is_finite() && (0.0..=1.0).contains(&key.time)) {
-                    return Err(self.err(format!("{at}.time {} must lie in [0, 1]", key.time)));
-                }
-                if out.last().is_some_and(|(t, _)| key.time <= *t) {
-                    return Err(self.err(format!("{at}.time {} must be greater than the key before it", key.time)));
-                }
+                self.key_time(&at, key.time, out.last().map(|k| k.0))?;
                 out.push((key.time, self.vec3(&format!("{at}.translation"), key.translation)?));
             }
             tracks.push(Track { object, keys: out });
         }
         Ok(tracks)
+    }
+
+    /// A key's time `at`: finite, in [0, 1], after the key before it (`last`).
+    fn key_time(&self, at: &str, time: f64, last: Option<f64>) -> Result<(), String> {
+        if !(time.is_finite() && (0.0..=1.0).contains(&time)) {
+            return Err(self.err(format!("{at}.time {time} must lie in [0, 1]")));
+        }
+        if last.is_some_and(|t| time <= t) {
+            return Err(self.err(format!("{at}.time {time} must be greater than the key before it")));
+        }
+        Ok(())
+    }
+
+    /// The mesh `what`'s bend: a pivot, non-zero axis and direction (normalised), a
+    /// width in (0, [`MAX_COORD`]], 1..=[`MAX_KEYS`] keys with times as a track's and
+    /// angles finite with |angle| ≤ [`MAX_BEND_ANGLE`].
+    fn bend(&self, what: &str, b: FileBend) -> Result<Bend, String> {
+        let at = format!("{what}.bend");
+        let nonzero = |name: &str, v: [f64; 3]| -> Result<DVec3, String> {
+            let d = self.vec3(&format!("{at}.{name}"), v)?;
+            if d.length() == 0.0 {
+                return Err(self.err(format!("{at}.{name} is the zero vector")));
+            }
+            Ok(d.normalize())
+        };
+        if !(1..=MAX_KEYS).contains(&b.keys.len()) {
+            return Err(self.err(format!(
+                "{at}.keys has {} keys; a bend has 1 to {MAX_KEYS} (MAX_KEYS)",
+                b.keys.len()
+            )));
+        }
+        let mut keys: Vec<(f64, f64)> = Vec::with_capacity(b.keys.len());
+        for (i, k) in b.keys.iter().enumerate() {
+            let ak = format!("{at}.keys[{i}]");
+            self.key_time(&ak, k.time, keys.last().map(|k| k.0))?;
+            if !(k.angle.is_finite() && k.angle.abs() <= MAX_BEND_ANGLE) {
+                return Err(self.err(format!(
+                    "{ak}.angle {} must be finite with |angle| ≤ {MAX_BEND_ANGLE} rad (MAX_BEND_ANGLE)",
+                    k.angle
+                )));
+            }
+            keys.push((k.time, k.angle));
+        }
+        Ok(Bend {
+            pivot: self.vec3(&format!("{at}.pivot"), b.pivot)?,
+            axis: nonzero("axis", b.axis)?,
+            along: nonzero("along", b.along)?,
+            width: self.length(&format!("{at}.width"), b.width)?,
+            keys,
+        })
     }
 
     /// The spheres and their material indices.
@@ -1497,7 +1645,8 @@ impl Checker<'_> {
                 }
             };
             let material = self.material(&what, m.material)?;
-            mesh_specs.push((what, path, transform, set, material));
+            let bend = m.bend.map(|b| self.bend(&what, b)).transpose()?;
+            mesh_specs.push((what, path, transform, set, material, bend));
         }
         Ok(mesh_specs)
     }
@@ -1652,7 +1801,7 @@ impl Checker<'_> {
         let err = |m: String| self.err(m);
         let mut meshes = Vec::new();
         let mut proxies = spheres.to_vec();
-        for (what, path, t, set, material) in specs {
+        for (what, path, t, set, material, bend) in specs {
             let local = Mesh::load(&path).map_err(|e| err(format!("{what}: {e}")))?;
             let local_spheres = match set {
                 SetSpec::File(p) => {
@@ -1680,11 +1829,13 @@ impl Checker<'_> {
                 )));
             }
             let (lo, hi) = mesh.bounds();
+            let bend = bend.map(|b| (b, mesh.clone(), proxies[start..].to_vec()));
             meshes.push(SceneMesh {
                 t_min: MESH_T_MIN * (hi - lo).length(),
                 mesh,
                 material,
                 proxy: start..proxies.len(),
+                bend,
             });
         }
         Ok((meshes, proxies))
@@ -2341,5 +2492,108 @@ mod motion_tests {
         v["spheres"][0]["keys"] = serde_json::json!([{"time": 0, "translation": [0, 0, 1]}]);
         let e = parse("t", &v.to_string()).unwrap_err();
         assert!(e.contains("keys (motion) need \"version\": 2"), "{e}");
+    }
+
+    /// The lumpy mesh bent by two bones about the y axis through (0, 0, 1.6), the
+    /// blend 0.8 wide along +z, up to `angle` at time 0.5.
+    fn bent_scene(angle: f64) -> (tempfile::TempDir, Scene, Scene) {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("lumpy.obj"), lumpy_obj()).unwrap();
+        let rest = parse_in("t", &scene_text("lumpy.obj"), d.path()).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(&scene_text("lumpy.obj")).unwrap();
+        v["meshes"][0]["bend"] = serde_json::json!({"pivot": [0, 0, 1.6], "axis": [0, 2, 0], "along": [0, 0, 1],
+            "width": 0.8, "keys": [{"time": 0, "angle": 0}, {"time": 0.5, "angle": angle}, {"time": 1, "angle": 0}]});
+        v["meshes"][0]["keys"] =
+            serde_json::json!([{"time": 0, "translation": [0, 0, 0]}, {"time": 1, "translation": [1, 0, 0]}]);
+        let bent = parse_in("t", &v.to_string(), d.path()).unwrap();
+        (d, rest, bent)
+    }
+
+    /// A bend skins each vertex and each sphere centre of the rest pose by the formula
+    /// written out here (smoothstep weight along +z, rotation about y through the
+    /// pivot), then the track translates them; time 0 with angle 0 is the rest pose;
+    /// primary hits on the bent mesh equal a scan over its triangles.
+    #[test]
+    fn a_bend_skins_the_mesh_and_carries_its_sphere_set() {
+        let (_d, rest, bent) = bent_scene(0.7);
+        let (a, b) = (&bent.meshes[0].mesh.vertices, &rest.meshes[0].mesh.vertices);
+        assert!(
+            a.iter().zip(b).all(|(p, q)| (*p - *q).length() < 1e-12),
+            "time 0 is the rest pose"
+        );
+        let s = bent.at(0.5).unwrap();
+        let (pivot, shift) = (DVec3::new(0.0, 0.0, 1.6), DVec3::new(0.5, 0.0, 0.0));
+        let skin = |p: DVec3| {
+            let u = ((p.z - 1.6) / 0.8 + 0.5).clamp(0.0, 1.0);
+            let w = u * u * (3.0 - 2.0 * u);
+            let (sn, cs) = 0.7f64.sin_cos();
+            let r = p - pivot;
+            // Rotation about +y: x' = x cos + z sin, z' = −x sin + z cos.
+            let turned = pivot + DVec3::new(r.x * cs + r.z * sn, r.y, -r.x * sn + r.z * cs);
+            (1.0 - w) * p + w * turned + shift
+        };
+        let (mut moved, mut kept) = (0, 0);
+        for (a, b) in rest.meshes[0].mesh.vertices.iter().zip(&s.meshes[0].mesh.vertices) {
+            assert!((skin(*a) - *b).length() < 1e-12, "{a} → {b}");
+            if a.z < 1.2 {
+                kept += usize::from((*b - *a - shift).length() < 1e-12);
+            } else if a.z > 2.0 {
+                moved += 1;
+            }
+        }
+        assert!(moved > 10 && kept > 10, "{moved} turned, {kept} fixed");
+        for p in rest.meshes[0].proxy.clone() {
+            assert!((skin(rest.proxies[p].centre) - s.proxies[p].centre).length() < 1e-12);
+            assert_eq!(rest.proxies[p].radius, s.proxies[p].radius);
+        }
+        let (w, h) = (24, 18);
+        for px in 0..w * h {
+            let d = s.camera.ray(px % w, px / w, w, h);
+            let brute = s.meshes[0].mesh.nearest_brute(s.camera.eye, d, 0.0, f64::INFINITY);
+            if let (Some(hit), Some((_, k))) = (s.primary(px % w, px / w, w, h), brute) {
+                if hit.mesh.is_some() {
+                    assert_eq!(hit.mesh, Some((0, k)), "pixel {px}");
+                }
+            }
+        }
+        let end = bent.at(1.0).unwrap();
+        for (a, b) in rest.meshes[0].mesh.vertices.iter().zip(&end.meshes[0].mesh.vertices) {
+            assert!((*b - *a - DVec3::new(1.0, 0.0, 0.0)).length() < 1e-12);
+        }
+    }
+
+    /// Bad bends are errors naming the field.
+    #[test]
+    fn bad_bends_are_errors() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("lumpy.obj"), lumpy_obj()).unwrap();
+        let good = serde_json::json!({"pivot": [0, 0, 1], "axis": [0, 1, 0], "along": [0, 0, 1], "width": 0.5,
+            "keys": [{"time": 0, "angle": 0.2}]});
+        for (field, value, want) in [
+            (
+                "axis",
+                serde_json::json!([0, 0, 0]),
+                "meshes[0].bend.axis is the zero vector",
+            ),
+            ("width", serde_json::json!(0), "meshes[0].bend.width"),
+            ("keys", serde_json::json!([]), "meshes[0].bend.keys has 0 keys"),
+            (
+                "keys",
+                serde_json::json!([{"time": 0, "angle": 20}]),
+                "meshes[0].bend.keys[0].angle 20",
+            ),
+            (
+                "keys",
+                serde_json::json!([{"time": 0.5, "angle": 0}, {"time": 0.2, "angle": 0}]),
+                "meshes[0].bend.keys[1].time 0.2 must be greater",
+            ),
+        ] {
+            let mut b = good.clone();
+            b[field] = value;
+            let mut v: serde_json::Value = serde_json::from_str(&scene_text("lumpy.obj")).unwrap();
+            v["meshes"][0]["bend"] = b;
+            let e = parse_in("t", &v.to_string(), d.path()).unwrap_err();
+            assert!(e.contains(want), "{e} (want {want})");
+        }
     }
 }

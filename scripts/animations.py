@@ -3,7 +3,8 @@
 their keys are reproducible: pipelines/scenes/isg-falling.json (Figure 12's spheres,
 every third dropped from above and bouncing once onto where it rests) and
 assets/meshes/isg-bunny-walk.json (the bunny hopping across the plane through the
-sun's shadow), pipelines/scenes/meunier-orbit.json (Figure 13's blockers turning)
+sun's shadow), assets/meshes/isg-bunny-nod.json (the bunny nodding: a deforming mesh,
+two bones), pipelines/scenes/meunier-orbit.json (Figure 13's blockers turning)
 and the stills assets/meshes/meunier-bunny.json (the bunny under Figure 13's light)
 and assets/meshes/shexp-bunny.json (the bunny under the whale's sky). Run from the repository root: python3 scripts/animations.py"""
 import json
@@ -105,8 +106,21 @@ def shexp_bunny():
         json.dump(scene, f, indent=1)
         f.write("\n")
 
+def bunny_nod():
+    """The bunny of isg-bunny.json nodding twice: a two-bone bend about the y axis
+    through its neck, the head and ears turning up to 0.4 rad, the blend 0.6 units
+    wide along up-and-forward; its sphere set carried by the bones."""
+    scene = json.load(open("assets/meshes/isg-bunny.json"))
+    keys = [{"time": t, "angle": a} for t, a in [(0.0, 0.0), (0.25, 0.4), (0.5, 0.0), (0.75, 0.4), (1.0, 0.0)]]
+    scene["meshes"][0]["bend"] = {"pivot": [-0.3, 0.0, 1.2], "axis": [0.0, 1.0, 0.0],
+                                  "along": [-0.5, 0.0, 0.85], "width": 0.6, "keys": keys}
+    with open("assets/meshes/isg-bunny-nod.json", "w") as f:
+        json.dump(scene, f, indent=1)
+        f.write("\n")
+
 falling()
 bunny_walk()
+bunny_nod()
 orbit()
 meunier_bunny()
 shexp_bunny()
