@@ -33,8 +33,19 @@ pub const PILOT_SPP: usize = 16;
 /// Seed of the references' per-pixel samples (the same in every frame).
 pub const REFERENCE_SEED: u64 = 0x5eed_a410;
 
-/// Seed of the equal-time Monte Carlo's samples, mixed with the frame and the pixel.
+/// Seed of the equal-time Monte Carlo's samples, hashed with the frame and the pixel
+/// ([`seed_of`]).
 pub const EQUAL_TIME_SEED: u64 = 0x5eed_a411;
+
+/// A seed for (`base`, `a`, `b`) by the SplitMix64 finaliser: seeds of different
+/// frames, pixels and runs share no samples (a plain XOR made frame 0's equal-time
+/// seed at pixel p the reference's at pixel p ^ 1).
+pub fn seed_of(base: u64, a: u64, b: u64) -> u64 {
+    let mut z = base ^ a.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ b.wrapping_mul(0xd1b5_4a32_d192_ed03);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
 
 /// Playback rate of the animated PNG (frames per second).
 pub const FPS: u16 = 12;
@@ -81,7 +92,8 @@ fn time_of(k: usize, frames: usize) -> f64 {
 }
 
 /// The temporal error of `x` against the reference `r` from frame `a` to frame `b`
-/// (module docs), relative to `mean`.
+/// (module docs), relative to `mean`; NaN when no pixel is lit in both frames (left
+/// out of the means).
 pub fn temporal_error(x: [&[f64]; 2], r: [&[f64]; 2], lit: [&[bool]; 2], mean: f64) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
     for p in 0..x[0].len() {
@@ -92,7 +104,7 @@ pub fn temporal_error(x: [&[f64]; 2], r: [&[f64]; 2], lit: [&[bool]; 2], mean: f
         }
     }
     if n == 0 {
-        0.0
+        f64::NAN
     } else {
         (sum / n as f64).sqrt() / mean
     }
@@ -106,10 +118,19 @@ fn check(pipeline: &Pipeline, scene: &Scene, opts: &RenderOptions, frames: usize
             pipeline.name
         ));
     }
+    if scene.tracks.is_empty() && scene.meshes.iter().all(|m| m.bend.is_none()) {
+        return Err(format!(
+            "render {} --frames: scene {} does not move (no `keys` and no `bend`: docs/meshes.md, Motion)",
+            pipeline.name, scene.name
+        ));
+    }
     pipeline.check_work(scene, opts)?;
-    // Per frame: the reference (spp) and the equal-time estimator (≤ spp).
+    // Per frame: the reference (spp) and the equal-time estimator (≤ spp); once: the
+    // pilots (3 runs each at PILOT_SPP / 2, 2 PILOT_SPP and the first guess ≤ spp).
     let (w, h) = (opts.width.max(4) as u64, (opts.width * 3 / 4).max(3) as u64);
-    let samples = (frames as u64).saturating_mul(2 * w * h * opts.spp as u64);
+    let spp = opts.spp as u64;
+    let pilots = 3 * (PILOT_SPP as u64 / 2 + 2 * PILOT_SPP as u64 + spp) * w * h;
+    let samples = (frames as u64).saturating_mul(2 * w * h * spp).saturating_add(pilots);
     if samples > MAX_RENDER_SAMPLES {
         return Err(format!(
             "render {} --frames {frames} --width {} --spp {}: up to {samples} Monte Carlo samples, more than the \
@@ -152,7 +173,7 @@ pub fn animate(
             per_pixel(
                 &hits,
                 w,
-                |hit, p| (m.estimate)(&still, hit, opts.spp, REFERENCE_SEED ^ p as u64),
+                |hit, p| (m.estimate)(&still, hit, opts.spp, seed_of(REFERENCE_SEED, 0, p as u64)),
                 progress,
             )
         });
@@ -176,16 +197,16 @@ pub fn animate(
     let spp = equal_time_spp(scene, &all_hits[0], &shots, w, opts.spp, m)?;
     for (k, (shot, hits)) in shots.iter_mut().zip(&all_hits).enumerate() {
         let still = scene.at(shot.time)?;
-        let seed = EQUAL_TIME_SEED ^ (k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
         let (mc, mc_s) = timed(|| {
             per_pixel(
                 hits,
                 w,
-                |hit, p| (m.estimate)(&still, hit, spp, seed ^ p as u64),
+                |hit, p| (m.estimate)(&still, hit, spp, seed_of(EQUAL_TIME_SEED, k as u64 + 1, p as u64)),
                 &|| (),
             )
         });
-        shot.mc = mc?.iter().map(|e| e.mean.max(0.0)).collect();
+        // Unclamped, as the reference: the beauty images show negatives as black.
+        shot.mc = mc?.iter().map(|e| e.mean).collect();
         shot.mc_s = mc_s;
     }
     report(pipeline, &tag, &stem, (w, h), spp, &shots, dir, m)
@@ -216,7 +237,7 @@ fn equal_time_spp(
                 per_pixel(
                     hits,
                     w,
-                    |hit, p| (m.estimate)(&still, hit, n, !EQUAL_TIME_SEED ^ p as u64),
+                    |hit, p| (m.estimate)(&still, hit, n, seed_of(EQUAL_TIME_SEED, 0, p as u64)),
                     &|| (),
                 )
             });
@@ -228,8 +249,14 @@ fn equal_time_spp(
     };
     let (lo, hi) = (PILOT_SPP / 2, 2 * PILOT_SPP);
     let (t_lo, t_hi) = (pilot(lo)?, pilot(hi)?);
-    let b = ((t_hi - t_lo) / (hi - lo) as f64).max(1e-12);
-    let a = (t_lo - b * lo as f64).max(0.0);
+    // Timer noise can make the longer pilot no slower: then no fixed cost, b from the
+    // longer pilot alone.
+    let (a, b) = if t_hi > t_lo {
+        let b = (t_hi - t_lo) / (hi - lo) as f64;
+        ((t_lo - b * lo as f64).max(0.0), b)
+    } else {
+        (0.0, (t_hi / hi as f64).max(1e-12))
+    };
     let method_per_pixel =
         shots.iter().map(|s| s.method_s).sum::<f64>() / shots.iter().map(|s| s.pixels).sum::<usize>().max(1) as f64;
     let clamp = |n: f64| (n.round().max(1.0) as usize).min(max);
@@ -257,7 +284,9 @@ fn report(
         "frame,time,method_rel_rmse,mc_rel_rmse,method_temporal,mc_temporal,method_us_per_px,mc_us_per_px,reference_rel_se\n",
     );
     let mut images: Vec<Beauty> = Vec::with_capacity(shots.len());
-    let (mut e_m, mut e_mc, mut t_m, mut t_mc, mut us_m, mut us_mc) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let (mut e_m, mut e_mc, mut us_m, mut us_mc) = (0.0, 0.0, 0.0, 0.0);
+    // Temporal errors of the frame pairs with lit pixels in both (finite ones).
+    let (mut temporal_m, mut temporal_mc) = (Vec::new(), Vec::new());
     for (k, s) in shots.iter().enumerate() {
         let mean = mean_over(&s.reference, &s.lit);
         let em = compare(&s.method, &s.reference, &s.lit).rel_rmse;
@@ -294,10 +323,20 @@ fn report(
         e_mc += emc / n;
         us_m += um / n;
         us_mc += umc / n;
-        if k > 0 {
-            t_m += tm / (n - 1.0);
-            t_mc += tmc / (n - 1.0);
+        if tm.is_finite() && tmc.is_finite() {
+            temporal_m.push(tm);
+            temporal_mc.push(tmc);
         }
+    }
+    let mean_of = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let (t_m, t_mc) = (mean_of(&temporal_m), mean_of(&temporal_mc));
+    // The equal-time run's time is measured, not set: say so when it missed by 2×.
+    let time_ratio = us_mc / us_m;
+    if !(0.5..=2.0).contains(&time_ratio) {
+        sum.lines.push(format!(
+            "{tag}: warning: the equal-time Monte Carlo took {time_ratio:.2}× the method's time (its samples \
+             came from pilots on a busy or noisy machine); compare the errors with that in mind"
+        ));
     }
     sum.files.push(write_bytes(
         &dir.join(format!("{stem}-animation.png")),
@@ -348,7 +387,7 @@ mod tests {
 
     /// The temporal error is 0 when the image changes as the reference does (whatever
     /// its own constant error), and the RMS of the difference otherwise, over the
-    /// pixels lit in both frames only.
+    /// pixels lit in both frames only (NaN when there are none).
     #[test]
     fn temporal_error_measures_the_change_against_the_reference() {
         let r0 = [1.0, 2.0, 3.0, 4.0];
@@ -361,7 +400,20 @@ mod tests {
         let e = temporal_error([&r0, &r0], [&r0, &r1], [&lit, &lit], 2.0);
         assert!((e - ((0.25 + 0.0 + 1.0) / 3.0f64).sqrt() / 2.0).abs() < 1e-15, "{e}");
         let none = [false; 4];
-        assert_eq!(temporal_error([&r0, &r1], [&r0, &r0], [&lit, &none], 1.0), 0.0);
+        assert!(temporal_error([&r0, &r1], [&r0, &r0], [&lit, &none], 1.0).is_nan());
+    }
+
+    /// Seeds of different frames and pixels differ, and none equals another run's
+    /// (the reference's are frame 0's of its own base).
+    #[test]
+    fn seeds_do_not_collide() {
+        let mut seen = std::collections::HashSet::new();
+        for p in 0..256u64 {
+            assert!(seen.insert(seed_of(REFERENCE_SEED, 0, p)));
+            for k in 0..25u64 {
+                assert!(seen.insert(seed_of(EQUAL_TIME_SEED, k, p)));
+            }
+        }
     }
 
     #[test]

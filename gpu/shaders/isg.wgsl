@@ -78,12 +78,21 @@ BLOCKED_TESTS            var wgt = 0.0;
     let wo = vec3<f32>(x6, x7, x8);
     // The blockers the point lies on or in: [x12, x13).
     let own = vec2<i32>(i32(x12), i32(x13));
+    // A point inside a blocker (a mesh's covering sphere) is in its full shadow (the
+    // CPU's Scene::buried): radiance 0.
+    var buried = false;
+    for (var b = 0u; b < NS; b++) {
+        let s = sph(b);
+        if (i32(b) < own.x || i32(b) >= own.y) && length(s.xyz - p) <= s.w {
+            buried = true;
+        }
+    }
     let cs = lf_lobe_to_sg(T2, S, P2, n, 1.0, 1.0);
     let r = normalize(2.0 * dot(n, wo) * n - wo);
     let lobe = lf_lobe_to_sg(T2, S, P2, r, x11, x10 * (x11 + 2.0) / (2.0 * LF_PI));
     var diffuse = 0.0;
     var specular = 0.0;
-    for (var e = 0u; e < NE; e++) {
+    for (var e = 0u; e < NE && !buried; e++) {
         let l = env(e);
         if x9 > 0.0 {
             let t = l.amplitude * lf_sg_clamped_cosine(l, n);

@@ -158,7 +158,8 @@ pub const FAMILIES: (&[&str], &str) = (
 pub fn iterations(spheres: usize, sgs: usize) -> u64 {
     let (ns, ne) = (spheres as u64, sgs as u64);
     let term = (ns + 1) + (MAX_PATCHES + 1) + MAX_PATCHES * (MAX_PATCHES + 1);
-    (ne + 1) + ne * (CLAMPED_COSINE_ITERATIONS + 2 * term) + 2
+    // The buried test's loop over the blockers, then the SGs'.
+    (ns + 1) + (ne + 1) + ne * (CLAMPED_COSINE_ITERATIONS + 2 * term) + 2
 }
 
 /// The export's first texture of family `kind`.
@@ -284,14 +285,20 @@ pub fn render_isg(
             wo: lobefit_tables::glam::DVec3::new(v(6), v(7), v(8)).normalize(),
             ..**hit
         };
-        cpu.push(radiance(
-            &tables,
-            &settings,
-            &sc.environment,
-            b,
-            &lobefit::pipelines::isg::render::blockers_of(sc, hit),
-            &at,
-        )?);
+        // A point buried in a blocker (a mesh's covering sphere) is in its full shadow
+        // (`Scene::buried`, the CPU render's rule; the kernel tests the same).
+        cpu.push(if sc.buried(&at) {
+            0.0
+        } else {
+            radiance(
+                &tables,
+                &settings,
+                &sc.environment,
+                b,
+                &lobefit::pipelines::isg::render::blockers_of(sc, hit),
+                &at,
+            )?
+        });
     }
     let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
     compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)

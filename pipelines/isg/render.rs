@@ -51,12 +51,20 @@ pub fn blockers_of<'a>(scene: &'a Scene, h: &Hit) -> Blockers<'a> {
     }
 }
 
+/// The pipeline's radiance at hit `h` with `s`: 0 where the point is buried in a
+/// blocker ([`Scene::buried`]: a mesh's covering sphere; the proxy is a solid, as the
+/// Meunier and SH renders take it).
+pub fn shade_hit(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Result<f64, String> {
+    if scene.buried(h) {
+        return Ok(0.0);
+    }
+    let brdf = Phong::of(scene.brdf(h))?;
+    radiance(t, s, &scene.environment, &brdf, &blockers_of(scene, h), h)
+}
+
 /// The pipeline's radiance at every hit with `s` (0 for background).
 fn image(t: &Tables, s: &Settings, scene: &Scene, hits: &[Option<Hit>]) -> Result<Vec<f64>, String> {
-    shade_image(hits, |_, h| {
-        let brdf = Phong::of(scene.brdf(h))?;
-        radiance(t, s, &scene.environment, &brdf, &blockers_of(scene, h), h)
-    })
+    shade_image(hits, |_, h| shade_hit(t, s, scene, h))
 }
 
 /// Sphere counts of the sweep (Table 1's range, 46 to 306 spheres).
@@ -374,10 +382,9 @@ fn breakdown_parts(
         .map(|&p| {
             let hit = f.hits[p].expect("lit");
             let brdf = Phong::of(scene.brdf(&hit))?;
-            let blockers = blockers_of(scene, &hit);
             let mut v = stages
                 .iter()
-                .map(|s| radiance(tables, s, &scene.environment, &brdf, &blockers, &hit))
+                .map(|s| shade_hit(tables, s, scene, &hit))
                 .collect::<Result<Vec<f64>, String>>()?;
             // A reference with PRECISE_FACTOR × the samples: the subset's errors are
             // measured against it (its noise far below the pipeline's error).

@@ -283,8 +283,8 @@ fn expensive_scenes_and_renders_are_refused_first() {
 /// (an acTL chunk of 3 frames), the CSV (a row per frame, finite values, no temporal
 /// error on frame 0) and the summary line last; the method's and the reference's
 /// numbers do not depend on the thread count (the equal-time estimator's samples
-/// follow measured times, so its column may). A pipeline without animations (shexp) and a
-/// single frame are refused.
+/// follow measured times, so its column may). A pipeline without animations (shexp), a
+/// single frame and a scene that does not move are refused.
 #[test]
 fn animation_writes_frames_and_temporal_errors() {
     let frames_csv = |threads: &str| -> (String, Vec<Vec<String>>) {
@@ -341,16 +341,22 @@ fn animation_writes_frames_and_temporal_errors() {
     for (a, b) in one.iter().zip(&two) {
         assert_eq!((&a[..3], &a[4], &a[8]), (&b[..3], &b[4], &b[8]));
     }
-    for (args, want) in [
+    for (args, code_want, want) in [
         (
             vec!["render", "shexp", "--frames", "2"],
+            2,
             "the pipeline renders no animations",
         ),
-        (vec!["render", "isg", "--frames", "1"], "--frames"),
+        (vec!["render", "isg", "--frames", "1"], 2, "--frames"),
+        (
+            vec!["render", "isg", "--scene", "fig12", "--frames", "2"],
+            1,
+            "does not move",
+        ),
     ] {
         let d = tempfile::tempdir().unwrap();
         let (code, _, err) = common::run_text(&[&args[..], &["--out", d.path().to_str().unwrap()]].concat(), "");
-        assert_eq!(code, Some(2), "{err}");
+        assert_eq!(code, Some(code_want), "{err}");
         assert!(err.contains(want), "{err}");
     }
 }
