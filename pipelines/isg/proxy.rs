@@ -14,8 +14,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::render::blockers_of;
-use super::shade::{radiance, Phong, Settings, Tables};
+use super::shade::{Phong, Settings, Tables};
 use crate::image::{mean_over, noise_free_rel_rmse};
 use crate::scene::{ray_sphere, Scene};
 use crate::spheres::{quality, Method, Quality};
@@ -159,17 +158,7 @@ pub fn proxy_study(
                 .par_iter()
                 .map(|hit| match hit {
                     None => Ok(0.0),
-                    Some(hit) => {
-                        let brdf = Phong::of(scene.brdf(hit))?;
-                        radiance(
-                            &tables,
-                            &Settings::default(),
-                            &scene.environment,
-                            &brdf,
-                            &blockers_of(&scene, hit),
-                            hit,
-                        )
-                    }
+                    Some(hit) => super::render::shade_hit(&tables, &Settings::default(), &scene, hit),
                 })
                 .collect::<Result<_, String>>()?;
             let t = t0.elapsed().as_secs_f64();
