@@ -118,7 +118,7 @@ fn check(pipeline: &Pipeline, scene: &Scene, opts: &RenderOptions, frames: usize
             pipeline.name
         ));
     }
-    if scene.tracks.is_empty() && scene.meshes.iter().all(|m| m.bend.is_none()) {
+    if scene.tracks.is_empty() && scene.meshes.iter().all(|m| m.pose.is_none()) {
         return Err(format!(
             "render {} --frames: scene {} does not move (no `keys` and no `bend`: docs/meshes.md, Motion)",
             pipeline.name, scene.name

@@ -527,11 +527,24 @@ pub enum Moving {
 pub struct Track {
     /// What moves.
     pub object: Moving,
-    /// The keys.
+    /// The keys: (time, translation).
     pub keys: Vec<(f64, DVec3)>,
+    /// The keys' rotations (a mesh's only; empty: it does not turn), at the keys'
+    /// times: each turns the mesh about its rest pose's bounding-box centre, before the
+    /// translation; interpolated by slerp.
+    pub turns: Vec<(f64, DQuat)>,
 }
 
 impl Track {
+    /// The rotation at `time` (slerp between the keys', held outside them; the
+    /// identity when the track has none).
+    pub fn turn(&self, time: f64) -> DQuat {
+        if self.turns.is_empty() {
+            return DQuat::IDENTITY;
+        }
+        keyed(&self.turns, time, |a, b, u| a.slerp(b, u))
+    }
+
     /// The translation at `time` (piecewise linear through the keys, held constant
     /// outside them).
     pub fn at(&self, time: f64) -> DVec3 {
@@ -604,9 +617,21 @@ pub struct SceneMesh {
     pub proxy: std::ops::Range<usize>,
     /// Where its shadow rays start ([`MESH_T_MIN`] × its diagonal).
     pub t_min: f64,
-    /// Its two-bone deformation with its rest pose (the mesh and its sphere set as the
-    /// file places them, unbent and untranslated), if it bends.
-    pub bend: Option<(Bend, crate::mesh::Mesh, Vec<Sphere>)>,
+    /// Its rest pose, kept when it bends or turns ([`Pose`]).
+    pub pose: Option<Pose>,
+}
+
+/// A mesh that bends or turns: rebuilt from its rest pose every frame.
+#[derive(Debug, Clone)]
+pub struct Pose {
+    /// Its two-bone deformation, if it bends.
+    pub bend: Option<Bend>,
+    /// The mesh as the file places it (unbent, unturned, untranslated).
+    pub rest: crate::mesh::Mesh,
+    /// Its sphere set at rest.
+    pub rest_set: Vec<Sphere>,
+    /// What its track's rotations turn about: the rest mesh's bounding-box centre.
+    pub pivot: DVec3,
 }
 
 impl Scene {
@@ -617,18 +642,18 @@ impl Scene {
         let mut s = self.moved(time, Some(0.0))?;
         s.tracks.clear();
         for m in &mut s.meshes {
-            m.bend = None;
+            m.pose = None;
         }
         Ok(s)
     }
 
     /// This scene at `time`: each tracked object moved by its translation at `time`
-    /// less that at `base` (`None`: less nothing, from the file's places), each bending
-    /// mesh rebuilt from its rest pose at `time` (bent, then translated by its whole
-    /// translation at `time`). Tracks and bends kept.
+    /// less that at `base` (`None`: less nothing, from the file's places), each mesh
+    /// with a [`Pose`] rebuilt from its rest pose at `time` (bent, turned about its
+    /// pivot, then translated by its whole translation at `time`). Tracks and poses kept.
     fn moved(&self, time: f64, base: Option<f64>) -> Result<Scene, String> {
         let mut s = self.clone();
-        let bent = |m: usize| self.meshes[m].bend.is_some();
+        let bent = |m: usize| self.meshes[m].pose.is_some();
         for tr in &self.tracks {
             let d = tr.at(time) - base.map_or(DVec3::ZERO, |b| tr.at(b));
             match tr.object {
@@ -654,22 +679,24 @@ impl Scene {
             }
         }
         for (m, sm) in s.meshes.iter_mut().enumerate() {
-            let Some((bend, rest, rest_set)) = &sm.bend else {
+            let Some(pose) = &sm.pose else {
                 continue;
             };
-            let shift = self
-                .tracks
-                .iter()
-                .find(|tr| tr.object == Moving::Mesh(m))
-                .map_or(DVec3::ZERO, |tr| tr.at(time));
-            let angle = bend.angle(time);
+            let track = self.tracks.iter().find(|tr| tr.object == Moving::Mesh(m));
+            let shift = track.map_or(DVec3::ZERO, |tr| tr.at(time));
+            let turn = track.map_or(DQuat::IDENTITY, |tr| tr.turn(time));
+            let angle = pose.bend.as_ref().map_or(0.0, |b| b.angle(time));
+            let place = |p: DVec3| {
+                let bent = pose.bend.as_ref().map_or(p, |b| b.skin(p, angle));
+                pose.pivot + turn * (bent - pose.pivot) + shift
+            };
             sm.mesh = crate::mesh::Mesh::new(
-                rest.vertices.iter().map(|&p| bend.skin(p, angle) + shift).collect(),
-                rest.triangles.clone(),
+                pose.rest.vertices.iter().map(|&p| place(p)).collect(),
+                pose.rest.triangles.clone(),
             )
             .map_err(|e| format!("scene {}: meshes[{m}]: {e}", self.name))?;
-            for (p, r) in sm.proxy.clone().zip(rest_set) {
-                s.proxies[p].centre = bend.skin(r.centre, angle) + shift;
+            for (p, r) in sm.proxy.clone().zip(&pose.rest_set) {
+                s.proxies[p].centre = place(r.centre);
             }
         }
         s.bvh = Bvh::new(&s.spheres);
@@ -1182,6 +1209,9 @@ struct FileKey {
     time: f64,
     /// Added to the object's place in the file (scene units).
     translation: [f64; 3],
+    /// A mesh's rotation about its rest bounding-box centre (optional).
+    #[serde(default)]
+    rotation: Option<FileRotation>,
 }
 
 #[derive(Deserialize)]
@@ -1270,7 +1300,22 @@ fn parse_inner(
         return Ok(None);
     }
     let heightfield = heightfield.map(|h| c.build_heightfield(h)).transpose()?;
-    let (meshes, proxies) = c.build_meshes(mesh_specs, &spheres)?;
+    let (mut meshes, proxies) = c.build_meshes(mesh_specs, &spheres)?;
+    // A mesh whose track turns is rebuilt from its rest pose every frame, as a bent one.
+    for tr in tracks.iter().filter(|tr| !tr.turns.is_empty()) {
+        if let Moving::Mesh(m) = tr.object {
+            let sm = &mut meshes[m];
+            if sm.pose.is_none() {
+                let (lo, hi) = sm.mesh.bounds();
+                sm.pose = Some(Pose {
+                    bend: None,
+                    rest: sm.mesh.clone(),
+                    rest_set: proxies[sm.proxy.clone()].to_vec(),
+                    pivot: 0.5 * (lo + hi),
+                });
+            }
+        }
+    }
     let proxy_bvh = Bvh::new(&proxies);
     let bvh = Bvh::new(&spheres);
     let scene = Scene {
@@ -1295,7 +1340,7 @@ fn parse_inner(
     // The still at time 0: keys are translations added to the file's places, bends
     // applied to the rest pose.
     Ok(Some(
-        if scene.tracks.is_empty() && scene.meshes.iter().all(|m| m.bend.is_none()) {
+        if scene.tracks.is_empty() && scene.meshes.iter().all(|m| m.pose.is_none()) {
             scene
         } else {
             scene.moved(0.0, None)?
@@ -1513,9 +1558,41 @@ impl Checker<'_> {
                 self.key_time(&at, key.time, out.last().map(|k| k.0))?;
                 out.push((key.time, self.vec3(&format!("{at}.translation"), key.translation)?));
             }
-            tracks.push(Track { object, keys: out });
+            let turns = if keys.iter().any(|k| k.rotation.is_some()) {
+                if let Moving::Sphere(_) = object {
+                    return Err(self.err(format!(
+                        "{what}.keys: a rotation turns a sphere into itself; give one to meshes only"
+                    )));
+                }
+                keys.iter()
+                    .enumerate()
+                    .map(|(i, k)| match &k.rotation {
+                        None => Ok((k.time, DQuat::IDENTITY)),
+                        Some(r) => Ok((k.time, self.rotation(&format!("{what}.keys[{i}].rotation"), r)?)),
+                    })
+                    .collect::<Result<Vec<_>, String>>()?
+            } else {
+                Vec::new()
+            };
+            tracks.push(Track {
+                object,
+                keys: out,
+                turns,
+            });
         }
         Ok(tracks)
+    }
+
+    /// A rotation `what`: a non-zero axis (normalised) and a finite angle (rad).
+    fn rotation(&self, what: &str, r: &FileRotation) -> Result<DQuat, String> {
+        let axis = self.vec3(&format!("{what}.axis"), r.axis)?;
+        if axis.length() == 0.0 || !r.angle.is_finite() {
+            return Err(self.err(format!(
+                "{what}: axis {:?} must not be zero and angle {} finite",
+                r.axis, r.angle
+            )));
+        }
+        Ok(DQuat::from_axis_angle(axis.normalize(), r.angle))
     }
 
     /// A key's time `at`: finite, in [0, 1], after the key before it (`last`).
@@ -1660,18 +1737,9 @@ impl Checker<'_> {
                 "{what}.transform.scale {scale} must be finite, > 0 and ≤ {MAX_COORD:e}"
             )));
         }
-        let rotation = match t.rotation {
+        let rotation = match &t.rotation {
             None => DQuat::IDENTITY,
-            Some(r) => {
-                let axis = self.vec3(&format!("{what}.transform.rotation.axis"), r.axis)?;
-                if axis.length() == 0.0 || !r.angle.is_finite() {
-                    return Err(self.err(format!(
-                        "{what}.transform.rotation: axis {:?} must not be zero and angle {} finite",
-                        r.axis, r.angle
-                    )));
-                }
-                DQuat::from_axis_angle(axis.normalize(), r.angle)
-            }
+            Some(r) => self.rotation(&format!("{what}.transform.rotation"), r)?,
         };
         let translation = self.vec3(
             &format!("{what}.transform.translation"),
@@ -1829,13 +1897,18 @@ impl Checker<'_> {
                 )));
             }
             let (lo, hi) = mesh.bounds();
-            let bend = bend.map(|b| (b, mesh.clone(), proxies[start..].to_vec()));
+            let pose = bend.map(|b| Pose {
+                bend: Some(b),
+                rest: mesh.clone(),
+                rest_set: proxies[start..].to_vec(),
+                pivot: 0.5 * (lo + hi),
+            });
             meshes.push(SceneMesh {
                 t_min: MESH_T_MIN * (hi - lo).length(),
                 mesh,
                 material,
                 proxy: start..proxies.len(),
-                bend,
+                pose,
             });
         }
         Ok((meshes, proxies))
@@ -2625,5 +2698,46 @@ mod motion_tests {
             let e = parse_in("t", &v.to_string(), d.path()).unwrap_err();
             assert!(e.contains(want), "{e} (want {want})");
         }
+    }
+
+    /// Rotation keys turn a mesh and its sphere set about the rest pose's bounding-box
+    /// centre, before the translation: at a key, by exactly its rotation (checked against
+    /// a quarter turn about z written out); between keys by slerp (half the angle
+    /// halfway); a rotation on a sphere's keys is refused.
+    #[test]
+    fn rotation_keys_turn_a_mesh_about_its_centre() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("lumpy.obj"), lumpy_obj()).unwrap();
+        let rest = parse_in("t", &scene_text("lumpy.obj"), d.path()).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(&scene_text("lumpy.obj")).unwrap();
+        v["meshes"][0]["keys"] = serde_json::json!([
+            {"time": 0, "translation": [0, 0, 0]},
+            {"time": 0.5, "translation": [1, 0, 0], "rotation": {"axis": [0, 0, 2], "angle": std::f64::consts::FRAC_PI_2}}]);
+        let turning = parse_in("t", &v.to_string(), d.path()).unwrap();
+        let (lo, hi) = rest.meshes[0].mesh.bounds();
+        let c = 0.5 * (lo + hi);
+        let quarter = |p: DVec3| c + DVec3::new(-(p.y - c.y), p.x - c.x, p.z - c.z) + DVec3::X;
+        let s = turning.at(0.5).unwrap();
+        for (a, b) in rest.meshes[0].mesh.vertices.iter().zip(&s.meshes[0].mesh.vertices) {
+            assert!((quarter(*a) - *b).length() < 1e-12, "{a} → {b}");
+        }
+        for p in rest.meshes[0].proxy.clone() {
+            assert!((quarter(rest.proxies[p].centre) - s.proxies[p].centre).length() < 1e-12);
+        }
+        // Halfway to the key: an eighth of a turn (slerp), half the translation.
+        let h = turning.at(0.25).unwrap();
+        let a = rest.meshes[0].mesh.vertices[5] - c;
+        let (sn, cs) = std::f64::consts::FRAC_PI_4.sin_cos();
+        let want = c + DVec3::new(a.x * cs - a.y * sn, a.x * sn + a.y * cs, a.z) + 0.5 * DVec3::X;
+        assert!((h.meshes[0].mesh.vertices[5] - want).length() < 1e-12);
+        let mut v: serde_json::Value = serde_json::from_str(BUILTIN[0].1).unwrap();
+        v["version"] = 2.into();
+        v["spheres"][0]["keys"] =
+            serde_json::json!([{"time": 0, "translation": [0, 0, 1], "rotation": {"axis": [0, 0, 1], "angle": 1}}]);
+        let e = parse("t", &v.to_string()).unwrap_err();
+        assert!(
+            e.contains("spheres[0].keys: a rotation turns a sphere into itself"),
+            "{e}"
+        );
     }
 }
