@@ -126,6 +126,27 @@ fn lobe_image(
     shade_image(hits, |_, h| lobes_at(m, scene, light, h, settings))
 }
 
+/// The scene's one light and the embedded tables; `command` and `what` (what takes
+/// one light) name a scene with another number of lights in the error.
+fn setup(scene: &Scene, command: &str, what: &str) -> Result<(SphereLight, Meunier<'static>), String> {
+    let light = match scene.lights[..] {
+        [l] => l,
+        _ => {
+            return Err(format!(
+                "{command}: scene {} has {} lights; {what} takes one",
+                scene.name,
+                scene.lights.len()
+            ))
+        }
+    };
+    let m = Meunier {
+        products: LobeProduct::embedded().map_err(|e| e.to_string())?,
+        caps: CapExponent::embedded().map_err(|e| e.to_string())?,
+        weights: MaskWeights::embedded().map_err(|e| e.to_string())?,
+    };
+    Ok((light, m))
+}
+
 /// Renders the animated scene `name` ([`crate::animate`]): the lobes with the default
 /// settings against the reference sampling the light's cap with Owen-scrambled Sobol
 /// points (`qmc`, the strongest estimator on Meunier's scenes in the baselines study),
@@ -138,21 +159,7 @@ pub fn animate(
     progress: &(dyn Fn() + Sync),
 ) -> Result<Summary, String> {
     let scene = scene(name)?;
-    let light = match scene.lights[..] {
-        [l] => l,
-        _ => {
-            return Err(format!(
-                "render meunier --frames: scene {} has {} lights; an animation takes one",
-                scene.name,
-                scene.lights.len()
-            ))
-        }
-    };
-    let m = Meunier {
-        products: LobeProduct::embedded().map_err(|e| e.to_string())?,
-        caps: CapExponent::embedded().map_err(|e| e.to_string())?,
-        weights: MaskWeights::embedded().map_err(|e| e.to_string())?,
-    };
+    let (light, m) = setup(&scene, "render meunier --frames", "an animation")?;
     let settings = MaskSettings::default();
     let shade = |s: &Scene, hits: &[Option<Hit>]| lobe_image(&m, s, &light, hits, &settings);
     let estimate =
@@ -412,21 +419,7 @@ fn leaf_caps(
 /// and the breakdown.
 pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
     let scene = scene(name)?;
-    let light = match scene.lights[..] {
-        [l] => l,
-        _ => {
-            return Err(format!(
-                "render meunier: scene {} has {} lights; the error breakdown takes one",
-                scene.name,
-                scene.lights.len()
-            ))
-        }
-    };
-    let m = Meunier {
-        products: LobeProduct::embedded().map_err(|e| e.to_string())?,
-        caps: CapExponent::embedded().map_err(|e| e.to_string())?,
-        weights: MaskWeights::embedded().map_err(|e| e.to_string())?,
-    };
+    let (light, m) = setup(&scene, "render meunier", "the error breakdown")?;
     let (f, ()) = Frame::new(&super::PIPELINE, &scene, opts, dir, || Ok(()))?;
     let tag = f.tag.clone();
     let mut sum = Summary::default();

@@ -103,48 +103,53 @@ fn spheres_argument_errors() {
     assert!(!out.exists());
 }
 
-/// `render isg` on the bunny scene: the summary names the mesh and its proxy, and the
-/// error breakdown has the sphere sets → true meshes row, not zero (the proxy's error
-/// measured there is 0.03–0.11 of the mean at 160 px: docs/meshes.md).
-#[test]
-fn render_isg_breaks_down_the_proxy_error() {
+/// Renders the bunny scene `scene` with `pipeline` at `width` px, 16 spp and the
+/// breakdown on every `stride`-th pixel; asserts success and returns stdout and the
+/// RMS of each "sphere sets → true meshes" breakdown row.
+fn proxy_rows(pipeline: &str, scene: &str, width: &str, stride: &str) -> (String, Vec<f64>) {
     let d = tempfile::tempdir().unwrap();
     let (code, stdout, stderr) = run_text(
         &[
             "render",
-            "isg",
+            pipeline,
             "--scene",
-            "assets/meshes/isg-bunny.json",
+            scene,
             "--width",
-            "32",
+            width,
             "--spp",
             "16",
             "--breakdown-stride",
-            "2",
+            stride,
             "--out",
             d.path().to_str().unwrap(),
         ],
         "",
     );
     assert_eq!(code, Some(0), "{stdout}{stderr}");
+    let rms = stdout
+        .lines()
+        .filter(|l| l.contains("sphere sets → true meshes"))
+        .map(|row| {
+            let v = row.split("RMS ").nth(1).and_then(|r| r.split(',').next());
+            v.and_then(|v| v.parse().ok())
+                .unwrap_or_else(|| panic!("no RMS in {row}"))
+        })
+        .collect();
+    (stdout, rms)
+}
+
+/// `render isg` on the bunny scene: the summary names the mesh and its proxy, and the
+/// error breakdown has the sphere sets → true meshes row, not zero (the proxy's error
+/// measured there is 0.03–0.11 of the mean at 160 px: docs/meshes.md).
+#[test]
+fn render_isg_breaks_down_the_proxy_error() {
+    let (stdout, rows) = proxy_rows("isg", "assets/meshes/isg-bunny.json", "32", "2");
     assert!(
         stdout.contains("19048 triangles, shaded with 64 proxy spheres"),
         "{stdout}"
     );
-    let row = stdout
-        .lines()
-        .find(|l| l.contains("sphere sets → true meshes"))
-        .unwrap_or_else(|| panic!("no proxy row in {stdout}"));
-    let rms: f64 = row
-        .split("RMS ")
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
-    assert!(rms > 1e-3 && rms < 0.5, "{row}");
+    assert_eq!(rows.len(), 1, "{stdout}");
+    assert!(rows[0] > 1e-3 && rows[0] < 0.5, "{stdout}");
 }
 
 /// `render meunier` on the bunny under Figure 13's light: the lobes on the bunny's
@@ -153,41 +158,10 @@ fn render_isg_breaks_down_the_proxy_error() {
 /// (0.19 of the mean at 64 px: docs/meshes.md).
 #[test]
 fn render_meunier_breaks_down_the_proxy_error() {
-    let d = tempfile::tempdir().unwrap();
-    let (code, stdout, stderr) = run_text(
-        &[
-            "render",
-            "meunier",
-            "--scene",
-            "assets/meshes/meunier-bunny.json",
-            "--width",
-            "32",
-            "--spp",
-            "16",
-            "--breakdown-stride",
-            "3",
-            "--out",
-            d.path().to_str().unwrap(),
-        ],
-        "",
-    );
-    assert_eq!(code, Some(0), "{stdout}{stderr}");
-    let rows: Vec<&str> = stdout
-        .lines()
-        .filter(|l| l.contains("sphere sets → true meshes"))
-        .collect();
+    let (stdout, rows) = proxy_rows("meunier", "assets/meshes/meunier-bunny.json", "32", "3");
     assert_eq!(rows.len(), 2, "{stdout}");
-    for row in rows {
-        let rms: f64 = row
-            .split("RMS ")
-            .nth(1)
-            .unwrap()
-            .split(',')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
-        assert!(rms > 1e-3 && rms < 1.0, "{row}");
+    for rms in rows {
+        assert!(rms > 1e-3 && rms < 1.0, "{stdout}");
     }
 }
 
@@ -196,39 +170,9 @@ fn render_meunier_breaks_down_the_proxy_error() {
 /// row, not zero: 0.031 of the mean at 48 px).
 #[test]
 fn render_shexp_breaks_down_the_proxy_error() {
-    let d = tempfile::tempdir().unwrap();
-    let (code, stdout, stderr) = run_text(
-        &[
-            "render",
-            "shexp",
-            "--scene",
-            "assets/meshes/shexp-bunny.json",
-            "--width",
-            "24",
-            "--spp",
-            "16",
-            "--breakdown-stride",
-            "2",
-            "--out",
-            d.path().to_str().unwrap(),
-        ],
-        "",
-    );
-    assert_eq!(code, Some(0), "{stdout}{stderr}");
-    let row = stdout
-        .lines()
-        .find(|l| l.contains("sphere sets → true meshes"))
-        .unwrap_or_else(|| panic!("no proxy row in {stdout}"));
-    let rms: f64 = row
-        .split("RMS ")
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
-    assert!(rms > 1e-3 && rms < 0.5, "{row}");
+    let (stdout, rows) = proxy_rows("shexp", "assets/meshes/shexp-bunny.json", "24", "2");
+    assert_eq!(rows.len(), 1, "{stdout}");
+    assert!(rows[0] > 1e-3 && rows[0] < 0.5, "{stdout}");
     assert!(stdout.contains("(→ SH-ideal on the sphere sets)"), "{stdout}");
 }
 
