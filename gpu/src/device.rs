@@ -23,7 +23,16 @@ pub struct Gpu {
     /// Bench mode ([`Gpu::bench_frames`]): frames to time per dispatch, and what was
     /// timed.
     bench: RefCell<Option<(usize, Vec<Dispatched>)>>,
+    /// Pipelines built so far, by source and bind group layout: a conformance run
+    /// dispatches one kernel several times (each filter, each check), and on lavapipe
+    /// building a pipeline (LLVM) costs more than running it. Only pipelines whose
+    /// run passed validation are kept.
+    pipelines: RefCell<PipelineCache>,
 }
+
+/// See [`Gpu`]'s `pipelines`.
+type PipelineCache =
+    std::collections::HashMap<(String, Vec<wgpu::BindGroupLayoutEntry>), (wgpu::BindGroupLayout, wgpu::ComputePipeline)>;
 
 /// One kernel timed in bench mode: its source, items and per-frame times.
 #[derive(Debug, Clone)]
@@ -71,6 +80,12 @@ impl Gpu {
     fn open(want_timestamps: bool) -> Result<Gpu, String> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends: wgpu::Backends::VULKAN,
+            // No shader debug info, which a build with debug assertions (ours: the dev
+            // profile) asks for by default: naga's SPIR-V writer then finds each
+            // statement's line by counting newlines from the top of the source, which is
+            // quadratic in our generated kernels (up to 170 kB) and took a quarter of a
+            // gpu-check's time. Validation stays as the build configures it.
+            flags: wgpu::InstanceFlags::from_build_config().difference(wgpu::InstanceFlags::DEBUG),
             ..wgpu::InstanceDescriptor::new_without_display_handle()
         });
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
@@ -107,6 +122,7 @@ impl Gpu {
             float32_filterable,
             timestamps,
             bench: RefCell::new(None),
+            pipelines: RefCell::default(),
         })
     }
 
@@ -338,7 +354,12 @@ impl Gpu {
         let extra = &textures[1..];
         let d = &self.device;
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
-        let (layout, pipeline) = self.compute_pipeline(source, texture, extra)?;
+        let key = (source.to_string(), layout_entries(texture, extra)?);
+        let cached = self.pipelines.borrow().get(&key).cloned();
+        let (layout, pipeline) = match cached {
+            Some(p) => p,
+            None => self.compute_pipeline(source, &key.1)?,
+        };
         let filter = if texture.filterable {
             wgpu::FilterMode::Linear
         } else {
@@ -413,26 +434,25 @@ impl Gpu {
         });
         let out = self.dispatch_and_read(&pipeline, &bind, &out_buf, out_size, scope, count, n_out)?;
         self.bench_dispatch(source, &pipeline, &bind, count)?;
+        self.pipelines.borrow_mut().entry(key).or_insert((layout, pipeline));
         Ok(out)
     }
 
     /// The compute pipeline of `source` (entry point `main`) and its bind group layout
-    /// for `texture` and the `extra` textures (see [`Gpu::run_textures`]).
+    /// of `layout_entries` (see [`Gpu::run_textures`]).
     fn compute_pipeline(
         &self,
         source: &str,
-        texture: &GpuTexture,
-        extra: &[(&[u8], &GpuTexture)],
+        layout_entries: &[wgpu::BindGroupLayoutEntry],
     ) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), String> {
         let d = &self.device;
         let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("lobefit kernel"),
             source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(source)),
         });
-        let layout_entries = layout_entries(texture, extra)?;
         let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: None,
-            entries: &layout_entries,
+            entries: layout_entries,
         });
         let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: None,
