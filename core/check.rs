@@ -29,6 +29,12 @@ pub struct CheckOptions {
     /// in cheaper per-node sections ([`Checked::nodes_in_extras`]): an evenly strided
     /// subset of about this many. Every other family checks every node.
     pub grid_limit: usize,
+    /// Run the whole-scene sections ([`Checked::extra_checks`]) of families that check
+    /// every node pointwise. `false` is for sweeps that look only for failures at
+    /// nodes (tests/it/check_corruption.rs): the sections are skipped there, and so are
+    /// the thresholds on what they would have measured. Families that verify their
+    /// nodes in those sections ([`Checked::nodes_in_extras`]) always run them.
+    pub whole_scene: bool,
 }
 
 impl CheckOptions {
@@ -37,12 +43,14 @@ impl CheckOptions {
         offgrid: 10_000,
         seed: 0x010b_ef17,
         grid_limit: 20_000,
+        whole_scene: true,
     };
     /// CI check: 2 000 off-grid points.
     pub const QUICK: CheckOptions = CheckOptions {
         offgrid: 2_000,
         seed: 0x010b_ef17,
         grid_limit: 2_000,
+        whole_scene: true,
     };
 }
 
@@ -396,7 +404,13 @@ pub fn check_family(family: &dyn Checked, path: &Path, opts: CheckOptions) -> Fa
     report.outputs.extend(f32_rows);
     // Whole-scene sections: a handful of cases each (they are expensive to reference).
     let cases = (opts.offgrid / 100).max(10);
-    for (name, res) in family.extra_checks(&table_copy, cases, opts.seed) {
+    let sections = opts.whole_scene || family.nodes_in_extras();
+    let extras = if sections {
+        family.extra_checks(&table_copy, cases, opts.seed)
+    } else {
+        Vec::new()
+    };
+    for (name, res) in extras {
         match res {
             Ok(Extra::Values(v)) => report.values.push(ValueReport {
                 name,
@@ -408,6 +422,11 @@ pub fn check_family(family: &dyn Checked, path: &Path, opts: CheckOptions) -> Fa
         }
     }
     for t in &meta.thresholds {
+        let measured =
+            |o: &str| report.outputs.iter().any(|r| r.output == o) || report.values.iter().any(|v| v.name == o);
+        if !sections && !measured(&t.output) {
+            continue; // a skipped section's threshold (see `CheckOptions::whole_scene`)
+        }
         let value = report
             .outputs
             .iter()

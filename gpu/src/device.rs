@@ -31,8 +31,10 @@ pub struct Gpu {
 }
 
 /// See [`Gpu`]'s `pipelines`.
-type PipelineCache =
-    std::collections::HashMap<(String, Vec<wgpu::BindGroupLayoutEntry>), (wgpu::BindGroupLayout, wgpu::ComputePipeline)>;
+type PipelineCache = std::collections::HashMap<
+    (String, Vec<wgpu::BindGroupLayoutEntry>),
+    (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+>;
 
 /// One kernel timed in bench mode: its source, items and per-frame times.
 #[derive(Debug, Clone)]
