@@ -217,6 +217,15 @@ enum Command {
         /// error (isg, meunier; docs/meshes.md, Motion). `--scene all`: the pipeline's animations.
         #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
         frames: Option<u32>,
+        /// After each scene's render, measure its Pareto chart at WIDTH pixels: every
+        /// analytic configuration and every Monte Carlo estimator (plain, QMC, control
+        /// variates, adaptive, hybrid) against a 2^17-sample reference, times as medians
+        /// of 5 runs; writes <pipeline>-<scene>-pareto.png and -summary.json in --out
+        /// (isg, shexp, meunier; minutes a scene at 24, growing with the pixels;
+        /// docs/pipelines.md, Stronger baselines).
+        #[arg(long, value_name = "WIDTH", conflicts_with = "frames",
+              value_parser = clap::value_parser!(u32).range(4..=160))]
+        pareto: Option<u32>,
     },
     /// Fit a sphere set to a closed triangle mesh (OBJ, glTF, GLB) and report its fit quality:
     /// volume error and one-sided Hausdorff distances, by sampling (docs/meshes.md).
@@ -696,9 +705,11 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             breakdown_stride,
             threads,
             frames,
+            pareto,
         } => {
             let pipeline = lobefit::pipelines::by_name(&name)
                 .ok_or_else(|| Failure::Usage(format!("no pipeline named {name}")))?;
+
             let animate = match frames {
                 None => None,
                 Some(n) => Some((
@@ -717,6 +728,11 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             } else {
                 vec![scene.as_str()]
             };
+            if pareto.is_some() {
+                for scene in &scenes {
+                    lobefit::pipelines::baselines::pareto_takes(&name, scene).map_err(Failure::Usage)?;
+                }
+            }
             let opts = lobefit::pipelines::RenderOptions {
                 width: width as usize,
                 spp: spp as usize,
@@ -760,7 +776,7 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             }
             tempfile::tempfile_in(probe).map_err(|e| format!("--out {}: cannot write there: {e}", out.display()))?;
             let mut text = String::new();
-            for scene in scenes {
+            for &scene in &scenes {
                 let rows = (opts.width * 3 / 4).max(3) as u64;
                 let pb = progress(rows * animate.map_or(1, |(n, _)| n as u64), scene);
                 let tick = || pb.inc(1);
@@ -781,6 +797,15 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
                 }
             }
             emit(&text)?;
+            // The renders' output first: a study takes minutes.
+            if let Some(w) = pareto {
+                for scene in scenes {
+                    let files = pool(threads)?
+                        .install(|| lobefit::pipelines::baselines::pareto(&name, scene, w as usize, &out))?;
+                    let list: String = files.iter().map(|f| format!("{}\n", f.display())).collect();
+                    emit(&list)?;
+                }
+            }
         }
         Command::Spheres {
             mesh,

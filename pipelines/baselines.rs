@@ -11,6 +11,18 @@ use crate::estimate::{per_pixel, Estimate, Sampling};
 use crate::scene::{Hit, Scene};
 use crate::sky::{reference_cv, reference_hybrid, reference_sampled, Phong, Select};
 
+/// `println!` that ignores a closed stdout: the study's progress lines are for a person
+/// watching; the files are its result.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($t)*);
+    }};
+}
+
+/// An image's relative RMSE against the reference: noise-free, and as it is.
+type Errors = (f64, f64);
+
 /// Wall time per shaded pixel (µs) over repeated runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Timing {
@@ -31,6 +43,8 @@ pub struct Point {
     /// removed: √((E[(x − r)²] − E[noise_r²]) / E[r²]) (note: over the reference's RMS,
     /// not its mean as in the renders).
     pub rel_rmse: f64,
+    /// The same against the reference as it is, its noise included.
+    pub rel_rmse_raw: f64,
     /// Mean ꟻLIP (LDR, 67 pixels per degree) of the tone-mapped image against the
     /// tone-mapped reference ([`Bench::flip`]); `None` without the `flip` feature.
     pub flip: Option<f64>,
@@ -96,15 +110,19 @@ impl Bench {
         self.idx.len()
     }
 
-    /// The noise-free relative RMSE of `img` against the reference.
-    fn error(&self, img: &[Estimate]) -> f64 {
+    /// The relative RMSE of `img` against the reference: noise-free (the reference's
+    /// own variance removed) and as it is.
+    fn error(&self, img: &[Estimate]) -> Errors {
         let mse = self
             .idx
             .iter()
             .map(|&p| (img[p].mean - self.refs[p]).powi(2))
             .sum::<f64>()
             / self.idx.len() as f64;
-        ((mse - self.ref_var).max(0.0) / self.mean_sq).sqrt()
+        (
+            ((mse - self.ref_var).max(0.0) / self.mean_sq).sqrt(),
+            (mse / self.mean_sq).sqrt(),
+        )
     }
 
     /// The mean ꟻLIP error (NVIDIA's LDR-ꟻLIP through the `nv-flip` crate, at its
@@ -175,9 +193,11 @@ impl Bench {
         spps.iter()
             .map(|&n| {
                 let (img, us) = self.timed(&|hit, p| estimator(hit, n, seed(0x5eed_0000 + n as u64, p)))?;
+                let (rel_rmse, rel_rmse_raw) = self.error(&img);
                 Ok(Point {
                     spp: n,
-                    rel_rmse: self.error(&img),
+                    rel_rmse,
+                    rel_rmse_raw,
                     flip: self.flip(&img),
                     us,
                 })
@@ -193,9 +213,11 @@ impl Bench {
             .map(|&n| {
                 let (img, us) =
                     self.timed_image(&|| adaptive_image(&self.hits, self.w, n, 0x5eed_0000 + n as u64, estimator))?;
+                let (rel_rmse, rel_rmse_raw) = self.error(&img);
                 Ok(Point {
                     spp: n,
-                    rel_rmse: self.error(&img),
+                    rel_rmse,
+                    rel_rmse_raw,
                     flip: self.flip(&img),
                     us,
                 })
@@ -208,7 +230,7 @@ impl Bench {
     pub fn analytic(
         &self,
         shade: &(dyn Fn(&Hit) -> Result<f64, String> + Sync),
-    ) -> Result<(f64, Option<f64>, Timing), String> {
+    ) -> Result<(Errors, Option<f64>, Timing), String> {
         let (img, us) = self.timed(&|hit, _| {
             Ok(Estimate {
                 mean: shade(hit)?,
@@ -412,7 +434,9 @@ fn environment(
 /// One analytic configuration's measured error and time.
 struct Method {
     name: String,
+    /// Noise-free, and against the reference as it is (see [`Point`]).
     rel_rmse: f64,
+    rel_rmse_raw: f64,
     flip: Option<f64>,
     us: Timing,
 }
@@ -436,13 +460,13 @@ fn report(
         "threads": rayon::current_num_threads(),
         "reference_rel_rmse": b.reference_error(),
         "methods": methods.iter().map(|m| serde_json::json!({
-            "name": m.name, "rel_rmse_noise_free": m.rel_rmse, "flip": m.flip,
+            "name": m.name, "rel_rmse": m.rel_rmse_raw, "rel_rmse_noise_free": m.rel_rmse, "flip": m.flip,
             "us_per_pixel": m.us.median, "us_min": m.us.min, "us_max": m.us.max,
         })).collect::<Vec<_>>(),
         "estimators": curves.iter().map(|(l, c)| serde_json::json!({
             "name": l,
             "curve": c.iter().map(|p| serde_json::json!({
-                "spp": p.spp, "rel_rmse_noise_free": p.rel_rmse, "flip": p.flip,
+                "spp": p.spp, "rel_rmse": p.rel_rmse_raw, "rel_rmse_noise_free": p.rel_rmse, "flip": p.flip,
                 "us_per_pixel": p.us.median, "us_min": p.us.min, "us_max": p.us.max,
             })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
@@ -483,13 +507,13 @@ fn report(
             series,
         },
     )?;
-    println!("  wrote {} and {}", json.display(), png.display());
+    say!("  wrote {} and {}", json.display(), png.display());
     Ok(vec![json, png])
 }
 
 /// The measured points, printed: the analytic configurations', then each estimator's.
 fn print_points(tag: &str, b: &Bench, methods: &[Method], curves: &[(&str, Vec<Point>)]) {
-    println!(
+    say!(
         "{tag}: {} px shaded, {} threads; reference error {:.1e}",
         b.pixels(),
         rayon::current_num_threads(),
@@ -497,7 +521,7 @@ fn print_points(tag: &str, b: &Bench, methods: &[Method], curves: &[(&str, Vec<P
     );
     let flip = |f: Option<f64>| f.map_or(String::new(), |f| format!(", ꟻLIP {f:.4}"));
     for m in methods {
-        println!(
+        say!(
             "  method {:<22} rel RMSE {:.4}{}, {:.2} µs/px [{:.2}–{:.2}]",
             m.name,
             m.rel_rmse,
@@ -522,7 +546,7 @@ fn print_points(tag: &str, b: &Bench, methods: &[Method], curves: &[(&str, Vec<P
                 )
             })
             .collect();
-        println!("  {label:<7} {}", pts.join("; "));
+        say!("  {label:<7} {}", pts.join("; "));
     }
 }
 
@@ -554,7 +578,7 @@ fn equal_error(methods: &[Method], curves: &[(&str, Vec<Point>)]) -> Vec<serde_j
                         ),
                         None => "plain beyond measured range".into(),
                     };
-                    println!(
+                    say!(
                         "  at {what} ({target:.4}), {label:<7}: {n:.0} spp, {:.1} µs/px [{:.1}–{:.1}]; {vs_plain}; {:.2}× the analytic time [{:.2}–{:.2}]",
                         t.median,
                         t.min,
@@ -569,7 +593,7 @@ fn equal_error(methods: &[Method], curves: &[(&str, Vec<Point>)]) -> Vec<serde_j
                         "ratio": t.median / ta.median,
                     }));
                 }
-                _ => println!(
+                _ => say!(
                     "  at {what} ({target:.4}), {label:<7}: beyond measured range (last: {} spp, {:.4})",
                     c.last().map_or(0, |p| p.spp),
                     c.last().map_or(f64::NAN, |p| p.rel_rmse)
@@ -605,6 +629,71 @@ pub fn plot(out: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     Ok(written)
 }
 
+/// The pipelines [`pareto`] measures.
+pub const PARETO_PIPELINES: [&str; 3] = ["isg", "shexp", "meunier"];
+
+/// Whether [`pareto`] takes `scene` of `pipeline`, checked before a render spends its
+/// time: the pipeline must have a study, and the scene must be one scene (the ISG's
+/// `sweep` is a series; `--scene all` includes it).
+pub fn pareto_takes(pipeline: &str, scene: &str) -> Result<(), String> {
+    if !PARETO_PIPELINES.contains(&pipeline) {
+        return Err(format!(
+            "render {pipeline} --pareto: no Pareto study for this pipeline (it has one for {})",
+            PARETO_PIPELINES.join(", ")
+        ));
+    }
+    if pipeline == "isg" && scene == "sweep" {
+        return Err(format!(
+            "render isg --scene {scene} --pareto: the sweep is a series of scenes; the study takes one \
+             (fig12, fig12-diffuse or a scene file)"
+        ));
+    }
+    Ok(())
+}
+
+/// `lobefit render NAME --scene S --pareto WIDTH`: the study of one scene of one
+/// pipeline (a built-in scene or a scene file; Meunier also `cluster-N`, `torus-N`) at
+/// `width` pixels, with the full study's reference, sample ranges and timing runs;
+/// writes `<pipeline>-<scene>-summary.json` and `-pareto.png` in `out` and returns
+/// them. Minutes per scene at 24 px (docs/pipelines.md, "Stronger baselines"); the
+/// time grows with the pixels.
+pub fn pareto(
+    pipeline: &str,
+    scene: &str,
+    width: usize,
+    out: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    pareto_takes(pipeline, scene)?;
+    let cfg = Study {
+        width,
+        scenes: scene.into(),
+        out: out.to_path_buf(),
+        ..Study::default()
+    };
+    match pipeline {
+        "isg" => study_sky(&cfg, scene, true),
+        "shexp" => study_sky(&cfg, scene, false),
+        "meunier" => study_meunier_named(&cfg, scene),
+        other => Err(format!("render {other} --pareto: no Pareto study for this pipeline")),
+    }
+}
+
+/// A scene's name as part of a file name: a scene file's path keeps its stem.
+fn tag(name: &str) -> String {
+    let stem = std::path::Path::new(name)
+        .file_stem()
+        .map_or(name.into(), |s| s.to_string_lossy());
+    stem.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect()
+}
+
 /// The study's knobs.
 struct Study {
     width: usize,
@@ -637,14 +726,13 @@ fn study(cfg: &Study) -> Result<Vec<std::path::PathBuf>, String> {
     for name in cfg.scenes.split(',') {
         let t0 = Instant::now();
         // Meunier: fig13, or a blocker-scaling scene (`cluster-N`, `torus-N`).
-        let scaling = |kind: &str| name.strip_prefix(kind).and_then(|n| n.parse::<usize>().ok());
-        written.extend(match (scaling("cluster-"), scaling("torus-")) {
-            (Some(n), _) => study_meunier(cfg, name, crate::meunier::scaling::cluster(n)?)?,
-            (_, Some(n)) => study_meunier(cfg, name, crate::meunier::scaling::torus(n)?)?,
-            _ if name == "fig13" => study_meunier(cfg, name, crate::meunier::render::scene(name)?)?,
-            _ => study_sky(cfg, name)?,
+        let meunier = name == "fig13" || name.starts_with("cluster-") || name.starts_with("torus-");
+        written.extend(if meunier {
+            study_meunier_named(cfg, name)?
+        } else {
+            study_sky(cfg, name, name.starts_with("fig12"))?
         });
-        println!("  ({} px wide, {:.0} s)", cfg.width, t0.elapsed().as_secs_f64());
+        say!("  ({} px wide, {:.0} s)", cfg.width, t0.elapsed().as_secs_f64());
     }
     Ok(written)
 }
@@ -676,15 +764,28 @@ fn methods<S: Sync>(
     configs
         .iter()
         .map(|(label, s)| {
-            let (rel_rmse, flip, us) = b.analytic(&|h| shade(s, h))?;
+            let ((rel_rmse, rel_rmse_raw), flip, us) = b.analytic(&|h| shade(s, h))?;
             Ok(Method {
                 name: label.clone(),
                 rel_rmse,
+                rel_rmse_raw,
                 flip,
                 us,
             })
         })
         .collect()
+}
+
+/// A Meunier scene by name: a blocker-scaling scene (`cluster-N`, `torus-N`), or one
+/// the pipeline's renders take (built-in or a file).
+fn study_meunier_named(cfg: &Study, name: &str) -> Result<Vec<std::path::PathBuf>, String> {
+    let scaling = |kind: &str| name.strip_prefix(kind).and_then(|n| n.parse::<usize>().ok());
+    let scene = match (scaling("cluster-"), scaling("torus-")) {
+        (Some(n), _) => crate::meunier::scaling::cluster(n)?,
+        (_, Some(n)) => crate::meunier::scaling::torus(n)?,
+        _ => crate::meunier::render::scene(name)?,
+    };
+    study_meunier(cfg, name, scene)
 }
 
 /// A Meunier scene (fig13 or a blocker-scaling scene): its mask configurations against
@@ -748,13 +849,12 @@ fn study_meunier(cfg: &Study, name: &str, scene: Scene) -> Result<Vec<std::path:
             curve_until(&b, target, cfg.qmc_max, &est(Sampling::Qmc), true)?,
         ),
     ];
-    report(&format!("meunier-{name}"), &cfg.out, &b, &methods, &curves)
+    report(&format!("meunier-{}", tag(name)), &cfg.out, &b, &methods, &curves)
 }
 
 /// An ISG (fig12…) or SH-exponentiation scene under its sky: its analytic
 /// configurations against plain, QMC, the control variates, adaptive and the hybrid.
-fn study_sky(cfg: &Study, name: &str) -> Result<Vec<std::path::PathBuf>, String> {
-    let isg = name.starts_with("fig12");
+fn study_sky(cfg: &Study, name: &str, isg: bool) -> Result<Vec<std::path::PathBuf>, String> {
     let scene = if isg {
         crate::isg::render::scene(name)?
     } else {
@@ -792,7 +892,7 @@ fn study_sky(cfg: &Study, name: &str) -> Result<Vec<std::path::PathBuf>, String>
     let hybrid = if isg { Kind::HybridIsg } else { Kind::HybridSh };
     curves.push(("hybrid", measure(hybrid, cfg.qmc_max, false)?));
     let pipeline = if isg { "isg" } else { "shexp" };
-    report(&format!("{pipeline}-{name}"), &cfg.out, &b, &methods, &curves)
+    report(&format!("{pipeline}-{}", tag(name)), &cfg.out, &b, &methods, &curves)
 }
 
 /// The ISG's configurations: the default, and each model with 10×10 and 20×20 patches.
@@ -882,6 +982,7 @@ mod tests {
         Point {
             spp,
             rel_rmse,
+            rel_rmse_raw: rel_rmse,
             flip: None,
             us: Timing {
                 median: us,
@@ -1001,7 +1102,7 @@ mod tests {
             Ok(0.5 * (a + b))
         };
         let (e, _, t) = b.analytic(&same).unwrap();
-        assert_eq!(e, 0.0);
+        assert_eq!(e, (0.0, 0.0), "the reference itself: no error, either way");
         assert!(t.min <= t.median && t.median <= t.max);
         let c = b.curve(&[4, 16], &est).unwrap();
         assert!(

@@ -101,6 +101,73 @@ fn bad_render_arguments_are_refused() {
     }
 }
 
+/// `--pareto W` after a render: the scene's Pareto chart and its summary, with every
+/// mask configuration's point and every estimator's measured curve, and the equal-error
+/// rows between them; refused where a pipeline has no study or with `--frames`.
+#[test]
+fn pareto_writes_the_chart_and_its_summary() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().to_str().unwrap();
+    let args = ["render", "meunier", "--scene", "fig13", "--width", "8", "--spp", "16"];
+    let (code, stdout, err) = common::run_text(&[&args[..], &["--pareto", "4", "--out", out]].concat(), "");
+    assert_eq!(code, Some(0), "{err}");
+    let json = d.path().join("meunier-fig13-summary.json");
+    let png = d.path().join("meunier-fig13-pareto.png");
+    assert!(
+        stdout.contains(json.to_str().unwrap()) && stdout.contains(png.to_str().unwrap()),
+        "{stdout}"
+    );
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let pixels = v["pixels"].as_u64().unwrap();
+    assert!(
+        (1..=12).contains(&pixels),
+        "the 4 x 3 image's pixels that see geometry: {pixels}"
+    );
+    let methods = v["methods"].as_array().unwrap();
+    assert!(methods[0]["name"].as_str().unwrap().starts_with("default"));
+    // Against the reference as it is and with its noise removed: the second no larger.
+    for m in methods {
+        let (raw, free) = (
+            m["rel_rmse"].as_f64().unwrap(),
+            m["rel_rmse_noise_free"].as_f64().unwrap(),
+        );
+        assert!(free.is_finite() && free <= raw, "{m}");
+    }
+    let names: Vec<&str> = v["estimators"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["plain", "qmc", "adaptive"]);
+    for e in v["estimators"].as_array().unwrap() {
+        let spp: Vec<u64> = e["curve"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["spp"].as_u64().unwrap())
+            .collect();
+        assert!(spp.len() >= 4 && spp.windows(2).all(|w| w[1] == 4 * w[0]), "{spp:?}");
+    }
+    for (args, want) in [
+        (
+            &["render", "rigs", "--scene", "fig1", "--pareto", "8"][..],
+            "render rigs --pareto: no Pareto study for this pipeline",
+        ),
+        (
+            &["render", "isg", "--frames", "2", "--pareto", "8"],
+            "cannot be used with",
+        ),
+        (&["render", "isg", "--pareto", "2"], "--pareto"),
+        (&["render", "isg", "--pareto", "8"], "the sweep is a series of scenes"),
+    ] {
+        let (code, stdout, err) = common::run_text(&[args, &["--out", out]].concat(), "");
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains(want) && stdout.is_empty(), "{args:?}: {err}");
+    }
+}
+
 /// A scene file renders like the built-in it copies (same numbers, its own name);
 /// a missing or malformed one is a specific error and writes nothing.
 #[test]
