@@ -6,7 +6,9 @@ renders (docs/meshes.md, "Proxy error against sphere count"): the bunny scenes
 small size; prints the breakdown's "sphere sets → true meshes" row and the image's
 relative RMSE. A study, not a check: CI does not run it.
 Usage: python3 scripts/proxy_counts.py [WIDTH] [SPP] [PIPELINE ...]   (default 64 256
-meunier shexp; release build)"""
+meunier shexp; release build)
+       python3 scripts/proxy_counts.py --plot TABLE.txt OUT.png   (the printed table as a
+chart: proxy row and image error against sphere count, log-log; needs matplotlib)"""
 import json
 import os
 import re
@@ -14,6 +16,47 @@ import shutil
 import subprocess
 import sys
 import tempfile
+
+
+
+def plot(table, png):
+    """Draws the table this script prints: per pipeline and fit method, the proxy row
+    (solid) and the image's relative RMSE (dashed) against the sphere count; a refused
+    render is an x on the axis' top edge."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = [line.split() for line in open(table).read().splitlines()[1:] if line.strip()]
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
+    for ax, pipeline in zip(axes, ["meunier", "shexp"]):
+        for method, colour, top in [("kmeans", "tab:blue", 0.42), ("kmeans-moment", "tab:orange", 0.48)]:
+            ok = [(int(r[2]), float(r[3]), float(r[4])) for r in rows
+                  if r[0] == pipeline and r[1] == method and r[3] != "refused:"]
+            refused = [int(r[2]) for r in rows if r[0] == pipeline and r[1] == method and r[3] == "refused:"]
+            if ok:
+                n, proxy, image = zip(*ok)
+                ax.plot(n, proxy, "o-", color=colour, label=f"{method}: proxy row")
+                ax.plot(n, image, "s--", color=colour, alpha=0.6, label=f"{method}: image")
+            for k in refused:
+                ax.plot([k], [top], "x", color=colour, markersize=10, clip_on=False,
+                        label=f"{method}: refused (exp* out of range)" if k == refused[0] else None)
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+        ax.set_ylim(0.03, 0.5)
+        ax.set_title({"meunier": "Meunier (mask lobes)", "shexp": "SH exponentiation (order 4)"}[pipeline])
+        ax.set_xlabel("spheres in the bunny's set")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="lower left" if pipeline == "meunier" else "upper left")
+    axes[0].set_ylabel("relative RMSE (of the mean)")
+    fig.suptitle("The sphere proxy's error against sphere count (bunny, 64 px, 256 spp)")
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+    print(png)
+
+
+if sys.argv[1:2] == ["--plot"]:
+    plot(sys.argv[2], sys.argv[3])
+    sys.exit(0)
 
 width, spp = (sys.argv[1:] + ["64", "256"])[:2]
 root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
