@@ -613,7 +613,14 @@ impl Mesh {
 
     /// Distance from `p` to the nearest point of the surface.
     pub fn distance(&self, p: DVec3) -> f64 {
+        self.nearest_triangle(p).map_or(f64::INFINITY, |(d, _)| d)
+    }
+
+    /// The distance from `p` to the surface and a triangle at that distance (`None`
+    /// for a mesh without triangles).
+    pub fn nearest_triangle(&self, p: DVec3) -> Option<(f64, usize)> {
         let mut best = f64::INFINITY;
+        let mut which = None;
         let mut stack = vec![0usize];
         while let Some(k) = stack.pop() {
             let n = &self.nodes[k];
@@ -635,10 +642,13 @@ impl Mesh {
             }
             for &t in &self.order[n.first..n.first + n.count] {
                 let [a, b, c] = self.corners(t as usize);
-                best = best.min((closest_on_triangle(p, a, b, c) - p).length());
+                let d = (closest_on_triangle(p, a, b, c) - p).length();
+                if d < best {
+                    (best, which) = (d, Some(t as usize));
+                }
             }
         }
-        best
+        which.map(|k| (best, k))
     }
 
     /// [`Mesh::distance`] by a scan over every triangle.

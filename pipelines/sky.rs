@@ -11,7 +11,7 @@ use lobefit_tables::LookupError;
 
 use super::estimate::{estimate_with, Estimate, Sampling, Uniforms};
 use super::heightfield::HeightField;
-use super::scene::Hit;
+use super::scene::{Hit, Scene};
 
 /// The BRDF as the pipeline takes it: k_d/π + k_s (n + 2)/(2π) max(r·ω, 0)^n.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -435,6 +435,36 @@ pub fn hit_of_row(x: &[f64], spheres: &[Sphere], terrain: Option<&HeightField>) 
         mesh: None,
         material: 0,
     })
+}
+
+/// How close to a mesh's surface a row's point must lie to be on it, relative to the
+/// mesh's bounding-box diagonal (a row copied from a render's hit at 17 digits is
+/// within 1e-15).
+const ON_MESH: f64 = 1e-9;
+
+/// [`hit_of_row`] on a scene with meshes: the point on a sphere, on a mesh (its
+/// nearest triangle, the mesh's material), or neither; a point inside a sphere or a
+/// mesh, or below the height field, is out of the domain.
+pub fn hit_on_scene(x: &[f64], scene: &Scene, terrain: Option<&HeightField>) -> Result<Hit, LookupError> {
+    let mut h = hit_of_row(x, &scene.spheres, terrain)?;
+    for (mi, m) in scene.meshes.iter().enumerate() {
+        let (lo, hi) = m.mesh.bounds();
+        let Some((d, k)) = m.mesh.nearest_triangle(h.x) else {
+            continue;
+        };
+        if d <= ON_MESH * (hi - lo).length() && h.sphere.is_none() {
+            h.mesh = Some((mi, k));
+            h.material = m.material;
+        } else if m.mesh.inside(h.x) {
+            return Err(LookupError::OutOfDomain {
+                name: format!("the point's distance to mesh {mi}'s surface, inside it"),
+                value: -d,
+                lo: 0.0,
+                hi: f64::INFINITY,
+            });
+        }
+    }
+    Ok(h)
 }
 
 /// `eval --exact`'s Monte Carlo run: `run(n)` from 16 384 samples, ×4 until its standard

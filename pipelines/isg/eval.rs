@@ -1,22 +1,24 @@
 //! `lobefit eval isg-shade --scene FILE [--model paper|refit|best] [--patches N]
 //! [--exact]`: the ISG pipeline at given points (no image). The scene file gives the
-//! environment, the spheres (every sphere occludes) and the top-level `brdf`.
+//! environment, the spheres and meshes (every one occludes; the pipeline sees a mesh
+//! through its sphere set, `--exact` through its triangles) and the top-level `brdf`.
 
-use lobefit_tables::geom::Sphere;
+use std::sync::Arc;
+
 use lobefit_tables::glam::DVec3;
-use lobefit_tables::isg::Sg;
 use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 
-use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Tables};
-use crate::scene::Bvh;
-use crate::sky::{exact_estimate, hit_of_row, POINT_INPUTS};
+use super::render::blockers_of;
+use super::shade::{radiance, Model, Patches, Phong, Settings, Tables};
+use crate::scene::Scene;
+use crate::sky::{exact_estimate, hit_on_scene, POINT_INPUTS};
 use lobefit_core::family::{EvalFlag, EvalFlags, Lookup, View};
 
 /// The flags `eval isg-shade` takes.
 pub const FLAGS: &[EvalFlag] = &[
     EvalFlag {
         name: "scene",
-        help: "FILE (required: environment SGs, spheres, top-level brdf)",
+        help: "FILE (required: environment SGs, spheres or meshes, top-level brdf)",
         count: false,
     },
     EvalFlag {
@@ -34,24 +36,24 @@ pub const FLAGS: &[EvalFlag] = &[
 /// `eval --help`'s paragraph.
 pub const EVAL_HELP: &str = "
 isg-shade  (a pipeline: Iwasaki et al.'s shading of points, docs/isg-render.md)
-  flags    --scene FILE (required: environment SGs, spheres, top-level brdf), --model paper|refit|best
+  flags    --scene FILE (required: environment SGs, spheres or meshes, top-level brdf), --model paper|refit|best
            (default best), --patches N (N × N patches per product SG, 1..=64; default adaptive, 10 to 20)
   in   `px`,`py`,`pz`  the point (scene units); `nx`,`ny`,`nz` its unit normal; `vx`,`vy`,`vz` the unit
                        direction towards the viewer
   out  `radiance`      outgoing radiance (the environment's units): the environment's SGs times the BRDF
                        (k_d/π + k_s (n+2)/(2π) max(r·ω,0)^n) and the clamped cosine, visible where no sphere
-                       blocks; --exact: Monte Carlo with exact ray-sphere visibility, run until its standard
-                       error is at most 1e-3 of the estimate (at most 2^24 samples, else an error)
+                       blocks (a mesh: its sphere set; 0 inside another blocker's sphere); --exact: Monte Carlo
+                       with exact visibility (spheres, a mesh's triangles), run until its standard error is at
+                       most 1e-3 of the estimate (at most 2^24 samples, else an error). A point on a mesh (within
+                       1e-9 of its diagonal) sees past its own sphere set; a point inside a mesh is refused
 ";
 
 /// The `eval isg-shade` view.
 #[derive(Clone)]
 pub struct IsgShadeView {
     settings: Settings,
-    env: Vec<Sg>,
     brdf: Phong,
-    spheres: Vec<Sphere>,
-    bvh: Bvh,
+    scene: Arc<Scene>,
 }
 
 impl IsgShadeView {
@@ -59,12 +61,7 @@ impl IsgShadeView {
     pub fn from_flags(flags: &EvalFlags) -> Result<Self, String> {
         flags.only("isg-shade", FLAGS)?;
         let path = flags.text("scene").ok_or("isg-shade needs --scene FILE")?;
-        // Meshes are the renders' so far: the view's rows carry no mesh to lie on.
-        let accepts = crate::scene::Accepts {
-            meshes: false,
-            ..super::PIPELINE.accepts
-        };
-        let scene = crate::scene::load_for(&path, &accepts)?;
+        let scene = crate::scene::load_for(&path, &super::PIPELINE.accepts)?;
         if scene.environment.is_empty() {
             return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name));
         }
@@ -85,10 +82,8 @@ impl IsgShadeView {
                 patches,
                 ..Settings::default()
             },
-            env: scene.environment.clone(),
             brdf,
-            bvh: Bvh::new(&scene.spheres),
-            spheres: scene.spheres,
+            scene: Arc::new(scene),
         })
     }
 }
@@ -100,19 +95,18 @@ struct ShadeLookup {
 
 impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        let h = hit_of_row(x, &self.view.spheres, None)?;
-        let own = h.sphere.map_or(0..0, |i| i..i + 1);
-        let blockers = Blockers {
-            spheres: &self.view.spheres,
-            bvh: Some(&self.view.bvh),
-            own,
-        };
+        let scene = &*self.view.scene;
+        let h = hit_on_scene(x, scene, None)?;
+        if scene.buried(&h) {
+            // Inside a mesh's covering sphere: the proxy is a solid (`Scene::buried`).
+            return Ok(vec![0.0]);
+        }
         radiance(
             &self.tables,
             &self.view.settings,
-            &self.view.env,
+            &scene.environment,
             &self.view.brdf,
-            &blockers,
+            &blockers_of(scene, &h),
             &h,
         )
         .map(|r| vec![r])
@@ -153,11 +147,12 @@ impl View for IsgShadeView {
         }))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let h = hit_of_row(x, &self.spheres, None).map_err(|e| e.to_string())?;
+        let scene = &*self.scene;
+        let h = hit_on_scene(x, scene, None).map_err(|e| e.to_string())?;
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_15c0_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
-        let occluded = |v: DVec3| self.bvh.occluded(&self.spheres, h.x, v, f64::INFINITY, h.sphere);
-        exact_estimate(|n| super::reference(&self.env, &self.brdf, occluded, &h, n, seed)).map(|m| vec![m])
+        let occluded = |v: DVec3| scene.occluded(&h, v);
+        exact_estimate(|n| super::reference(&scene.environment, &self.brdf, occluded, &h, n, seed)).map(|m| vec![m])
     }
 }
 

@@ -7,7 +7,7 @@ use lobefit_tables::{LoadError, LookupError, ShExp, Table};
 
 use super::shade::{radiance, Settings, Tables};
 use crate::scene::Scene;
-use crate::sky::{exact_estimate, hit_of_row, Phong, POINT_INPUTS};
+use crate::sky::{exact_estimate, hit_on_scene, Phong, POINT_INPUTS};
 use lobefit_core::family::{EvalFlag, EvalFlags, Lookup, View};
 
 /// The flags `eval shexp-shade` takes.
@@ -53,10 +53,10 @@ impl ShExpShadeView {
         flags.only("shexp-shade", FLAGS)?;
         let path = flags.text("scene").ok_or("shexp-shade needs --scene FILE")?;
         // The render's rule, but planes: they are only seen (not blockers), and eval
-        // shades given points, so they change nothing here.
+        // shades given points, so they change nothing here. Meshes are seen through
+        // their sphere sets, as in the render.
         let accepts = crate::scene::Accepts {
             planes: true,
-            meshes: false,
             ..super::PIPELINE.accepts
         };
         let scene = crate::scene::load_for(&path, &accepts)?;
@@ -96,7 +96,7 @@ struct ShadeLookup {
 
 impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
-        let h = hit_of_row(x, &self.view.scene.spheres, terrain(&self.view.scene))?;
+        let h = hit_on_scene(x, &self.view.scene, terrain(&self.view.scene))?;
         let v = &self.view;
         radiance(&self.tables, &v.settings, &v.light, &v.brdf, &v.scene, &h)
             .map(|r| vec![r])
@@ -128,7 +128,7 @@ impl View for ShExpShadeView {
         }))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let h = hit_of_row(x, &self.scene.spheres, terrain(&self.scene)).map_err(|e| e.to_string())?;
+        let h = hit_on_scene(x, &self.scene, terrain(&self.scene)).map_err(|e| e.to_string())?;
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_5e40_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         let scene = &self.scene;

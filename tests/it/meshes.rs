@@ -176,14 +176,87 @@ fn render_shexp_breaks_down_the_proxy_error() {
     assert!(stdout.contains("(→ SH-ideal on the sphere sets)"), "{stdout}");
 }
 
-/// `eval isg-shade` takes the scene's spheres only: a scene with meshes is refused by
-/// name, not shaded without them.
+/// `eval isg-shade` on a scene with a mesh: the pipeline sees the bunny through its
+/// sphere set, `--exact` through its triangles. On the bunny's top (its own spheres
+/// skipped: buried in them otherwise, and 0) and on the ground in its sun shadow (the
+/// sun SG holds most of the light), the two agree within the proxy's error; far from
+/// the bunny both give the unoccluded ground. A point inside the bunny is refused.
 #[test]
-fn eval_isg_shade_refuses_meshes() {
-    let (code, stdout, stderr) = run_text(
-        &["eval", "isg-shade", "--scene", "assets/meshes/isg-bunny.json"],
-        "px,py,pz,nx,ny,nz,vx,vy,vz\n3,3,0,0,0,1,0,0,1\n",
+fn eval_isg_shade_sees_meshes_through_their_sphere_sets() {
+    use lobefit::pipelines::scene::{load_for, Accepts};
+    use lobefit_tables::glam::DVec3;
+    let d = tempfile::tempdir().unwrap();
+    std::fs::copy("assets/meshes/bunny.obj", d.path().join("bunny.obj")).unwrap();
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string("assets/meshes/isg-bunny.json").unwrap()).unwrap();
+    scene["brdf"] = serde_json::json!({"lambert": {"albedo": 0.6}});
+    scene["meshes"][0]["spheres"]["count"] = 16.into();
+    let path = d.path().join("bunny-eval.json");
+    std::fs::write(&path, scene.to_string()).unwrap();
+    let path = path.to_str().unwrap();
+    let loaded = load_for(path, &Accepts::ALL).unwrap();
+    let mesh = &loaded.meshes[0].mesh;
+    let (lo, hi) = mesh.bounds();
+    // The triangle facing most nearly up, and the sun's axis (the sharpest SG).
+    let top = (0..mesh.triangles.len())
+        .max_by(|&a, &b| mesh.normal(a).z.total_cmp(&mesh.normal(b).z))
+        .unwrap();
+    let on_top = mesh.corners(top).iter().sum::<DVec3>() / 3.0;
+    let n_top = mesh.normal(top);
+    let sun = loaded
+        .environment
+        .iter()
+        .max_by(|a, b| a.sharpness.total_cmp(&b.sharpness))
+        .unwrap()
+        .axis;
+    let mid = 0.5 * (lo + hi);
+    let shadow = mid - sun * (mid.z / sun.z);
+    let far = DVec3::new(hi.x + 3.0, lo.y - 3.0, 0.0);
+    let row = |p: DVec3, n: DVec3| {
+        format!(
+            "{},{},{},{},{},{},{},{},{}\n",
+            p.x, p.y, p.z, n.x, n.y, n.z, n.x, n.y, n.z
+        )
+    };
+    let input = format!(
+        "px,py,pz,nx,ny,nz,vx,vy,vz\n{}{}{}",
+        row(on_top, n_top),
+        row(shadow, DVec3::Z),
+        row(far, DVec3::Z)
     );
-    assert_eq!(code, Some(2), "{stdout}{stderr}");
-    assert!(stderr.contains("cannot shade meshes"), "{stderr}");
+    let eval = |exact: bool| -> Vec<f64> {
+        let args = ["eval", "isg-shade", "--scene", path];
+        let (code, stdout, stderr) = run_text(&[&args[..], if exact { &["--exact"] } else { &[] }].concat(), &input);
+        assert_eq!(code, Some(0), "{stderr}");
+        stdout
+            .lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let (isg, exact) = (eval(false), eval(true));
+    println!("top, shadow, far: isg {isg:?}, exact {exact:?}");
+    let unoccluded = exact[2];
+    assert!(
+        unoccluded > 0.0 && (isg[2] - unoccluded).abs() < 0.01 * unoccluded,
+        "{isg:?} {exact:?}"
+    );
+    assert!(
+        isg[0] > 0.3 * unoccluded,
+        "the top is lit, not buried in its own spheres: {isg:?}"
+    );
+    assert!((isg[0] - exact[0]).abs() < 0.1 * exact[0], "{isg:?} {exact:?}");
+    assert!(
+        exact[1] < 0.5 * unoccluded,
+        "the shadow point is in the sun's shadow: {exact:?}"
+    );
+    assert!((isg[1] - exact[1]).abs() < 0.25 * unoccluded, "{isg:?} {exact:?}");
+    // Inside the bunny (its bounding box's centre, checked inside first).
+    assert!(mesh.inside(mid) && mesh.distance(mid) > 0.0);
+    let (code, stdout, stderr) = run_text(
+        &["eval", "isg-shade", "--scene", path],
+        &format!("px,py,pz,nx,ny,nz,vx,vy,vz\n{}", row(mid, DVec3::Z)),
+    );
+    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert!(stderr.contains("inside it"), "{stderr}");
 }
