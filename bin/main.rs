@@ -728,11 +728,26 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             } else {
                 vec![scene.as_str()]
             };
-            if pareto.is_some() {
-                for scene in &scenes {
-                    lobefit::pipelines::baselines::pareto_takes(&name, scene).map_err(Failure::Usage)?;
+            let study = match pareto {
+                None => None,
+                Some(w) => {
+                    let study = pipeline.pareto.ok_or_else(|| {
+                        let with: Vec<&str> = lobefit::pipelines::registry()
+                            .iter()
+                            .filter(|p| p.pareto.is_some())
+                            .map(|p| p.name)
+                            .collect();
+                        Failure::Usage(format!(
+                            "render {name} --pareto: no Pareto study for this pipeline (it has one for {})",
+                            with.join(", ")
+                        ))
+                    })?;
+                    for scene in &scenes {
+                        (study.takes)(scene).map_err(Failure::Usage)?;
+                    }
+                    Some((study, w as usize))
                 }
-            }
+            };
             let opts = lobefit::pipelines::RenderOptions {
                 width: width as usize,
                 spp: spp as usize,
@@ -798,10 +813,9 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             }
             emit(&text)?;
             // The renders' output first: a study takes minutes.
-            if let Some(w) = pareto {
+            if let Some((study, w)) = study {
                 for scene in scenes {
-                    let files = pool(threads)?
-                        .install(|| lobefit::pipelines::baselines::pareto(&name, scene, w as usize, &out))?;
+                    let files = pool(threads)?.install(|| (study.run)(scene, w, &out))?;
                     let list: String = files.iter().map(|f| format!("{}\n", f.display())).collect();
                     emit(&list)?;
                 }

@@ -629,52 +629,44 @@ pub fn plot(out: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     Ok(written)
 }
 
-/// The pipelines [`pareto`] measures.
-pub const PARETO_PIPELINES: [&str; 3] = ["isg", "shexp", "meunier"];
+/// The ISG pipeline's study ([`crate::ParetoStudy`]): one scene, so not the `sweep`
+/// series (which `--scene all` includes).
+pub const ISG: crate::ParetoStudy = crate::ParetoStudy {
+    takes: |scene| {
+        if scene == "sweep" {
+            return Err(format!(
+                "render isg --scene {scene} --pareto: the sweep is a series of scenes; the study takes one \
+                 (fig12, fig12-diffuse or a scene file)"
+            ));
+        }
+        Ok(())
+    },
+    run: |scene, width, out| study_sky(&one_scene(scene, width, out), scene, true),
+};
 
-/// Whether [`pareto`] takes `scene` of `pipeline`, checked before a render spends its
-/// time: the pipeline must have a study, and the scene must be one scene (the ISG's
-/// `sweep` is a series; `--scene all` includes it).
-pub fn pareto_takes(pipeline: &str, scene: &str) -> Result<(), String> {
-    if !PARETO_PIPELINES.contains(&pipeline) {
-        return Err(format!(
-            "render {pipeline} --pareto: no Pareto study for this pipeline (it has one for {})",
-            PARETO_PIPELINES.join(", ")
-        ));
-    }
-    if pipeline == "isg" && scene == "sweep" {
-        return Err(format!(
-            "render isg --scene {scene} --pareto: the sweep is a series of scenes; the study takes one \
-             (fig12, fig12-diffuse or a scene file)"
-        ));
-    }
-    Ok(())
-}
+/// The SH-exponentiation pipeline's study.
+pub const SHEXP: crate::ParetoStudy = crate::ParetoStudy {
+    takes: |_| Ok(()),
+    run: |scene, width, out| study_sky(&one_scene(scene, width, out), scene, false),
+};
 
-/// `lobefit render NAME --scene S --pareto WIDTH`: the study of one scene of one
-/// pipeline (a built-in scene or a scene file; Meunier also `cluster-N`, `torus-N`) at
-/// `width` pixels, with the full study's reference, sample ranges and timing runs;
-/// writes `<pipeline>-<scene>-summary.json` and `-pareto.png` in `out` and returns
-/// them. Minutes per scene at 24 px (docs/pipelines.md, "Stronger baselines"); the
-/// time grows with the pixels.
-pub fn pareto(
-    pipeline: &str,
-    scene: &str,
-    width: usize,
-    out: &std::path::Path,
-) -> Result<Vec<std::path::PathBuf>, String> {
-    pareto_takes(pipeline, scene)?;
-    let cfg = Study {
+/// Meunier's study: its scenes, and the blocker-scaling `cluster-N`, `torus-N`.
+pub const MEUNIER: crate::ParetoStudy = crate::ParetoStudy {
+    takes: |_| Ok(()),
+    run: |scene, width, out| study_meunier_named(&one_scene(scene, width, out), scene),
+};
+
+/// `lobefit render NAME --scene S --pareto WIDTH`'s knobs: the study of one scene (a
+/// built-in scene or a scene file) at `width` pixels, with the full study's reference,
+/// sample ranges and timing runs, writing `<pipeline>-<scene>-summary.json` and
+/// `-pareto.png` in `out`. Minutes per scene at 24 px (docs/pipelines.md, "Stronger
+/// baselines"); the time grows with the pixels.
+fn one_scene(scene: &str, width: usize, out: &std::path::Path) -> Study {
+    Study {
         width,
         scenes: scene.into(),
         out: out.to_path_buf(),
         ..Study::default()
-    };
-    match pipeline {
-        "isg" => study_sky(&cfg, scene, true),
-        "shexp" => study_sky(&cfg, scene, false),
-        "meunier" => study_meunier_named(&cfg, scene),
-        other => Err(format!("render {other} --pareto: no Pareto study for this pipeline")),
     }
 }
 

@@ -172,6 +172,15 @@ pub(crate) fn short_number(x: f64) -> String {
 /// directory; `progress` is called once per finished image row of the reference.
 pub type RenderFn = fn(&str, &RenderOptions, &Path, &(dyn Fn() + Sync)) -> Result<Summary, String>;
 
+/// A pipeline's Pareto study (`lobefit render NAME --pareto WIDTH`; see [`baselines`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ParetoStudy {
+    /// Refuses a scene the study cannot take, before the render spends its time.
+    pub takes: fn(&str) -> Result<(), String>,
+    /// The study of one scene at a width (pixels) into a directory: the files written.
+    pub run: fn(&str, usize, &Path) -> Result<Vec<PathBuf>, String>,
+}
+
 /// One pipeline: everything the CLI knows of it (`lobefit render NAME`, its `eval`
 /// views, its `plot` figure sets) is in this entry, and [`registry`] is the one list
 /// of them.
@@ -202,6 +211,8 @@ pub struct Pipeline {
     pub animate: Option<animate::AnimateFn>,
     /// Its built-in animated scenes (`--frames N --scene all` renders each).
     pub animations: &'static [&'static str],
+    /// Its Pareto study against every Monte Carlo estimator, if it has one.
+    pub pareto: Option<ParetoStudy>,
 }
 
 impl Pipeline {

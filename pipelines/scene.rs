@@ -2214,6 +2214,19 @@ mod mesh_tests {
         )
     }
 
+    /// A point of the ground plane z = 0 at `x`, seen from straight above.
+    fn plane_hit(x: DVec3) -> Hit {
+        Hit {
+            x,
+            n: DVec3::Z,
+            t: DVec3::X,
+            wo: DVec3::Z,
+            sphere: None,
+            mesh: None,
+            material: 0,
+        }
+    }
+
     fn write_scene() -> (tempfile::TempDir, std::path::PathBuf) {
         let d = tempfile::tempdir().unwrap();
         std::fs::write(d.path().join("lumpy.obj"), lumpy_obj()).unwrap();
@@ -2290,15 +2303,7 @@ mod mesh_tests {
             "{on_mesh} mesh pixels, {blocked} blocked rays"
         );
         // A plane point straight under the set: the set blocks the zenith.
-        let under = Hit {
-            x: DVec3::new(0.0, 0.0, 0.0),
-            n: DVec3::Z,
-            t: DVec3::X,
-            wo: DVec3::Z,
-            sphere: None,
-            mesh: None,
-            material: 0,
-        };
+        let under = plane_hit(DVec3::ZERO);
         assert!(s.proxies_occlude(&under, DVec3::Z));
     }
 
@@ -2309,15 +2314,7 @@ mod mesh_tests {
     fn a_buried_point_is_in_full_shadow() {
         let (_d, p) = write_scene();
         let s = load(p.to_str().unwrap()).unwrap();
-        let at = |x: DVec3| Hit {
-            x,
-            n: DVec3::Z,
-            t: DVec3::X,
-            wo: DVec3::Z,
-            sphere: None,
-            mesh: None,
-            material: 0,
-        };
+        let at = plane_hit;
         let (inside, outside) = (at(s.proxies[0].centre), at(DVec3::new(4.0, 4.0, 0.0)));
         assert!(s.buried(&inside) && !s.buried(&outside));
         let t = crate::isg::shade::Tables::embedded().unwrap();
@@ -2350,15 +2347,7 @@ mod mesh_tests {
             // Around the shadow's edge (the mesh spans about ±1.2 across).
             let (r, a) = (rng.range(0.8, 2.0), rng.range(0.0, TAU));
             let x = DVec3::new(r * a.cos(), r * a.sin(), 0.0);
-            let hit = Hit {
-                x,
-                n: DVec3::Z,
-                t: DVec3::X,
-                wo: DVec3::Z,
-                sphere: None,
-                mesh: None,
-                material: 0,
-            };
+            let hit = plane_hit(x);
             let axis = (light.centre - x).normalize();
             let dist = (light.centre - x).length();
             let cos_max = (1.0 - (light.radius / dist).powi(2)).sqrt();

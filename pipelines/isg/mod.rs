@@ -38,6 +38,7 @@ pub const PIPELINE: Pipeline = Pipeline {
     precise_factor: render::PRECISE_FACTOR as u64,
     animate: Some(render::animate),
     animations: &["falling"],
+    pareto: Some(crate::baselines::ISG),
 };
 
 #[cfg(test)]

@@ -38,4 +38,5 @@ pub const PIPELINE: Pipeline = Pipeline {
     precise_factor: 0,
     animate: Some(render::animate),
     animations: &["orbit"],
+    pareto: Some(crate::baselines::MEUNIER),
 };

@@ -46,6 +46,7 @@ pub const PIPELINE: Pipeline = Pipeline {
     precise_factor: 0,
     animate: None,
     animations: &[],
+    pareto: None,
 };
 
 /// The camera: a three-quarter view from above the car's front left.

@@ -43,6 +43,7 @@ pub const PIPELINE: Pipeline = Pipeline {
     precise_factor: render::PRECISE_FACTOR as u64,
     animate: None,
     animations: &[],
+    pareto: Some(crate::baselines::SHEXP),
 };
 
 /// The scene's distant light: its SGs, or its SH function.
