@@ -52,6 +52,51 @@ impl Row {
     }
 }
 
+/// A family's outputs at one point under the emulation (`mid`) and the least and
+/// greatest over the hardware filter's weight roundings ([`Context::envelope`]).
+#[derive(Debug, Clone)]
+pub struct Envelope {
+    /// The emulation's outputs.
+    pub mid: Vec<f32>,
+    /// Per output, the least over the roundings.
+    pub lo: Vec<f32>,
+    /// Per output, the greatest.
+    pub hi: Vec<f32>,
+}
+
+impl Envelope {
+    /// How far `g` lies outside output `k`'s span (0 inside it).
+    pub fn outside(&self, k: usize, g: f64) -> f64 {
+        (f64::from(self.lo[k]) - g).max(g - f64::from(self.hi[k])).max(0.0)
+    }
+}
+
+/// [`scaled_diff`] against the span of each output over the emulations: the
+/// distance outside it, scaled as there by the `mid` values.
+pub fn scaled_outside(got: &[Vec<f64>], env: &[Envelope]) -> (f64, usize) {
+    let n = env.first().map_or(0, |e| e.mid.len());
+    let mut worst = (0.0f64, 0);
+    for k in 0..n {
+        let range = env
+            .iter()
+            .map(|e| f64::from(e.mid[k]).abs())
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        for (g, e) in got.iter().zip(env) {
+            let (g, w) = (g[k], f64::from(e.mid[k]));
+            if g.is_nan() && w.is_nan() {
+                continue;
+            }
+            let d = e.outside(k, g) / w.abs().max(FLOOR * range).max(f64::MIN_POSITIVE);
+            let d = if d.is_nan() { f64::INFINITY } else { d };
+            if d > worst.0 {
+                worst = (d, k);
+            }
+        }
+    }
+    worst
+}
+
 /// Largest scaled difference of `got` against `want` (rows of outputs), see [`TOL_CPU`],
 /// and the output where it occurs.
 pub fn scaled_diff(got: &[Vec<f64>], want: &[Vec<f64>]) -> (f64, usize) {
@@ -156,6 +201,11 @@ pub struct Context<'a> {
     pub textures: &'a [TextureEntry],
     /// The CPU emulation of those textures under [`Context::emu_filter`].
     pub samplers: &'a [Sampler],
+    /// The same with the hardware filter's weights rounded down or up per axis, every
+    /// corner (8-bit hardware emulation; empty otherwise): a device's unit may round
+    /// either way ([`crate::export::layout::WeightRounding`]), so it is held to the
+    /// span.
+    pub alternatives: &'a [Vec<Sampler>],
     /// The filter the device samples with.
     pub filter: Filter,
     /// The filter the emulation applies (the device's hardware filter as it weights).
@@ -171,6 +221,20 @@ pub struct Context<'a> {
 }
 
 impl Context<'_> {
+    /// `eval` at `x` under the emulation, and per output the least and greatest value
+    /// over the emulation and its [`Context::alternatives`].
+    pub fn envelope(&self, eval: fn(&[Sampler], &[f32]) -> Vec<f32>, x: &[f32]) -> Envelope {
+        let mid = eval(self.samplers, x);
+        let (mut lo, mut hi) = (mid.clone(), mid.clone());
+        for alt in self.alternatives {
+            for (k, v) in eval(alt, x).into_iter().enumerate() {
+                lo[k] = lo[k].min(v);
+                hi[k] = hi[k].max(v);
+            }
+        }
+        Envelope { mid, lo, hi }
+    }
+
     /// The index of the texture whose file stem is `stem`.
     pub fn texture(&self, stem: &str) -> Result<usize, String> {
         self.textures

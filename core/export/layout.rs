@@ -368,6 +368,44 @@ fn eval_trend32(c: &[f64], t: f32) -> f32 {
     c.iter().rev().fold(0.0f32, |acc, &k| acc * t + k as f32)
 }
 
+/// How an emulated hardware filter rounds its sub-texel weights to multiples of 1/256:
+/// to nearest (the emulation's rule, and what NVIDIA's unit did on power-of-two axes),
+/// or each axis one way. A device's unit may round either way: on a 1000-texel axis
+/// NVIDIA's (H200, driver 580) read 274 of 4096 probed weights one step below nearest;
+/// gpu-check holds a device to the span of nearest and every corner
+/// ([`crate::export::gpu_check::Context::envelope`]: multilinear filtering takes its
+/// extremes over the box of weights at its corners).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum WeightRounding {
+    /// To the nearest multiple of 1/256.
+    #[default]
+    Nearest,
+    /// Axis k (slowest first) up when bit k is set, else down; the filtered texel
+    /// then moved by this many binary16 ulps (f16 textures: a unit may filter them
+    /// at f16 precision, as D3D's rules allow; 0 for f32).
+    Corner(u8, i8),
+}
+
+impl WeightRounding {
+    /// The corners of `axes` axes; for f16 textures each with the filtered texel
+    /// moved 2 f16 ulps down and up.
+    pub fn corners(axes: usize, f16: bool) -> impl Iterator<Item = WeightRounding> {
+        let ulps: &'static [i8] = if f16 { &[-2, 2] } else { &[0] };
+        (0..1u8 << axes).flat_map(move |c| ulps.iter().map(move |&u| WeightRounding::Corner(c, u)))
+    }
+
+    /// `v` (a filtered texel) moved by this variant's f16 ulps.
+    fn nudge(self, v: f32) -> f32 {
+        match self {
+            WeightRounding::Corner(_, u) if u != 0 => {
+                let e = v.abs().max(6.103_515_6e-5).log2().floor();
+                v + f32::from(u) * (e - 10.0).exp2()
+            }
+            _ => v,
+        }
+    }
+}
+
 /// The sampler a shader runs on a texture read back from a file: `sample` gives the
 /// unpacked channel values (exp applied to log channels) at axis values `x` (one per
 /// axis, slowest first), in f32 arithmetic.
@@ -381,11 +419,14 @@ pub struct Sampler {
     pub texture: Texture,
     /// Filter.
     pub filter: Filter,
+    /// The hardware filter's weight rounding (ignored by manual filtering).
+    pub rounding: WeightRounding,
 }
 
 impl Sampler {
-    /// Corner index and weight of the upper neighbour along one axis.
-    fn split(&self, axis: &TexAxis, x: f32) -> (usize, f32) {
+    /// Corner index and weight of the upper neighbour along axis `k` (slowest first).
+    fn split(&self, k: usize, x: f32) -> (usize, f32) {
+        let axis = &self.axes[k];
         let n = axis.axis.count as usize;
         let s = axis.texel_coordinate(x);
         match self.filter {
@@ -400,9 +441,22 @@ impl Sampler {
                 let u = (s + 0.5) / n as f32;
                 let t = (u * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
                 let i = (t.floor() as usize).min(n - 2);
-                let w = ((t - i as f32) * HARDWARE_WEIGHT_STEPS).round() / HARDWARE_WEIGHT_STEPS;
+                let steps = (t - i as f32) * HARDWARE_WEIGHT_STEPS;
+                let w = match self.rounding {
+                    WeightRounding::Nearest => steps.round(),
+                    WeightRounding::Corner(bits, _) if bits >> k & 1 == 1 => steps.ceil(),
+                    WeightRounding::Corner(..) => steps.floor(),
+                } / HARDWARE_WEIGHT_STEPS;
                 (i, w)
             }
+        }
+    }
+
+    /// A filtered texel as the hardware variant [`Sampler::rounding`] moves it.
+    fn nudge(&self, v: f32) -> f32 {
+        match self.filter {
+            Filter::Hardware => self.rounding.nudge(v),
+            Filter::Manual => v,
         }
     }
 
@@ -416,7 +470,7 @@ impl Sampler {
         let mut out = Vec::with_capacity(self.channels.len());
         match self.axes.len() {
             1 => {
-                let (i, w) = self.split(&self.axes[0], x[0]);
+                let (i, w) = self.split(0, x[0]);
                 let n = self.axes[0].axis.count;
                 // The trend's t: the coordinate the shader samples at, unrounded (a
                 // shader cannot know the filter's rounded weight; manual: = i + w).
@@ -424,24 +478,24 @@ impl Sampler {
                 let t = s_exact / (n - 1) as f32;
                 for ch in &self.channels {
                     let v = fetch(i, ch) + w * (fetch(i + 1, ch) - fetch(i, ch));
-                    out.push(unpack(ch, v, eval_trend32(&ch.trend, t)));
+                    out.push(unpack(ch, self.nudge(v), eval_trend32(&ch.trend, t)));
                 }
             }
             2 => {
-                let (j, wy) = self.split(&self.axes[0], x[0]);
-                let (i, wx) = self.split(&self.axes[1], x[1]);
+                let (j, wy) = self.split(0, x[0]);
+                let (i, wx) = self.split(1, x[1]);
                 let wdt = t.width as usize;
                 for ch in &self.channels {
                     let f = |jj: usize, ii: usize| fetch(jj * wdt + ii, ch);
                     let lo = f(j, i) + wx * (f(j, i + 1) - f(j, i));
                     let hi = f(j + 1, i) + wx * (f(j + 1, i + 1) - f(j + 1, i));
-                    out.push(unpack(ch, lo + wy * (hi - lo), 0.0));
+                    out.push(unpack(ch, self.nudge(lo + wy * (hi - lo)), 0.0));
                 }
             }
             _ => {
-                let (k, wz) = self.split(&self.axes[0], x[0]);
-                let (j, wy) = self.split(&self.axes[1], x[1]);
-                let (i, wx) = self.split(&self.axes[2], x[2]);
+                let (k, wz) = self.split(0, x[0]);
+                let (j, wy) = self.split(1, x[1]);
+                let (i, wx) = self.split(2, x[2]);
                 let (wdt, hgt) = (t.width as usize, t.height as usize);
                 for ch in &self.channels {
                     let f = |kk: usize, jj: usize, ii: usize| fetch((kk * hgt + jj) * wdt + ii, ch);
@@ -451,7 +505,7 @@ impl Sampler {
                         lo + wy * (hi - lo)
                     };
                     let (p0, p1) = (plane(k), plane(k + 1));
-                    out.push(unpack(ch, p0 + wz * (p1 - p0), 0.0));
+                    out.push(unpack(ch, self.nudge(p0 + wz * (p1 - p0)), 0.0));
                 }
             }
         }

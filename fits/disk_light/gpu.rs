@@ -155,14 +155,23 @@ fn world(ctx: &Context, runner: &dyn Runner) -> Result<Vec<Row>, String> {
     let got = runner.run(&Kernel::new("disk-light world", &[0], body, 10), &inputs)?;
     let mut emu = Vec::new();
     let mut refs = Vec::new();
+    // The world vectors under each emulation (the hardware filter's weight roundings
+    // too): per sample, the device's is held to the closest of them.
+    let mut alts: Vec<Vec<Vec<f64>>> = vec![Vec::new(); ctx.alternatives.len()];
     for x in &inputs {
         let (rot, d, tau) = disk_frame(v3(x, 0), v3(x, 6), v3(x, 9));
         let ratio = x[12] / d;
-        let c6: Vec<f64> = eval(ctx.samplers, &[ratio as f32, tau as f32])
-            .into_iter()
-            .map(f64::from)
-            .collect();
-        emu.push(disk_world(&c6, rot, x[13], v3(x, 3))?);
+        let world = |smp: &[lobefit_core::export::layout::Sampler]| {
+            let c6: Vec<f64> = eval(smp, &[ratio as f32, tau as f32])
+                .into_iter()
+                .map(f64::from)
+                .collect();
+            disk_world(&c6, rot, x[13], v3(x, 3))
+        };
+        emu.push(world(ctx.samplers)?);
+        for (a, smp) in alts.iter_mut().zip(ctx.alternatives) {
+            a.push(world(smp)?);
+        }
         let rc = crate::disk_light::reference_canonical(ratio, tau)?;
         refs.push(disk_world(&rc, rot, x[13], v3(x, 3))?);
     }
@@ -173,8 +182,35 @@ fn world(ctx: &Context, runner: &dyn Runner) -> Result<Vec<Row>, String> {
         )
     };
     let (g9, ge) = split(&got);
-    let (e9, ee) = split(&emu);
-    let vs_cpu = vector_diff(&g9, &e9).max(scaled_diff(&ge, &ee).0);
+    let vs_cpu = if alts.is_empty() {
+        let (e9, ee) = split(&emu);
+        vector_diff(&g9, &e9).max(scaled_diff(&ge, &ee).0)
+    } else {
+        // Per sample and output, the distance outside the emulations' span, scaled as
+        // `vector_diff` (the SH vector) and `scaled_diff` (the irradiance) scale.
+        let sets: Vec<&Vec<Vec<f64>>> = std::iter::once(&emu).chain(&alts).collect();
+        let range = emu.iter().map(|e| e[9].abs()).fold(0.0, f64::max);
+        let mut worst = 0.0f64;
+        for (i, g) in got.iter().enumerate() {
+            let row = emu[i][..9]
+                .iter()
+                .fold(0.0f64, |a, v| a.max(v.abs()))
+                .max(f64::MIN_POSITIVE);
+            for k in 0..10 {
+                let (lo, hi) = sets.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), e| {
+                    (lo.min(e[i][k]), hi.max(e[i][k]))
+                });
+                let scale = if k < 9 {
+                    row
+                } else {
+                    emu[i][9].abs().max(lobefit_core::export::gpu_check::FLOOR * range)
+                };
+                let d = (lo - g[k]).max(g[k] - hi).max(0.0) / scale;
+                worst = worst.max(if d.is_nan() { f64::INFINITY } else { d });
+            }
+        }
+        worst
+    };
     let l2 = g9
         .iter()
         .zip(&refs)

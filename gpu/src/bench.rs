@@ -29,6 +29,10 @@ pub struct Args {
     /// (rigs: Figure 1's car, fixed).
     #[arg(long, value_name = "PIPELINE=SCENE")]
     pub scene: Vec<String>,
+    /// Bench only these pipelines (comma-separated: isg, shexp, meunier, rigs);
+    /// default: all four.
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    pub only: Vec<String>,
     /// Image width (height 3/4 of it).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(4..=1024))]
     pub width: u32,
@@ -132,7 +136,17 @@ fn timed(gpu: &Gpu, what: &str, render: impl FnOnce() -> Result<f64, String>) ->
 
 /// `bench`.
 pub fn run(a: Args) -> Result<ExitCode, String> {
-    let scenes = scenes(&a.scene)?;
+    let mut scenes = scenes(&a.scene)?;
+    if let Some(p) = a.only.iter().find(|p| !PIPELINES.iter().any(|(q, _)| q == p)) {
+        return Err(format!("--only {p}: no such pipeline (isg, shexp, meunier, rigs)"));
+    }
+    if let Some((p, _)) = scenes
+        .iter()
+        .find(|(p, s)| !a.only.is_empty() && !a.only.iter().any(|q| q == p) && a.scene.contains(&format!("{p}={s}")))
+    {
+        return Err(format!("--scene names pipeline {p}, which --only leaves out"));
+    }
+    scenes.retain(|(p, _)| a.only.is_empty() || a.only.iter().any(|q| q == p));
     if std::fs::metadata(&a.out).is_ok_and(|m| !m.is_dir()) {
         return Err(format!("--out {}: is a file; name a directory", a.out.display()));
     }
@@ -225,13 +239,8 @@ fn bench_one(
     Ok(match pipeline {
         "isg" => {
             let sc = lobefit::pipelines::isg::render::scene(scene)?;
-            crate::isg::check_spheres(&sc)?;
             crate::isg::check_sharpness(&sc)?;
-            crate::budget::refuse_over(
-                "bench isg",
-                crate::isg::iterations(sc.proxies.len(), sc.environment.len()),
-                &format!("{} SGs, {} blocker spheres", sc.environment.len(), sc.proxies.len()),
-            )?;
+            crate::isg::check_scene(gpu, &sc, "bench isg")?;
             let method = format!(
                 "ISG best, adaptive patches ({} SGs, {} spheres)",
                 sc.environment.len(),
@@ -246,11 +255,7 @@ fn bench_one(
         }
         "shexp" => {
             let sc = lobefit::pipelines::shexp::render::scene(scene)?;
-            crate::budget::refuse_over(
-                "bench shexp",
-                crate::shexp::iterations(sc.spheres.len()),
-                &format!("{} spheres", sc.spheres.len()),
-            )?;
+            crate::shexp::check_budget(gpu, &sc, "bench shexp")?;
             let s = lobefit::pipelines::shexp::shade::Settings::default();
             let method = format!(
                 "HYB order {}, {} wedges, {:?} blocker log ({} spheres)",
@@ -532,6 +537,10 @@ fn mc_markdown(m: &crate::mc::McBench) -> String {
     for e in m.estimators() {
         md += &match m.equal_error(e) {
             Some((spp, ms)) => format!("| {} | {spp:.0} | {ms:.3} | {:.2} |\n", e.name(), ms / m.analytic.1),
+            None if m.unresolved() => format!(
+                "| {} | not read: the kernel's error is below the reference's resolution | | |\n",
+                e.name()
+            ),
             None => format!("| {} | beyond the measured range | | |\n", e.name()),
         };
     }
@@ -548,6 +557,10 @@ fn mc_summary(m: &crate::mc::McBench) -> String {
                 "{} {spp:.0} spp, {ms:.3} ms/frame ({:.2}× the kernel's time)",
                 e.name(),
                 ms / m.analytic.1
+            ),
+            None if m.unresolved() => format!(
+                "{} not read: the kernel's error is below the reference's resolution",
+                e.name()
             ),
             None => format!("{} beyond {} spp", e.name(), m.rows.last().map_or(0, |r| r.spp)),
         })

@@ -7,7 +7,8 @@
 //! kernel past it computes a wrong value and says nothing. So each render
 //!
 //! 1. bounds, before dispatch, the iterations a pixel can need (every loop counted as if
-//!    none were unrolled) and refuses a scene over [`LOOP_LIMIT`] ([`refuse_over`]);
+//!    none were unrolled) and refuses a scene over [`LOOP_LIMIT`] ([`refuse_over`]) on
+//!    a CPU adapter (a GPU has no such budget: [`Gpu::loop_budget`](crate::device::Gpu));
 //! 2. ends its kernel with [`SENTINEL`], a loop of two iterations whose bound the
 //!    compiler cannot see: after one iteration when the budget is spent, which flags
 //!    the pixel ([`FLAG_BUDGET`], read by [`flags`]) — any truncated loop, the library's
@@ -36,9 +37,10 @@ pub const SENTINEL: &str = "    var budget_runs = 0u;
 ";
 
 /// Refuses, before dispatch, a render whose pixels may need `worst` loop iterations
-/// (an upper bound, `why` saying what it counts) when that exceeds [`LOOP_LIMIT`].
-pub fn refuse_over(command: &str, worst: u64, why: &str) -> Result<(), String> {
-    if worst > LOOP_LIMIT {
+/// (an upper bound, `why` saying what it counts) when that exceeds `budget` (the
+/// device's [`Gpu::loop_budget`](crate::device::Gpu): none on a GPU).
+pub fn refuse_over(budget: Option<u64>, command: &str, worst: u64, why: &str) -> Result<(), String> {
+    if budget.is_some_and(|b| worst > b) {
         return Err(format!(
             "{command}: a pixel may need up to {worst} loop iterations ({why}); llvmpipe ends an invocation's \
              loops after {LOOP_LIMIT} in all and would write a wrong image: use a smaller scene"
@@ -71,8 +73,10 @@ mod tests {
 
     #[test]
     fn refusals_name_the_limit() {
-        assert!(refuse_over("render-x", LOOP_LIMIT, "").is_ok());
-        let e = refuse_over("render-x", LOOP_LIMIT + 1, "3 SGs").unwrap_err();
+        let b = Some(LOOP_LIMIT);
+        assert!(refuse_over(b, "render-x", LOOP_LIMIT, "").is_ok());
+        assert!(refuse_over(None, "render-x", 100 * LOOP_LIMIT, "").is_ok());
+        let e = refuse_over(b, "render-x", LOOP_LIMIT + 1, "3 SGs").unwrap_err();
         assert!(e.contains("65535") && e.contains("65536") && e.contains("3 SGs"), "{e}");
         assert!(flags("render-x", [0.0, 0.0], 2, |_| String::new()).is_ok());
         let e = flags("render-x", [0.0, FLAG_BUDGET], 2, |_| String::new()).unwrap_err();

@@ -20,6 +20,10 @@ pub struct Gpu {
     /// Whether the device writes timestamp queries (`Features::TIMESTAMP_QUERY`): the
     /// bench then times kernels on the device's clock, else by wall clock.
     pub timestamps: bool,
+    /// llvmpipe's loop budget ([`crate::budget::LOOP_LIMIT`]) on a CPU adapter
+    /// (lavapipe), `None` on a GPU: the renders refuse scenes over it, and the ISG
+    /// kernel unrolls its per-patch blocker test only where it applies.
+    pub loop_budget: Option<u64>,
     /// Bench mode ([`Gpu::bench_frames`]): frames to time per dispatch, and what was
     /// timed.
     bench: RefCell<Option<(usize, Vec<Dispatched>)>>,
@@ -118,6 +122,7 @@ impl Gpu {
         }))
         .map_err(|e| format!("Vulkan adapter {:?}: cannot create a device: {e}", info.name))?;
         Ok(Gpu {
+            loop_budget: (info.device_type == wgpu::DeviceType::Cpu).then_some(crate::budget::LOOP_LIMIT),
             info,
             device,
             queue,

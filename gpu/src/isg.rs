@@ -62,14 +62,8 @@ pub const RENDER: Render = Render {
 fn run(a: Args) -> Result<ExitCode, String> {
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::isg::render::scene(&a.scene)?;
-    check_spheres(&sc)?;
     check_sharpness(&sc)?;
-    budget::refuse_over(
-        "render isg",
-        iterations(sc.proxies.len(), sc.environment.len()),
-        &format!("{} SGs, {} blocker spheres", sc.environment.len(), sc.proxies.len()),
-    )?;
-    let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |gpu| check_scene(gpu, &sc, "render isg"))?;
     if let Some(n) = a.frames {
         return crate::render::animate("render isg", &sc, n as usize, &gpu, &a.out, |still, path| {
             render_isg(&gpu, &ex, still, a.width as usize, path)
@@ -91,19 +85,30 @@ const INPUTS: usize = 14;
 /// a 4 × 3 image; 1000 spheres 46 s, 4000 spheres 471 s and 2.86 GB).
 pub const MAX_SPHERES: usize = 256;
 
-/// Refuses a scene with more than [`MAX_SPHERES`] blocker spheres (its spheres and its
-/// meshes' sphere sets; the meshes' triangles are only seen, traced on the CPU).
-pub fn check_spheres(scene: &lobefit::pipelines::scene::Scene) -> Result<(), String> {
-    if scene.proxies.len() > MAX_SPHERES {
+/// Refuses a scene `gpu` cannot render: on llvmpipe ([`Gpu::loop_budget`]) more than
+/// [`MAX_SPHERES`] blocker spheres (its spheres and its meshes' sphere sets; the
+/// meshes' triangles are only seen, traced on the CPU), or pixels that may need more
+/// loop iterations than its budget.
+pub fn check_scene(gpu: &Gpu, scene: &lobefit::pipelines::scene::Scene, command: &str) -> Result<(), String> {
+    if gpu.loop_budget.is_some() && scene.proxies.len() > MAX_SPHERES {
         return Err(format!(
-            "render isg: scene {} has {} blocker spheres (spheres and the meshes' sphere sets); the kernel takes \
-             at most {MAX_SPHERES} (its per-patch blocker test is unrolled over them, and compiling it grows as \
-             their square)",
+            "{command}: scene {} has {} blocker spheres (spheres and the meshes' sphere sets); on a CPU adapter \
+             the kernel takes at most {MAX_SPHERES} (its per-patch blocker test is unrolled over them, and \
+             compiling it grows as their square)",
             scene.name,
             scene.proxies.len()
         ));
     }
-    Ok(())
+    budget::refuse_over(
+        gpu.loop_budget,
+        command,
+        iterations(scene.proxies.len(), scene.environment.len()),
+        &format!(
+            "{} SGs, {} blocker spheres",
+            scene.environment.len(),
+            scene.proxies.len()
+        ),
+    )
 }
 
 /// Refuses a scene whose SG products may be sharper than the ISG table's γ ≤
@@ -171,15 +176,28 @@ fn texture<'a>(export: &'a VerifiedExport, kind: &str) -> Result<(&'a TextureEnt
 /// The kernel's functions and body (gpu/shaders/isg.wgsl).
 const SHADER: &str = include_str!("../shaders/isg.wgsl");
 
-/// The kernel's per-product visible integral (the CPU's `visible_with`) and its body.
-fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(String, String), String> {
+/// The per-patch blocker test on a GPU: the blockers of the cone's mask, a set bit at
+/// a time, read from the input buffer.
+const LOOPED_TEST: &str = "            for (var w = 0u; w < NW && !blocked; w++) {
+                var bits = mask[w];
+                while bits != 0u && !blocked {
+                    let t = firstTrailingBit(bits);
+                    bits &= bits - 1u;
+                    blocked = isg_covers(sph(32u * w + t), x, d);
+                }
+            }
+";
+
+/// The kernel's per-product visible integral (the CPU's `visible_with`) and its body;
+/// the per-patch blocker test `unrolled` (llvmpipe's loop budget) or a loop over the
+/// set bits of the cone's blocker mask (a GPU).
+fn source(scene: &lobefit::pipelines::scene::Scene, count: usize, unrolled: bool) -> Result<(String, String), String> {
     if scene.proxies.is_empty() {
         return Err(format!(
             "scene {}: render isg needs at least one sphere or mesh",
             scene.name
         ));
     }
-    check_spheres(scene)?;
     // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
     // pixels' inputs in the input buffer X: storage, not constant arrays, which a
     // kernel would index dynamically.
@@ -196,7 +214,10 @@ fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(Str
     let (functions, body) = split(SHADER);
     let body = body.to_string() + budget::SENTINEL + "    Y[o + 1u] = budget_flag;";
     let f = |v: f64| format!("{:e}", v as f32);
-    let tests: String = scene
+    let tests: String = if !unrolled {
+        LOOPED_TEST.to_string()
+    } else {
+        scene
         .proxies
         .iter()
         .enumerate()
@@ -211,7 +232,8 @@ fn source(scene: &lobefit::pipelines::scene::Scene, count: usize) -> Result<(Str
                 f(sp.radius)
             )
         })
-        .collect();
+        .collect()
+    };
     Ok((consts + &functions.replace("BLOCKED_TESTS", &tests), body))
 }
 
@@ -259,7 +281,7 @@ pub fn render_isg(
     for g in &sc.environment {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
-    let (extra, body) = source(sc, visible.len())?;
+    let (extra, body) = source(sc, visible.len(), gpu.loop_budget.is_some())?;
     let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
     let got = gpu.run_with(
         &src,
@@ -302,4 +324,29 @@ pub fn render_isg(
     }
     let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
     compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Both forms of the per-patch blocker test (unrolled for llvmpipe, a loop over
+    /// the mask's set bits for a GPU) parse and validate (naga), and the loop's form
+    /// has no literal sphere in it, so its size does not grow with the scene.
+    #[test]
+    fn both_blocker_tests_validate() {
+        let sc = lobefit::pipelines::isg::render::scene("sweep-306").unwrap();
+        assert_eq!(sc.proxies.len(), 306);
+        for unrolled in [true, false] {
+            let (extra, body) = source(&sc, 7, unrolled).unwrap();
+            let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
+            if let Err(e) = lobefit::export::shaders::module_of(&src) {
+                panic!("unrolled {unrolled}: {e}");
+            }
+            assert_eq!(
+                extra.matches("isg_covers(vec4<f32>(").count(),
+                if unrolled { 306 } else { 0 }
+            );
+        }
+    }
 }

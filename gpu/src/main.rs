@@ -49,6 +49,17 @@ enum Command {
         /// A `lobefit export` directory (manifest.json and the textures).
         #[arg(long, value_name = "DIR")]
         export: PathBuf,
+        /// Also print (stderr) the samples where the device errs most, per family and
+        /// filter, and its linear filter's weights against rules for them: what to
+        /// send with a report of a failing row.
+        #[arg(long)]
+        worst: bool,
+        /// Emulate the hardware filter with 8-bit weights (rounded to nearest, down and
+        /// up: the span a device is held to) whatever the probe finds: on a device with
+        /// exact weights (lavapipe) every hardware row must then pass too, its weights
+        /// lying between the rounded ones.
+        #[arg(long)]
+        eight_bit: bool,
     },
     /// Render NAME on the GPU against the CPU to a PNG: a pipeline of `lobefit render`
     /// (its registry's names) or `library`, the shader library's test image; exit 1 when
@@ -79,7 +90,14 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         Command::Cost { export } => cost(&export),
         Command::Bench(a) => bench::run(a),
         Command::Mc(a) => mc::run(a),
-        Command::GpuCheck { export } => gpu_check(&export),
+        Command::GpuCheck {
+            export,
+            worst,
+            eight_bit,
+        } => {
+            conformance::WORST.store(worst, std::sync::atomic::Ordering::Relaxed);
+            gpu_check(&export, eight_bit)
+        }
     }
 }
 
@@ -115,7 +133,7 @@ fn cost(export: &Path) -> Result<ExitCode, String> {
 }
 
 /// `gpu-check --export DIR`.
-fn gpu_check(export: &Path) -> Result<ExitCode, String> {
+fn gpu_check(export: &Path, eight_bit: bool) -> Result<ExitCode, String> {
     // The manifest's promises become this check's limits: they are verified
     // first (`lobefit check --export`: texels rebuilt, errors re-measured).
     let failed: Vec<String> = lobefit::export::run::check_export(export)?
@@ -148,15 +166,22 @@ fn gpu_check(export: &Path) -> Result<ExitCode, String> {
         ex.manifest.samples,
         ex.manifest.seed
     );
-    let bits = conformance::probe_weight_bits(&gpu)?;
+    let probed = conformance::probe_weight_bits(&gpu)?;
+    let bits = if eight_bit { 8 } else { probed };
     out!(
-        "hardware linear filter: {bits} fractional weight bits (probe){}",
+        "hardware linear filter: {probed} fractional weight bits (probe){}{}",
+        if eight_bit { ", --eight-bit" } else { "" },
         if bits >= 12 {
             "; emulated with exact weights"
         } else {
             "; emulated with 8-bit weights"
         }
     );
+    if conformance::WORST.load(std::sync::atomic::Ordering::Relaxed) {
+        for line in conformance::probe_filter_rules(&gpu)? {
+            eprintln!("{line}");
+        }
+    }
     let baked_path = export.join(
         ex.manifest
             .baked_shaders
@@ -167,6 +192,7 @@ fn gpu_check(export: &Path) -> Result<ExitCode, String> {
     let mut rows = conformance::check_textured(&gpu, &ex, bits, &baked)?;
     rows.extend(conformance::check_baked(&gpu, export, &ex)?);
     rows.extend(conformance::check_closed(&gpu, ex.manifest.samples, ex.manifest.seed)?);
+    rows.push(conformance::check_trig(&gpu)?);
     let dummy = gpu.upload(&conformance::dummy_texture(), lobefit::export::Storage::F32)?;
     rows.extend(world::check_closed_world(
         &gpu,

@@ -600,15 +600,28 @@ impl McBench {
         v
     }
 
+    /// Whether the analytic kernel's error is below what the reference resolves (its
+    /// noise-free estimate is 0, or not finite): no equal-error point can be read.
+    pub fn unresolved(&self) -> bool {
+        !(self.analytic.0 > 0.0 && self.analytic.0.is_finite())
+    }
+
     /// Per estimator: (samples per pixel, ms/frame) where its error reaches the
     /// analytic kernel's, interpolated log-log between measured points; `None` beyond
-    /// the measured range (then the last point is a lower bound).
+    /// the measured range (then the last point is a lower bound), and where the
+    /// kernel's error, or the error after the crossing, is below what the reference
+    /// resolves (noise-free estimate 0: [`McBench::unresolved`]), where a log-log
+    /// interpolation means nothing.
     pub fn equal_error(&self, est: Estimator) -> Option<(f64, f64)> {
         let pts: Vec<&McRow> = self.rows.iter().filter(|r| r.estimator == est).collect();
         let target = self.analytic.0;
+        if self.unresolved() {
+            return None;
+        }
         pts.windows(2).find_map(|w| {
             let (a, b) = (w[0], w[1]);
-            (a.rel_rmse >= target && target >= b.rel_rmse && a.rel_rmse > b.rel_rmse).then(|| {
+            let crosses = a.rel_rmse >= target && target >= b.rel_rmse && a.rel_rmse > b.rel_rmse;
+            (crosses && b.rel_rmse > 0.0).then(|| {
                 let t = (a.rel_rmse / target).ln() / (a.rel_rmse / b.rel_rmse).ln();
                 let lerp = |x: f64, y: f64| (x.ln() + t * (y.ln() - x.ln())).exp();
                 (

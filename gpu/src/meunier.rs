@@ -135,7 +135,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
             sc.name
         ));
     }
-    let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |_| Ok(()))?;
     if let Some(n) = a.frames {
         return crate::render::animate("render meunier", &sc, n as usize, &gpu, &a.out, |still, path| {
             render_meunier(&gpu, &ex, still, a.width as usize, &settings, path)

@@ -70,7 +70,7 @@ pub const RENDER: Render = Render {
 fn run(a: Args) -> Result<ExitCode, String> {
     check_out(&a.out)?;
     let Some(scene) = a.scene else {
-        let (ex, gpu) = open(&a.export, FAMILIES)?;
+        let (ex, gpu) = open(&a.export, FAMILIES, |_| Ok(()))?;
         let (max, rms, gloss_max) = render(&gpu, &ex, &a.out)?;
         out!(
             "render library: {0}x{0} on {1}; GPU against CPU, relative to the peak: max {max:.2e}, RMS {rms:.2e} \
@@ -82,7 +82,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
         return verdict("render library", rms <= RMS_LIMIT, &a.out);
     };
     let sc = lobefit::pipelines::scene::load(&scene)?;
-    let (ex, gpu) = open(&a.export, SCENE_FAMILIES)?;
+    let (ex, gpu) = open(&a.export, SCENE_FAMILIES, |_| Ok(()))?;
     let r = render_scene(&gpu, &ex, &sc, &a.out)?;
     out!(
         "render library {scene}: {}x{} ({} pixels see geometry) on {}; GPU against CPU, relative to the peak: \
@@ -101,11 +101,18 @@ fn run(a: Args) -> Result<ExitCode, String> {
     verdict("render library", r.rms <= RMS_LIMIT, &a.out)
 }
 
-/// A render's skeleton after its own checks: the export's textures of `families`
-/// verified ([`VerifiedExport::open`]), then the device.
-pub fn open(export: &Path, families: (&[&str], &str)) -> Result<(VerifiedExport, Gpu), String> {
-    let ex = VerifiedExport::open(export, families)?;
-    Ok((ex, Gpu::new()?))
+/// A render's skeleton after its own checks: the device, then `fits` (the checks
+/// that depend on the device, such as llvmpipe's loop budget), then the export's
+/// textures of `families` verified ([`VerifiedExport::open`]): a scene the device
+/// cannot render is refused before the export is read.
+pub fn open(
+    export: &Path,
+    families: (&[&str], &str),
+    fits: impl FnOnce(&Gpu) -> Result<(), String>,
+) -> Result<(VerifiedExport, Gpu), String> {
+    let gpu = Gpu::new()?;
+    fits(&gpu)?;
+    Ok((VerifiedExport::open(export, families)?, gpu))
 }
 
 /// A render's last lines: its image, and `{command} FAILED` (exit 1) unless `pass`.

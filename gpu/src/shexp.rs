@@ -81,12 +81,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
             sc.name
         ));
     }
-    budget::refuse_over(
-        "render shexp",
-        iterations(sc.spheres.len()),
-        &format!("{} spheres", sc.spheres.len()),
-    )?;
-    let (ex, gpu) = crate::render::open(&a.export, FAMILIES)?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |gpu| check_budget(gpu, &sc, "render shexp"))?;
     let r = render_shexp(&gpu, &ex, &sc, a.width as usize, &settings, &a.out)?;
     let what = format!("{} ({:?} blocker log)", a.scene, settings.blocker_log);
     crate::render::report("render shexp", &what, &r, &gpu, &a.out)
@@ -118,6 +113,17 @@ const PER_SPHERE: u64 = 112;
 /// the wedges' composition (W ≤ 64 azimuths of order-4 operators), and per BRDF term
 /// its log-ZH lobe, `lf_zh_to_sh`, HYB (≤ 64 halvings and squarings) and the sums.
 const PER_PIXEL: u64 = 2 * 65 + 65 * 17 + 5 + 2 * (150 + 25 + 17 + 3 * 16 + 2 * 65 + 17);
+
+/// Refuses a scene whose pixels may need more loop iterations than `gpu`'s budget
+/// (llvmpipe's; a GPU has none).
+pub fn check_budget(gpu: &Gpu, scene: &Scene, command: &str) -> Result<(), String> {
+    budget::refuse_over(
+        gpu.loop_budget,
+        command,
+        iterations(scene.spheres.len()),
+        &format!("{} spheres", scene.spheres.len()),
+    )
+}
 
 /// An upper bound on the loop iterations of one pixel's kernel (`crate::budget`).
 pub fn iterations(spheres: usize) -> u64 {

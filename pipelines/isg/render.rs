@@ -26,8 +26,15 @@ pub const PRECISE_FACTOR: usize = 64;
 /// Seed of the reference's per-pixel samples.
 pub const MC_SEED: u64 = 0x5eed_0012;
 
-/// The scene `name`: built-in `isg-<name>`, else a scene file.
+/// The scene `name`: built-in `isg-<name>`, one of the sweep's (`sweep-N`, N in
+/// [`SWEEP`]), else a scene file.
 pub fn scene(name: &str) -> Result<Scene, String> {
+    // One scene of the sweep by its name (`sweep-46`, …, `sweep-306`).
+    if let Some(count) = name.strip_prefix("sweep-").and_then(|n| n.parse::<usize>().ok()) {
+        if SWEEP.contains(&count) {
+            return sweep_scene(count);
+        }
+    }
     let scene = PIPELINE.scene(name)?;
     if scene.environment.is_empty() {
         return Err(format!(

@@ -75,6 +75,7 @@ pub fn measure(
                 channels: channels.clone(),
                 texture: texture.clone(),
                 filter,
+                rounding: Default::default(),
             })
             .collect();
         let emu = Emulated {

@@ -243,3 +243,53 @@ fn lf_one_minus_exp_neg(y: f32) -> f32 {
 }
 
 const LF_PI: f32 = 3.14159265358979;
+
+// sin and cos to a few f32 ulps relative on [-pi, pi], also near their zeros there
+// (beyond, to a few ulps of the argument, absolute). A GPU's sin and cos are accurate
+// in absolute terms only (Vulkan allows 2^-11 on [-pi, pi]; NVIDIA's err by ~5e-7),
+// so sin(1e-4) or cos(pi/2 - 1e-4) lose ~0.5 % there, which formulas such as
+// 1 - cos a = 2 sin^2(a/2) turn into errors of the table's size. The argument is
+// reduced to [-pi, pi] (2 pi in two parts), folded to [-pi/2, pi/2] with pi in two
+// parts (exact where the result is small), then an odd Taylor polynomial to x^15
+// (truncation < 7e-12).
+const LF_PI_HI: f32 = 3.1415927410125732;
+const LF_PI_LO: f32 = -8.742278e-8;
+const LF_HALF_PI_HI: f32 = 1.5707963705062866;
+
+// The low parts of pi (-8.742278e-8) and pi/2 (-4.371139e-8) as run-time values:
+// compilers (Mesa's NIR, NVIDIA's) rewrite (c1 - y) + c2 into (c1 + c2) - y when both
+// are constants, which drops c2 entirely. The added bit is 0 for any |y| <= 1e30.
+fn lf_pi_lo(y: f32) -> f32 {
+    return bitcast<f32>(0xb3bbbd2eu + u32(abs(y) > 1e30));
+}
+
+fn lf_half_pi_lo(y: f32) -> f32 {
+    return bitcast<f32>(0xb33bbd2eu + u32(abs(y) > 1e30));
+}
+
+// x reduced to [-pi, pi] (unchanged there).
+fn lf_reduce_angle(x: f32) -> f32 {
+    if abs(x) <= LF_PI_HI {
+        return x;
+    }
+    let k = round(x / (2.0 * LF_PI));
+    return (x - k * (2.0 * LF_PI_HI)) - k * (2.0 * LF_PI_LO);
+}
+
+fn lf_sin(x: f32) -> f32 {
+    var y = lf_reduce_angle(x);
+    if y > LF_HALF_PI_HI {
+        y = (LF_PI_HI - y) + lf_pi_lo(y);
+    } else if y < -LF_HALF_PI_HI {
+        y = (-LF_PI_HI - y) - lf_pi_lo(y);
+    }
+    let z = y * y;
+    let p = -1.0 / 6.0 + z * (1.0 / 120.0 + z * (-1.0 / 5040.0 + z * (1.0 / 362880.0
+        + z * (-1.0 / 39916800.0 + z * (1.0 / 6227020800.0 + z * (-1.0 / 1307674368000.0))))));
+    return y + y * z * p;
+}
+
+fn lf_cos(x: f32) -> f32 {
+    let a = abs(lf_reduce_angle(x));
+    return lf_sin((LF_HALF_PI_HI - a) + lf_half_pi_lo(a));
+}

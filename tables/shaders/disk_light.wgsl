@@ -16,7 +16,7 @@ fn lf_disk_rim_g(r: f32, sc: vec2<f32>) -> f32 {
 
 // The texture's first axis: the rim coordinate v in [0, 1] of (R/d, tau).
 fn lf_disk_rim(r: f32, tau: f32) -> f32 {
-    let sc = vec2<f32>(sin(tau), cos(tau));
+    let sc = vec2<f32>(lf_sin(tau), lf_cos(tau));
     let lo = lf_disk_rim_g(LF_DISK_R_MIN, sc);
     let hi = lf_disk_rim_g(LF_DISK_R_MAX, sc);
     return clamp((lf_disk_rim_g(r, sc) - lo) / (hi - lo), 0.0, 1.0);
@@ -57,12 +57,12 @@ fn lf_disk_canonical(tex: texture_2d_array<f32>, smp: sampler, p: LfTex, r: f32,
             f = 0.5;
         }
         let lim = vec4<f32>(f * sqrt_pi, 0.0, f * z1, 0.0);
-        let w = cos(tau) / cos(LF_DISK_TAU_MAX);
+        let w = lf_cos(tau) / lf_cos(LF_DISK_TAU_MAX);
         c[0] = lim + w * (c[0] - lim);
         c[1] = w * c[1];
     }
     if r > LF_DISK_R_MAX {
-        let lim = vec4<f32>(sqrt_pi, z1 * cos(tau), z1 * sin(tau), 0.0);
+        let lim = vec4<f32>(sqrt_pi, z1 * lf_cos(tau), z1 * lf_sin(tau), 0.0);
         let w = LF_DISK_R_MAX / r;
         c[0] = lim + w * (c[0] - lim);
         c[1] = w * c[1];

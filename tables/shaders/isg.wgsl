@@ -45,7 +45,7 @@ fn lf_isg_refit(tex: texture_2d<f32>, smp: sampler, p: LfTex, theta: f32, phi: f
 // channels (k, k + 2) at (gamma, u(x)), u the warp, mirrored for x > pi/2.
 fn lf_isg_best_factor(tex: texture_2d<f32>, smp: sampler, p: LfTex, k: u32, x: f32, gamma: f32, e_gamma: f32) -> vec2<f32> {
     let d = x - 0.5 * LF_PI;
-    let h = sin(0.5 * d);
+    let h = lf_sin(0.5 * d);
     // q = 2 h^2 = 1 - sin x, without the cancellation near the axis.
     let q = 2.0 * h * h;
     let u = min(sqrt(lf_one_minus_exp_neg(gamma * q) / e_gamma), 1.0);

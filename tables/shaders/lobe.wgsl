@@ -15,8 +15,8 @@ fn lf_cap_exponent(tex: texture_2d<f32>, smp: sampler, p: LfTex, alpha: f32) -> 
     }
     let q = lf_sample_1d(tex, smp, p, alpha).x;
     // m(alpha) = c (1 - ln c) / (2 sin^2(alpha/2)), stable form of 1 - cos alpha.
-    let sh = sin(0.5 * alpha);
-    let c = max(cos(alpha), 1e-30);
+    let sh = lf_sin(0.5 * alpha);
+    let c = max(lf_cos(alpha), 1e-30);
     return c * (1.0 - log(c)) / (2.0 * sh * sh) * q;
 }
 

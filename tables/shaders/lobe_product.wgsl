@@ -57,7 +57,7 @@ fn lf_lobe_ln(e: f32, x: f32) -> f32 {
     if abs(x) >= 0.5 * LF_PI {
         return LF_LN_ZERO;
     }
-    let t = tan(0.5 * x);
+    let t = lf_sin(0.5 * x) / lf_cos(0.5 * x);
     return -2.0 * e * lf_atanh(t * t);
 }
 
@@ -90,8 +90,8 @@ fn lf_lobe_product_any(tex: texture_3d<f32>, smp: sampler, p: LfTex, lnw_tex: te
     let ch = lf_sample_3d(tex, smp, p, min(e1, LF_LOBE_E_MAX), min(e2, LF_LOBE_E_MAX), alpha);
     let e = e1 + e2;
     let lnw = lf_sample_1d(lnw_tex, smp, pw, e).x + 0.5 * log(2.0 * LF_PI / (e + 1.5));
-    let sin_a = sin(alpha);
-    let chord = 2.0 * sin(0.5 * alpha);
+    let sin_a = lf_sin(alpha);
+    let chord = 2.0 * lf_sin(0.5 * alpha);
     var g = 0.0;
     if e > 0.0 {
         g = e + e1 * e2 / e * chord * chord;
@@ -156,5 +156,5 @@ fn lf_lobe_product_axis(a1: vec3<f32>, a2: vec3<f32>, t: f32) -> vec3<f32> {
         q = normalize(c - dot(a1, c) * a1);
     }
     let b = t * alpha;
-    return cos(b) * a1 + sin(b) * q;
+    return lf_cos(b) * a1 + lf_sin(b) * q;
 }

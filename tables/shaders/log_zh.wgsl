@@ -78,11 +78,11 @@ fn lf_log_zh_diffuse(eps: f32, order: u32) -> array<f32, 8> {
 // P_{l+1})(cos theta_b), the latter as sqrt(pi / (2l + 1)) (2l + 1) / (l (l + 1))
 // sin^2(theta_b) P'_l(cos theta_b) (no cancellation for small caps).
 fn lf_log_zh_blocker(eps: f32, theta_b: f32, order: u32) -> array<f32, 8> {
-    let c = cos(theta_b);
-    let s = sin(theta_b);
+    let c = lf_cos(theta_b);
+    let s = lf_sin(theta_b);
     let le = log(eps);
     var out: array<f32, 8>;
-    let sh = sin(0.5 * theta_b);
+    let sh = lf_sin(0.5 * theta_b);
     out[0] = le * sqrt(LF_PI) * 2.0 * sh * sh;
     // P_l and P'_l by their recurrences: P'_{l+1} = P'_{l-1} + (2l + 1) P_l.
     var p_prev = 1.0;

@@ -113,8 +113,8 @@ fn lf_sh_rotate_z(order: u32, c: array<f32, 64>, alpha: f32) -> array<f32, 64> {
     var cs: array<f32, 8>;
     var sn: array<f32, 8>;
     cs[0] = 1.0;
-    let c1 = cos(alpha);
-    let s1 = sin(alpha);
+    let c1 = lf_cos(alpha);
+    let s1 = lf_sin(alpha);
     for (var m = 1u; m < order; m++) {
         cs[m] = cs[m - 1u] * c1 - sn[m - 1u] * s1;
         sn[m] = sn[m - 1u] * c1 + cs[m - 1u] * s1;

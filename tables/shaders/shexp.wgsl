@@ -65,7 +65,7 @@ fn lf_shexp_channels(tex: texture_2d_array<f32>, smp: sampler, p: LfTex, n: u32,
 // f_0..f_{n-1}, ||f^||, a, b of order n (3..8) at theta_b, from texture shexp-n<n>.
 fn lf_shexp(tex: texture_2d_array<f32>, smp: sampler, p: LfTex, n: u32, theta_b: f32) -> LfShexp {
     let v = lf_shexp_channels(tex, smp, p, n, theta_b);
-    let h = sin(0.5 * theta_b);
+    let h = lf_sin(0.5 * theta_b);
     let omc = 2.0 * h * h;
     var r: LfShexp;
     for (var l = 0u; l < 8u; l++) {

@@ -32,11 +32,11 @@ fn lf_wedge_apply(tex: texture_3d<f32>, p: LfTex, w: u32, order: u32, v_a: array
 // -ln eps sqrt((2l + 1) / 2) cos^2(sigma) P'_l(sin sigma) / (l (l + 1)) (no
 // cancellation near sigma = +-pi/2), 1 + sin sigma as 2 cos^2(pi/4 - sigma/2).
 fn lf_wedge_slice(sigma: f32, eps: f32, order: u32) -> array<f32, 8> {
-    let x = sin(sigma);
-    let c = cos(sigma);
+    let x = lf_sin(sigma);
+    let c = lf_cos(sigma);
     let le = log(eps);
     var out: array<f32, 8>;
-    let h = cos(0.25 * LF_PI - 0.5 * sigma);
+    let h = lf_cos(0.25 * LF_PI - 0.5 * sigma);
     out[0] = le * 1.4142135 * h * h;
     // P_l and P'_l by their recurrences: P'_{l+1} = P'_{l-1} + (2l + 1) P_l.
     var p_prev = 1.0;

@@ -107,6 +107,7 @@ fn near_the_axis_the_warp_keeps_its_digits() {
         channels: t.channels.clone(),
         texture,
         filter: Filter::Manual,
+        rounding: Default::default(),
     }];
     let emu = Emulated {
         family: lobefit::fits::gpu_family("isg-best").unwrap(),
