@@ -380,7 +380,9 @@ pub enum WeightRounding {
     /// To the nearest multiple of 1/256.
     #[default]
     Nearest,
-    /// Axis k (slowest first) up when bit k is set, else down; the filtered texel
+    /// Axis k (slowest first) a step past up when bit k is set, else a step past
+    /// down (the weight may leave [0, 1]: the neighbouring interval's value, which a
+    /// coordinate quantized across a texel edge reads); the filtered texel
     /// then moved by this many binary16 ulps (f16 textures: a unit may filter them
     /// at f16 precision, as D3D's rules allow; 0 for f32).
     Corner(u8, i8),
@@ -444,8 +446,11 @@ impl Sampler {
                 let steps = (t - i as f32) * HARDWARE_WEIGHT_STEPS;
                 let w = match self.rounding {
                     WeightRounding::Nearest => steps.round(),
-                    WeightRounding::Corner(bits, _) if bits >> k & 1 == 1 => steps.ceil(),
-                    WeightRounding::Corner(..) => steps.floor(),
+                    // One step past floor and ceil: NVIDIA's unit quantizes the
+                    // coordinate before weighting, which moved probed weights a step
+                    // below nearest, and across a texel edge that is one below floor.
+                    WeightRounding::Corner(bits, _) if bits >> k & 1 == 1 => steps.ceil() + 1.0,
+                    WeightRounding::Corner(..) => steps.floor() - 1.0,
                 } / HARDWARE_WEIGHT_STEPS;
                 (i, w)
             }
