@@ -105,6 +105,24 @@ fn scenes(values: &[String]) -> Result<Vec<(&'static str, String)>, String> {
     Ok(out)
 }
 
+/// The pipelines `only` names (all when empty) of `scenes`; an unknown name, or a
+/// `--scene` value (`values`) for a pipeline left out, is an error.
+fn only(
+    mut scenes: Vec<(&'static str, String)>,
+    values: &[String],
+    only: &[String],
+) -> Result<Vec<(&'static str, String)>, String> {
+    if let Some(p) = only.iter().find(|p| !PIPELINES.iter().any(|(q, _)| q == p)) {
+        return Err(format!("--only {p}: no such pipeline (isg, shexp, meunier, rigs)"));
+    }
+    let kept = |p: &str| only.is_empty() || only.iter().any(|q| q == p);
+    if let Some(v) = values.iter().find(|v| v.split_once('=').is_some_and(|(p, _)| !kept(p))) {
+        return Err(format!("--scene {v}: --only leaves that pipeline out"));
+    }
+    scenes.retain(|(p, _)| kept(p));
+    Ok(scenes)
+}
+
 /// Median, min and max of `v` (not empty).
 pub(crate) fn spread(v: &[f64]) -> (f64, f64, f64) {
     let mut s = v.to_vec();
@@ -136,17 +154,7 @@ fn timed(gpu: &Gpu, what: &str, render: impl FnOnce() -> Result<f64, String>) ->
 
 /// `bench`.
 pub fn run(a: Args) -> Result<ExitCode, String> {
-    let mut scenes = scenes(&a.scene)?;
-    if let Some(p) = a.only.iter().find(|p| !PIPELINES.iter().any(|(q, _)| q == p)) {
-        return Err(format!("--only {p}: no such pipeline (isg, shexp, meunier, rigs)"));
-    }
-    if let Some((p, _)) = scenes
-        .iter()
-        .find(|(p, s)| !a.only.is_empty() && !a.only.iter().any(|q| q == p) && a.scene.contains(&format!("{p}={s}")))
-    {
-        return Err(format!("--scene names pipeline {p}, which --only leaves out"));
-    }
-    scenes.retain(|(p, _)| a.only.is_empty() || a.only.iter().any(|q| q == p));
+    let scenes = only(scenes(&a.scene)?, &a.scene, &a.only)?;
     if std::fs::metadata(&a.out).is_ok_and(|m| !m.is_dir()) {
         return Err(format!("--out {}: is a file; name a directory", a.out.display()));
     }
@@ -596,6 +604,23 @@ mod tests {
             let e = scenes(&v).unwrap_err();
             assert!(e.contains(want), "{v:?}: {e}");
         }
+    }
+
+    /// `--only`: a subset in the pipelines' order; an unknown name, and a `--scene`
+    /// for a pipeline left out, are errors naming it.
+    #[test]
+    fn only_arguments() {
+        let v = |x: &[&str]| x.iter().map(|s| s.to_string()).collect::<Vec<String>>();
+        let s = only(scenes(&[]).unwrap(), &[], &v(&["rigs", "isg"])).unwrap();
+        assert_eq!(s.iter().map(|(p, _)| *p).collect::<Vec<_>>(), ["isg", "rigs"]);
+        assert_eq!(only(scenes(&[]).unwrap(), &[], &[]).unwrap().len(), 4);
+        let e = only(scenes(&[]).unwrap(), &[], &v(&["isg", "nope"])).unwrap_err();
+        assert!(e.contains("--only nope"), "{e}");
+        let sc = v(&["shexp=wrecking"]);
+        let e = only(scenes(&sc).unwrap(), &sc, &v(&["isg"])).unwrap_err();
+        assert!(e.contains("shexp=wrecking") && e.contains("leaves"), "{e}");
+        let s = only(scenes(&sc).unwrap(), &sc, &v(&["shexp"])).unwrap();
+        assert_eq!(s, [("shexp", "wrecking".to_string())]);
     }
 
     #[test]

@@ -7,7 +7,7 @@ use std::f64::consts::FRAC_PI_2;
 use std::path::Path;
 
 use lobefit::export::families::Emulated;
-use lobefit::export::layout::{Filter, Sampler};
+use lobefit::export::layout::{Filter, Sampler, WeightRounding};
 use lobefit::export::manifest::Manifest;
 use lobefit::export::run::{check_export, export, ExportOptions};
 use lobefit::export::{formats, Format, Storage};
@@ -138,4 +138,56 @@ fn near_the_axis_the_warp_keeps_its_digits() {
         }
     }
     assert!(worst > 0.0);
+}
+
+/// The 8-bit hardware filter's emulations (weights to nearest, and every corner of
+/// weights a step past floor or ceil, f16 texels moved 2 ulps each way) span what
+/// exact weights give: the span gpu-check holds a device's 8-bit unit to contains
+/// lavapipe's exact filtering, channel by channel (each is monotone in its texel),
+/// at random points of the isg-best texture, f32 and f16.
+#[test]
+fn hardware_emulations_span_exact_weights() {
+    for storage in [Storage::F32, Storage::F16] {
+        let dir = tempfile::tempdir().unwrap();
+        let m = export(&opts(Format::Raw, storage), dir.path()).unwrap();
+        let t = &m.families[0].textures[0];
+        let (texture, _) = formats::read(&dir.path().join(&t.file), Format::Raw).unwrap();
+        let sampler = |filter, rounding| Sampler {
+            axes: t.axes.clone(),
+            channels: t.channels.clone(),
+            texture: texture.clone(),
+            filter,
+            rounding,
+        };
+        let exact = sampler(Filter::Manual, WeightRounding::Nearest);
+        let mut spans: Vec<Sampler> = WeightRounding::corners(t.axes.len(), storage == Storage::F16)
+            .map(|r| sampler(Filter::Hardware, r))
+            .collect();
+        assert_eq!(
+            spans.len(),
+            (1 << t.axes.len()) * if storage == Storage::F16 { 2 } else { 1 }
+        );
+        spans.push(sampler(Filter::Hardware, WeightRounding::Nearest));
+        let mut rng = lobefit::rng::Rng::new(0x8b17);
+        let (mut inside, mut moved) = (0, 0);
+        for _ in 0..2000 {
+            let x: Vec<f32> = t.axes.iter().map(|a| rng.range(a.axis.lo, a.axis.hi) as f32).collect();
+            let e = exact.sample(&x);
+            let all: Vec<Vec<f32>> = spans.iter().map(|s| s.sample(&x)).collect();
+            for (k, v) in e.iter().enumerate() {
+                let lo = all.iter().map(|a| a[k]).fold(f32::INFINITY, f32::min);
+                let hi = all.iter().map(|a| a[k]).fold(f32::NEG_INFINITY, f32::max);
+                // An f32 ulp of slack: the two paths compute the coordinate apart.
+                let tol = 4.0 * f32::EPSILON * v.abs().max(lo.abs()).max(hi.abs());
+                assert!(
+                    lo - tol <= *v && *v <= hi + tol,
+                    "{storage} at {x:?} channel {k}: {v} not in [{lo}, {hi}]"
+                );
+                inside += 1;
+                moved += usize::from(hi > lo);
+            }
+        }
+        // The span is not empty: the check would mean nothing.
+        assert!(moved > inside / 2, "{moved} of {inside}");
+    }
 }
