@@ -248,7 +248,7 @@ fn bench_one(
         "isg" => {
             let sc = lobefit::pipelines::isg::render::scene(scene)?;
             crate::isg::check_sharpness(&sc)?;
-            crate::isg::check_scene(gpu, &sc, "bench isg")?;
+            crate::isg::check_scene(gpu.loop_budget, &sc, "bench isg")?;
             let method = format!(
                 "ISG best, adaptive patches ({} SGs, {} spheres)",
                 sc.environment.len(),
@@ -263,7 +263,7 @@ fn bench_one(
         }
         "shexp" => {
             let sc = lobefit::pipelines::shexp::render::scene(scene)?;
-            crate::shexp::check_budget(gpu, &sc, "bench shexp")?;
+            crate::shexp::check_budget(gpu.loop_budget, &sc, "bench shexp")?;
             let s = lobefit::pipelines::shexp::shade::Settings::default();
             let method = format!(
                 "HYB order {}, {} wedges, {:?} blocker log ({} spheres)",

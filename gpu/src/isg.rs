@@ -63,7 +63,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::isg::render::scene(&a.scene)?;
     check_sharpness(&sc)?;
-    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |gpu| check_scene(gpu, &sc, "render isg"))?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| check_scene(budget, &sc, "render isg"))?;
     if let Some(n) = a.frames {
         return crate::render::animate("render isg", &sc, n as usize, &gpu, &a.out, |still, path| {
             render_isg(&gpu, &ex, still, a.width as usize, path)
@@ -85,12 +85,12 @@ const INPUTS: usize = 14;
 /// a 4 × 3 image; 1000 spheres 46 s, 4000 spheres 471 s and 2.86 GB).
 pub const MAX_SPHERES: usize = 256;
 
-/// Refuses a scene `gpu` cannot render: on llvmpipe ([`Gpu::loop_budget`]) more than
-/// [`MAX_SPHERES`] blocker spheres (its spheres and its meshes' sphere sets; the
-/// meshes' triangles are only seen, traced on the CPU), or pixels that may need more
-/// loop iterations than its budget.
-pub fn check_scene(gpu: &Gpu, scene: &lobefit::pipelines::scene::Scene, command: &str) -> Result<(), String> {
-    if gpu.loop_budget.is_some() && scene.proxies.len() > MAX_SPHERES {
+/// Refuses a scene a device with loop budget `budget` ([`Gpu::loop_budget`]: llvmpipe's,
+/// or none on a GPU) cannot render: under a budget more than [`MAX_SPHERES`] blocker
+/// spheres (its spheres and its meshes' sphere sets; the meshes' triangles are only
+/// seen, traced on the CPU), or pixels that may need more loop iterations than it.
+pub fn check_scene(budget: Option<u64>, scene: &lobefit::pipelines::scene::Scene, command: &str) -> Result<(), String> {
+    if budget.is_some() && scene.proxies.len() > MAX_SPHERES {
         return Err(format!(
             "{command}: scene {} has {} blocker spheres (spheres and the meshes' sphere sets); on a CPU adapter \
              the kernel takes at most {MAX_SPHERES} (its per-patch blocker test is unrolled over them, and \
@@ -100,7 +100,7 @@ pub fn check_scene(gpu: &Gpu, scene: &lobefit::pipelines::scene::Scene, command:
         ));
     }
     budget::refuse_over(
-        gpu.loop_budget,
+        budget,
         command,
         iterations(scene.proxies.len(), scene.environment.len()),
         &format!(

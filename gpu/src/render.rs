@@ -101,18 +101,24 @@ fn run(a: Args) -> Result<ExitCode, String> {
     verdict("render library", r.rms <= RMS_LIMIT, &a.out)
 }
 
-/// A render's skeleton after its own checks: the device, then `fits` (the checks
-/// that depend on the device, such as llvmpipe's loop budget), then the export's
-/// textures of `families` verified ([`VerifiedExport::open`]): a scene the device
-/// cannot render is refused before the export is read.
+/// A render's skeleton after its own checks: `fits` (the checks that depend on the
+/// device's loop budget, [`Gpu::loop_budget`]) under llvmpipe's budget, the strictest;
+/// then the export's textures of `families` verified ([`VerifiedExport::open`]), then
+/// the device. A scene over llvmpipe's budget opens the device first, and is refused
+/// there on a CPU adapter before the export is read; a scene within it reaches the
+/// device only with a verified export.
 pub fn open(
     export: &Path,
     families: (&[&str], &str),
-    fits: impl FnOnce(&Gpu) -> Result<(), String>,
+    fits: impl Fn(Option<u64>) -> Result<(), String>,
 ) -> Result<(VerifiedExport, Gpu), String> {
-    let gpu = Gpu::new()?;
-    fits(&gpu)?;
-    Ok((VerifiedExport::open(export, families)?, gpu))
+    if fits(Some(crate::budget::LOOP_LIMIT)).is_err() {
+        let gpu = Gpu::new()?;
+        fits(gpu.loop_budget)?;
+        return Ok((VerifiedExport::open(export, families)?, gpu));
+    }
+    let ex = VerifiedExport::open(export, families)?;
+    Ok((ex, Gpu::new()?))
 }
 
 /// A render's last lines: its image, and `{command} FAILED` (exit 1) unless `pass`.

@@ -81,7 +81,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
             sc.name
         ));
     }
-    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |gpu| check_budget(gpu, &sc, "render shexp"))?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| check_budget(budget, &sc, "render shexp"))?;
     let r = render_shexp(&gpu, &ex, &sc, a.width as usize, &settings, &a.out)?;
     let what = format!("{} ({:?} blocker log)", a.scene, settings.blocker_log);
     crate::render::report("render shexp", &what, &r, &gpu, &a.out)
@@ -114,11 +114,11 @@ const PER_SPHERE: u64 = 112;
 /// its log-ZH lobe, `lf_zh_to_sh`, HYB (≤ 64 halvings and squarings) and the sums.
 const PER_PIXEL: u64 = 2 * 65 + 65 * 17 + 5 + 2 * (150 + 25 + 17 + 3 * 16 + 2 * 65 + 17);
 
-/// Refuses a scene whose pixels may need more loop iterations than `gpu`'s budget
-/// (llvmpipe's; a GPU has none).
-pub fn check_budget(gpu: &Gpu, scene: &Scene, command: &str) -> Result<(), String> {
+/// Refuses a scene whose pixels may need more loop iterations than `budget` (a
+/// device's [`Gpu::loop_budget`]: llvmpipe's; a GPU has none).
+pub fn check_budget(budget: Option<u64>, scene: &Scene, command: &str) -> Result<(), String> {
     budget::refuse_over(
-        gpu.loop_budget,
+        budget,
         command,
         iterations(scene.spheres.len()),
         &format!("{} spheres", scene.spheres.len()),
