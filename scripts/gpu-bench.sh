@@ -17,7 +17,8 @@
 # The CPU renders the same images for the comparison: minutes at these sizes. On a CPU
 # adapter (lavapipe) iwasaki-306 is refused (llvmpipe's loop budget; the script goes
 # on and says so) and the rest takes long: the numbers are indicative only there.
-# Usage: bash scripts/gpu-bench.sh [OUT] [FRAMES]   (default gpu-bench/, 10 frames)
+# Usage: bash scripts/gpu-bench.sh [OUT] [FRAMES]   (default gpu-bench/, 10 frames;
+# LOBEFIT_BIN=DIR: take lobefit and lobefit-gpu already built in DIR, no cargo build)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-gpu-bench}
