@@ -228,9 +228,12 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
     Ok(rows)
 }
 
+/// Per sample point, the outputs of a family's kernels (in kernel order).
+type Outputs = Vec<Vec<f64>>;
+
 /// Every kernel of one family and filter on the device: the outputs per point (in
-/// kernel order), and the row `<family> baked` from a second run of each kernel
-/// through its `_baked` wrapper (its storage left for the caller to fill in).
+/// kernel order), the same through each kernel's `_baked` wrapper (a second run), and
+/// the row `<family> baked` comparing the two (its storage left for the caller).
 fn run_kernels(
     runner: &Bound,
     kernels: &[Kernel],
@@ -238,7 +241,7 @@ fn run_kernels(
     f: &lobefit::export::manifest::FamilyEntry,
     baked: &str,
     points: &[Vec<f64>],
-) -> Result<(Vec<Vec<f64>>, Vec<Vec<f64>>, Row), String> {
+) -> Result<(Outputs, Outputs, Row), String> {
     let mut got = vec![Vec::new(); points.len()];
     let mut via_all = vec![Vec::new(); points.len()];
     // The baked constants let the shader compiler fold and contract the unpacking
