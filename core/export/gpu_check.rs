@@ -65,6 +65,19 @@ pub struct Envelope {
 }
 
 impl Envelope {
+    /// The span of `mid` (the emulation's outputs) and `others` (the same outputs
+    /// under other emulations).
+    pub fn of(mid: Vec<f32>, others: impl IntoIterator<Item = Vec<f32>>) -> Envelope {
+        let (mut lo, mut hi) = (mid.clone(), mid.clone());
+        for o in others {
+            for (k, v) in o.into_iter().enumerate() {
+                lo[k] = lo[k].min(v);
+                hi[k] = hi[k].max(v);
+            }
+        }
+        Envelope { mid, lo, hi }
+    }
+
     /// How far `g` lies outside output `k`'s span (0 inside it).
     pub fn outside(&self, k: usize, g: f64) -> f64 {
         (f64::from(self.lo[k]) - g).max(g - f64::from(self.hi[k])).max(0.0)
@@ -224,15 +237,7 @@ impl Context<'_> {
     /// `eval` at `x` under the emulation, and per output the least and greatest value
     /// over the emulation and its [`Context::alternatives`].
     pub fn envelope(&self, eval: fn(&[Sampler], &[f32]) -> Vec<f32>, x: &[f32]) -> Envelope {
-        let mid = eval(self.samplers, x);
-        let (mut lo, mut hi) = (mid.clone(), mid.clone());
-        for alt in self.alternatives {
-            for (k, v) in eval(alt, x).into_iter().enumerate() {
-                lo[k] = lo[k].min(v);
-                hi[k] = hi[k].max(v);
-            }
-        }
-        Envelope { mid, lo, hi }
+        Envelope::of(eval(self.samplers, x), self.alternatives.iter().map(|alt| eval(alt, x)))
     }
 
     /// The index of the texture whose file stem is `stem`.

@@ -186,19 +186,38 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
                 samples: m.samples,
                 seed: m.seed,
             };
-            let env: Vec<Envelope> = points
+            // Per point, the emulation's outputs and those under each alternative
+            // rounding (evaluated once: the span and the alternatives' errors read them).
+            let emulated: Vec<(Vec<f32>, Vec<Vec<f32>>)> = points
                 .iter()
                 .map(|x| {
                     let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-                    ctx.envelope(gpu_family.eval, &x32)
+                    let alts = alternatives.iter().map(|a| (gpu_family.eval)(a, &x32)).collect();
+                    ((gpu_family.eval)(&samplers, &x32), alts)
                 })
                 .collect();
+            let alt_values: Vec<Outputs> = (0..alternatives.len())
+                .map(|a| {
+                    emulated
+                        .iter()
+                        .map(|(_, alts)| alts[a].iter().map(|&v| f64::from(v)).collect())
+                        .collect()
+                })
+                .collect();
+            let emulation = Emulation {
+                env: emulated
+                    .into_iter()
+                    .map(|(mid, alts)| Envelope::of(mid, alts))
+                    .collect(),
+                alt_values,
+            };
+            let env = &emulation.env;
             if !alternatives.is_empty() {
                 // The baked path's coordinates may round an ulp apart, and an 8-bit
                 // filter's weight then a step apart: held to the span's width.
                 let around: Vec<Envelope> = got
                     .iter()
-                    .zip(&env)
+                    .zip(env)
                     .map(|(g, e)| {
                         let w = |k: usize| e.hi[k] - e.lo[k];
                         Envelope {
@@ -220,7 +239,7 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
                 &gpu_family,
                 &points,
                 &got,
-                &env,
+                &emulation,
                 &floors,
             )?);
         }
@@ -230,6 +249,13 @@ pub fn check_textured(gpu: &Gpu, export: &Export, weight_bits: u32, baked: &str)
 
 /// Per sample point, the outputs of a family's kernels (in kernel order).
 type Outputs = Vec<Vec<f64>>;
+
+/// A family's emulation at the sample points: per point its span over the hardware
+/// filter's alternative roundings, and each alternative's outputs.
+struct Emulation {
+    env: Vec<Envelope>,
+    alt_values: Vec<Outputs>,
+}
 
 /// Every kernel of one family and filter on the device: the outputs per point (in
 /// kernel order), the same through each kernel's `_baked` wrapper (a second run), and
@@ -288,7 +314,8 @@ fn run_kernels(
     Ok((got, via_all, row))
 }
 
-/// The device's outputs `got` at `points` against the CPU emulation of the export and
+/// The device's outputs `got` at `points` against the CPU emulation of the export (its
+/// span over the alternative roundings, [`Emulation`]) and
 /// against the family's reference (held to the manifest's promises), then the
 /// family's own checks (`GpuFamily::checks`): the rows of one family and filter.
 fn against_emulation_and_reference(
@@ -297,10 +324,11 @@ fn against_emulation_and_reference(
     gpu_family: &GpuFamily,
     points: &[Vec<f64>],
     got: &[Vec<f64>],
-    env: &[Envelope],
+    emulation: &Emulation,
     floors: &[lobefit::export::run::ChannelFloor],
 ) -> Result<Vec<Row>, String> {
     let (family, f, filter, emu_filter) = (ctx.family, ctx.entry, ctx.filter, ctx.emu_filter);
+    let env = &emulation.env;
     let emu: Vec<Vec<f64>> = env
         .iter()
         .map(|e| e.mid.iter().map(|&v| f64::from(v)).collect())
@@ -321,15 +349,8 @@ fn against_emulation_and_reference(
     // What the emulation errs under the other weight roundings: a device that rounds
     // so is held to that (the promise is measured under rounding to nearest).
     let mut alternative_errs = Vec::new();
-    for alt in ctx.alternatives {
-        let values: Vec<Vec<f64>> = points
-            .iter()
-            .map(|x| {
-                let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-                (gpu_family.eval)(alt, &x32).into_iter().map(f64::from).collect()
-            })
-            .collect();
-        alternative_errs.extend(errors_of(family, &lookup_of(&values), points, filter, floors)?);
+    for values in &emulation.alt_values {
+        alternative_errs.extend(errors_of(family, &lookup_of(values), points, filter, floors)?);
     }
     let errs = errors_of(family, &lookup, points, filter, floors)?;
     let vs_ref: Vec<(String, f64, f64)> = errs
