@@ -715,8 +715,14 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
                 Some(n) => Some((
                     n as usize,
                     pipeline.animate.ok_or_else(|| {
+                        let some: Vec<&str> = lobefit::pipelines::registry()
+                            .iter()
+                            .filter(|p| p.animate.is_some())
+                            .map(|p| p.name)
+                            .collect();
                         Failure::Usage(format!(
-                            "render {name} --frames: the pipeline renders no animations (isg and meunier do)"
+                            "render {name} --frames: the pipeline renders no animations ({} do)",
+                            some.join(", ")
                         ))
                     })?,
                 )),

@@ -938,7 +938,7 @@ impl Scene {
 }
 
 /// The built-in scenes: (name, JSON text).
-pub const BUILTIN: [(&str, &str); 9] = [
+pub const BUILTIN: [(&str, &str); 10] = [
     ("meunier-fig13", include_str!("scenes/meunier-fig13.json")),
     ("meunier-glossy", include_str!("scenes/meunier-glossy.json")),
     ("isg-fig12", include_str!("scenes/isg-fig12.json")),
@@ -949,6 +949,7 @@ pub const BUILTIN: [(&str, &str); 9] = [
     // The animations (docs/meshes.md, Motion), last: tests index the stills above.
     ("isg-falling", include_str!("scenes/isg-falling.json")),
     ("meunier-orbit", include_str!("scenes/meunier-orbit.json")),
+    ("shexp-swim", include_str!("scenes/shexp-swim.json")),
 ];
 
 /// The built-in scene `name`, parsed.

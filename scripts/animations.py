@@ -6,7 +6,8 @@ assets/meshes/isg-bunny-walk.json (the bunny hopping across the plane through th
 sun's shadow), assets/meshes/isg-bunny-nod.json (the bunny nodding: a deforming mesh,
 two bones), pipelines/scenes/meunier-orbit.json (Figure 13's blockers turning)
 and the stills assets/meshes/meunier-bunny.json (the bunny under Figure 13's light)
-and assets/meshes/shexp-bunny.json (the bunny under the whale's sky). Run from the repository root: python3 scripts/animations.py"""
+and assets/meshes/shexp-bunny.json (the bunny under the whale's sky), and
+pipelines/scenes/shexp-swim.json (the whale's spheres swimming over the terrain). Run from the repository root: python3 scripts/animations.py"""
 import json
 import math
 import random
@@ -106,6 +107,24 @@ def shexp_bunny():
         json.dump(scene, f, indent=1)
         f.write("\n")
 
+def swim():
+    """The whale of shexp-whale.json swimming over its terrain: every sphere moves
+    together 2 units along +x and 0.5 along +y, rising and sinking 0.25 twice (Giraud's
+    animated whale kind; the terrain's shadows and the whale's sweep each other)."""
+    scene = json.load(open("pipelines/scenes/shexp-whale.json"))
+    scene["version"] = 2
+    keys = []
+    for i in range(17):
+        t = i / 16
+        keys.append({"time": round(t, 6),
+                     "translation": [round(-1.0 + 2.0 * t, 6), round(0.5 * t, 6),
+                                     round(0.25 * math.sin(2 * math.pi * t) ** 2, 6)]})
+    for s in scene["spheres"]:
+        s["keys"] = keys
+    with open("pipelines/scenes/shexp-swim.json", "w") as f:
+        json.dump(scene, f, indent=1)
+        f.write("\n")
+
 def bunny_nod():
     """The bunny of isg-bunny.json nodding twice: a two-bone bend about the y axis
     through its neck, the head and ears turning up to 0.4 rad, the blend 0.6 units
@@ -124,3 +143,4 @@ bunny_nod()
 orbit()
 meunier_bunny()
 shexp_bunny()
+swim()

@@ -85,9 +85,20 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
 // ---- main: the kernel's body (the statements inside its entry point, kernel.rs)
     let p = vec3<f32>(x0, x1, x2);
     let n = vec3<f32>(x3, x4, x5);
-    let own = i32(x13);
+    // The blockers the point lies on or in (`Scene::own_proxies`: first, end).
+    let own = vec2<i32>(i32(x13), i32(x14));
     var iters = 0u;
     var budget_flag = 0.0;
+    // A point inside another blocker (a mesh's covering sphere below the ground) is
+    // in its full shadow, as on the CPU (`Scene::buried`): radiance 0.
+    var buried = false;
+    for (var b = 0u; b < NS; b++) {
+        iters += 1u;
+        let s = mn_sphere(b);
+        if (i32(b) < own.x || i32(b) >= own.y) && length(s.xyz - p) <= s.w {
+            buried = true;
+        }
+    }
     // The BRDF's lobes: the Lambertian term, then each Lafortune lobe (eq. 30).
     var brdf: array<MnLobe, MAXL>;
     let m0 = MAT0 + u32(x12) * MAT_SIZE;
@@ -110,7 +121,7 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
         }
     }
     var total = 0.0;
-    for (var l = 0u; l < NL; l++) {
+    for (var l = 0u; l < NL && !buried; l++) {
         iters += 1u;
         let k = LGT0 + 5u * l;
         let lc = vec3<f32>(X[k], X[k + 1u], X[k + 2u]);
@@ -128,7 +139,7 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
         var hidden = false;
         for (var b = 0u; b < NS; b++) {
             iters += 1u;
-            if i32(b) == own {
+            if i32(b) >= own.x && i32(b) < own.y {
                 continue;
             }
             let s = mn_sphere(b);

@@ -25,7 +25,17 @@ fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
     let p = vec3<f32>(x0, x1, x2);
     let n = vec3<f32>(x3, x4, x5);
     let wo = vec3<f32>(x6, x7, x8);
-    let own = i32(x12);
+    // The blockers the point lies on or in (`Scene::own_proxies`: first, end).
+    let own = vec2<i32>(i32(x12), i32(x13));
+    // A point inside another blocker (a mesh's covering sphere below the ground) is
+    // in its full shadow, as on the CPU (`Scene::buried`): radiance 0.
+    var buried = false;
+    for (var b = 0u; b < NS; b++) {
+        let s = sph(b);
+        if (i32(b) < own.x || i32(b) >= own.y) && length(s.xyz - p) <= s.w {
+            buried = true;
+        }
+    }
     var f: array<f32, 16>;
     if HEIGHT_FIELD {
         var sigma: array<f32, 64>;
@@ -55,7 +65,7 @@ fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
         let dir = w / d;
         // sin theta_b; a cap wholly below the tangent plane cannot shadow the point.
         let sb = s.w / d;
-        if i32(b) == own || dot(n, dir) < -sb {
+        if (i32(b) >= own.x && i32(b) < own.y) || dot(n, dir) < -sb {
             continue;
         }
         let theta = lf_asin(sb);
@@ -71,10 +81,10 @@ fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
         }
     }
     var total = 0.0;
-    if x9 > 0.0 {
+    if x9 > 0.0 && !buried {
         total += x9 * shexp_term(f, lf_log_zh_diffuse(EPS_BRDF, 4u), n);
     }
-    if x10 > 0.0 {
+    if x10 > 0.0 && !buried {
         let m = normalize(2.0 * dot(n, wo) * n - wo);
         let weight = x10 * (x11 + 2.0) / (x11 + 1.0) * max(dot(n, m), 0.0);
         if weight > 0.0 {

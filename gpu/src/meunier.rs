@@ -128,13 +128,6 @@ fn run(a: Args) -> Result<ExitCode, String> {
     let settings = settings(&a)?;
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::meunier::render::scene(&a.scene)?;
-    // The kernel takes the scene's spheres only; meshes' sphere sets are CPU-only so far.
-    if !sc.meshes.is_empty() {
-        return Err(format!(
-            "render meunier: scene {} holds meshes, which the GPU kernel does not take yet",
-            sc.name
-        ));
-    }
     let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |_| Ok(()))?;
     if let Some(n) = a.frames {
         return crate::render::animate("render meunier", &sc, n as usize, &gpu, &a.out, |still, path| {
@@ -190,7 +183,7 @@ fn lit(v: f64) -> String {
 /// The kernel's functions and constants for `scene` under `settings` (the spheres,
 /// lights and materials follow the `count` pixels' inputs in the buffer X).
 fn source(scene: &Scene, settings: &MaskSettings, count: usize) -> String {
-    let (ns, nl) = (scene.spheres.len(), scene.lights.len());
+    let (ns, nl) = (scene.proxies.len(), scene.lights.len());
     let sph0 = N_IN * count;
     let lgt0 = sph0 + 4 * ns;
     let mat0 = lgt0 + 5 * nl;
@@ -216,8 +209,8 @@ fn source(scene: &Scene, settings: &MaskSettings, count: usize) -> String {
 }
 
 /// Inputs per pixel: point, normal, tangent, direction to the eye, material, the
-/// sphere the point lies on (−1: none).
-const N_IN: usize = 14;
+/// blockers the point lies on or in (`Scene::own_proxies`: first, end).
+const N_IN: usize = 15;
 
 /// The kernel's functions and body (gpu/shaders/meunier.wgsl).
 const SHADER: &str = include_str!("../shaders/meunier.wgsl");
@@ -309,10 +302,12 @@ pub fn render_meunier(
             ]
             .map(|v| v as f32),
         );
-        inputs.extend([hit.material as f32, hit.sphere.map_or(-1.0, |i| i as f32)]);
+        let own = sc.own_proxies(hit);
+        inputs.extend([hit.material as f32, own.start as f32, own.end as f32]);
     }
+    // The blockers: the spheres and the meshes' sphere sets (`Scene::proxies`).
     let spheres32: Vec<Sphere> = sc
-        .spheres
+        .proxies
         .iter()
         .map(|s| Sphere {
             centre: s.centre.as_vec3().as_dvec3(),
@@ -357,16 +352,23 @@ pub fn render_meunier(
     let mut cpu = Vec::with_capacity(visible.len());
     for (k, hit) in visible.iter().enumerate() {
         let v = |i: usize| f64::from(inputs[N_IN * k + i]);
+        let own = sc.own_proxies(hit);
         let blockers: Vec<Sphere> = spheres32
             .iter()
             .enumerate()
-            .filter(|(i, _)| Some(*i) != hit.sphere)
+            .filter(|(i, _)| !own.contains(i))
             .map(|(_, s)| *s)
             .collect();
+        let x = DVec3::new(v(0), v(1), v(2));
+        // A point buried in a blocker is in its full shadow (the CPU render's rule).
+        if blockers.iter().any(|b| (x - b.centre).length() <= b.radius) {
+            cpu.push(0.0);
+            continue;
+        }
         cpu.push(
             meunier
                 .radiance(
-                    DVec3::new(v(0), v(1), v(2)),
+                    x,
                     DVec3::new(v(3), v(4), v(5)).normalize(),
                     DVec3::new(v(6), v(7), v(8)),
                     DVec3::new(v(9), v(10), v(11)).normalize(),

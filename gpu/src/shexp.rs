@@ -53,6 +53,10 @@ pub struct Args {
     /// Output PNG.
     #[arg(long)]
     out: PathBuf,
+    /// Render an animated scene as N frames (times 0 to 1), each against the CPU
+    /// pipeline; the frames go to OUT's stem with `-frame-KKK.png`.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
+    frames: Option<u32>,
 }
 
 /// `render shexp`.
@@ -74,14 +78,12 @@ fn run(a: Args) -> Result<ExitCode, String> {
     }
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::shexp::render::scene(&a.scene)?;
-    // The kernel takes the scene's spheres only; meshes' sphere sets are CPU-only so far.
-    if !sc.meshes.is_empty() {
-        return Err(format!(
-            "render shexp: scene {} holds meshes, which the GPU kernel does not take yet",
-            sc.name
-        ));
-    }
     let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| check_budget(budget, &sc, "render shexp"))?;
+    if let Some(n) = a.frames {
+        return crate::render::animate("render shexp", &sc, n as usize, &gpu, &a.out, |still, path| {
+            render_shexp(&gpu, &ex, still, a.width as usize, &settings, path)
+        });
+    }
     let r = render_shexp(&gpu, &ex, &sc, a.width as usize, &settings, &a.out)?;
     let what = format!("{} ({:?} blocker log)", a.scene, settings.blocker_log);
     crate::render::report("render shexp", &what, &r, &gpu, &a.out)
@@ -94,8 +96,8 @@ pub const WIDTH: u32 = 64;
 const ORDER: usize = 4;
 
 /// Per pixel before the horizon angles: point, normal, view, k_d, k_s, Phong
-/// exponent, own sphere (−1: none).
-const HIT_INPUTS: usize = 13;
+/// exponent, the blockers the point lies on or in (`Scene::own_proxies`: first, end).
+const HIT_INPUTS: usize = 14;
 
 /// The families render shexp reads, and how to export them.
 pub const FAMILIES: (&[&str], &str) = (
@@ -120,14 +122,15 @@ pub fn check_budget(budget: Option<u64>, scene: &Scene, command: &str) -> Result
     budget::refuse_over(
         budget,
         command,
-        iterations(scene.spheres.len()),
-        &format!("{} spheres", scene.spheres.len()),
+        iterations(scene.proxies.len()),
+        &format!("{} spheres", scene.proxies.len()),
     )
 }
 
-/// An upper bound on the loop iterations of one pixel's kernel (`crate::budget`).
+/// An upper bound on the loop iterations of one pixel's kernel (`crate::budget`):
+/// the buried test's loop over the blockers, then theirs.
 pub fn iterations(spheres: usize) -> u64 {
-    PER_PIXEL + PER_SPHERE * (spheres as u64 + 1) + 2
+    PER_PIXEL + (spheres as u64 + 1) + PER_SPHERE * (spheres as u64 + 1) + 2
 }
 
 /// The export's texture of family `kind` whose file is `stem`.<extension>.
@@ -162,7 +165,7 @@ const SHADER: &str = include_str!("../shaders/shexp.wgsl");
 
 /// The kernel's constants and functions, and its body, for `scene` at `count` pixels.
 fn source(scene: &Scene, s: &Settings, count: usize) -> String {
-    let ns = scene.spheres.len();
+    let ns = scene.proxies.len();
     let w = s.wedges as usize;
     let n_in = HIT_INPUTS + w;
     let base = n_in * count;
@@ -247,10 +250,10 @@ pub fn render_shexp(
         return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
     }
     let light = light_sh(sc, ORDER)?;
-    // Inputs per pixel: point, normal, view, k_d, k_s, Phong exponent, own sphere
-    // (−1: none), the W horizon angles, as f32; the CPU shades the same rounded hit.
+    // Inputs per pixel: point, normal, view, k_d, k_s, Phong exponent, own blockers
+    // (first, end), the W horizon angles, as f32; the CPU shades the same rounded hit.
     let n_in = HIT_INPUTS + s.wedges as usize;
-    let mut inputs = Vec::with_capacity(visible.len() * n_in + 4 * sc.spheres.len() + light.len());
+    let mut inputs = Vec::with_capacity(visible.len() * n_in + 4 * sc.proxies.len() + light.len());
     let mut at_hits = Vec::with_capacity(visible.len());
     let mut brdfs = Vec::with_capacity(visible.len());
     let r32 = |v: DVec3| DVec3::new(f64::from(v.x as f32), f64::from(v.y as f32), f64::from(v.z as f32));
@@ -269,12 +272,14 @@ pub fn render_shexp(
             ]
             .map(|v| v as f32),
         );
-        inputs.push(hit.sphere.map_or(-1.0, |i| i as f32));
+        let own = sc.own_proxies(hit);
+        inputs.extend([own.start as f32, own.end as f32]);
         inputs.extend(horizons(sc, s, &at).into_iter().map(|v| v as f32));
         at_hits.push(at);
         brdfs.push(b);
     }
-    for b in &sc.spheres {
+    // The blockers: the spheres and the meshes' sphere sets (`Scene::proxies`).
+    for b in &sc.proxies {
         inputs.extend([b.centre.x, b.centre.y, b.centre.z, b.radius].map(|v| v as f32));
     }
     inputs.extend(light.iter().map(|&v| v as f32));

@@ -35,6 +35,12 @@ direct-light  [--depth N] (1..5, default 5)  [--mask aggressive|conservative]
        `bx`, `by`, `bz`, `br`  centre and radius of a spherical blocker (br = 0: none)
   out  `irradiance`  ∫ L V max(n·ω, 0) dω through the lobe pipeline (docs/meunier.md);
                   --exact: by quadrature with exact ray–sphere visibility
+  --scene FILE: the scene's spherical lights, its spheres and its meshes' sphere sets as blockers, and its
+       top-level brdf, as `render meunier` shades a pixel
+  in   `px`,`py`,`pz`  the point; `nx`,`ny`,`nz` its unit normal; `vx`,`vy`,`vz` the unit direction to the viewer
+  out  `radiance`    Σ over the lights of ∫ L f_r V max(n·ω, 0) dω through the lobe pipeline (0 inside a
+                  mesh's covering sphere); --exact: Monte Carlo over each light's cap with exact visibility (the
+                  spheres and the meshes' true triangles) to a standard error of 1e-3 of the estimate
 ";
 
 /// Relative tolerance of the reference's nested Gauss–Kronrod.
@@ -60,6 +66,11 @@ pub const FLAGS: &[EvalFlag] = &[
     EvalFlag {
         name: "light",
         help: "lobe | cap, how the light enters (default cap)",
+        count: false,
+    },
+    EvalFlag {
+        name: "scene",
+        help: "FILE: shade points of a scene (its lights, spheres and meshes' sphere sets, top-level brdf)",
         count: false,
     },
 ];
@@ -632,5 +643,8 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
 /// The pipeline's entry for `lobefit eval` ([`crate::Pipeline::eval`]): the view its
 /// flags configure.
 pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, String> {
+    if let Some(path) = flags.text("scene") {
+        return Ok(Box::new(super::scene_view::SceneView::from_flags(flags, &path)?));
+    }
     Ok(Box::new(DirectLightView::from_flags(flags)?))
 }

@@ -8,6 +8,7 @@ pub mod direct_light;
 pub mod light_fit;
 pub mod render;
 pub mod scaling;
+pub mod scene_view;
 
 use super::Pipeline;
 

@@ -41,8 +41,8 @@ pub const PIPELINE: Pipeline = Pipeline {
     // each higher order.
     references: (2, 2 + render::HIGHER_ORDERS.len() as u64),
     precise_factor: render::PRECISE_FACTOR as u64,
-    animate: None,
-    animations: &[],
+    animate: Some(render::animate),
+    animations: &["swim"],
     pareto: Some(crate::baselines::SHEXP),
 };
 

@@ -92,6 +92,66 @@ fn estimates(
     )
 }
 
+/// Renders the animated scene `name` ([`crate::animate`]): the pipeline at its default
+/// settings against the strongest estimator of the baselines study on its scenes
+/// (under an SG sky the control variate with QMC and per-point SG selection,
+/// `qmc-cv-mis`; under an SH sky Owen-scrambled Sobol, `qmc`), at `--spp` for the
+/// reference and at the pipeline's time.
+pub fn animate(
+    name: &str,
+    opts: &RenderOptions,
+    frames: usize,
+    dir: &Path,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Summary, String> {
+    use crate::animate::Methods;
+    use crate::estimate::Sampling;
+    use crate::sky::{reference_cv, reference_sampled, Select};
+    let scene = scene(name)?;
+    let tables = Tables::embedded()?;
+    let settings = Settings::default();
+    let light_n = light_sh(&scene, settings.order)?;
+    if let Some(w) = super::truncation_warning(&scene, settings.order) {
+        eprintln!("{w}");
+    }
+    let shade = |s: &Scene, hits: &[Option<Hit>]| image(&tables, &settings, &light_n, s, hits);
+    let sgs = scene.sh_environment.is_none();
+    let estimate = |s: &Scene, h: &Hit, n: usize, seed: u64| {
+        let brdf = Phong::of(s.brdf(h))?;
+        let occluded = |v| s.occluded(h, v);
+        Ok(if sgs {
+            reference_cv(
+                Sampling::Qmc,
+                Select::Contribution,
+                &s.environment,
+                &brdf,
+                occluded,
+                h,
+                n,
+                seed,
+            )
+        } else {
+            reference_sampled(
+                Sampling::Qmc,
+                &s.environment,
+                |w| light(s, w),
+                &brdf,
+                occluded,
+                h,
+                n,
+                seed,
+            )
+        })
+    };
+    let methods = Methods {
+        method: "SH exponentiation (default settings)",
+        shade: &shade,
+        strongest: if sgs { "qmc-cv-mis" } else { "qmc" },
+        estimate: &estimate,
+    };
+    crate::animate::animate(&PIPELINE, &scene, opts, frames, dir, progress, &methods)
+}
+
 /// Renders one scene into `dir`.
 pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn() + Sync)) -> Result<Summary, String> {
     render_scene(&scene(name)?, opts, dir, progress)

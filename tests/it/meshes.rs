@@ -260,3 +260,83 @@ fn eval_isg_shade_sees_meshes_through_their_sphere_sets() {
     assert_eq!(code, Some(1), "{stdout}{stderr}");
     assert!(stderr.contains("inside it"), "{stderr}");
 }
+
+/// `eval direct-light --scene` sees a mesh as `render meunier` does: through its
+/// sphere set in the lobe pipeline, through its true triangles in `--exact`. Under the
+/// bunny scene's sphere light: on the bunny's top (its own spheres skipped: buried in
+/// them otherwise, and 0) the two agree closely; on the ground straight under the
+/// bunny from the light (its umbra through the triangles) both are dark; far from
+/// the bunny both give the unoccluded ground. A point inside the bunny is refused.
+#[test]
+fn eval_direct_light_sees_meshes_through_their_sphere_sets() {
+    use lobefit::pipelines::scene::{load_for, Accepts};
+    use lobefit_tables::glam::DVec3;
+    let d = tempfile::tempdir().unwrap();
+    std::fs::copy("assets/meshes/bunny.obj", d.path().join("bunny.obj")).unwrap();
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string("assets/meshes/meunier-bunny.json").unwrap()).unwrap();
+    scene["brdf"] = serde_json::json!({"lambert": {"albedo": 0.6}});
+    scene["meshes"][0]["spheres"]["count"] = 16.into();
+    let path = d.path().join("bunny-eval.json");
+    std::fs::write(&path, scene.to_string()).unwrap();
+    let path = path.to_str().unwrap();
+    let loaded = load_for(path, &Accepts::ALL).unwrap();
+    let mesh = &loaded.meshes[0].mesh;
+    let (lo, hi) = mesh.bounds();
+    let top = (0..mesh.triangles.len())
+        .max_by(|&a, &b| mesh.normal(a).z.total_cmp(&mesh.normal(b).z))
+        .unwrap();
+    let on_top = mesh.corners(top).iter().sum::<DVec3>() / 3.0;
+    let n_top = mesh.normal(top);
+    let light = loaded.lights[0].sphere.centre;
+    let mid = 0.5 * (lo + hi);
+    // The ground point on the line from the light's centre through the bunny's middle.
+    let shadow = light + (mid - light) * (light.z / (light.z - mid.z));
+    let far = DVec3::new(hi.x + 3.0, lo.y - 3.0, 0.0);
+    let row = |p: DVec3, n: DVec3| {
+        format!(
+            "{},{},{},{},{},{},{},{},{}\n",
+            p.x, p.y, p.z, n.x, n.y, n.z, n.x, n.y, n.z
+        )
+    };
+    let input = format!(
+        "px,py,pz,nx,ny,nz,vx,vy,vz\n{}{}{}",
+        row(on_top, n_top),
+        row(shadow, DVec3::Z),
+        row(far, DVec3::Z)
+    );
+    let eval = |exact: bool| -> Vec<f64> {
+        let args = ["eval", "direct-light", "--scene", path];
+        let (code, stdout, stderr) = run_text(&[&args[..], if exact { &["--exact"] } else { &[] }].concat(), &input);
+        assert_eq!(code, Some(0), "{stderr}");
+        assert!(stdout.starts_with("px,"), "{stdout}");
+        stdout
+            .lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let (lobes, exact) = (eval(false), eval(true));
+    println!("top, shadow, far: lobes {lobes:?}, exact {exact:?}");
+    let unoccluded = exact[2];
+    assert!(
+        unoccluded > 0.0 && (lobes[2] - unoccluded).abs() < 0.01 * unoccluded,
+        "{lobes:?} {exact:?}"
+    );
+    assert!(
+        lobes[0] > 0.3 * unoccluded,
+        "the top is lit, not buried in its own spheres: {lobes:?}"
+    );
+    assert!((lobes[0] - exact[0]).abs() < 0.1 * exact[0], "{lobes:?} {exact:?}");
+    assert!(
+        exact[1] < 0.2 * unoccluded && lobes[1] < 0.2 * unoccluded,
+        "the point under the bunny is in its shadow: {lobes:?} {exact:?}"
+    );
+    assert!(mesh.inside(mid) && mesh.distance(mid) > 0.0);
+    let (code, stdout, stderr) = run_text(
+        &["eval", "direct-light", "--scene", path],
+        &format!("px,py,pz,nx,ny,nz,vx,vy,vz\n{}", row(mid, DVec3::Z)),
+    );
+    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert!(stderr.contains("inside it"), "{stderr}");
+}

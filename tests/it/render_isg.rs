@@ -283,7 +283,7 @@ fn expensive_scenes_and_renders_are_refused_first() {
 /// (an acTL chunk of 3 frames), the CSV (a row per frame, finite values, no temporal
 /// error on frame 0) and the summary line last; the method's and the reference's
 /// numbers do not depend on the thread count (the equal-time estimator's samples
-/// follow measured times, so its column may). A pipeline without animations (shexp), a
+/// follow measured times, so its column may). A pipeline without animations (rigs), a
 /// single frame and a scene that does not move are refused.
 #[test]
 fn animation_writes_frames_and_temporal_errors() {
@@ -343,9 +343,9 @@ fn animation_writes_frames_and_temporal_errors() {
     }
     for (args, code_want, want) in [
         (
-            vec!["render", "shexp", "--frames", "2"],
+            vec!["render", "rigs", "--frames", "2"],
             2,
-            "the pipeline renders no animations",
+            "the pipeline renders no animations (meunier, isg, shexp do)",
         ),
         (vec!["render", "isg", "--frames", "1"], 2, "--frames"),
         (

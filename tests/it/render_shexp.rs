@@ -66,6 +66,57 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
     }
 }
 
+/// `render shexp --frames 2` on the built-in animation (the whale swimming over its
+/// terrain): both frames' PNGs, the animated PNG (an acTL chunk of 2 frames), a CSV
+/// row per frame with finite errors and times (no temporal error on frame 0), and the
+/// summary line last; the sphere whale has moved between the frames, so the
+/// pipeline's frame-to-frame change is not zero.
+#[test]
+fn animation_renders_the_swimming_whale() {
+    let d = tempfile::tempdir().unwrap();
+    let (code, stdout, err) = common::run_text(
+        &[
+            "render",
+            "shexp",
+            "--scene",
+            "swim",
+            "--frames",
+            "2",
+            "--width",
+            "12",
+            "--spp",
+            "16",
+            "--out",
+            d.path().to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    common::assert_summary_last(&stdout, "shexp swim");
+    for k in 0..2 {
+        let png = std::fs::read(d.path().join(format!("shexp-swim-frame-{k:03}.png"))).unwrap();
+        assert_eq!(&png[..4], b"\x89PNG");
+    }
+    let apng = std::fs::read(d.path().join("shexp-swim-animation.png")).unwrap();
+    let at = apng.windows(4).position(|w| w == b"acTL").expect("an acTL chunk");
+    assert_eq!(apng[at + 4..at + 8], 2u32.to_be_bytes());
+    let csv = std::fs::read_to_string(d.path().join("shexp-swim-frames.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 2, "{csv}");
+    for (k, r) in rows.iter().enumerate() {
+        assert_eq!(r[4].is_nan(), k == 0, "{csv}");
+        assert!(r
+            .iter()
+            .enumerate()
+            .all(|(i, x)| x.is_finite() || (k == 0 && (i == 4 || i == 5))));
+    }
+    assert!(rows[1][4] > 0.0, "a temporal error on frame 1: {csv}");
+}
+
 /// The whale scene with a small terrain (33², for debug speed) and `edit` applied.
 fn scene_file(dir: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) -> String {
     let text = lobefit::pipelines::scene::BUILTIN

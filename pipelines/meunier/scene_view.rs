@@ -1,0 +1,136 @@
+//! `lobefit eval direct-light --scene FILE [--exact]`: the lobe pipeline at given
+//! points of a scene (no image), as `render meunier` shades its pixels: the scene
+//! file's spherical lights, its spheres and its meshes' sphere sets as blockers
+//! ([`Scene::proxies`]), its top-level `brdf`. `--exact` is Monte Carlo over each
+//! light's cap with exact visibility: the spheres and the meshes' **true triangles**,
+//! so the difference is the lobes' error plus the sphere proxy's (docs/meshes.md).
+
+use std::sync::Arc;
+
+use lobefit_tables::geom::Brdf;
+use lobefit_tables::{CapExponent, LoadError, LobeProduct, LookupError, MaskWeights, Meunier, Table};
+
+use super::direct_light::DirectLightView;
+use super::render::reference_sampled;
+use crate::estimate::{Estimate, Sampling};
+use crate::scene::{Hit, Scene};
+use crate::sky::{exact_estimate, hit_on_scene, POINT_INPUTS};
+use lobefit_core::family::{EvalFlags, Lookup, View};
+use lobefit_fits::mask_weights::MaskWeightsFamily;
+
+/// `eval direct-light` with `--scene`: the view over the scene file.
+#[derive(Clone)]
+pub struct SceneView {
+    /// The mask settings (`--depth`, `--mask`, `--weights`, `--light`).
+    view: DirectLightView,
+    scene: Arc<Scene>,
+    brdf: Brdf,
+}
+
+impl SceneView {
+    /// From `eval`'s flags: `--scene FILE` and [`DirectLightView::from_flags`]'s.
+    pub fn from_flags(flags: &EvalFlags, path: &str) -> Result<Self, String> {
+        let view = DirectLightView::from_flags(flags)?;
+        let scene = crate::scene::load_for(path, &super::PIPELINE.accepts)?;
+        if scene.lights.is_empty() {
+            return Err(format!("scene {}: direct-light needs a spherical light", scene.name));
+        }
+        let brdf = scene
+            .brdf
+            .clone()
+            .ok_or_else(|| format!("scene {}: direct-light --scene needs the top-level brdf", scene.name))?;
+        Ok(SceneView {
+            view,
+            scene: Arc::new(scene),
+            brdf,
+        })
+    }
+
+    /// The row's hit with the top-level `brdf`'s material.
+    fn hit(&self, x: &[f64]) -> Result<Hit, LookupError> {
+        hit_on_scene(x, &self.scene, None)
+    }
+}
+
+struct SceneLookup {
+    view: SceneView,
+    weights: MaskWeights,
+}
+
+impl Lookup for SceneLookup {
+    fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
+        let v = &self.view;
+        let h = v.hit(x)?;
+        if v.scene.buried(&h) {
+            // Inside a mesh's covering sphere: the proxy is a solid (`Scene::buried`).
+            return Ok(vec![0.0]);
+        }
+        let bad = |e: LoadError| LookupError::NotFinite {
+            name: format!("embedded table ({e})"),
+            value: f64::NAN,
+        };
+        let m = Meunier {
+            products: LobeProduct::embedded().map_err(bad)?,
+            caps: CapExponent::embedded().map_err(bad)?,
+            weights: &self.weights,
+        };
+        m.radiance(
+            h.x,
+            h.n,
+            h.t,
+            h.wo,
+            &v.brdf,
+            &v.scene.lights,
+            &v.scene.blockers(&h),
+            &v.view.settings,
+        )
+        .map(|r| vec![r])
+        .map_err(super::direct_light::to_lookup)
+    }
+}
+
+impl View for SceneView {
+    fn kind(&self) -> &'static str {
+        MaskWeightsFamily.kind()
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &POINT_INPUTS
+    }
+    fn outputs(&self) -> &'static [&'static str] {
+        &["radiance"]
+    }
+    fn embedded(&self) -> &'static [u8] {
+        MaskWeightsFamily.embedded()
+    }
+    fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
+        Ok(Box::new(SceneLookup {
+            view: self.clone(),
+            weights: MaskWeights::from_table(table)?,
+        }))
+    }
+    fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        let h = self.hit(x).map_err(|e| e.to_string())?;
+        // The reference's scene carries the top-level brdf at the hit (the render's
+        // materials are per object; eval shades with one).
+        let mut scene = (*self.scene).clone();
+        scene.materials = vec![self.brdf.clone()];
+        let h = Hit { material: 0, ..h };
+        // Seeded by the row, so the same row gives the same answer.
+        let seed = x.iter().fold(0x5eed_d11e_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
+        exact_estimate(|n| {
+            // Each light's cap sampled with n samples; the sum of independent means.
+            let parts: Vec<Estimate> = scene
+                .lights
+                .iter()
+                .enumerate()
+                .map(|(k, l)| reference_sampled(Sampling::Plain, &scene, l, &h, n, seed ^ k as u64, true))
+                .collect();
+            Estimate {
+                mean: parts.iter().map(|e| e.mean).sum(),
+                std_error: parts.iter().map(|e| e.std_error * e.std_error).sum::<f64>().sqrt(),
+                samples: n,
+            }
+        })
+        .map(|m| vec![m])
+    }
+}
