@@ -25,6 +25,7 @@ run $bin render isg --scene falling --frames 24 --width 160 --spp 1024 --out "$o
 run $bin render meunier --scene orbit --frames 24 --width 160 --spp 1024 --out "$out/anim"
 run $bin render isg --scene assets/meshes/isg-bunny-walk.json --frames 24 --width 160 --spp 256 --out "$out/anim"
 run $bin render isg --scene assets/meshes/isg-bunny-nod.json --frames 24 --width 160 --spp 256 --out "$out/anim"
+run $bin render shexp --scene swim --frames 24 --width 160 --spp 1024 --out "$out/anim"
 # The direct-light study and the rigs' figures.
 run $bin plot meunier --out "$out/meunier"
 run $bin plot rigs --out "$out/rigs"

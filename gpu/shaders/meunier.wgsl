@@ -1,6 +1,8 @@
 // lobefit-gpu render meunier: the kernel's own functions (prefixed mn_), then its body.
-// The kernel's constants (NS, NL, SPH0, LGT0, MAT0, MAT_SIZE, MAXB, MAXL, DEPTH, MODE,
-// WSET, THRESH, CAP_LIGHT, BUDGET, LIGHT_HALF_ANGLE_MIN) come from gpu/src/meunier.rs;
+// The kernel's constants (N_IN, MAT_SIZE, MAXB, MAXL, DEPTH, MODE, WSET, THRESH,
+// CAP_LIGHT, BUDGET, LIGHT_HALF_ANGLE_MIN: the settings') come from gpu/src/meunier.rs;
+// the scene follows the pixels' inputs in X (mn_scene), so one compiled kernel serves
+// every scene, frame and image size;
 // the formulas shared with renderers are the shader library's (tables/shaders/*.wgsl:
 // lf_cap_exponent_any, lf_mask_weight, lf_sphere_cap_irradiance, lf_lobe_fraction_in_cap,
 // lf_lobe_product). Not exported: only lobefit-gpu runs it.
@@ -27,8 +29,23 @@ fn mn_kept(l: MnLobe) -> bool {
     return l.s != 0.0 && abs(mn_integral(l)) >= THRESH;
 }
 
+// Where the scene starts in X: after the N.x pixels' inputs. There: the blocker
+// count, the light count, the blockers (centre, radius), the lights (centre, radius,
+// radiance), then the materials (MAT_SIZE each).
+fn mn_scene() -> u32 {
+    return N_IN * N.x;
+}
+
+fn mn_blockers() -> u32 {
+    return u32(X[mn_scene()]);
+}
+
+fn mn_lights() -> u32 {
+    return u32(X[mn_scene() + 1u]);
+}
+
 fn mn_sphere(b: u32) -> vec4<f32> {
-    let k = SPH0 + 4u * b;
+    let k = mn_scene() + 2u + 4u * b;
     return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);
 }
 
@@ -87,12 +104,15 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
     let n = vec3<f32>(x3, x4, x5);
     // The blockers the point lies on or in (`Scene::own_proxies`: first, end).
     let own = vec2<i32>(i32(x13), i32(x14));
+    let ns = mn_blockers();
+    let nl = mn_lights();
+    let lgt0 = mn_scene() + 2u + 4u * ns;
     var iters = 0u;
     var budget_flag = 0.0;
     // A point inside another blocker (a mesh's covering sphere below the ground) is
     // in its full shadow, as on the CPU (`Scene::buried`): radiance 0.
     var buried = false;
-    for (var b = 0u; b < NS; b++) {
+    for (var b = 0u; b < ns; b++) {
         iters += 1u;
         let s = mn_sphere(b);
         if (i32(b) < own.x || i32(b) >= own.y) && length(s.xyz - p) <= s.w {
@@ -101,7 +121,7 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
     }
     // The BRDF's lobes: the Lambertian term, then each Lafortune lobe (eq. 30).
     var brdf: array<MnLobe, MAXL>;
-    let m0 = MAT0 + u32(x12) * MAT_SIZE;
+    let m0 = lgt0 + 5u * nl + u32(x12) * MAT_SIZE;
     brdf[0] = MnLobe(X[m0] / LF_PI, n, 0.0);
     var nb = 1u;
     let t0 = vec3<f32>(x6, x7, x8);
@@ -121,9 +141,9 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
         }
     }
     var total = 0.0;
-    for (var l = 0u; l < NL && !buried; l++) {
+    for (var l = 0u; l < nl && !buried; l++) {
         iters += 1u;
-        let k = LGT0 + 5u * l;
+        let k = lgt0 + 5u * l;
         let lc = vec3<f32>(X[k], X[k + 1u], X[k + 2u]);
         let radiance = X[k + 4u];
         let to = lc - p;
@@ -137,7 +157,7 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
         var rel: array<vec4<f32>, MAXB>;
         var nrel = 0u;
         var hidden = false;
-        for (var b = 0u; b < NS; b++) {
+        for (var b = 0u; b < ns; b++) {
             iters += 1u;
             if i32(b) >= own.x && i32(b) < own.y {
                 continue;

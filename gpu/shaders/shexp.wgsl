@@ -1,10 +1,27 @@
 // lobefit-gpu render shexp: the kernel's own function (shexp_term), then its body.
-// The kernel's constants and accessor (N_IN, NW, W_INDEX, NS, SPH0, LIGHT0,
-// HEIGHT_FIELD, TERRAIN_ABOVE_TANGENT, ATTENUATION, EPS_*, sph) come from
-// gpu/src/shexp.rs, which also puts in the body the count of per-pixel inputs before
+// The kernel's constants (N_IN, NW, W_INDEX, TERRAIN_ABOVE_TANGENT, ATTENUATION, EPS_*:
+// the settings') come from gpu/src/shexp.rs; the scene follows the pixels' inputs in X
+// (shexp_scene), so one compiled kernel serves every scene, frame and image size.
+// gpu/src/shexp.rs also puts in the body the count of per-pixel inputs before
 // the horizon angles (HIT_INPUTS_) and the sphere blockers' log (BLOCKER_LOG_: the
 // library's lf_log_zh_blocker or Ren's lf_shexp); the formulas shared with renderers are
 // the shader library's. Not exported: only lobefit-gpu runs it.
+
+// Where the scene starts in X: after the N.x pixels' inputs. There: the sphere
+// count, whether a height field is present, the spheres (centre, radius), then the
+// light's 16 SH coefficients.
+fn shexp_scene() -> u32 {
+    return N_IN * N.x;
+}
+
+fn shexp_spheres() -> u32 {
+    return u32(X[shexp_scene()]);
+}
+
+fn sph(b: u32) -> vec4<f32> {
+    let k = shexp_scene() + 2u + 4u * b;
+    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);
+}
 
 // One BRDF term: exp* (HYB) of the log visibility f plus the term's log-ZH lobe z
 // about `axis`, dotted with the light's SH vector.
@@ -15,9 +32,10 @@ fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
         g[i] = f[i] + t[i];
     }
     let e = lf_shexp_hyb(T2, S, P2, 4u, g);
+    let light0 = shexp_scene() + 2u + 4u * shexp_spheres();
     var sum = 0.0;
     for (var i = 0u; i < 16u; i++) {
-        sum += e[i] * X[LIGHT0 + i];
+        sum += e[i] * X[light0 + i];
     }
     return sum;
 }
@@ -27,17 +45,18 @@ fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
     let wo = vec3<f32>(x6, x7, x8);
     // The blockers the point lies on or in (`Scene::own_proxies`: first, end).
     let own = vec2<i32>(i32(x12), i32(x13));
+    let ns = shexp_spheres();
     // A point inside another blocker (a mesh's covering sphere below the ground) is
     // in its full shadow, as on the CPU (`Scene::buried`): radiance 0.
     var buried = false;
-    for (var b = 0u; b < NS; b++) {
+    for (var b = 0u; b < ns; b++) {
         let s = sph(b);
         if (i32(b) < own.x || i32(b) >= own.y) && length(s.xyz - p) <= s.w {
             buried = true;
         }
     }
     var f: array<f32, 16>;
-    if HEIGHT_FIELD {
+    if X[shexp_scene() + 1u] != 0.0 {
         var sigma: array<f32, 64>;
         for (var k = 0u; k < NW; k++) {
             sigma[k] = X[i * N_IN + HIT_INPUTS_u + k];
@@ -58,7 +77,7 @@ fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
             f[k] = v[k];
         }
     }
-    for (var b = 0u; b < NS; b++) {
+    for (var b = 0u; b < ns; b++) {
         let s = sph(b);
         let w = s.xyz - p;
         let d = length(w);

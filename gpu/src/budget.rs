@@ -22,7 +22,8 @@ pub const FLAG_BUDGET: f32 = 2.0;
 
 /// WGSL statements, the last of a kernel body: `budget_flag` (a `var` the body
 /// declares, 0 when nothing is wrong) becomes [`FLAG_BUDGET`] when llvmpipe's loop
-/// budget ran out. The bound `N.y + 2u` (N.y is 0) is unknown to the compiler, so the
+/// budget ran out. The bound `N.y + 2u` (N.y is 0, in a storage buffer: lavapipe inlines
+/// the uniforms a loop bound reads, not storage) is unknown to the compiler, so the
 /// loop is not unrolled and counts.
 pub const SENTINEL: &str = "    var budget_runs = 0u;
     loop {

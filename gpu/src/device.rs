@@ -396,7 +396,16 @@ impl Gpu {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let count_buf = self.uniform(bytemuck::cast_slice(&[count as u32, 0, 0, 0]));
+        // The count (and the 0 that `budget::SENTINEL` reads) in a storage buffer, not
+        // a uniform one: lavapipe inlines a uniform that a branch or a loop bound reads
+        // and compiles a variant of the kernel per value (measured: the same kernel at
+        // 101 and 102 pixels compiled twice, ~9 s each), which would also let it see
+        // the sentinel's bound.
+        let count_buf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: None,
+            contents: bytemuck::cast_slice(&[count as u32, 0, 0, 0]),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
         let extra_bufs: Vec<wgpu::Buffer> = extra.iter().map(|(p, _)| self.uniform(p)).collect();
         let mut bind_entries = vec![
             wgpu::BindGroupEntry {
@@ -611,7 +620,7 @@ fn layout_entries(
         ),
         entry(3, storage(true)),
         entry(4, storage(false)),
-        entry(5, uniform),
+        entry(5, storage(true)),
     ];
     for (k, (_, t)) in (1u32..).zip(extra) {
         if t.filterable != texture.filterable {

@@ -57,7 +57,7 @@ pub fn kernel_textures(tex_types: &[&str], n_in: usize, n_out: usize, body: &str
 @group(0) @binding(2) var S: sampler;
 @group(0) @binding(3) var<storage, read> X: array<f32>;
 @group(0) @binding(4) var<storage, read_write> Y: array<f32>;
-@group(0) @binding(5) var<uniform> N: vec4<u32>;
+@group(0) @binding(5) var<storage, read> N: vec4<u32>;
 {second}
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{

@@ -149,8 +149,9 @@ pub fn report(command: &str, what: &str, r: &SceneRender, gpu: &Gpu, out: &Path)
 /// `render NAME --frames N`: the still of `sc` at each time k / (N − 1) rendered by
 /// `one(still, out_k)` (out_k: `out` with `-frame-KKK` before its extension, every
 /// frame compared with the CPU pipeline on that still), a line per frame with its
-/// device time (the whole render: the kernel's build, which bakes the blockers, the
-/// dispatch and the read-back), then the worst frame's verdict.
+/// wall time (the whole render: the dispatch, the read-back and any kernel build — the
+/// ISG kernel bakes the blockers, so it builds per frame; the Meunier and SH kernels
+/// take the scene as data and build once), then the worst frame's verdict.
 pub fn animate(
     command: &str,
     sc: &lobefit::pipelines::scene::Scene,
@@ -176,7 +177,7 @@ pub fn animate(
         let t = std::time::Instant::now();
         let r = one(&still, &path)?;
         out!(
-            "{command} {} frame {k} (t = {time:.3}): {} pixels, GPU against the CPU relative to the peak: max {:.2e}, RMS {:.2e}; {:.0} ms (kernel build, dispatch, read-back)",
+            "{command} {} frame {k} (t = {time:.3}): {} pixels, GPU against the CPU relative to the peak: max {:.2e}, RMS {:.2e}; {:.0} ms (wall: dispatch, read-back, any kernel build)",
             sc.name,
             r.pixels,
             r.max,

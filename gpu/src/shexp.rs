@@ -6,12 +6,16 @@
 //! the exact horizon, per `Settings::horizon`) and passes them in the input buffer with
 //! the material's Phong parameters; the kernel does the rest of the CPU's
 //! `shade::radiance` in f32: the height field's wedges (`lf_wedge_compose`), every
-//! sphere blocker but the hit's own (`lf_log_zh_blocker`, or Ren's log `lf_shexp`,
+//! sphere blocker (the spheres and the meshes' sphere sets) but those the hit lies on
+//! or in, 0 for a point buried in another (`lf_log_zh_blocker`, or Ren's log `lf_shexp`,
 //! turned by `lf_zh_to_sh`), per BRDF term its log-ZH lobe (`lf_log_zh_diffuse`,
 //! `lf_log_zh_phong`), HYB (`lf_shexp_hyb`) and the dot product with the light's SH
 //! vector. The settings' values become the kernel's constants, read from
-//! `Settings::default()` at run time. The spheres and the light follow the pixels in
-//! the input buffer, so the kernel's source does not grow with the scene. llvmpipe
+//! `Settings::default()` at run time. The scene (the blockers' count, whether a height
+//! field is present, the spheres and the meshes' sphere sets, the light) follows the
+//! pixels in the input buffer, so the kernel's source depends on the settings alone:
+//! one compiled kernel serves every scene, every frame of an animation and every image
+//! size (no build per frame). llvmpipe
 //! ends an invocation's loops after 65 535 iterations in all: the loop over the
 //! spheres is bounded before dispatch and the budget checked after it
 //! (`crate::budget`).
@@ -163,25 +167,21 @@ fn supported(s: &Settings) -> Result<(), String> {
 /// The kernel's functions and body (gpu/shaders/shexp.wgsl).
 const SHADER: &str = include_str!("../shaders/shexp.wgsl");
 
-/// The kernel's constants and functions, and its body, for `scene` at `count` pixels.
-fn source(scene: &Scene, s: &Settings, count: usize) -> String {
-    let ns = scene.proxies.len();
+/// The kernel's constants and functions, and its body, for the settings `s`: the
+/// scene is data (it follows the pixels' inputs), so one kernel serves every scene.
+fn source(s: &Settings) -> String {
     let w = s.wedges as usize;
     let n_in = HIT_INPUTS + w;
-    let base = n_in * count;
     let f = |v: f64| format!("{:e}", v as f32);
     let blocker = match s.blocker_log {
         BlockerLog::Eps => "lf_log_zh_blocker(EPS_VIS, theta, 4u)",
         BlockerLog::Ren => "lf_shexp(T3, S, P3, 4u, theta).f",
     };
     let consts = format!(
-        "const N_IN = {n_in}u;\nconst NW = {w}u;\nconst W_INDEX = {}u;\nconst NS = {ns}u;\nconst SPH0 = {base}u;\n\
-         const LIGHT0 = {}u;\nconst HEIGHT_FIELD = {};\nconst TERRAIN_ABOVE_TANGENT = {};\nconst ATTENUATION = {};\nconst EPS_VIS: f32 = {};\n\
-         const EPS_TERRAIN: f32 = {};\nconst EPS_BRDF: f32 = {};\n\
-         fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n",
+        "const N_IN = {n_in}u;\nconst NW = {w}u;\nconst W_INDEX = {}u;\n\
+         const TERRAIN_ABOVE_TANGENT = {};\nconst ATTENUATION = {};\nconst EPS_VIS: f32 = {};\n\
+         const EPS_TERRAIN: f32 = {};\nconst EPS_BRDF: f32 = {};\n",
         s.wedges.trailing_zeros() - 2,
-        base + 4 * ns,
-        scene.heightfield.is_some(),
         s.terrain_above_tangent,
         s.attenuation,
         f(s.eps_vis),
@@ -278,12 +278,15 @@ pub fn render_shexp(
         at_hits.push(at);
         brdfs.push(b);
     }
-    // The blockers: the spheres and the meshes' sphere sets (`Scene::proxies`).
+    // The scene (the kernel's `shexp_scene`): the blockers' count, whether a height
+    // field is present, the blockers (the spheres and the meshes' sphere sets,
+    // `Scene::proxies`), then the light.
+    inputs.extend([sc.proxies.len() as f32, f32::from(u8::from(sc.heightfield.is_some()))]);
     for b in &sc.proxies {
         inputs.extend([b.centre.x, b.centre.y, b.centre.z, b.radius].map(|v| v as f32));
     }
     inputs.extend(light.iter().map(|&v| v as f32));
-    let src = source(sc, s, visible.len());
+    let src = source(s);
     let textures: Vec<(&[u8], &crate::device::GpuTexture)> = uploads.iter().map(|(p, t)| (p.as_slice(), t)).collect();
     let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
     budget::flags("render shexp", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
@@ -304,11 +307,10 @@ pub fn render_shexp(
 mod tests {
     use super::*;
 
-    /// The kernel of a built-in scene parses and validates (naga) with either blocker
-    /// log and any wedge count; the settings it cannot run are errors naming them.
+    /// The kernel parses and validates (naga) with either blocker log and any wedge
+    /// count; the settings it cannot run are errors naming them.
     #[test]
     fn kernel_validates_and_unsupported_settings_are_errors() {
-        let sc = lobefit::pipelines::shexp::render::scene("whale").unwrap();
         for (blocker_log, wedges, terrain_above_tangent) in [
             (BlockerLog::Eps, 16, false),
             (BlockerLog::Ren, 64, true),
@@ -321,7 +323,7 @@ mod tests {
                 ..Settings::default()
             };
             supported(&s).unwrap();
-            let src = source(&sc, &s, 7);
+            let src = source(&s);
             if let Err(e) = lobefit::export::shaders::module_of(&src) {
                 panic!("{blocker_log:?}, {wedges} wedges: {e}");
             }
