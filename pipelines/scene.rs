@@ -176,14 +176,18 @@ pub struct Bvh {
     order: Vec<usize>,
 }
 
+/// A node of a [`Bvh`]: its box, and its spheres or children.
 #[derive(Debug, Clone, Copy)]
-struct BvhNode {
-    lo: DVec3,
-    hi: DVec3,
-    /// Leaf: `count > 0`, spheres `order[first..first + count]`; inner: children
-    /// `first` and `first + 1`.
-    first: usize,
-    count: usize,
+pub struct BvhNode {
+    /// The box's low corner (scene units): it holds every sphere of the node.
+    pub lo: DVec3,
+    /// The box's high corner.
+    pub hi: DVec3,
+    /// Leaf: `count > 0`, spheres `order[first..first + count]` ([`Bvh::order`]);
+    /// inner: children `first` and `first + 1`.
+    pub first: usize,
+    /// The leaf's sphere count; 0 for an inner node.
+    pub count: usize,
 }
 
 impl Bvh {
@@ -252,6 +256,33 @@ impl Bvh {
         self.nodes[node].first = left;
         self.split(spheres, left, start, mid);
         self.split(spheres, left + 1, mid, end);
+    }
+
+    /// The nodes, the root first (empty for no spheres): what a device traverses.
+    pub fn nodes(&self) -> &[BvhNode] {
+        &self.nodes
+    }
+
+    /// The sphere indices the leaves' ranges refer to.
+    pub fn order(&self) -> &[usize] {
+        &self.order
+    }
+
+    /// The tree's depth: 1 for a root that is a leaf, 0 for no spheres.
+    pub fn depth(&self) -> usize {
+        fn below(nodes: &[BvhNode], k: usize) -> usize {
+            let n = nodes[k];
+            1 + if n.count == 0 {
+                below(nodes, n.first).max(below(nodes, n.first + 1))
+            } else {
+                0
+            }
+        }
+        if self.nodes.is_empty() {
+            0
+        } else {
+            below(&self.nodes, 0)
+        }
     }
 
     /// Whether x + t·v meets the box for some t in (0, t_max).

@@ -1,8 +1,9 @@
 // lobefit-gpu's Monte Carlo kernel for the sky pipelines' scenes (spheres under an SG
 // environment, Phong materials): per pixel, SPP samples of the CPU's one-sample
 // mixture (pipelines/sky.rs `mis`: the cosine, the Phong lobe, the SGs; balance
-// heuristic) with exact visibility against every sphere. The kernel's constants and
-// accessors (NS, NE, SPH0, ENV0, SOBOL0, SPP, CV, QMC, sph, env) and the batch index
+// heuristic) with exact visibility of the spheres through the scene's hierarchy (the
+// CPU's `Bvh`, flattened: mc_blocked). The kernel's constants and accessors (NS, NE,
+// SPH0, ENV0, SOBOL0, NODES, NODE0, ORDER0, STACK, SPP, CV, QMC, sph, env) and the batch index
 // (X[BATCH]) come from gpu/src/mc.rs. Uniforms (mc_point): a PCG hash of (pixel,
 // sample, dimension), or with QMC Owen-scrambled Sobol points seeded per pixel, the
 // sample index running on across batches (the CPU draws its own: the two agree in
@@ -88,23 +89,69 @@ fn mc_point(pixel: u32, index: u32) -> vec4<f32> {
     return vec4<f32>(mc_uniform(key, 0u), mc_uniform(key, 1u), mc_uniform(key, 2u), mc_uniform(key, 3u));
 }
 
-// Whether the ray x + t v (t > 0) meets a sphere other than `own`.
-fn mc_occluded(x: vec3<f32>, v: vec3<f32>, own: i32) -> bool {
-    for (var b = 0u; b < NS; b++) {
-        if i32(b) == own {
+// Whether the ray x + t v meets a sphere other than `own` ahead (its far root > 0:
+// the sphere lies ahead or holds x) before t_max (the nearest root ahead, as the
+// CPU's ray_sphere), through the hierarchy: nodes at NODE0 (lo, hi: boxes widened
+// outward past f32 rounding; first, count as the CPU's BvhNode), sphere indices at
+// ORDER0, a stack of STACK entries (the tree's depth + 1).
+fn mc_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_max: f32) -> bool {
+    // Direction components of |v| < 1e-30 as ±1e-30: finite slopes, so no 0 · ∞.
+    let tiny = select(vec3<f32>(-1e-30), vec3<f32>(1e-30), v >= vec3<f32>(0.0));
+    let inv = 1.0 / select(v, tiny, abs(v) < vec3<f32>(1e-30));
+    var stack: array<u32, STACK>;
+    // No spheres: no root.
+    var top = select(0u, 1u, NODES > 0u);
+    stack[0] = 0u;
+    while top > 0u {
+        top -= 1u;
+        let k = NODE0 + 8u * stack[top];
+        let a = (vec3<f32>(X[k], X[k + 1u], X[k + 2u]) - x) * inv;
+        let b = (vec3<f32>(X[k + 3u], X[k + 4u], X[k + 5u]) - x) * inv;
+        let lo = min(a, b);
+        let hi = max(a, b);
+        let t0 = max(max(max(lo.x, lo.y), lo.z), 0.0);
+        let t1 = min(min(min(hi.x, hi.y), hi.z), t_max);
+        if t0 > t1 {
             continue;
         }
-        let s = sph(b);
-        let oc = x - s.xyz;
-        let bb = dot(oc, v);
-        let c = dot(oc, oc) - s.w * s.w;
-        let disc = bb * bb - c;
-        // The far root −b + √disc > 0: the sphere lies ahead (or holds x).
-        if disc >= 0.0 && -bb + sqrt(disc) > 0.0 {
-            return true;
+        let first = u32(X[k + 6u]);
+        let count = u32(X[k + 7u]);
+        if count == 0u {
+            stack[top] = first;
+            stack[top + 1u] = first + 1u;
+            top += 2u;
+            continue;
+        }
+        for (var j = 0u; j < count; j++) {
+            let bi = u32(X[ORDER0 + first + j]);
+            if i32(bi) == own {
+                continue;
+            }
+            let s = sph(bi);
+            let oc = x - s.xyz;
+            let bb = dot(oc, v);
+            let c = dot(oc, oc) - s.w * s.w;
+            let disc = bb * bb - c;
+            if disc >= 0.0 {
+                let sq = sqrt(disc);
+                let far = -bb + sq;
+                let near = -bb - sq;
+                var t = far;
+                if near > 0.0 {
+                    t = near;
+                }
+                if far > 0.0 && t < t_max {
+                    return true;
+                }
+            }
         }
     }
     return false;
+}
+
+// Whether the ray x + t v (t > 0) meets a sphere other than `own`.
+fn mc_occluded(x: vec3<f32>, v: vec3<f32>, own: i32) -> bool {
+    return mc_blocked(x, v, own, 3.4e38);
 }
 
 // A direction of the SG g's normalised density (the CPU's sample_sg).

@@ -2,38 +2,17 @@
 // Lambert and Lafortune materials): per pixel, SPP directions uniform in the light's
 // cap (the CPU's `meunier::render::reference`), each lit when no sphere but the pixel's
 // own meets the ray before the light. The constants and accessors (NS, NL, SPP, BATCH,
-// SPH0, SOBOL0, LIGHT, QMC, sph) come from gpu/src/mc.rs; uniforms as mc.wgsl's
-// (mc_point and its helpers, shared through the kernel's source). Inputs per pixel: the point, the
+// SPH0, SOBOL0, NODES, NODE0, ORDER0, STACK, LIGHT, QMC, sph) come from gpu/src/mc.rs;
+// uniforms and visibility as mc.wgsl's (mc_point and its helpers, mc_blocked, shared
+// through the kernel's source). Inputs per pixel: the point, the
 // normal, k_d/π, the own sphere (−1: none), then NL Lafortune lobes as (q, ρ, n) with
 // the lobe's value ρ max(q·v, 0)^n (q = C ⊙ the view direction in the surface's frame,
 // back in world space: exact). Outputs: Σ f, Σ f², 0, the budget flag.
 
-// Whether the ray x + t v meets a sphere other than `own` before t_light.
+// Whether the ray x + t v meets a sphere other than `own` before t_light (mc.wgsl's
+// traversal of the hierarchy).
 fn mcl_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_light: f32) -> bool {
-    for (var b = 0u; b < NS; b++) {
-        if i32(b) == own {
-            continue;
-        }
-        let s = sph(b);
-        let oc = x - s.xyz;
-        let bb = dot(oc, v);
-        let c = dot(oc, oc) - s.w * s.w;
-        let disc = bb * bb - c;
-        if disc >= 0.0 {
-            let sq = sqrt(disc);
-            let hi = -bb + sq;
-            let lo = -bb - sq;
-            // The nearest root ahead, as the CPU's ray_sphere.
-            var t = hi;
-            if lo > 0.0 {
-                t = lo;
-            }
-            if hi > 0.0 && t < t_light {
-                return true;
-            }
-        }
-    }
-    return false;
+    return mc_blocked(x, v, own, t_light);
 }
 
 // ---- main: the kernel's body (the statements inside its entry point, kernel.rs)
