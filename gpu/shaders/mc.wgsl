@@ -2,9 +2,10 @@
 // environment, Phong materials): per pixel, SPP samples of the CPU's one-sample
 // mixture (pipelines/sky.rs `mis`: the cosine, the Phong lobe, the SGs; balance
 // heuristic) with exact visibility of the spheres through the scene's hierarchy (the
-// CPU's `Bvh`, flattened: mc_blocked). The kernel's constants and accessors (NS, NE,
-// SPH0, ENV0, SOBOL0, NODES, NODE0, ORDER0, STACK, SPP, CV, QMC, sph, env) and the batch index
-// (X[BATCH]) come from gpu/src/mc.rs. Uniforms (mc_point): a PCG hash of (pixel,
+// CPU's `Bvh`, flattened: mc_blocked). The kernel's constants (NS, NE, NODES, STACK,
+// CV, QMC), its accessors (sph, env) and where its data lie in X (BATCH: the batch
+// index, SPP: the samples a dispatch, SPH0, ENV0, SOBOL0, NODE0, ORDER0; private
+// variables set from the pixel count N.x at the body's start) come from gpu/src/mc.rs. Uniforms (mc_point): a PCG hash of (pixel,
 // sample, dimension), or with QMC Owen-scrambled Sobol points seeded per pixel, the
 // sample index running on across batches (the CPU draws its own: the two agree in
 // distribution, not sample by sample). Dimension 0 picks the strategy, 1 and 2 draw

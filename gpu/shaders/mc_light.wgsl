@@ -1,8 +1,9 @@
 // lobefit-gpu's Monte Carlo kernel for Meunier's scenes (spheres, one spherical light,
 // Lambert and Lafortune materials): per pixel, SPP directions uniform in the light's
 // cap (the CPU's `meunier::render::reference`), each lit when no sphere but the pixel's
-// own meets the ray before the light. The constants and accessors (NS, NL, SPP, BATCH,
-// SPH0, SOBOL0, NODES, NODE0, ORDER0, STACK, LIGHT, QMC, sph) come from gpu/src/mc.rs;
+// own meets the ray before the light. The constants (NS, NL, N_IN, NODES, STACK, LIGHT,
+// QMC), the accessor sph and the data's places in X (BATCH, SPP, SPH0, SOBOL0, NODE0,
+// ORDER0, as mc.wgsl's) come from gpu/src/mc.rs;
 // uniforms and visibility as mc.wgsl's (mc_point and its helpers, mc_blocked, shared
 // through the kernel's source). Inputs per pixel: the point, the
 // normal, k_d/π, the own sphere (−1: none), then NL Lafortune lobes as (q, ρ, n) with

@@ -144,15 +144,35 @@ fn bvh_inputs(sc: &Scene) -> (Vec<f32>, usize, usize) {
     (v, bvh.nodes().len(), bvh.depth() + 1)
 }
 
-/// The constants locating the hierarchy at `node0` in the input buffer.
-fn bvh_consts(sc: &Scene, node0: usize) -> String {
+/// The hierarchy's constants: its node count and the traversal's stack.
+fn bvh_consts(sc: &Scene) -> String {
     let (_, nodes, stack) = bvh_inputs(sc);
-    format!(
-        "const NODES = {nodes}u;\nconst NODE0 = {node0}u;\nconst ORDER0 = {}u;\nconst STACK = {}u;\n",
-        node0 + 8 * nodes,
-        stack.max(1)
-    )
+    format!("const NODES = {nodes}u;\nconst STACK = {}u;\n", stack.max(1))
 }
+
+/// Where the kernels' data lie in X (private variables, set by [`LAYOUT`] at the
+/// start of the body): after the pixels' inputs, the batch index (`BATCH`), the
+/// samples a dispatch (`SPP`), the spheres (`SPH0`), the SGs (`ENV0`, sky kernel
+/// only), the direction numbers (`SOBOL0`), the hierarchy's nodes (`NODE0`) and its
+/// sphere indices (`ORDER0`). Data, not constants: one compiled kernel serves every
+/// pixel count and sample count of a scene (a bench's ladder of 1 … 256 samples
+/// compiled a kernel per rung).
+const OFFSETS: &str = "var<private> BATCH: u32;\nvar<private> SPP: u32;\nvar<private> SPH0: u32;\n\
+                       var<private> ENV0: u32;\nvar<private> SOBOL0: u32;\nvar<private> NODE0: u32;\n\
+                       var<private> ORDER0: u32;\n\
+                       fn sph(b: u32) -> vec4<f32> {\n    let k = SPH0 + 4u * b;\n    \
+                       return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}\n";
+
+/// The body's first statements: [`OFFSETS`] from the pixel count N.x and the scene's
+/// constants (N_IN, NS, NE, NODES, SOBOL_LEN).
+const LAYOUT: &str = "    BATCH = N_IN * N.x;
+    SPP = u32(X[BATCH + 1u]);
+    SPH0 = BATCH + 2u;
+    ENV0 = SPH0 + 4u * NS;
+    SOBOL0 = ENV0 + 5u * NE;
+    NODE0 = SOBOL0 + SOBOL_LEN;
+    ORDER0 = NODE0 + 8u * NODES;
+";
 
 /// Loop iterations of one pixel before its samples (the SG weights, with the control
 /// variate each SG's clamped cosine twice) and of each sample (the SG pick, the
@@ -230,24 +250,21 @@ fn supported(sc: &Scene) -> Result<(), String> {
     }
 }
 
-/// The kernel for `sc` with `spp` samples a dispatch over `count` pixels.
-fn source(sc: &Scene, count: usize, spp: usize, est: Estimator) -> String {
+/// The sky kernel for `sc` with estimator `est`: the pixel and sample counts are data
+/// ([`OFFSETS`]).
+fn source(sc: &Scene, est: Estimator) -> String {
     let cv = est.cv();
     let (ns, ne) = (sc.spheres.len(), sc.environment.len());
-    let batch = N_IN * count;
     let consts = format!(
-        "const NS = {ns}u;\nconst NE = {ne}u;\nconst SPP = {spp}u;\nconst CV = {cv};\nconst QMC = {};\n\
-         const BATCH = {batch}u;\nconst SPH0 = {}u;\nconst ENV0 = {}u;\nconst SOBOL0 = {}u;\n\
-         fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
+        "const N_IN = {N_IN}u;\nconst NS = {ns}u;\nconst NE = {ne}u;\nconst CV = {cv};\nconst QMC = {};\n\
+         const SOBOL_LEN = {}u;\n{OFFSETS}\
          fn env(e: u32) -> LfSg {{\n    let k = ENV0 + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n{}",
         est.qmc(),
-        batch + 1,
-        batch + 1 + 4 * ns,
-        batch + 1 + 4 * ns + 5 * ne,
-        bvh_consts(sc, batch + 1 + 4 * ns + 5 * ne + direction_inputs().len())
+        direction_inputs().len(),
+        bvh_consts(sc)
     );
     let (functions, body) = split(SHADER);
-    let body = body.to_string() + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
+    let body = LAYOUT.to_string() + body + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
     kernel("texture_2d<f32>", N_IN, N_OUT, &body) + &consts + functions
 }
 
@@ -272,31 +289,23 @@ pub fn estimate(
             sc.name
         ));
     }
-    type Source<'a> = Box<dyn Fn(usize) -> String + 'a>;
-    let (inputs, slot, per_batch, src): (Vec<f32>, usize, usize, Source) = if light {
+    let (mut inputs, slot, per_batch, src) = if light {
         let (inputs, n_in, nl) = light_inputs(sc, hits)?;
         let per = batch_size_light(sc.spheres.len(), nl, est)?;
-        let slot = n_in * hits.len();
-        let n = hits.len();
-        (
-            inputs,
-            slot,
-            per,
-            Box::new(move |b| source_light(sc, n, n_in, nl, b, est.qmc())),
-        )
+        (inputs, n_in * hits.len(), per, source_light(sc, n_in, nl, est.qmc()))
     } else {
         let per = batch_size(sc.spheres.len(), sc.environment.len(), est)?;
-        let inputs = sky_inputs(sc, hits)?;
-        let slot = N_IN * hits.len();
-        let n = hits.len();
-        (inputs, slot, per, Box::new(move |b| source(sc, n, b, est)))
+        (sky_inputs(sc, hits)?, N_IN * hits.len(), per, source(sc, est))
     };
     let batch = per_batch.min(spp.next_power_of_two());
-    run_batches(gpu, &src(batch), inputs, slot, hits.len(), spp.div_ceil(batch), batch)
+    // The samples a dispatch, after the batch index (the kernels' SPP).
+    inputs[slot + 1] = batch as f32;
+    run_batches(gpu, &src, inputs, slot, hits.len(), spp.div_ceil(batch), batch)
 }
 
 /// The sky kernel's inputs: per pixel point, normal, view, k_d, k_s, Phong n, own
-/// sphere; the batch slot; the spheres; the SGs; the direction numbers; the hierarchy.
+/// sphere; the batch slot and the samples a dispatch; the spheres; the SGs; the
+/// direction numbers; the hierarchy.
 fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
     let mut inputs = Vec::with_capacity(hits.len() * N_IN + 1 + 4 * sc.spheres.len() + 5 * sc.environment.len());
     for hit in hits {
@@ -310,7 +319,7 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
         inputs.extend([b.diffuse, b.specular, b.exponent].map(|v| v as f32));
         inputs.push(hit.sphere.map_or(-1.0, |i| i as f32));
     }
-    inputs.push(0.0);
+    inputs.extend([0.0, 0.0]);
     for s in &sc.spheres {
         inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
     }
@@ -323,8 +332,8 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
 }
 
 /// The light kernel's inputs (see gpu/shaders/mc_light.wgsl): per pixel point, normal,
-/// k_d/π, own sphere and `nl` Lafortune lobes (q, ρ, n); the batch slot; the spheres;
-/// the direction numbers; the hierarchy.
+/// k_d/π, own sphere and `nl` Lafortune lobes (q, ρ, n); the batch slot and the
+/// samples a dispatch; the spheres; the direction numbers; the hierarchy.
 /// Returns them, the inputs per pixel and `nl` (the most lobes of a material seen).
 fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), String> {
     use lobefit::pipelines::scene::Brdf;
@@ -364,7 +373,7 @@ fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), S
             }
         }
     }
-    inputs.push(0.0);
+    inputs.extend([0.0, 0.0]);
     for s in &sc.spheres {
         inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
     }
@@ -389,25 +398,22 @@ fn batch_size_light(spheres: usize, lobes: usize, est: Estimator) -> Result<usiz
 
 /// The light kernel for `sc` over `count` pixels of `n_in` inputs, `nl` lobes each,
 /// `spp` samples a dispatch.
-fn source_light(sc: &Scene, count: usize, n_in: usize, nl: usize, spp: usize, qmc: bool) -> String {
+fn source_light(sc: &Scene, n_in: usize, nl: usize, qmc: bool) -> String {
     let l = sc.lights[0];
     let c = l.sphere.centre;
-    let batch = n_in * count;
     let f = |v: f64| format!("{:?}", v as f32);
     let consts = format!(
-        "const NS = {}u;\nconst NL = {nl}u;\nconst SPP = {spp}u;\nconst N_IN = {n_in}u;\nconst BATCH = {batch}u;\n\
-         const QMC = {qmc};\nconst SPH0 = {}u;\nconst SOBOL0 = {}u;\n\
-         const LIGHT = vec4<f32>({}, {}, {}, {});\nconst LIGHT_RADIANCE = {};\n\
-         fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n{}",
+        "const NS = {}u;\nconst NE = 0u;\nconst NL = {nl}u;\nconst N_IN = {n_in}u;\n\
+         const QMC = {qmc};\nconst SOBOL_LEN = {}u;\n{OFFSETS}\
+         const LIGHT = vec4<f32>({}, {}, {}, {});\nconst LIGHT_RADIANCE = {};\n{}",
         sc.spheres.len(),
-        batch + 1,
-        batch + 1 + 4 * sc.spheres.len(),
+        direction_inputs().len(),
         f(c.x),
         f(c.y),
         f(c.z),
         f(l.sphere.radius),
         f(l.radiance),
-        bvh_consts(sc, batch + 1 + 4 * sc.spheres.len() + direction_inputs().len()),
+        bvh_consts(sc),
     );
     let (pcg, _) = split(SHADER);
     // The uniforms and the hierarchy's traversal (mc_blocked), up to the sky's own
@@ -415,7 +421,7 @@ fn source_light(sc: &Scene, count: usize, n_in: usize, nl: usize, spp: usize, qm
     let pcg =
         &pcg[pcg.find("// PCG-RXS-M-XS").unwrap_or(0)..pcg.find("// Whether the ray x + t v (t > 0)").unwrap_or(0)];
     let (functions, body) = split(SHADER_LIGHT);
-    let body = body.to_string() + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
+    let body = LAYOUT.to_string() + body + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
     kernel("texture_2d<f32>", n_in, N_OUT, &body) + &consts + pcg + functions
 }
 
@@ -801,9 +807,10 @@ mod tests {
         let blocked = &functions[functions.find("// Whether the ray x + t v meets").unwrap()
             ..functions.find("// Whether the ray x + t v (t > 0)").unwrap()];
         let consts = format!(
-            "const NS = {ns}u;\nconst SPH0 = {sph0}u;\n\
+            "const NS = {ns}u;\nconst SPH0 = {sph0}u;\nconst NODE0 = {node0}u;\nconst ORDER0 = {}u;\n\
              fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n{}",
-            bvh_consts(&sc, node0)
+            node0 + 8 * bvh_inputs(&sc).1,
+            bvh_consts(&sc)
         );
         let body = "    let x = vec3<f32>(x0, x1, x2);
     let v = vec3<f32>(x3, x4, x5);
@@ -859,13 +866,13 @@ mod tests {
             assert!(b.is_power_of_two() && b <= MAX_BATCH, "{b}");
             let (setup, per) = iterations(sc.spheres.len(), sc.environment.len(), est);
             assert!(setup + per * b as u64 <= budget::LOOP_LIMIT);
-            if let Err(e) = lobefit::export::shaders::module_of(&source(&sc, 7, b, est)) {
+            if let Err(e) = lobefit::export::shaders::module_of(&source(&sc, est)) {
                 panic!("{est:?}: {e}");
             }
         }
         let m = lobefit::pipelines::meunier::render::scene("glossy").unwrap();
         for qmc in [false, true] {
-            if let Err(e) = lobefit::export::shaders::module_of(&source_light(&m, 7, 18, 1, 64, qmc)) {
+            if let Err(e) = lobefit::export::shaders::module_of(&source_light(&m, 18, 1, qmc)) {
                 panic!("light, qmc {qmc}: {e}");
             }
         }
