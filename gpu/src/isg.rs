@@ -48,6 +48,12 @@ pub struct Args {
     /// pipeline; the frames go to OUT's stem with `-frame-KKK.png`.
     #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
     frames: Option<u32>,
+    /// The per-patch blocker test as a GPU runs it (a loop over the set bits of the
+    /// cone's blocker mask) on any adapter. On llvmpipe, whose loop budget that loop
+    /// spends, small scenes only (refused before dispatch otherwise): CI checks the
+    /// GPU's form so.
+    #[arg(long)]
+    looped: bool,
 }
 
 /// `render isg`.
@@ -63,14 +69,21 @@ fn run(a: Args) -> Result<ExitCode, String> {
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::isg::render::scene(&a.scene)?;
     check_sharpness(&sc)?;
-    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| check_scene(budget, &sc, "render isg"))?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| {
+        check_scene(budget, &sc, "render isg", a.looped)
+    })?;
     if let Some(n) = a.frames {
         return crate::render::animate("render isg", &sc, n as usize, &gpu, &a.out, |still, path| {
-            render_isg(&gpu, &ex, still, a.width as usize, path)
+            render_isg(&gpu, &ex, still, a.width as usize, a.looped, path)
         });
     }
-    let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out)?;
-    crate::render::report("render isg", &a.scene, &r, &gpu, &a.out)
+    let r = render_isg(&gpu, &ex, &sc, a.width as usize, a.looped, &a.out)?;
+    let what = if a.looped {
+        format!("{} (the looped blocker test)", a.scene)
+    } else {
+        a.scene.clone()
+    };
+    crate::render::report("render isg", &what, &r, &gpu, &a.out)
 }
 
 /// Default image width (height 3/4 of it).
@@ -88,8 +101,14 @@ pub const MAX_SPHERES: usize = 256;
 /// Refuses a scene a device with loop budget `budget` ([`Gpu::loop_budget`]: llvmpipe's,
 /// or none on a GPU) cannot render: under a budget more than [`MAX_SPHERES`] blocker
 /// spheres (its spheres and its meshes' sphere sets; the meshes' triangles are only
-/// seen, traced on the CPU), or pixels that may need more loop iterations than it.
-pub fn check_scene(budget: Option<u64>, scene: &lobefit::pipelines::scene::Scene, command: &str) -> Result<(), String> {
+/// seen, traced on the CPU), or pixels that may need more loop iterations than it
+/// (with the `looped` blocker test, its loops counted too).
+pub fn check_scene(
+    budget: Option<u64>,
+    scene: &lobefit::pipelines::scene::Scene,
+    command: &str,
+    looped: bool,
+) -> Result<(), String> {
     if budget.is_some() && scene.proxies.len() > MAX_SPHERES {
         return Err(format!(
             "{command}: scene {} has {} blocker spheres (spheres and the meshes' sphere sets); on a CPU adapter \
@@ -102,7 +121,7 @@ pub fn check_scene(budget: Option<u64>, scene: &lobefit::pipelines::scene::Scene
     budget::refuse_over(
         budget,
         command,
-        iterations(scene.proxies.len(), scene.environment.len()),
+        iterations(scene.proxies.len(), scene.environment.len(), looped),
         &format!(
             "{} SGs, {} blocker spheres",
             scene.environment.len(),
@@ -158,11 +177,13 @@ pub const FAMILIES: (&[&str], &str) = (
 
 /// An upper bound on the loop iterations of one pixel's kernel (`crate::budget`): the
 /// SG loop; per SG the clamped cosine and, per BRDF term (diffuse, specular), the
-/// blocker gather over every sphere and the patch loops (k ≤ 20 per side); the
-/// sentinel.
-pub fn iterations(spheres: usize, sgs: usize) -> u64 {
+/// blocker gather over every sphere and the patch loops (k ≤ 20 per side), with the
+/// `looped` blocker test per patch its loop over the mask's words and their set bits
+/// (≤ 2 per word + 1 per sphere); the sentinel.
+pub fn iterations(spheres: usize, sgs: usize, looped: bool) -> u64 {
     let (ns, ne) = (spheres as u64, sgs as u64);
-    let term = (ns + 1) + (MAX_PATCHES + 1) + MAX_PATCHES * (MAX_PATCHES + 1);
+    let per_patch = if looped { 2 * (ns.div_ceil(32) + 1) + ns } else { 0 };
+    let term = (ns + 1) + (MAX_PATCHES + 1) + MAX_PATCHES * (MAX_PATCHES + 1) + MAX_PATCHES * MAX_PATCHES * per_patch;
     // The buried test's loop over the blockers, then the SGs'.
     (ns + 1) + (ne + 1) + ne * (CLAMPED_COSINE_ITERATIONS + 2 * term) + 2
 }
@@ -238,12 +259,14 @@ fn source(scene: &lobefit::pipelines::scene::Scene, count: usize, unrolled: bool
 }
 
 /// Renders `scene` (a built-in ISG scene or file) at `width` on the GPU and the CPU;
-/// writes `out` (PNG, radiance / peak, gamma 1/2.2).
+/// writes `out` (PNG, radiance / peak, gamma 1/2.2). The per-patch blocker test is
+/// unrolled under a loop budget (llvmpipe) unless `looped`, a loop otherwise.
 pub fn render_isg(
     gpu: &Gpu,
     export: &VerifiedExport,
     sc: &lobefit::pipelines::scene::Scene,
     width: usize,
+    looped: bool,
     out: &Path,
 ) -> Result<SceneRender, String> {
     let scene = &sc.name;
@@ -281,7 +304,7 @@ pub fn render_isg(
     for g in &sc.environment {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
-    let (extra, body) = source(sc, visible.len(), gpu.loop_budget.is_some())?;
+    let (extra, body) = source(sc, visible.len(), gpu.loop_budget.is_some() && !looped)?;
     let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
     let got = gpu.run_with(
         &src,
