@@ -1,5 +1,6 @@
 // lobefit-gpu render isg: the kernel's own functions (prefixed isg_), then its body.
-// The kernel's constants and accessors (NS, NW, NE, SPH0, ENV0, sph, env) and its
+// The kernel's constants and accessors (NS, NW, NE, sph, env: the data after the
+// N.x pixels' inputs) and its
 // per-patch blocker tests (the placeholder line below, unrolled over the spheres) from
 // gpu/src/isg.rs; the formulas shared with renderers are the shader library's
 // (lf_isg_best, lf_lobe_to_sg, lf_sg_product, lf_sg_clamped_cosine, lf_isg_cone, ...).

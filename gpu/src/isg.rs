@@ -212,7 +212,7 @@ const LOOPED_TEST: &str = "            for (var w = 0u; w < NW && !blocked; w++)
 /// The kernel's per-product visible integral (the CPU's `visible_with`) and its body;
 /// the per-patch blocker test `unrolled` (llvmpipe's loop budget) or a loop over the
 /// set bits of the cone's blocker mask (a GPU).
-fn source(scene: &lobefit::pipelines::scene::Scene, count: usize, unrolled: bool) -> Result<(String, String), String> {
+fn source(scene: &lobefit::pipelines::scene::Scene, unrolled: bool) -> Result<(String, String), String> {
     if scene.proxies.is_empty() {
         return Err(format!(
             "scene {}: render isg needs at least one sphere or mesh",
@@ -220,17 +220,17 @@ fn source(scene: &lobefit::pipelines::scene::Scene, count: usize, unrolled: bool
         ));
     }
     // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
-    // pixels' inputs in the input buffer X: storage, not constant arrays, which a
-    // kernel would index dynamically.
+    // pixels' inputs in the input buffer X (N.x pixels): storage, not constant arrays,
+    // which a kernel would index dynamically. With the looped blocker test the source
+    // depends on the counts of spheres and SGs alone, so the frames of an animation
+    // share one compiled kernel; the unrolled test bakes the spheres in.
     let (ns, ne) = (scene.proxies.len(), scene.environment.len());
-    let base = INPUTS * count;
     let consts = format!(
-        "const NS = {ns}u;\nconst NW = {}u;\nconst NE = {ne}u;\nconst SPH0 = {base}u;\nconst ENV0 = {}u;\n\
+        "const NS = {ns}u;\nconst NW = {}u;\nconst NE = {ne}u;\n\
          var<private> isg_flag = 0.0;\n\
-         fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
-         fn env(e: u32) -> LfSg {{\n    let k = ENV0 + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n",
+         fn sph(b: u32) -> vec4<f32> {{\n    let k = {INPUTS}u * N.x + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
+         fn env(e: u32) -> LfSg {{\n    let k = {INPUTS}u * N.x + 4u * NS + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n",
         ns.div_ceil(32),
-        base + 4 * ns
     );
     let (functions, body) = split(SHADER);
     let body = body.to_string() + budget::SENTINEL + "    Y[o + 1u] = budget_flag;";
@@ -304,7 +304,7 @@ pub fn render_isg(
     for g in &sc.environment {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
-    let (extra, body) = source(sc, visible.len(), gpu.loop_budget.is_some() && !looped)?;
+    let (extra, body) = source(sc, gpu.loop_budget.is_some() && !looped)?;
     let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
     let got = gpu.run_with(
         &src,
@@ -361,7 +361,7 @@ mod tests {
         let sc = lobefit::pipelines::isg::render::scene("sweep-306").unwrap();
         assert_eq!(sc.proxies.len(), 306);
         for unrolled in [true, false] {
-            let (extra, body) = source(&sc, 7, unrolled).unwrap();
+            let (extra, body) = source(&sc, unrolled).unwrap();
             let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
             if let Err(e) = lobefit::export::shaders::module_of(&src) {
                 panic!("unrolled {unrolled}: {e}");
