@@ -339,4 +339,15 @@ fn eval_direct_light_sees_meshes_through_their_sphere_sets() {
     );
     assert_eq!(code, Some(1), "{stdout}{stderr}");
     assert!(stderr.contains("inside it"), "{stderr}");
+    // A scene without the top-level brdf, or without a light, is refused by name (the
+    // flags' view, exit 2; the scene file's loader, exit 1).
+    for (edit, code_want, want) in [("brdf", 2, "needs the top-level brdf"), ("lights", 1, "no lights")] {
+        let mut bad = scene.clone();
+        bad.as_object_mut().unwrap().remove(edit);
+        let p = d.path().join(format!("no-{edit}.json"));
+        std::fs::write(&p, bad.to_string()).unwrap();
+        let (code, _, stderr) = run_text(&["eval", "direct-light", "--scene", p.to_str().unwrap()], &input);
+        assert_eq!(code, Some(code_want), "{edit}: {stderr}");
+        assert!(stderr.contains(want), "{edit}: {stderr}");
+    }
 }
