@@ -112,8 +112,9 @@ fn renders_refuse_unwritable_outputs_first() {
 
 /// A scene whose pixels may need more loop iterations than llvmpipe runs is refused
 /// before the export is read or a device is needed, the limit named: render isg with
-/// 100 SGs, render shexp with 700 spheres; and render isg with more spheres than its
-/// kernel takes, or SG products sharper than its table.
+/// 100 SGs, render shexp with 700 spheres, render isg --looped on fig12 (the GPU's
+/// blocker loop counted); and render isg with more spheres than its kernel takes, or
+/// SG products sharper than its table.
 #[test]
 fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
     let tmp = std::env::temp_dir().join(format!("lobefit-gpu-budget-{}", std::process::id()));
@@ -145,14 +146,18 @@ fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
             lobes.iter_mut().for_each(|l| l["exponent"] = serde_json::json!(1e5));
         }
     }
+    // fig12 as it is, with the GPU's looped blocker test: its loops counted, over.
+    let isg_looped = read("isg-fig12");
     for (name, scene, what) in [
         ("isg", isg_sharp, "γ ≤"),
         ("isg", isg, "100 SGs"),
         ("shexp", shexp, "700 spheres"),
         ("isg", isg_big, "at most 256"),
+        ("isg --looped", isg_looped, "9 SGs, 50 blocker spheres"),
     ] {
+        let (name, looped) = name.split_once(' ').map_or((name, None), |(n, f)| (n, Some(f)));
         let cmd = format!("render {name}");
-        let file = tmp.join(format!("{name}.json"));
+        let file = tmp.join(format!("{name}-{}.json", looped.is_some()));
         std::fs::write(&file, scene.to_string()).unwrap();
         let out = tmp.join("x.png");
         let args = [
@@ -165,10 +170,11 @@ fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
             "--out",
             out.to_str().unwrap(),
         ];
+        let args: Vec<&str> = args.iter().copied().chain(looped).collect();
         let (code, err) = run(&args);
         assert_eq!(code, Some(2), "{cmd}: {err}");
         assert!(err.contains(what) && err.contains(&cmd), "{cmd}: {err}");
-        if what == "100 SGs" || what == "700 spheres" {
+        if what == "100 SGs" || what == "700 spheres" || looped.is_some() {
             assert!(err.contains("65535") && err.contains("loop iterations"), "{cmd}: {err}");
         }
     }
