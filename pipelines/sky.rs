@@ -225,6 +225,24 @@ pub fn reference_cv(
     }
 }
 
+/// `qmc-cv-mis` at hit `h` of `scene` (its SG environment, exact visibility): the
+/// strongest estimator under an SG sky in the baselines study, which the animations
+/// run at equal time ([`reference_cv`] with Owen-scrambled Sobol points and the SGs
+/// picked by their contribution).
+pub fn qmc_cv_mis(scene: &crate::scene::Scene, h: &Hit, n: usize, seed: u64) -> Result<Estimate, String> {
+    let brdf = Phong::of(scene.brdf(h))?;
+    Ok(reference_cv(
+        Sampling::Qmc,
+        Select::Contribution,
+        &scene.environment,
+        &brdf,
+        |v| scene.occluded(h, v),
+        h,
+        n,
+        seed,
+    ))
+}
+
 /// How the mixture picks among the SGs of its light.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Select {

@@ -126,8 +126,8 @@ fn direction_inputs() -> Vec<f32> {
 /// per node its box, widened by 10⁻⁵ of the scene's scale on every side (more than
 /// f32 rounding moves a box or a sphere, so the f32 test culls no sphere the f32
 /// sphere test would hit), the first index and the count; then the leaves' sphere
-/// indices. Returns them with the node count and the stack the traversal needs.
-fn bvh_inputs(sc: &Scene) -> (Vec<f32>, usize, usize) {
+/// indices.
+fn bvh_inputs(sc: &Scene) -> Vec<f32> {
     let bvh = sc.bvh();
     let scale = bvh.nodes().first().map_or(1.0, |n| {
         (n.hi - n.lo)
@@ -141,13 +141,17 @@ fn bvh_inputs(sc: &Scene) -> (Vec<f32>, usize, usize) {
         v.extend([lo.x, lo.y, lo.z, hi.x, hi.y, hi.z, n.first as f64, n.count as f64].map(|x| x as f32));
     }
     v.extend(bvh.order().iter().map(|&i| i as f32));
-    (v, bvh.nodes().len(), bvh.depth() + 1)
+    v
 }
 
 /// The hierarchy's constants: its node count and the traversal's stack.
 fn bvh_consts(sc: &Scene) -> String {
-    let (_, nodes, stack) = bvh_inputs(sc);
-    format!("const NODES = {nodes}u;\nconst STACK = {}u;\n", stack.max(1))
+    let bvh = sc.bvh();
+    format!(
+        "const NODES = {}u;\nconst STACK = {}u;\n",
+        bvh.nodes().len(),
+        bvh.depth() + 1
+    )
 }
 
 /// Where the kernels' data lie in X (private variables, set by [`LAYOUT`] at the
@@ -327,7 +331,7 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
     inputs.extend(direction_inputs());
-    inputs.extend(bvh_inputs(sc).0);
+    inputs.extend(bvh_inputs(sc));
     Ok(inputs)
 }
 
@@ -378,7 +382,7 @@ fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), S
         inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
     }
     inputs.extend(direction_inputs());
-    inputs.extend(bvh_inputs(sc).0);
+    inputs.extend(bvh_inputs(sc));
     Ok((inputs, n_in, nl))
 }
 
@@ -802,14 +806,14 @@ mod tests {
             inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
         }
         let node0 = inputs.len();
-        inputs.extend(bvh_inputs(&sc).0);
+        inputs.extend(bvh_inputs(&sc));
         let (functions, _) = split(SHADER);
         let blocked = &functions[functions.find("// Whether the ray x + t v meets").unwrap()
             ..functions.find("// Whether the ray x + t v (t > 0)").unwrap()];
         let consts = format!(
             "const NS = {ns}u;\nconst SPH0 = {sph0}u;\nconst NODE0 = {node0}u;\nconst ORDER0 = {}u;\n\
              fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n{}",
-            node0 + 8 * bvh_inputs(&sc).1,
+            node0 + 8 * sc.bvh().nodes().len(),
             bvh_consts(&sc)
         );
         let body = "    let x = vec3<f32>(x0, x1, x2);

@@ -139,27 +139,11 @@ pub fn animate(
     progress: &(dyn Fn() + Sync),
 ) -> Result<Summary, String> {
     use crate::animate::Methods;
-    use crate::estimate::Sampling;
-    use crate::sky::{reference_cv, Select};
     let scene = scene(name)?;
     let tables = Tables::embedded()?;
     let settings = Settings::default();
     let shade = |s: &Scene, hits: &[Option<Hit>]| image(&tables, &settings, s, hits);
-    let estimate = |s: &Scene, h: &Hit, n: usize, seed: u64| {
-        let brdf = Phong::of(s.brdf(h))?;
-        let occluded = |v| s.occluded(h, v);
-        let env = &s.environment;
-        Ok(reference_cv(
-            Sampling::Qmc,
-            Select::Contribution,
-            env,
-            &brdf,
-            occluded,
-            h,
-            n,
-            seed,
-        ))
-    };
+    let estimate = |s: &Scene, h: &Hit, n: usize, seed: u64| crate::sky::qmc_cv_mis(s, h, n, seed);
     let methods = Methods {
         method: "ISG (best model)",
         shade: &shade,

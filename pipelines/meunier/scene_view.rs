@@ -25,13 +25,15 @@ pub struct SceneView {
     view: DirectLightView,
     scene: Arc<Scene>,
     brdf: Brdf,
+    /// The top-level `brdf`'s index in the scene's materials (the reference's).
+    material: usize,
 }
 
 impl SceneView {
     /// From `eval`'s flags: `--scene FILE` and [`DirectLightView::from_flags`]'s.
     pub fn from_flags(flags: &EvalFlags, path: &str) -> Result<Self, String> {
         let view = DirectLightView::from_flags(flags)?;
-        let scene = crate::scene::load_for(path, &super::PIPELINE.accepts)?;
+        let mut scene = crate::scene::load_for(path, &super::PIPELINE.accepts)?;
         if scene.lights.is_empty() {
             return Err(format!("scene {}: direct-light needs a spherical light", scene.name));
         }
@@ -39,16 +41,16 @@ impl SceneView {
             .brdf
             .clone()
             .ok_or_else(|| format!("scene {}: direct-light --scene needs the top-level brdf", scene.name))?;
+        // The reference shades a row's hit with the scene's material of the hit: the
+        // top-level brdf, added to the materials once.
+        scene.materials.push(brdf.clone());
+        let material = scene.materials.len() - 1;
         Ok(SceneView {
             view,
             scene: Arc::new(scene),
             brdf,
+            material,
         })
-    }
-
-    /// The row's hit with the top-level `brdf`'s material.
-    fn hit(&self, x: &[f64]) -> Result<Hit, LookupError> {
-        hit_on_scene(x, &self.scene, None)
     }
 }
 
@@ -60,7 +62,7 @@ struct SceneLookup {
 impl Lookup for SceneLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         let v = &self.view;
-        let h = v.hit(x)?;
+        let h = hit_on_scene(x, &v.scene, None)?;
         if v.scene.buried(&h) {
             // Inside a mesh's covering sphere: the proxy is a solid (`Scene::buried`).
             return Ok(vec![0.0]);
@@ -109,12 +111,11 @@ impl View for SceneView {
         }))
     }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let h = self.hit(x).map_err(|e| e.to_string())?;
-        // The reference's scene carries the top-level brdf at the hit (the render's
-        // materials are per object; eval shades with one).
-        let mut scene = (*self.scene).clone();
-        scene.materials = vec![self.brdf.clone()];
-        let h = Hit { material: 0, ..h };
+        let h = Hit {
+            material: self.material,
+            ..hit_on_scene(x, &self.scene, None).map_err(|e| e.to_string())?
+        };
+        let scene = &*self.scene;
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_d11e_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         exact_estimate(|n| {
@@ -123,7 +124,7 @@ impl View for SceneView {
                 .lights
                 .iter()
                 .enumerate()
-                .map(|(k, l)| reference_sampled(Sampling::Plain, &scene, l, &h, n, seed ^ k as u64, true))
+                .map(|(k, l)| reference_sampled(Sampling::Plain, scene, l, &h, n, seed ^ k as u64, true))
                 .collect();
             Estimate {
                 mean: parts.iter().map(|e| e.mean).sum(),

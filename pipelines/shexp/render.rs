@@ -106,7 +106,7 @@ pub fn animate(
 ) -> Result<Summary, String> {
     use crate::animate::Methods;
     use crate::estimate::Sampling;
-    use crate::sky::{reference_cv, reference_sampled, Select};
+    use crate::sky::reference_sampled;
     let scene = scene(name)?;
     let tables = Tables::embedded()?;
     let settings = Settings::default();
@@ -117,31 +117,20 @@ pub fn animate(
     let shade = |s: &Scene, hits: &[Option<Hit>]| image(&tables, &settings, &light_n, s, hits);
     let sgs = scene.sh_environment.is_none();
     let estimate = |s: &Scene, h: &Hit, n: usize, seed: u64| {
+        if sgs {
+            return crate::sky::qmc_cv_mis(s, h, n, seed);
+        }
         let brdf = Phong::of(s.brdf(h))?;
-        let occluded = |v| s.occluded(h, v);
-        Ok(if sgs {
-            reference_cv(
-                Sampling::Qmc,
-                Select::Contribution,
-                &s.environment,
-                &brdf,
-                occluded,
-                h,
-                n,
-                seed,
-            )
-        } else {
-            reference_sampled(
-                Sampling::Qmc,
-                &s.environment,
-                |w| light(s, w),
-                &brdf,
-                occluded,
-                h,
-                n,
-                seed,
-            )
-        })
+        Ok(reference_sampled(
+            Sampling::Qmc,
+            &s.environment,
+            |w| light(s, w),
+            &brdf,
+            |v| s.occluded(h, v),
+            h,
+            n,
+            seed,
+        ))
     };
     let methods = Methods {
         method: "SH exponentiation (default settings)",
