@@ -312,4 +312,5 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
     if iters >= BUDGET {
         budget_flag = 2.0;
     }
-    Y[o] = total;
+    // Never negative, as the CPU's Meunier::shade: overshooting shadow lobes clamp to 0.
+    Y[o] = max(total, 0.0);

@@ -545,7 +545,10 @@ impl Meunier<'_> {
 
     /// Outgoing radiance ∫ f_r L V max(n·v, 0) dω at `x` (unit normal `n`) for the BRDF
     /// lobes `brdf` (from [`Brdf::lobes`]), summed over `lights`, shadowed by
-    /// `blockers` (eq. 22, §5.4 order).
+    /// `blockers` (eq. 22, §5.4 order). Never negative: the shadow leaves' lobes are
+    /// subtracted from the unoccluded light, and where they overshoot (the mask's
+    /// overlap weights are fitted, not exact) the sum would dip below 0, which no
+    /// radiance does; it is clamped to 0 there.
     pub fn shade(
         &self,
         x: DVec3,
@@ -572,7 +575,7 @@ impl Meunier<'_> {
                 LightModel::Cap => self.shade_cap(n, brdf, light, cap, &vis.lobes, settings.threshold)?,
             };
         }
-        check_result("shaded radiance", total)
+        check_result("shaded radiance", total).map(|t| t.max(0.0))
     }
 
     /// One light's term of [`Meunier::shade`] under [`LightModel::Cap`]: the unoccluded
