@@ -412,7 +412,7 @@ fn check_rigs(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) -> R
     let body = format!(
         "    var c: array<f32, {}>;\n    for (var k = 0u; k < {}u; k++) {{\n        c[k] = X[i * {n_in}u + 19u + k];\n    }}\n    \
          let l = lf_rig_eval(vec3<u32>(u32(x0), u32(x1), u32(x2)), vec3<u32>(u32(x3), u32(x4), u32(x5)), \
-         vec3<f32>(x6, x7, x8), vec3<f32>(x9, x10, x11), vec3<f32>(x12, x13, x14), c);\n    \
+         vec3<f32>(x6, x7, x8), vec3<f32>(x9, x10, x11), vec3<f32>(x12, x13, x14), &c);\n    \
          let w = lf_rewrap_irradiance9(l, x18);\n    for (var k = 0u; k < 9u; k++) {{\n        Y[o + k] = l[k];\n        \
          Y[o + 9u + k] = w[k];\n    }}\n    Y[o + 18u] = lf_irradiance9_wrapped(l, vec3<f32>(x15, x16, x17), x18);",
         COEFFS * MAX,
