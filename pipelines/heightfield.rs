@@ -442,6 +442,15 @@ impl HeightField {
         self.trace(x, v, t_min, t_max, true).is_some()
     }
 
+    /// The min-max quadtree the ray traversal reads: entry l − 1 is level l ≥ 1, node
+    /// (a, b) at `[b · ⌈(n − 1)/2^l⌉ + a]` holding [min, max] of the corner heights of
+    /// cells [a·2^l, (a + 1)·2^l) × [b·2^l, (b + 1)·2^l) (clipped to the grid); the last
+    /// level is the 1 × 1 root. Level 0, single cells, is read from the heights. (The
+    /// device's Monte Carlo traverses the same tree.)
+    pub fn quadtree(&self) -> &[Vec<[f64; 2]>] {
+        &self.tree
+    }
+
     /// The exact horizon elevation σ ∈ [−π/2, π/2] seen from p = (x, y, z) in azimuth
     /// φ, direction u = (cos φ, sin φ, 0): the supremum over d > 0 with (x, y) + d·u in
     /// the square of atan((h((x, y) + d·u) − z)/d); −π/2 if there is no such d, π/2 if p

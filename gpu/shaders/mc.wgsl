@@ -2,9 +2,10 @@
 // environment, Phong materials): per pixel, SPP samples of the CPU's one-sample
 // mixture (pipelines/sky.rs `mis`: the cosine, the Phong lobe, the SGs; balance
 // heuristic) with exact visibility of the spheres through the scene's hierarchy (the
-// CPU's `Bvh`, flattened: mc_blocked). The kernel's constants (NS, NE, NODES, STACK,
-// CV, QMC), its accessors (sph, env) and where its data lie in X (BATCH: the batch
-// index, SPP: the samples a dispatch, SPH0, ENV0, SOBOL0, NODE0, ORDER0; private
+// CPU's `Bvh`, flattened: mc_blocked) and, where the scene has one, of the height
+// field through its min-max quadtree (mc_terrain). The kernel's constants (NS, NE,
+// NODES, STACK, CV, QMC, HF and the height field's HF_*), its accessors (sph, env) and where its data lie in X (BATCH: the batch
+// index, SPP: the samples a dispatch, SPH0, ENV0, SOBOL0, NODE0, ORDER0, HF0; private
 // variables set from the pixel count N.x at the body's start) come from gpu/src/mc.rs. Uniforms (mc_point): a PCG hash of (pixel,
 // sample, dimension), or with QMC Owen-scrambled Sobol points seeded per pixel, the
 // sample index running on across batches (the CPU draws its own: the two agree in
@@ -150,9 +151,154 @@ fn mc_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_max: f32) -> bool {
     return false;
 }
 
-// Whether the ray x + t v (t > 0) meets a sphere other than `own`.
+// Whether the ray x + t v (t > 0) meets a sphere other than `own`, or (HF) the height
+// field from t = HF_TMIN on (the CPU's TERRAIN_T_MIN, widened past f32 rounding of a
+// point on the terrain).
 fn mc_occluded(x: vec3<f32>, v: vec3<f32>, own: i32) -> bool {
-    return mc_blocked(x, v, own, 3.4e38);
+    return mc_blocked(x, v, own, 3.4e38) || (HF && mc_terrain(x, v, HF_TMIN, 3.4e38));
+}
+
+// The height field (the CPU's HeightField, its min-max quadtree uploaded: gpu/src/mc.rs
+// hf_inputs): HF_N × HF_N samples at spacing HF_SP from −HF_HALF, bilinear per cell;
+// at HF0 the offsets of quadtree levels 1 … HF_L (from HF0), the heights from HF0 + 16.
+// Quadtree level l's side over the HF_N − 1 cells.
+fn mc_hf_side(l: u32) -> u32 {
+    return (HF_N - 1u + (1u << l) - 1u) >> l;
+}
+
+// [min, max] of the surface over node (a, b) of level l (level 0: a cell's corners).
+fn mc_hf_range(l: u32, a: u32, b: u32) -> vec2<f32> {
+    if l == 0u {
+        let k = HF0 + 16u + b * HF_N + a;
+        let h00 = X[k];
+        let h10 = X[k + 1u];
+        let h01 = X[k + HF_N];
+        let h11 = X[k + HF_N + 1u];
+        return vec2<f32>(min(min(h00, h10), min(h01, h11)), max(max(h00, h10), max(h01, h11)));
+    }
+    let k = HF0 + u32(X[HF0 + l - 1u]) + 2u * (b * mc_hf_side(l) + a);
+    return vec2<f32>(X[k], X[k + 1u]);
+}
+
+// The ray's t span over the grid box [lo, hi] (grid units), from grid point g along
+// slope d (inv = 1/d, d never 0: see mc_terrain).
+fn mc_hf_span(g: vec2<f32>, inv: vec2<f32>, lo: vec2<f32>, hi: vec2<f32>) -> vec2<f32> {
+    let a = (lo - g) * inv;
+    let b = (hi - g) * inv;
+    let near = min(a, b);
+    let far = max(a, b);
+    return vec2<f32>(max(near.x, near.y), min(far.x, far.y));
+}
+
+// Whether the ray x + t v meets the height field for t in (t_min, t_max): the CPU's
+// traversal (HeightField::occluded) in f32 — nodes whose box or height range the ray's
+// span misses are skipped (ranges widened by HF_ZPAD past f32 rounding), each cell's
+// bilinear patch solved as a quadratic in t with stable roots, a root counting within
+// 1e-4 cell of its cell (the CPU: 1e-9). Any hit ends the walk, so the children need no
+// order. A node on the stack: level, a, b packed in one word; its span beside it.
+fn mc_terrain(x: vec3<f32>, v: vec3<f32>, t_min: f32, t_max: f32) -> bool {
+    let g = (x.xy + vec2<f32>(HF_HALF)) / HF_SP;
+    var d = v.xy / HF_SP;
+    // A slope of |d| < 1e-30 as ±1e-30: finite spans, no 0 · ∞.
+    d = select(d, select(vec2<f32>(-1e-30), vec2<f32>(1e-30), d >= vec2<f32>(0.0)), abs(d) < vec2<f32>(1e-30));
+    let inv = 1.0 / d;
+    let pad = 1e-4 / max(abs(d.x), abs(d.y));
+    let m = f32(HF_N - 1u);
+    var nodes: array<u32, HF_STACK>;
+    var spans: array<vec2<f32>, HF_STACK>;
+    var top = 0u;
+    // The root (level HF_L), if the ray's span and heights meet it.
+    let root = mc_hf_span(g, inv, vec2<f32>(0.0), vec2<f32>(m));
+    let r0 = max(root.x, t_min);
+    let r1 = min(root.y, t_max);
+    let rr = mc_hf_range(HF_L, 0u, 0u);
+    let z0 = x.z + v.z * r0;
+    let z1 = x.z + v.z * r1;
+    if r0 <= r1 && min(z0, z1) <= rr.y + HF_ZPAD && max(z0, z1) >= rr.x - HF_ZPAD {
+        nodes[0] = HF_L << 28u;
+        spans[0] = root;
+        top = 1u;
+    }
+    while top > 0u {
+        top -= 1u;
+        let node = nodes[top];
+        let span = spans[top];
+        let l = node >> 28u;
+        let a = (node >> 14u) & 0x3fffu;
+        let b = node & 0x3fffu;
+        if l == 0u {
+            // The cell's patch h = p0 + p1 u + p2 w + p3 u w, expanded about t = tr.
+            let k = HF0 + 16u + b * HF_N + a;
+            let h00 = X[k];
+            let h10 = X[k + 1u];
+            let h01 = X[k + HF_N];
+            let h11 = X[k + HF_N + 1u];
+            let p = vec4<f32>(h00, h10 - h00, h01 - h00, h00 - h10 - h01 + h11);
+            let tr = max(span.x, t_min);
+            let ua = g.x + d.x * tr - f32(a);
+            let wa = g.y + d.y * tr - f32(b);
+            let qa = p.w * d.x * d.y;
+            let qb = p.y * d.x + p.z * d.y + p.w * (ua * d.y + wa * d.x) - v.z;
+            let qc = p.x + p.y * ua + p.z * wa + p.w * ua * wa - (x.z + v.z * tr);
+            var r = vec2<f32>(-1.0, -1.0);
+            var valid = vec2<bool>(false, false);
+            if qa == 0.0 {
+                if qb != 0.0 {
+                    r.x = -qc / qb;
+                    valid.x = true;
+                }
+            } else {
+                let disc = qb * qb - 4.0 * qa * qc;
+                if disc >= 0.0 {
+                    let q = -0.5 * (qb + select(-sqrt(disc), sqrt(disc), qb >= 0.0));
+                    if q == 0.0 {
+                        r.x = 0.0;
+                        valid.x = true;
+                    } else {
+                        r = vec2<f32>(q / qa, qc / q);
+                        valid = vec2<bool>(true, true);
+                    }
+                }
+            }
+            // Scalar conditions: the same test written as a chain of vec2<bool> `&`
+            // answered no hit for every ray on lavapipe.
+            let t = tr + r;
+            let lo = max(t_min, span.x - pad);
+            let hi = min(t_max, span.y + pad);
+            if (valid.x && t.x > t_min && t.x >= lo && t.x <= hi && t.x < t_max)
+                || (valid.y && t.y > t_min && t.y >= lo && t.y <= hi && t.y < t_max) {
+                return true;
+            }
+            continue;
+        }
+        let lc = l - 1u;
+        let s = mc_hf_side(lc);
+        for (var c = 0u; c < 4u; c++) {
+            let ca = 2u * a + (c & 1u);
+            let cb = 2u * b + (c >> 1u);
+            if ca >= s || cb >= s {
+                continue;
+            }
+            let lo = vec2<f32>(f32(ca << lc), f32(cb << lc));
+            let hi = vec2<f32>(f32(min((ca + 1u) << lc, HF_N - 1u)), f32(min((cb + 1u) << lc, HF_N - 1u)));
+            let sp = mc_hf_span(g, inv, lo, hi);
+            let t0 = max(sp.x, t_min);
+            let t1 = min(sp.y, t_max);
+            if t0 > t1 {
+                continue;
+            }
+            let za = x.z + v.z * t0;
+            let zb = x.z + v.z * t1;
+            let rg = mc_hf_range(lc, ca, cb);
+            if min(za, zb) > rg.y + HF_ZPAD || max(za, zb) < rg.x - HF_ZPAD {
+                continue;
+            }
+            nodes[top] = (lc << 28u) | (ca << 14u) | cb;
+            spans[top] = sp;
+            top += 1u;
+        }
+    }
+    return false;
 }
 
 // A direction of the SG g's normalised density (the CPU's sample_sg).
