@@ -445,9 +445,10 @@ fn write_reports(
         .map_err(|e| format!("cannot write {}: {e}", out.join("bench.md").display()))
 }
 
-/// The device's Monte Carlo beside the ISG and Meunier kernels, for each of the two
-/// the bench runs: the analytic image rendered once more for its values (untimed),
-/// then every estimator at `mc::bench_spp(max_spp)` against the CPU reference.
+/// The device's Monte Carlo beside the ISG, SH-exponentiation (a scene with an SG
+/// sky) and Meunier kernels, for each the bench runs: the analytic image rendered once
+/// more for its values (untimed), then every estimator at `mc::bench_spp(max_spp)`
+/// against the CPU reference.
 fn monte_carlo(
     gpu: &Gpu,
     ex: &Exports,
@@ -470,6 +471,16 @@ fn monte_carlo(
             "isg" => {
                 let sc = lobefit::pipelines::isg::render::scene(scene)?;
                 let v = crate::isg::render_isg(gpu, &ex.isg, &sc, width, false, &png)?.values;
+                (sc, v)
+            }
+            "shexp" => {
+                let sc = lobefit::pipelines::shexp::render::scene(scene)?;
+                // Under an SH sky (no SGs to sample) the device has no Monte Carlo.
+                if crate::mc::supported(&sc).is_err() {
+                    continue;
+                }
+                let s = lobefit::pipelines::shexp::shade::Settings::default();
+                let v = crate::shexp::render_shexp(gpu, &ex.shexp, &sc, width, &s, &png)?.values;
                 (sc, v)
             }
             "meunier" => {

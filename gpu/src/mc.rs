@@ -317,7 +317,7 @@ fn light_scene(sc: &Scene) -> bool {
 /// Refuses a scene the kernels do not trace: meshes, no light, more than one
 /// spherical light, a height field under a spherical light or of more than
 /// [`HF_MAX_N`] samples a side.
-fn supported(sc: &Scene) -> Result<(), String> {
+pub fn supported(sc: &Scene) -> Result<(), String> {
     let why = if sc.heightfield.is_some() && light_scene(sc) {
         Some("a height field under a spherical light")
     } else if hf_shape(sc).is_some_and(|(_, n)| n > HF_MAX_N) {
@@ -723,7 +723,7 @@ pub struct McRow {
 /// Monte Carlo at [`BENCH_SPP`], each against the CPU reference, and where each
 /// estimator reaches the analytic kernel's error.
 pub struct McBench {
-    /// The pipeline whose device kernel is compared (isg, meunier).
+    /// The pipeline whose device kernel is compared (isg, shexp, meunier).
     pub pipeline: &'static str,
     /// The scene's name.
     pub scene: String,
