@@ -6,9 +6,10 @@
 # min–max, error against the CPU pipeline, static SPIR-V counts). Image height 3/4 of
 # the width.
 #   monte-carlo  width 32 (at 64 the ISG error is below the reference's resolution):
-#                the ISG (fig12) and Meunier (fig13) kernels against the
-#                device's Monte Carlo at 1 … 65 536 spp; its CPU reference (16 384 spp
-#                a pixel) takes under a minute on 2 cores
+#                the ISG (fig12), SH-exponentiation (whale, its terrain traced on
+#                the device too) and Meunier (fig13) kernels against the device's
+#                Monte Carlo at 1 … 65 536 spp, each image against a CPU reference
+#                of 16 384 spp a pixel
 #   iwasaki      640 × 480 (Iwasaki et al., Table 1): ISG on fig12 (50 spheres), rigs
 #   iwasaki-306  640 × 480, the ISG sweep's 306 spheres (Table 1's largest)
 #   giraud       960 × 720 (Giraud: 960 × 540): SH exponentiation on whale (50 spheres)
@@ -38,7 +39,7 @@ bench() {
     refused+=("$name")
   fi
 }
-bench monte-carlo --width 32 --only isg,meunier --mc-spp-max 65536
+bench monte-carlo --width 32 --only isg,shexp,meunier --mc-spp-max 65536
 bench iwasaki --width 640 --only isg,rigs --mc-spp-max 0
 bench giraud --width 960 --only shexp --mc-spp-max 0
 bench meunier --width 148 --only meunier --mc-spp-max 0
