@@ -158,13 +158,13 @@ fn bvh_consts(sc: &Scene) -> String {
 }
 
 /// Most samples a side of a height field the kernel takes: its offsets in the input
-/// buffer are f32, exact below 2^24.
+/// buffer are f32, exact below 2^24, and a node's cell indices are packed in 14 bits.
 const HF_MAX_N: usize = 2049;
 
 /// Where shadow rays leave a point for the height field, in units of its extent: the
 /// CPU's `TERRAIN_T_MIN` (1e-9) is below f32 rounding of a point on the terrain
-/// (≈ 1e-7 of the extent), which would shadow itself; 1e-4 skips that and only hits
-/// closer than 1e-4 of the extent (a 40th of a cell of the 256² built-in terrain).
+/// (≈ 1e-7 of the extent), which would shadow itself; 1e-4 skips that, missing only
+/// hits closer than 1e-4 of the extent (a 40th of a cell of the 256² built-in terrain).
 const HF_T_MIN: f64 = 1e-4;
 
 /// The height field's quadtree levels (1 … L) and samples a side, if the scene has one.
