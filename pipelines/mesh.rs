@@ -413,6 +413,33 @@ impl Mesh {
         (b - a).cross(c - a).normalize_or_zero()
     }
 
+    /// The triangle hierarchy, node 0 the root: per node its box (min, max corner), its
+    /// `first` and `count` — a leaf's triangles are `order()[first..first + count]`
+    /// (count > 0), an inner node's children are nodes `first` and `first + 1` (count
+    /// 0). (The device's Monte Carlo traverses the same tree.)
+    pub fn hierarchy(&self) -> impl Iterator<Item = (DVec3, DVec3, usize, usize)> + '_ {
+        self.nodes.iter().map(|n| (n.lo, n.hi, n.first, n.count))
+    }
+
+    /// The triangle indices the leaves' ranges refer to.
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// The hierarchy's depth (1: the root is a leaf).
+    pub fn depth(&self) -> usize {
+        let mut deepest = 0;
+        let mut stack = vec![(0usize, 1usize)];
+        while let Some((k, d)) = stack.pop() {
+            deepest = deepest.max(d);
+            let n = &self.nodes[k];
+            if n.count == 0 {
+                stack.extend([(n.first, d + 1), (n.first + 1, d + 1)]);
+            }
+        }
+        deepest
+    }
+
     /// Bounding box (min, max corner).
     pub fn bounds(&self) -> (DVec3, DVec3) {
         (self.nodes[0].lo, self.nodes[0].hi)

@@ -3,9 +3,10 @@
 // mixture (pipelines/sky.rs `mis`: the cosine, the Phong lobe, the SGs; balance
 // heuristic) with exact visibility of the spheres through the scene's hierarchy (the
 // CPU's `Bvh`, flattened: mc_blocked) and, where the scene has one, of the height
-// field through its min-max quadtree (mc_terrain). The kernel's constants (NS, NE,
-// NODES, STACK, CV, QMC, HF and the height field's HF_*), its accessors (sph, env) and where its data lie in X (BATCH: the batch
-// index, SPP: the samples a dispatch, SPH0, ENV0, SOBOL0, NODE0, ORDER0, HF0; private
+// field through its min-max quadtree (mc_terrain), and of meshes' triangles through
+// their hierarchies (mc_meshes). The kernel's constants (NS, NE, NODES, STACK, CV, QMC,
+// HF and the height field's HF_*, NM, MSTACK), its accessors (sph, env) and where its data lie in X (BATCH: the batch
+// index, SPP: the samples a dispatch, SPH0, ENV0, SOBOL0, NODE0, ORDER0, HF0, MESH0, MNODE0, MTRI0; private
 // variables set from the pixel count N.x at the body's start) come from gpu/src/mc.rs. Uniforms (mc_point): a PCG hash of (pixel,
 // sample, dimension), or with QMC Owen-scrambled Sobol points seeded per pixel, the
 // sample index running on across batches (the CPU draws its own: the two agree in
@@ -153,9 +154,79 @@ fn mc_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_max: f32) -> bool {
 
 // Whether the ray x + t v (t > 0) meets a sphere other than `own`, or (HF) the height
 // field from t = HF_TMIN on (the CPU's TERRAIN_T_MIN, widened past f32 rounding of a
-// point on the terrain).
-fn mc_occluded(x: vec3<f32>, v: vec3<f32>, own: i32) -> bool {
-    return mc_blocked(x, v, own, 3.4e38) || (HF && mc_terrain(x, v, HF_TMIN, 3.4e38));
+// point on the terrain), or a mesh's triangle other than triangle `own_tri` of mesh
+// `own_mesh` (mc_meshes).
+fn mc_occluded(x: vec3<f32>, v: vec3<f32>, own: i32, own_mesh: i32, own_tri: i32) -> bool {
+    return mc_blocked(x, v, own, 3.4e38) || (HF && mc_terrain(x, v, HF_TMIN, 3.4e38))
+        || mc_meshes(x, v, own_mesh, own_tri, 3.4e38);
+}
+
+// Whether the ray x + t v meets a triangle of one of the NM meshes for t in (the mesh's
+// t_min, t_max), triangle `own_tri` of mesh `own_mesh` skipped: each mesh's hierarchy
+// (the CPU's Mesh, flattened into one list: gpu/src/mc.rs mesh_inputs) walked on a
+// stack of MSTACK entries, each triangle tested as the CPU's ray_triangle
+// (Möller–Trumbore) in f32. At MESH0 per mesh its root node and t_min; nodes from
+// MNODE0 (lo, hi: boxes widened past f32 rounding; first, count: a leaf's first
+// triangle record, an inner node's first child); triangle records from MTRI0 (3
+// corners, the mesh, the triangle's index in it).
+fn mc_meshes(x: vec3<f32>, v: vec3<f32>, own_mesh: i32, own_tri: i32, t_max: f32) -> bool {
+    let tiny = select(vec3<f32>(-1e-30), vec3<f32>(1e-30), v >= vec3<f32>(0.0));
+    let inv = 1.0 / select(v, tiny, abs(v) < vec3<f32>(1e-30));
+    for (var m = 0u; m < NM; m++) {
+        let t_min = X[MESH0 + 2u * m + 1u];
+        var stack: array<u32, MSTACK>;
+        stack[0] = u32(X[MESH0 + 2u * m]);
+        var top = 1u;
+        while top > 0u {
+            top -= 1u;
+            let k = MNODE0 + 8u * stack[top];
+            let a = (vec3<f32>(X[k], X[k + 1u], X[k + 2u]) - x) * inv;
+            let b = (vec3<f32>(X[k + 3u], X[k + 4u], X[k + 5u]) - x) * inv;
+            let lo = min(a, b);
+            let hi = max(a, b);
+            if max(max(max(lo.x, lo.y), lo.z), 0.0) > min(min(min(hi.x, hi.y), hi.z), t_max) {
+                continue;
+            }
+            let first = u32(X[k + 6u]);
+            let count = u32(X[k + 7u]);
+            if count == 0u {
+                stack[top] = first;
+                stack[top + 1u] = first + 1u;
+                top += 2u;
+                continue;
+            }
+            for (var j = 0u; j < count; j++) {
+                let r = MTRI0 + 11u * (first + j);
+                if i32(m) == own_mesh && i32(X[r + 10u]) == own_tri {
+                    continue;
+                }
+                let p0 = vec3<f32>(X[r], X[r + 1u], X[r + 2u]);
+                let e1 = vec3<f32>(X[r + 3u], X[r + 4u], X[r + 5u]) - p0;
+                let e2 = vec3<f32>(X[r + 6u], X[r + 7u], X[r + 8u]) - p0;
+                let p = cross(v, e2);
+                let det = dot(e1, p);
+                if det == 0.0 {
+                    continue;
+                }
+                let id = 1.0 / det;
+                let s = x - p0;
+                let u = dot(s, p) * id;
+                if u < 0.0 || u > 1.0 {
+                    continue;
+                }
+                let q = cross(s, e1);
+                let w = dot(v, q) * id;
+                if w < 0.0 || u + w > 1.0 {
+                    continue;
+                }
+                let t = dot(e2, q) * id;
+                if t > t_min && t < t_max {
+                    return true;
+                }
+            }
+        }
+    }
+    return false;
 }
 
 // The height field (the CPU's HeightField, its min-max quadtree uploaded: gpu/src/mc.rs
@@ -347,6 +418,8 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
     let ks = x10;
     let e = x11;
     let own = i32(x12);
+    let own_mesh = i32(x13);
+    let own_tri = i32(x14);
     let r = normalize(2.0 * dot(n, wo) * n - wo);
     let t = lf_any_orthonormal(n);
     let bt = cross(n, t);
@@ -430,7 +503,7 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
                 if spec {
                     f_s = ks * (e + 2.0) / (2.0 * LF_PI) * pow(rw, e);
                 }
-                let blocked = mc_occluded(x, w, own);
+                let blocked = mc_occluded(x, w, own, own_mesh, own_tri);
                 if CV {
                     // The CPU's reference_cv: −(occluded diffuse), + unoccluded specular.
                     if blocked {

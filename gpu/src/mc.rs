@@ -3,7 +3,8 @@
 //! Lambert and Phong materials: the ISG scenes and the SH-exponentiation ones), the
 //! baseline a renderer engineer compares the analytic kernels with: per pixel, N
 //! samples of the CPU's mixture estimator (`lobefit::pipelines::sky`) with exact
-//! visibility against every sphere and the height field (gpu/shaders/mc.wgsl).
+//! visibility against every sphere, the height field and meshes' triangles
+//! (gpu/shaders/mc.wgsl).
 //!
 //! Two estimators: `plain` (the CPU's `reference`: SGs picked by their integral) and
 //! `cv-mis` (the CPU's `reference_cv` with `Select::Contribution`: the unoccluded
@@ -36,8 +37,9 @@ const SHADER_LIGHT: &str = include_str!("../shaders/mc_light.wgsl");
 /// The light kernel's Lafortune lobes per pixel, at most.
 const MAX_LOBES: usize = 2;
 
-/// Inputs per pixel: point, normal, view, k_d, k_s, Phong n, own sphere (−1: none).
-const N_IN: usize = 13;
+/// Inputs per pixel: point, normal, view, k_d, k_s, Phong n, own sphere (−1: none),
+/// own mesh and triangle (−1: none).
+const N_IN: usize = 15;
 /// Outputs per pixel: Σ f, Σ f², the closed form, the budget flag.
 const N_OUT: usize = 4;
 /// Most samples one dispatch takes (a power of two).
@@ -218,6 +220,69 @@ fn hf_inputs(sc: &Scene) -> Vec<f32> {
     v
 }
 
+/// Where a mesh's shadow rays start on the device, in units of its diagonal: the
+/// CPU's `MESH_T_MIN` (1e-9) is below f32 rounding of a point on the mesh, as
+/// [`HF_T_MIN`] says of the terrain.
+const MESH_T_MIN: f64 = 1e-4;
+
+/// The meshes' constants (mc_meshes): their count NM, their nodes in all MNODES, the
+/// traversal's stack MSTACK (the deepest hierarchy + 1), and the height field's
+/// words before them, HF_LEN.
+fn mesh_consts(sc: &Scene) -> String {
+    let nodes: usize = sc.meshes.iter().map(|m| m.mesh.hierarchy().count()).sum();
+    let depth = sc.meshes.iter().map(|m| m.mesh.depth()).max().unwrap_or(0);
+    format!(
+        "const HF_LEN = {}u;\nconst NM = {}u;\nconst MNODES = {nodes}u;\nconst MSTACK = {}u;\n",
+        hf_inputs(sc).len(),
+        sc.meshes.len(),
+        depth + 1
+    )
+}
+
+/// The meshes as mc_meshes reads them: per mesh its root node and its shadow rays'
+/// start ([`MESH_T_MIN`] × its diagonal); every mesh's hierarchy in one list of nodes
+/// (box widened by 10⁻⁵ of the mesh's scale, as [`bvh_inputs`]; first child or first
+/// triangle record, count), indices made global; the triangle records in the leaves'
+/// order (3 corners, the mesh, the triangle's index). Empty without meshes.
+fn mesh_inputs(sc: &Scene) -> Vec<f32> {
+    let mut head = Vec::new();
+    let mut nodes = Vec::new();
+    let mut tris = Vec::new();
+    let (mut node0, mut tri0) = (0usize, 0usize);
+    for (mi, m) in sc.meshes.iter().enumerate() {
+        let (lo, hi) = m.mesh.bounds();
+        let diagonal = (hi - lo).length();
+        let scale = (hi - lo).max_element().max(lo.abs().max(hi.abs()).max_element());
+        let pad = 1e-5 * scale;
+        head.extend([node0 as f32, (MESH_T_MIN * diagonal) as f32]);
+        let mut count = 0;
+        for (lo, hi, first, n) in m.mesh.hierarchy() {
+            let first = if n == 0 { node0 + first } else { tri0 + first };
+            let (lo, hi) = (lo - pad, hi + pad);
+            nodes.extend([lo.x, lo.y, lo.z, hi.x, hi.y, hi.z, first as f64, n as f64].map(|x| x as f32));
+            count += 1;
+        }
+        node0 += count;
+        for &k in m.mesh.order() {
+            let [a, b, c] = m.mesh.corners(k as usize);
+            tris.extend([a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, mi as f64, f64::from(k)].map(|x| x as f32));
+        }
+        tri0 += m.mesh.order().len();
+    }
+    head.extend(nodes);
+    head.extend(tris);
+    head
+}
+
+/// Loop iterations of one ray against the meshes at most (mc_meshes): every node and
+/// every triangle of every mesh, and the loop over the meshes.
+fn mesh_iterations(sc: &Scene) -> u64 {
+    sc.meshes
+        .iter()
+        .map(|m| (m.mesh.hierarchy().count() + m.mesh.order().len()) as u64 + 1)
+        .sum()
+}
+
 /// Loop iterations of one terrain ray at most (mc_terrain): every node the ray's span
 /// can meet, 4·side + 4 a level (a line crosses at most 2·side cells of a side × side
 /// grid, twice that when it runs along grid lines and through corners, which closed
@@ -240,12 +305,14 @@ fn hf_iterations(sc: &Scene) -> u64 {
 /// start of the body): after the pixels' inputs, the batch index (`BATCH`), the
 /// samples a dispatch (`SPP`), the spheres (`SPH0`), the SGs (`ENV0`, sky kernel
 /// only), the direction numbers (`SOBOL0`), the hierarchy's nodes (`NODE0`) and its
-/// sphere indices (`ORDER0`), then the height field (`HF0`, sky kernel only). Data, not constants: one compiled kernel serves every
+/// sphere indices (`ORDER0`), then the height field (`HF0`) and the meshes (`MESH0`,
+/// `MNODE0`, `MTRI0`: [`LAYOUT_SKY`]), sky kernel only. Data, not constants: one compiled kernel serves every
 /// pixel count and sample count of a scene (a bench's ladder of 1 … 256 samples
 /// compiled a kernel per rung).
 const OFFSETS: &str = "var<private> BATCH: u32;\nvar<private> SPP: u32;\nvar<private> SPH0: u32;\n\
                        var<private> ENV0: u32;\nvar<private> SOBOL0: u32;\nvar<private> NODE0: u32;\n\
-                       var<private> ORDER0: u32;\nvar<private> HF0: u32;\n\
+                       var<private> ORDER0: u32;\nvar<private> HF0: u32;\nvar<private> MESH0: u32;\n\
+                       var<private> MNODE0: u32;\nvar<private> MTRI0: u32;\n\
                        fn sph(b: u32) -> vec4<f32> {\n    let k = SPH0 + 4u * b;\n    \
                        return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}\n";
 
@@ -261,12 +328,19 @@ const LAYOUT: &str = "    BATCH = N_IN * N.x;
     HF0 = ORDER0 + NORDER;
 ";
 
+/// The sky kernel's further statements after [`LAYOUT`]: where the meshes lie, after
+/// the height field's HF_LEN words.
+const LAYOUT_SKY: &str = "    MESH0 = HF0 + HF_LEN;
+    MNODE0 = MESH0 + 2u * NM;
+    MTRI0 = MNODE0 + 8u * MNODES;
+";
+
 /// Loop iterations of one pixel before its samples (the SG weights, with the control
 /// variate each SG's clamped cosine twice) and of each sample (the SG pick, the
 /// mixture's density and the light, the hierarchy: at most every node and every
-/// sphere; `terrain`: the height field's traversal, [`hf_iterations`]), every loop
-/// counted.
-fn iterations(spheres: usize, sgs: usize, terrain: u64, est: Estimator) -> (u64, u64) {
+/// sphere; `traced`: the height field's and the meshes' traversals, [`hf_iterations`]
+/// and [`mesh_iterations`]), every loop counted.
+fn iterations(spheres: usize, sgs: usize, traced: u64, est: Estimator) -> (u64, u64) {
     let (ns, ne) = (spheres as u64 + nodes(spheres), sgs as u64);
     let cc = if est.cv() {
         crate::isg::CLAMPED_COSINE_ITERATIONS
@@ -274,7 +348,7 @@ fn iterations(spheres: usize, sgs: usize, terrain: u64, est: Estimator) -> (u64,
         0
     };
     let setup = (ne + 1) * (1 + cc) + if est.cv() { (ne + 1) * (1 + cc) } else { 0 } + 2;
-    (setup, 1 + point_iterations(est) + ne + (ne + 1) + ns + terrain)
+    (setup, 1 + point_iterations(est) + ne + (ne + 1) + ns + traced)
 }
 
 /// The hierarchy's node count at most for `spheres` spheres (leaves of one to
@@ -295,8 +369,8 @@ fn point_iterations(est: Estimator) -> u64 {
 
 /// Samples per dispatch: the largest power of two ≤ [`MAX_BATCH`] within llvmpipe's
 /// loop budget, or an error naming the scene's size.
-fn batch_size(spheres: usize, sgs: usize, terrain: u64, est: Estimator) -> Result<usize, String> {
-    let (setup, per) = iterations(spheres, sgs, terrain, est);
+fn batch_size(spheres: usize, sgs: usize, traced: u64, est: Estimator) -> Result<usize, String> {
+    let (setup, per) = iterations(spheres, sgs, traced, est);
     let fit = budget::LOOP_LIMIT.saturating_sub(setup) / per;
     if fit == 0 {
         return Err(format!(
@@ -314,16 +388,16 @@ fn light_scene(sc: &Scene) -> bool {
     sc.environment.is_empty() && sc.sh_environment.is_none() && !sc.lights.is_empty()
 }
 
-/// Refuses a scene the kernels do not trace: meshes, no light, more than one
-/// spherical light, a height field under a spherical light or of more than
+/// Refuses a scene the kernels do not trace: no light, more than one spherical light,
+/// a height field or meshes under a spherical light, a height field of more than
 /// [`HF_MAX_N`] samples a side.
 pub fn supported(sc: &Scene) -> Result<(), String> {
     let why = if sc.heightfield.is_some() && light_scene(sc) {
         Some("a height field under a spherical light")
+    } else if !sc.meshes.is_empty() && light_scene(sc) {
+        Some("meshes under a spherical light")
     } else if hf_shape(sc).is_some_and(|(_, n)| n > HF_MAX_N) {
         Some("a height field of more than 2049 samples a side")
-    } else if !sc.meshes.is_empty() {
-        Some("meshes")
     } else if light_scene(sc) && sc.lights.len() > 1 {
         Some("more than one spherical light")
     } else if sc.environment.is_empty() && !light_scene(sc) {
@@ -333,8 +407,8 @@ pub fn supported(sc: &Scene) -> Result<(), String> {
     };
     match why {
         Some(w) => Err(format!(
-            "mc: scene {} has {w}; the device's Monte Carlo traces spheres (and a height field) under an SG \
-             sky, or spheres under one spherical light",
+            "mc: scene {} has {w}; the device's Monte Carlo traces spheres, a height field and meshes under \
+             an SG sky, or spheres under one spherical light",
             sc.name
         )),
         None => Ok(()),
@@ -353,10 +427,10 @@ fn source(sc: &Scene, est: Estimator) -> String {
         est.qmc(),
         direction_inputs().len(),
         bvh_consts(sc),
-        hf_consts(sc)
+        hf_consts(sc) + &mesh_consts(sc)
     );
     let (functions, body) = split(SHADER);
-    let body = LAYOUT.to_string() + body + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
+    let body = LAYOUT.to_string() + LAYOUT_SKY + body + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
     kernel("texture_2d<f32>", N_IN, N_OUT, &body) + &consts + functions
 }
 
@@ -386,7 +460,8 @@ pub fn estimate(
         let per = batch_size_light(sc.spheres.len(), nl, est)?;
         (inputs, n_in * hits.len(), per, source_light(sc, n_in, nl, est.qmc()))
     } else {
-        let per = batch_size(sc.spheres.len(), sc.environment.len(), hf_iterations(sc), est)?;
+        let traced = hf_iterations(sc) + mesh_iterations(sc);
+        let per = batch_size(sc.spheres.len(), sc.environment.len(), traced, est)?;
         (sky_inputs(sc, hits)?, N_IN * hits.len(), per, source(sc, est))
     };
     let batch = per_batch.min(spp.next_power_of_two());
@@ -410,6 +485,8 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
         );
         inputs.extend([b.diffuse, b.specular, b.exponent].map(|v| v as f32));
         inputs.push(hit.sphere.map_or(-1.0, |i| i as f32));
+        let (mesh, tri) = hit.mesh.map_or((-1.0, -1.0), |(m, k)| (m as f32, k as f32));
+        inputs.extend([mesh, tri]);
     }
     inputs.extend([0.0, 0.0]);
     for s in &sc.spheres {
@@ -421,6 +498,7 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
     inputs.extend(direction_inputs());
     inputs.extend(bvh_inputs(sc));
     inputs.extend(hf_inputs(sc));
+    inputs.extend(mesh_inputs(sc));
     Ok(inputs)
 }
 
@@ -1029,6 +1107,97 @@ mod tests {
         );
     }
 
+    /// The meshes' traversal on the device (mc_meshes, f32) answers as the CPU's f64
+    /// `Mesh::occluded` on the same f32-rounded rays: 4 096 rays against the bunny of
+    /// `isg-bunny.json` (19 048 triangles), from points on its triangles (their own
+    /// triangle skipped, from the device's t_min) and from points around it, in
+    /// uniform directions, half with a finite t_max. Rays that pass within f32 rounding
+    /// of an edge or start within 1e-4 of the diagonal from a triangle may differ: at
+    /// most 0.5 % do.
+    #[test]
+    fn mesh_traversal_agrees_with_the_cpu_on_the_device() {
+        use lobefit_tables::glam::DVec3;
+        let sc = lobefit::pipelines::isg::render::scene(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../assets/meshes/isg-bunny.json"
+        ))
+        .unwrap();
+        let m = &sc.meshes[0].mesh;
+        let (lo, hi) = m.bounds();
+        let t_min = MESH_T_MIN * (hi - lo).length();
+        let mut rng = lobefit::rng::Rng::new(13);
+        let count = 4096;
+        let mut inputs = Vec::with_capacity(10 * count);
+        let mut rays = Vec::with_capacity(count);
+        for k in 0..count {
+            let (x, own) = if k % 2 == 0 {
+                let t = (rng.next_u64() % m.triangles.len() as u64) as usize;
+                let [a, b, c] = m.corners(t);
+                let (u, w) = (rng.uniform(), rng.uniform());
+                let (u, w) = if u + w > 1.0 { (1.0 - u, 1.0 - w) } else { (u, w) };
+                (a + u * (b - a) + w * (c - a), t as f64)
+            } else {
+                let u = DVec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+                (lo - 0.2 * (hi - lo) + 1.4 * (hi - lo) * u, -1.0)
+            };
+            let z = 2.0 * rng.uniform() - 1.0;
+            let phi = std::f64::consts::TAU * rng.uniform();
+            let r = (1.0 - z * z).sqrt();
+            let v = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+            let t_max = if k % 4 < 2 {
+                3.4e38
+            } else {
+                rng.range(0.05, 1.0) * (hi - lo).length()
+            };
+            let ray = [x.x, x.y, x.z, v.x, v.y, v.z, t_max].map(|c| c as f32);
+            inputs.extend(ray);
+            inputs.extend([own as f32, 0.0, 0.0]);
+            rays.push((ray.map(f64::from), own));
+        }
+        let mesh0 = 10 * count;
+        let data = mesh_inputs(&sc);
+        let nodes = m.hierarchy().count();
+        inputs.extend(data);
+        let (functions, _) = split(SHADER);
+        let meshes = &functions[functions
+            .find("// Whether the ray x + t v meets a triangle of one")
+            .unwrap()
+            ..functions.find("// The height field (the CPU's HeightField").unwrap()];
+        let consts = format!(
+            "const NM = 1u;\nconst MSTACK = {}u;\nconst MESH0 = {mesh0}u;\nconst MNODE0 = {}u;\nconst MTRI0 = {}u;\n",
+            m.depth() + 1,
+            mesh0 + 2,
+            mesh0 + 2 + 8 * nodes
+        );
+        let body =
+            "    Y[o] = select(0.0, 1.0, mc_meshes(vec3<f32>(x0, x1, x2), vec3<f32>(x3, x4, x5), 0, i32(x7), x6));";
+        let src = kernel("texture_2d<f32>", 10, 1, body) + &consts + meshes;
+        let gpu = Gpu::new().unwrap();
+        let dummy = gpu.upload(&dummy_texture(), Storage::F32).unwrap();
+        let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, count, 1).unwrap();
+        let mut differ = Vec::new();
+        let mut blocked = 0;
+        for (k, (r, own)) in rays.iter().enumerate() {
+            let (x, v) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
+            let skip = (*own >= 0.0).then_some(*own as usize);
+            let cpu = m.occluded(x, v, t_min, r[6], skip);
+            blocked += usize::from(cpu);
+            if (got[k] == 1.0) != cpu {
+                differ.push((k, cpu));
+            }
+        }
+        assert!(
+            differ.len() * 200 <= count,
+            "{} of {count} rays differ, e.g. {:?}",
+            differ.len(),
+            &differ[..differ.len().min(5)]
+        );
+        assert!(
+            blocked > count / 10 && blocked < count * 9 / 10,
+            "{blocked} of {count} rays blocked"
+        );
+    }
+
     /// The kernels of fig12 and of the whale (a height field) parse and validate with
     /// every estimator; batches fit the loop budget; scenes it cannot trace are errors
     /// naming what they have.
@@ -1036,12 +1205,18 @@ mod tests {
     fn kernel_validates_and_batches_fit() {
         let sc = lobefit::pipelines::isg::render::scene("fig12").unwrap();
         let whale = lobefit::pipelines::shexp::render::scene("whale").unwrap();
+        let bunny = lobefit::pipelines::isg::render::scene(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../assets/meshes/isg-bunny.json"
+        ))
+        .unwrap();
         for est in [Estimator::Plain, Estimator::CvMis, Estimator::Qmc, Estimator::QmcCvMis] {
-            // fig12, and the whale over its height field.
-            for sc in [&sc, &whale] {
-                let b = batch_size(sc.spheres.len(), sc.environment.len(), hf_iterations(sc), est).unwrap();
+            // fig12, the whale over its height field, the bunny's triangles.
+            for sc in [&sc, &whale, &bunny] {
+                let traced = hf_iterations(sc) + mesh_iterations(sc);
+                let b = batch_size(sc.spheres.len(), sc.environment.len(), traced, est).unwrap();
                 assert!(b.is_power_of_two() && b <= MAX_BATCH, "{b}");
-                let (setup, per) = iterations(sc.spheres.len(), sc.environment.len(), hf_iterations(sc), est);
+                let (setup, per) = iterations(sc.spheres.len(), sc.environment.len(), traced, est);
                 assert!(setup + per * b as u64 <= budget::LOOP_LIMIT);
                 supported(sc).unwrap();
                 if let Err(e) = lobefit::export::shaders::module_of(&source(sc, est)) {
@@ -1055,9 +1230,9 @@ mod tests {
                 panic!("light, qmc {qmc}: {e}");
             }
         }
-        let bunny = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/meshes/isg-bunny.json");
-        let e = supported(&lobefit::pipelines::isg::render::scene(bunny).unwrap()).unwrap_err();
-        assert!(e.contains("meshes"), "{e}");
+        let lit = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/meshes/meunier-bunny.json");
+        let e = supported(&lobefit::pipelines::meunier::render::scene(lit).unwrap()).unwrap_err();
+        assert!(e.contains("meshes under a spherical light"), "{e}");
         assert!(batch_size(70_000, 1, 0, Estimator::Plain).is_err());
     }
 
