@@ -698,7 +698,8 @@ pub struct Args {
     /// An ISG scene (fig12, fig12-diffuse: spheres under an SG sky), an
     /// SH-exponentiation scene with an SG sky (whale, whale-diffuse, wrecking: spheres
     /// over a height field), a Meunier scene (fig13, glossy: one spherical light;
-    /// `plain` only) or such a scene file.
+    /// `plain` only) or such a scene file (triangle meshes under an SG sky too, e.g.
+    /// assets/meshes/isg-bunny.json).
     #[arg(long, default_value = "fig12")]
     scene: String,
     /// Image width (height 3/4 of it).
