@@ -92,15 +92,46 @@ fn mc_point(pixel: u32, index: u32) -> vec4<f32> {
     return vec4<f32>(mc_uniform(key, 0u), mc_uniform(key, 1u), mc_uniform(key, 2u), mc_uniform(key, 3u));
 }
 
-// Whether the ray x + t v meets a sphere other than `own` ahead (its far root > 0:
-// the sphere lies ahead or holds x) before t_max (the nearest root ahead, as the
-// CPU's ray_sphere), through the hierarchy: nodes at NODE0 (lo, hi: boxes widened
+// ---- rays: what the hierarchies' walks (mc_blocked, mc_meshes) share.
+
+// 1/v, components of |v| < 1e-30 taken as ±1e-30: finite slopes, so no 0 · ∞.
+fn mc_inverse(v: vec3<f32>) -> vec3<f32> {
+    let tiny = select(vec3<f32>(-1e-30), vec3<f32>(1e-30), v >= vec3<f32>(0.0));
+    return 1.0 / select(v, tiny, abs(v) < vec3<f32>(1e-30));
+}
+
+// Whether the ray x + t v (inv = mc_inverse(v)) may meet the box at X[k] (lo, hi)
+// for t in [0, t_max]; written so that a NaN culls nothing.
+fn mc_meets_box(k: u32, x: vec3<f32>, inv: vec3<f32>, t_max: f32) -> bool {
+    let a = (vec3<f32>(X[k], X[k + 1u], X[k + 2u]) - x) * inv;
+    let b = (vec3<f32>(X[k + 3u], X[k + 4u], X[k + 5u]) - x) * inv;
+    let lo = min(a, b);
+    let hi = max(a, b);
+    return !(max(max(max(lo.x, lo.y), lo.z), 0.0) > min(min(min(hi.x, hi.y), hi.z), t_max));
+}
+
+// Whether sphere s (centre, radius) blocks the ray x + t v: its far root > 0 (the
+// sphere lies ahead or holds x) and the nearest root ahead < t_max (the CPU's
+// ray_sphere).
+fn mc_sphere_blocks(x: vec3<f32>, v: vec3<f32>, s: vec4<f32>, t_max: f32) -> bool {
+    let oc = x - s.xyz;
+    let bb = dot(oc, v);
+    let disc = bb * bb - (dot(oc, oc) - s.w * s.w);
+    if disc < 0.0 {
+        return false;
+    }
+    let sq = sqrt(disc);
+    let far = -bb + sq;
+    let near = -bb - sq;
+    return far > 0.0 && select(far, near, near > 0.0) < t_max;
+}
+
+// Whether the ray x + t v meets a sphere other than `own` before t_max
+// (mc_sphere_blocks), through the hierarchy: nodes at NODE0 (lo, hi: boxes widened
 // outward past f32 rounding; first, count as the CPU's BvhNode), sphere indices at
 // ORDER0, a stack of STACK entries (the tree's depth + 1).
 fn mc_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_max: f32) -> bool {
-    // Direction components of |v| < 1e-30 as ±1e-30: finite slopes, so no 0 · ∞.
-    let tiny = select(vec3<f32>(-1e-30), vec3<f32>(1e-30), v >= vec3<f32>(0.0));
-    let inv = 1.0 / select(v, tiny, abs(v) < vec3<f32>(1e-30));
+    let inv = mc_inverse(v);
     var stack: array<u32, STACK>;
     // No spheres: no root.
     var top = select(0u, 1u, NODES > 0u);
@@ -108,13 +139,7 @@ fn mc_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_max: f32) -> bool {
     while top > 0u {
         top -= 1u;
         let k = NODE0 + 8u * stack[top];
-        let a = (vec3<f32>(X[k], X[k + 1u], X[k + 2u]) - x) * inv;
-        let b = (vec3<f32>(X[k + 3u], X[k + 4u], X[k + 5u]) - x) * inv;
-        let lo = min(a, b);
-        let hi = max(a, b);
-        let t0 = max(max(max(lo.x, lo.y), lo.z), 0.0);
-        let t1 = min(min(min(hi.x, hi.y), hi.z), t_max);
-        if t0 > t1 {
+        if !mc_meets_box(k, x, inv, t_max) {
             continue;
         }
         let first = u32(X[k + 6u]);
@@ -127,25 +152,8 @@ fn mc_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_max: f32) -> bool {
         }
         for (var j = 0u; j < count; j++) {
             let bi = u32(X[ORDER0 + first + j]);
-            if i32(bi) == own {
-                continue;
-            }
-            let s = sph(bi);
-            let oc = x - s.xyz;
-            let bb = dot(oc, v);
-            let c = dot(oc, oc) - s.w * s.w;
-            let disc = bb * bb - c;
-            if disc >= 0.0 {
-                let sq = sqrt(disc);
-                let far = -bb + sq;
-                let near = -bb - sq;
-                var t = far;
-                if near > 0.0 {
-                    t = near;
-                }
-                if far > 0.0 && t < t_max {
-                    return true;
-                }
+            if i32(bi) != own && mc_sphere_blocks(x, v, sph(bi), t_max) {
+                return true;
             }
         }
     }
@@ -170,8 +178,7 @@ fn mc_occluded(x: vec3<f32>, v: vec3<f32>, own: i32, own_mesh: i32, own_tri: i32
 // triangle record, an inner node's first child); triangle records from MTRI0 (3
 // corners, the mesh, the triangle's index in it).
 fn mc_meshes(x: vec3<f32>, v: vec3<f32>, own_mesh: i32, own_tri: i32, t_max: f32) -> bool {
-    let tiny = select(vec3<f32>(-1e-30), vec3<f32>(1e-30), v >= vec3<f32>(0.0));
-    let inv = 1.0 / select(v, tiny, abs(v) < vec3<f32>(1e-30));
+    let inv = mc_inverse(v);
     for (var m = 0u; m < NM; m++) {
         let t_min = X[MESH0 + 2u * m + 1u];
         var stack: array<u32, MSTACK>;
@@ -180,11 +187,7 @@ fn mc_meshes(x: vec3<f32>, v: vec3<f32>, own_mesh: i32, own_tri: i32, t_max: f32
         while top > 0u {
             top -= 1u;
             let k = MNODE0 + 8u * stack[top];
-            let a = (vec3<f32>(X[k], X[k + 1u], X[k + 2u]) - x) * inv;
-            let b = (vec3<f32>(X[k + 3u], X[k + 4u], X[k + 5u]) - x) * inv;
-            let lo = min(a, b);
-            let hi = max(a, b);
-            if max(max(max(lo.x, lo.y), lo.z), 0.0) > min(min(min(hi.x, hi.y), hi.z), t_max) {
+            if !mc_meets_box(k, x, inv, t_max) {
                 continue;
             }
             let first = u32(X[k + 6u]);

@@ -939,6 +939,40 @@ pub fn bench(
 mod tests {
     use super::*;
 
+    /// The kernel functions from the comment starting `from` up to the one starting
+    /// `to` (mc.wgsl's own order).
+    fn section(from: &str, to: &str) -> String {
+        let (functions, _) = split(SHADER);
+        let a = functions
+            .find(from)
+            .unwrap_or_else(|| panic!("mc.wgsl has no {from:?}"));
+        let b = functions.find(to).unwrap_or_else(|| panic!("mc.wgsl has no {to:?}"));
+        functions[a..b].to_string()
+    }
+
+    /// Device against reference answers (blocked or not), ray for ray: at most
+    /// `max_differ` rays differ, and the rays test something (10–90 % blocked).
+    fn rays_agree(device: &[bool], reference: &[bool], max_differ: usize) {
+        let count = reference.len();
+        let differ: Vec<usize> = (0..count).filter(|&k| device[k] != reference[k]).collect();
+        assert!(
+            differ.len() <= max_differ,
+            "{} of {count} rays differ, e.g. rays {:?}",
+            differ.len(),
+            &differ[..differ.len().min(5)]
+        );
+        let blocked = reference.iter().filter(|&&b| b).count();
+        assert!(
+            blocked > count / 10 && blocked < count * 9 / 10,
+            "{blocked} of {count} rays blocked"
+        );
+    }
+
+    /// The rays' helpers (mc_inverse, mc_meets_box, mc_sphere_blocks).
+    fn ray_helpers() -> String {
+        section("// ---- rays:", "// Whether the ray x + t v meets a sphere other")
+    }
+
     /// On the device: the kernels' traversal of the sphere hierarchy (mc_blocked)
     /// answers as a scan of every sphere with the same f32 ray–sphere test, ray for
     /// ray, on the 306 spheres of the ISG sweep: 4 096 rays from points in and around
@@ -979,9 +1013,7 @@ mod tests {
         }
         let node0 = inputs.len();
         inputs.extend(bvh_inputs(&sc));
-        let (functions, _) = split(SHADER);
-        let blocked = &functions[functions.find("// Whether the ray x + t v meets").unwrap()
-            ..functions.find("// Whether the ray x + t v (t > 0)").unwrap()];
+        let blocked = section("// ---- rays:", "// Whether the ray x + t v (t > 0)");
         let consts = format!(
             "const NS = {ns}u;\nconst SPH0 = {sph0}u;\nconst NODE0 = {node0}u;\nconst ORDER0 = {}u;\n\
              fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n{}",
@@ -996,40 +1028,17 @@ mod tests {
         if i32(b) == own {
             continue;
         }
-        let s = sph(b);
-        let oc = x - s.xyz;
-        let bb = dot(oc, v);
-        let c = dot(oc, oc) - s.w * s.w;
-        let disc = bb * bb - c;
-        if disc >= 0.0 {
-            let sq = sqrt(disc);
-            var t = -bb + sq;
-            if -bb - sq > 0.0 {
-                t = -bb - sq;
-            }
-            if -bb + sq > 0.0 && t < x7 {
-                scan = true;
-            }
-        }
+        scan = scan || mc_sphere_blocks(x, v, sph(b), x7);
     }
     Y[o] = select(0.0, 1.0, mc_blocked(x, v, own, x7));
     Y[o + 1u] = select(0.0, 1.0, scan);";
-        let src = kernel("texture_2d<f32>", 8, 2, body) + &consts + blocked;
+        let src = kernel("texture_2d<f32>", 8, 2, body) + &consts + &blocked;
         let gpu = Gpu::new().unwrap();
         let dummy = gpu.upload(&dummy_texture(), Storage::F32).unwrap();
         let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, count, 2).unwrap();
-        let differ: Vec<usize> = (0..count).filter(|&k| got[2 * k] != got[2 * k + 1]).collect();
-        let hit = (0..count).filter(|&k| got[2 * k + 1] == 1.0).count();
-        assert!(
-            differ.is_empty(),
-            "{} of {count} rays differ, e.g. ray {:?}",
-            differ.len(),
-            differ.first()
-        );
-        assert!(
-            hit > count / 10 && hit < count * 9 / 10,
-            "{hit} of {count} rays blocked"
-        );
+        let walk: Vec<bool> = got.chunks(2).map(|c| c[0] == 1.0).collect();
+        let scan: Vec<bool> = got.chunks(2).map(|c| c[1] == 1.0).collect();
+        rays_agree(&walk, &scan, 0);
     }
 
     /// The height field's traversal on the device (mc_terrain, f32) answers as the
@@ -1074,38 +1083,26 @@ mod tests {
         }
         let hf0 = 8 * count;
         inputs.extend(hf_inputs(&sc));
-        let (functions, _) = split(SHADER);
-        let terrain = &functions[functions.find("// The height field (the CPU's HeightField").unwrap()
-            ..functions
-                .find("// A direction of the SG g's normalised density")
-                .unwrap()];
+        let terrain = section(
+            "// The height field (the CPU's HeightField",
+            "// A direction of the SG g's normalised density",
+        );
         let consts = format!("const HF0 = {hf0}u;\n{}", hf_consts(&sc));
         let body =
             "    Y[o] = select(0.0, 1.0, mc_terrain(vec3<f32>(x0, x1, x2), vec3<f32>(x3, x4, x5), HF_TMIN, x6));";
-        let src = kernel("texture_2d<f32>", 8, 1, body) + &consts + terrain;
+        let src = kernel("texture_2d<f32>", 8, 1, body) + &consts + &terrain;
         let gpu = Gpu::new().unwrap();
         let dummy = gpu.upload(&dummy_texture(), Storage::F32).unwrap();
         let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, count, 1).unwrap();
-        let mut differ = Vec::new();
-        let mut blocked = 0;
-        for (k, r) in rays.iter().enumerate() {
-            let (x, v) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
-            let cpu = hf.intersect(x, v, t_min, r[6]);
-            blocked += usize::from(cpu.is_some());
-            if (got[k] == 1.0) != cpu.is_some() {
-                differ.push((k, cpu));
-            }
-        }
-        assert!(
-            differ.len() * 200 <= count,
-            "{} of {count} rays differ, e.g. {:?}",
-            differ.len(),
-            &differ[..differ.len().min(5)]
-        );
-        assert!(
-            blocked > count / 10 && blocked < count * 9 / 10,
-            "{blocked} of {count} rays blocked"
-        );
+        let device: Vec<bool> = got.iter().map(|&g| g == 1.0).collect();
+        let cpu: Vec<bool> = rays
+            .iter()
+            .map(|r| {
+                let (x, v) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
+                hf.intersect(x, v, t_min, r[6]).is_some()
+            })
+            .collect();
+        rays_agree(&device, &cpu, count / 200);
     }
 
     /// The meshes' traversal on the device (mc_meshes, f32) answers as the CPU's f64
@@ -1159,11 +1156,11 @@ mod tests {
         let data = mesh_inputs(&sc);
         let nodes = m.hierarchy().count();
         inputs.extend(data);
-        let (functions, _) = split(SHADER);
-        let meshes = &functions[functions
-            .find("// Whether the ray x + t v meets a triangle of one")
-            .unwrap()
-            ..functions.find("// The height field (the CPU's HeightField").unwrap()];
+        let meshes = ray_helpers()
+            + &section(
+                "// Whether the ray x + t v meets a triangle of one",
+                "// The height field (the CPU's HeightField",
+            );
         let consts = format!(
             "const NM = 1u;\nconst MSTACK = {}u;\nconst MESH0 = {mesh0}u;\nconst MNODE0 = {}u;\nconst MTRI0 = {}u;\n",
             m.depth() + 1,
@@ -1172,31 +1169,19 @@ mod tests {
         );
         let body =
             "    Y[o] = select(0.0, 1.0, mc_meshes(vec3<f32>(x0, x1, x2), vec3<f32>(x3, x4, x5), 0, i32(x7), x6));";
-        let src = kernel("texture_2d<f32>", 10, 1, body) + &consts + meshes;
+        let src = kernel("texture_2d<f32>", 10, 1, body) + &consts + &meshes;
         let gpu = Gpu::new().unwrap();
         let dummy = gpu.upload(&dummy_texture(), Storage::F32).unwrap();
         let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, count, 1).unwrap();
-        let mut differ = Vec::new();
-        let mut blocked = 0;
-        for (k, (r, own)) in rays.iter().enumerate() {
-            let (x, v) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
-            let skip = (*own >= 0.0).then_some(*own as usize);
-            let cpu = m.occluded(x, v, t_min, r[6], skip);
-            blocked += usize::from(cpu);
-            if (got[k] == 1.0) != cpu {
-                differ.push((k, cpu));
-            }
-        }
-        assert!(
-            differ.len() * 200 <= count,
-            "{} of {count} rays differ, e.g. {:?}",
-            differ.len(),
-            &differ[..differ.len().min(5)]
-        );
-        assert!(
-            blocked > count / 10 && blocked < count * 9 / 10,
-            "{blocked} of {count} rays blocked"
-        );
+        let device: Vec<bool> = got.iter().map(|&g| g == 1.0).collect();
+        let cpu: Vec<bool> = rays
+            .iter()
+            .map(|(r, own)| {
+                let (x, v) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
+                m.occluded(x, v, t_min, r[6], (*own >= 0.0).then_some(*own as usize))
+            })
+            .collect();
+        rays_agree(&device, &cpu, count / 200);
     }
 
     /// The kernels of fig12 and of the whale (a height field) parse and validate with
