@@ -1216,6 +1216,17 @@ mod tests {
                 panic!("light, qmc {qmc}: {e}");
             }
         }
+        // A height field under a spherical light, and one past HF_MAX_N samples a side.
+        let mut lit_terrain = lobefit::pipelines::meunier::render::scene("fig13").unwrap();
+        lit_terrain.heightfield = whale.heightfield.clone();
+        let e = supported(&lit_terrain).unwrap_err();
+        assert!(e.contains("a height field under a spherical light"), "{e}");
+        let mut big = whale.clone();
+        let n = HF_MAX_N + 1;
+        let hf = lobefit::pipelines::scene::HeightField::new(n, 8.0, vec![0.0; n * n]).unwrap();
+        big.heightfield = Some((hf, 0));
+        let e = supported(&big).unwrap_err();
+        assert!(e.contains("more than 2049 samples a side"), "{e}");
         let lit = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/meshes/meunier-bunny.json");
         let e = supported(&lobefit::pipelines::meunier::render::scene(lit).unwrap()).unwrap_err();
         assert!(e.contains("meshes under a spherical light"), "{e}");
