@@ -4,19 +4,23 @@
 // heuristic) with exact visibility of the spheres through the scene's hierarchy (the
 // CPU's `Bvh`, flattened: mc_blocked) and, where the scene has one, of the height
 // field through its min-max quadtree (mc_terrain), and of meshes' triangles through
-// their hierarchies (mc_meshes). The kernel's constants (NS, NE, NODES, STACK, CV, QMC,
-// HF and the height field's HF_*, NM, MSTACK), its accessors (sph, env) and where its data lie in X (BATCH: the batch
-// index, SPP: the samples a dispatch, SPH0, ENV0, SOBOL0, NODE0, ORDER0, HF0, MESH0, MNODE0, MTRI0; private
-// variables set from the pixel count N.x at the body's start) come from gpu/src/mc.rs. Uniforms (mc_point): a PCG hash of (pixel,
-// sample, dimension), or with QMC Owen-scrambled Sobol points seeded per pixel, the
-// sample index running on across batches (the CPU draws its own: the two agree in
-// distribution, not sample by sample). Dimension 0 picks the strategy, 1 and 2 draw
+// their hierarchies (mc_meshes). The kernel's constants (NS, NE, NODES, STACK, CV,
+// HYB, QMC, HF and the height field's HF_*, NM, MSTACK), its accessors (sph, env) and
+// where its data lie in X (BATCH: the batch index, SPP: the samples a dispatch, SPH0,
+// ENV0, SOBOL0, NODE0, ORDER0, HF0, MESH0, MNODE0, MTRI0; private variables set from
+// the pixel count N.x at the body's start) come from gpu/src/mc.rs. Uniforms
+// (mc_point): a PCG hash of (pixel, sample, dimension), or with QMC Owen-scrambled
+// Sobol points seeded per pixel, the sample index running on across batches (the CPU
+// draws its own: the two agree in distribution, not sample by sample). Dimension 0 picks the strategy, 1 and 2 draw
 // its direction, 3 the SG. CV = true: the control variate of the CPU's
 // `reference_cv` (the unoccluded diffuse term in closed form, lf_sg_clamped_cosine;
 // Monte Carlo of the occluded diffuse and the specular part) with the SGs picked by
-// their contribution at the point (`Select::Contribution`). Outputs per pixel: the sum
-// and the sum of squares of the batch's SPP sample values, the closed form (0 without
-// CV), then the budget flag (gpu/src/budget.rs).
+// their contribution at the point (`Select::Contribution`). HYB = true: the CPU's
+// `reference_hybrid` with the SH-exponentiation pipeline's integrand (its value and 16
+// SH coefficients after the pixel's inputs) as the control variate, a tenth of the
+// samples uniform on the sphere. Outputs per pixel: the sum and the sum of squares of
+// the batch's SPP sample values, the closed form (0 without CV or HYB), then the
+// budget flag (gpu/src/budget.rs).
 
 // PCG-RXS-M-XS 32 (O'Neill): a well-mixed hash of one word.
 fn mc_pcg(v: u32) -> u32 {
@@ -441,20 +445,34 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
         p_cos = 0.3;
         p_phong = 0.3;
     }
+    // The hybrid's integrand a covers the sphere: a tenth of the samples uniform on it.
+    var p_uni = 0.0;
+    if HYB {
+        p_uni = 0.1;
+    }
     var p_env = 0.0;
     if total > 0.0 {
-        p_env = 1.0 - p_cos - p_phong;
+        p_env = 1.0 - p_cos - p_phong - p_uni;
     }
-    p_cos = 1.0 - p_phong - p_env;
+    p_cos = 1.0 - p_phong - p_env - p_uni;
     let f_d = kd / LF_PI;
     // The control variate's closed form: the unoccluded diffuse radiance.
     var open = 0.0;
     if CV {
         for (var k = 0u; k < NE; k++) {
-                let g = env(k);
+            let g = env(k);
             open += g.amplitude * lf_sg_clamped_cosine(g, n);
         }
         open *= f_d;
+    }
+    // The hybrid's control variate: the pipeline's value (its closed form here) and
+    // its integrand's SH coefficients, after the pixel's other inputs.
+    var hyb: array<f32, 16>;
+    if HYB {
+        open = X[i * N_IN + 15u];
+        for (var k = 0u; k < 16u; k++) {
+            hyb[k] = X[i * N_IN + 16u + k];
+        }
     }
     let batch = u32(X[BATCH]);
     var sum = 0.0;
@@ -463,7 +481,12 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
         let u4 = mc_point(i, batch * SPP + j);
         let pick = u4.x;
         var w: vec3<f32>;
-        if pick < p_cos {
+        if pick >= 1.0 - p_uni {
+            let z = 2.0 * u4.y - 1.0;
+            let p = 2.0 * LF_PI * u4.z;
+            let s = sqrt(max(1.0 - z * z, 0.0));
+            w = s * (cos(p) * t + sin(p) * bt) + z * n;
+        } else if pick < p_cos {
             let u1 = u4.y;
             let u2 = 2.0 * LF_PI * u4.z;
             let s = sqrt(u1);
@@ -477,7 +500,7 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
             var u = u4.w * total;
             var k = 0u;
             while k + 1u < NE && u >= energy[k] {
-                        u -= energy[k];
+                u -= energy[k];
                 k += 1u;
             }
             w = mc_sample_sg(env(k), u4.y, u4.z);
@@ -485,8 +508,9 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
         w = normalize(w);
         let c = dot(n, w);
         var f = 0.0;
-        if c > 0.0 {
-            var pdf = p_cos * c / LF_PI;
+        // Below the horizon only the hybrid's integrand lives.
+        if c > 0.0 || HYB {
+            var pdf = p_cos * max(c, 0.0) / LF_PI + p_uni / (4.0 * LF_PI);
             let rw = max(dot(r, w), 0.0);
             if spec {
                 pdf += p_phong * (e + 1.0) / (2.0 * LF_PI) * pow(rw, e);
@@ -494,7 +518,7 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
             var light = 0.0;
             var mix = 0.0;
             for (var k = 0u; k < NE; k++) {
-                        let g = env(k);
+                let g = env(k);
                 light += lf_sg_eval(g, w);
                 if p_env > 0.0 {
                     mix += energy[k] / total * mc_sg_pdf(g, w);
@@ -506,16 +530,30 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
                 if spec {
                     f_s = ks * (e + 2.0) / (2.0 * LF_PI) * pow(rw, e);
                 }
-                let blocked = mc_occluded(x, w, own, own_mesh, own_tri);
-                if CV {
-                    // The CPU's reference_cv: −(occluded diffuse), + unoccluded specular.
-                    if blocked {
-                        f = -light * f_d * c / pdf;
-                    } else {
-                        f = light * f_s * c / pdf;
+                if HYB {
+                    // The CPU's reference_hybrid: (f − L a)/pdf, a = Σ_k c_k y_k.
+                    var lit = 0.0;
+                    if c > 0.0 && !mc_occluded(x, w, own, own_mesh, own_tri) {
+                        lit = light * (f_d + f_s) * c;
                     }
-                } else if !blocked {
-                    f = light * (f_d + f_s) * c / pdf;
+                    let y = lf_sh_basis(4u, w);
+                    var a = 0.0;
+                    for (var k = 0u; k < 16u; k++) {
+                        a += hyb[k] * y[k];
+                    }
+                    f = (lit - light * a) / pdf;
+                } else {
+                    let blocked = mc_occluded(x, w, own, own_mesh, own_tri);
+                    if CV {
+                        // The CPU's reference_cv: −(occluded diffuse), + unoccluded specular.
+                        if blocked {
+                            f = -light * f_d * c / pdf;
+                        } else {
+                            f = light * f_s * c / pdf;
+                        }
+                    } else if !blocked {
+                        f = light * (f_d + f_s) * c / pdf;
+                    }
                 }
             }
         }

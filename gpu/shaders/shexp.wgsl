@@ -1,11 +1,14 @@
-// lobefit-gpu render shexp: the kernel's own function (shexp_term), then its body.
-// The kernel's constants (N_IN, NW, W_INDEX, TERRAIN_ABOVE_TANGENT, ATTENUATION, EPS_*:
-// the settings') come from gpu/src/shexp.rs; the scene follows the pixels' inputs in X
+// lobefit-gpu render shexp: the kernel's own functions (shexp_term, shexp_lit), then
+// its body. The kernel's constants (N_IN, NW, W_INDEX, TERRAIN_ABOVE_TANGENT,
+// ATTENUATION, EPS_*: the settings'; COEFFS: whether it also writes the integrand)
+// come from gpu/src/shexp.rs; the scene follows the pixels' inputs in X
 // (shexp_scene), so one compiled kernel serves every scene, frame and image size.
 // gpu/src/shexp.rs also puts in the body the count of per-pixel inputs before
 // the horizon angles (HIT_INPUTS_) and the sphere blockers' log (BLOCKER_LOG_: the
 // library's lf_log_zh_blocker or Ren's lf_shexp); the formulas shared with renderers are
-// the shader library's. Not exported: only lobefit-gpu runs it.
+// the shader library's. Outputs per pixel: the radiance (clamped at 0), the budget
+// flag; with COEFFS also the unclamped radiance and the integrand's 16 SH coefficients.
+// Not exported: only lobefit-gpu runs it.
 
 // Where the scene starts in X: after the N.x pixels' inputs. There: the sphere
 // count, whether a height field is present, the spheres (centre, radius), then the
@@ -24,14 +27,18 @@ fn sph(b: u32) -> vec4<f32> {
 }
 
 // One BRDF term: exp* (HYB) of the log visibility f plus the term's log-ZH lobe z
-// about `axis`, dotted with the light's SH vector.
-fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
+// about `axis`: the term's band-limited visibility × BRDF × cosine.
+fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> array<f32, 16> {
     let t = lf_zh_to_sh(4u, z, axis);
     var g: array<f32, 16>;
     for (var i = 0u; i < 16u; i++) {
         g[i] = f[i] + t[i];
     }
-    let e = lf_shexp_hyb(T2, S, P2, 4u, g);
+    return lf_shexp_hyb(T2, S, P2, 4u, g);
+}
+
+// An SH vector dotted with the light's.
+fn shexp_lit(e: array<f32, 16>) -> f32 {
     let light0 = shexp_scene() + 2u + 4u * shexp_spheres();
     var sum = 0.0;
     for (var i = 0u; i < 16u; i++) {
@@ -100,15 +107,38 @@ fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> f32 {
         }
     }
     var total = 0.0;
+    // With COEFFS, the integrand's SH vector Σ_t w_t g_t (the hybrid estimator's
+    // control variate, gpu/src/mc.rs).
+    var coeffs: array<f32, 16>;
     if x9 > 0.0 && !buried {
-        total += x9 * shexp_term(f, lf_log_zh_diffuse(EPS_BRDF, 4u), n);
+        let e = shexp_term(f, lf_log_zh_diffuse(EPS_BRDF, 4u), n);
+        total += x9 * shexp_lit(e);
+        if COEFFS {
+            for (var k = 0u; k < 16u; k++) {
+                coeffs[k] += x9 * e[k];
+            }
+        }
     }
     if x10 > 0.0 && !buried {
         let m = normalize(2.0 * dot(n, wo) * n - wo);
         let weight = x10 * (x11 + 2.0) / (x11 + 1.0) * max(dot(n, m), 0.0);
         if weight > 0.0 {
-            total += weight * shexp_term(f, lf_log_zh_phong(EPS_BRDF, x11, 4u), m);
+            let e = shexp_term(f, lf_log_zh_phong(EPS_BRDF, x11, 4u), m);
+            total += weight * shexp_lit(e);
+            if COEFFS {
+                for (var k = 0u; k < 16u; k++) {
+                    coeffs[k] += weight * e[k];
+                }
+            }
         }
     }
-    Y[o] = total;
+    // A band-limited product rings below zero in dark places; radiance cannot (the
+    // CPU's `radiance` clamps too). The integrand keeps its unclamped value.
+    Y[o] = max(total, 0.0);
+    if COEFFS {
+        Y[o + 2u] = total;
+        for (var k = 0u; k < 16u; k++) {
+            Y[o + 3u + k] = coeffs[k];
+        }
+    }
     var budget_flag = 0.0;

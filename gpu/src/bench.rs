@@ -45,7 +45,8 @@ pub struct Args {
     /// submission and the wait, so it reads longer).
     #[arg(long)]
     pub wall_clock: bool,
-    /// The device's Monte Carlo beside the ISG and Meunier kernels at 1, 4, 16, …
+    /// The device's Monte Carlo beside the ISG, SH-exponentiation (with the hybrid,
+    /// the kernel as its control variate) and Meunier kernels at 1, 4, 16, …
     /// samples per pixel up to this many (several dispatches a frame past one
     /// dispatch's batch); 0: none (its CPU reference, 16 384 spp a pixel, takes minutes
     /// past a few thousand pixels).
@@ -448,7 +449,8 @@ fn write_reports(
 /// The device's Monte Carlo beside the ISG, SH-exponentiation (a scene with an SG
 /// sky) and Meunier kernels, for each the bench runs: the analytic image rendered once
 /// more for its values (untimed), then every estimator at `mc::bench_spp(max_spp)`
-/// against the CPU reference.
+/// against the CPU reference; beside the SH-exponentiation kernel also the hybrid,
+/// its control variate the kernel's integrands.
 fn monte_carlo(
     gpu: &Gpu,
     ex: &Exports,
@@ -467,6 +469,7 @@ fn monte_carlo(
             continue;
         };
         let png = out.join(format!("{pipeline}.png"));
+        let mut hybrid = false;
         let (sc, values) = match *pipeline {
             "isg" => {
                 let sc = lobefit::pipelines::isg::render::scene(scene)?;
@@ -481,6 +484,7 @@ fn monte_carlo(
                 }
                 let s = lobefit::pipelines::shexp::shade::Settings::default();
                 let v = crate::shexp::render_shexp(gpu, &ex.shexp, &sc, width, &s, &png)?.values;
+                hybrid = true;
                 (sc, v)
             }
             "meunier" => {
@@ -492,15 +496,19 @@ fn monte_carlo(
             _ => continue,
         };
         gpu.take_dispatches();
-        benches.push(crate::mc::bench(
-            gpu,
+        // The SH-exponentiation kernel's integrands: the hybrid's control variate.
+        let integrands = |hits: &[&lobefit::pipelines::scene::Hit]| {
+            let v = crate::shexp::integrands(gpu, &ex.shexp, &sc, hits);
+            gpu.take_dispatches();
+            v
+        };
+        let analytic = crate::mc::Analytic {
             pipeline,
-            &sc,
-            width,
-            &values,
-            spread(&row.ms).0,
-            max_spp,
-        )?);
+            values: &values,
+            ms: spread(&row.ms).0,
+            integrands: hybrid.then_some(&integrands as crate::mc::Integrands),
+        };
+        benches.push(crate::mc::bench(gpu, &sc, width, analytic, max_spp)?);
     }
     Ok(benches)
 }

@@ -23,7 +23,8 @@ use std::process::ExitCode;
 use lobefit::export::Storage;
 use lobefit::pipelines::estimate::Estimate;
 use lobefit::pipelines::scene::{Hit, Scene};
-use lobefit::pipelines::sky::{reference, reference_cv, Phong, Select};
+use lobefit::pipelines::sky::{reference, reference_cv, reference_hybrid, Phong, Select};
+use lobefit_tables::glam::DVec3;
 
 use crate::budget;
 use crate::conformance::dummy_texture;
@@ -58,14 +59,27 @@ pub enum Estimator {
     Qmc,
     /// `cv-mis` on Owen-scrambled Sobol points (the CPU's strongest under a sky).
     QmcCvMis,
+    /// The SH-exponentiation pipeline as the control variate (the CPU's `hybrid`):
+    /// its radiance in closed form plus Monte Carlo of what it misses,
+    /// (f − L a)/pdf with a its integrand ([`ShIntegrand`]: the device's SH-exp kernel
+    /// writes it); one-sample MIS of the cosine, the Phong lobe, the SGs (by their
+    /// integral) and the uniform sphere (a lives below the horizon too), on
+    /// Owen-scrambled Sobol points. Scenes under an SG sky.
+    Hybrid,
 }
+
+/// The SH-exponentiation pipeline's integrand at a pixel (`shade::Integrand`, default
+/// settings, order 4): its unclamped value (the pipeline's radiance), then the 16 SH
+/// coefficients of Σ_t w_t g_t, so that a(ω) = L(ω) Σ_k c_k y_k(ω) integrates to the
+/// value over the sphere.
+pub type ShIntegrand = [f32; 17];
 
 impl Estimator {
     fn cv(self) -> bool {
         matches!(self, Estimator::CvMis | Estimator::QmcCvMis)
     }
     fn qmc(self) -> bool {
-        matches!(self, Estimator::Qmc | Estimator::QmcCvMis)
+        matches!(self, Estimator::Qmc | Estimator::QmcCvMis | Estimator::Hybrid)
     }
     /// The name the reports use.
     pub fn name(self) -> &'static str {
@@ -74,10 +88,12 @@ impl Estimator {
             Estimator::CvMis => "cv-mis",
             Estimator::Qmc => "qmc",
             Estimator::QmcCvMis => "qmc-cv-mis",
+            Estimator::Hybrid => "hybrid",
         }
     }
     /// The same estimator on independent uniforms (what the CPU side of an agreement
-    /// draws: its standard errors are then true ones).
+    /// draws: its standard errors are then true ones; [`cpu_estimate`] draws the
+    /// hybrid's so).
     fn random(self) -> Estimator {
         match self {
             Estimator::Qmc => Estimator::Plain,
@@ -347,8 +363,15 @@ fn iterations(spheres: usize, sgs: usize, traced: u64, est: Estimator) -> (u64, 
     } else {
         0
     };
-    let setup = (ne + 1) * (1 + cc) + if est.cv() { (ne + 1) * (1 + cc) } else { 0 } + 2;
-    (setup, 1 + point_iterations(est) + ne + (ne + 1) + ns + traced)
+    // The hybrid: its 16 coefficients read once; per sample the order-4 SH basis
+    // (`lf_sh_basis`: 4 + 10 loop passes and 20 of K_l^m's) and the dot product.
+    let (hyb_setup, hyb) = if est == Estimator::Hybrid {
+        (17, 4 + 10 + 20 + 17)
+    } else {
+        (0, 0)
+    };
+    let setup = (ne + 1) * (1 + cc) + if est.cv() { (ne + 1) * (1 + cc) } else { 0 } + 2 + hyb_setup;
+    (setup, 1 + point_iterations(est) + ne + (ne + 1) + ns + traced + hyb)
 }
 
 /// The hierarchy's node count at most for `spheres` spheres (leaves of one to
@@ -419,9 +442,12 @@ pub fn supported(sc: &Scene) -> Result<(), String> {
 /// ([`OFFSETS`]).
 fn source(sc: &Scene, est: Estimator) -> String {
     let cv = est.cv();
+    let hyb = est == Estimator::Hybrid;
+    let n_in = sky_inputs_per_pixel(est);
     let (ns, ne) = (sc.spheres.len(), sc.environment.len());
     let consts = format!(
-        "const N_IN = {N_IN}u;\nconst NS = {ns}u;\nconst NE = {ne}u;\nconst CV = {cv};\nconst QMC = {};\n\
+        "const N_IN = {n_in}u;\nconst NS = {ns}u;\nconst NE = {ne}u;\nconst CV = {cv};\nconst HYB = {hyb};\n\
+         const QMC = {};\n\
          const SOBOL_LEN = {}u;\n{OFFSETS}\
          fn env(e: u32) -> LfSg {{\n    let k = ENV0 + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n{}{}",
         est.qmc(),
@@ -431,30 +457,33 @@ fn source(sc: &Scene, est: Estimator) -> String {
     );
     let (functions, body) = split(SHADER);
     let body = LAYOUT.to_string() + LAYOUT_SKY + body + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
-    kernel("texture_2d<f32>", N_IN, N_OUT, &body) + &consts + functions
+    kernel("texture_2d<f32>", n_in, N_OUT, &body) + &consts + functions
+}
+
+/// The sky kernel's inputs per pixel: [`N_IN`], and the hybrid's integrand after them.
+fn sky_inputs_per_pixel(est: Estimator) -> usize {
+    N_IN + if est == Estimator::Hybrid { 17 } else { 0 }
 }
 
 /// Per pixel of `hits`: the estimate at `spp` samples (rounded up to whole batches)
 /// and its standard error, as [`Estimate`]s; and the samples taken per pixel. A light
-/// scene takes `plain` only (its CPU reference's estimator: uniform in the light's cap).
+/// scene takes `plain` and `qmc` only (its CPU reference's estimator: uniform in the
+/// light's cap). The hybrid takes the pipeline's integrand at each hit (`cv`; the
+/// others none).
 pub fn estimate(
     gpu: &Gpu,
     sc: &Scene,
     hits: &[&Hit],
     spp: usize,
     est: Estimator,
+    cv: Option<&[ShIntegrand]>,
 ) -> Result<(Vec<Estimate>, usize), String> {
     supported(sc)?;
     if hits.is_empty() || spp == 0 {
         return Err("mc: no pixel or no sample".into());
     }
     let light = light_scene(sc);
-    if light && est.cv() {
-        return Err(format!(
-            "mc: scene {} has a spherical light: plain or qmc only",
-            sc.name
-        ));
-    }
+    check_estimator(sc, est, cv.map(<[ShIntegrand]>::len), hits.len())?;
     let (mut inputs, slot, per_batch, src) = if light {
         let (inputs, n_in, nl) = light_inputs(sc, hits)?;
         let per = batch_size_light(sc.spheres.len(), nl, est)?;
@@ -462,7 +491,12 @@ pub fn estimate(
     } else {
         let traced = hf_iterations(sc) + mesh_iterations(sc);
         let per = batch_size(sc.spheres.len(), sc.environment.len(), traced, est)?;
-        (sky_inputs(sc, hits)?, N_IN * hits.len(), per, source(sc, est))
+        (
+            sky_inputs(sc, hits, cv)?,
+            sky_inputs_per_pixel(est) * hits.len(),
+            per,
+            source(sc, est),
+        )
     };
     let batch = per_batch.min(spp.next_power_of_two());
     // The samples a dispatch, after the batch index (the kernels' SPP).
@@ -470,12 +504,32 @@ pub fn estimate(
     run_batches(gpu, &src, inputs, slot, hits.len(), spp.div_ceil(batch), batch)
 }
 
+/// Refuses an estimator `sc` does not take (a spherical light takes `plain` and
+/// `qmc`), and a count of integrands (`cv`) that is not one per pixel for the hybrid
+/// or not none for the others.
+fn check_estimator(sc: &Scene, est: Estimator, cv: Option<usize>, pixels: usize) -> Result<(), String> {
+    if light_scene(sc) && (est.cv() || est == Estimator::Hybrid) {
+        return Err(format!(
+            "mc: scene {} has a spherical light: plain or qmc only",
+            sc.name
+        ));
+    }
+    match (est == Estimator::Hybrid, cv) {
+        (true, Some(n)) if n == pixels => Ok(()),
+        (true, Some(n)) => Err(format!("mc: {n} integrands for {pixels} pixels")),
+        (true, None) => Err("mc: the hybrid estimator needs the pipeline's integrand at each pixel".into()),
+        (false, Some(_)) => Err(format!("mc: {} takes no integrand", est.name())),
+        (false, None) => Ok(()),
+    }
+}
+
 /// The sky kernel's inputs: per pixel point, normal, view, k_d, k_s, Phong n, own
-/// sphere; the batch slot and the samples a dispatch; the spheres; the SGs; the
-/// direction numbers; the hierarchy; the height field.
-fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
-    let mut inputs = Vec::with_capacity(hits.len() * N_IN + 1 + 4 * sc.spheres.len() + 5 * sc.environment.len());
-    for hit in hits {
+/// sphere, own mesh and triangle, and the hybrid's integrand (`cv`); the batch slot
+/// and the samples a dispatch; the spheres; the SGs; the direction numbers; the
+/// hierarchy; the height field; the meshes.
+fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&[ShIntegrand]>) -> Result<Vec<f32>, String> {
+    let mut inputs = Vec::with_capacity(hits.len() * (N_IN + 17) + 1 + 4 * sc.spheres.len() + 5 * sc.environment.len());
+    for (p, hit) in hits.iter().enumerate() {
         let b = Phong::of(sc.brdf(hit))?;
         inputs.extend(
             [
@@ -487,6 +541,12 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit]) -> Result<Vec<f32>, String> {
         inputs.push(hit.sphere.map_or(-1.0, |i| i as f32));
         let (mesh, tri) = hit.mesh.map_or((-1.0, -1.0), |(m, k)| (m as f32, k as f32));
         inputs.extend([mesh, tri]);
+        if let Some(c) = cv {
+            if let Some(bad) = c[p].iter().find(|v| !v.is_finite()) {
+                return Err(format!("mc: the integrand at pixel {p} is not finite ({bad})"));
+            }
+            inputs.extend(c[p]);
+        }
     }
     inputs.extend([0.0, 0.0]);
     for s in &sc.spheres {
@@ -639,6 +699,11 @@ fn run_batches(
 /// The CPU's estimator `est` at `spp` samples at each of `hits` (seeded per pixel).
 pub fn cpu_estimate(sc: &Scene, hits: &[&Hit], spp: usize, est: Estimator, seed: u64) -> Result<Vec<Estimate>, String> {
     use lobefit::pipelines::estimate::Sampling;
+    let sh = if est == Estimator::Hybrid {
+        Some(ShPipeline::new(sc)?)
+    } else {
+        None
+    };
     hits.iter()
         .enumerate()
         .map(|(p, h)| {
@@ -667,9 +732,50 @@ pub fn cpu_estimate(sc: &Scene, hits: &[&Hit], spp: usize, est: Estimator, seed:
                     spp,
                     seed,
                 ),
+                Estimator::Hybrid => {
+                    let a = sh.as_ref().ok_or("the SH pipeline")?.integrand(sc, h)?;
+                    let light = |v| lobefit::pipelines::shexp::light(sc, v);
+                    reference_hybrid(
+                        Sampling::Plain,
+                        &sc.environment,
+                        light,
+                        &b,
+                        |v| sc.occluded(h, v),
+                        h,
+                        spp,
+                        seed,
+                        a.value,
+                        |w| light(w) * a.eval(w),
+                    )
+                }
             })
         })
         .collect()
+}
+
+/// The CPU's SH-exponentiation pipeline at its default settings under a scene's
+/// light: what the hybrid's CPU side takes as its control variate.
+struct ShPipeline {
+    tables: lobefit::pipelines::shexp::shade::Tables,
+    settings: lobefit::pipelines::shexp::shade::Settings,
+    light: Vec<f64>,
+}
+
+impl ShPipeline {
+    fn new(sc: &Scene) -> Result<ShPipeline, String> {
+        let settings = lobefit::pipelines::shexp::shade::Settings::default();
+        Ok(ShPipeline {
+            tables: lobefit::pipelines::shexp::shade::Tables::embedded()?,
+            light: lobefit::pipelines::shexp::light_sh(sc, settings.order)?,
+            settings,
+        })
+    }
+
+    /// The pipeline's integrand at `h`.
+    fn integrand(&self, sc: &Scene, h: &Hit) -> Result<lobefit::pipelines::shexp::shade::Integrand, String> {
+        let b = Phong::of(sc.brdf(h))?;
+        lobefit::pipelines::shexp::shade::integrand(&self.tables, &self.settings, &self.light, &b, sc, h)
+    }
 }
 
 /// How two independent estimates of the same image agree: per pixel
@@ -714,6 +820,54 @@ pub struct Args {
     /// The estimator.
     #[arg(long, value_enum, default_value_t = Estimator::CvMis)]
     estimator: Estimator,
+    /// A `lobefit export` directory with wedge and shexp: the hybrid's control variate
+    /// is the device's SH-exponentiation kernel (needed by `hybrid` only).
+    #[arg(long, value_name = "DIR")]
+    export: Option<std::path::PathBuf>,
+}
+
+/// Largest RMS difference, over the peak |value|, between the device's integrands and
+/// the CPU's (the analytic kernels' conformance limit).
+const INTEGRAND_RMS_MAX: f64 = 1e-4;
+
+/// The device's SH-exponentiation integrands at `hits` (from the kernel on the export
+/// `dir`), checked against the CPU pipeline's at the same f32-rounded hits: their RMS
+/// difference over the peak |value| (all 17 numbers) is at most [`INTEGRAND_RMS_MAX`].
+fn device_integrands(dir: &std::path::Path, sc: &Scene, hits: &[&Hit]) -> Result<(Gpu, Vec<ShIntegrand>), String> {
+    let (ex, gpu) = crate::render::open(dir, crate::shexp::FAMILIES, |b| {
+        crate::shexp::check_budget(b, sc, "mc --estimator hybrid")
+    })?;
+    let got = crate::shexp::integrands(&gpu, &ex, sc, hits)?;
+    let sh = ShPipeline::new(sc)?;
+    let r32 = |v: DVec3| DVec3::new(f64::from(v.x as f32), f64::from(v.y as f32), f64::from(v.z as f32));
+    let (mut sum, mut peak, mut count) = (0.0f64, 0.0f64, 0usize);
+    for (h, g) in hits.iter().zip(&got) {
+        let at = Hit {
+            x: r32(h.x),
+            n: r32(h.n).normalize(),
+            wo: r32(h.wo).normalize(),
+            ..**h
+        };
+        let a = sh.integrand(sc, &at)?;
+        peak = peak.max(a.value.abs());
+        let want = std::iter::once(a.value).chain(a.coefficients(4));
+        for (w, g) in want.zip(g) {
+            sum += (f64::from(*g) - w).powi(2);
+            count += 1;
+        }
+    }
+    let rms = (sum / count.max(1) as f64).sqrt() / peak.max(f64::MIN_POSITIVE);
+    out!(
+        "mc hybrid {}: the device's SH-exponentiation integrands (value and 16 coefficients) against the CPU's: \
+         RMS / peak {rms:.2e} (limit {INTEGRAND_RMS_MAX:.0e})",
+        sc.name
+    );
+    if rms.is_nan() || rms > INTEGRAND_RMS_MAX {
+        return Err(format!(
+            "mc: the device's integrands differ from the CPU's by {rms:.2e} of the peak (limit {INTEGRAND_RMS_MAX:.0e})"
+        ));
+    }
+    Ok((gpu, got))
 }
 
 /// Largest |mean z| and range of the mean z² the agreement accepts: for P pixels the
@@ -739,9 +893,18 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     sc.check_camera()?;
     let hits: Vec<Hit> = (0..w * h).filter_map(|p| sc.primary(p % w, p / w, w, h)).collect();
     let refs: Vec<&Hit> = hits.iter().collect();
-    let gpu = Gpu::new()?;
+    let (gpu, cv) = match (a.estimator, &a.export) {
+        (Estimator::Hybrid, Some(dir)) => {
+            let (gpu, cv) = device_integrands(dir, &sc, &refs)?;
+            (gpu, Some(cv))
+        }
+        (Estimator::Hybrid, None) => {
+            return Err("mc: --estimator hybrid needs --export DIR (the SH-exponentiation kernel's textures)".into())
+        }
+        _ => (Gpu::new()?, None),
+    };
     let t0 = std::time::Instant::now();
-    let (got, spp) = estimate(&gpu, &sc, &refs, a.spp as usize, a.estimator)?;
+    let (got, spp) = estimate(&gpu, &sc, &refs, a.spp as usize, a.estimator, cv.as_deref())?;
     let t_gpu = t0.elapsed().as_secs_f64();
     let t0 = std::time::Instant::now();
     let cpu = cpu_estimate(&sc, &refs, spp, a.estimator, 0x6d63)?;
@@ -862,42 +1025,57 @@ impl McBench {
     }
 }
 
-/// The bench's Monte Carlo comparison on `sc` at `width`: the analytic values
-/// `analytic` (the device's image of `pipeline` over the pixels that see geometry, timed at
-/// `analytic_ms` per frame) and every estimator the scene takes at
+/// The analytic kernel's integrands at given hits (the hybrid's control variate).
+pub type Integrands<'a> = &'a dyn Fn(&[&Hit]) -> Result<Vec<ShIntegrand>, String>;
+
+/// The analytic kernel the bench's Monte Carlo is compared with.
+pub struct Analytic<'a> {
+    /// The pipeline (isg, shexp, meunier).
+    pub pipeline: &'static str,
+    /// Its image over the pixels that see geometry.
+    pub values: &'a [f64],
+    /// Its time per frame (ms).
+    pub ms: f64,
+    /// Its integrands, where it serves as the hybrid's control variate.
+    pub integrands: Option<Integrands<'a>>,
+}
+
+/// The bench's Monte Carlo comparison on `sc` at `width`: the analytic kernel's image
+/// and time (`analytic`) and every estimator the scene takes at
 /// [`bench_spp`]`(max_spp)` against the CPU's strongest of them at [`REF_SPP`]. A frame of more samples than a
 /// dispatch takes is several dispatches: its time per frame is the sum of their
-/// times, each frame timed as the bench times a kernel.
-pub fn bench(
-    gpu: &Gpu,
-    pipeline: &'static str,
-    sc: &Scene,
-    width: usize,
-    analytic: &[f64],
-    analytic_ms: f64,
-    max_spp: usize,
-) -> Result<McBench, String> {
+/// times, each frame timed as the bench times a kernel. Where the analytic kernel has
+/// integrands, the hybrid estimator too; its frame is the analytic kernel's (which the
+/// control variate needs) plus its dispatches.
+pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: usize) -> Result<McBench, String> {
     use lobefit::pipelines::image::noise_free_rel_rmse;
     supported(sc)?;
     let (w, h) = (width.max(4), (width * 3 / 4).max(3));
     let hits: Vec<Hit> = (0..w * h).filter_map(|p| sc.primary(p % w, p / w, w, h)).collect();
     let refs: Vec<&Hit> = hits.iter().collect();
-    if analytic.len() != refs.len() {
+    if analytic.values.len() != refs.len() {
         return Err(format!(
             "bench mc: {} analytic values for {} pixels",
-            analytic.len(),
+            analytic.values.len(),
             refs.len()
         ));
     }
     // The reference: the CPU's strongest random estimator (its standard errors true):
     // cv-mis under a sky, plain (uniform in the cap) for a light.
-    let (estimators, strongest): (&[Estimator], Estimator) = if light_scene(sc) {
-        (&[Estimator::Plain, Estimator::Qmc], Estimator::Plain)
+    let (mut estimators, strongest) = if light_scene(sc) {
+        (vec![Estimator::Plain, Estimator::Qmc], Estimator::Plain)
     } else {
         (
-            &[Estimator::Plain, Estimator::CvMis, Estimator::QmcCvMis],
+            vec![Estimator::Plain, Estimator::CvMis, Estimator::QmcCvMis],
             Estimator::CvMis,
         )
+    };
+    let cv = match analytic.integrands {
+        Some(f) if !light_scene(sc) => {
+            estimators.push(Estimator::Hybrid);
+            Some(f(&refs)?)
+        }
+        _ => None,
     };
     let reference = cpu_estimate(sc, &refs, REF_SPP, strongest, 0x7265)?;
     let mean: Vec<f64> = reference.iter().map(|e| e.mean).collect();
@@ -906,16 +1084,22 @@ pub fn bench(
     let mean_ref = mean.iter().sum::<f64>() / mean.len() as f64;
     let ref_rel_se = se.iter().sum::<f64>() / se.len() as f64 / mean_ref;
     let mut rows = Vec::new();
-    for &est in estimators {
+    for est in estimators {
+        let (cv, extra) = match est {
+            Estimator::Hybrid => (cv.as_deref(), analytic.ms),
+            _ => (None, 0.0),
+        };
         for spp in bench_spp(max_spp) {
             gpu.take_dispatches();
-            let (got, n) = estimate(gpu, sc, &refs, spp, est)?;
+            let (got, n) = estimate(gpu, sc, &refs, spp, est, cv)?;
             let d = gpu.take_dispatches();
             let frames = d.first().map_or(0, |k| k.ms.len());
             if d.is_empty() || d.iter().any(|k| k.ms.len() != frames) {
                 return Err(format!("bench mc: {spp} spp: its dispatches were not timed"));
             }
-            let ms = (0..frames).map(|f| d.iter().map(|k| k.ms[f]).sum()).collect();
+            let ms = (0..frames)
+                .map(|f| extra + d.iter().map(|k| k.ms[f]).sum::<f64>())
+                .collect();
             let img: Vec<f64> = got.iter().map(|e| e.mean).collect();
             rows.push(McRow {
                 estimator: est,
@@ -926,11 +1110,11 @@ pub fn bench(
         }
     }
     Ok(McBench {
-        pipeline,
+        pipeline: analytic.pipeline,
         scene: sc.name.clone(),
         pixels: refs.len(),
         reference: (strongest, REF_SPP, ref_rel_se),
-        analytic: (noise_free_rel_rmse(analytic, &mean, &se, &mask), analytic_ms),
+        analytic: (noise_free_rel_rmse(analytic.values, &mean, &se, &mask), analytic.ms),
         rows,
     })
 }
@@ -1196,7 +1380,13 @@ mod tests {
             "/../assets/meshes/isg-bunny.json"
         ))
         .unwrap();
-        for est in [Estimator::Plain, Estimator::CvMis, Estimator::Qmc, Estimator::QmcCvMis] {
+        for est in [
+            Estimator::Plain,
+            Estimator::CvMis,
+            Estimator::Qmc,
+            Estimator::QmcCvMis,
+            Estimator::Hybrid,
+        ] {
             // fig12, the whale over its height field, the bunny's triangles.
             for sc in [&sc, &whale, &bunny] {
                 let traced = hf_iterations(sc) + mesh_iterations(sc);
@@ -1231,6 +1421,20 @@ mod tests {
         let e = supported(&lobefit::pipelines::meunier::render::scene(lit).unwrap()).unwrap_err();
         assert!(e.contains("meshes under a spherical light"), "{e}");
         assert!(batch_size(70_000, 1, 0, Estimator::Plain).is_err());
+        // The estimators' arguments: the hybrid takes one integrand a pixel, the
+        // others none, and a spherical light neither control variate.
+        check_estimator(&whale, Estimator::Hybrid, Some(5), 5).unwrap();
+        check_estimator(&whale, Estimator::CvMis, None, 5).unwrap();
+        for (sc, est, cv, what) in [
+            (&whale, Estimator::Hybrid, None, "needs the pipeline's integrand"),
+            (&whale, Estimator::Hybrid, Some(4), "4 integrands for 5 pixels"),
+            (&whale, Estimator::QmcCvMis, Some(5), "qmc-cv-mis takes no integrand"),
+            (&m, Estimator::Hybrid, None, "plain or qmc only"),
+            (&m, Estimator::CvMis, None, "plain or qmc only"),
+        ] {
+            let e = check_estimator(sc, est, cv, 5).unwrap_err();
+            assert!(e.contains(what), "{est:?}: {e}");
+        }
     }
 
     /// Agreement of two estimates: equal means give z = 0; a shift of two standard

@@ -117,8 +117,9 @@ const PER_SPHERE: u64 = 112;
 
 /// Loop iterations per pixel besides the spheres', at most: the horizon angles and
 /// the wedges' composition (W ≤ 64 azimuths of order-4 operators), and per BRDF term
-/// its log-ZH lobe, `lf_zh_to_sh`, HYB (≤ 64 halvings and squarings) and the sums.
-const PER_PIXEL: u64 = 2 * 65 + 65 * 17 + 5 + 2 * (150 + 25 + 17 + 3 * 16 + 2 * 65 + 17);
+/// its log-ZH lobe, `lf_zh_to_sh`, HYB (≤ 64 halvings and squarings) and the sums;
+/// with the integrand written, its sums and stores.
+const PER_PIXEL: u64 = 2 * 65 + 65 * 17 + 5 + 2 * (150 + 25 + 17 + 3 * 16 + 2 * 65 + 17) + 3 * 17;
 
 /// Refuses a scene whose pixels may need more loop iterations than `budget` (a
 /// device's [`Gpu::loop_budget`]: llvmpipe's; a GPU has none).
@@ -169,7 +170,8 @@ const SHADER: &str = include_str!("../shaders/shexp.wgsl");
 
 /// The kernel's constants and functions, and its body, for the settings `s`: the
 /// scene is data (it follows the pixels' inputs), so one kernel serves every scene.
-fn source(s: &Settings) -> String {
+/// With `coeffs`, each pixel also writes its integrand ([`integrands`]).
+fn source(s: &Settings, coeffs: bool) -> String {
     let w = s.wedges as usize;
     let n_in = HIT_INPUTS + w;
     let f = |v: f64| format!("{:e}", v as f32);
@@ -180,7 +182,7 @@ fn source(s: &Settings) -> String {
     let consts = format!(
         "const N_IN = {n_in}u;\nconst NW = {w}u;\nconst W_INDEX = {}u;\n\
          const TERRAIN_ABOVE_TANGENT = {};\nconst ATTENUATION = {};\nconst EPS_VIS: f32 = {};\n\
-         const EPS_TERRAIN: f32 = {};\nconst EPS_BRDF: f32 = {};\n",
+         const EPS_TERRAIN: f32 = {};\nconst EPS_BRDF: f32 = {};\nconst COEFFS = {coeffs};\n",
         s.wedges.trailing_zeros() - 2,
         s.terrain_above_tangent,
         s.attenuation,
@@ -199,7 +201,17 @@ fn source(s: &Settings) -> String {
     if s.blocker_log == BlockerLog::Ren {
         textures.push("texture_2d_array<f32>");
     }
-    kernel_textures(&textures, n_in, 2, &body) + &consts + functions
+    kernel_textures(&textures, n_in, outputs(coeffs), &body) + &consts + functions
+}
+
+/// Outputs per pixel: the radiance and the budget flag; with the integrand, its
+/// unclamped value and 16 coefficients.
+fn outputs(coeffs: bool) -> usize {
+    if coeffs {
+        19
+    } else {
+        2
+    }
 }
 
 /// The W horizon elevations (rad) at `h` as the CPU pipeline finds them.
@@ -228,8 +240,48 @@ pub fn render_shexp(
     s: &Settings,
     out: &Path,
 ) -> Result<SceneRender, String> {
-    supported(s)?;
     let scene = &sc.name;
+    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    sc.check_camera()?;
+    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let visible: Vec<&Hit> = hits.iter().flatten().collect();
+    if visible.is_empty() {
+        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
+    }
+    let light = light_sh(sc, ORDER)?;
+    let Dispatched { got, at_hits, brdfs } = dispatch(gpu, export, sc, &visible, s, false)?;
+    // The CPU pipeline (f64, the committed tables) at the same f32-rounded hits.
+    let tables = Tables::embedded()?;
+    let cpu: Vec<f64> = at_hits
+        .iter()
+        .zip(&brdfs)
+        .map(|(at, b)| radiance(&tables, s, &light, b, sc, at))
+        .collect::<Result<_, _>>()?;
+    let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
+    compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
+}
+
+/// What [`dispatch`] returns.
+struct Dispatched {
+    /// [`outputs`] per pixel.
+    got: Vec<f32>,
+    /// The f32-rounded hits and the materials the kernel shaded, for the CPU to shade
+    /// the same.
+    at_hits: Vec<Hit>,
+    brdfs: Vec<Phong>,
+}
+
+/// The kernel at `visible` (hits of `sc`) with the settings `s` (with `coeffs`, the
+/// integrands too), its budget flags checked.
+fn dispatch(
+    gpu: &Gpu,
+    export: &VerifiedExport,
+    sc: &Scene,
+    visible: &[&Hit],
+    s: &Settings,
+    coeffs: bool,
+) -> Result<Dispatched, String> {
+    supported(s)?;
     let m = &export.manifest;
     let storage = m.storage;
     let (wedge_e, wedge_t) = texture(export, lobefit_tables::wedge::KIND, "wedge")?;
@@ -242,13 +294,6 @@ pub fn render_shexp(
         let (e, t) = texture(export, lobefit_tables::shexp::KIND, &format!("shexp-n{ORDER}"))?;
         uploads.push((lf_tex(e, Filter::Manual)?, gpu.upload(t, storage)?));
     }
-    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
-    sc.check_camera()?;
-    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
-    let visible: Vec<&Hit> = hits.iter().flatten().collect();
-    if visible.is_empty() {
-        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
-    }
     let light = light_sh(sc, ORDER)?;
     // Inputs per pixel: point, normal, view, k_d, k_s, Phong exponent, own blockers
     // (first, end), the W horizon angles, as f32; the CPU shades the same rounded hit.
@@ -257,7 +302,7 @@ pub fn render_shexp(
     let mut at_hits = Vec::with_capacity(visible.len());
     let mut brdfs = Vec::with_capacity(visible.len());
     let r32 = |v: DVec3| DVec3::new(f64::from(v.x as f32), f64::from(v.y as f32), f64::from(v.z as f32));
-    for hit in &visible {
+    for hit in visible {
         let b = Phong::of(sc.brdf(hit))?;
         let at = Hit {
             x: r32(hit.x),
@@ -286,21 +331,31 @@ pub fn render_shexp(
         inputs.extend([b.centre.x, b.centre.y, b.centre.z, b.radius].map(|v| v as f32));
     }
     inputs.extend(light.iter().map(|&v| v as f32));
-    let src = source(s);
+    let src = source(s, coeffs);
     let textures: Vec<(&[u8], &crate::device::GpuTexture)> = uploads.iter().map(|(p, t)| (p.as_slice(), t)).collect();
-    let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
-    budget::flags("render shexp", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
+    let k = outputs(coeffs);
+    let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), k)?;
+    budget::flags("render shexp", got.chunks(k).map(|c| c[1]), visible.len(), |f| {
         format!("unknown flag {f}")
     })?;
-    // The CPU pipeline (f64, the committed tables) at the same f32-rounded hits.
-    let tables = Tables::embedded()?;
-    let cpu: Vec<f64> = at_hits
-        .iter()
-        .zip(&brdfs)
-        .map(|(at, b)| radiance(&tables, s, &light, b, sc, at))
-        .collect::<Result<_, _>>()?;
-    let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
-    compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
+    Ok(Dispatched { got, at_hits, brdfs })
+}
+
+/// The SH-exponentiation pipeline's integrand at each of `hits` (of `sc`, default
+/// settings), computed by the device's kernel: per pixel its unclamped value and the
+/// 16 SH coefficients of Σ_t w_t g_t (`shade::Integrand`), what the device's `hybrid`
+/// Monte Carlo takes as its control variate (`crate::mc::ShIntegrand`).
+pub fn integrands(
+    gpu: &Gpu,
+    export: &VerifiedExport,
+    sc: &Scene,
+    hits: &[&Hit],
+) -> Result<Vec<crate::mc::ShIntegrand>, String> {
+    let got = dispatch(gpu, export, sc, hits, &Settings::default(), true)?.got;
+    Ok(got
+        .chunks(outputs(true))
+        .map(|c| std::array::from_fn(|k| c[2 + k]))
+        .collect())
 }
 
 #[cfg(test)]
@@ -323,7 +378,7 @@ mod tests {
                 ..Settings::default()
             };
             supported(&s).unwrap();
-            let src = source(&s);
+            let src = source(&s, blocker_log == BlockerLog::Eps);
             if let Err(e) = lobefit::export::shaders::module_of(&src) {
                 panic!("{blocker_log:?}, {wedges} wedges: {e}");
             }

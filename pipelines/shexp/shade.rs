@@ -354,6 +354,18 @@ impl Integrand {
     pub fn eval(&self, w: DVec3) -> f64 {
         self.terms.iter().map(|(k, g)| k * sh_value(g, w)).sum()
     }
+
+    /// Σ_t w_t g_t as one SH vector of order `order` (order² coefficients; a point in
+    /// a blocker's full shadow has no terms: zeros).
+    pub fn coefficients(&self, order: usize) -> Vec<f64> {
+        let mut c = vec![0.0; order * order];
+        for (k, g) in &self.terms {
+            for (a, b) in c.iter_mut().zip(g) {
+                *a += k * b;
+            }
+        }
+        c
+    }
 }
 
 /// The pipeline's [`Integrand`] at hit `h` (inputs as [`radiance`]).
