@@ -164,13 +164,14 @@ fn mc_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_max: f32) -> bool {
     return false;
 }
 
-// Whether the ray x + t v (t > 0) meets a sphere other than `own`, or (HF) the height
-// field from t = HF_TMIN on (the CPU's TERRAIN_T_MIN, widened past f32 rounding of a
-// point on the terrain), or a mesh's triangle other than triangle `own_tri` of mesh
-// `own_mesh` (mc_meshes).
-fn mc_occluded(x: vec3<f32>, v: vec3<f32>, own: i32, own_mesh: i32, own_tri: i32) -> bool {
-    return mc_blocked(x, v, own, 3.4e38) || (HF && mc_terrain(x, v, HF_TMIN, 3.4e38))
-        || mc_meshes(x, v, own_mesh, own_tri, 3.4e38);
+// Whether the ray x + t v (0 < t < t_max) meets a sphere other than `own`, or (HF) the
+// height field from t = HF_TMIN on (the CPU's TERRAIN_T_MIN, widened past f32 rounding
+// of a point on the terrain), or a mesh's triangle other than triangle `own_tri` of
+// mesh `own_mesh` (mc_meshes). The sky's rays are unbounded (t_max 3.4e38); the
+// light's end at its near surface.
+fn mc_occluded(x: vec3<f32>, v: vec3<f32>, own: i32, own_mesh: i32, own_tri: i32, t_max: f32) -> bool {
+    return mc_blocked(x, v, own, t_max) || (HF && mc_terrain(x, v, HF_TMIN, t_max))
+        || mc_meshes(x, v, own_mesh, own_tri, t_max);
 }
 
 // Whether the ray x + t v meets a triangle of one of the NM meshes for t in (the mesh's
@@ -533,7 +534,7 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
                 if HYB {
                     // The CPU's reference_hybrid: (f − L a)/pdf, a = Σ_k c_k y_k.
                     var lit = 0.0;
-                    if c > 0.0 && !mc_occluded(x, w, own, own_mesh, own_tri) {
+                    if c > 0.0 && !mc_occluded(x, w, own, own_mesh, own_tri, 3.4e38) {
                         lit = light * (f_d + f_s) * c;
                     }
                     let y = lf_sh_basis(4u, w);
@@ -543,7 +544,7 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
                     }
                     f = (lit - light * a) / pdf;
                 } else {
-                    let blocked = mc_occluded(x, w, own, own_mesh, own_tri);
+                    let blocked = mc_occluded(x, w, own, own_mesh, own_tri, 3.4e38);
                     if CV {
                         // The CPU's reference_cv: −(occluded diffuse), + unoccluded specular.
                         if blocked {

@@ -1,20 +1,15 @@
 // lobefit-gpu's Monte Carlo kernel for Meunier's scenes (spheres, one spherical light,
-// Lambert and Lafortune materials): per pixel, SPP directions uniform in the light's
-// cap (the CPU's `meunier::render::reference`), each lit when no sphere but the pixel's
-// own meets the ray before the light. The constants (NS, NL, N_IN, NODES, STACK, LIGHT,
-// QMC), the accessor sph and the data's places in X (BATCH, SPP, SPH0, SOBOL0, NODE0,
-// ORDER0, as mc.wgsl's) come from gpu/src/mc.rs;
-// uniforms and visibility as mc.wgsl's (mc_point and its helpers, mc_blocked, shared
-// through the kernel's source). Inputs per pixel: the point, the
-// normal, k_d/π, the own sphere (−1: none), then NL Lafortune lobes as (q, ρ, n) with
-// the lobe's value ρ max(q·v, 0)^n (q = C ⊙ the view direction in the surface's frame,
-// back in world space: exact). Outputs: Σ f, Σ f², 0, the budget flag.
-
-// Whether the ray x + t v meets a sphere other than `own` before t_light (mc.wgsl's
-// traversal of the hierarchy).
-fn mcl_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_light: f32) -> bool {
-    return mc_blocked(x, v, own, t_light);
-}
+// Lambert and Lafortune materials; a height field and meshes' triangles where the
+// scene has them): per pixel, SPP directions uniform in the light's cap (the CPU's
+// `meunier::render::reference`), each lit when nothing but the pixel's own sphere or
+// triangle meets the ray before the light (the CPU's `Scene::light_visible`). The
+// constants (NS, NL, N_IN, NODES, STACK, LIGHT, QMC, HF_*, NM, MSTACK), the accessor
+// sph and the data's places in X (as mc.wgsl's) come from gpu/src/mc.rs; uniforms and
+// visibility are mc.wgsl's functions (mc_point, mc_occluded), shared through the
+// kernel's source. Inputs per pixel: the point, the normal, k_d/π, the own sphere,
+// mesh and triangle (−1: none), then NL Lafortune lobes as (q, ρ, n) with the lobe's
+// value ρ max(q·v, 0)^n (q = C ⊙ the view direction in the surface's frame, back in
+// world space: exact). Outputs: Σ f, Σ f², 0, the budget flag.
 
 // ---- main: the kernel's body (the statements inside its entry point, kernel.rs)
     var budget_flag = 0.0;
@@ -22,6 +17,8 @@ fn mcl_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_light: f32) -> bool {
     let n = normalize(vec3<f32>(x3, x4, x5));
     let f_d = x6;
     let own = i32(x7);
+    let own_mesh = i32(x8);
+    let own_tri = i32(x9);
     let to = LIGHT.xyz - x;
     let d = length(to);
     let w = to / d;
@@ -46,10 +43,10 @@ fn mcl_blocked(x: vec3<f32>, v: vec3<f32>, own: i32, t_light: f32) -> bool {
             let bb = dot(oc, dir);
             let disc = max(bb * bb - (dot(oc, oc) - LIGHT.w * LIGHT.w), 0.0);
             let t_light = -bb - sqrt(disc);
-            if !mcl_blocked(x, dir, own, t_light) {
+            if !mc_occluded(x, dir, own, own_mesh, own_tri, t_light) {
                 var brdf = f_d;
                 for (var k = 0u; k < NL; k++) {
-                    let lo = i * N_IN + 8u + 5u * k;
+                    let lo = i * N_IN + 10u + 5u * k;
                     let q = vec3<f32>(X[lo], X[lo + 1u], X[lo + 2u]);
                     let s = dot(q, dir);
                     if s > 0.0 {

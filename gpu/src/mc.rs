@@ -1,17 +1,19 @@
-//! `lobefit-gpu mc`: a Monte Carlo kernel on the device for the sky pipelines' scenes
-//! (spheres, and a height field where the scene has one, under an SG environment,
-//! Lambert and Phong materials: the ISG scenes and the SH-exponentiation ones), the
-//! baseline a renderer engineer compares the analytic kernels with: per pixel, N
-//! samples of the CPU's mixture estimator (`lobefit::pipelines::sky`) with exact
-//! visibility against every sphere, the height field and meshes' triangles
-//! (gpu/shaders/mc.wgsl).
+//! `lobefit-gpu mc`: Monte Carlo kernels on the device for every pipeline's scenes —
+//! spheres, a height field and meshes' triangles under an SG environment (Lambert and
+//! Phong: the ISG and SH-exponentiation scenes; gpu/shaders/mc.wgsl) or under one
+//! spherical light (Lambert and Lafortune: Meunier's; gpu/shaders/mc_light.wgsl) —
+//! the baseline a renderer engineer compares the analytic kernels with: per pixel, N
+//! samples of the CPU's estimators (`lobefit::pipelines::sky`, the Meunier
+//! reference) with exact visibility through the CPU's own hierarchies.
 //!
-//! Two estimators: `plain` (the CPU's `reference`: SGs picked by their integral) and
-//! `cv-mis` (the CPU's `reference_cv` with `Select::Contribution`: the unoccluded
-//! diffuse radiance in closed form as a control variate, SGs picked by their
-//! contribution at the point), both with independent random numbers (a PCG hash per
-//! pixel, batch, sample and dimension); `qmc` and `qmc-cv-mis` draw them as
-//! Owen-scrambled Sobol points (the CPU's strongest estimators).
+//! Estimators ([`Estimator`]): `plain` (the CPU's `reference`: SGs picked by their
+//! integral; uniform in the light's cap) and `cv-mis` (the CPU's `reference_cv` with
+//! `Select::Contribution`: the unoccluded diffuse radiance in closed form as a control
+//! variate, SGs picked by their contribution at the point), both with independent
+//! random numbers (a PCG hash per pixel, batch, sample and dimension); `qmc` and
+//! `qmc-cv-mis` draw them as Owen-scrambled Sobol points (the CPU's strongest
+//! estimators); `hybrid` takes the SH-exponentiation kernel's integrand as its
+//! control variate (the CPU's `reference_hybrid`).
 //!
 //! llvmpipe ends an invocation's loops after 65 535 iterations (`crate::budget`): the
 //! samples run in batches of a power of two that fits, one dispatch each, their sums
@@ -412,14 +414,9 @@ fn light_scene(sc: &Scene) -> bool {
 }
 
 /// Refuses a scene the kernels do not trace: no light, more than one spherical light,
-/// a height field or meshes under a spherical light, a height field of more than
-/// [`HF_MAX_N`] samples a side.
+/// a height field of more than [`HF_MAX_N`] samples a side.
 pub fn supported(sc: &Scene) -> Result<(), String> {
-    let why = if sc.heightfield.is_some() && light_scene(sc) {
-        Some("a height field under a spherical light")
-    } else if !sc.meshes.is_empty() && light_scene(sc) {
-        Some("meshes under a spherical light")
-    } else if hf_shape(sc).is_some_and(|(_, n)| n > HF_MAX_N) {
+    let why = if hf_shape(sc).is_some_and(|(_, n)| n > HF_MAX_N) {
         Some("a height field of more than 2049 samples a side")
     } else if light_scene(sc) && sc.lights.len() > 1 {
         Some("more than one spherical light")
@@ -431,7 +428,7 @@ pub fn supported(sc: &Scene) -> Result<(), String> {
     match why {
         Some(w) => Err(format!(
             "mc: scene {} has {w}; the device's Monte Carlo traces spheres, a height field and meshes under \
-             an SG sky, or spheres under one spherical light",
+             an SG sky or one spherical light",
             sc.name
         )),
         None => Ok(()),
@@ -486,7 +483,8 @@ pub fn estimate(
     check_estimator(sc, est, cv.map(<[ShIntegrand]>::len), hits.len())?;
     let (mut inputs, slot, per_batch, src) = if light {
         let (inputs, n_in, nl) = light_inputs(sc, hits)?;
-        let per = batch_size_light(sc.spheres.len(), nl, est)?;
+        let traced = hf_iterations(sc) + mesh_iterations(sc);
+        let per = batch_size_light(sc.spheres.len(), nl, traced, est)?;
         (inputs, n_in * hits.len(), per, source_light(sc, n_in, nl, est.qmc()))
     } else {
         let traced = hf_iterations(sc) + mesh_iterations(sc);
@@ -579,7 +577,7 @@ fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), S
             sc.name
         ));
     }
-    let n_in = 8 + 5 * nl;
+    let n_in = 10 + 5 * nl;
     let mut inputs = Vec::with_capacity(hits.len() * n_in + 1 + 4 * sc.spheres.len());
     for h in hits {
         inputs.extend([h.x.x, h.x.y, h.x.z, h.n.x, h.n.y, h.n.z].map(|v| v as f32));
@@ -589,6 +587,8 @@ fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), S
         };
         inputs.push((albedo / std::f64::consts::PI) as f32);
         inputs.push(h.sphere.map_or(-1.0, |i| i as f32));
+        let (mesh, tri) = h.mesh.map_or((-1.0, -1.0), |(m, k)| (m as f32, k as f32));
+        inputs.extend([mesh, tri]);
         // The CPU's brdf_value: the lobe's value ρ (a · (C ⊙ o))^n in the frame
         // (t, n × t, n), a and o the light and view directions there.
         let t = (h.t - h.t.dot(h.n) * h.n).normalize();
@@ -610,17 +610,20 @@ fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), S
     }
     inputs.extend(direction_inputs());
     inputs.extend(bvh_inputs(sc));
+    inputs.extend(hf_inputs(sc));
+    inputs.extend(mesh_inputs(sc));
     Ok((inputs, n_in, nl))
 }
 
 /// Samples per dispatch of the light kernel (see [`batch_size`]): per sample the
-/// sphere loop and the lobe loop.
-fn batch_size_light(spheres: usize, lobes: usize, est: Estimator) -> Result<usize, String> {
-    let per = 1 + point_iterations(est) + spheres as u64 + nodes(spheres) + lobes as u64;
+/// sphere hierarchy, the height field's and the meshes' traversals (`traced`) and the
+/// lobe loop.
+fn batch_size_light(spheres: usize, lobes: usize, traced: u64, est: Estimator) -> Result<usize, String> {
+    let per = 1 + point_iterations(est) + spheres as u64 + nodes(spheres) + traced + lobes as u64;
     let fit = (budget::LOOP_LIMIT - 2) / per;
     if fit == 0 {
         return Err(format!(
-            "mc: {spheres} spheres: one sample is over llvmpipe's loop budget"
+            "mc: {spheres} spheres: one sample ({per} loop iterations) is over llvmpipe's loop budget"
         ));
     }
     let m = fit.min(MAX_BATCH as u64);
@@ -635,8 +638,8 @@ fn source_light(sc: &Scene, n_in: usize, nl: usize, qmc: bool) -> String {
     let f = |v: f64| format!("{:?}", v as f32);
     let consts = format!(
         "const NS = {}u;\nconst NE = 0u;\nconst NL = {nl}u;\nconst N_IN = {n_in}u;\n\
-         const QMC = {qmc};\nconst SOBOL_LEN = {}u;\n{OFFSETS}\
-         const LIGHT = vec4<f32>({}, {}, {}, {});\nconst LIGHT_RADIANCE = {};\n{}",
+         const QMC = {qmc};\nconst CV = false;\nconst HYB = false;\nconst SOBOL_LEN = {}u;\n{OFFSETS}\
+         const LIGHT = vec4<f32>({}, {}, {}, {});\nconst LIGHT_RADIANCE = {};\n{}{}",
         sc.spheres.len(),
         direction_inputs().len(),
         f(c.x),
@@ -645,15 +648,13 @@ fn source_light(sc: &Scene, n_in: usize, nl: usize, qmc: bool) -> String {
         f(l.sphere.radius),
         f(l.radiance),
         bvh_consts(sc),
+        hf_consts(sc) + &mesh_consts(sc)
     );
-    let (pcg, _) = split(SHADER);
-    // The uniforms and the hierarchy's traversal (mc_blocked), up to the sky's own
-    // occlusion test.
-    let pcg =
-        &pcg[pcg.find("// PCG-RXS-M-XS").unwrap_or(0)..pcg.find("// Whether the ray x + t v (t > 0)").unwrap_or(0)];
+    // The uniforms and the traversals (mc_point, mc_occluded) are the sky kernel's.
+    let (shared, _) = split(SHADER);
     let (functions, body) = split(SHADER_LIGHT);
-    let body = LAYOUT.to_string() + body + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
-    kernel("texture_2d<f32>", n_in, N_OUT, &body) + &consts + pcg + functions
+    let body = LAYOUT.to_string() + LAYOUT_SKY + body + budget::SENTINEL + "    Y[o + 3u] = budget_flag;";
+    kernel("texture_2d<f32>", n_in, N_OUT, &body) + &consts + shared + functions
 }
 
 /// Runs `batches` dispatches of `src` (`batch` samples each) with the batch index at
@@ -804,8 +805,8 @@ pub struct Args {
     /// An ISG scene (fig12, fig12-diffuse: spheres under an SG sky), an
     /// SH-exponentiation scene with an SG sky (whale, whale-diffuse, wrecking: spheres
     /// over a height field), a Meunier scene (fig13, glossy: one spherical light;
-    /// `plain` only) or such a scene file (triangle meshes under an SG sky too, e.g.
-    /// assets/meshes/isg-bunny.json).
+    /// `plain` and `qmc` only) or such a scene file (triangle meshes too, e.g.
+    /// assets/meshes/isg-bunny.json, assets/meshes/meunier-bunny.json).
     #[arg(long, default_value = "fig12")]
     scene: String,
     /// Image width (height 3/4 of it).
@@ -1402,24 +1403,33 @@ mod tests {
         }
         let m = lobefit::pipelines::meunier::render::scene("glossy").unwrap();
         for qmc in [false, true] {
-            if let Err(e) = lobefit::export::shaders::module_of(&source_light(&m, 18, 1, qmc)) {
+            if let Err(e) = lobefit::export::shaders::module_of(&source_light(&m, 15, 1, qmc)) {
                 panic!("light, qmc {qmc}: {e}");
             }
         }
-        // A height field under a spherical light, and one past HF_MAX_N samples a side.
+        // A height field and meshes under a spherical light, and a height field past
+        // HF_MAX_N samples a side.
         let mut lit_terrain = lobefit::pipelines::meunier::render::scene("fig13").unwrap();
         lit_terrain.heightfield = whale.heightfield.clone();
-        let e = supported(&lit_terrain).unwrap_err();
-        assert!(e.contains("a height field under a spherical light"), "{e}");
+        let lit = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/meshes/meunier-bunny.json");
+        let lit_bunny = lobefit::pipelines::meunier::render::scene(lit).unwrap();
+        for sc in [&lit_terrain, &lit_bunny] {
+            supported(sc).unwrap();
+            let traced = hf_iterations(sc) + mesh_iterations(sc);
+            for est in [Estimator::Plain, Estimator::Qmc] {
+                let b = batch_size_light(sc.spheres.len(), 1, traced, est).unwrap();
+                assert!(b.is_power_of_two() && b <= MAX_BATCH, "{b}");
+                if let Err(e) = lobefit::export::shaders::module_of(&source_light(sc, 15, 1, est.qmc())) {
+                    panic!("{} {est:?}: {e}", sc.name);
+                }
+            }
+        }
         let mut big = whale.clone();
         let n = HF_MAX_N + 1;
         let hf = lobefit::pipelines::scene::HeightField::new(n, 8.0, vec![0.0; n * n]).unwrap();
         big.heightfield = Some((hf, 0));
         let e = supported(&big).unwrap_err();
         assert!(e.contains("more than 2049 samples a side"), "{e}");
-        let lit = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/meshes/meunier-bunny.json");
-        let e = supported(&lobefit::pipelines::meunier::render::scene(lit).unwrap()).unwrap_err();
-        assert!(e.contains("meshes under a spherical light"), "{e}");
         assert!(batch_size(70_000, 1, 0, Estimator::Plain).is_err());
         // The estimators' arguments: the hybrid takes one integrand a pixel, the
         // others none, and a spherical light neither control variate.
