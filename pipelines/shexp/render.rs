@@ -359,6 +359,23 @@ fn variants(
                 ..default
             },
         ),
+        // Issue 40's candidate: the exactly projected BRDF × cosine in a Gaunt triple
+        // product instead of the log-space lobes (with HYB, and with exact exp*).
+        one(
+            "BRDF triple product",
+            Settings {
+                brdf: BrdfMode::Triple,
+                ..default
+            },
+        ),
+        one(
+            "triple, exact exp*",
+            Settings {
+                brdf: BrdfMode::Triple,
+                exp: Exp::Exact,
+                ..default
+            },
+        ),
         one(
             "the thesis's ε = 0.2",
             Settings {
