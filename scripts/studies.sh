@@ -26,6 +26,13 @@ run $bin render meunier --scene orbit --frames 24 --width 160 --spp 1024 --out "
 run $bin render isg --scene assets/meshes/isg-bunny-walk.json --frames 24 --width 160 --spp 256 --out "$out/anim"
 run $bin render isg --scene assets/meshes/isg-bunny-nod.json --frames 24 --width 160 --spp 256 --out "$out/anim"
 run $bin render shexp --scene swim --frames 24 --width 160 --spp 1024 --out "$out/anim"
+# SH exponentiation on the shipped scenes and on independent ones (spheres under the
+# whale's sky over flat ground, written by scripts/shexp_scenes.py): its variants and the
+# median error over the unoccluded radiance against SH-ideal's (docs/shexp-render.md,
+# "Independent scenes"; ~5 min on 2 cores).
+for sc in whale whale-diffuse wrecking assets/scenes/shexp-spheres{12,60}-{diffuse,phong3}.json; do
+  run $bin render shexp --scene "$sc" --width 96 --spp 1024 --out "$out/shexp"
+done
 # The direct-light study and the rigs' figures.
 run $bin plot meunier --out "$out/meunier"
 run $bin plot rigs --out "$out/rigs"

@@ -58,11 +58,33 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
         "exact horizon",
         "Ren's blocker log",
         "exact exp*",
+        "BRDF triple product",
         "error breakdown",
         "the band limit",
         "ratio reference/pipeline",
     ] {
         assert!(summary.contains(what), "{what}: {summary}");
+    }
+    // The medians over the unoccluded radiance: all pixels and the shadowed ones,
+    // each pipeline and SH-ideal figure a finite number in [0, 10].
+    let line = summary
+        .lines()
+        .find(|l| l.contains("over each pixel's unoccluded radiance"))
+        .unwrap_or_else(|| panic!("no median line: {summary}"));
+    for part in ["all (", "shadowed ("] {
+        let at = line.find(part).unwrap_or_else(|| panic!("{part}: {line}"));
+        for what in ["pipeline ", "SH-ideal "] {
+            let v: f64 = line[at..]
+                .split(what)
+                .nth(1)
+                .unwrap()
+                .split(',')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap();
+            assert!((0.0..=10.0).contains(&v), "{part}{what}{v}: {line}");
+        }
     }
 }
 
