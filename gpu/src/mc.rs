@@ -1198,7 +1198,7 @@ mod tests {
         }
         let node0 = inputs.len();
         inputs.extend(bvh_inputs(&sc));
-        let blocked = section("// ---- rays:", "// Whether the ray x + t v (t > 0)");
+        let blocked = section("// ---- rays:", "// Whether the ray x + t v (0 < t < t_max)");
         let consts = format!(
             "const NS = {ns}u;\nconst SPH0 = {sph0}u;\nconst NODE0 = {node0}u;\nconst ORDER0 = {}u;\n\
              fn sph(b: u32) -> vec4<f32> {{\n    let k = SPH0 + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n{}",

@@ -159,6 +159,9 @@ fn supported(s: &Settings) -> Result<(), String> {
     if s.exp != Exp::Hyb {
         return Err("render shexp exponentiates by HYB only; the settings ask for exact exp*".into());
     }
+    if s.overlap {
+        return Err("render shexp runs without the overlap weighting; the settings ask for it".into());
+    }
     if s.brdf != BrdfMode::Log {
         return Err("render shexp adds the BRDF as log-ZH lobes only; the settings ask for the triple product".into());
     }
@@ -395,6 +398,7 @@ mod tests {
                 "log-ZH lobes only",
             ),
             (Settings { wedges: 5, ..d }, "wedge count 5"),
+            (Settings { overlap: true, ..d }, "overlap weighting"),
         ] {
             let e = supported(&s).unwrap_err();
             assert!(e.contains(what), "{e}");

@@ -230,6 +230,50 @@ mod tests {
         }
     }
 
+    /// The two-cap intersection's closed form against a one-dimensional quadrature of
+    /// its own (cap a about +z, the azimuths inside cap b per polar angle, 200 000
+    /// midpoints in cos θ): within 1e-6 of cap a's area, for crossing, containing
+    /// and disjoint caps; symmetric in the caps.
+    #[test]
+    fn cap_overlap_matches_quadrature() {
+        use super::shade::cap_overlap;
+        let direct = |a: f64, b: f64, g: f64| {
+            let m = 200_000;
+            let (ca, (sg, cg)) = (a.cos(), g.sin_cos());
+            (0..m)
+                .map(|k| {
+                    let z = ca + (1.0 - ca) * (k as f64 + 0.5) / m as f64;
+                    let s = (1.0 - z * z).sqrt();
+                    let c = if s * sg > 0.0 {
+                        (b.cos() - z * cg) / (s * sg)
+                    } else if z * cg >= b.cos() {
+                        -1.0
+                    } else {
+                        1.0
+                    };
+                    2.0 * c.clamp(-1.0, 1.0).acos()
+                })
+                .sum::<f64>()
+                * (1.0 - ca)
+                / m as f64
+        };
+        for (a, b, g) in [
+            (0.5, 0.5, 0.6),
+            (0.3, 0.7, 0.5),
+            (1.2, 0.4, 1.3),
+            (0.2, 0.25, 0.1),
+            (0.7, 0.2, 0.3),
+            (0.4, 0.4, 0.81),
+            (1.5, 1.5, 0.2),
+            (0.05, 0.06, 0.02),
+        ] {
+            let area = std::f64::consts::TAU * (1.0 - f64::cos(a));
+            let (want, got) = (direct(a, b, g), cap_overlap(a, b, g));
+            assert!((got - want).abs() < 1e-6 * area, "{a} {b} {g}: {got} against {want}");
+            assert!((cap_overlap(b, a, g) - got).abs() < 1e-12, "{a} {b} {g}: not symmetric");
+        }
+    }
+
     /// The pipeline as the control variate leaves the estimate unbiased: a Phong point
     /// under the whale's sky with a blocker towards the sun, both BRDF modes (the log
     /// lobes, the Gaunt triple product): the hybrid's mean over 64 scrambles of 4096

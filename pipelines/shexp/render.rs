@@ -418,8 +418,25 @@ fn variants(
                 ..default
             },
         ),
-        // Issue 40's candidate: the exactly projected BRDF × cosine in a Gaunt triple
-        // product instead of the log-space lobes (with HYB, and with exact exp*).
+        // Candidates: each blocker's log divided by its cap's mean coverage (with the
+        // default floor, and with ε = 0.01); the exactly projected BRDF × cosine in a
+        // Gaunt triple product instead of the log-space lobes (with HYB, and with exact
+        // exp*).
+        one(
+            "overlap weighting",
+            Settings {
+                overlap: true,
+                ..default
+            },
+        ),
+        one(
+            "overlap, blocker ε = 0.01",
+            Settings {
+                overlap: true,
+                eps_vis: 0.01,
+                ..default
+            },
+        ),
         one(
             "BRDF triple product",
             Settings {

@@ -81,6 +81,11 @@ pub struct Settings {
     pub blocker_log: BlockerLog,
     /// Giraud's attenuation: each blocker's log vector times r/‖c − p‖.
     pub attenuation: bool,
+    /// Overlap weighting: each blocker's log vector divided by its cap's mean
+    /// coverage, 1 + Σ_j |cap_i ∩ cap_j| / |cap_i| over the other blockers kept at the
+    /// point ([`cap_overlap`]), so that where caps overlap their summed ln ε steps are
+    /// about one step deep, not one per cap (a candidate; off in the defaults).
+    pub overlap: bool,
     /// Exponentiation.
     pub exp: Exp,
     /// BRDF.
@@ -101,6 +106,7 @@ impl Default for Settings {
             eps_brdf: 0.01,
             blocker_log: BlockerLog::Eps,
             attenuation: true,
+            overlap: false,
             exp: Exp::Hyb,
             brdf: BrdfMode::Log,
         }
@@ -213,6 +219,7 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
     // The blockers: the spheres and the meshes' sphere sets, but those the point lies
     // on or in.
     let own = scene.own_proxies(h);
+    let mut caps = Vec::new();
     for (i, b) in scene.proxies.iter().enumerate() {
         if own.contains(&i) {
             continue;
@@ -221,6 +228,9 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
         if h.n.dot(dir) < -theta_b.sin() {
             continue;
         }
+        caps.push((dir, theta_b));
+    }
+    for (i, &(dir, theta_b)) in caps.iter().enumerate() {
         match s.blocker_log {
             BlockerLog::Eps => log_zh::blocker(s.eps_vis, theta_b, n, &mut zh),
             BlockerLog::Ren => t.shexp.log_zh(theta_b, n, &mut zh),
@@ -230,10 +240,42 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
             let k = theta_b.sin();
             zh[..n].iter_mut().for_each(|z| *z *= k);
         }
+        if s.overlap {
+            let area = TAU * (1.0 - theta_b.cos());
+            let covered: f64 = caps
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, &(d, t))| cap_overlap(theta_b, t, dir.dot(d).clamp(-1.0, 1.0).acos()))
+                .sum();
+            let k = 1.0 / (1.0 + covered / area);
+            zh[..n].iter_mut().for_each(|z| *z *= k);
+        }
         rt::zh_to_sh(&zh[..n], dir, &mut turned[..nc]).map_err(|e| e.to_string())?;
         f.iter_mut().zip(&turned[..nc]).for_each(|(a, b)| *a += b);
     }
     Ok(f)
+}
+
+/// The solid angle (sr) of the intersection of two spherical caps of angular radii
+/// `a` and `b` (rad, each ≤ π/2) whose axes are `g` apart (Tovchigrechko and Vakser's
+/// closed form: the lune's area from the spherical triangle at the caps' crossing
+/// points); 0 apart, the smaller cap when one contains the other.
+pub fn cap_overlap(a: f64, b: f64, g: f64) -> f64 {
+    if g >= a + b {
+        return 0.0;
+    }
+    if g <= (a - b).abs() {
+        return TAU * (1.0 - a.min(b).cos());
+    }
+    let (sa, ca) = a.sin_cos();
+    let (sb, cb) = b.sin_cos();
+    let (sg, cg) = g.sin_cos();
+    let acos = |x: f64| x.clamp(-1.0, 1.0).acos();
+    let t1 = acos((cg - ca * cb) / (sa * sb));
+    let t2 = acos((cb - cg * ca) / (sg * sa));
+    let t3 = acos((ca - cg * cb) / (sg * sb));
+    (2.0 * (PI - t1 - ca * t2 - cb * t3)).max(0.0)
 }
 
 /// Largest mean visibility (the fraction of the sphere seen, exp*(f)'s DC term over
