@@ -331,16 +331,9 @@ fn intro(f: &Frame<'_>, r: &Reference) -> String {
     )
 }
 
-/// The pipeline's variants, each timed and compared with the reference and with
-/// SH-ideal (a line each in `lines`): the defaults' image and time (s).
-fn variants(
-    f: &Frame<'_>,
-    tables: &Tables,
-    light_n: &[f64],
-    r: &Reference,
-    ideal: &Reference,
-    lines: &mut Vec<String>,
-) -> Result<(Vec<f64>, f64), String> {
+/// The settings [`variants`] renders: the defaults first, then each switch or
+/// candidate changed alone (with its label).
+fn variant_settings() -> Vec<(String, Settings)> {
     let default = Settings::default();
     let mut variants: Vec<(String, Settings)> = vec![("pipeline (defaults)".into(), default)];
     for wedges in [8, 32] {
@@ -462,6 +455,20 @@ fn variants(
             },
         ),
     ]);
+    variants
+}
+
+/// The pipeline's variants, each timed and compared with the reference and with
+/// SH-ideal (a line each in `lines`): the defaults' image and time (s).
+fn variants(
+    f: &Frame<'_>,
+    tables: &Tables,
+    light_n: &[f64],
+    r: &Reference,
+    ideal: &Reference,
+    lines: &mut Vec<String>,
+) -> Result<(Vec<f64>, f64), String> {
+    let variants = variant_settings();
     let mut pipeline_img = Vec::new();
     let mut t_pipe = 0.0;
     for (k, (label, s)) in variants.iter().enumerate() {
