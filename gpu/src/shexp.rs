@@ -28,7 +28,7 @@ use lobefit::export::layout::Filter;
 use lobefit::export::{manifest::TextureEntry, Texture};
 use lobefit::pipelines::scene::{Hit, Scene};
 use lobefit::pipelines::shexp::light_sh;
-use lobefit::pipelines::shexp::shade::{radiance, BlockerLog, BrdfMode, Exp, Horizon, Settings, Tables};
+use lobefit::pipelines::shexp::shade::{radiance, BlockerLog, BrdfMode, Exp, Horizon, Overlap, Settings, Tables};
 use lobefit::pipelines::sky::Phong;
 use lobefit_tables::glam::DVec3;
 
@@ -159,7 +159,7 @@ fn supported(s: &Settings) -> Result<(), String> {
     if s.exp != Exp::Hyb {
         return Err("render shexp exponentiates by HYB only; the settings ask for exact exp*".into());
     }
-    if s.overlap {
+    if s.overlap != Overlap::Off {
         return Err("render shexp runs without the overlap weighting; the settings ask for it".into());
     }
     if s.brdf != BrdfMode::Log {
@@ -398,7 +398,13 @@ mod tests {
                 "log-ZH lobes only",
             ),
             (Settings { wedges: 5, ..d }, "wedge count 5"),
-            (Settings { overlap: true, ..d }, "overlap weighting"),
+            (
+                Settings {
+                    overlap: Overlap::Touching,
+                    ..d
+                },
+                "overlap weighting",
+            ),
         ] {
             let e = supported(&s).unwrap_err();
             assert!(e.contains(what), "{e}");

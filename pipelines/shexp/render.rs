@@ -14,7 +14,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, Exp, Horizon, Settings, Tables};
+use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, Exp, Horizon, Overlap, Settings, Tables};
 use super::{light, light_sh, reference, PIPELINE};
 use crate::estimate::{per_pixel, Estimate};
 use crate::image::{breakdown, compare, noise_free_rel_rmse};
@@ -418,14 +418,22 @@ fn variant_settings() -> Vec<(String, Settings)> {
         one(
             "overlap weighting",
             Settings {
-                overlap: true,
+                overlap: Overlap::Caps,
                 ..default
             },
         ),
         one(
             "overlap, blocker ε = 0.01",
             Settings {
-                overlap: true,
+                overlap: Overlap::Caps,
+                eps_vis: 0.01,
+                ..default
+            },
+        ),
+        one(
+            "touching, blocker ε = 0.01",
+            Settings {
+                overlap: Overlap::Touching,
                 eps_vis: 0.01,
                 ..default
             },

@@ -45,6 +45,22 @@ pub enum Exp {
     Exact,
 }
 
+/// Overlap weighting of the blockers' logs: each blocker's log vector divided by its
+/// cap's mean coverage, 1 + Σ_j |cap_i ∩ cap_j| / |cap_i| over other blockers j kept at
+/// the point ([`cap_overlap`]), so that where caps overlap their summed ln ε steps are
+/// about one step deep, not one per cap.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Overlap {
+    /// No weighting (Giraud).
+    Off,
+    /// Every other blocker's cap counts.
+    Caps,
+    /// Only blockers whose spheres intersect this one's in space count (one object
+    /// built of overlapping spheres, as the whale is; caps that overlap only in
+    /// projection, one sphere behind another, are left as they are).
+    Touching,
+}
+
 /// How the BRDF enters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BrdfMode {
@@ -81,11 +97,8 @@ pub struct Settings {
     pub blocker_log: BlockerLog,
     /// Giraud's attenuation: each blocker's log vector times r/‖c − p‖.
     pub attenuation: bool,
-    /// Overlap weighting: each blocker's log vector divided by its cap's mean
-    /// coverage, 1 + Σ_j |cap_i ∩ cap_j| / |cap_i| over the other blockers kept at the
-    /// point ([`cap_overlap`]), so that where caps overlap their summed ln ε steps are
-    /// about one step deep, not one per cap (a candidate; off in the defaults).
-    pub overlap: bool,
+    /// Overlap weighting (a candidate; off in the defaults).
+    pub overlap: Overlap,
     /// Exponentiation.
     pub exp: Exp,
     /// BRDF.
@@ -106,7 +119,7 @@ impl Default for Settings {
             eps_brdf: 0.01,
             blocker_log: BlockerLog::Eps,
             attenuation: true,
-            overlap: false,
+            overlap: Overlap::Off,
             exp: Exp::Hyb,
             brdf: BrdfMode::Log,
         }
@@ -228,9 +241,9 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
         if h.n.dot(dir) < -theta_b.sin() {
             continue;
         }
-        caps.push((dir, theta_b));
+        caps.push((dir, theta_b, b));
     }
-    for (i, &(dir, theta_b)) in caps.iter().enumerate() {
+    for (i, &(dir, theta_b, b)) in caps.iter().enumerate() {
         match s.blocker_log {
             BlockerLog::Eps => log_zh::blocker(s.eps_vis, theta_b, n, &mut zh),
             BlockerLog::Ren => t.shexp.log_zh(theta_b, n, &mut zh),
@@ -240,13 +253,16 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
             let k = theta_b.sin();
             zh[..n].iter_mut().for_each(|z| *z *= k);
         }
-        if s.overlap {
+        if s.overlap != Overlap::Off {
             let area = TAU * (1.0 - theta_b.cos());
+            let counts = |o: &crate::scene::Sphere| {
+                s.overlap == Overlap::Caps || (o.centre - b.centre).length() < o.radius + b.radius
+            };
             let covered: f64 = caps
                 .iter()
                 .enumerate()
-                .filter(|&(j, _)| j != i)
-                .map(|(_, &(d, t))| cap_overlap(theta_b, t, dir.dot(d).clamp(-1.0, 1.0).acos()))
+                .filter(|&(j, &(_, _, o))| j != i && counts(o))
+                .map(|(_, &(d, t, _))| cap_overlap(theta_b, t, dir.dot(d).clamp(-1.0, 1.0).acos()))
                 .sum();
             let k = 1.0 / (1.0 + covered / area);
             zh[..n].iter_mut().for_each(|z| *z *= k);
