@@ -561,8 +561,9 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&[ShIntegrand]>) -> Result<V
 }
 
 /// The light kernel's inputs (see gpu/shaders/mc_light.wgsl): per pixel point, normal,
-/// k_d/π, own sphere and `nl` Lafortune lobes (q, ρ, n); the batch slot and the
-/// samples a dispatch; the spheres; the direction numbers; the hierarchy.
+/// k_d/π, own sphere, own mesh and triangle, and `nl` Lafortune lobes (q, ρ, n); the
+/// batch slot and the samples a dispatch; the spheres; the direction numbers; the
+/// hierarchy; the height field; the meshes.
 /// Returns them, the inputs per pixel and `nl` (the most lobes of a material seen).
 fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), String> {
     use lobefit::pipelines::scene::Brdf;
