@@ -18,7 +18,7 @@
 // their contribution at the point (`Select::Contribution`). HYB = true: the CPU's
 // `reference_hybrid` with the SH-exponentiation pipeline's integrand (its value and 16
 // SH coefficients after the pixel's inputs) as the control variate, a tenth of the
-// samples uniform on the sphere. Outputs per pixel: the sum and the sum of squares of
+// samples uniform on the sphere; HYB_ISG = true: the ISG pipeline's (mc_isg_a). Outputs per pixel: the sum and the sum of squares of
 // the batch's SPP sample values, the closed form (0 without CV or HYB), then the
 // budget flag (gpu/src/budget.rs).
 
@@ -391,6 +391,47 @@ fn mc_sample_sg(g: LfSg, u1: f32, u2: f32) -> vec3<f32> {
     return c * g.axis + s * (cos(p) * a + sin(p) * b);
 }
 
+// The ISG pipeline's integrand a(ω) (radiance × BRDF × cosine per steradian) from
+// its record at X[k0] (pipelines/isg/shade.rs `Integrand::pack`, read as its
+// `eval_packed`): value, n, the open and hidden counts; per open product its SG,
+// factor and cosine flag (7 words); per hidden grid its factor, frame x, y, z, G's
+// sharpness, cull cosine, first edge, step, side k (15 words), then k² densities.
+fn mc_isg_a(k0: u32, w: vec3<f32>) -> f32 {
+    let c = max(dot(vec3<f32>(X[k0 + 1u], X[k0 + 2u], X[k0 + 3u]), w), 0.0);
+    let no = u32(X[k0 + 4u]);
+    let nh = u32(X[k0 + 5u]);
+    var k = k0 + 6u;
+    var a = 0.0;
+    for (var e = 0u; e < no; e++) {
+        let g = LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);
+        var v = X[k + 5u] * lf_sg_eval(g, w);
+        if X[k + 6u] != 0.0 {
+            v *= c;
+        }
+        a += v;
+        k += 7u;
+    }
+    for (var e = 0u; e < nh; e++) {
+        let x = vec3<f32>(X[k + 1u], X[k + 2u], X[k + 3u]);
+        let y = vec3<f32>(X[k + 4u], X[k + 5u], X[k + 6u]);
+        let z = vec3<f32>(X[k + 7u], X[k + 8u], X[k + 9u]);
+        let side = u32(X[k + 14u]);
+        let zw = dot(z, w);
+        if zw >= X[k + 11u] {
+            let lo = X[k + 12u];
+            let cell = X[k + 13u];
+            let ti = floor((acos(clamp(dot(y, w), -1.0, 1.0)) - lo) / cell);
+            let pj = floor((atan2(zw, dot(x, w)) - lo) / cell);
+            let kk = f32(side);
+            if ti >= 0.0 && ti < kk && pj >= 0.0 && pj < kk {
+                a -= X[k] * X[k + 15u + u32(ti) * side + u32(pj)] * exp(X[k + 10u] * (zw - 1.0));
+            }
+        }
+        k += 15u + side * side;
+    }
+    return a;
+}
+
 // The density (1/sr) of mc_sample_sg at w.
 fn mc_sg_pdf(g: LfSg, w: vec3<f32>) -> f32 {
     let l = g.sharpness;
@@ -467,9 +508,14 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
         open *= f_d;
     }
     // The hybrid's control variate: the pipeline's value (its closed form here) and
-    // its integrand's SH coefficients, after the pixel's other inputs.
+    // its integrand's SH coefficients after the pixel's other inputs, or (HYB_ISG)
+    // where the ISG pipeline's record starts (mc_isg_a).
     var hyb: array<f32, 16>;
-    if HYB {
+    var isg_at = 0u;
+    if HYB_ISG {
+        isg_at = u32(X[i * N_IN + 15u]);
+        open = X[isg_at];
+    } else if HYB {
         open = X[i * N_IN + 15u];
         for (var k = 0u; k < 16u; k++) {
             hyb[k] = X[i * N_IN + 16u + k];
@@ -537,12 +583,16 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
                     if c > 0.0 && !mc_occluded(x, w, own, own_mesh, own_tri, 3.4e38) {
                         lit = light * (f_d + f_s) * c;
                     }
-                    let y = lf_sh_basis(4u, w);
-                    var a = 0.0;
-                    for (var k = 0u; k < 16u; k++) {
-                        a += hyb[k] * y[k];
+                    if HYB_ISG {
+                        f = (lit - mc_isg_a(isg_at, w)) / pdf;
+                    } else {
+                        let y = lf_sh_basis(4u, w);
+                        var a = 0.0;
+                        for (var k = 0u; k < 16u; k++) {
+                            a += hyb[k] * y[k];
+                        }
+                        f = (lit - light * a) / pdf;
                     }
-                    f = (lit - light * a) / pdf;
                 } else {
                     let blocked = mc_occluded(x, w, own, own_mesh, own_tri, 3.4e38);
                     if CV {

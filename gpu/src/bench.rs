@@ -450,7 +450,9 @@ fn write_reports(
 /// sky) and Meunier kernels, for each the bench runs: the analytic image rendered once
 /// more for its values (untimed), then every estimator at `mc::bench_spp(max_spp)`
 /// against the CPU reference; beside the SH-exponentiation kernel also the hybrid,
-/// its control variate the kernel's integrands.
+/// its control variate the kernel's integrands, and beside the ISG kernel the ISG
+/// hybrid, its integrands the CPU pipeline's (its time per frame the ISG kernel's plus
+/// its own dispatches: a lower bound, since the kernel does not build them).
 fn monte_carlo(
     gpu: &Gpu,
     ex: &Exports,
@@ -469,11 +471,12 @@ fn monte_carlo(
             continue;
         };
         let png = out.join(format!("{pipeline}.png"));
-        let mut hybrid = false;
+        let mut hybrid = None;
         let (sc, values) = match *pipeline {
             "isg" => {
                 let sc = lobefit::pipelines::isg::render::scene(scene)?;
                 let v = crate::isg::render_isg(gpu, &ex.isg, &sc, width, false, &png)?.values;
+                hybrid = Some("isg");
                 (sc, v)
             }
             "shexp" => {
@@ -484,7 +487,7 @@ fn monte_carlo(
                 }
                 let s = lobefit::pipelines::shexp::shade::Settings::default();
                 let v = crate::shexp::render_shexp(gpu, &ex.shexp, &sc, width, &s, &png)?.values;
-                hybrid = true;
+                hybrid = Some("shexp");
                 (sc, v)
             }
             "meunier" => {
@@ -496,9 +499,13 @@ fn monte_carlo(
             _ => continue,
         };
         gpu.take_dispatches();
-        // The SH-exponentiation kernel's integrands: the hybrid's control variate.
+        // The hybrid's control variate: the SH-exponentiation kernel's integrands, or
+        // the CPU ISG pipeline's (the ISG kernel does not write them).
         let integrands = |hits: &[&lobefit::pipelines::scene::Hit]| {
-            let v = crate::shexp::integrands(gpu, &ex.shexp, &sc, hits);
+            let v = match hybrid {
+                Some("shexp") => crate::shexp::integrands(gpu, &ex.shexp, &sc, hits).map(crate::mc::ControlVariate::Sh),
+                _ => crate::mc::ControlVariate::isg(&sc, hits),
+            };
             gpu.take_dispatches();
             v
         };
@@ -506,7 +513,7 @@ fn monte_carlo(
             pipeline,
             values: &values,
             ms: spread(&row.ms).0,
-            integrands: hybrid.then_some(&integrands as crate::mc::Integrands),
+            integrands: hybrid.is_some().then_some(&integrands as crate::mc::Integrands),
         };
         benches.push(crate::mc::bench(gpu, &sc, width, analytic, max_spp)?);
     }

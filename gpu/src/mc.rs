@@ -68,6 +68,59 @@ pub enum Estimator {
     /// integral) and the uniform sphere (a lives below the horizon too), on
     /// Owen-scrambled Sobol points. Scenes under an SG sky.
     Hybrid,
+    /// The same with the ISG pipeline's integrand (packed by
+    /// `isg::shade::Integrand::pack`, built by the CPU pipeline: the device's ISG
+    /// kernel does not write it), a(ω) the shading itself: (f − a)/pdf.
+    HybridIsg,
+}
+
+/// The hybrid's control variate at each pixel.
+pub enum ControlVariate {
+    /// The SH-exponentiation pipeline's integrands ([`ShIntegrand`]).
+    Sh(Vec<ShIntegrand>),
+    /// The ISG pipeline's integrands, each as `isg::shade::Integrand::pack`'s record.
+    Isg(Vec<Vec<f32>>),
+}
+
+impl ControlVariate {
+    /// The ISG pipeline's integrands at `hits` (default settings), built by the CPU.
+    pub fn isg(sc: &Scene, hits: &[&Hit]) -> Result<ControlVariate, String> {
+        let t = lobefit::pipelines::isg::shade::Tables::embedded().map_err(|e| e.to_string())?;
+        let s = lobefit::pipelines::isg::shade::Settings::default();
+        hits.iter()
+            .map(|h| {
+                let b = Phong::of(sc.brdf(h))?;
+                let blockers = lobefit::pipelines::isg::render::blockers_of(sc, h);
+                let a = lobefit::pipelines::isg::shade::integrand(&t, &s, &sc.environment, &b, &blockers, h)?;
+                Ok(a.pack().into_iter().map(|v| v as f32).collect())
+            })
+            .collect::<Result<_, String>>()
+            .map(ControlVariate::Isg)
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            ControlVariate::Sh(v) => v.len(),
+            ControlVariate::Isg(v) => v.len(),
+        }
+    }
+
+    /// The estimator that takes it.
+    fn estimator(&self) -> Estimator {
+        match self {
+            ControlVariate::Sh(_) => Estimator::Hybrid,
+            ControlVariate::Isg(_) => Estimator::HybridIsg,
+        }
+    }
+
+    /// Loop iterations of one evaluation of a(ω) at most: the ISG record's entries
+    /// and its two loops' exits (the SH's are counted in [`iterations`]).
+    fn loops(&self) -> u64 {
+        match self {
+            ControlVariate::Sh(_) => 0,
+            ControlVariate::Isg(v) => v.iter().map(|p| (p[4] + p[5]) as u64 + 2).max().unwrap_or(0),
+        }
+    }
 }
 
 /// The SH-exponentiation pipeline's integrand at a pixel (`shade::Integrand`, default
@@ -81,7 +134,13 @@ impl Estimator {
         matches!(self, Estimator::CvMis | Estimator::QmcCvMis)
     }
     fn qmc(self) -> bool {
-        matches!(self, Estimator::Qmc | Estimator::QmcCvMis | Estimator::Hybrid)
+        matches!(
+            self,
+            Estimator::Qmc | Estimator::QmcCvMis | Estimator::Hybrid | Estimator::HybridIsg
+        )
+    }
+    fn hybrid(self) -> bool {
+        matches!(self, Estimator::Hybrid | Estimator::HybridIsg)
     }
     /// The name the reports use.
     pub fn name(self) -> &'static str {
@@ -91,6 +150,7 @@ impl Estimator {
             Estimator::Qmc => "qmc",
             Estimator::QmcCvMis => "qmc-cv-mis",
             Estimator::Hybrid => "hybrid",
+            Estimator::HybridIsg => "hybrid-isg",
         }
     }
     /// The same estimator on independent uniforms (what the CPU side of an agreement
@@ -358,19 +418,20 @@ const LAYOUT_SKY: &str = "    MESH0 = HF0 + HF_LEN;
 /// mixture's density and the light, the hierarchy: at most every node and every
 /// sphere; `traced`: the height field's and the meshes' traversals, [`hf_iterations`]
 /// and [`mesh_iterations`]), every loop counted.
-fn iterations(spheres: usize, sgs: usize, traced: u64, est: Estimator) -> (u64, u64) {
+fn iterations(spheres: usize, sgs: usize, traced: u64, est: Estimator, cv_loops: u64) -> (u64, u64) {
     let (ns, ne) = (spheres as u64 + nodes(spheres), sgs as u64);
     let cc = if est.cv() {
         crate::isg::CLAMPED_COSINE_ITERATIONS
     } else {
         0
     };
-    // The hybrid: its 16 coefficients read once; per sample the order-4 SH basis
-    // (`lf_sh_basis`: 4 + 10 loop passes and 20 of K_l^m's) and the dot product.
-    let (hyb_setup, hyb) = if est == Estimator::Hybrid {
-        (17, 4 + 10 + 20 + 17)
-    } else {
-        (0, 0)
+    // The SH hybrid: its 16 coefficients read once; per sample the order-4 SH basis
+    // (`lf_sh_basis`: 4 + 10 loop passes and 20 of K_l^m's) and the dot product. The
+    // ISG hybrid: per sample its record's loops (`cv_loops`).
+    let (hyb_setup, hyb) = match est {
+        Estimator::Hybrid => (17, 4 + 10 + 20 + 17),
+        Estimator::HybridIsg => (0, cv_loops),
+        _ => (0, 0),
     };
     let setup = (ne + 1) * (1 + cc) + if est.cv() { (ne + 1) * (1 + cc) } else { 0 } + 2 + hyb_setup;
     (setup, 1 + point_iterations(est) + ne + (ne + 1) + ns + traced + hyb)
@@ -394,8 +455,8 @@ fn point_iterations(est: Estimator) -> u64 {
 
 /// Samples per dispatch: the largest power of two ≤ [`MAX_BATCH`] within llvmpipe's
 /// loop budget, or an error naming the scene's size.
-fn batch_size(spheres: usize, sgs: usize, traced: u64, est: Estimator) -> Result<usize, String> {
-    let (setup, per) = iterations(spheres, sgs, traced, est);
+fn batch_size(spheres: usize, sgs: usize, traced: u64, est: Estimator, cv_loops: u64) -> Result<usize, String> {
+    let (setup, per) = iterations(spheres, sgs, traced, est, cv_loops);
     let fit = budget::LOOP_LIMIT.saturating_sub(setup) / per;
     if fit == 0 {
         return Err(format!(
@@ -439,11 +500,12 @@ pub fn supported(sc: &Scene) -> Result<(), String> {
 /// ([`OFFSETS`]).
 fn source(sc: &Scene, est: Estimator) -> String {
     let cv = est.cv();
-    let hyb = est == Estimator::Hybrid;
+    let hyb = est.hybrid();
+    let hyb_isg = est == Estimator::HybridIsg;
     let n_in = sky_inputs_per_pixel(est);
     let (ns, ne) = (sc.spheres.len(), sc.environment.len());
     let consts = format!(
-        "const N_IN = {n_in}u;\nconst NS = {ns}u;\nconst NE = {ne}u;\nconst CV = {cv};\nconst HYB = {hyb};\n\
+        "const N_IN = {n_in}u;\nconst NS = {ns}u;\nconst NE = {ne}u;\nconst CV = {cv};\nconst HYB = {hyb};\nconst HYB_ISG = {hyb_isg};\n\
          const QMC = {};\n\
          const SOBOL_LEN = {}u;\n{OFFSETS}\
          fn env(e: u32) -> LfSg {{\n    let k = ENV0 + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n{}{}",
@@ -457,9 +519,14 @@ fn source(sc: &Scene, est: Estimator) -> String {
     kernel("texture_2d<f32>", n_in, N_OUT, &body) + &consts + functions
 }
 
-/// The sky kernel's inputs per pixel: [`N_IN`], and the hybrid's integrand after them.
+/// The sky kernel's inputs per pixel: [`N_IN`], and after them the SH hybrid's
+/// integrand, or where the ISG hybrid's record lies in the buffer.
 fn sky_inputs_per_pixel(est: Estimator) -> usize {
-    N_IN + if est == Estimator::Hybrid { 17 } else { 0 }
+    N_IN + match est {
+        Estimator::Hybrid => 17,
+        Estimator::HybridIsg => 1,
+        _ => 0,
+    }
 }
 
 /// Per pixel of `hits`: the estimate at `spp` samples (rounded up to whole batches)
@@ -473,14 +540,14 @@ pub fn estimate(
     hits: &[&Hit],
     spp: usize,
     est: Estimator,
-    cv: Option<&[ShIntegrand]>,
+    cv: Option<&ControlVariate>,
 ) -> Result<(Vec<Estimate>, usize), String> {
     supported(sc)?;
     if hits.is_empty() || spp == 0 {
         return Err("mc: no pixel or no sample".into());
     }
     let light = light_scene(sc);
-    check_estimator(sc, est, cv.map(<[ShIntegrand]>::len), hits.len())?;
+    check_estimator(sc, est, cv.map(|c| (c.estimator(), c.len())), hits.len())?;
     let (mut inputs, slot, per_batch, src) = if light {
         let (inputs, n_in, nl) = light_inputs(sc, hits)?;
         let traced = hf_iterations(sc) + mesh_iterations(sc);
@@ -488,7 +555,8 @@ pub fn estimate(
         (inputs, n_in * hits.len(), per, source_light(sc, n_in, nl, est.qmc()))
     } else {
         let traced = hf_iterations(sc) + mesh_iterations(sc);
-        let per = batch_size(sc.spheres.len(), sc.environment.len(), traced, est)?;
+        let cv_loops = cv.map_or(0, ControlVariate::loops);
+        let per = batch_size(sc.spheres.len(), sc.environment.len(), traced, est, cv_loops)?;
         (
             sky_inputs(sc, hits, cv)?,
             sky_inputs_per_pixel(est) * hits.len(),
@@ -503,18 +571,19 @@ pub fn estimate(
 }
 
 /// Refuses an estimator `sc` does not take (a spherical light takes `plain` and
-/// `qmc`), and a count of integrands (`cv`) that is not one per pixel for the hybrid
-/// or not none for the others.
-fn check_estimator(sc: &Scene, est: Estimator, cv: Option<usize>, pixels: usize) -> Result<(), String> {
-    if light_scene(sc) && (est.cv() || est == Estimator::Hybrid) {
+/// `qmc`), and control variates (`cv`: the estimator that takes them, their count)
+/// that are not one per pixel of the hybrid's kind, or not none for the others.
+fn check_estimator(sc: &Scene, est: Estimator, cv: Option<(Estimator, usize)>, pixels: usize) -> Result<(), String> {
+    if light_scene(sc) && (est.cv() || est.hybrid()) {
         return Err(format!(
             "mc: scene {} has a spherical light: plain or qmc only",
             sc.name
         ));
     }
-    match (est == Estimator::Hybrid, cv) {
-        (true, Some(n)) if n == pixels => Ok(()),
-        (true, Some(n)) => Err(format!("mc: {n} integrands for {pixels} pixels")),
+    match (est.hybrid(), cv) {
+        (true, Some((e, n))) if e == est && n == pixels => Ok(()),
+        (true, Some((e, _))) if e != est => Err(format!("mc: {} takes no integrands of {}", est.name(), e.name())),
+        (true, Some((_, n))) => Err(format!("mc: {n} integrands for {pixels} pixels")),
         (true, None) => Err("mc: the hybrid estimator needs the pipeline's integrand at each pixel".into()),
         (false, Some(_)) => Err(format!("mc: {} takes no integrand", est.name())),
         (false, None) => Ok(()),
@@ -525,7 +594,7 @@ fn check_estimator(sc: &Scene, est: Estimator, cv: Option<usize>, pixels: usize)
 /// sphere, own mesh and triangle, and the hybrid's integrand (`cv`); the batch slot
 /// and the samples a dispatch; the spheres; the SGs; the direction numbers; the
 /// hierarchy; the height field; the meshes.
-fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&[ShIntegrand]>) -> Result<Vec<f32>, String> {
+fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&ControlVariate>) -> Result<Vec<f32>, String> {
     let mut inputs = Vec::with_capacity(hits.len() * (N_IN + 17) + 1 + 4 * sc.spheres.len() + 5 * sc.environment.len());
     for (p, hit) in hits.iter().enumerate() {
         let b = Phong::of(sc.brdf(hit))?;
@@ -539,11 +608,19 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&[ShIntegrand]>) -> Result<V
         inputs.push(hit.sphere.map_or(-1.0, |i| i as f32));
         let (mesh, tri) = hit.mesh.map_or((-1.0, -1.0), |(m, k)| (m as f32, k as f32));
         inputs.extend([mesh, tri]);
-        if let Some(c) = cv {
-            if let Some(bad) = c[p].iter().find(|v| !v.is_finite()) {
-                return Err(format!("mc: the integrand at pixel {p} is not finite ({bad})"));
-            }
-            inputs.extend(c[p]);
+        let record: &[f32] = match cv {
+            Some(ControlVariate::Sh(c)) => &c[p],
+            Some(ControlVariate::Isg(c)) => &c[p],
+            None => &[],
+        };
+        if let Some(bad) = record.iter().find(|v| !v.is_finite()) {
+            return Err(format!("mc: the integrand at pixel {p} is not finite ({bad})"));
+        }
+        match cv {
+            Some(ControlVariate::Sh(c)) => inputs.extend(c[p]),
+            // Where its record lies: filled in below.
+            Some(ControlVariate::Isg(_)) => inputs.push(0.0),
+            None => {}
         }
     }
     inputs.extend([0.0, 0.0]);
@@ -557,6 +634,21 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&[ShIntegrand]>) -> Result<V
     inputs.extend(bvh_inputs(sc));
     inputs.extend(hf_inputs(sc));
     inputs.extend(mesh_inputs(sc));
+    // The ISG hybrid's records after everything else, each pixel's start in its
+    // inputs (an f32 index: exact below 2^24).
+    if let Some(ControlVariate::Isg(c)) = cv {
+        let n_in = sky_inputs_per_pixel(Estimator::HybridIsg);
+        for (p, record) in c.iter().enumerate() {
+            let at = inputs.len();
+            if at + record.len() >= 1 << 24 {
+                return Err(format!(
+                    "mc: the ISG integrands pass 2^24 words at pixel {p} (fewer pixels a call)"
+                ));
+            }
+            inputs[p * n_in + N_IN] = at as f32;
+            inputs.extend(record);
+        }
+    }
     Ok(inputs)
 }
 
@@ -639,7 +731,7 @@ fn source_light(sc: &Scene, n_in: usize, nl: usize, qmc: bool) -> String {
     let f = |v: f64| format!("{:?}", v as f32);
     let consts = format!(
         "const NS = {}u;\nconst NE = 0u;\nconst NL = {nl}u;\nconst N_IN = {n_in}u;\n\
-         const QMC = {qmc};\nconst CV = false;\nconst HYB = false;\nconst SOBOL_LEN = {}u;\n{OFFSETS}\
+         const QMC = {qmc};\nconst CV = false;\nconst HYB = false;\nconst HYB_ISG = false;\nconst SOBOL_LEN = {}u;\n{OFFSETS}\
          const LIGHT = vec4<f32>({}, {}, {}, {});\nconst LIGHT_RADIANCE = {};\n{}{}",
         sc.spheres.len(),
         direction_inputs().len(),
@@ -706,6 +798,11 @@ pub fn cpu_estimate(sc: &Scene, hits: &[&Hit], spp: usize, est: Estimator, seed:
     } else {
         None
     };
+    let isg = if est == Estimator::HybridIsg {
+        Some(lobefit::pipelines::isg::shade::Tables::embedded().map_err(|e| e.to_string())?)
+    } else {
+        None
+    };
     hits.iter()
         .enumerate()
         .map(|(p, h)| {
@@ -734,6 +831,24 @@ pub fn cpu_estimate(sc: &Scene, hits: &[&Hit], spp: usize, est: Estimator, seed:
                     spp,
                     seed,
                 ),
+                Estimator::HybridIsg => {
+                    let t = isg.as_ref().ok_or("the ISG tables")?;
+                    let s = lobefit::pipelines::isg::shade::Settings::default();
+                    let blockers = lobefit::pipelines::isg::render::blockers_of(sc, h);
+                    let a = lobefit::pipelines::isg::shade::integrand(t, &s, &sc.environment, &b, &blockers, h)?;
+                    reference_hybrid(
+                        Sampling::Plain,
+                        &sc.environment,
+                        |v| lobefit::pipelines::sky::environment(&sc.environment, v),
+                        &b,
+                        |v| sc.occluded(h, v),
+                        h,
+                        spp,
+                        seed,
+                        a.value,
+                        |w| a.eval(w),
+                    )
+                }
                 Estimator::Hybrid => {
                     let a = sh.as_ref().ok_or("the SH pipeline")?.integrand(sc, h)?;
                     let light = |v| lobefit::pipelines::shexp::light(sc, v);
@@ -780,15 +895,23 @@ impl ShPipeline {
     }
 }
 
+/// The device's f32 resolution of an estimate, relative to it: where a control
+/// variate leaves almost no variance (the ISG hybrid at an unshadowed diffuse point:
+/// standard errors ~1e-9), the f32 closed form and sums differ from the CPU's f64 by
+/// ~1e-7 of the value (measured: 1.1e-7 at fig12-diffuse's worst pixel), which alone
+/// gave z = 32 there.
+const F32_FLOOR: f64 = 1e-6;
+
 /// How two independent estimates of the same image agree: per pixel
-/// z = (a − b)/√(se_a² + se_b²); the mean of z, the mean of z², and the fraction of
-/// pixels with |z| > 4.
+/// z = (a − b)/√(se_a² + se_b² + (F32_FLOOR · max(|a|, |b|))²); the mean of z, the
+/// mean of z², and the fraction of pixels with |z| > 4.
 pub fn agreement(a: &[Estimate], b: &[Estimate]) -> (f64, f64, f64) {
     let z: Vec<f64> = a
         .iter()
         .zip(b)
         .filter_map(|(a, b)| {
-            let s = (a.std_error * a.std_error + b.std_error * b.std_error).sqrt();
+            let floor = F32_FLOOR * a.mean.abs().max(b.mean.abs());
+            let s = (a.std_error * a.std_error + b.std_error * b.std_error + floor * floor).sqrt();
             (s > 0.0).then(|| (a.mean - b.mean) / s)
         })
         .collect();
@@ -835,7 +958,7 @@ const INTEGRAND_RMS_MAX: f64 = 1e-4;
 /// The device's SH-exponentiation integrands at `hits` (from the kernel on the export
 /// `dir`), checked against the CPU pipeline's at the same f32-rounded hits: their RMS
 /// difference over the peak |value| (all 17 numbers) is at most [`INTEGRAND_RMS_MAX`].
-fn device_integrands(dir: &std::path::Path, sc: &Scene, hits: &[&Hit]) -> Result<(Gpu, Vec<ShIntegrand>), String> {
+fn device_integrands(dir: &std::path::Path, sc: &Scene, hits: &[&Hit]) -> Result<(Gpu, ControlVariate), String> {
     let (ex, gpu) = crate::render::open(dir, crate::shexp::FAMILIES, |b| {
         crate::shexp::check_budget(b, sc, "mc --estimator hybrid")
     })?;
@@ -869,7 +992,7 @@ fn device_integrands(dir: &std::path::Path, sc: &Scene, hits: &[&Hit]) -> Result
             "mc: the device's integrands differ from the CPU's by {rms:.2e} of the peak (limit {INTEGRAND_RMS_MAX:.0e})"
         ));
     }
-    Ok((gpu, got))
+    Ok((gpu, ControlVariate::Sh(got)))
 }
 
 /// Largest |mean z| and range of the mean z² the agreement accepts: for P pixels the
@@ -903,10 +1026,11 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
         (Estimator::Hybrid, None) => {
             return Err("mc: --estimator hybrid needs --export DIR (the SH-exponentiation kernel's textures)".into())
         }
+        (Estimator::HybridIsg, _) => (Gpu::new()?, Some(ControlVariate::isg(&sc, &refs)?)),
         _ => (Gpu::new()?, None),
     };
     let t0 = std::time::Instant::now();
-    let (got, spp) = estimate(&gpu, &sc, &refs, a.spp as usize, a.estimator, cv.as_deref())?;
+    let (got, spp) = estimate(&gpu, &sc, &refs, a.spp as usize, a.estimator, cv.as_ref())?;
     let t_gpu = t0.elapsed().as_secs_f64();
     let t0 = std::time::Instant::now();
     let cpu = cpu_estimate(&sc, &refs, spp, a.estimator, 0x6d63)?;
@@ -1028,7 +1152,7 @@ impl McBench {
 }
 
 /// The analytic kernel's integrands at given hits (the hybrid's control variate).
-pub type Integrands<'a> = &'a dyn Fn(&[&Hit]) -> Result<Vec<ShIntegrand>, String>;
+pub type Integrands<'a> = &'a dyn Fn(&[&Hit]) -> Result<ControlVariate, String>;
 
 /// The analytic kernel the bench's Monte Carlo is compared with.
 pub struct Analytic<'a> {
@@ -1074,8 +1198,9 @@ pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: u
     };
     let cv = match analytic.integrands {
         Some(f) if !light_scene(sc) => {
-            estimators.push(Estimator::Hybrid);
-            Some(f(&refs)?)
+            let cv = f(&refs)?;
+            estimators.push(cv.estimator());
+            Some(cv)
         }
         _ => None,
     };
@@ -1088,7 +1213,7 @@ pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: u
     let mut rows = Vec::new();
     for est in estimators {
         let (cv, extra) = match est {
-            Estimator::Hybrid => (cv.as_deref(), analytic.ms),
+            Estimator::Hybrid | Estimator::HybridIsg => (cv.as_ref(), analytic.ms),
             _ => (None, 0.0),
         };
         for spp in bench_spp(max_spp) {
@@ -1388,13 +1513,14 @@ mod tests {
             Estimator::Qmc,
             Estimator::QmcCvMis,
             Estimator::Hybrid,
+            Estimator::HybridIsg,
         ] {
             // fig12, the whale over its height field, the bunny's triangles.
             for sc in [&sc, &whale, &bunny] {
                 let traced = hf_iterations(sc) + mesh_iterations(sc);
-                let b = batch_size(sc.spheres.len(), sc.environment.len(), traced, est).unwrap();
+                let b = batch_size(sc.spheres.len(), sc.environment.len(), traced, est, 40).unwrap();
                 assert!(b.is_power_of_two() && b <= MAX_BATCH, "{b}");
-                let (setup, per) = iterations(sc.spheres.len(), sc.environment.len(), traced, est);
+                let (setup, per) = iterations(sc.spheres.len(), sc.environment.len(), traced, est, 40);
                 assert!(setup + per * b as u64 <= budget::LOOP_LIMIT);
                 supported(sc).unwrap();
                 if let Err(e) = lobefit::export::shaders::module_of(&source(sc, est)) {
@@ -1431,16 +1557,29 @@ mod tests {
         big.heightfield = Some((hf, 0));
         let e = supported(&big).unwrap_err();
         assert!(e.contains("more than 2049 samples a side"), "{e}");
-        assert!(batch_size(70_000, 1, 0, Estimator::Plain).is_err());
+        assert!(batch_size(70_000, 1, 0, Estimator::Plain, 0).is_err());
         // The estimators' arguments: the hybrid takes one integrand a pixel, the
         // others none, and a spherical light neither control variate.
-        check_estimator(&whale, Estimator::Hybrid, Some(5), 5).unwrap();
+        let (sh, isg) = (Some((Estimator::Hybrid, 5)), Some((Estimator::HybridIsg, 5)));
+        check_estimator(&whale, Estimator::Hybrid, sh, 5).unwrap();
+        check_estimator(&sc, Estimator::HybridIsg, isg, 5).unwrap();
         check_estimator(&whale, Estimator::CvMis, None, 5).unwrap();
         for (sc, est, cv, what) in [
             (&whale, Estimator::Hybrid, None, "needs the pipeline's integrand"),
-            (&whale, Estimator::Hybrid, Some(4), "4 integrands for 5 pixels"),
-            (&whale, Estimator::QmcCvMis, Some(5), "qmc-cv-mis takes no integrand"),
-            (&m, Estimator::Hybrid, None, "plain or qmc only"),
+            (
+                &whale,
+                Estimator::Hybrid,
+                Some((Estimator::Hybrid, 4)),
+                "4 integrands for 5 pixels",
+            ),
+            (
+                &sc,
+                Estimator::HybridIsg,
+                sh,
+                "hybrid-isg takes no integrands of hybrid",
+            ),
+            (&whale, Estimator::QmcCvMis, sh, "qmc-cv-mis takes no integrand"),
+            (&m, Estimator::HybridIsg, None, "plain or qmc only"),
             (&m, Estimator::CvMis, None, "plain or qmc only"),
         ] {
             let e = check_estimator(sc, est, cv, 5).unwrap_err();
@@ -1449,18 +1588,23 @@ mod tests {
     }
 
     /// Agreement of two estimates: equal means give z = 0; a shift of two standard
-    /// errors gives mean z 2/√2.
+    /// errors gives mean z 2/√2; where the standard errors vanish, a difference of f32
+    /// rounding (1e-7 of the value) stays within one z, and 1e-5 does not.
     #[test]
     fn agreement_in_standard_errors() {
-        let e = |mean| Estimate {
+        let e = |mean, std_error| Estimate {
             mean,
-            std_error: 1.0,
+            std_error,
             samples: 4,
         };
-        let (mz, mz2, far) = agreement(&[e(1.0), e(2.0)], &[e(1.0), e(2.0)]);
+        let (mz, mz2, far) = agreement(&[e(1.0, 1.0), e(2.0, 1.0)], &[e(1.0, 1.0), e(2.0, 1.0)]);
         assert_eq!((mz, mz2, far), (0.0, 0.0, 0.0));
-        let (mz, _, _) = agreement(&[e(3.0)], &[e(1.0)]);
-        assert!((mz - 2.0 / 2f64.sqrt()).abs() < 1e-12);
+        let (mz, _, _) = agreement(&[e(3.0, 1.0)], &[e(1.0, 1.0)]);
+        assert!((mz - 2.0 / 2f64.sqrt()).abs() < 1e-9);
+        let (mz, _, _) = agreement(&[e(0.6 * (1.0 + 1e-7), 1e-9)], &[e(0.6, 1e-9)]);
+        assert!(mz.abs() < 1.0, "{mz}");
+        let (mz, _, _) = agreement(&[e(0.6 * (1.0 + 1e-5), 1e-9)], &[e(0.6, 1e-9)]);
+        assert!(mz > 4.0, "{mz}");
     }
 
     /// The direction numbers make each dimension's first 2^m points one per interval
