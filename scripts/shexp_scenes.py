@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Writes assets/scenes/shexp-spheres-*.json: spheres under the whale's SG sky over flat
 ground, scenes independent of the ones the SH-exponentiation pipeline's settings were
-chosen on (docs/shexp-render.md, "Independent scenes"). Deterministic: the same files
-every run. 12 large or 60 small non-overlapping spheres, diffuse (Lambert 0.7) or Phong 3
+chosen on (docs/shexp-render.md, "Independent scenes"), and shexp-whale-sh.json, the
+whale under an SH sky. Deterministic: the same files every run. 12 large or 60 small non-overlapping spheres, diffuse (Lambert 0.7) or Phong 3
 (a Lafortune lobe of exponent 3, specular 0.3, diffuse 0.5) on the spheres; the ground is
 Lambert 0.7 in both."""
 import json
@@ -47,3 +47,11 @@ for count, rmin, rmax, seed in [(12, 0.35, 0.6, 12), (60, 0.15, 0.3, 60)]:
         path = out / f"shexp-spheres{count}-{kind}.json"
         path.write_text(json.dumps(scene, indent=1) + "\n")
         print(path.relative_to(root), file=sys.stderr)
+
+# The whale and its terrain under an order-3 SH sky (brighter above, positive
+# everywhere): the device's Monte Carlo under an SH environment (docs/gpu.md, "SH skies").
+sh = {k: v for k, v in whale.items() if k != "environment"}
+sh["sh_environment"] = {"order": 3, "coefficients": [2.0, 0.3, 1.0, -0.2, 0.1, 0.0, 0.2, 0.0, -0.1]}
+path = out / "shexp-whale-sh.json"
+path.write_text(json.dumps(sh, indent=1) + "\n")
+print(path.relative_to(root), file=sys.stderr)

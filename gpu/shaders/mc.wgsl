@@ -475,7 +475,7 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
     let rt = lf_any_orthonormal(r);
     let rb = cross(r, rt);
     let spec = ks > 0.0;
-    var energy: array<f32, NE>;
+    var energy: array<f32, NE_ARR>;
     var total = 0.0;
     for (var k = 0u; k < NE; k++) {
         energy[k] = mc_weight(env(k), kd, ks, e, n, r);
@@ -569,6 +569,14 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
                 light += lf_sg_eval(g, w);
                 if p_env > 0.0 {
                     mix += energy[k] / total * mc_sg_pdf(g, w);
+                }
+            }
+            // An SH environment (SHO > 0): Σ_k c_k y_k(ω), its SHN coefficients after
+            // the SGs.
+            if SHO > 0u {
+                let y = lf_sh_basis(SHO, w);
+                for (var k = 0u; k < SHN; k++) {
+                    light += X[ENV0 + 5u * NE + k] * y[k];
                 }
             }
             pdf += p_env * mix;

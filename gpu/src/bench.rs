@@ -481,7 +481,7 @@ fn monte_carlo(
             }
             "shexp" => {
                 let sc = lobefit::pipelines::shexp::render::scene(scene)?;
-                // Under an SH sky (no SGs to sample) the device has no Monte Carlo.
+                // A scene the device's Monte Carlo does not trace is skipped.
                 if crate::mc::supported(&sc).is_err() {
                     continue;
                 }

@@ -400,7 +400,7 @@ const LAYOUT: &str = "    BATCH = N_IN * N.x;
     SPP = u32(X[BATCH + 1u]);
     SPH0 = BATCH + 2u;
     ENV0 = SPH0 + 4u * NS;
-    SOBOL0 = ENV0 + 5u * NE;
+    SOBOL0 = ENV0 + 5u * NE + SHN;
     NODE0 = SOBOL0 + SOBOL_LEN;
     ORDER0 = NODE0 + 8u * NODES;
     HF0 = ORDER0 + NORDER;
@@ -469,6 +469,24 @@ fn batch_size(spheres: usize, sgs: usize, traced: u64, est: Estimator, cv_loops:
     Ok(1 << (63 - m.leading_zeros()))
 }
 
+/// Loop iterations of one evaluation of an SH environment of order `n` (0: none):
+/// `lf_sh_basis` (n passes over m, n(n + 1)/2 over l, Σ_l l(l + 1) of K_l^m's) and the
+/// sum over its n² coefficients, each loop's exit too.
+fn sh_loops(n: usize) -> u64 {
+    let n = n as u64;
+    if n == 0 {
+        return 0;
+    }
+    n + 1 + n * (n + 1) / 2 + n + (0..n).map(|l| l * (l + 1) + l + 1).sum::<u64>() + n * n + 1
+}
+
+/// The SH environment's order (0: none).
+fn sh_order(sc: &Scene) -> usize {
+    sc.sh_environment
+        .as_ref()
+        .map_or(0, |c| (c.len() as f64).sqrt().round() as usize)
+}
+
 /// Whether `sc` is a light scene (Meunier's: one spherical light, no distant light).
 fn light_scene(sc: &Scene) -> bool {
     sc.environment.is_empty() && sc.sh_environment.is_none() && !sc.lights.is_empty()
@@ -481,8 +499,8 @@ pub fn supported(sc: &Scene) -> Result<(), String> {
         Some("a height field of more than 2049 samples a side")
     } else if light_scene(sc) && sc.lights.len() > 1 {
         Some("more than one spherical light")
-    } else if sc.environment.is_empty() && !light_scene(sc) {
-        Some("neither an SG environment nor a spherical light")
+    } else if sc.environment.is_empty() && sc.sh_environment.is_none() && !light_scene(sc) {
+        Some("neither a distant light nor a spherical light")
     } else {
         None
     };
@@ -504,11 +522,15 @@ fn source(sc: &Scene, est: Estimator) -> String {
     let hyb_isg = est == Estimator::HybridIsg;
     let n_in = sky_inputs_per_pixel(est);
     let (ns, ne) = (sc.spheres.len(), sc.environment.len());
+    let sho = sh_order(sc);
     let consts = format!(
-        "const N_IN = {n_in}u;\nconst NS = {ns}u;\nconst NE = {ne}u;\nconst CV = {cv};\nconst HYB = {hyb};\nconst HYB_ISG = {hyb_isg};\n\
+        "const N_IN = {n_in}u;\nconst NS = {ns}u;\nconst NE = {ne}u;\nconst NE_ARR = {}u;\nconst SHO = {sho}u;\nconst SHN = {}u;\n\
+         const CV = {cv};\nconst HYB = {hyb};\nconst HYB_ISG = {hyb_isg};\n\
          const QMC = {};\n\
          const SOBOL_LEN = {}u;\n{OFFSETS}\
          fn env(e: u32) -> LfSg {{\n    let k = ENV0 + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n{}{}",
+        ne.max(1),
+        sho * sho,
         est.qmc(),
         direction_inputs().len(),
         bvh_consts(sc),
@@ -554,7 +576,7 @@ pub fn estimate(
         let per = batch_size_light(sc.spheres.len(), nl, traced, est)?;
         (inputs, n_in * hits.len(), per, source_light(sc, n_in, nl, est.qmc()))
     } else {
-        let traced = hf_iterations(sc) + mesh_iterations(sc);
+        let traced = hf_iterations(sc) + mesh_iterations(sc) + sh_loops(sh_order(sc));
         let cv_loops = cv.map_or(0, ControlVariate::loops);
         let per = batch_size(sc.spheres.len(), sc.environment.len(), traced, est, cv_loops)?;
         (
@@ -577,6 +599,12 @@ fn check_estimator(sc: &Scene, est: Estimator, cv: Option<(Estimator, usize)>, p
     if light_scene(sc) && (est.cv() || est.hybrid()) {
         return Err(format!(
             "mc: scene {} has a spherical light: plain or qmc only",
+            sc.name
+        ));
+    }
+    if sc.sh_environment.is_some() && (est.cv() || est.hybrid()) {
+        return Err(format!(
+            "mc: scene {} has an SH environment (its control variates are the SGs' closed forms): plain or qmc only",
             sc.name
         ));
     }
@@ -630,6 +658,7 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&ControlVariate>) -> Result<
     for g in &sc.environment {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
+    inputs.extend(sc.sh_environment.iter().flatten().map(|&v| v as f32));
     inputs.extend(direction_inputs());
     inputs.extend(bvh_inputs(sc));
     inputs.extend(hf_inputs(sc));
@@ -731,7 +760,8 @@ fn source_light(sc: &Scene, n_in: usize, nl: usize, qmc: bool) -> String {
     let f = |v: f64| format!("{:?}", v as f32);
     let consts = format!(
         "const NS = {}u;\nconst NE = 0u;\nconst NL = {nl}u;\nconst N_IN = {n_in}u;\n\
-         const QMC = {qmc};\nconst CV = false;\nconst HYB = false;\nconst HYB_ISG = false;\nconst SOBOL_LEN = {}u;\n{OFFSETS}\
+         const QMC = {qmc};\nconst CV = false;\nconst HYB = false;\nconst HYB_ISG = false;\nconst SHO = 0u;\n\
+         const SHN = 0u;\nconst SOBOL_LEN = {}u;\n{OFFSETS}\
          const LIGHT = vec4<f32>({}, {}, {}, {});\nconst LIGHT_RADIANCE = {};\n{}{}",
         sc.spheres.len(),
         direction_inputs().len(),
@@ -818,6 +848,16 @@ pub fn cpu_estimate(sc: &Scene, hits: &[&Hit], spp: usize, est: Estimator, seed:
             }
             let b = Phong::of(sc.brdf(h))?;
             Ok(match est.random() {
+                Estimator::Plain | Estimator::Qmc if sc.sh_environment.is_some() => {
+                    lobefit::pipelines::shexp::reference(
+                        sc,
+                        |v| lobefit::pipelines::shexp::light(sc, v),
+                        &b,
+                        h,
+                        spp,
+                        seed,
+                    )
+                }
                 Estimator::Plain | Estimator::Qmc => {
                     reference(&sc.environment, &b, |v| sc.occluded(h, v), h, spp, seed)
                 }
@@ -1188,7 +1228,7 @@ pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: u
     }
     // The reference: the CPU's strongest random estimator (its standard errors true):
     // cv-mis under a sky, plain (uniform in the cap) for a light.
-    let (mut estimators, strongest) = if light_scene(sc) {
+    let (mut estimators, strongest) = if light_scene(sc) || sc.sh_environment.is_some() {
         (vec![Estimator::Plain, Estimator::Qmc], Estimator::Plain)
     } else {
         (
@@ -1197,7 +1237,7 @@ pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: u
         )
     };
     let cv = match analytic.integrands {
-        Some(f) if !light_scene(sc) => {
+        Some(f) if !light_scene(sc) && sc.sh_environment.is_none() => {
             let cv = f(&refs)?;
             estimators.push(cv.estimator());
             Some(cv)
@@ -1560,6 +1600,26 @@ mod tests {
         assert!(batch_size(70_000, 1, 0, Estimator::Plain, 0).is_err());
         // The estimators' arguments: the hybrid takes one integrand a pixel, the
         // others none, and a spherical light neither control variate.
+        // An SH sky: its kernel validates with plain and qmc, and refuses the rest.
+        let sky_sh = lobefit::pipelines::shexp::render::scene(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../assets/scenes/shexp-whale-sh.json"
+        ))
+        .unwrap();
+        supported(&sky_sh).unwrap();
+        assert_eq!(sh_order(&sky_sh), 3);
+        for est in [Estimator::Plain, Estimator::Qmc] {
+            check_estimator(&sky_sh, est, None, 5).unwrap();
+            let traced = hf_iterations(&sky_sh) + sh_loops(3);
+            batch_size(sky_sh.spheres.len(), 0, traced, est, 0).unwrap();
+            if let Err(e) = lobefit::export::shaders::module_of(&source(&sky_sh, est)) {
+                panic!("SH sky {est:?}: {e}");
+            }
+        }
+        for est in [Estimator::CvMis, Estimator::QmcCvMis] {
+            let e = check_estimator(&sky_sh, est, None, 5).unwrap_err();
+            assert!(e.contains("an SH environment"), "{e}");
+        }
         let (sh, isg) = (Some((Estimator::Hybrid, 5)), Some((Estimator::HybridIsg, 5)));
         check_estimator(&whale, Estimator::Hybrid, sh, 5).unwrap();
         check_estimator(&sc, Estimator::HybridIsg, isg, 5).unwrap();
