@@ -181,7 +181,7 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     }
     gpu.bench_frames(a.frames as usize);
     let width = a.width as usize;
-    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    let (w, h) = crate::render::image_size(width);
     let mut rows = Vec::new();
     for (pipeline, scene) in &scenes {
         let png = a.out.join(format!("{pipeline}.png"));

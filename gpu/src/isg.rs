@@ -269,18 +269,13 @@ pub fn render_isg(
     looped: bool,
     out: &Path,
 ) -> Result<SceneRender, String> {
-    let scene = &sc.name;
     let m = &export.manifest;
     let (best_e, best_t) = texture(export, lobefit_tables::isg::KIND_BEST)?;
     let (fit_e, fit_t) = texture(export, lobefit_tables::sg_fit::KIND)?;
     let (best_up, fit_up) = (gpu.upload(best_t, m.storage)?, gpu.upload(fit_t, m.storage)?);
-    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
-    sc.check_camera()?;
-    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let (w, h) = crate::render::image_size(width);
+    let hits = crate::render::primary_hits(sc, (w, h))?;
     let visible: Vec<&Hit> = hits.iter().flatten().collect();
-    if visible.is_empty() {
-        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
-    }
     // Inputs: point, normal, view, k_d, k_s, Phong n, the blockers it lies on or in
     // (`Scene::own_proxies`: first, end), as f32.
     let mut inputs = Vec::with_capacity(visible.len() * INPUTS);

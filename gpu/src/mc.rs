@@ -1054,9 +1054,10 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
         .or_else(|e| lobefit::pipelines::shexp::render::scene(&a.scene).map_err(|e2| format!("{e}; {e2}")))
         .or_else(|e| lobefit::pipelines::meunier::render::scene(&a.scene).map_err(|e2| format!("{e}; {e2}")))?;
     supported(&sc)?;
-    let (w, h) = ((a.width as usize).max(4), (a.width as usize * 3 / 4).max(3));
-    sc.check_camera()?;
-    let hits: Vec<Hit> = (0..w * h).filter_map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let hits: Vec<Hit> = crate::render::primary_hits(&sc, crate::render::image_size(a.width as usize))?
+        .into_iter()
+        .flatten()
+        .collect();
     let refs: Vec<&Hit> = hits.iter().collect();
     let (gpu, cv) = match (a.estimator, &a.export) {
         (Estimator::Hybrid, Some(dir)) => {
@@ -1216,8 +1217,10 @@ pub struct Analytic<'a> {
 pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: usize) -> Result<McBench, String> {
     use lobefit::pipelines::image::noise_free_rel_rmse;
     supported(sc)?;
-    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
-    let hits: Vec<Hit> = (0..w * h).filter_map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let hits: Vec<Hit> = crate::render::primary_hits(sc, crate::render::image_size(width))?
+        .into_iter()
+        .flatten()
+        .collect();
     let refs: Vec<&Hit> = hits.iter().collect();
     if analytic.values.len() != refs.len() {
         return Err(format!(
@@ -1319,6 +1322,14 @@ mod tests {
         );
     }
 
+    /// The test kernel `src` over `count` invocations of `inputs` on the device (no
+    /// texture): its `n_out` outputs each.
+    fn run_on_device(src: &str, inputs: &[f32], count: usize, n_out: usize) -> Vec<f32> {
+        let gpu = Gpu::new().unwrap();
+        let dummy = gpu.upload(&dummy_texture(), Storage::F32).unwrap();
+        gpu.run(src, &[0u8; LF_TEX_SIZE], &dummy, inputs, count, n_out).unwrap()
+    }
+
     /// The rays' helpers (mc_inverse, mc_meets_box, mc_sphere_blocks).
     fn ray_helpers() -> String {
         section("// ---- rays:", "// Whether the ray x + t v meets a sphere other")
@@ -1384,9 +1395,7 @@ mod tests {
     Y[o] = select(0.0, 1.0, mc_blocked(x, v, own, x7));
     Y[o + 1u] = select(0.0, 1.0, scan);";
         let src = kernel("texture_2d<f32>", 8, 2, body) + &consts + &blocked;
-        let gpu = Gpu::new().unwrap();
-        let dummy = gpu.upload(&dummy_texture(), Storage::F32).unwrap();
-        let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, count, 2).unwrap();
+        let got = run_on_device(&src, &inputs, count, 2);
         let walk: Vec<bool> = got.chunks(2).map(|c| c[0] == 1.0).collect();
         let scan: Vec<bool> = got.chunks(2).map(|c| c[1] == 1.0).collect();
         rays_agree(&walk, &scan, 0);
@@ -1442,10 +1451,10 @@ mod tests {
         let body =
             "    Y[o] = select(0.0, 1.0, mc_terrain(vec3<f32>(x0, x1, x2), vec3<f32>(x3, x4, x5), HF_TMIN, x6));";
         let src = kernel("texture_2d<f32>", 8, 1, body) + &consts + &terrain;
-        let gpu = Gpu::new().unwrap();
-        let dummy = gpu.upload(&dummy_texture(), Storage::F32).unwrap();
-        let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, count, 1).unwrap();
-        let device: Vec<bool> = got.iter().map(|&g| g == 1.0).collect();
+        let device: Vec<bool> = run_on_device(&src, &inputs, count, 1)
+            .iter()
+            .map(|&g| g == 1.0)
+            .collect();
         let cpu: Vec<bool> = rays
             .iter()
             .map(|r| {
@@ -1521,10 +1530,10 @@ mod tests {
         let body =
             "    Y[o] = select(0.0, 1.0, mc_meshes(vec3<f32>(x0, x1, x2), vec3<f32>(x3, x4, x5), 0, i32(x7), x6));";
         let src = kernel("texture_2d<f32>", 10, 1, body) + &consts + &meshes;
-        let gpu = Gpu::new().unwrap();
-        let dummy = gpu.upload(&dummy_texture(), Storage::F32).unwrap();
-        let got = gpu.run(&src, &[0u8; LF_TEX_SIZE], &dummy, &inputs, count, 1).unwrap();
-        let device: Vec<bool> = got.iter().map(|&g| g == 1.0).collect();
+        let device: Vec<bool> = run_on_device(&src, &inputs, count, 1)
+            .iter()
+            .map(|&g| g == 1.0)
+            .collect();
         let cpu: Vec<bool> = rays
             .iter()
             .map(|(r, own)| {
@@ -1645,6 +1654,20 @@ mod tests {
             let e = check_estimator(sc, est, cv, 5).unwrap_err();
             assert!(e.contains(what), "{est:?}: {e}");
         }
+    }
+
+    /// `mc --estimator hybrid` without `--export` is refused by name before any
+    /// device is opened; an SH sky refuses the control variate by name.
+    #[test]
+    fn hybrid_without_an_export_and_cv_under_an_sh_sky_are_errors() {
+        use clap::Parser as _;
+        let a = Args::try_parse_from(["mc", "--scene", "whale", "--width", "8", "--estimator", "hybrid"]).unwrap();
+        let e = run(a).err().unwrap();
+        assert!(e.contains("needs --export DIR"), "{e}");
+        let sky_sh = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/scenes/shexp-whale-sh.json");
+        let a = Args::try_parse_from(["mc", "--scene", sky_sh, "--width", "8", "--estimator", "cv-mis"]).unwrap();
+        let e = run(a).err().unwrap();
+        assert!(e.contains("an SH environment"), "{e}");
     }
 
     /// Agreement of two estimates: equal means give z = 0; a shift of two standard

@@ -268,7 +268,6 @@ pub fn render_meunier(
     settings: &MaskSettings,
     out: &Path,
 ) -> Result<SceneRender, String> {
-    let scene = &sc.name;
     let m = &export.manifest;
     let (lp_e, lp_t) = texture(export, lobefit_tables::lobe_product::KIND_ENERGY, 0)?;
     let (lnw_e, lnw_t) = texture(export, lobefit_tables::lobe_product::KIND_ENERGY, 1)?;
@@ -282,13 +281,9 @@ pub fn render_meunier(
         .iter()
         .map(|e| lf_tex(e, Filter::Manual))
         .collect::<Result<Vec<_>, _>>()?;
-    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
-    sc.check_camera()?;
-    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let (w, h) = crate::render::image_size(width);
+    let hits = crate::render::primary_hits(sc, (w, h))?;
     let visible: Vec<&Hit> = hits.iter().flatten().collect();
-    if visible.is_empty() {
-        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
-    }
     let mut inputs = Vec::with_capacity(visible.len() * N_IN + 64);
     for hit in &visible {
         inputs.extend(

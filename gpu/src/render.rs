@@ -416,18 +416,12 @@ pub fn render_scene(
     sc: &lobefit::pipelines::scene::Scene,
     out: &Path,
 ) -> Result<SceneRender, String> {
-    let scene = &sc.name;
     let m = &export.manifest;
     let (entry, tex) = disk_texture(export)?;
     let up = gpu.upload(tex, m.storage)?;
     let (w, h) = (SCENE_WIDTH, SCENE_WIDTH * 3 / 4);
-    sc.check_camera()?;
-    let hits: Vec<Option<lobefit::pipelines::scene::Hit>> =
-        (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let hits = primary_hits(sc, (w, h))?;
     let visible: Vec<&lobefit::pipelines::scene::Hit> = hits.iter().flatten().collect();
-    if visible.is_empty() {
-        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
-    }
     let f = |v: f64| format!("{:e}", v as f32);
     let lights: String = sc
         .lights
@@ -496,6 +490,26 @@ pub fn render_scene(
 /// the CPU image's peak, a non-finite GPU value counting as infinitely wrong (NaN would
 /// pass unseen); writes `out` (PNG, value / peak, gamma 1/2.2, background black).
 /// `vs_exact` is left unmeasured (NaN).
+/// The image size the renders and the Monte Carlo use for `width`: `width` × 3/4 of
+/// it, at least 4 × 3.
+pub(crate) fn image_size(width: usize) -> (usize, usize) {
+    (width.max(4), (width * 3 / 4).max(3))
+}
+
+/// Each pixel's primary hit in the `w` × `h` image `sc`'s camera sees, or an error
+/// when its camera is invalid or no pixel sees geometry.
+pub(crate) fn primary_hits(
+    sc: &lobefit::pipelines::scene::Scene,
+    (w, h): (usize, usize),
+) -> Result<Vec<Option<lobefit::pipelines::scene::Hit>>, String> {
+    sc.check_camera()?;
+    let hits: Vec<_> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    if hits.iter().all(Option::is_none) {
+        return Err(format!("{}: no pixel of the {w}×{h} image sees geometry", sc.name));
+    }
+    Ok(hits)
+}
+
 pub(crate) fn compare_and_write(
     got: &[f32],
     cpu: &[f64],

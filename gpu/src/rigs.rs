@@ -189,7 +189,7 @@ pub struct RigRow {
 /// irradiance / the row's CPU peak, gamma 1/2.2). Returns the visible pixels and the
 /// rows.
 pub fn render_rigs(gpu: &Gpu, width: usize, wraps: &[f64], out: &Path) -> Result<(usize, Vec<RigRow>), String> {
-    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    let (w, h) = crate::render::image_size(width);
     let hits: Vec<Option<Receiver>> = (0..w * h)
         .map(|p| hit_box(CAMERA.eye, CAMERA.ray(p % w, p / w, w, h)))
         .collect();

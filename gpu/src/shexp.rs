@@ -243,14 +243,9 @@ pub fn render_shexp(
     s: &Settings,
     out: &Path,
 ) -> Result<SceneRender, String> {
-    let scene = &sc.name;
-    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
-    sc.check_camera()?;
-    let hits: Vec<Option<Hit>> = (0..w * h).map(|p| sc.primary(p % w, p / w, w, h)).collect();
+    let (w, h) = crate::render::image_size(width);
+    let hits = crate::render::primary_hits(sc, (w, h))?;
     let visible: Vec<&Hit> = hits.iter().flatten().collect();
-    if visible.is_empty() {
-        return Err(format!("{scene}: no pixel of the {w}×{h} image sees geometry"));
-    }
     let light = light_sh(sc, ORDER)?;
     let Dispatched { got, at_hits, brdfs } = dispatch(gpu, export, sc, &visible, s, false)?;
     // The CPU pipeline (f64, the committed tables) at the same f32-rounded hits.

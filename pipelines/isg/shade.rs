@@ -1253,17 +1253,10 @@ mod hybrid_tests {
     use crate::estimate::Sampling;
     use crate::sky::{reference, reference_hybrid};
 
-    /// The pipeline as the control variate leaves the estimate unbiased: at a Phong
-    /// point (specular products reach below the horizon) under two SGs with a sphere
-    /// blocker, for the default settings and the paper's variants (eq. 9, the
-    /// cosine's SG, exact patch coverage), the hybrid's mean over 64 scrambles of
-    /// 4096 QMC samples lies within 4 standard errors (≈ 0.4 %) of plain Monte Carlo's
-    /// 4 000 000-sample mean (exact visibility, an independent ray–sphere test here),
-    /// while the pipeline alone (2–16 % off) lies outside it. An integrand whose
-    /// integral were 1 % off its value fails.
-    #[test]
-    fn hybrid_is_unbiased_where_the_pipeline_is_not() {
-        let t = Tables::embedded().unwrap();
+    /// A Phong point on the ground (specular products reach below the horizon) under
+    /// two SGs, with a sphere blocker towards the sharper: the SGs, the blocker, the
+    /// hit and the BRDF.
+    fn phong_point() -> ([Sg; 2], Sphere, Hit, Phong) {
         let env = [
             Sg::new(DVec3::new(0.3, 0.1, 0.95).normalize(), 30.0, 2.0).unwrap(),
             Sg::new(DVec3::new(-0.5, 0.2, 0.84).normalize(), 5.0, 1.0).unwrap(),
@@ -1286,6 +1279,21 @@ mod hybrid_tests {
             specular: 0.4,
             exponent: 50.0,
         };
+        (env, b, h, brdf)
+    }
+
+    /// The pipeline as the control variate leaves the estimate unbiased: at a Phong
+    /// point (specular products reach below the horizon) under two SGs with a sphere
+    /// blocker, for the default settings and the paper's variants (eq. 9, the
+    /// cosine's SG, exact patch coverage), the hybrid's mean over 64 scrambles of
+    /// 4096 QMC samples lies within 4 standard errors (≈ 0.4 %) of plain Monte Carlo's
+    /// 4 000 000-sample mean (exact visibility, an independent ray–sphere test here),
+    /// while the pipeline alone (2–16 % off) lies outside it. An integrand whose
+    /// integral were 1 % off its value fails.
+    #[test]
+    fn hybrid_is_unbiased_where_the_pipeline_is_not() {
+        let t = Tables::embedded().unwrap();
+        let (env, b, h, brdf) = phong_point();
         // The ray x + s w (s > 0) meets the sphere.
         let occluded = |w: DVec3| {
             let oc = h.x - b.centre;
@@ -1357,28 +1365,8 @@ mod hybrid_tests {
     #[test]
     fn packed_integrand_evaluates_as_the_integrand() {
         let t = Tables::embedded().unwrap();
-        let env = [
-            Sg::new(DVec3::new(0.3, 0.1, 0.95).normalize(), 30.0, 2.0).unwrap(),
-            Sg::new(DVec3::new(-0.5, 0.2, 0.84).normalize(), 5.0, 1.0).unwrap(),
-        ];
-        let spheres = [Sphere {
-            centre: DVec3::new(0.25, 0.05, 1.5),
-            radius: 0.3,
-        }];
-        let h = Hit {
-            x: DVec3::ZERO,
-            n: DVec3::Z,
-            t: DVec3::X,
-            wo: DVec3::new(-0.3, 0.0, 0.95).normalize(),
-            sphere: None,
-            mesh: None,
-            material: 0,
-        };
-        let brdf = Phong {
-            diffuse: 0.5,
-            specular: 0.4,
-            exponent: 50.0,
-        };
+        let (env, b, h, brdf) = phong_point();
+        let spheres = [b];
         let a = integrand(&t, &Settings::default(), &env, &brdf, &Blockers::all(&spheres), &h).unwrap();
         let p = a.pack();
         assert!(p[4] > 0.0 && p[5] > 0.0, "open {} hidden {}", p[4], p[5]);
