@@ -28,7 +28,9 @@ use lobefit::export::layout::Filter;
 use lobefit::export::{manifest::TextureEntry, Texture};
 use lobefit::pipelines::scene::{Hit, Scene};
 use lobefit::pipelines::shexp::light_sh;
-use lobefit::pipelines::shexp::shade::{radiance, BlockerLog, BrdfMode, Exp, Horizon, Overlap, Settings, Tables};
+use lobefit::pipelines::shexp::shade::{
+    radiance, BlockerLog, BrdfMode, ExactCaps, Exp, Horizon, Overlap, Settings, Tables,
+};
 use lobefit::pipelines::sky::Phong;
 use lobefit_tables::glam::DVec3;
 
@@ -164,6 +166,9 @@ fn supported(s: &Settings) -> Result<(), String> {
     }
     if s.brdf != BrdfMode::Log {
         return Err("render shexp adds the BRDF as log-ZH lobes only; the settings ask for the triple product".into());
+    }
+    if s.exact_caps != ExactCaps::Off {
+        return Err("render shexp keeps every cap in the log sum; the settings ask for exact caps".into());
     }
     Ok(())
 }
@@ -399,6 +404,13 @@ mod tests {
                     ..d
                 },
                 "overlap weighting",
+            ),
+            (
+                Settings {
+                    exact_caps: ExactCaps::Groups,
+                    ..d
+                },
+                "exact caps",
             ),
         ] {
             let e = supported(&s).unwrap_err();

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, Exp, Horizon, Overlap, Settings, Tables};
+use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, ExactCaps, Exp, Horizon, Overlap, Settings, Tables};
 use super::{light, light_sh, reference, PIPELINE};
 use crate::estimate::{per_pixel, Estimate};
 use crate::image::{breakdown, compare, noise_free_rel_rmse};
@@ -181,9 +181,14 @@ fn render_scene(
         "{}: SH-ideal (exact visibility and BRDF, the light at order {}) against the reference: relative RMSE {:.4}, p99 {:.4}, max {:.4} (the band limit; the two share their samples)",
         f.tag, default.order, band.rel_rmse, band.p99, band.max
     ));
-    let (pipeline_img, t_pipe) = variants(&f, &tables, &light_n, &r, &ideal, &mut sum.lines)?;
-    sum.lines
-        .push(median_line(&f, scene, opts.spp, &pipeline_img, &r, &ideal)?);
+    let open = unoccluded(&f, scene, opts.spp)?;
+    let refs = Refs {
+        r: &r,
+        ideal: &ideal,
+        open: &open,
+    };
+    let (pipeline_img, t_pipe) = variants(&f, &tables, &light_n, &refs, &mut sum.lines)?;
+    sum.lines.push(median_line(&f, "", &pipeline_img, &r, &ideal, &open));
 
     // The breakdown on a strided subset: each approximation made exact in turn.
     let picks = f.picks();
@@ -263,30 +268,12 @@ fn render_scene(
 /// plus 1 % of the light, the target docs/shexp-render.md measures against).
 fn median_line(
     f: &Frame<'_>,
-    scene: &Scene,
-    spp: usize,
+    label: &str,
     pipeline: &[f64],
     r: &Reference,
     ideal: &Reference,
-) -> Result<String, String> {
-    let full = |w: lobefit_tables::glam::DVec3| light(scene, w);
-    let open = per_pixel(
-        &f.hits,
-        f.w,
-        |hit, p| {
-            let brdf = Phong::of(scene.brdf(hit))?;
-            Ok(crate::sky::reference_with(
-                &scene.environment,
-                full,
-                &brdf,
-                |_| false,
-                hit,
-                spp,
-                MC_SEED ^ p as u64,
-            ))
-        },
-        &|| (),
-    )?;
+    open: &[Estimate],
+) -> String {
     let median = |img: &[f64], shadowed: bool| {
         let mut v: Vec<f64> = (0..img.len())
             .filter(|&p| f.lit[p] && open[p].mean > 0.0 && (!shadowed || r.img[p] < 0.9 * open[p].mean))
@@ -304,12 +291,35 @@ fn median_line(
             if mp <= bound { "yes" } else { "no" }
         )
     };
-    Ok(format!(
-        "{}: the median |image − reference| over each pixel's unoccluded radiance (the pipeline's carries the reference's noise; SH-ideal shares its samples): {}; {}",
+    format!(
+        "{}: {label}the median |image − reference| over each pixel's unoccluded radiance (the pipeline's carries the reference's noise; SH-ideal shares its samples): {}; {}",
         f.tag,
         part(false),
         part(true)
-    ))
+    )
+}
+
+/// Each pixel's unoccluded radiance: the reference's estimator with nothing blocking,
+/// the same seeds (0 where the pixel sees no geometry).
+fn unoccluded(f: &Frame<'_>, scene: &Scene, spp: usize) -> Result<Vec<Estimate>, String> {
+    let full = |w: lobefit_tables::glam::DVec3| light(scene, w);
+    per_pixel(
+        &f.hits,
+        f.w,
+        |hit, p| {
+            let brdf = Phong::of(scene.brdf(hit))?;
+            Ok(crate::sky::reference_with(
+                &scene.environment,
+                full,
+                &brdf,
+                |_| false,
+                hit,
+                spp,
+                MC_SEED ^ p as u64,
+            ))
+        },
+        &|| (),
+    )
 }
 
 /// The summary's first line: the scene and its reference.
@@ -438,6 +448,31 @@ fn variant_settings() -> Vec<(String, Settings)> {
                 ..default
             },
         ),
+        // Candidates: the caps apart from the log sum, projected exactly by a rule over
+        // them (lone caps; every group not touching the terrain; that with the BRDF
+        // triple product too).
+        one(
+            "lone caps exact",
+            Settings {
+                exact_caps: ExactCaps::Lone,
+                ..default
+            },
+        ),
+        one(
+            "cap groups exact",
+            Settings {
+                exact_caps: ExactCaps::Groups,
+                ..default
+            },
+        ),
+        one(
+            "cap groups exact, triple",
+            Settings {
+                exact_caps: ExactCaps::Groups,
+                brdf: BrdfMode::Triple,
+                ..default
+            },
+        ),
         one(
             "BRDF triple product",
             Settings {
@@ -466,16 +501,32 @@ fn variant_settings() -> Vec<(String, Settings)> {
     variants
 }
 
+/// The references a variant is compared with: the Monte Carlo reference, SH-ideal and
+/// the unoccluded radiance.
+struct Refs<'a> {
+    r: &'a Reference,
+    ideal: &'a Reference,
+    open: &'a [Estimate],
+}
+
+/// The variants whose median line (the target's) is printed besides the defaults'.
+const MEDIAN_VARIANTS: [&str; 4] = [
+    "blocker ε = 0.01",
+    "lone caps exact",
+    "cap groups exact",
+    "cap groups exact, triple",
+];
+
 /// The pipeline's variants, each timed and compared with the reference and with
 /// SH-ideal (a line each in `lines`): the defaults' image and time (s).
 fn variants(
     f: &Frame<'_>,
     tables: &Tables,
     light_n: &[f64],
-    r: &Reference,
-    ideal: &Reference,
+    refs: &Refs<'_>,
     lines: &mut Vec<String>,
 ) -> Result<(Vec<f64>, f64), String> {
+    let (r, ideal) = (refs.r, refs.ideal);
     let variants = variant_settings();
     let mut pipeline_img = Vec::new();
     let mut t_pipe = 0.0;
@@ -493,6 +544,9 @@ fn variants(
             st.max,
             1e6 * t / f.pixels as f64
         ));
+        if MEDIAN_VARIANTS.contains(&label.as_str()) {
+            lines.push(median_line(f, &format!("{label}: "), &img, r, ideal, refs.open));
+        }
         if k == 0 {
             pipeline_img = img;
             t_pipe = t;

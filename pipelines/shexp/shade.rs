@@ -61,6 +61,33 @@ pub enum Overlap {
     Touching,
 }
 
+/// Blocker caps whose occlusion is projected exactly instead of through the log sum.
+/// A group of caps that meets no other cap and lies above the height field's highest
+/// sampled horizon hides a region disjoint from everything else's, so the visibility is
+/// exactly V_rest − Σ_groups 1_group and ρ V = ρ V_rest − Σ_groups ρ 1_group: the first
+/// term by the pipeline (exponentiation), each group's by a rule over its caps
+/// ([`project_term_on_caps`]: the exact BRDF × cosine, each direction counted in the
+/// first of the group's caps that holds it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExactCaps {
+    /// Every blocker in the log sum (Giraud).
+    Off,
+    /// Lone caps (groups of one) apart.
+    Lone,
+    /// Every group of at most [`GROUP_MAX`] caps apart.
+    Groups,
+}
+
+/// The most caps a group of [`ExactCaps::Groups`] may hold; larger groups stay in the
+/// log sum (the rule's first-cap test costs the group's size squared: the wrecking
+/// ball's shell, one group of up to 402 caps, took 4.3 ms a pixel).
+pub const GROUP_MAX: usize = 16;
+
+/// [`ExactCaps`] looks for groups only where at most this many caps are kept at the
+/// point (the pairwise overlap test costs their number squared: 80 µs a pixel for the
+/// wrecking ball's 402); beyond, every cap stays in the log sum.
+pub const CAPS_MAX: usize = 64;
+
 /// How the BRDF enters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BrdfMode {
@@ -99,6 +126,9 @@ pub struct Settings {
     pub attenuation: bool,
     /// Overlap weighting (a candidate; off in the defaults).
     pub overlap: Overlap,
+    /// Caps taken out of the log sum and projected exactly (a candidate; off in the
+    /// defaults).
+    pub exact_caps: ExactCaps,
     /// Exponentiation.
     pub exp: Exp,
     /// BRDF.
@@ -120,6 +150,7 @@ impl Default for Settings {
             blocker_log: BlockerLog::Eps,
             attenuation: true,
             overlap: Overlap::Off,
+            exact_caps: ExactCaps::Off,
             exp: Exp::Hyb,
             brdf: BrdfMode::Log,
         }
@@ -200,9 +231,31 @@ pub fn sh_value(c: &[f64], w: DVec3) -> f64 {
 /// below the tangent plane are skipped (they cannot shadow the point; Giraud culls at
 /// the cap's centre, which drops half-visible caps).
 pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Result<Vec<f64>, String> {
+    let all = Settings {
+        exact_caps: ExactCaps::Off,
+        ..*s
+    };
+    Ok(log_parts(t, &all, scene, h)?.rest)
+}
+
+/// The log visibility split for [`Settings::exact_caps`]: the caps apart in groups
+/// (none with [`ExactCaps::Off`]), the rest summed.
+#[derive(Debug, Clone)]
+pub struct LogParts {
+    /// The height field's wedges and every blocker not apart, summed.
+    pub rest: Vec<f64>,
+    /// The groups apart, each its caps: axis (unit, world) and angular radius (rad).
+    pub groups: Vec<Vec<(DVec3, f64)>>,
+}
+
+/// [`log_visibility`]'s terms, the groups of [`Settings::exact_caps`] apart.
+pub fn log_parts(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Result<LogParts, String> {
     let n = s.order;
     let nc = n * n;
     let mut f = vec![0.0; nc];
+    // The highest horizon elevation over the wedges (rad; −π/2 without a height field):
+    // a cap wholly above it meets no terrain shadow.
+    let mut horizon_max = -FRAC_PI_2;
     if let Some((hf, _)) = &scene.heightfield {
         let w = s.wedges as usize;
         let mut slices = vec![0.0; w * n];
@@ -213,6 +266,7 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
                 Horizon::Exact => hf.horizon_exact(h.x.x, h.x.y, h.x.z, phi),
                 Horizon::Pyramid => hf.horizon_pyramid(h.x.x, h.x.y, h.x.z, phi),
             };
+            horizon_max = horizon_max.max(sigma);
             if s.terrain_above_tangent {
                 // The tangent plane's elevation in this azimuth: n·d = 0 for
                 // d = (cos e cos φ, cos e sin φ, sin e).
@@ -243,7 +297,63 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
         }
         caps.push((dir, theta_b, b));
     }
+    // The groups: the connected components of the kept caps under overlap (axes closer
+    // than the two half-angles, by cosines with 1e-12 of slack towards meeting); a
+    // component with a cap reaching below the highest of the wedges' sampled horizons
+    // (which bounds the terrain's log region: the wedges interpolate between their
+    // samples; 1 mrad of slack for a cap resting on flat ground) joins the terrain.
+    let m = caps.len();
+    let mut parent: Vec<usize> = (0..=m).collect(); // m: the terrain
+    fn root(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let mut apart = vec![false; m];
+    if s.exact_caps != ExactCaps::Off && m <= CAPS_MAX {
+        let trig: Vec<(f64, f64)> = caps.iter().map(|&(_, a, _)| a.sin_cos()).collect();
+        for i in 0..m {
+            let (d, a, _) = caps[i];
+            if d.z.clamp(-1.0, 1.0).asin() - a < horizon_max - 1e-3 {
+                let (ri, rm) = (root(&mut parent, i), root(&mut parent, m));
+                parent[ri] = rm;
+            }
+            for j in i + 1..m {
+                let e = caps[j].0;
+                // cos(a + b) = cos a cos b − sin a sin b.
+                let meets = a + caps[j].1 >= PI || d.dot(e) > trig[i].1 * trig[j].1 - trig[i].0 * trig[j].0 - 1e-12;
+                if meets {
+                    let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                    parent[ri] = rj;
+                }
+            }
+        }
+        let roots: Vec<usize> = (0..=m).map(|i| root(&mut parent, i)).collect();
+        let mut size = vec![0usize; m + 1];
+        roots[..m].iter().for_each(|&r| size[r] += 1);
+        for i in 0..m {
+            let r = roots[i];
+            let most = match s.exact_caps {
+                ExactCaps::Lone => 1,
+                _ => GROUP_MAX,
+            };
+            apart[i] = r != roots[m] && size[r] <= most;
+        }
+    }
+    let mut groups: Vec<Vec<(DVec3, f64)>> = Vec::new();
+    let mut slot = vec![usize::MAX; m + 1];
     for (i, &(dir, theta_b, b)) in caps.iter().enumerate() {
+        if apart[i] {
+            let r = root(&mut parent, i);
+            if slot[r] == usize::MAX {
+                slot[r] = groups.len();
+                groups.push(Vec::new());
+            }
+            groups[slot[r]].push((dir, theta_b));
+            continue;
+        }
         match s.blocker_log {
             BlockerLog::Eps => log_zh::blocker(s.eps_vis, theta_b, n, &mut zh),
             BlockerLog::Ren => t.shexp.log_zh(theta_b, n, &mut zh),
@@ -270,7 +380,7 @@ pub fn log_visibility(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Resul
         rt::zh_to_sh(&zh[..n], dir, &mut turned[..nc]).map_err(|e| e.to_string())?;
         f.iter_mut().zip(&turned[..nc]).for_each(|(a, b)| *a += b);
     }
-    Ok(f)
+    Ok(LogParts { rest: f, groups })
 }
 
 /// The solid angle (sr) of the intersection of two spherical caps of angular radii
@@ -375,13 +485,26 @@ fn terms(s: &Settings, brdf: &Phong, h: &Hit) -> Result<Vec<LobeTerm>, String> {
     Ok(out)
 }
 
-/// One BRDF × cosine term evaluated exactly (for [`BrdfMode::Triple`]).
+/// One BRDF × cosine term evaluated exactly (for [`BrdfMode::Triple`] and
+/// [`ExactCaps`]).
 #[derive(Debug, Clone, Copy)]
-enum Term {
+pub enum Term {
     /// max(n·ω, 0)/π (times k_d, the term's weight).
     Diffuse,
     /// k_s (r+2)/(2π) max(m·ω, 0)^r max(n·ω, 0): (k_s, r, mirror direction).
     Specular(f64, f64, DVec3),
+}
+
+impl Term {
+    /// The term's value in the unit direction `w` at a point with unit normal `nrm`
+    /// (sr⁻¹).
+    pub fn eval(self, nrm: DVec3, w: DVec3) -> f64 {
+        let c = nrm.dot(w).max(0.0);
+        match self {
+            Term::Diffuse => c / PI,
+            Term::Specular(ks, r, m) => ks * (r + 2.0) / TAU * m.dot(w).max(0.0).powf(r) * c,
+        }
+    }
 }
 
 /// Outgoing radiance at hit `h` with the pipeline `s`, the light's SH vector `light`
@@ -450,13 +573,19 @@ pub fn integrand(
             terms: Vec::new(),
         });
     }
-    let fv = log_visibility(t, s, scene, h)?;
-    let vis = checked_visibility(t, s.exp, &fv)?;
+    let parts = log_parts(t, s, scene, h)?;
+    let fv = &parts.rest;
+    let vis = checked_visibility(t, s.exp, fv)?;
     let mut total = 0.0;
     let mut turned = vec![0.0; nc];
     let mut kept = Vec::new();
     for (weight, zh, axis, term) in terms(s, brdf, h)? {
-        let (k, g) = match s.brdf {
+        // The exact term is k_term × [`Term`]'s function.
+        let k_term = match term {
+            Term::Diffuse => brdf.diffuse,
+            Term::Specular(..) => 1.0,
+        };
+        let (k, mut g) = match s.brdf {
             BrdfMode::Log => {
                 rt::zh_to_sh(&zh, axis, &mut turned).map_err(|e| e.to_string())?;
                 let f: Vec<f64> = fv.iter().zip(&turned).map(|(a, b)| a + b).collect();
@@ -465,13 +594,18 @@ pub fn integrand(
             BrdfMode::Triple => {
                 let rho = project_term(term, h, n);
                 let gaunt = Gaunt::cached(n).map_err(|e| e.to_string())?;
-                let k = match term {
-                    Term::Diffuse => brdf.diffuse,
-                    Term::Specular(..) => 1.0,
-                };
-                (k, gaunt.product(&vis, &rho))
+                (k_term, gaunt.product(&vis, &rho))
             }
         };
+        if k == 0.0 {
+            continue;
+        }
+        // ρ V = ρ V_rest − Σ_groups ρ 1_group (the groups hide disjoint regions).
+        for caps in &parts.groups {
+            let p = project_term_on_caps(term, h.n, caps, n);
+            let r = k_term / k;
+            g.iter_mut().zip(&p).for_each(|(x, y)| *x -= r * y);
+        }
         total += k * g.iter().zip(light).map(|(a, b)| a * b).sum::<f64>();
         kept.push((k, g));
     }
@@ -484,6 +618,141 @@ pub fn integrand(
     })
 }
 
+/// The SH projection (order n) of one BRDF × cosine term times the indicator of the
+/// union of `caps` (axis unit, angular radius in rad), at a point of unit normal `nrm`.
+///
+/// Each cap is integrated in its own polar coordinates (u = cos θ, φ) over the part
+/// left by the regions where the integrand is not one polynomial: the earlier caps of
+/// the union (so each direction counts once), the half-space below the tangent plane
+/// and, for the Phong term, the one behind its lobe — all caps themselves (a half-space
+/// is a cap of π/2). At each u those cut arcs out of the circle; the rest is
+/// integrated by Gauss–Legendre nodes per arc, and u by Gauss–Legendre nodes between
+/// the polar angles where a cut region's edge becomes tangent to the circle (the
+/// arcs' ends move smoothly in between). Where nothing is cut the rule is exact for the
+/// polynomial of degree D (the basis n − 1, plus 1 for the diffuse term, r + 1 for an
+/// integer Phong exponent): ⌈(D+1)/2⌉ nodes in u, D + 1 evenly spaced azimuths.
+pub fn project_term_on_caps(term: Term, nrm: DVec3, caps: &[(DVec3, f64)], n: usize) -> Vec<f64> {
+    /// Nodes per arc and per cut interval of u where regions are cut out.
+    const CUT_NODES: usize = 8;
+    let degree = n - 1
+        + match term {
+            Term::Diffuse => 1,
+            Term::Specular(_, r, _) => r.ceil().min(14.0) as usize + 1,
+        };
+    let (nu_full, nphi_full) = ((degree + 1).div_ceil(2).min(8), degree + 1);
+    thread_local! {
+        static GL: Vec<(Vec<f64>, Vec<f64>)> = (0..=8).map(lobefit_core::sh::gauss_legendre).collect();
+    }
+    let nc = n * n;
+    let mut out = vec![0.0; nc];
+    let mut y = [0.0; rt::MAX_COEFFS];
+    let mut base = vec![(-nrm, FRAC_PI_2)];
+    if let Term::Specular(_, _, m) = term {
+        base.push((-m, FRAC_PI_2));
+    }
+    GL.with(|rules| {
+        let mut add = |d: DVec3, w: f64| {
+            let f = term.eval(nrm, d);
+            if f != 0.0 {
+                rt::eval_basis(n, d, &mut y[..nc]).expect("order checked by the caller");
+                out.iter_mut().zip(&y[..nc]).for_each(|(o, b)| *o += w * f * b);
+            }
+        };
+        'cap: for (i, &(axis, theta)) in caps.iter().enumerate() {
+            let (ua, ub) = axis.any_orthonormal_pair();
+            // The cut regions meeting this cap: (cos γ, sin γ, azimuth of the axis,
+            // cos β) for a region of half-angle β whose axis is γ from this cap's.
+            let mut cuts = Vec::new();
+            let mut breaks = vec![theta.cos(), 1.0];
+            for &(e, beta) in base.iter().chain(&caps[..i]) {
+                let ce = e.dot(axis).clamp(-1.0, 1.0);
+                let gamma = ce.acos();
+                if gamma >= theta + beta {
+                    continue;
+                }
+                if gamma + theta <= beta {
+                    continue 'cap; // wholly cut out
+                }
+                let se = (1.0 - ce * ce).max(0.0).sqrt();
+                cuts.push((ce, se, e.dot(ub).atan2(e.dot(ua)), beta.cos()));
+                for t in [(gamma - beta).abs(), gamma + beta] {
+                    if t < theta {
+                        breaks.push(t.cos());
+                    }
+                }
+            }
+            breaks.sort_by(f64::total_cmp);
+            let nu = if cuts.is_empty() { nu_full } else { CUT_NODES };
+            let (x, w) = &rules[nu];
+            for span in breaks.windows(2) {
+                let (u0, u1) = (span[0], span[1]);
+                if u1 <= u0 {
+                    continue;
+                }
+                for (xk, wk) in x.iter().zip(w) {
+                    let u = u0 + (u1 - u0) * 0.5 * (xk + 1.0);
+                    let st = (1.0 - u * u).max(0.0).sqrt();
+                    let wu = (u1 - u0) * 0.5 * wk;
+                    let dir = |phi: f64| {
+                        let (sp, cp) = phi.sin_cos();
+                        u * axis + st * (cp * ua + sp * ub)
+                    };
+                    // The arcs cut out at this u: cos(φ − φ_e) > c.
+                    let mut arcs: Vec<(f64, f64)> = Vec::new();
+                    let mut all = false;
+                    for &(ce, se, pe, cb) in &cuts {
+                        let den = st * se;
+                        if den <= 1e-300 {
+                            all |= u * ce > cb;
+                            continue;
+                        }
+                        let c = (cb - u * ce) / den;
+                        if c <= -1.0 {
+                            all = true;
+                        } else if c < 1.0 {
+                            let h = c.acos();
+                            arcs.push(((pe - h).rem_euclid(TAU), 2.0 * h));
+                        }
+                    }
+                    if all {
+                        continue;
+                    }
+                    if arcs.is_empty() {
+                        for j in 0..nphi_full {
+                            add(
+                                dir(TAU * (j as f64 + 0.5) / nphi_full as f64),
+                                wu * TAU / nphi_full as f64,
+                            );
+                        }
+                        continue;
+                    }
+                    // The circle's complement of the arcs, from the first arc's start.
+                    arcs.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    let start = arcs[0].0;
+                    let mut reach = start + arcs[0].1;
+                    let mut free = Vec::new();
+                    for &(s0, len) in &arcs[1..] {
+                        if s0 > reach {
+                            free.push((reach, s0));
+                        }
+                        reach = reach.max(s0 + len);
+                    }
+                    if reach < start + TAU {
+                        free.push((reach, start + TAU));
+                    }
+                    let (xp, wp) = &rules[CUT_NODES];
+                    for (p0, p1) in free {
+                        for (xj, wj) in xp.iter().zip(wp) {
+                            add(dir(p0 + (p1 - p0) * 0.5 * (xj + 1.0)), wu * (p1 - p0) * 0.5 * wj);
+                        }
+                    }
+                }
+            }
+        }
+    });
+    out
+}
+
 /// The exact SH projection (order n) of one BRDF × cosine term at `h`, by a product
 /// rule with 64 Gauss–Legendre nodes in z and 128 in φ (the clamps make it converge
 /// slowly; at r ≤ 5 it agrees with 128 × 256 nodes to about 1e-5).
@@ -492,14 +761,5 @@ fn project_term(term: Term, h: &Hit, n: usize) -> Vec<f64> {
         static RULE: SphereRule = SphereRule::new(64, 128);
     }
     let nrm = h.n;
-    RULE.with(|rule| {
-        rule.project(n, |w| {
-            let w = DVec3::from_array(w);
-            let c = nrm.dot(w).max(0.0);
-            match term {
-                Term::Diffuse => c / PI,
-                Term::Specular(ks, r, m) => ks * (r + 2.0) / TAU * m.dot(w).max(0.0).powf(r) * c,
-            }
-        })
-    })
+    RULE.with(|rule| rule.project(n, |w| term.eval(nrm, DVec3::from_array(w))))
 }

@@ -66,11 +66,26 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
         assert!(summary.contains(what), "{what}: {summary}");
     }
     // The medians over the unoccluded radiance: all pixels and the shadowed ones,
-    // each pipeline and SH-ideal figure a finite number in [0, 10].
-    let line = summary
+    // each pipeline and SH-ideal figure a finite number in [0, 10]; the defaults' line
+    // (no variant's label before it) and the candidates'.
+    let medians: Vec<&str> = summary
         .lines()
-        .find(|l| l.contains("over each pixel's unoccluded radiance"))
-        .unwrap_or_else(|| panic!("no median line: {summary}"));
+        .filter(|l| l.contains("over each pixel's unoccluded radiance"))
+        .collect();
+    assert!(
+        medians.iter().any(|l| l.split(": ").nth(1).is_some_and(|x| x.starts_with("the median"))),
+        "no defaults' median line: {summary}"
+    );
+    for label in ["lone caps exact: ", "cap groups exact: "] {
+        assert!(medians.iter().any(|l| l.contains(label)), "no {label}median line: {summary}");
+    }
+    for line in medians {
+        check_medians(line);
+    }
+}
+
+/// A median line's four figures: finite, in [0, 10].
+fn check_medians(line: &str) {
     for part in ["all (", "shadowed ("] {
         let at = line.find(part).unwrap_or_else(|| panic!("{part}: {line}"));
         for what in ["pipeline ", "SH-ideal "] {
