@@ -99,6 +99,20 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
     }
     return total;
 }
+// The shadow lobe v times each kept (BRDF x cosine) x radiance lobe: the light's cap
+// model, where the radiance is uniform over the hemisphere (one product a leaf).
+fn mn_shade_leaf(pc: array<MnLobe, MAXL>, npc: u32, v: MnLobe) -> f32 {
+    var total = 0.0;
+    for (var k = 0u; k < MAXL; k++) {
+        if k < npc {
+            let f = mn_product(pc[k], v);
+            if mn_kept(f) {
+                total += mn_integral(f);
+            }
+        }
+    }
+    return total;
+}
 // ---- main: the kernel's body (the statements inside its entry point, kernel.rs)
     let p = vec3<f32>(x0, x1, x2);
     let n = vec3<f32>(x3, x4, x5);
@@ -199,7 +213,7 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
         var bl: array<MnLobe, MAXL>;
         var nbl = 0u;
         for (var j = 0u; j < MAXL; j++) {
-            if j < nb {
+            if !CAP_LIGHT && j < nb {
                 let r = mn_product(brdf[j], light);
                 if mn_kept(r) {
                     bl[nbl] = r;
@@ -207,17 +221,25 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
                 }
             }
         }
+        // Under the cap model: each BRDF lobe x the cosine, times the radiance (the
+        // lit term's lobe, and the shadow leaves' partner).
+        var pcs: array<MnLobe, MAXL>;
+        var npc = 0u;
         if CAP_LIGHT {
             // The unoccluded light over its cap.
             for (var j = 0u; j < MAXL; j++) {
                 if j < nb {
                     let b = brdf[j];
+                    let pc = mn_product(b, MnLobe(1.0, n, 1.0));
                     if b.e == 0.0 && dot(b.a, n) >= 1.0 - 1e-6 {
                         total += b.s * radiance * lf_sphere_cap_irradiance(sa, dot(la, n));
                     } else {
-                        let pc = mn_product(b, MnLobe(1.0, n, 1.0));
                         total += radiance * mn_integral(pc)
                             * lf_lobe_fraction_in_cap(lf_angle_between(pc.a, la), alpha, pc.e);
+                    }
+                    if mn_kept(pc) {
+                        pcs[npc] = MnLobe(radiance * pc.s, pc.a, pc.e);
+                        npc += 1u;
                     }
                 }
             }
@@ -293,7 +315,11 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
                         wd *= lf_lobe_fraction_in_cap(lf_angle_between(axis, la), alpha, e);
                     }
                     if wd != 0.0 {
-                        total += mn_shade_vis(bl, nbl, MnLobe(-wd, axis, e), n);
+                        if CAP_LIGHT {
+                            total += mn_shade_leaf(pcs, npc, MnLobe(-wd, axis, e));
+                        } else {
+                            total += mn_shade_vis(bl, nbl, MnLobe(-wd, axis, e), n);
+                        }
                     }
                 }
             }

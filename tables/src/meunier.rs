@@ -17,7 +17,10 @@
 //!   light, which then contributes exactly 0.
 //! - **Shading** (eq. 22, §5.4): ∫ (Σ BRDF)(Σ light)(Σ V)·max(n·v, 0) dω through
 //!   [`LobeProduct::triple_product`]: BRDF × light first, then visibility, then the
-//!   cosine, products with |∫| below the threshold t_i dropped.
+//!   cosine, products with |∫| below the threshold t_i dropped. With the light's cap
+//!   ([`LightModel::Cap`], the default) the light is uniform over the hemisphere, so
+//!   each BRDF lobe × the cosine is formed once (the lit term's lobe) and each shadow
+//!   leaf costs one product with it, not two.
 //!
 //! Cap half-angles below the cap-exponent table's 1 mrad take the small-cap limit
 //! e_cap(β) = e_cap(1 mrad)·(1 mrad/β)² (e_cap·β² → 1.9226 as β → 0).
@@ -31,7 +34,7 @@ use thiserror::Error;
 
 use crate::cap_exponent::{CapExponent, ALPHA_MIN};
 use crate::error::LookupError;
-use crate::lobe_product::{Lobe, LobeProduct};
+use crate::lobe_product::{lobe_sum_integral, Lobe, LobeProduct};
 use crate::mask_weights::{build_mask, check_depth, Cap, MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
 
 use crate::geom::{Brdf, Sphere, Sphere32, SphereLight, SphereLight32};
@@ -580,7 +583,7 @@ impl Meunier<'_> {
 
     /// One light's term of [`Meunier::shade`] under [`LightModel::Cap`]: the unoccluded
     /// light over the cap, plus the shadow leaves `shadow` (already −w_i·g_i·c_i) under
-    /// the uniform radiance L.
+    /// the uniform radiance L, each leaf times each BRDF lobe × cosine.
     #[allow(clippy::too_many_arguments)]
     fn shade_cap(
         &self,
@@ -591,36 +594,32 @@ impl Meunier<'_> {
         shadow: &[Lobe],
         threshold: f64,
     ) -> Result<f64, MeunierError> {
-        let hemisphere = Lobe {
+        let cosine = Lobe {
             scale: 1.0,
             axis: n,
-            exponent: 0.0,
+            exponent: 1.0,
         };
         let mut total = 0.0;
         for b in brdf {
+            // The BRDF lobe × the cosine as one lobe (the product table): its part
+            // inside the light's cap is the lit term, its products with the shadow
+            // leaves the shadow's. One product a leaf: the radiance is uniform over
+            // the hemisphere, and the hemisphere × the cosine is the cosine exactly.
+            let p = self.products.product(b, &cosine)?;
             total += if b.exponent == 0.0 && b.axis.dot(n) >= 1.0 - 1e-12 {
                 b.scale * light.radiance * cap_irradiance(cap.half_angle.sin(), cap.axis.dot(n))
             } else {
-                // The BRDF lobe × the cosine as one lobe (the product table), then its
-                // part inside the light's cap.
-                let p = self.products.product(
-                    b,
-                    &Lobe {
-                        scale: 1.0,
-                        axis: n,
-                        exponent: 1.0,
-                    },
-                )?;
                 let gamma = p.axis.dot(cap.axis).clamp(-1.0, 1.0).acos();
                 light.radiance * p.integral() * lobe_fraction_in_cap(gamma, cap.half_angle, p.exponent)
             };
-        }
-        if !shadow.is_empty() {
-            let uniform = Lobe {
-                scale: light.radiance,
-                ..hemisphere
+            if shadow.is_empty() || p.integral().abs() < threshold {
+                continue;
+            }
+            let lit = Lobe {
+                scale: light.radiance * p.scale,
+                ..p
             };
-            total += self.products.triple_product(brdf, &[uniform], shadow, n, threshold)?;
+            total += lobe_sum_integral(&self.products.product_sums(&[lit], shadow, threshold)?);
         }
         Ok(total)
     }
