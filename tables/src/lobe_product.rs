@@ -514,6 +514,29 @@ impl LobeProduct {
         })
     }
 
+    /// ∫ of the product of two lobes (sr, times their scales): the integral of
+    /// [`LobeProduct::product`]'s lobe (the table's integral, times its L² scale
+    /// correction for that variant) without forming the lobe's axis and exponent. For
+    /// any finite exponents ≥ 0, as the lobe-sum algebra needs.
+    pub fn product_integral(&self, l1: &Lobe, l2: &Lobe) -> Result<f64, LookupError> {
+        let (a1, a2) = (unit("a1", l1.axis)?, unit("a2", l2.axis)?);
+        finite("s1", l1.scale)?;
+        finite("s2", l2.scale)?;
+        let e1 = in_range("e1", l1.exponent, 0.0, f64::MAX)?;
+        let e2 = in_range("e2", l2.exponent, 0.0, f64::MAX)?;
+        let alpha = a1.cross(a2).length().atan2(a1.dot(a2).clamp(-1.0, 1.0));
+        let trig = Trig::new(alpha);
+        let mut ch = [0.0; 3];
+        let n = self.variant.channels().len();
+        self.table
+            .interpolate(&[e1.min(E_MAX), e2.min(E_MAX), alpha], &mut ch[..n])?;
+        let integral = (ln_model_with(e1, e2, alpha, &trig) + ch[0]).exp();
+        let k = if self.variant == Variant::L2 { ch[2].exp() } else { 1.0 };
+        let integral =
+            finite_result("product integral", integral).map_err(|_| LookupError::ProductOverflow { e1, e2 })?;
+        finite_result("product integral", l1.scale * k * integral * l2.scale)
+    }
+
     /// [`LobeProduct::product_any`] for inputs that passed [`valid_pair`], with no
     /// `Result`: the same arithmetic in the same order (so the same bits when the
     /// result is finite); a non-finite scale or exponent marks an overflow, which the

@@ -34,7 +34,7 @@ use thiserror::Error;
 
 use crate::cap_exponent::{CapExponent, ALPHA_MIN};
 use crate::error::LookupError;
-use crate::lobe_product::{lobe_sum_integral, Lobe, LobeProduct};
+use crate::lobe_product::{Lobe, LobeProduct};
 use crate::mask_weights::{build_mask, check_depth, Cap, MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
 
 use crate::geom::{Brdf, Sphere, Sphere32, SphereLight, SphereLight32};
@@ -619,7 +619,12 @@ impl Meunier<'_> {
                 scale: light.radiance * p.scale,
                 ..p
             };
-            total += lobe_sum_integral(&self.products.product_sums(&[lit], shadow, threshold)?);
+            for leaf in shadow {
+                let v = self.products.product_integral(&lit, leaf)?;
+                if v.abs() >= threshold {
+                    total += v;
+                }
+            }
         }
         Ok(total)
     }

@@ -181,6 +181,37 @@ fn lobe_sums_and_the_threshold() {
     assert_eq!(lobe_sum_integral(&[lobe(3.0, DVec3::X, 2.0)]), 3.0 * TAU / 3.0);
 }
 
+/// `product_integral` is the product lobe's integral without the lobe (both variants,
+/// sharp, broad, antipodal and beyond-the-table exponents), and refuses what
+/// `product` refuses.
+#[test]
+fn product_integral_is_the_product_lobes_integral() {
+    let pairs = [
+        (lobe(0.7, unit(0.3, 0.2), 12.0), lobe(1.3, unit(0.9, 2.0), 3.5)),
+        (lobe(1.0, DVec3::Z, 0.0), lobe(-0.4, unit(1.2, 0.5), 1.0)),
+        (lobe(2.0, DVec3::Z, 500.0), lobe(1.0, unit(0.05, 1.0), 2.0e4)),
+        (lobe(1.0, DVec3::Z, 10.0), lobe(1.0, -DVec3::Z, 100.0)),
+        (lobe(1.0, DVec3::Z, 3.0e5), lobe(1.0, unit(0.001, 0.0), 2.0e5)),
+    ];
+    for t in [energy(), l2()] {
+        for (a, b) in &pairs {
+            let want = t.product_sums(&[*a], &[*b], 0.0).unwrap();
+            let want: f64 = lobe_sum_integral(&want);
+            let got = t.product_integral(a, b).unwrap();
+            assert!(
+                (got - want).abs() <= 1e-12 * want.abs(),
+                "{:?} {a:?} {b:?}: {got} vs {want}",
+                t.variant()
+            );
+        }
+    }
+    let bad = lobe(1.0, DVec3::new(0.0, 0.0, 2.0), 1.0);
+    assert!(energy().product_integral(&bad, &pairs[0].0).is_err());
+    assert!(energy()
+        .product_integral(&lobe(f64::NAN, DVec3::Z, 1.0), &pairs[0].0)
+        .is_err());
+}
+
 #[test]
 fn a_triple_product_matches_quadrature() {
     // BRDF lobe around the mirror direction, one light, a visibility lobe: eq. 22.

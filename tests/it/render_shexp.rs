@@ -73,11 +73,16 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
         .filter(|l| l.contains("over each pixel's unoccluded radiance"))
         .collect();
     assert!(
-        medians.iter().any(|l| l.split(": ").nth(1).is_some_and(|x| x.starts_with("the median"))),
+        medians
+            .iter()
+            .any(|l| l.split(": ").nth(1).is_some_and(|x| x.starts_with("the median"))),
         "no defaults' median line: {summary}"
     );
     for label in ["lone caps exact: ", "cap groups exact: "] {
-        assert!(medians.iter().any(|l| l.contains(label)), "no {label}median line: {summary}");
+        assert!(
+            medians.iter().any(|l| l.contains(label)),
+            "no {label}median line: {summary}"
+        );
     }
     for line in medians {
         check_medians(line);
