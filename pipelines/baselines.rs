@@ -918,9 +918,10 @@ fn isg_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
 }
 
 /// SH exponentiation's configurations: orders 3–6, the BRDF by the exact triple
-/// product instead of its log lobe, Ren's blocker log (docs/shexp-render.md).
+/// product instead of its log lobe, Ren's blocker log, the exact-caps candidate
+/// (docs/shexp-render.md).
 fn shexp_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
-    use crate::shexp::shade::{radiance, BlockerLog, BrdfMode, Settings, Tables};
+    use crate::shexp::shade::{radiance, BlockerLog, BrdfMode, ExactCaps, Settings, Tables};
     let t = Tables::embedded()?;
     let d = Settings::default();
     let mut configs: Vec<(String, Settings)> = [4, 3, 5, 6]
@@ -948,6 +949,13 @@ fn shexp_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
         "order 4, Ren's blocker log".into(),
         Settings {
             blocker_log: BlockerLog::Ren,
+            ..d
+        },
+    ));
+    configs.push((
+        "order 4, cap groups exact".into(),
+        Settings {
+            exact_caps: ExactCaps::Groups,
             ..d
         },
     ));

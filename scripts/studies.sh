@@ -48,6 +48,10 @@ LF_OUT="$base" LF_SCENES=fig12,fig12-diffuse,whale,fig13 run cargo test -q -p lo
 LF_OUT="$base" LF_WIDTH=16 LF_SCENES=wrecking run cargo test -q -p lobefit-pipelines --features flip --lib study_baselines -- --ignored --nocapture
 LF_OUT="$base" LF_SCENES=cluster-1,cluster-16,cluster-256,cluster-1024,torus-1,torus-16,torus-252,torus-1020 \
   run cargo test -q -p lobefit-pipelines --features flip --lib study_baselines -- --ignored --nocapture
+# The independent SH-exponentiation scenes (spheres under the whale's sky), with the
+# exact-caps candidate among the configurations (docs/shexp-render.md).
+LF_OUT="$base" LF_SCENES="$(pwd)/assets/scenes/shexp-spheres12-diffuse.json,$(pwd)/assets/scenes/shexp-spheres60-diffuse.json" \
+  run cargo test -q -p lobefit-pipelines --features flip --lib study_baselines -- --ignored --nocapture
 run python3 scripts/pareto_front.py "$base"
 # The sphere proxy's error: the bunny shaded by the ISG pipeline with fitted sphere sets
 # of 8–256 spheres per method against the reference with its true triangles, next to
