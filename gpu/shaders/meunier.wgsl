@@ -237,8 +237,9 @@ fn mn_shade_leaf(pc: array<MnLobe, MAXL>, npc: u32, v: MnLobe) -> f32 {
                         total += radiance * mn_integral(pc)
                             * lf_lobe_fraction_in_cap(lf_angle_between(pc.a, la), alpha, pc.e);
                     }
-                    if mn_kept(pc) {
-                        pcs[npc] = MnLobe(radiance * pc.s, pc.a, pc.e);
+                    let lit = MnLobe(radiance * pc.s, pc.a, pc.e);
+                    if mn_kept(lit) {
+                        pcs[npc] = lit;
                         npc += 1u;
                     }
                 }

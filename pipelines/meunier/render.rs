@@ -201,19 +201,32 @@ fn products_kept(
         axis: h.n,
         exponent: 1.0,
     }];
-    let first = match s.light {
-        LightModel::Lobe => lobe,
-        LightModel::Cap => Lobe {
-            scale: light.radiance,
-            axis: h.n,
-            exponent: 0.0,
-        },
-    };
-    let bl = m.products.product_sums(&brdf, &[first], s.threshold).map_err(err)?;
+    if s.light == LightModel::Cap {
+        // Each BRDF lobe × the cosine (the unoccluded term, never thresholded), times
+        // the radiance, then one product with each shadow leaf.
+        let lit: Vec<Lobe> = m
+            .products
+            .product_sums(&brdf, &cosine, 0.0)
+            .map_err(err)?
+            .into_iter()
+            .map(|p| Lobe {
+                scale: light.radiance * p.scale,
+                ..p
+            })
+            .filter(|p| p.integral().abs() >= s.threshold)
+            .collect();
+        let mut kept = 0;
+        for p in &lit {
+            for leaf in &vis.lobes {
+                let v = m.products.product_integral(p, leaf).map_err(err)?;
+                kept += usize::from(v != 0.0 && v.abs() >= s.threshold);
+            }
+        }
+        return Ok(kept + brdf.len());
+    }
+    let bl = m.products.product_sums(&brdf, &[lobe], s.threshold).map_err(err)?;
     let blv = m.products.product_sums(&bl, &vis.lobes, s.threshold).map_err(err)?;
-    let all = m.products.product_sums(&blv, &cosine, s.threshold).map_err(err)?;
-    // The cap's unoccluded terms: one per BRDF lobe, never thresholded.
-    Ok(all.len() + if s.light == LightModel::Cap { brdf.len() } else { 0 })
+    Ok(m.products.product_sums(&blv, &cosine, s.threshold).map_err(err)?.len())
 }
 
 /// What [`breakdown`] returns at one hit, each by the same product rule.

@@ -493,6 +493,8 @@ pub enum Term {
     Diffuse,
     /// k_s (r+2)/(2π) max(m·ω, 0)^r max(n·ω, 0): (k_s, r, mirror direction).
     Specular(f64, f64, DVec3),
+    /// (r+1)/(2π) max(m·ω, 0)^r: the Phong log lobe's own function, (r, its axis).
+    Lobe(f64, DVec3),
 }
 
 impl Term {
@@ -503,6 +505,7 @@ impl Term {
         match self {
             Term::Diffuse => c / PI,
             Term::Specular(ks, r, m) => ks * (r + 2.0) / TAU * m.dot(w).max(0.0).powf(r) * c,
+            Term::Lobe(r, m) => (r + 1.0) / TAU * m.dot(w).max(0.0).powf(r),
         }
     }
 }
@@ -580,31 +583,33 @@ pub fn integrand(
     let mut turned = vec![0.0; nc];
     let mut kept = Vec::new();
     for (weight, zh, axis, term) in terms(s, brdf, h)? {
-        // The exact term is k_term × [`Term`]'s function.
-        let k_term = match term {
-            Term::Diffuse => brdf.diffuse,
-            Term::Specular(..) => 1.0,
-        };
-        let (k, mut g) = match s.brdf {
+        let (k, mut g, exact) = match s.brdf {
             BrdfMode::Log => {
                 rt::zh_to_sh(&zh, axis, &mut turned).map_err(|e| e.to_string())?;
                 let f: Vec<f64> = fv.iter().zip(&turned).map(|(a, b)| a + b).collect();
-                (weight, exponentiate(t, s.exp, &f)?)
+                // g stands for the log lobe's own function × V: the Phong lobe with
+                // the cosine taken at its axis (in `weight`).
+                let exact = match term {
+                    Term::Specular(_, r, m) => Term::Lobe(r, m),
+                    t => t,
+                };
+                (weight, exponentiate(t, s.exp, &f)?, exact)
             }
             BrdfMode::Triple => {
                 let rho = project_term(term, h, n);
                 let gaunt = Gaunt::cached(n).map_err(|e| e.to_string())?;
-                (k_term, gaunt.product(&vis, &rho))
+                let k = match term {
+                    Term::Diffuse => brdf.diffuse,
+                    _ => 1.0,
+                };
+                (k, gaunt.product(&vis, &rho), term)
             }
         };
-        if k == 0.0 {
-            continue;
-        }
-        // ρ V = ρ V_rest − Σ_groups ρ 1_group (the groups hide disjoint regions).
+        // ρ V = ρ V_rest − Σ_groups ρ 1_group (the groups hide disjoint regions), ρ the
+        // function g stands for.
         for caps in &parts.groups {
-            let p = project_term_on_caps(term, h.n, caps, n);
-            let r = k_term / k;
-            g.iter_mut().zip(&p).for_each(|(x, y)| *x -= r * y);
+            let p = project_term_on_caps(exact, h.n, caps, n);
+            g.iter_mut().zip(&p).for_each(|(x, y)| *x -= y);
         }
         total += k * g.iter().zip(light).map(|(a, b)| a * b).sum::<f64>();
         kept.push((k, g));
@@ -630,7 +635,9 @@ pub fn integrand(
 /// the polar angles where a cut region's edge becomes tangent to the circle (the
 /// arcs' ends move smoothly in between). Where nothing is cut the rule is exact for the
 /// polynomial of degree D (the basis n − 1, plus 1 for the diffuse term, r + 1 for an
-/// integer Phong exponent): ⌈(D+1)/2⌉ nodes in u, D + 1 evenly spaced azimuths.
+/// integer Phong exponent with the cosine, r for the log lobe's own function):
+/// ⌈(D+1)/2⌉ nodes in u, D + 1 evenly spaced azimuths — at most 8 nodes in u, so
+/// exact up to D = 15 (Phong exponents up to 11 at order 4); beyond, a close rule.
 pub fn project_term_on_caps(term: Term, nrm: DVec3, caps: &[(DVec3, f64)], n: usize) -> Vec<f64> {
     /// Nodes per arc and per cut interval of u where regions are cut out.
     const CUT_NODES: usize = 8;
@@ -638,6 +645,7 @@ pub fn project_term_on_caps(term: Term, nrm: DVec3, caps: &[(DVec3, f64)], n: us
         + match term {
             Term::Diffuse => 1,
             Term::Specular(_, r, _) => r.ceil().min(14.0) as usize + 1,
+            Term::Lobe(r, _) => r.ceil().min(14.0) as usize,
         };
     let (nu_full, nphi_full) = ((degree + 1).div_ceil(2).min(8), degree + 1);
     thread_local! {
@@ -646,10 +654,12 @@ pub fn project_term_on_caps(term: Term, nrm: DVec3, caps: &[(DVec3, f64)], n: us
     let nc = n * n;
     let mut out = vec![0.0; nc];
     let mut y = [0.0; rt::MAX_COEFFS];
-    let mut base = vec![(-nrm, FRAC_PI_2)];
-    if let Term::Specular(_, _, m) = term {
-        base.push((-m, FRAC_PI_2));
-    }
+    // The half-spaces where a clamp zeroes the term.
+    let base = match term {
+        Term::Diffuse => vec![(-nrm, FRAC_PI_2)],
+        Term::Specular(_, _, m) => vec![(-nrm, FRAC_PI_2), (-m, FRAC_PI_2)],
+        Term::Lobe(_, m) => vec![(-m, FRAC_PI_2)],
+    };
     GL.with(|rules| {
         let mut add = |d: DVec3, w: f64| {
             let f = term.eval(nrm, d);
@@ -729,7 +739,11 @@ pub fn project_term_on_caps(term: Term, nrm: DVec3, caps: &[(DVec3, f64)], n: us
                     // The circle's complement of the arcs, from the first arc's start.
                     arcs.sort_by(|a, b| a.0.total_cmp(&b.0));
                     let start = arcs[0].0;
-                    let mut reach = start + arcs[0].1;
+                    // An arc running past 2π covers the circle's start again: the
+                    // first free interval begins after the farthest such reach too.
+                    let mut reach = arcs
+                        .iter()
+                        .fold(start + arcs[0].1, |r, &(s0, len)| r.max(s0 + len - TAU));
                     let mut free = Vec::new();
                     for &(s0, len) in &arcs[1..] {
                         if s0 > reach {

@@ -517,7 +517,9 @@ impl LobeProduct {
     /// ∫ of the product of two lobes (sr, times their scales): the integral of
     /// [`LobeProduct::product`]'s lobe (the table's integral, times its L² scale
     /// correction for that variant) without forming the lobe's axis and exponent. For
-    /// any finite exponents ≥ 0, as the lobe-sum algebra needs.
+    /// any finite exponents ≥ 0, as the lobe-sum algebra needs. Unlike
+    /// [`LobeProduct::product`] it does not fail where only the product's exponent or
+    /// peak scale would overflow f64: its integral is all it forms.
     pub fn product_integral(&self, l1: &Lobe, l2: &Lobe) -> Result<f64, LookupError> {
         let (a1, a2) = (unit("a1", l1.axis)?, unit("a2", l2.axis)?);
         finite("s1", l1.scale)?;
@@ -532,9 +534,12 @@ impl LobeProduct {
             .interpolate(&[e1.min(E_MAX), e2.min(E_MAX), alpha], &mut ch[..n])?;
         let integral = (ln_model_with(e1, e2, alpha, &trig) + ch[0]).exp();
         let k = if self.variant == Variant::L2 { ch[2].exp() } else { 1.0 };
-        let integral =
-            finite_result("product integral", integral).map_err(|_| LookupError::ProductOverflow { e1, e2 })?;
-        finite_result("product integral", l1.scale * k * integral * l2.scale)
+        let q = finite_result("product integral", k * integral).map_err(|_| LookupError::ProductOverflow { e1, e2 })?;
+        // The factor first: a vanishing product stays 0 whatever the scales.
+        if q == 0.0 {
+            return Ok(0.0);
+        }
+        finite_result("product integral", l1.scale * q * l2.scale)
     }
 
     /// [`LobeProduct::product_any`] for inputs that passed [`valid_pair`], with no

@@ -612,16 +612,17 @@ impl Meunier<'_> {
                 let gamma = p.axis.dot(cap.axis).clamp(-1.0, 1.0).acos();
                 light.radiance * p.integral() * lobe_fraction_in_cap(gamma, cap.half_angle, p.exponent)
             };
-            if shadow.is_empty() || p.integral().abs() < threshold {
-                continue;
-            }
             let lit = Lobe {
                 scale: light.radiance * p.scale,
                 ..p
             };
+            // t_i in the products' own units at both stages (the radiance included).
+            if shadow.is_empty() || lit.scale == 0.0 || lit.integral().abs() < threshold {
+                continue;
+            }
             for leaf in shadow {
                 let v = self.products.product_integral(&lit, leaf)?;
-                if v.abs() >= threshold {
+                if v != 0.0 && v.abs() >= threshold {
                     total += v;
                 }
             }

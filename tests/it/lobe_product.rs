@@ -182,8 +182,9 @@ fn lobe_sums_and_the_threshold() {
 }
 
 /// `product_integral` is the product lobe's integral without the lobe (both variants,
-/// sharp, broad, antipodal and beyond-the-table exponents), and refuses what
-/// `product` refuses.
+/// sharp, broad, antipodal and beyond-the-table exponents); it refuses an axis that is
+/// not unit and a non-finite scale, and a vanishing product is 0 even with scales
+/// near f64's largest.
 #[test]
 fn product_integral_is_the_product_lobes_integral() {
     let pairs = [
@@ -210,6 +211,11 @@ fn product_integral_is_the_product_lobes_integral() {
     assert!(energy()
         .product_integral(&lobe(f64::NAN, DVec3::Z, 1.0), &pairs[0].0)
         .is_err());
+    let huge = |a: DVec3, e: f64| lobe(f64::MAX / 2.0, a, e);
+    assert_eq!(
+        energy().product_integral(&huge(DVec3::Z, 10.0), &huge(-DVec3::Z, 100.0)),
+        Ok(0.0)
+    );
 }
 
 #[test]
