@@ -330,16 +330,10 @@ mod tests {
             }
         }
         let rule = SphereRule::new(400, 800);
-        let tilt = |a: f64| DVec3::new(a.sin(), 0.0, a.cos());
-        let m = DVec3::new(-0.3, 0.2, 0.93).normalize();
-        for (term, caps) in [
-            (Term::Diffuse, vec![(tilt(0.7), 0.3)]),
-            (Term::Diffuse, vec![(tilt(1.5), 0.3)]),
-            (Term::Specular(0.3, 3.0, m), vec![(tilt(0.4), 0.25)]),
-            (Term::Diffuse, vec![(tilt(0.6), 0.3), (tilt(0.9), 0.25)]),
-            (Term::Specular(0.3, 3.0, m), vec![(tilt(-0.2), 0.3), (tilt(0.1), 0.2)]),
-        ] {
-            let got = project_term_on_caps(term, z, &caps, n);
+        // The largest coefficient error against the fine rule over the sphere with the
+        // union's indicator, over the fine rule's largest coefficient.
+        let misfit = |term: Term, caps: &[(DVec3, f64)]| {
+            let got = project_term_on_caps(term, z, caps, n);
             let want = rule.project(n, |w| {
                 let w = DVec3::from_array(w);
                 if caps.iter().any(|&(a, t)| a.dot(w) > t.cos()) {
@@ -349,18 +343,28 @@ mod tests {
                 }
             });
             let peak = want.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-            for (g, w) in got.iter().zip(&want) {
-                assert!(
-                    (g - w).abs() < 2e-3 * peak,
-                    "{term:?} {caps:?}: {got:?} against {want:?}"
-                );
-            }
+            let worst = got.iter().zip(&want).map(|(g, w)| (g - w).abs()).fold(0.0, f64::max);
+            (worst / peak, got, want)
+        };
+        let tilt = |a: f64| DVec3::new(a.sin(), 0.0, a.cos());
+        let m = DVec3::new(-0.3, 0.2, 0.93).normalize();
+        for (term, caps) in [
+            (Term::Diffuse, vec![(tilt(0.7), 0.3)]),
+            (Term::Diffuse, vec![(tilt(1.5), 0.3)]),
+            (Term::Specular(0.3, 3.0, m), vec![(tilt(0.4), 0.25)]),
+            (Term::Diffuse, vec![(tilt(0.6), 0.3), (tilt(0.9), 0.25)]),
+            (Term::Specular(0.3, 3.0, m), vec![(tilt(-0.2), 0.3), (tilt(0.1), 0.2)]),
+        ] {
+            let (rel, got, want) = misfit(term, &caps);
+            assert!(rel < 2e-3, "{term:?} {caps:?}: {got:?} against {want:?}");
         }
         // Random unions of 2–5 overlapping caps (arcs that run past the azimuth's 2π
         // among them) under each term, the log lobe's own function included, against
         // the fine rule: within 4e-3 of the peak (measured up to 2.5e-3, the fine
         // rule's own error at small caps' edges; with the wrapping arcs mishandled
-        // four of the forty erred 6.8e-3 to 0.28).
+        // four of the forty erred 6.8e-3 to 0.28). The cases come from this LCG, not
+        // `lobefit_core::rng::Rng`: SplitMix's forty put one case at 3.9e-3 and only
+        // one past the limit with the wrap mishandled.
         let mut rng = 0x5eed_u64;
         let mut next = || {
             rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -379,18 +383,8 @@ mod tests {
                 1 => Term::Specular(0.3, 3.0, m),
                 _ => Term::Lobe(3.0, m),
             };
-            let got = project_term_on_caps(term, z, &caps, n);
-            let want = rule.project(n, |w| {
-                let w = DVec3::from_array(w);
-                if caps.iter().any(|&(a, t)| a.dot(w) > t.cos()) {
-                    term.eval(z, w)
-                } else {
-                    0.0
-                }
-            });
-            let peak = want.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-            let worst = got.iter().zip(&want).map(|(g, w)| (g - w).abs()).fold(0.0, f64::max);
-            assert!(worst < 4e-3 * peak, "{k}: {term:?} {caps:?}: {got:?} against {want:?}");
+            let (rel, got, want) = misfit(term, &caps);
+            assert!(rel < 4e-3, "{k}: {term:?} {caps:?}: {got:?} against {want:?}");
         }
     }
 

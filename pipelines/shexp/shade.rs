@@ -297,61 +297,21 @@ pub fn log_parts(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Result<Log
         }
         caps.push((dir, theta_b, b));
     }
-    // The groups: the connected components of the kept caps under overlap (axes closer
-    // than the two half-angles, by cosines with 1e-12 of slack towards meeting); a
-    // component with a cap reaching below the highest of the wedges' sampled horizons
-    // (which bounds the terrain's log region: the wedges interpolate between their
-    // samples; 1 mrad of slack for a cap resting on flat ground) joins the terrain.
-    let m = caps.len();
-    let mut parent: Vec<usize> = (0..=m).collect(); // m: the terrain
-    fn root(p: &mut [usize], mut i: usize) -> usize {
-        while p[i] != i {
-            p[i] = p[p[i]];
-            i = p[i];
+    // Each cap's group when it leaves the log sum (nothing to do with the switch off).
+    let group_of = match s.exact_caps {
+        ExactCaps::Off => Vec::new(),
+        mode => {
+            let axes: Vec<(DVec3, f64)> = caps.iter().map(|&(d, a, _)| (d, a)).collect();
+            cap_groups(&axes, horizon_max, mode)
         }
-        i
-    }
-    let mut apart = vec![false; m];
-    if s.exact_caps != ExactCaps::Off && m <= CAPS_MAX {
-        let trig: Vec<(f64, f64)> = caps.iter().map(|&(_, a, _)| a.sin_cos()).collect();
-        for i in 0..m {
-            let (d, a, _) = caps[i];
-            if d.z.clamp(-1.0, 1.0).asin() - a < horizon_max - 1e-3 {
-                let (ri, rm) = (root(&mut parent, i), root(&mut parent, m));
-                parent[ri] = rm;
-            }
-            for j in i + 1..m {
-                let e = caps[j].0;
-                // cos(a + b) = cos a cos b − sin a sin b.
-                let meets = a + caps[j].1 >= PI || d.dot(e) > trig[i].1 * trig[j].1 - trig[i].0 * trig[j].0 - 1e-12;
-                if meets {
-                    let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
-                    parent[ri] = rj;
-                }
-            }
-        }
-        let roots: Vec<usize> = (0..=m).map(|i| root(&mut parent, i)).collect();
-        let mut size = vec![0usize; m + 1];
-        roots[..m].iter().for_each(|&r| size[r] += 1);
-        for i in 0..m {
-            let r = roots[i];
-            let most = match s.exact_caps {
-                ExactCaps::Lone => 1,
-                _ => GROUP_MAX,
-            };
-            apart[i] = r != roots[m] && size[r] <= most;
-        }
-    }
+    };
     let mut groups: Vec<Vec<(DVec3, f64)>> = Vec::new();
-    let mut slot = vec![usize::MAX; m + 1];
     for (i, &(dir, theta_b, b)) in caps.iter().enumerate() {
-        if apart[i] {
-            let r = root(&mut parent, i);
-            if slot[r] == usize::MAX {
-                slot[r] = groups.len();
+        if let Some(&Some(g)) = group_of.get(i) {
+            if g == groups.len() {
                 groups.push(Vec::new());
             }
-            groups[slot[r]].push((dir, theta_b));
+            groups[g].push((dir, theta_b));
             continue;
         }
         match s.blocker_log {
@@ -381,6 +341,62 @@ pub fn log_parts(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Result<Log
         f.iter_mut().zip(&turned[..nc]).for_each(|(a, b)| *a += b);
     }
     Ok(LogParts { rest: f, groups })
+}
+
+/// The groups of [`ExactCaps`] `mode` among the kept `caps` (axis unit, angular radius
+/// in rad): per cap the index of its group, numbered in order of the groups' first
+/// caps, or `None` where it stays in the log sum. A group is a connected component of
+/// the caps under overlap (axes closer than the two half-angles, by cosines with 1e-12
+/// of slack towards meeting); a component with a cap reaching below `horizon_max`, the
+/// highest of the wedges' sampled horizons (rad; it bounds the terrain's log region:
+/// the wedges interpolate between their samples; 1 mrad of slack for a cap resting on
+/// flat ground), joins the terrain and stays, as do components larger than the mode
+/// allows and every cap where more than [`CAPS_MAX`] are kept.
+fn cap_groups(caps: &[(DVec3, f64)], horizon_max: f64, mode: ExactCaps) -> Vec<Option<usize>> {
+    let m = caps.len();
+    if mode == ExactCaps::Off || m > CAPS_MAX {
+        return vec![None; m];
+    }
+    let mut parent: Vec<usize> = (0..=m).collect(); // m: the terrain
+    fn root(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let trig: Vec<(f64, f64)> = caps.iter().map(|&(_, a)| a.sin_cos()).collect();
+    for (i, &(d, a)) in caps.iter().enumerate() {
+        if d.z.clamp(-1.0, 1.0).asin() - a < horizon_max - 1e-3 {
+            let (ri, rm) = (root(&mut parent, i), root(&mut parent, m));
+            parent[ri] = rm;
+        }
+        for (j, &(e, b)) in caps.iter().enumerate().skip(i + 1) {
+            // cos(a + b) = cos a cos b − sin a sin b.
+            if a + b >= PI || d.dot(e) > trig[i].1 * trig[j].1 - trig[i].0 * trig[j].0 - 1e-12 {
+                let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                parent[ri] = rj;
+            }
+        }
+    }
+    let roots: Vec<usize> = (0..=m).map(|i| root(&mut parent, i)).collect();
+    let mut size = vec![0usize; m + 1];
+    roots[..m].iter().for_each(|&r| size[r] += 1);
+    let most = if mode == ExactCaps::Lone { 1 } else { GROUP_MAX };
+    let mut index = vec![usize::MAX; m + 1];
+    let mut count = 0;
+    roots[..m]
+        .iter()
+        .map(|&r| {
+            (r != roots[m] && size[r] <= most).then(|| {
+                if index[r] == usize::MAX {
+                    index[r] = count;
+                    count += 1;
+                }
+                index[r]
+            })
+        })
+        .collect()
 }
 
 /// The solid angle (sr) of the intersection of two spherical caps of angular radii
@@ -488,7 +504,7 @@ fn terms(s: &Settings, brdf: &Phong, h: &Hit) -> Result<Vec<LobeTerm>, String> {
 /// One BRDF × cosine term evaluated exactly (for [`BrdfMode::Triple`] and
 /// [`ExactCaps`]).
 #[derive(Debug, Clone, Copy)]
-pub enum Term {
+pub(crate) enum Term {
     /// max(n·ω, 0)/π (times k_d, the term's weight).
     Diffuse,
     /// k_s (r+2)/(2π) max(m·ω, 0)^r max(n·ω, 0): (k_s, r, mirror direction).
@@ -500,7 +516,7 @@ pub enum Term {
 impl Term {
     /// The term's value in the unit direction `w` at a point with unit normal `nrm`
     /// (sr⁻¹).
-    pub fn eval(self, nrm: DVec3, w: DVec3) -> f64 {
+    pub(crate) fn eval(self, nrm: DVec3, w: DVec3) -> f64 {
         let c = nrm.dot(w).max(0.0);
         match self {
             Term::Diffuse => c / PI,
@@ -638,7 +654,7 @@ pub fn integrand(
 /// integer Phong exponent with the cosine, r for the log lobe's own function):
 /// ⌈(D+1)/2⌉ nodes in u, D + 1 evenly spaced azimuths — at most 8 nodes in u, so
 /// exact up to D = 15 (Phong exponents up to 11 at order 4); beyond, a close rule.
-pub fn project_term_on_caps(term: Term, nrm: DVec3, caps: &[(DVec3, f64)], n: usize) -> Vec<f64> {
+pub(crate) fn project_term_on_caps(term: Term, nrm: DVec3, caps: &[(DVec3, f64)], n: usize) -> Vec<f64> {
     /// Nodes per arc and per cut interval of u where regions are cut out.
     const CUT_NODES: usize = 8;
     let degree = n - 1
