@@ -341,6 +341,64 @@ impl Mask {
 /// the caller clips blockers behind the light. Caps must have unit axes and
 /// half-angles in (0, π/2) (a light or blocker seen from outside).
 pub fn build_mask(light: Cap, blockers: &[Cap], max_depth: u32) -> Result<Mask, LookupError> {
+    let mut cells = Vec::new();
+    let fully_blocked = walk_mask(
+        light,
+        blockers,
+        max_depth,
+        &mut |axis, min_cos, depth, full, corners| {
+            cells.push(MaskCell {
+                axis,
+                half_angle: min_cos.acos(),
+                depth,
+                full,
+                corners,
+            })
+        },
+    )?;
+    Ok(Mask {
+        dist: dist_of_cap(light.half_angle),
+        fully_blocked,
+        cells,
+    })
+}
+
+/// The shadow leaves of the mask [`build_mask`] would build, in its cells' order, as
+/// (bounding cap, depth) — [`Mask::leaves`] at the built depth, bit for bit — without
+/// storing the mask's other cells: what a renderer shading the leaves needs (the
+/// partial cells' bounding caps cost an acos each, and most cells are partial).
+/// Returns whether one blocker hides the whole light (then no leaves).
+pub fn mask_leaves(
+    light: Cap,
+    blockers: &[Cap],
+    max_depth: u32,
+    mode: MaskMode,
+    leaves: &mut Vec<(Cap, u32)>,
+) -> Result<bool, LookupError> {
+    leaves.clear();
+    let conservative = mode == MaskMode::Conservative;
+    walk_mask(light, blockers, max_depth, &mut |axis, min_cos, depth, full, _| {
+        if full || (conservative && depth == max_depth) {
+            leaves.push((
+                Cap {
+                    axis,
+                    half_angle: min_cos.acos(),
+                },
+                depth,
+            ));
+        }
+    })
+}
+
+/// Walks the mask's quad-tree depth first, handing each kept cell to `cell` as (the
+/// bounding cap's axis, the cosine of its half-angle, depth, full, corners). Returns
+/// whether one blocker cap contains the whole light cap (then no cells).
+fn walk_mask(
+    light: Cap,
+    blockers: &[Cap],
+    max_depth: u32,
+    cell: &mut dyn FnMut(DVec3, f64, u32, bool, [DVec3; 4]),
+) -> Result<bool, LookupError> {
     check_depth(max_depth)?;
     check_cap("light cap", light)?;
     for b in blockers {
@@ -352,38 +410,31 @@ pub fn build_mask(light: Cap, blockers: &[Cap], max_depth: u32) -> Result<Mask, 
     for b in blockers {
         let gap = angle_between(w, b.axis);
         if gap + alpha <= b.half_angle {
-            return Ok(Mask {
-                dist: dist_of_cap(alpha),
-                fully_blocked: true,
-                cells: Vec::new(),
-            });
+            return Ok(true);
         }
         if gap < b.half_angle + alpha {
             let (sin, cos) = b.half_angle.sin_cos();
             relevant.push(Blocker { axis: b.axis, cos, sin });
         }
     }
+    if relevant.is_empty() {
+        return Ok(false);
+    }
     let (u, v) = w.any_orthonormal_pair();
     let k = 2.0 * alpha.tan();
+    let n = relevant.len();
     let mut b = Builder {
         w,
         u: u * k,
         v: v * k,
-        candidates: (0..relevant.len() as u32).collect(),
+        candidates: (0..n as u32).collect(),
         caps: relevant,
         max_depth,
-        cells: Vec::new(),
+        cell,
     };
-    if !b.caps.is_empty() {
-        let n = b.candidates.len();
-        let c = [b.dir(-0.5, -0.5), b.dir(0.5, -0.5), b.dir(0.5, 0.5), b.dir(-0.5, 0.5)];
-        b.visit(-0.5, -0.5, 1.0, c, 0, 0..n);
-    }
-    Ok(Mask {
-        dist: dist_of_cap(alpha),
-        fully_blocked: false,
-        cells: b.cells,
-    })
+    let c = [b.dir(-0.5, -0.5), b.dir(0.5, -0.5), b.dir(0.5, 0.5), b.dir(-0.5, 0.5)];
+    b.visit(-0.5, -0.5, 1.0, c, 0, 0..n);
+    Ok(false)
 }
 
 fn check_cap(name: &str, c: Cap) -> Result<(), LookupError> {
@@ -425,7 +476,7 @@ struct Blocker {
     sin: f64,
 }
 
-struct Builder {
+struct Builder<'a> {
     w: DVec3,
     /// u and v scaled by 2 tan α: square coordinate s ∈ [−1/2, 1/2] ↦ w + s·u + t·v.
     u: DVec3,
@@ -436,10 +487,11 @@ struct Builder {
     /// the caps that meet it (its children need test no others).
     candidates: Vec<u32>,
     max_depth: u32,
-    cells: Vec<MaskCell>,
+    /// Where each kept cell goes ([`walk_mask`]).
+    cell: &'a mut dyn FnMut(DVec3, f64, u32, bool, [DVec3; 4]),
 }
 
-impl Builder {
+impl Builder<'_> {
     fn dir(&self, s: f64, t: f64) -> DVec3 {
         (self.w + s * self.u + t * self.v).normalize()
     }
@@ -486,13 +538,7 @@ impl Builder {
         if !full && end == start {
             return; // no blocker meets the cell
         }
-        self.cells.push(MaskCell {
-            axis,
-            half_angle: min_cos.acos(),
-            depth,
-            full,
-            corners: c,
-        });
+        (self.cell)(axis, min_cos, depth, full, c);
         if !full && depth < self.max_depth {
             let g = 0.5 * h;
             let (bottom, right) = (self.dir(s0 + g, t0), self.dir(s0 + h, t0 + g));

@@ -35,7 +35,7 @@ use thiserror::Error;
 use crate::cap_exponent::{CapExponent, ALPHA_MIN};
 use crate::error::LookupError;
 use crate::lobe_product::{Lobe, LobeProduct};
-use crate::mask_weights::{build_mask, check_depth, Cap, MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
+use crate::mask_weights::{check_depth, dist_of_cap, mask_leaves, Cap, MaskMode, MaskWeights, WeightSet, MAX_DEPTH};
 
 use crate::geom::{Brdf, Sphere, Sphere32, SphereLight, SphereLight32};
 
@@ -496,19 +496,20 @@ impl Meunier<'_> {
             .filter(|b| dist(b.centre, x) - b.radius < light_dist)
             .map(|b| cap_of(x, b))
             .collect();
-        let mask = build_mask(lcap, &caps, settings.depth)?;
-        if mask.fully_blocked {
+        let dist = dist_of_cap(lcap.half_angle);
+        let mut cells = Vec::new();
+        if mask_leaves(lcap, &caps, settings.depth, settings.mode, &mut cells)? {
             return Ok(Visibility {
                 lobes: Vec::new(),
-                dist: mask.dist,
+                dist,
                 fully_blocked: true,
                 leaves: 0,
             });
         }
         let mut w = [0.0; MAX_DEPTH as usize];
         self.weights
-            .weights(settings.weights, settings.mode, settings.depth, mask.dist, &mut w)?;
-        let mut lobes = Vec::new();
+            .weights(settings.weights, settings.mode, settings.depth, dist, &mut w)?;
+        let mut lobes = Vec::with_capacity(cells.len() + 1);
         if settings.light == LightModel::Lobe {
             lobes.push(Lobe {
                 scale: 1.0,
@@ -516,11 +517,10 @@ impl Meunier<'_> {
                 exponent: 0.0,
             });
         }
-        let mut leaves = 0;
-        for c in mask.leaves(settings.depth, settings.mode) {
-            leaves += 1;
+        let leaves = cells.len();
+        for (c, depth) in cells {
             // Depth 0 never holds a leaf (a cap containing S_unit hides the light).
-            let mut wd = w[c.depth.max(1) as usize - 1];
+            let mut wd = w[depth.max(1) as usize - 1];
             if wd == 0.0 {
                 continue;
             }
@@ -540,7 +540,7 @@ impl Meunier<'_> {
         }
         Ok(Visibility {
             lobes,
-            dist: mask.dist,
+            dist,
             fully_blocked: false,
             leaves,
         })
