@@ -159,7 +159,10 @@ fn supported(s: &Settings) -> Result<(), String> {
         ));
     }
     if s.exp != Exp::Hyb {
-        return Err("render shexp exponentiates by HYB only; the settings ask for exact exp*".into());
+        return Err(format!(
+            "render shexp exponentiates by HYB with the table's a, b only; the settings ask for {:?}",
+            s.exp
+        ));
     }
     if s.overlap != Overlap::Off {
         return Err("render shexp runs without the overlap weighting; the settings ask for it".into());
@@ -389,7 +392,17 @@ mod tests {
         let d = Settings::default();
         for (s, what) in [
             (Settings { order: 5, ..d }, "order 4 only"),
-            (Settings { exp: Exp::Exact, ..d }, "HYB only"),
+            (
+                Settings { exp: Exp::Exact, ..d },
+                "table's a, b only; the settings ask for Exact",
+            ),
+            (
+                Settings {
+                    exp: Exp::HybScaled { dc: 0.1, hat: 0.0 },
+                    ..d
+                },
+                "ask for HybScaled",
+            ),
             (
                 Settings {
                     brdf: BrdfMode::Triple,

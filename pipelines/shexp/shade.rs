@@ -37,12 +37,24 @@ pub enum BlockerLog {
 }
 
 /// How the summed log vector is exponentiated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Exp {
     /// HYB with the shexp table's a, b (the pipeline).
     Hyb,
     /// exp* by its Taylor series run to convergence (DC isolated).
     Exact,
+    /// HYB re-fitted on multi-blocker sums (a candidate, docs/shexp-render.md): the OL
+    /// coefficients at the halved norm s times (e^{dc·s}, e^{hat·s}). After HYB's k
+    /// squarings (s = ‖f̂‖/2^k) the first factor is about e^{dc·‖f̂‖} on the mean
+    /// visibility, the second reweights the non-constant bands; (0, 0) is HYB bit for
+    /// bit. The single-cap table's a, b were fitted to one cap's exp*; summed logs of
+    /// many blockers are what the pipeline exponentiates.
+    HybScaled {
+        /// Exponent rate on a (per unit ‖f̂‖).
+        dc: f64,
+        /// Exponent rate on b (per unit ‖f̂‖).
+        hat: f64,
+    },
 }
 
 /// Overlap weighting of the blockers' logs: each blocker's log vector divided by its
@@ -453,6 +465,19 @@ pub fn exponentiate(t: &Tables, mode: Exp, f: &[f64]) -> Result<Vec<f64>, String
         Exp::Hyb => {
             let mut out = vec![0.0; f.len()];
             t.shexp.hyb(f, &mut out).map_err(|e| e.to_string())?;
+            Ok(out)
+        }
+        Exp::HybScaled { dc, hat } => {
+            use lobefit_tables::shexp::{hyb_with, OL_THRESHOLD, ORDER_MIN};
+            let n = rt::order_of_len(f.len()).map_err(|e| e.to_string())?;
+            let gaunt = Gaunt::cached(n).map_err(|e| e.to_string())?;
+            let ab = |s: f64| {
+                t.shexp
+                    .ab_for_norm(s, n)
+                    .map(|(a, b)| (a * (dc * s).exp(), b * (hat * s).exp()))
+            };
+            let mut out = vec![0.0; f.len()];
+            hyb_with(gaunt, f, OL_THRESHOLD[n - ORDER_MIN], ab, &mut out).map_err(|e| e.to_string())?;
             Ok(out)
         }
         Exp::Exact => {
