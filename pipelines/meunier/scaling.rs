@@ -279,7 +279,8 @@ mod tests {
 
     /// The lobes' cost per pixel at N blockers, one thread (run with --ignored;
     /// docs/meunier.md, "Blocker scaling"): per scene (cluster and torus at
-    /// `LF_COUNTS`, default 1,16,64,256,1024) at `LF_WIDTH` px (64), the culled lobe
+    /// `LF_COUNTS`, default 1,16,64,256,1024; `LF_KINDS`, default cluster,torus) at
+    /// `LF_WIDTH` px (64), the culled lobe
     /// image shaded serially `LF_RUNS` (5) times (µs per lit pixel: median, min, max),
     /// its relative RMSE against the study's reference ([`SPP`] spp with the BVH) and
     /// a hash of its bytes (equal hashes: the same image, bit for bit). Checks nothing.
@@ -289,12 +290,13 @@ mod tests {
         let width: usize = env_or("LF_WIDTH", WIDTH);
         let runs: usize = env_or("LF_RUNS", 5);
         let counts: String = env_or("LF_COUNTS", "1,16,64,256,1024".to_string());
+        let kinds: String = env_or("LF_KINDS", "cluster,torus".to_string());
         let m = Meunier::embedded().unwrap();
         let settings = MaskSettings::default();
         println!(
             "scene          spheres  pixels  µs/px median [min, max] ({runs} runs, one thread)  rel RMSE  image hash"
         );
-        for kind in ["cluster", "torus"] {
+        for kind in kinds.split(',').map(str::trim) {
             for n in counts.split(',').map(|s| s.trim().parse::<usize>().unwrap()) {
                 let scene = if kind == "cluster" { cluster(n) } else { torus(n) }.unwrap();
                 let light = scene.lights[0];

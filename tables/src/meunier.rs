@@ -166,7 +166,10 @@ pub fn lobe_fraction_in_cap(gamma: f64, alpha: f64, e: f64) -> f64 {
         }
         let root = disc.sqrt();
         let (r1, r2) = ((gamma * cp - root).max(0.0), (gamma * cp + root).max(0.0));
-        sum += (-0.5 * e * r1 * r1).exp() - (-0.5 * e * r2 * r2).exp();
+        // r1 = 0 wherever the lobe's axis lies inside the disk (most shadow leaves):
+        // exp(−0) is exactly 1, so the call is skipped with the same bits.
+        let near = if r1 == 0.0 { 1.0 } else { (-0.5 * e * r1 * r1).exp() };
+        sum += near - (-0.5 * e * r2 * r2).exp();
     }
     (sum / n as f64).clamp(0.0, 1.0)
 }
