@@ -280,9 +280,8 @@ mod tests {
     /// The lobes' cost per pixel at N blockers, one thread (run with --ignored;
     /// docs/meunier.md, "Blocker scaling"): per scene (cluster and torus at
     /// `LF_COUNTS`, default 1,16,64,256,1024; `LF_KINDS`, default cluster,torus) at
-    /// `LF_WIDTH` px (64), the culled lobe
-    /// image shaded serially `LF_RUNS` (5) times (µs per lit pixel: median, min, max),
-    /// its relative RMSE against the study's reference ([`SPP`] spp with the BVH) and
+    /// `LF_WIDTH` px (64), t_i = `LF_THRESHOLD` (0), the culled lobe image shaded
+    /// serially `LF_RUNS` (5) times (µs per lit pixel: median, min, max), its relative RMSE against the study's reference ([`SPP`] spp with the BVH) and
     /// a hash of its bytes (equal hashes: the same image, bit for bit). Checks nothing.
     #[test]
     #[ignore]
@@ -292,7 +291,10 @@ mod tests {
         let counts: String = env_or("LF_COUNTS", "1,16,64,256,1024".to_string());
         let kinds: String = env_or("LF_KINDS", "cluster,torus".to_string());
         let m = Meunier::embedded().unwrap();
-        let settings = MaskSettings::default();
+        let settings = MaskSettings {
+            threshold: env_or("LF_THRESHOLD", 0.0),
+            ..MaskSettings::default()
+        };
         println!(
             "scene          spheres  pixels  µs/px median [min, max] ({runs} runs, one thread)  rel RMSE  image hash"
         );

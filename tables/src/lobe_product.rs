@@ -292,6 +292,12 @@ fn exponent_model_with(e1: f64, e2: f64, trig: &Trig) -> f64 {
     ((e1 + e2) * curvature(e1, e2, trig.chord)).sqrt()
 }
 
+/// How far above the exact bound min(|s1|·|∫l2|, |s2|·|∫l1|) the table's product
+/// integral may come ([`LobeProduct::product_integral_bound`]): the `energy` variant
+/// errs at most 5.5e-3 of the exact integral on relevant products (docs/lobes.md); the
+/// margin leaves room for the `l2` variant and the irrelevant ones.
+pub const PRODUCT_BOUND_MARGIN: f64 = 1.1;
+
 /// Fitted product parameters at (e1, e2, α).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProductParams {
@@ -540,6 +546,17 @@ impl LobeProduct {
             return Ok(0.0);
         }
         finite_result("product integral", l1.scale * q * l2.scale)
+    }
+
+    /// A bound on |[`LobeProduct::product_integral`]| from the two lobes alone, with
+    /// no lookup: the exact |∫ l1 l2| is at most min(|s1|·|∫l2|, |s2|·|∫l1|) (a lobe
+    /// never exceeds its scale), and the table's integral stays within
+    /// [`PRODUCT_BOUND_MARGIN`] of the exact one (test
+    /// `product_integral_stays_within_its_bound`, both variants). A caller dropping
+    /// products below a threshold t_i (§5.4) skips those whose bound is below it
+    /// before computing them: the comparison would have dropped them.
+    pub fn product_integral_bound(l1: &Lobe, l2: &Lobe) -> f64 {
+        PRODUCT_BOUND_MARGIN * (l1.scale.abs() * l2.integral().abs()).min(l2.scale.abs() * l1.integral().abs())
     }
 
     /// [`LobeProduct::product_any`] for inputs that passed [`valid_pair`], with no

@@ -624,6 +624,11 @@ impl Meunier<'_> {
                 continue;
             }
             for leaf in shadow {
+                // §5.4's t_i before the product: a product whose bound is below t_i
+                // would be dropped by the comparison below.
+                if threshold > 0.0 && LobeProduct::product_integral_bound(&lit, leaf) < threshold {
+                    continue;
+                }
                 let v = self.products.product_integral(&lit, leaf)?;
                 if v != 0.0 && v.abs() >= threshold {
                     total += v;
