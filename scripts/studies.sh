@@ -33,9 +33,11 @@ run $bin render shexp --scene swim --frames 24 --width 160 --spp 1024 --out "$ou
 for sc in whale whale-diffuse wrecking assets/scenes/shexp-spheres{12,60}-{diffuse,phong3}.json; do
   run $bin render shexp --scene "$sc" --width 96 --spp 1024 --out "$out/shexp"
 done
-# HYB's rates re-fitted on the 12-sphere scenes' summed logs against SH-ideal, then
-# tested on the other five (docs/shexp-render.md, "HYB re-fitted on sums"; ~30 s).
+# HYB's rates and the blockers' per-band log factors re-fitted on the 12-sphere scenes'
+# summed logs against SH-ideal, then tested on the other five (docs/shexp-render.md,
+# "HYB re-fitted on sums", "Per-blocker logs fitted on sums"; ~30 s).
 run cargo test -q -p lobefit-pipelines --lib study_hyb_refit -- --ignored --nocapture
+run cargo test -q -p lobefit-pipelines --lib study_blocker_bands -- --ignored --nocapture
 # The direct-light study and the rigs' figures.
 run $bin plot meunier --out "$out/meunier"
 run $bin plot rigs --out "$out/rigs"

@@ -170,6 +170,11 @@ fn supported(s: &Settings) -> Result<(), String> {
     if s.brdf != BrdfMode::Log {
         return Err("render shexp adds the BRDF as log-ZH lobes only; the settings ask for the triple product".into());
     }
+    if s.blocker_bands != [1.0; 8] {
+        return Err(
+            "render shexp takes the blockers' log-ZH vectors as they are; the settings ask for band factors".into(),
+        );
+    }
     if s.exact_caps != ExactCaps::Off {
         return Err("render shexp keeps every cap in the log sum; the settings ask for exact caps".into());
     }
@@ -424,6 +429,13 @@ mod tests {
                     ..d
                 },
                 "exact caps",
+            ),
+            (
+                Settings {
+                    blocker_bands: [1.0, 0.9, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0],
+                    ..d
+                },
+                "band factors",
             ),
         ] {
             let e = supported(&s).unwrap_err();

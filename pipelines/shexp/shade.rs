@@ -141,6 +141,11 @@ pub struct Settings {
     /// Caps taken out of the log sum and projected exactly (a candidate; off in the
     /// defaults).
     pub exact_caps: ExactCaps,
+    /// Per-band factors on every sphere blocker's log-ZH vector (band l's coefficient
+    /// times `blocker_bands[l]`, after the attenuation): the per-blocker log vectors
+    /// fitted so that exp* of their sums matches the product of visibilities (a
+    /// candidate, docs/shexp-render.md; all 1 in the defaults, which leaves the bits).
+    pub blocker_bands: [f64; 8],
     /// Exponentiation.
     pub exp: Exp,
     /// BRDF.
@@ -163,6 +168,7 @@ impl Default for Settings {
             attenuation: true,
             overlap: Overlap::Off,
             exact_caps: ExactCaps::Off,
+            blocker_bands: [1.0; 8],
             exp: Exp::Hyb,
             brdf: BrdfMode::Log,
         }
@@ -181,6 +187,9 @@ impl Settings {
                 self.wedges,
                 lobefit_tables::wedge::WEDGE_COUNTS
             ));
+        }
+        if let Some(k) = self.blocker_bands.iter().find(|k| !k.is_finite()) {
+            return Err(format!("blocker band factor {k} must be finite"));
         }
         for (what, e) in [
             ("eps_vis", self.eps_vis),
@@ -349,6 +358,7 @@ pub fn log_parts(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Result<Log
             let k = 1.0 / (1.0 + covered / area);
             zh[..n].iter_mut().for_each(|z| *z *= k);
         }
+        zh[..n].iter_mut().zip(&s.blocker_bands).for_each(|(z, k)| *z *= k);
         rt::zh_to_sh(&zh[..n], dir, &mut turned[..nc]).map_err(|e| e.to_string())?;
         f.iter_mut().zip(&turned[..nc]).for_each(|(a, b)| *a += b);
     }
