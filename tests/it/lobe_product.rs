@@ -362,7 +362,7 @@ fn overflowing_scales_and_bad_normals_are_errors() {
 #[test]
 fn product_integral_stays_within_its_bound() {
     let mut rng = Rng::new(0x7b0d);
-    let mut e = |rng: &mut Rng| {
+    let e = |rng: &mut Rng| {
         if rng.uniform() < 0.1 {
             0.0
         } else {
