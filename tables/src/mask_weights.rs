@@ -657,7 +657,8 @@ mod tests {
     /// The quad-tree with per-cell candidate lists classifies every cell as a test of
     /// every cap does, bit for bit (same cells, same order), on light caps of 0.05 to
     /// 1.2 rad against 1 to 400 random blocker caps of sizes from a tenth of the light
-    /// to larger than it, at depths 1 to 5.
+    /// to larger than it, at depths 1 to 5; and [`mask_leaves`] gives that mask's
+    /// leaves in both modes.
     #[test]
     fn hierarchical_cells_equal_a_scan_of_every_cap() {
         let mut rng = 0x9e37_79b9_7f4a_7c15_u64;
@@ -688,6 +689,24 @@ mod tests {
                 .collect();
             let depth = 1 + (trial as u32 % MAX_DEPTH);
             let got = build_mask(light, &blockers, depth).unwrap();
+            // The leaves-only walk the pipeline runs gives the mask's leaves, bit for
+            // bit, in order, in both modes.
+            for mode in MaskMode::ALL {
+                let mut leaves = Vec::new();
+                let hidden = mask_leaves(light, &blockers, depth, mode, &mut leaves).unwrap();
+                assert_eq!(hidden, got.fully_blocked, "trial {trial}");
+                let want: Vec<(Cap, u32)> = got
+                    .leaves(depth, mode)
+                    .map(|c| {
+                        let cap = Cap {
+                            axis: c.axis,
+                            half_angle: c.half_angle,
+                        };
+                        (cap, c.depth)
+                    })
+                    .collect();
+                assert_eq!(leaves, want, "trial {trial} {mode:?}");
+            }
             if got.fully_blocked {
                 continue;
             }
