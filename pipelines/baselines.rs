@@ -977,6 +977,7 @@ fn shexp_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::env_or;
 
     fn point(spp: usize, rel_rmse: f64, us: f64) -> Point {
         Point {
@@ -1109,10 +1110,6 @@ mod tests {
             c.len() == 2 && c.iter().all(|p| p.rel_rmse.is_finite() && p.rel_rmse > 0.0),
             "{c:?}"
         );
-    }
-
-    fn env_or<T: std::str::FromStr>(var: &str, default: T) -> T {
-        std::env::var(var).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
     }
 
     /// The study (run with --ignored; scripts/studies.sh): on each scene of `LF_SCENES`

@@ -329,6 +329,13 @@ pub fn by_name(name: &str) -> Option<Pipeline> {
     registry().into_iter().find(|p| p.name == name)
 }
 
+/// The studies' switches (ignored tests run by scripts/studies.sh): the environment
+/// variable `var` parsed, `default` when unset or unparsable.
+#[cfg(test)]
+pub(crate) fn env_or<T: std::str::FromStr>(var: &str, default: T) -> T {
+    std::env::var(var).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

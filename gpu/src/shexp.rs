@@ -170,7 +170,7 @@ fn supported(s: &Settings) -> Result<(), String> {
     if s.brdf != BrdfMode::Log {
         return Err("render shexp adds the BRDF as log-ZH lobes only; the settings ask for the triple product".into());
     }
-    if s.blocker_bands != [1.0; 8] {
+    if s.blocker_bands[..ORDER] != [1.0; ORDER] {
         return Err(
             "render shexp takes the blockers' log-ZH vectors as they are; the settings ask for band factors".into(),
         );

@@ -272,17 +272,15 @@ pub fn plot(dir: &Path) -> Result<Vec<PathBuf>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
-        std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d)
-    }
+    use crate::env_or;
 
     /// The lobes' cost per pixel at N blockers, one thread (run with --ignored;
     /// docs/meunier.md, "Blocker scaling"): per scene (cluster and torus at
     /// `LF_COUNTS`, default 1,16,64,256,1024; `LF_KINDS`, default cluster,torus) at
     /// `LF_WIDTH` px (64), t_i = `LF_THRESHOLD` (0), the culled lobe image shaded
-    /// serially `LF_RUNS` (5) times (µs per lit pixel: median, min, max), its relative RMSE against the study's reference ([`SPP`] spp with the BVH) and
-    /// a hash of its bytes (equal hashes: the same image, bit for bit). Checks nothing.
+    /// serially `LF_RUNS` (5) times (µs per lit pixel: median, min, max), its relative
+    /// RMSE against the study's reference ([`SPP`] spp with the BVH) and a hash of its
+    /// bytes (equal hashes: the same image, bit for bit). Checks nothing.
     #[test]
     #[ignore]
     fn study_meunier_lobes_scaling() {
@@ -300,7 +298,12 @@ mod tests {
         );
         for kind in kinds.split(',').map(str::trim) {
             for n in counts.split(',').map(|s| s.trim().parse::<usize>().unwrap()) {
-                let scene = if kind == "cluster" { cluster(n) } else { torus(n) }.unwrap();
+                let scene = match kind {
+                    "cluster" => cluster(n),
+                    "torus" => torus(n),
+                    k => panic!("LF_KINDS: no scene kind {k} (cluster, torus)"),
+                }
+                .unwrap();
                 let light = scene.lights[0];
                 let (hits, lit) = scene.primary_hits(width, width * 3 / 4).unwrap();
                 let pixels = lit.iter().filter(|&&l| l).count();

@@ -510,6 +510,94 @@ mod tests {
         }
     }
 
+    /// The fits-on-sums candidates: at their neutral values (rates 0, band factors 1)
+    /// the very bits of the defaults at a shadowed point; other values change the
+    /// answer; rates or factors that are not finite, or a negative factor, are refused
+    /// by name, and a log vector of an order HYB has no threshold for is an error, not
+    /// a panic.
+    #[test]
+    fn fits_on_sums_are_neutral_at_their_identity_and_checked() {
+        use super::shade::{exponentiate, Exp};
+        let sun = DVec3::new(0.5, -0.35, 0.79).normalize() * 2.0;
+        let ball = |c: DVec3, r: f64| {
+            format!(
+                "{{\"centre\":[{},{},{}],\"radius\":{r},\"material\":{{\"lambert\":{{\"albedo\":0.5}}}}}}",
+                c.x, c.y, c.z
+            )
+        };
+        let scene = scene_with(
+            &format!("[{},{}]", ball(sun, 0.5), ball(sun + DVec3::new(0.6, 0.2, 0.1), 0.4)),
+            None,
+        );
+        let t = Tables::embedded().unwrap();
+        let h = hit(DVec3::ZERO, DVec3::Z);
+        let brdf = Phong::of(scene.brdf.as_ref().unwrap()).unwrap();
+        let l = light_sh(&scene, 4).unwrap();
+        let d = Settings::default();
+        let at = |s: Settings| radiance(&t, &s, &l, &brdf, &scene, &h).unwrap();
+        let base = at(d);
+        let neutral = [
+            Settings {
+                exp: Exp::HybScaled { dc: 0.0, hat: 0.0 },
+                ..d
+            },
+            Settings {
+                blocker_bands: [1.0; 8],
+                ..d
+            },
+        ];
+        for s in neutral {
+            assert_eq!(at(s).to_bits(), base.to_bits(), "{s:?}");
+        }
+        let moved = [
+            Settings {
+                exp: Exp::HybScaled { dc: 0.0, hat: -0.154 },
+                ..d
+            },
+            Settings {
+                blocker_bands: [2.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0],
+                ..d
+            },
+        ];
+        for s in moved {
+            assert!((at(s) - base).abs() > 1e-6 * base, "{s:?}: {} vs {base}", at(s));
+        }
+        let mut bad = [1.0; 8];
+        bad[2] = f64::NAN;
+        let bad_settings = [
+            (
+                Settings {
+                    blocker_bands: bad,
+                    ..d
+                },
+                "band 2",
+            ),
+            (
+                Settings {
+                    blocker_bands: [1.0, -0.5, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0],
+                    ..d
+                },
+                "band 1",
+            ),
+            (
+                Settings {
+                    exp: Exp::HybScaled {
+                        dc: f64::INFINITY,
+                        hat: 0.0,
+                    },
+                    ..d
+                },
+                "rates",
+            ),
+        ];
+        for (s, what) in bad_settings {
+            let e = s.validate().unwrap_err();
+            assert!(e.contains(what), "{e}");
+        }
+        let e = exponentiate(&t, Exp::HybScaled { dc: 0.0, hat: 0.0 }, &[0.1; 4]).unwrap_err();
+        assert!(e.contains("order"), "{e}");
+    }
+
     /// One sphere blocker (angular radius 23.6°) between the point and the sun: the
     /// pipeline at its defaults against the SH-ideal render (exact visibility) within
     /// 10 % of the unoccluded radiance (measured: 8.6 %, attenuation under-darkens a

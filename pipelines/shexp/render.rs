@@ -533,7 +533,7 @@ pub const HYB_REFIT: Exp = Exp::HybScaled {
 
 /// The blockers' log-ZH band factors fitted on the 12-sphere scenes' summed logs
 /// (`study_blocker_bands`, docs/shexp-render.md): every band deepened.
-pub const BLOCKER_BANDS_FIT: [f64; 8] = [2.30, 1.22, 2.12, 2.14, 1.0, 1.0, 1.0, 1.0];
+pub const BLOCKER_BANDS_FIT: [f64; 8] = [2.24, 1.31, 2.02, 2.30, 1.0, 1.0, 1.0, 1.0];
 
 /// The variants whose median line (the target's) is printed besides the defaults'.
 const MEDIAN_VARIANTS: [&str; 6] = [
@@ -711,10 +711,7 @@ fn subset_lines(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
-        std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d)
-    }
+    use crate::env_or;
 
     /// A scene of a fit against SH-ideal: its name, hits, light (order 4) and SH-ideal
     /// image (exact visibility and BRDF, the light at the pipeline's order: what the
@@ -864,7 +861,13 @@ mod tests {
         let mut best = cost(&bands);
         for sweep in 0..6 {
             for l in 0..4 {
-                for (step, lo, hi) in [(0.05, 0.3, 3.0), (0.01, bands[l] - 0.05, bands[l] + 0.05)] {
+                // The coarse grid, then the fine one about the coarse grid's best.
+                for fine in [false, true] {
+                    let (step, lo, hi) = if fine {
+                        (0.01, bands[l] - 0.05, bands[l] + 0.05)
+                    } else {
+                        (0.05, 0.3, 3.0)
+                    };
                     let mut x = lo;
                     while x <= hi + 1e-9 {
                         let mut b = bands;

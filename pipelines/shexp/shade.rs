@@ -141,10 +141,12 @@ pub struct Settings {
     /// Caps taken out of the log sum and projected exactly (a candidate; off in the
     /// defaults).
     pub exact_caps: ExactCaps,
-    /// Per-band factors on every sphere blocker's log-ZH vector (band l's coefficient
-    /// times `blocker_bands[l]`, after the attenuation): the per-blocker log vectors
-    /// fitted so that exp* of their sums matches the product of visibilities (a
-    /// candidate, docs/shexp-render.md; all 1 in the defaults, which leaves the bits).
+    /// Per-band factors (≥ 0) on every sphere blocker's log-ZH vector in the log sum
+    /// (band l's coefficient times `blocker_bands[l]`, after the attenuation and the
+    /// overlap weighting; caps taken out by [`Settings::exact_caps`] have no log; bands
+    /// from the order on are unused): the per-blocker log vectors fitted so that exp*
+    /// of their sums matches the product of visibilities (a candidate,
+    /// docs/shexp-render.md; all 1 in the defaults, which leaves the bits).
     pub blocker_bands: [f64; 8],
     /// Exponentiation.
     pub exp: Exp,
@@ -188,8 +190,19 @@ impl Settings {
                 lobefit_tables::wedge::WEDGE_COUNTS
             ));
         }
-        if let Some(k) = self.blocker_bands.iter().find(|k| !k.is_finite()) {
-            return Err(format!("blocker band factor {k} must be finite"));
+        if let Some((l, k)) = self
+            .blocker_bands
+            .iter()
+            .enumerate()
+            .find(|(_, k)| !(k.is_finite() && **k >= 0.0))
+        {
+            // A negative factor would turn a band of a blocker's shadow into light.
+            return Err(format!("blocker band factor {k} of band {l} must be finite and ≥ 0"));
+        }
+        if let Exp::HybScaled { dc, hat } = self.exp {
+            if !(dc.is_finite() && hat.is_finite()) {
+                return Err(format!("HYB's re-fitted rates dc {dc}, hat {hat} must be finite"));
+            }
         }
         for (what, e) in [
             ("eps_vis", self.eps_vis),
@@ -478,8 +491,10 @@ pub fn exponentiate(t: &Tables, mode: Exp, f: &[f64]) -> Result<Vec<f64>, String
             Ok(out)
         }
         Exp::HybScaled { dc, hat } => {
-            use lobefit_tables::shexp::{hyb_with, OL_THRESHOLD, ORDER_MIN};
+            use lobefit_tables::shexp::{hyb_with, ol_threshold};
             let n = rt::order_of_len(f.len()).map_err(|e| e.to_string())?;
+            // HYB's own order check (3..=8) first: the threshold is per order.
+            let threshold = ol_threshold(n).map_err(|e| e.to_string())?;
             let gaunt = Gaunt::cached(n).map_err(|e| e.to_string())?;
             let ab = |s: f64| {
                 t.shexp
@@ -487,7 +502,7 @@ pub fn exponentiate(t: &Tables, mode: Exp, f: &[f64]) -> Result<Vec<f64>, String
                     .map(|(a, b)| (a * (dc * s).exp(), b * (hat * s).exp()))
             };
             let mut out = vec![0.0; f.len()];
-            hyb_with(gaunt, f, OL_THRESHOLD[n - ORDER_MIN], ab, &mut out).map_err(|e| e.to_string())?;
+            hyb_with(gaunt, f, threshold, ab, &mut out).map_err(|e| e.to_string())?;
             Ok(out)
         }
         Exp::Exact => {

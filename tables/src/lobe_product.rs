@@ -548,15 +548,25 @@ impl LobeProduct {
         finite_result("product integral", l1.scale * q * l2.scale)
     }
 
-    /// A bound on |[`LobeProduct::product_integral`]| from the two lobes alone, with
-    /// no lookup: the exact |∫ l1 l2| is at most min(|s1|·|∫l2|, |s2|·|∫l1|) (a lobe
-    /// never exceeds its scale), and the table's integral stays within
-    /// [`PRODUCT_BOUND_MARGIN`] of the exact one (test
-    /// `product_integral_stays_within_its_bound`, both variants). A caller dropping
-    /// products below a threshold t_i (§5.4) skips those whose bound is below it
-    /// before computing them: the comparison would have dropped them.
+    /// A bound (sr × s1·s2, the units of [`LobeProduct::product_integral`]) on
+    /// |[`LobeProduct::product_integral`]| of lobes it accepts, from the two lobes
+    /// alone, with no lookup: the exact |∫ l1 l2| is at most min(|s1|·|∫l2|,
+    /// |s2|·|∫l1|) (a lobe never exceeds its scale), and the table's integral stays
+    /// within [`PRODUCT_BOUND_MARGIN`] of the exact one (test
+    /// `product_integral_stays_within_its_bound`, both variants, exponents to 1e8). A
+    /// caller dropping products below a threshold t_i (§5.4) skips those whose bound
+    /// is below it before computing them: the comparison would have dropped them (and
+    /// such a product's lookup is not made, so it cannot fail either). Infinite where
+    /// either lobe's terms are NaN (nothing is skipped on a bound that says nothing).
     pub fn product_integral_bound(l1: &Lobe, l2: &Lobe) -> f64 {
-        PRODUCT_BOUND_MARGIN * (l1.scale.abs() * l2.integral().abs()).min(l2.scale.abs() * l1.integral().abs())
+        let (b1, b2) = (
+            l1.scale.abs() * l2.integral().abs(),
+            l2.scale.abs() * l1.integral().abs(),
+        );
+        if b1.is_nan() || b2.is_nan() {
+            return f64::INFINITY;
+        }
+        PRODUCT_BOUND_MARGIN * b1.min(b2)
     }
 
     /// [`LobeProduct::product_any`] for inputs that passed [`valid_pair`], with no

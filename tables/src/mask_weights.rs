@@ -367,7 +367,10 @@ pub fn build_mask(light: Cap, blockers: &[Cap], max_depth: u32) -> Result<Mask, 
 /// (bounding cap, depth) — [`Mask::leaves`] at the built depth, bit for bit — without
 /// storing the mask's other cells: what a renderer shading the leaves needs (the
 /// partial cells' bounding caps cost an acos each, and most cells are partial).
-/// Returns whether one blocker hides the whole light (then no leaves).
+/// `leaves` is cleared first (a buffer the caller may reuse). Returns whether one
+/// blocker hides the whole light (then no leaves); the errors of [`build_mask`] (a
+/// depth outside 1..=5, a cap whose axis is not unit or whose half-angle is outside
+/// (0, π/2)), with `leaves` left empty.
 pub fn mask_leaves(
     light: Cap,
     blockers: &[Cap],

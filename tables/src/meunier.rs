@@ -499,19 +499,19 @@ impl Meunier<'_> {
             .filter(|b| dist(b.centre, x) - b.radius < light_dist)
             .map(|b| cap_of(x, b))
             .collect();
-        let dist = dist_of_cap(lcap.half_angle);
+        let mask_dist = dist_of_cap(lcap.half_angle);
         let mut cells = Vec::new();
         if mask_leaves(lcap, &caps, settings.depth, settings.mode, &mut cells)? {
             return Ok(Visibility {
                 lobes: Vec::new(),
-                dist,
+                dist: mask_dist,
                 fully_blocked: true,
                 leaves: 0,
             });
         }
         let mut w = [0.0; MAX_DEPTH as usize];
         self.weights
-            .weights(settings.weights, settings.mode, settings.depth, dist, &mut w)?;
+            .weights(settings.weights, settings.mode, settings.depth, mask_dist, &mut w)?;
         let mut lobes = Vec::with_capacity(cells.len() + 1);
         if settings.light == LightModel::Lobe {
             lobes.push(Lobe {
@@ -543,7 +543,7 @@ impl Meunier<'_> {
         }
         Ok(Visibility {
             lobes,
-            dist,
+            dist: mask_dist,
             fully_blocked: false,
             leaves,
         })

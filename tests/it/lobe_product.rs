@@ -353,12 +353,14 @@ fn overflowing_scales_and_bad_normals_are_errors() {
 }
 
 /// `product_integral_bound` holds: over random pairs (exponents log-uniform in
-/// [0.01, 1e5) and exactly 0, axes at any angle, scales of either sign), both
-/// variants, |product_integral| never exceeds it — so a caller skipping products whose
-/// bound is below t_i drops only products the comparison with t_i would drop. The
-/// bound's exact part is checked against quadrature too (the reference integral never
-/// exceeds it). Fails when the margin is taken away (the table's integral sits a little
-/// above the exact one at some points).
+/// [0.01, 1e8) and exactly 0, axes at any angle, scales of either sign) and a broad
+/// lobe against aligned and nearly aligned sharp ones (e2 to 1e8, the range a small
+/// shadow leaf's cap exponent reaches), both variants, |product_integral| never
+/// exceeds it — so a caller skipping products whose bound is below t_i drops only
+/// products the comparison with t_i would drop. The bound's exact part is checked
+/// against quadrature too (the reference integral never exceeds it). Fails when the
+/// margin is taken away (the table's integral sits a little above the exact one at
+/// some points). A NaN scale gives an infinite bound (nothing skipped).
 #[test]
 fn product_integral_stays_within_its_bound() {
     let mut rng = Rng::new(0x7b0d);
@@ -366,11 +368,19 @@ fn product_integral_stays_within_its_bound() {
         if rng.uniform() < 0.1 {
             0.0
         } else {
-            10f64.powf(rng.range(-2.0, 5.0))
+            10f64.powf(rng.range(-2.0, 8.0))
         }
     };
     let mut worst: f64 = 0.0;
     let mut worst_exact: f64 = 0.0;
+    let mut pairs: Vec<(Lobe, Lobe, bool)> = Vec::new();
+    for e1 in [0.0, 1.0, 3.0, 30.0] {
+        for e2 in [1e3, 1e5, 1e6, 1e7, 1e8] {
+            for theta in [0.0, 1e-4, 0.3, 1.2] {
+                pairs.push((lobe(1.0, DVec3::Z, e1), lobe(-0.7, unit(theta, 0.4), e2), false));
+            }
+        }
+    }
     for k in 0..4000 {
         let a = lobe(
             rng.range(-3.0, 3.0),
@@ -382,6 +392,9 @@ fn product_integral_stays_within_its_bound() {
             unit(rng.range(0.0, PI), rng.range(0.0, TAU)),
             e(&mut rng),
         );
+        pairs.push((a, b, k % 40 == 0));
+    }
+    for (a, b, quadrature) in pairs {
         let bound = LobeProduct::product_integral_bound(&a, &b);
         let exact_bound = bound / lobefit::tables::lobe_product::PRODUCT_BOUND_MARGIN;
         for t in [energy(), l2()] {
@@ -395,7 +408,7 @@ fn product_integral_stays_within_its_bound() {
                 worst = worst.max(v.abs() / exact_bound);
             }
         }
-        if k % 40 == 0 && a.exponent.max(b.exponent) < 2e3 {
+        if quadrature && a.exponent.max(b.exponent) < 2e3 {
             let alpha = a.axis.angle_between(b.axis);
             let r = reference_integral(a.exponent, b.exponent, alpha).unwrap() * (a.scale * b.scale).abs();
             assert!(
@@ -406,4 +419,9 @@ fn product_integral_stays_within_its_bound() {
         }
     }
     println!("largest |table| / exact bound {worst:.4}; largest quadrature / exact bound {worst_exact:.4}");
+    let nan = lobe(f64::NAN, DVec3::Z, 1.0);
+    assert_eq!(
+        LobeProduct::product_integral_bound(&nan, &lobe(1.0, DVec3::Z, 2.0)),
+        f64::INFINITY
+    );
 }
