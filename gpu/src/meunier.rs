@@ -193,13 +193,14 @@ fn source(settings: &MaskSettings) -> String {
     format!(
         "const N_IN = {N_IN}u;\nconst MAT_SIZE = {}u;\nconst MAXB = {MAX_BLOCKERS}u;\nconst MAXL = {}u;\n\
          const DEPTH = {}u;\nconst MODE = {mode}u;\nconst WSET = {set}u;\nconst THRESH = {};\nconst CAP_LIGHT = {};\n\
-         const BUDGET = {ITERATION_BUDGET}u;\nconst LIGHT_HALF_ANGLE_MIN = {};\n{}",
+         const BUDGET = {ITERATION_BUDGET}u;\nconst LIGHT_HALF_ANGLE_MIN = {};\nconst SHARP = {};\n{}",
         2 + 5 * MAX_LOBES,
         MAX_LOBES + 1,
         settings.depth,
         lit(settings.threshold),
         settings.light == LightModel::Cap,
         lit(LIGHT_HALF_ANGLE_MIN),
+        settings.sharp_leaves,
         split(SHADER).0,
     )
 }

@@ -116,6 +116,7 @@ impl DirectLightView {
                 weights,
                 threshold: 0.0,
                 light,
+                ..MaskSettings::default()
             },
         })
     }

@@ -20,6 +20,7 @@ const LOBE: MaskSettings = MaskSettings {
     weights: WeightSet::Fitted,
     threshold: 0.0,
     light: LightModel::Lobe,
+    sharp_leaves: true,
 };
 
 fn pipeline() -> Meunier<'static> {
