@@ -99,20 +99,18 @@ fn mn_shade_vis(bl: array<MnLobe, MAXL>, nbl: u32, v: MnLobe, n: vec3<f32>) -> f
     }
     return total;
 }
-// The shadow lobe v times each kept (BRDF x cosine) x radiance lobe: the light's cap
-// model, where the radiance is uniform over the hemisphere (one product a leaf).
 // ∫ max(a1·v, 0)^e1 max(a2·v, 0)^e2 dω for a sharp l2 by its expansion about a2, or
 // −1 where it does not apply (the runtime's sharp_product_integral, same conditions).
 fn mn_sharp(l1: MnLobe, l2: MnLobe) -> f32 {
     let u = clamp(dot(l1.a, l2.a), -1.0, 1.0);
     let e1 = l1.e;
     let e2 = l2.e;
-    if !(e2 >= 1000.0 && u > 0.0 && e2 * u * u >= 100.0 * (e1 * e1 + e1 + 1.0) && e2 * asin(u) * asin(u) >= 80.0) {
+    if !(e2 >= 1000.0 && u > 0.0 && e2 * u * u >= 100.0 * (e1 * e1 + e1 + 1.0)) {
         return -1.0;
     }
     let f = pow(u, e1);
-    let f2 = pow(u, e1 - 2.0);
-    let f4 = pow(u, e1 - 4.0);
+    let f2 = f / (u * u);
+    let f4 = f2 / (u * u);
     let lap = e1 * (e1 - 1.0) * f2 - e1 * (e1 + 1.0) * f;
     let lap_low = (e1 - 2.0) * (e1 - 3.0) * f4 - (e1 - 2.0) * (e1 - 1.0) * f2;
     let lap2 = e1 * (e1 - 1.0) * lap_low - e1 * (e1 + 1.0) * lap;
@@ -121,6 +119,8 @@ fn mn_sharp(l1: MnLobe, l2: MnLobe) -> f32 {
     return 2.0 * LF_PI / (e2 + 1.0) * (f + 0.5 * m1 * lap + m2 * (lap2 + 2.0 * lap) / 16.0);
 }
 
+// The shadow lobe v times each kept (BRDF x cosine) x radiance lobe: the light's cap
+// model, where the radiance is uniform over the hemisphere (one product a leaf).
 fn mn_shade_leaf(pc: array<MnLobe, MAXL>, npc: u32, v: MnLobe) -> f32 {
     var total = 0.0;
     for (var k = 0u; k < MAXL; k++) {

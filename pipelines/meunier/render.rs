@@ -218,7 +218,7 @@ fn products_kept(
         let mut kept = 0;
         for p in &lit {
             for leaf in &vis.lobes {
-                let v = m.products.product_integral(p, leaf).map_err(err)?;
+                let v = m.leaf_product(p, leaf, s).map_err(|e| e.to_string())?;
                 kept += usize::from(v != 0.0 && v.abs() >= s.threshold);
             }
         }

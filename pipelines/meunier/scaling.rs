@@ -277,8 +277,8 @@ mod tests {
     /// The lobes' cost per pixel at N blockers, one thread (run with --ignored;
     /// docs/meunier.md, "Blocker scaling"): per scene (cluster and torus at
     /// `LF_COUNTS`, default 1,16,64,256,1024; `LF_KINDS`, default cluster,torus) at
-    /// `LF_WIDTH` px (64), t_i = `LF_THRESHOLD` (0), sharp leaves in closed form with
-    /// `LF_SHARP=true` ([`MaskSettings::sharp_leaves`]), the culled lobe image shaded
+    /// `LF_WIDTH` px (64), t_i = `LF_THRESHOLD` (0), sharp leaves in closed form unless
+    /// `LF_SHARP=false` ([`MaskSettings::sharp_leaves`]), the culled lobe image shaded
     /// serially `LF_RUNS` (5) times (µs per lit pixel: median, min, max), its relative
     /// RMSE against the study's reference ([`SPP`] spp with the BVH) and a hash of its
     /// bytes (equal hashes: the same image, bit for bit). Checks nothing.
@@ -292,7 +292,7 @@ mod tests {
         let m = Meunier::embedded().unwrap();
         let settings = MaskSettings {
             threshold: env_or("LF_THRESHOLD", 0.0),
-            sharp_leaves: env_or("LF_SHARP", false),
+            sharp_leaves: env_or("LF_SHARP", true),
             ..MaskSettings::default()
         };
         println!(

@@ -607,7 +607,6 @@ impl Meunier<'_> {
         settings: &MaskSettings,
     ) -> Result<f64, MeunierError> {
         let threshold = settings.threshold;
-        let sharp = settings.sharp_leaves && self.products.variant() == Variant::Energy;
         let cosine = Lobe {
             scale: 1.0,
             axis: n,
@@ -640,19 +639,29 @@ impl Meunier<'_> {
                 if threshold > 0.0 && LobeProduct::product_integral_bound(&lit, leaf) < threshold {
                     continue;
                 }
-                let closed = sharp
-                    .then(|| sharp_product_integral(lit.axis, lit.exponent, leaf.axis, leaf.exponent))
-                    .flatten();
-                let v = match closed {
-                    Some(i) => check_result("leaf product", lit.scale * i * leaf.scale)?,
-                    None => self.products.product_integral(&lit, leaf)?,
-                };
+                let v = self.leaf_product(&lit, leaf, settings)?;
                 if v != 0.0 && v.abs() >= threshold {
                     total += v;
                 }
             }
         }
         Ok(total)
+    }
+
+    /// The integral of the product of a light-cap term's lobe `lit` (a BRDF lobe × the
+    /// cosine, radiance-scaled) and a shadow leaf's lobe `leaf` (sr × their scales):
+    /// with [`MaskSettings::sharp_leaves`] and the `energy` products, the leaf's
+    /// expansion ([`sharp_product_integral`]) where it answers, else the lobe-product
+    /// table ([`LobeProduct::product_integral`]).
+    pub fn leaf_product(&self, lit: &Lobe, leaf: &Lobe, settings: &MaskSettings) -> Result<f64, MeunierError> {
+        let sharp = settings.sharp_leaves && self.products.variant() == Variant::Energy;
+        match sharp
+            .then(|| sharp_product_integral(lit.axis, lit.exponent, leaf.axis, leaf.exponent))
+            .flatten()
+        {
+            Some(i) => check_result("leaf product", lit.scale * i * leaf.scale),
+            None => Ok(self.products.product_integral(lit, leaf)?),
+        }
     }
 
     /// Irradiance ∫ L V max(n·v, 0) dω (W·m⁻² for L in W·sr⁻¹·m⁻²) at `x`, unit normal
