@@ -190,9 +190,9 @@ pub struct MaskSettings {
     /// Under [`LightModel::Cap`] with the `energy` products, a shadow leaf sharp beside
     /// the BRDF × cosine lobe gets its product's integral by
     /// [`crate::lobe_product::sharp_product_integral`] (its expansion about the leaf's
-    /// axis, within 1e-6 of the integral where it answers; the table errs up to
-    /// 5.5e-3) instead of the lobe-product table: on by default, the GPU kernel does
-    /// the same (docs/meunier.md, "Sharp leaves in closed form").
+    /// axis, within 1e-7 of the integral, relative, where it answers; the table errs
+    /// up to 5.5e-3) instead of the lobe-product table: on by default, the GPU kernel
+    /// does the same (docs/meunier.md, "Sharp leaves in closed form").
     pub sharp_leaves: bool,
 }
 
