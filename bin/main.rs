@@ -376,6 +376,10 @@ fn progress(len: u64, label: &str) -> ProgressBar {
 
 /// Builds the given families into `out_path(kind)`; prints a summary.
 fn build(families: &[Box<dyn Fit>], threads: Option<usize>, out_path: &dyn Fn(&str) -> PathBuf) -> Result<(), String> {
+    // Every output checked before minutes of fitting.
+    for f in families {
+        out_file("--out", &out_path(f.kind()))?;
+    }
     let pool = pool(threads)?;
     let t_all = Instant::now();
     let mut rows = Vec::new();
@@ -539,6 +543,9 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             if let Some(dir) = export {
                 return Ok(check_export(&dir)?);
             }
+            if let Some(p) = &junit {
+                out_file("--junit", p)?;
+            }
             // Read the baseline first: a bad file fails before minutes of checking.
             let saved: Option<Vec<check::FamilyReport>> = match &baseline {
                 None => None,
@@ -595,6 +602,7 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             scale,
             shaders,
         } => {
+            out_dir(&out)?;
             let mut s = String::new();
             if !shaders.is_empty() {
                 let langs = shaders
@@ -656,15 +664,9 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             // not take, a value outside its range, a scene the family cannot shade) is
             // a usage error too; a scene file that cannot be read or parsed is the
             // file's error, as a table file's is.
-            let f = lobefit::catalog::for_eval(&family, &flags, FitOptions::default()).map_err(|e| {
-                let scene_file = flags
-                    .text("scene")
-                    .is_some_and(|s| lobefit::pipelines::scene::check_file(&s).err().as_ref() == Some(&e));
-                if scene_file {
-                    Failure::Run(e)
-                } else {
-                    Failure::Usage(e)
-                }
+            let f = lobefit::catalog::for_eval(&family, &flags, FitOptions::default()).map_err(|e| match e {
+                lobefit::family::EvalError::Usage(e) => Failure::Usage(e),
+                lobefit::family::EvalError::Input(e) => Failure::Run(e),
             })?;
             let runtime = if exact {
                 None
@@ -777,25 +779,7 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
                     lobefit::pipelines::MAX_RENDER_SAMPLES
                 )));
             }
-            // (A missing --out is made only by a render that succeeds: probe its nearest
-            // existing ancestor.)
-            let existing = out
-                .ancestors()
-                .find(|a| a.exists())
-                .unwrap_or(std::path::Path::new("."));
-            let probe = if existing.as_os_str().is_empty() {
-                std::path::Path::new(".")
-            } else {
-                existing
-            };
-            if !probe.is_dir() {
-                return Err(Failure::Run(format!(
-                    "--out {}: {} is not a directory",
-                    out.display(),
-                    probe.display()
-                )));
-            }
-            tempfile::tempfile_in(probe).map_err(|e| format!("--out {}: cannot write there: {e}", out.display()))?;
+            out_dir(&out)?;
             let mut text = String::new();
             for &scene in &scenes {
                 let rows = (opts.width * 3 / 4).max(3) as u64;
@@ -840,11 +824,54 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
                 .into_iter()
                 .find(|(n, _)| *n == name)
                 .ok_or_else(|| Failure::Usage(format!("no figures named {name}")))?;
+            out_dir(&out)?;
             let listing: String = plot(&out)?.iter().map(|p| format!("{}\n", p.display())).collect();
             emit(&listing)?;
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Checks an output directory before any work: where it exists it is a directory
+/// (through links), else its nearest existing ancestor is one, and a file can be
+/// created there (a missing `--out` is made only by a command that succeeds).
+fn out_dir(out: &Path) -> Result<(), String> {
+    if let Ok(m) = std::fs::metadata(out) {
+        if !m.is_dir() {
+            let what = if m.is_file() {
+                "a regular file"
+            } else {
+                lobefit::tables::table::file_type_name(m.file_type())
+            };
+            return Err(format!("--out {}: it is {what}, not a directory", out.display()));
+        }
+    }
+    let existing = out.ancestors().find(|a| a.exists()).unwrap_or(Path::new("."));
+    let probe = if existing.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        existing
+    };
+    if !probe.is_dir() {
+        return Err(format!(
+            "--out {}: {} is not a directory",
+            out.display(),
+            probe.display()
+        ));
+    }
+    tempfile::tempfile_in(probe).map_err(|e| format!("--out {}: cannot write there: {e}", out.display()))?;
+    Ok(())
+}
+
+/// Checks an output file before any work: nothing but a regular file is replaced
+/// ([`lobefit::io::check_replaceable`]), and its directory takes files ([`out_dir`]).
+fn out_file(flag: &str, out: &Path) -> Result<(), String> {
+    lobefit::io::check_replaceable(out).map_err(|e| format!("{flag} {}: {e}", out.display()))?;
+    let dir = out
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    out_dir(dir).map_err(|e| format!("{flag} {}: {e}", out.display()))
 }
 
 /// `lobefit spheres`: fit, measure, write, report.
@@ -862,6 +889,7 @@ fn spheres(
         SphereMethodArg::Tree => Method::Tree,
         SphereMethodArg::KmeansMoment => Method::KmeansMoment,
     };
+    out_file("--out", out)?;
     let pb = progress(3, "spheres");
     let t0 = Instant::now();
     let mesh = lobefit::pipelines::mesh::Mesh::load(mesh_path)?;
@@ -871,6 +899,12 @@ fn spheres(
     pb.inc(1);
     let q = quality(&mesh, &set, samples, seed);
     pb.finish_and_clear();
+    if !q.is_finite() {
+        return Err(format!(
+            "mesh {}: the fit's measured quality is not finite ({q:?}); nothing written",
+            mesh_path.display()
+        ));
+    }
     let file = SphereSetFile {
         version: 1,
         mesh: mesh_path.display().to_string(),

@@ -33,6 +33,38 @@ pub enum FlagValue {
     Count(usize),
 }
 
+/// Why `lobefit eval` could not set up a query: its flags (a usage error: a flag the
+/// query does not take, a value outside its range, a scene of a kind it cannot shade;
+/// exit 2) or an input file they name (a scene that cannot be read, parsed or built;
+/// exit 1, as a table file's errors).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum EvalError {
+    /// The flags.
+    Usage(String),
+    /// A file they name.
+    Input(String),
+}
+
+impl From<String> for EvalError {
+    fn from(e: String) -> Self {
+        EvalError::Usage(e)
+    }
+}
+
+impl From<&str> for EvalError {
+    fn from(e: &str) -> Self {
+        EvalError::Usage(e.into())
+    }
+}
+
+impl std::fmt::Display for EvalError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EvalError::Usage(e) | EvalError::Input(e) => f.write_str(e),
+        }
+    }
+}
+
 /// The flags given to `lobefit eval`, by name (without the dashes). Built by the
 /// command line from the declared [`EvalFlag`]s; a query reads the ones it declares.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]

@@ -58,6 +58,7 @@ pub fn temp_beside(path: &Path, suffix: &str) -> std::io::Result<tempfile::Named
 /// over `path`, and the directory flushed so the rename survives a crash. On error
 /// the target is untouched and the temporary removed.
 pub fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> std::io::Result<()> {
+    check_replaceable(path)?;
     tmp.as_file().sync_all()?;
     tmp.persist(path).map_err(|e| e.error)?;
     let dir = path
@@ -65,6 +66,26 @@ pub fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> std::io::Result<()>
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     sync_dir(dir)
+}
+
+/// Refuses to write over `path` when something other than a regular file is there
+/// (a device, a FIFO, a socket, a directory, a symbolic link: the rename of an atomic
+/// write would replace it with a regular file; as root, `--out /dev/null` would destroy
+/// the device). A missing `path` or a regular file passes. Every writer calls it before
+/// its rename ([`persist`]); commands call it on their `--out` before their work, so a
+/// long job is not lost at its end.
+pub fn check_replaceable(path: &Path) -> std::io::Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if !m.file_type().is_file() => Err(std::io::Error::new(
+            std::io::ErrorKind::AlreadyExists,
+            format!(
+                "{} is {}, not a regular file: lobefit replaces only regular files",
+                path.display(),
+                lobefit_tables::table::file_type_name(m.file_type())
+            ),
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// Suffix of the temporary files of [`write_atomic`].
@@ -103,16 +124,39 @@ fn remove_stale(dir: &Path, prefix: &str) {
 /// Reads a small text file (a scene, a manifest): refuses what is not a regular file
 /// (a FIFO would block) or is longer than `limit` bytes, before reading it.
 pub fn read_text(path: &Path, limit: u64) -> Result<String, String> {
-    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let bytes = read_bytes(path, limit)?;
+    String::from_utf8(bytes).map_err(|e| format!("cannot read {}: {e}", path.display()))
+}
+
+/// Reads a file of at most `limit` bytes: refuses what is not a regular file (a FIFO
+/// would block the open, a device never end) before opening it, and stops reading at
+/// `limit + 1` bytes whatever the file's size said (a file growing meanwhile).
+/// Errors name the path.
+pub fn read_bytes(path: &Path, limit: u64) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    let cannot = |e: std::io::Error| format!("cannot read {}: {e}", path.display());
+    let meta = std::fs::metadata(path).map_err(cannot)?;
+    let too_long = |n: u64| {
+        format!(
+            "{} is {n} bytes, more than the {limit} this file may have",
+            path.display()
+        )
+    };
     if !meta.is_file() {
-        return Err(format!("{} is not a regular file", path.display()));
-    }
-    if meta.len() > limit {
         return Err(format!(
-            "{} is {} bytes, more than the {limit} a text file here may have",
+            "{} is {}, not a regular file",
             path.display(),
-            meta.len()
+            lobefit_tables::table::file_type_name(meta.file_type())
         ));
     }
-    std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+    if meta.len() > limit {
+        return Err(too_long(meta.len()));
+    }
+    let f = std::fs::File::open(path).map_err(cannot)?;
+    let mut bytes = Vec::new();
+    f.take(limit + 1).read_to_end(&mut bytes).map_err(cannot)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_long(bytes.len() as u64));
+    }
+    Ok(bytes)
 }

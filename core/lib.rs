@@ -17,6 +17,7 @@ pub mod eigen;
 pub mod export;
 pub mod family;
 pub mod io;
+pub mod json;
 pub mod memo;
 pub mod plot;
 pub mod quad;

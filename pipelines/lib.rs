@@ -289,7 +289,7 @@ pub const MAX_RENDER_SAMPLES: u64 = 16 * MAX_SAMPLES;
 pub const MAX_WORK: u64 = 10_000_000_000_000;
 
 /// A pipeline's query for `lobefit eval NAME [flags]` (the pipeline without images).
-pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn View>, String>;
+pub type EvalFn = fn(&EvalFlags) -> Result<Box<dyn View>, lobefit_core::family::EvalError>;
 
 /// A pipeline's `lobefit eval` query.
 #[derive(Debug, Clone, Copy)]

@@ -11,7 +11,6 @@
 //! must stay far below the 1e-9 scene offsets the scene layer uses); it is the scene
 //! layer's sphere BVH with triangles in its leaves, tested against brute force.
 
-use std::io::Read;
 use std::path::Path;
 
 use lobefit_tables::glam::{DQuat, DVec3};
@@ -25,6 +24,8 @@ pub const MAX_MESH_TRIANGLES: usize = 1 << 21;
 /// Largest |coordinate| of a mesh vertex (after its transform), as the scene's
 /// `MAX_COORD`.
 pub const MAX_MESH_COORD: f64 = 1e6;
+/// Largest fraction of a mesh's edges that may be open for [`Mesh::check_solid`].
+pub const MAX_OPEN_EDGES: f64 = 0.05;
 /// Triangles per leaf of the hierarchy.
 const LEAF: usize = 4;
 
@@ -145,6 +146,12 @@ fn hits_box(lo: DVec3, hi: DVec3, x: DVec3, inv: DVec3, t_max: f64) -> bool {
     tn <= tf && tf >= 0.0 && tn <= t_max
 }
 
+/// A mesh file's bytes: a regular file (a FIFO or a device would block or never end)
+/// of at most [`MAX_MESH_BYTES`]; errors name the file.
+fn read_mesh_file(path: &Path) -> Result<Vec<u8>, String> {
+    lobefit_core::io::read_bytes(path, MAX_MESH_BYTES).map_err(|m| format!("mesh: {m}"))
+}
+
 /// The buffers of a glTF document: the binary chunk, or decoded `data:` URIs.
 fn gltf_buffers(doc: &gltf::Gltf) -> Result<Vec<Vec<u8>>, String> {
     use base64::Engine as _;
@@ -181,26 +188,206 @@ fn gltf_buffers(doc: &gltf::Gltf) -> Result<Vec<Vec<u8>>, String> {
         .collect()
 }
 
+/// The scene's nodes in depth-first order with their world transforms (column-major
+/// 4×4), after checking that the node graph is what glTF 2.0 requires (§3.5.3: a
+/// disjoint union of strict trees): no node lists a child twice or is the child of
+/// two parents, a scene's root is no node's child, and no cycle. The walk is an
+/// explicit stack, so a deep chain costs memory in the node count, not a thread's
+/// stack; every node is visited at most once.
+fn gltf_nodes<'a>(
+    doc: &'a gltf::Gltf,
+    scene: &gltf::Scene<'a>,
+) -> Result<Vec<(gltf::Node<'a>, lobefit_tables::glam::DMat4)>, String> {
+    let n = doc.nodes().len();
+    let mut parent: Vec<Option<usize>> = vec![None; n];
+    for node in doc.nodes() {
+        for c in node.children() {
+            if c.index() == node.index() {
+                return Err(format!("nodes[{}].children lists the node itself", node.index()));
+            }
+            match parent[c.index()] {
+                Some(p) if p == node.index() => {
+                    return Err(format!(
+                        "nodes[{}].children lists node {} twice",
+                        node.index(),
+                        c.index()
+                    ))
+                }
+                Some(p) => {
+                    return Err(format!(
+                        "node {} is a child of nodes {p} and {} (glTF nodes form trees: one parent each)",
+                        c.index(),
+                        node.index()
+                    ))
+                }
+                None => parent[c.index()] = Some(node.index()),
+            }
+        }
+    }
+    let mut seen = vec![false; n];
+    let mut out = Vec::new();
+    let mut stack = Vec::new();
+    for root in scene.nodes() {
+        if let Some(p) = parent[root.index()] {
+            return Err(format!(
+                "scenes[{}].nodes lists node {}, a child of node {p} (a scene lists root nodes)",
+                scene.index(),
+                root.index()
+            ));
+        }
+        stack.push((root, lobefit_tables::glam::DMat4::IDENTITY));
+    }
+    while let Some((node, parent_world)) = stack.pop() {
+        // One parent each and parentless roots: a node met twice is a root listed twice.
+        if std::mem::replace(&mut seen[node.index()], true) {
+            return Err(format!(
+                "scenes[{}].nodes lists node {} twice",
+                scene.index(),
+                node.index()
+            ));
+        }
+        let local = lobefit_tables::glam::Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
+        let world = parent_world * local;
+        stack.extend(node.children().map(|c| (c, world)));
+        out.push((node, world));
+    }
+    Ok(out)
+}
+
+/// Checks an accessor against what lobefit reads from it (`want`: the component
+/// types and dimensions it takes, named for the message) and the bytes it may span:
+/// its elements inside its buffer view, the view inside its buffer, a sparse
+/// accessor's index and value views likewise and every sparse index below its count.
+/// The gltf crate's reader trusts all of these (it reads a u8 position as f32 bytes
+/// and panics on a float index accessor), so they are checked first, naming the field.
+fn check_accessor(
+    a: &gltf::Accessor,
+    what: &str,
+    types: &[gltf::accessor::DataType],
+    dims: gltf::accessor::Dimensions,
+    buffers: &[Vec<u8>],
+) -> Result<(), String> {
+    let at = format!("accessors[{}] ({what})", a.index());
+    if !types.contains(&a.data_type()) || a.dimensions() != dims || a.normalized() {
+        return Err(format!(
+            "{at}: componentType {:?}, type {:?}{}; {what} takes {} {:?}",
+            a.data_type(),
+            a.dimensions(),
+            if a.normalized() { ", normalized" } else { "" },
+            types.iter().map(|t| format!("{t:?}")).collect::<Vec<_>>().join(" or "),
+            dims
+        ));
+    }
+    if a.count() == 0 {
+        return Err(format!("{at}: count 0"));
+    }
+    // A view's bytes lie inside its buffer (its byteLength, and the bytes held).
+    let view_bytes = |v: &gltf::buffer::View, field: &str| -> Result<usize, String> {
+        let end = v.offset().checked_add(v.length());
+        let held = buffers
+            .get(v.buffer().index())
+            .map_or(0, Vec::len)
+            .min(v.buffer().length());
+        match end {
+            Some(end) if end <= held => Ok(v.length()),
+            _ => Err(format!(
+                "{at}: {field} bufferViews[{}] spans bytes {}..{} of buffer {}, which has {held}",
+                v.index(),
+                v.offset(),
+                v.offset() as u128 + v.length() as u128,
+                v.buffer().index()
+            )),
+        }
+    };
+    // `count` elements of `size` bytes `stride` apart from `offset` lie inside the view.
+    let span = |v: &gltf::buffer::View, offset: usize, count: usize, size: usize, field: &str| {
+        let len = view_bytes(v, field)?;
+        let stride = v.stride().unwrap_or(size);
+        if stride < size {
+            return Err(format!(
+                "{at}: {field} bufferViews[{}].byteStride {stride} is below the element's {size} bytes",
+                v.index()
+            ));
+        }
+        let end = (count as u128 - 1) * stride as u128 + size as u128 + offset as u128;
+        if end > len as u128 {
+            return Err(format!(
+                "{at}: {field} {count} elements of {size} bytes at byteOffset {offset} end at byte {end},                  beyond bufferViews[{}].byteLength {len}",
+                v.index()
+            ));
+        }
+        Ok(())
+    };
+    if let Some(v) = a.view() {
+        span(&v, a.offset(), a.count(), a.size(), "its")?;
+    }
+    if let Some(s) = a.sparse() {
+        if s.count() == 0 || s.count() > a.count() {
+            return Err(format!("{at}: sparse.count {} outside 1..={}", s.count(), a.count()));
+        }
+        let iv = s.indices().view();
+        let isize = match s.indices().index_type() {
+            gltf::accessor::sparse::IndexType::U8 => 1,
+            gltf::accessor::sparse::IndexType::U16 => 2,
+            gltf::accessor::sparse::IndexType::U32 => 4,
+        };
+        if iv.stride().is_some() {
+            return Err(format!(
+                "{at}: sparse.indices' bufferViews[{}] has a byteStride",
+                iv.index()
+            ));
+        }
+        span(&iv, s.indices().offset(), s.count(), isize, "sparse.indices'")?;
+        let vv = s.values().view();
+        if vv.stride().is_some() {
+            return Err(format!(
+                "{at}: sparse.values' bufferViews[{}] has a byteStride",
+                vv.index()
+            ));
+        }
+        span(&vv, s.values().offset(), s.count(), a.size(), "sparse.values'")?;
+        // Strictly increasing indices below count (glTF 2.0 §5.1.7.1).
+        let base = iv.offset() + s.indices().offset();
+        let bytes = &buffers[iv.buffer().index()][base..base + s.count() * isize];
+        let mut last: Option<u64> = None;
+        for (k, b) in bytes.chunks_exact(isize).enumerate() {
+            let i = b.iter().rev().fold(0u64, |acc, &x| acc << 8 | u64::from(x));
+            if i >= a.count() as u64 || last.is_some_and(|l| i <= l) {
+                return Err(format!(
+                    "{at}: sparse index {k} is {i}: sparse indices must increase and stay below count {}",
+                    a.count()
+                ));
+            }
+            last = Some(i);
+        }
+    }
+    if a.view().is_none() && a.sparse().is_none() {
+        return Err(format!("{at}: no bufferView and not sparse (all zeros)"));
+    }
+    Ok(())
+}
+
 /// [`Mesh::from_gltf_bytes`] (may panic on hostile input: called under catch_unwind).
 fn gltf_mesh(bytes: &[u8]) -> Result<Mesh, String> {
+    use gltf::accessor::{DataType, Dimensions};
     let doc = gltf::Gltf::from_slice(bytes).map_err(|e| format!("not a readable glTF file: {e}"))?;
+    // glTF 2.x: a major version beyond 2 may change what every field means.
+    let asset = &doc.as_json().asset;
+    let major = |v: &str| v.split('.').next().and_then(|m| m.parse::<u64>().ok());
+    if major(&asset.version) != Some(2) || asset.min_version.as_deref().is_some_and(|m| m != "2.0") {
+        return Err(format!(
+            "asset.version {:?}{}: only glTF 2.x (minVersion 2.0) is read",
+            asset.version,
+            asset
+                .min_version
+                .as_deref()
+                .map_or(String::new(), |m| format!(", asset.minVersion {m:?}"))
+        ));
+    }
     let buffers = gltf_buffers(&doc)?;
     let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or("no scene")?;
     let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
-    // Depth-first over the nodes with their world transforms (column-major 4×4).
-    let mut stack: Vec<(gltf::Node, lobefit_tables::glam::DMat4)> = scene
-        .nodes()
-        .map(|n| (n, lobefit_tables::glam::DMat4::IDENTITY))
-        .collect();
-    let mut visited = 0usize;
-    while let Some((node, parent)) = stack.pop() {
-        visited += 1;
-        if visited > MAX_MESH_TRIANGLES {
-            return Err("too many nodes".into());
-        }
-        let local = lobefit_tables::glam::Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
-        let world = parent * local;
-        stack.extend(node.children().map(|c| (c, world)));
+    for (node, world) in gltf_nodes(&doc, &scene)? {
         let Some(mesh) = node.mesh() else { continue };
         for p in mesh.primitives() {
             if p.mode() != gltf::mesh::Mode::Triangles {
@@ -210,7 +397,15 @@ fn gltf_mesh(bytes: &[u8]) -> Result<Mesh, String> {
                     p.mode()
                 ));
             }
-            let count = p.get(&gltf::Semantic::Positions).map_or(0, |a| a.count());
+            let pos = p
+                .get(&gltf::Semantic::Positions)
+                .ok_or_else(|| format!("mesh {}: a primitive without positions", mesh.index()))?;
+            check_accessor(&pos, "POSITION", &[DataType::F32], Dimensions::Vec3, &buffers)?;
+            if let Some(i) = p.indices() {
+                let types = [DataType::U8, DataType::U16, DataType::U32];
+                check_accessor(&i, "indices", &types, Dimensions::Scalar, &buffers)?;
+            }
+            let count = pos.count();
             if vertices.len() + count > MAX_MESH_VERTICES {
                 return Err(format!(
                     "more than the {MAX_MESH_VERTICES} vertices a mesh may hold (MAX_MESH_VERTICES)"
@@ -294,18 +489,8 @@ impl Mesh {
     /// Reads an OBJ file (polygons triangulated; materials, normals and texture
     /// coordinates ignored), at most [`MAX_MESH_BYTES`] long; errors name the file.
     pub fn load_obj(path: &Path) -> Result<Mesh, String> {
-        let err = |m: String| format!("mesh {}: {m}", path.display());
-        let f = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
-        let mut bytes = Vec::new();
-        f.take(MAX_MESH_BYTES + 1)
-            .read_to_end(&mut bytes)
-            .map_err(|e| err(e.to_string()))?;
-        if bytes.len() as u64 > MAX_MESH_BYTES {
-            return Err(err(format!(
-                "longer than the {MAX_MESH_BYTES} bytes a mesh file may be (MAX_MESH_BYTES)"
-            )));
-        }
-        Mesh::from_obj_bytes(&bytes).map_err(err)
+        let bytes = read_mesh_file(path)?;
+        Mesh::from_obj_bytes(&bytes).map_err(|m| format!("mesh {}: {m}", path.display()))
     }
 
     /// Reads a mesh file by its extension: `.obj` ([`Mesh::from_obj_bytes`]), `.gltf`
@@ -320,16 +505,7 @@ impl Mesh {
         if !matches!(ext.as_deref(), Some("gltf" | "glb")) {
             return Err(err("not a mesh file: .obj, .gltf or .glb".into()));
         }
-        let f = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
-        let mut bytes = Vec::new();
-        f.take(MAX_MESH_BYTES + 1)
-            .read_to_end(&mut bytes)
-            .map_err(|e| err(e.to_string()))?;
-        if bytes.len() as u64 > MAX_MESH_BYTES {
-            return Err(err(format!(
-                "longer than the {MAX_MESH_BYTES} bytes a mesh file may be (MAX_MESH_BYTES)"
-            )));
-        }
+        let bytes = read_mesh_file(path)?;
         Mesh::from_gltf_bytes(&bytes).map_err(err)
     }
 
@@ -345,18 +521,38 @@ impl Mesh {
 
     /// Parses OBJ text (see [`Mesh::load_obj`]); every object of the file in one mesh.
     pub fn from_obj_bytes(bytes: &[u8]) -> Result<Mesh, String> {
-        // Counted before tobj allocates per element: a line per vertex or face at least.
-        let count = |tag: &[u8]| bytes.split(|&b| b == b'\n').filter(|l| l.starts_with(tag)).count();
-        let (nv, nf) = (count(b"v "), count(b"f "));
-        if nv > MAX_MESH_VERTICES {
-            return Err(format!(
-                "{nv} vertices, more than the {MAX_MESH_VERTICES} a mesh may hold (MAX_MESH_VERTICES)"
-            ));
-        }
-        if nf > MAX_MESH_TRIANGLES {
-            return Err(format!(
-                "{nf} faces, more than the {MAX_MESH_TRIANGLES} a mesh may hold (MAX_MESH_TRIANGLES)"
-            ));
+        // Counted before tobj allocates per element: vertices by their lines, triangles
+        // by each face's vertex count (one line `f 1 2 3 4 …` may hold millions).
+        let (mut nv, mut nt) = (0usize, 0usize);
+        for (k, line) in bytes.split(|&b| b == b'\n').enumerate() {
+            let mut tokens = line.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty());
+            match tokens.next() {
+                Some(b"v") => nv += 1,
+                Some(b"f") => {
+                    let corners = tokens.count();
+                    if corners < 3 {
+                        return Err(format!(
+                            "line {}: a face of {corners} vertices (a face has at least 3)",
+                            k + 1
+                        ));
+                    }
+                    nt += corners - 2;
+                }
+                _ => {}
+            }
+            if nv > MAX_MESH_VERTICES {
+                return Err(format!(
+                    "more than the {MAX_MESH_VERTICES} vertices a mesh may hold (MAX_MESH_VERTICES), by line {}",
+                    k + 1
+                ));
+            }
+            if nt > MAX_MESH_TRIANGLES {
+                return Err(format!(
+                    "faces of more than the {MAX_MESH_TRIANGLES} triangles a mesh may hold (MAX_MESH_TRIANGLES), \
+                     by line {}",
+                    k + 1
+                ));
+            }
         }
         let opts = tobj::LoadOptions {
             triangulate: true,
@@ -453,6 +649,43 @@ impl Mesh {
                 a.dot(b.cross(c)) / 6.0
             })
             .sum()
+    }
+
+    /// (edges that bound an odd number of triangles, all edges): a closed mesh has no
+    /// odd edge; a hole's rim bounds one triangle, a non-manifold fin three.
+    pub fn open_edges(&self) -> (usize, usize) {
+        let mut uses = std::collections::HashMap::<(u32, u32), u32>::with_capacity(3 * self.triangles.len() / 2);
+        for t in &self.triangles {
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        (uses.values().filter(|&&n| n % 2 == 1).count(), uses.len())
+    }
+
+    /// Whether the mesh bounds a solid well enough to fit spheres to it and measure
+    /// the fit: at most [`MAX_OPEN_EDGES`] of its edges open (scanned meshes have
+    /// small holes: the bunny 226 of 28 544, 0.8 %), and a volume that is finite and
+    /// above 1e-9 of its bounding box's (the volume error divides by it). An error
+    /// names what failed.
+    pub fn check_solid(&self) -> Result<(), String> {
+        let (open, all) = self.open_edges();
+        if open as f64 > MAX_OPEN_EDGES * all as f64 {
+            return Err(format!(
+                "not closed: {open} of its {all} edges bound an odd number of triangles \
+                 (more than {:.0} %; a mesh for a sphere set must enclose a volume)",
+                100.0 * MAX_OPEN_EDGES
+            ));
+        }
+        let (lo, hi) = self.bounds();
+        let box_volume = (hi - lo).x * (hi - lo).y * (hi - lo).z;
+        let v = self.volume().abs();
+        if !(v.is_finite() && v > 1e-9 * box_volume && v > 0.0) {
+            return Err(format!(
+                "encloses no volume ({v:e} in a bounding box of {box_volume:e}): is it closed?"
+            ));
+        }
+        Ok(())
     }
 
     /// Total area.

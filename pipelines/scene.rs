@@ -1008,6 +1008,20 @@ pub fn load_for(name_or_path: &str, accepts: &Accepts) -> Result<Scene, String> 
     Ok(parse_inner(&name, &text, dir.as_deref(), accepts, true)?.expect("built"))
 }
 
+/// [`load_for`] for `lobefit eval`, its errors sorted as the command line reports
+/// them: the file's own (cannot be read, parsed, or built: a mesh, a fit, the height
+/// field) are [`EvalError::Input`]; a valid scene of a kind `accepts` refuses is the
+/// query's usage ([`EvalError::Usage`]).
+pub fn load_for_eval(name_or_path: &str, accepts: &Accepts) -> Result<Scene, lobefit_core::family::EvalError> {
+    use lobefit_core::family::EvalError;
+    let (name, text, dir) = read(name_or_path).map_err(EvalError::Input)?;
+    parse_inner(&name, &text, dir.as_deref(), &Accepts::ALL, false).map_err(EvalError::Input)?;
+    parse_inner(&name, &text, dir.as_deref(), accepts, false).map_err(EvalError::Usage)?;
+    Ok(parse_inner(&name, &text, dir.as_deref(), accepts, true)
+        .map_err(EvalError::Input)?
+        .expect("built"))
+}
+
 /// Whether [`load`] would succeed, without building anything expensive (the height
 /// field): the same error, or Ok.
 pub fn check_file(name_or_path: &str) -> Result<(), String> {
@@ -1077,7 +1091,9 @@ struct FileMesh {
     /// An OBJ file, relative to the scene file's folder and inside it.
     file: String,
     material: FileMaterial,
-    spheres: FileSphereSet,
+    /// A sphere-set file's name, or `{count, method, seed}` to fit on load: read by
+    /// [`Checker::sphere_set`], which names the field of every error.
+    spheres: serde_json::Value,
     #[serde(default)]
     transform: Option<FileTransform>,
     /// Keyframed translation after `transform` (optional).
@@ -1105,21 +1121,6 @@ struct FileAngleKey {
     time: f64,
     /// rad.
     angle: f64,
-}
-
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum FileSphereSet {
-    /// A sphere-set file `lobefit spheres` wrote (in the mesh file's coordinates).
-    File(String),
-    /// Fitted on load.
-    Fit {
-        count: usize,
-        #[serde(default)]
-        method: Option<String>,
-        #[serde(default)]
-        seed: Option<u64>,
-    },
 }
 
 #[derive(Deserialize)]
@@ -1386,17 +1387,24 @@ fn parse_inner(
 /// the height field is built).
 fn read_file(name: &str, text: &str, accepts: &Accepts) -> Result<File, String> {
     let err = |m: String| format!("scene {name}: {m}");
-    #[derive(Deserialize)]
-    struct Versioned {
-        version: u32,
-    }
-    let v: Versioned = serde_json::from_str(text).map_err(|e| err(e.to_string()))?;
-    if !(1..=SCENE_VERSION).contains(&v.version) {
-        return Err(err(format!(
-            "version {} (this build reads versions 1 to {SCENE_VERSION})",
-            v.version
-        )));
-    }
+    // Strictly (a key given twice is an error), and the version first.
+    let value = lobefit_core::json::value(text).map_err(&err)?;
+    let version = match value.get("version") {
+        None => {
+            return Err(err(format!(
+                "no field `version` (this build reads versions 1 to {SCENE_VERSION})"
+            )))
+        }
+        Some(v) => match v.as_u64() {
+            Some(n) if (1..=u64::from(SCENE_VERSION)).contains(&n) => n,
+            _ => {
+                return Err(err(format!(
+                    "version {v} (this build reads versions 1 to {SCENE_VERSION}, an integer)"
+                )))
+            }
+        },
+    };
+    // From the text, not the value: serde_json's errors then give a line and column.
     let f: File = serde_json::from_str(text).map_err(|e| err(e.to_string()))?;
     let sgs = f.environment.as_ref().map_or(0, |e| e.sgs.len());
     for (what, count, max, limit) in [
@@ -1436,10 +1444,10 @@ fn read_file(name: &str, text: &str, accepts: &Accepts) -> Result<File, String> 
             )));
         }
     }
-    if v.version < 2 && !f.meshes.is_empty() {
+    if version < 2 && !f.meshes.is_empty() {
         return Err(err("meshes need \"version\": 2".into()));
     }
-    if v.version < 2 && f.spheres.iter().any(|s| !s.keys.is_empty()) {
+    if version < 2 && f.spheres.iter().any(|s| !s.keys.is_empty()) {
         return Err(err("keys (motion) need \"version\": 2".into()));
     }
     Ok(f)
@@ -1738,26 +1746,68 @@ impl Checker<'_> {
                 None => Transform::IDENTITY,
                 Some(t) => self.transform(&what, t)?,
             };
-            let set = match m.spheres {
-                FileSphereSet::File(file) => {
-                    SetSpec::File(inside_folder(dir, &file).map_err(|e| self.err(format!("{what}.spheres: {e}")))?)
-                }
-                FileSphereSet::Fit { count, method, seed } => {
-                    let method = Method::parse(method.as_deref().unwrap_or("kmeans"))
-                        .map_err(|e| self.err(format!("{what}.spheres.method: {e}")))?;
-                    if !(1..=MAX_FIT_SPHERES).contains(&count) {
-                        return Err(self.err(format!(
-                            "{what}.spheres.count {count} must lie in 1..={MAX_FIT_SPHERES}"
-                        )));
-                    }
-                    SetSpec::Fit(count, method, seed.unwrap_or(0))
-                }
-            };
+            let set = self.sphere_set(&what, m.spheres, dir)?;
             let material = self.material(&what, m.material)?;
             let bend = m.bend.map(|b| self.bend(&what, b)).transpose()?;
             mesh_specs.push((what, path, transform, set, material, bend));
         }
         Ok(mesh_specs)
+    }
+
+    /// The mesh `what`'s `spheres`: a sphere-set file's name (inside `dir`), or an
+    /// object `{count, method, seed}` with `count` an integer in 1..=[`MAX_FIT_SPHERES`],
+    /// `method` a fit method's name, `seed` an integer ≥ 0; any other key or type is an
+    /// error naming the field and what it takes.
+    fn sphere_set(&self, what: &str, v: serde_json::Value, dir: &Path) -> Result<SetSpec, String> {
+        use serde_json::Value;
+        let map = match v {
+            Value::String(file) => {
+                return Ok(SetSpec::File(
+                    inside_folder(dir, &file).map_err(|e| self.err(format!("{what}.spheres: {e}")))?,
+                ))
+            }
+            Value::Object(map) => map,
+            other => {
+                return Err(self.err(format!(
+                    "{what}.spheres is {other}: expected a sphere-set file's name or {{\"count\": N, \"method\": M, \"seed\": S}}"
+                )))
+            }
+        };
+        if let Some(k) = map.keys().find(|k| !["count", "method", "seed"].contains(&k.as_str())) {
+            return Err(self.err(format!(
+                "{what}.spheres.{k}: unknown field (a fitted set takes count, method and seed)"
+            )));
+        }
+        let count = match map.get("count") {
+            None => return Err(self.err(format!("{what}.spheres: no field `count`"))),
+            Some(c) => c
+                .as_u64()
+                .filter(|c| (1..=MAX_FIT_SPHERES as u64).contains(c))
+                .ok_or_else(|| {
+                    self.err(format!(
+                        "{what}.spheres.count is {c}: expected an integer from 1 to {MAX_FIT_SPHERES}"
+                    ))
+                })? as usize,
+        };
+        let method = match map.get("method") {
+            None => Method::Kmeans,
+            Some(Value::String(m)) => Method::parse(m).map_err(|e| self.err(format!("{what}.spheres.method: {e}")))?,
+            Some(m) => {
+                return Err(self.err(format!(
+                    "{what}.spheres.method is {m}: expected a method's name (kmeans, kmeans-moment, tree)"
+                )))
+            }
+        };
+        let seed = match map.get("seed") {
+            None => 0,
+            Some(s) => s.as_u64().ok_or_else(|| {
+                self.err(format!(
+                    "{what}.spheres.seed is {s}: expected an integer from 0 to {}",
+                    u64::MAX
+                ))
+            })?,
+        };
+        Ok(SetSpec::Fit(count, method, seed))
     }
 
     /// The mesh `what`'s transform: scale in (0, [`MAX_COORD`]], a rotation about a
@@ -1899,20 +1949,44 @@ impl Checker<'_> {
     /// scene: the meshes, and the proxies (`spheres`, then each mesh's set).
     fn build_meshes(&self, specs: Vec<MeshSpec>, spheres: &[Sphere]) -> Result<(Vec<SceneMesh>, Vec<Sphere>), String> {
         let err = |m: String| self.err(m);
-        let mut meshes = Vec::new();
-        let mut proxies = spheres.to_vec();
+        // The sphere total before any mesh is read or fitted (a fit takes minutes): the
+        // files' sets read (small), the fitted ones counted.
+        enum Set {
+            Read(Vec<Sphere>),
+            Fit(usize, Method, u64),
+        }
+        let mut total = spheres.len();
+        let mut sets = Vec::new();
         for (what, path, t, set, material, bend) in specs {
-            let local = Mesh::load(&path).map_err(|e| err(format!("{what}: {e}")))?;
-            let local_spheres = match set {
+            let set = match set {
                 SetSpec::File(p) => {
                     let text = lobefit_core::io::read_text(&p, MAX_SCENE_LEN)
                         .map_err(|e| err(format!("{what}.spheres {}: {e}", p.display())))?;
-                    serde_json::from_str::<SphereSetFile>(&text)
-                        .map_err(|e| e.to_string())
+                    let set = lobefit_core::json::from_str::<SphereSetFile>(&text)
                         .and_then(|f| f.spheres())
-                        .map_err(|e| err(format!("{what}.spheres {}: {e}", p.display())))?
+                        .map_err(|e| err(format!("{what}.spheres {}: {e}", p.display())))?;
+                    total += set.len();
+                    Set::Read(set)
                 }
                 SetSpec::Fit(count, method, seed) => {
+                    total += count;
+                    Set::Fit(count, method, seed)
+                }
+            };
+            sets.push((what, path, t, set, material, bend));
+        }
+        if total > MAX_SPHERES {
+            return Err(err(format!(
+                "spheres and the meshes' sphere sets hold {total} spheres, more than {MAX_SPHERES} (MAX_SPHERES)"
+            )));
+        }
+        let mut meshes = Vec::new();
+        let mut proxies = spheres.to_vec();
+        for (what, path, t, set, material, bend) in sets {
+            let local = Mesh::load(&path).map_err(|e| err(format!("{what}: {e}")))?;
+            let local_spheres = match set {
+                Set::Read(set) => set,
+                Set::Fit(count, method, seed) => {
                     crate::spheres::fit(&local, count, method, seed).map_err(|e| err(format!("{what}.spheres: {e}")))?
                 }
             };

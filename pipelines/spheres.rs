@@ -112,6 +112,7 @@ pub fn fit(mesh: &Mesh, count: usize, method: Method, seed: u64) -> Result<Vec<S
     if !(1..=MAX_FIT_SPHERES).contains(&count) {
         return Err(format!("sphere count {count} must lie in 1..={MAX_FIT_SPHERES}"));
     }
+    mesh.check_solid()?;
     let n = (SAMPLES_PER_SPHERE * count).max(MIN_SAMPLES);
     let pts = interior_samples(mesh, n, seed)?;
     Ok(match method {
@@ -278,6 +279,23 @@ pub struct Quality {
     pub diagonal: f64,
     /// Points drawn for the volume (those for each distance: a quarter of it).
     pub samples: usize,
+}
+
+impl Quality {
+    /// Every measure finite (what a sphere-set file must hold: JSON has no ∞ or NaN,
+    /// and a file with `null` there is one no scene reads).
+    pub fn is_finite(&self) -> bool {
+        [
+            self.volume_error,
+            self.excess,
+            self.missed,
+            self.hausdorff_mesh_to_spheres,
+            self.hausdorff_spheres_to_mesh,
+            self.diagonal,
+        ]
+        .iter()
+        .all(|v| v.is_finite())
+    }
 }
 
 fn in_union(p: DVec3, spheres: &[Sphere]) -> bool {

@@ -2,7 +2,7 @@
 //! sets (`fits/`) together with the pipelines' (`pipelines/`). It sits above both, so
 //! neither `fits` nor `pipelines` needs to know the other's list.
 
-use crate::family::{EvalFlag, EvalFlags, View};
+use crate::family::{EvalError, EvalFlag, EvalFlags, View};
 use crate::fits::{self, FitOptions, PlotFn};
 use crate::pipelines;
 
@@ -16,13 +16,13 @@ pub fn eval_names() -> Vec<&'static str> {
 
 /// The query `lobefit eval NAME [flags]` runs, configured by its flags; errors name
 /// the flag a query does not take or the value it does not know.
-pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn View>, String> {
+pub fn for_eval(name: &str, flags: &EvalFlags, opts: FitOptions) -> Result<Box<dyn View>, EvalError> {
     match pipelines::eval_views().into_iter().find(|v| v.name == name) {
         Some(v) => {
             flags.only(name, v.flags)?;
             (v.view)(flags)
         }
-        None => fits::for_eval(name, flags, opts),
+        None => Ok(fits::for_eval(name, flags, opts)?),
     }
 }
 
@@ -95,7 +95,9 @@ mod tests {
                 } else {
                     EvalFlags::default().with(flag.name, "x")
                 };
-                let e = for_eval(name, &flags, FitOptions::default()).err();
+                let e = for_eval(name, &flags, FitOptions::default())
+                    .err()
+                    .map(|e| e.to_string());
                 let want = format!("{name} takes no --{} flag", flag.name);
                 assert!(
                     e.as_ref().is_some_and(|e| e.starts_with(&want)),

@@ -16,7 +16,7 @@ pub mod ci;
 pub mod eval;
 pub mod export;
 
-pub use lobefit_core::{build, check, eigen, family, io, memo, plot, quad, rng, sh};
+pub use lobefit_core::{build, check, eigen, family, io, json, memo, plot, quad, rng, sh};
 pub use lobefit_fits as fits;
 pub use lobefit_pipelines as pipelines;
 pub use lobefit_tables as tables;

@@ -12,7 +12,7 @@ use super::render::blockers_of;
 use super::shade::{radiance, Model, Patches, Phong, Settings, Tables};
 use crate::scene::Scene;
 use crate::sky::{exact_estimate, hit_on_scene, POINT_INPUTS};
-use lobefit_core::family::{EvalFlag, EvalFlags, Lookup, View};
+use lobefit_core::family::{EvalError, EvalFlag, EvalFlags, Lookup, View};
 
 /// The flags `eval isg-shade` takes.
 pub const FLAGS: &[EvalFlag] = &[
@@ -58,12 +58,12 @@ pub struct IsgShadeView {
 
 impl IsgShadeView {
     /// From `eval`'s flags (`--scene` required, `--model`, `--patches`).
-    pub fn from_flags(flags: &EvalFlags) -> Result<Self, String> {
+    pub fn from_flags(flags: &EvalFlags) -> Result<Self, EvalError> {
         flags.only("isg-shade", FLAGS)?;
         let path = flags.text("scene").ok_or("isg-shade needs --scene FILE")?;
-        let scene = crate::scene::load_for(&path, &super::PIPELINE.accepts)?;
+        let scene = crate::scene::load_for_eval(&path, &super::PIPELINE.accepts)?;
         if scene.environment.is_empty() {
-            return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name));
+            return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name).into());
         }
         let brdf = scene
             .brdf
@@ -74,7 +74,7 @@ impl IsgShadeView {
         let patches = match flags.count("patches")? {
             None => Patches::Adaptive,
             Some(n) if (1..=64).contains(&n) => Patches::Grid(n),
-            Some(n) => return Err(format!("--patches {n} is outside 1..=64")),
+            Some(n) => return Err(format!("--patches {n} is outside 1..=64").into()),
         };
         Ok(IsgShadeView {
             settings: Settings {
@@ -158,6 +158,6 @@ impl View for IsgShadeView {
 
 /// The pipeline's entry for `lobefit eval` ([`crate::Pipeline::eval`]): the view its
 /// flags configure.
-pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, String> {
+pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, EvalError> {
     Ok(Box::new(IsgShadeView::from_flags(flags)?))
 }

@@ -8,7 +8,7 @@ use lobefit_tables::{LoadError, LookupError, ShExp, Table};
 use super::shade::{radiance, Settings, Tables};
 use crate::scene::Scene;
 use crate::sky::{exact_estimate, hit_on_scene, Phong, POINT_INPUTS};
-use lobefit_core::family::{EvalFlag, EvalFlags, Lookup, View};
+use lobefit_core::family::{EvalError, EvalFlag, EvalFlags, Lookup, View};
 
 /// The flags `eval shexp-shade` takes.
 pub const FLAGS: &[EvalFlag] = &[
@@ -49,7 +49,7 @@ pub struct ShExpShadeView {
 
 impl ShExpShadeView {
     /// From `eval`'s flags (`--scene` required, `--order`).
-    pub fn from_flags(flags: &EvalFlags) -> Result<Self, String> {
+    pub fn from_flags(flags: &EvalFlags) -> Result<Self, EvalError> {
         flags.only("shexp-shade", FLAGS)?;
         let path = flags.text("scene").ok_or("shexp-shade needs --scene FILE")?;
         // The render's rule, but planes: they are only seen (not blockers), and eval
@@ -59,12 +59,13 @@ impl ShExpShadeView {
             planes: true,
             ..super::PIPELINE.accepts
         };
-        let scene = crate::scene::load_for(&path, &accepts)?;
+        let scene = crate::scene::load_for_eval(&path, &accepts)?;
         if scene.environment.is_empty() && scene.sh_environment.is_none() {
             return Err(format!(
                 "scene {}: shexp-shade needs a distant light (environment or sh_environment)",
                 scene.name
-            ));
+            )
+            .into());
         }
         let brdf = scene
             .brdf
@@ -144,6 +145,6 @@ fn terrain(scene: &Scene) -> Option<&crate::heightfield::HeightField> {
 
 /// The pipeline's entry for `lobefit eval` ([`crate::Pipeline::eval`]): the view its
 /// flags configure.
-pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, String> {
+pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, EvalError> {
     Ok(Box::new(ShExpShadeView::from_flags(flags)?))
 }

@@ -561,17 +561,29 @@ fn read_export_json(dir: &Path) -> Result<(Export, serde_json::Value), String> {
     regular_file(&path)?;
     let text = crate::io::read_text(&path, MAX_MANIFEST_BYTES)?;
     // The version first: an older layout is named as such, not as malformed.
+    // Strictly: a key given twice would promise two things (a storage, a version).
     let value: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
-    match value.get("version").and_then(|v| v.as_u64()) {
-        Some(v) if v == u64::from(MANIFEST_VERSION) => {}
-        Some(v) => {
+        crate::json::value(&text).map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;
+    match value.get("version").map(|v| (v, v.as_u64())) {
+        Some((_, Some(v))) if v == u64::from(MANIFEST_VERSION) => {}
+        Some((_, Some(v))) => {
             return Err(format!(
                 "{}: manifest version {v} (this lobefit reads {MANIFEST_VERSION}; export again)",
                 path.display()
             ))
         }
-        None => return Err(format!("{}: not a lobefit export manifest: no version", path.display())),
+        Some((v, None)) => {
+            return Err(format!(
+                "{}: manifest field `version` is {v}: expected the integer {MANIFEST_VERSION}",
+                path.display()
+            ))
+        }
+        None => {
+            return Err(format!(
+                "{}: not a lobefit export manifest: no field `version`",
+                path.display()
+            ))
+        }
     }
     let manifest: Manifest = serde_json::from_value(value.clone())
         .map_err(|e| format!("{}: not a lobefit export manifest: {e}", path.display()))?;

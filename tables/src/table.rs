@@ -439,8 +439,12 @@ fn check_file(path: &Path, meta: &std::fs::Metadata) -> Result<(), LoadError> {
     Ok(())
 }
 
-/// "a directory", "a FIFO", ...: what a non-regular file is, for the error.
-fn file_type_name(t: std::fs::FileType) -> &'static str {
+/// "a directory", "a FIFO", ...: what a non-regular file is, for an error message
+/// (the loader's, and the writers' refusal to replace one).
+pub fn file_type_name(t: std::fs::FileType) -> &'static str {
+    if t.is_symlink() {
+        return "a symbolic link";
+    }
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;

@@ -79,3 +79,37 @@ pub fn assert_summary_last(stdout: &str, render: &str) {
         "{last}"
     );
 }
+
+/// Generous bound on a command that must end promptly; only a regression reaches it.
+pub const NO_HANG: std::time::Duration = std::time::Duration::from_secs(120);
+
+/// Runs `lobefit ARGS` (no stdin); kills it and fails the test if it is still
+/// running after [`NO_HANG`].
+pub fn run_bounded(args: &[&str]) -> (Option<i32>, String, String) {
+    let mut child = bin()
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn lobefit");
+    let start = std::time::Instant::now();
+    while child.try_wait().expect("wait").is_none() {
+        if start.elapsed() > NO_HANG {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{args:?} still running after {NO_HANG:?}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().expect("wait");
+    (out.status.code(), text(&out.stdout), text(&out.stderr))
+}
+
+/// `mkfifo PATH`; false when the tool is unavailable.
+pub fn mkfifo(path: &std::path::Path) -> bool {
+    std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .is_ok_and(|s| s.success())
+}
