@@ -603,6 +603,9 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             shaders,
         } => {
             out_dir(&out)?;
+            if format.is_some() {
+                lobefit::export::run::check_dir(&out)?;
+            }
             let mut s = String::new();
             if !shaders.is_empty() {
                 let langs = shaders

@@ -380,29 +380,37 @@ fn header(comment: &str, what: &str) -> String {
     )
 }
 
-/// Writes the library in each language of `langs` into `dir` (created if missing):
-/// `lobefit.wgsl`, `lobefit.glsl` + `lobefit.es.glsl`, `lobefit.hlsl`. Atomic writes.
-pub fn write(langs: &[ShaderLang], dir: &Path) -> Result<Vec<PathBuf>, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let mut files: Vec<(String, String)> = Vec::new();
+/// The library's files in each language of `langs`, (name, text): `lobefit.wgsl`,
+/// `lobefit.glsl` + `lobefit.es.glsl`, `lobefit.hlsl`.
+pub fn library_files(langs: &[ShaderLang]) -> Result<Vec<(&'static str, String)>, String> {
+    let mut files = Vec::new();
     for &l in langs {
         match l {
-            ShaderLang::Wgsl => files.push(("lobefit.wgsl".into(), header("//", "WGSL") + &shaders::library())),
+            ShaderLang::Wgsl => files.push(("lobefit.wgsl", header("//", "WGSL") + &shaders::library())),
             ShaderLang::Glsl => {
                 files.push((
-                    "lobefit.glsl".into(),
+                    "lobefit.glsl",
                     header("//", "GLSL 450: after `#version 450`") + &glsl(false)?,
                 ));
                 files.push((
-                    "lobefit.es.glsl".into(),
+                    "lobefit.es.glsl",
                     header("//", "GLSL ES 3.0: after `#version 300 es`") + &glsl(true)?,
                 ));
             }
-            ShaderLang::Hlsl => files.push(("lobefit.hlsl".into(), header("//", "HLSL, shader model 5.1") + &hlsl()?)),
+            ShaderLang::Hlsl => files.push(("lobefit.hlsl", header("//", "HLSL, shader model 5.1") + &hlsl()?)),
         }
     }
+    Ok(files)
+}
+
+/// The names [`library_files`] may write.
+pub const LIBRARY_FILES: [&str; 4] = ["lobefit.wgsl", "lobefit.glsl", "lobefit.es.glsl", "lobefit.hlsl"];
+
+/// Writes [`library_files`] of `langs` into `dir` (created if missing). Atomic writes.
+pub fn write(langs: &[ShaderLang], dir: &Path) -> Result<Vec<PathBuf>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let mut paths = Vec::new();
-    for (name, text) in files {
+    for (name, text) in library_files(langs)? {
         let p = dir.join(name);
         crate::io::write_atomic(&p, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
         paths.push(p);

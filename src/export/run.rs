@@ -304,12 +304,89 @@ fn companion_files(m: &Manifest) -> Result<Vec<(&'static str, String)>, String> 
     Ok(files)
 }
 
+/// The files an export directory may hold besides its textures: the manifest, its
+/// schema, the lock, the companions (uniforms, baked shaders) and the shader library.
+fn known_names() -> Vec<&'static str> {
+    let mut v = vec![MANIFEST, MANIFEST_SCHEMA_FILE, LOCK_FILE, formats::UNIFORMS_HEADER];
+    v.extend(super::shaders::BAKED_SHADERS);
+    v.push(super::shaders::BAKED_UNIFORMS);
+    v.extend(super::shaders::LIBRARY_FILES);
+    v
+}
+
+/// The texture files (and raw sidecars) the manifest in `dir` lists, read strictly;
+/// empty when there is none or it cannot be read (its files then count as foreign).
+fn listed_textures(dir: &Path) -> Vec<String> {
+    let path = dir.join(MANIFEST);
+    let Ok(text) = crate::io::read_text(&path, MAX_MANIFEST_BYTES) else {
+        return Vec::new();
+    };
+    let Ok(v) = crate::json::value(&text) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for f in v["families"].as_array().into_iter().flatten() {
+        for t in f["textures"].as_array().into_iter().flatten() {
+            if let Some(name) = t["file"].as_str() {
+                out.push(name.to_string());
+                if name.ends_with(".raw") {
+                    out.push(Path::new(name).with_extension("json").to_string_lossy().into_owned());
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Refuses an export into `dir` unless it is missing, empty, or holds only what a
+/// lobefit export or shader library writes (an earlier export, which the new one
+/// replaces whole: its textures that the new one does not write are removed). A file of
+/// anything else would stay beside the export, and `check --export` refuses a
+/// directory holding one; so does an existing `dir` that is not a directory. Staging
+/// folders of a concurrent or killed export (hidden, `.lobefit-export.*`) are left.
+pub fn check_dir(dir: &Path) -> Result<(), String> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(_) if !dir.exists() => return Ok(()),
+        Err(e) => return Err(format!("--out {}: cannot read it as a directory: {e}", dir.display())),
+    };
+    let (known, listed) = (known_names(), listed_textures(dir));
+    let mut foreign = Vec::new();
+    for e in entries {
+        let e = e.map_err(|e| format!("cannot read {}: {e}", dir.display()))?;
+        let name = e.file_name().to_string_lossy().into_owned();
+        let ours = known.contains(&name.as_str()) || listed.contains(&name);
+        let file = e.file_type().is_ok_and(|t| t.is_file());
+        if name.starts_with(".lobefit-export.") && name != LOCK_FILE {
+            continue;
+        }
+        if !(ours && file) {
+            foreign.push(name);
+        }
+    }
+    if foreign.is_empty() {
+        return Ok(());
+    }
+    foreign.sort();
+    let shown: Vec<String> = foreign.iter().take(8).map(|n| format!("{n:?}")).collect();
+    Err(format!(
+        "--out {}: holds {} entr{} that no lobefit export writes: {}{} (export into a new or empty \
+         directory, or over an earlier export, which is replaced whole)",
+        dir.display(),
+        foreign.len(),
+        if foreign.len() == 1 { "y" } else { "ies" },
+        shown.join(", "),
+        if foreign.len() > 8 { ", …" } else { "" }
+    ))
+}
+
 /// Writes the textures of `opts` and their manifest into `dir` (created if missing).
 /// Returns the manifest. Refuses (an error naming the measured error and the target)
 /// an f16 texture that misses its target with manual filtering, unless
 /// `allow_lossy`. Every file is written atomically.
 pub fn export(opts: &ExportOptions, dir: &Path) -> Result<Manifest, String> {
     let gpu = validate(opts)?;
+    check_dir(dir)?;
     // All or nothing: every texture is written and measured in a hidden staging
     // directory (removed on any error); only then do the files move into `dir`.
     let stage = Stage::new(dir)?;
@@ -507,15 +584,24 @@ fn move_in(stage: &Path, dir: &Path) -> Result<(), String> {
         .map_err(|e| format!("cannot lock {}: {e}", lock_path.display()))?;
     lock.lock()
         .map_err(|e| format!("cannot lock {}: {e}", lock_path.display()))?;
+    // The earlier export's textures, under the lock: those this one does not write go.
+    let earlier = listed_textures(dir);
     let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(stage)
         .map_err(|e| format!("cannot read {}: {e}", stage.display()))?
         .map(|d| d.map(|d| d.file_name()))
         .collect::<Result<_, _>>()
         .map_err(|e| format!("cannot read {}: {e}", stage.display()))?;
     names.sort_by_key(|n| n == MANIFEST);
-    for n in names {
-        let (from, to) = (stage.join(&n), dir.join(&n));
+    for n in &names {
+        let (from, to) = (stage.join(n), dir.join(n));
         std::fs::rename(&from, &to).map_err(|e| format!("cannot move {} to {}: {e}", from.display(), to.display()))?;
+    }
+    for old in earlier {
+        let p = dir.join(&old);
+        let plain = !old.contains(['/', '\\']) && !old.starts_with('.');
+        if plain && !names.iter().any(|n| *n == *old) && std::fs::symlink_metadata(&p).is_ok_and(|m| m.is_file()) {
+            std::fs::remove_file(&p).map_err(|e| format!("cannot remove {}: {e}", p.display()))?;
+        }
     }
     Ok(())
 }
@@ -765,6 +851,14 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
     files.extend(
         companion_files(&want)?
             .into_iter()
+            .map(|(n, t)| (n.to_string(), t.into_bytes())),
+    );
+    // The shader library (`export --shaders`) where present: this lobefit's, byte for byte.
+    let library = super::shaders::library_files(&super::shaders::ShaderLang::ALL)?;
+    files.extend(
+        library
+            .into_iter()
+            .filter(|(n, _)| dir.join(n).exists())
             .map(|(n, t)| (n.to_string(), t.into_bytes())),
     );
     // Nothing else in the directory: a file there is one a renderer may take for
