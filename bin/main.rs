@@ -691,6 +691,16 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             let stdout = std::io::stdout();
             let done = lobefit::eval::eval_csv(f.as_ref(), runtime.as_deref(), std::io::stdin().lock(), stdout.lock())
                 .map_err(|e| e.to_string())?;
+            // Per-row notes (an --exact estimate short of its target), the first 20.
+            for (line, note) in done.notes.iter().take(20) {
+                note_line(&format!("warning: line {line}: {note}"));
+            }
+            if done.notes.len() > 20 {
+                note_line(&format!(
+                    "warning: and {} rows more with such notes",
+                    done.notes.len() - 20
+                ));
+            }
             for c in done.caveats {
                 eprintln!(
                     "warning: {} row{} (the first on line {}): {}",
@@ -950,6 +960,11 @@ fn emit(text: &str) -> Result<(), String> {
     out.write_all(text.as_bytes())
         .and_then(|()| out.flush())
         .map_err(|e| format!("cannot write to stdout: {e}"))
+}
+
+/// [`note`] of one line.
+fn note_line(text: &str) {
+    note(&format!("{text}\n"));
 }
 
 /// Writes `text` to stderr. Ignores failure: stderr is where failures would be

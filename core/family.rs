@@ -236,6 +236,12 @@ pub trait View: Sync {
     fn exact(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         self.reference(x)
     }
+    /// [`View::exact`] with a note `eval` prints as a warning naming the row, where the
+    /// answer is given but less sure than usual (a Monte Carlo reference that stopped
+    /// at its sample limit short of its error target). Default: [`View::exact`], no note.
+    fn exact_noted(&self, x: &[f64]) -> Result<(Vec<f64>, Option<String>), String> {
+        self.exact(x).map(|y| (y, None))
+    }
 }
 
 /// A table the checker holds to its promises: what `check` and `export` need on top

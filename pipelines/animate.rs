@@ -124,7 +124,7 @@ fn check(pipeline: &Pipeline, scene: &Scene, opts: &RenderOptions, frames: usize
             pipeline.name, scene.name
         ));
     }
-    pipeline.check_work(scene, opts)?;
+    pipeline.check_frames(scene, opts, frames)?;
     // Per frame: the reference (spp) and the equal-time estimator (≤ spp); once: the
     // pilots (3 runs each at PILOT_SPP / 2, 2 PILOT_SPP and the first guess ≤ spp).
     let (w, h) = (opts.width.max(4) as u64, (opts.width * 3 / 4).max(3) as u64);
@@ -368,6 +368,8 @@ fn report(
             unit: "px".into(),
             baseline: format!("{} at {spp} spp", m.strongest),
             baseline_us: us_mc,
+            spread: None,
+            at_least: false,
         }
         .line(),
     );

@@ -99,6 +99,55 @@ impl Bench {
         })
     }
 
+    /// A bench on given primary hits (`hits`, row-major at width `w`; the pixels
+    /// where a hit is given are shaded): a render's own pixels, or a subset of them.
+    /// Its reference as in [`Bench::new`].
+    pub fn on_hits(
+        hits: Vec<Option<Hit>>,
+        w: usize,
+        ref_spp: usize,
+        runs: usize,
+        reference: Estimator,
+    ) -> Result<Bench, String> {
+        let [a, b] = REF_SEEDS.map(|s| per_pixel(&hits, w, |hit, p| reference(hit, ref_spp, seed(s, p)), &|| ()));
+        let (a, b) = (a?, b?);
+        let refs: Vec<f64> = a.iter().zip(&b).map(|(a, b)| 0.5 * (a.mean + b.mean)).collect();
+        let idx: Vec<usize> = (0..hits.len()).filter(|&p| hits[p].is_some()).collect();
+        if idx.is_empty() {
+            return Err("no pixel to measure".into());
+        }
+        let mean_sq = idx.iter().map(|&p| refs[p].powi(2)).sum::<f64>() / idx.len() as f64;
+        let ref_var = idx.iter().map(|&p| 0.25 * (a[p].mean - b[p].mean).powi(2)).sum::<f64>() / idx.len() as f64;
+        Ok(Bench {
+            w,
+            hits,
+            refs,
+            idx,
+            mean_sq,
+            ref_var,
+            runs: runs.max(1),
+        })
+    }
+
+    /// The analytic method's image `render(hits)` (0 where no hit): its errors and its
+    /// time per shaded pixel, timed as the estimators are.
+    pub fn analytic_image(
+        &self,
+        render: &(dyn Fn(&[Option<Hit>]) -> Result<Vec<f64>, String> + Sync),
+    ) -> Result<(Errors, Timing), String> {
+        let (img, us) = self.timed_image(&|| {
+            Ok(render(&self.hits)?
+                .into_iter()
+                .map(|mean| Estimate {
+                    mean,
+                    std_error: 0.0,
+                    samples: 1,
+                })
+                .collect())
+        })?;
+        Ok((self.error(&img), us))
+    }
+
     /// The reference's own relative RMS error (estimated), on the scale of the
     /// errors measured against it.
     pub fn reference_error(&self) -> f64 {
@@ -334,6 +383,94 @@ pub fn time_at(curve: &[Point], error: f64) -> Option<Timing> {
         median: at(curve, error, |p| p.us.median)?,
         min: at(curve, error, |p| p.us.min)?,
         max: at(curve, error, |p| p.us.max)?,
+    })
+}
+
+/// The strongest Monte Carlo estimator of a render, measured at the method's error
+/// ([`at_method_error`]): what a render's headline states.
+#[derive(Debug, Clone)]
+pub struct AtMethodError {
+    /// The estimator's name (`qmc-cv-mis`, `qmc`).
+    pub estimator: &'static str,
+    /// Pixels measured.
+    pub pixels: usize,
+    /// The method's relative RMSE on them, the reference's noise removed.
+    pub method_error: f64,
+    /// The method's time per pixel there.
+    pub method_us: Timing,
+    /// Samples per pixel and time per pixel the estimator needs for the method's
+    /// error (log–log between its two measured neighbours); `None` when its curve did
+    /// not reach the error within [`HEADLINE_MAX_SPP`] (then `last` bounds it).
+    pub at: Option<(f64, Timing)>,
+    /// The last point measured: (spp, error, time).
+    pub last: (usize, f64, Timing),
+    /// The reference's own relative error on these pixels.
+    pub reference_error: f64,
+}
+
+impl AtMethodError {
+    /// (ratio of the estimator's median time to the method's, [slowest-case spread:
+    /// its fastest run over the method's slowest, its slowest over the method's
+    /// fastest]); `None` without a measured crossing.
+    pub fn ratio(&self) -> Option<(f64, f64, f64)> {
+        let (_, t) = self.at?;
+        let m = self.method_us;
+        Some((t.median / m.median, t.min / m.max, t.max / m.min))
+    }
+}
+
+/// Pixels [`at_method_error`] measures at most: an even sample of the lit pixels.
+pub const HEADLINE_PIXELS: usize = 48;
+/// Samples per pixel of each of the two runs of the measurement's reference.
+pub const HEADLINE_REF_SPP: usize = 4096;
+/// Most samples per pixel the estimator's curve runs to (×4 from 4).
+pub const HEADLINE_MAX_SPP: usize = 4096;
+/// Timed runs of each measured point (after a warm-up), their median taken.
+pub const HEADLINE_RUNS: usize = 3;
+
+/// A render's headline measurement: on at most [`HEADLINE_PIXELS`] of its lit pixels
+/// (`hits`, row-major at width `w`, taken evenly), the method (`method`, shading a hit
+/// array) against a reference of two [`HEADLINE_REF_SPP`]-sample runs of `estimator`,
+/// and `estimator` at 4, 16, 64, … samples per pixel until its error passes the
+/// method's, each point timed as the median of [`HEADLINE_RUNS`] runs in this process
+/// (the study's method, at a small size: docs/pipelines.md, "Stronger baselines").
+pub fn at_method_error(
+    hits: &[Option<Hit>],
+    w: usize,
+    name: &'static str,
+    estimator: Estimator,
+    method: &(dyn Fn(&[Option<Hit>]) -> Result<Vec<f64>, String> + Sync),
+) -> Result<AtMethodError, String> {
+    let lit: Vec<usize> = (0..hits.len()).filter(|&p| hits[p].is_some()).collect();
+    let step = lit.len().div_ceil(HEADLINE_PIXELS).max(1);
+    let mut sub = vec![None; hits.len()];
+    for &p in lit.iter().step_by(step) {
+        sub[p] = hits[p].clone();
+    }
+    let b = Bench::on_hits(sub, w, HEADLINE_REF_SPP, HEADLINE_RUNS, estimator)?;
+    let ((method_error, _), method_us) = b.analytic_image(method)?;
+    let mut curve: Vec<Point> = Vec::new();
+    let mut n = 4;
+    while n <= HEADLINE_MAX_SPP {
+        curve.extend(b.curve(&[n], estimator)?);
+        if curve.last().is_some_and(|p| p.rel_rmse <= method_error) {
+            break;
+        }
+        n *= 4;
+    }
+    let last = curve.last().ok_or("no point measured")?;
+    let at = match (spp_at(&curve, method_error), time_at(&curve, method_error)) {
+        (Some(n), Some(t)) => Some((n, t)),
+        _ => None,
+    };
+    Ok(AtMethodError {
+        estimator: name,
+        pixels: b.pixels(),
+        method_error,
+        method_us,
+        at,
+        last: (last.spp, last.rel_rmse, last.us),
+        reference_error: b.reference_error(),
     })
 }
 

@@ -86,13 +86,6 @@ impl Summary {
     }
 }
 
-/// The baseline the renders time themselves against: plain Monte Carlo with its
-/// samples for the method's error extrapolated as σ²/ε² from one run. A weak baseline,
-/// and said so: scrambled Sobol and control variates, measured at equal error, cut the
-/// ratios to 0.2–5× (docs/pipelines.md, "Stronger baselines").
-pub const BASELINE_PLAIN: &str =
-    "plain Monte Carlo at that error (extrapolated σ²/ε²; a weak baseline: docs/pipelines.md, Stronger baselines)";
-
 /// The one-line summary of a render, assembled from numbers the render already
 /// printed: what it rendered, the method's error, its cost next to a baseline's and the
 /// ratio. [`Headline::line`]:
@@ -117,20 +110,34 @@ pub struct Headline {
     pub baseline: String,
     /// The baseline's time per unit (µs).
     pub baseline_us: f64,
+    /// The ratio's spread over the timed runs, (low, high), where measured.
+    pub spread: Option<(f64, f64)>,
+    /// The baseline's time is a lower bound (it had not reached the method's error at
+    /// its last measured point): the ratio is one too.
+    pub at_least: bool,
 }
 
 impl Headline {
     /// The line: `summary: <render> <scope> — <method>: <error>; <cost> µs/<unit> vs
-    /// <baseline> <cost> µs/<unit> (<ratio>× less time | <1/ratio>× more time)`; times
-    /// to 3–4 significant figures.
+    /// <baseline> <cost> µs/<unit> (<ratio>× less time [lo–hi] | <1/ratio>× more time
+    /// [lo–hi])`; times to 3–4 significant figures, `> ` before a ratio that is a lower
+    /// bound.
     pub fn line(&self) -> String {
         let ratio = self.baseline_us / self.cost_us;
+        let bound = if self.at_least { "> " } else { "" };
+        let spread = self.spread.map_or(String::new(), |(lo, hi)| {
+            if ratio >= 1.0 {
+                format!(" [{}–{}]", short_number(lo), short_number(hi))
+            } else {
+                format!(" [{}–{}]", short_number(1.0 / hi), short_number(1.0 / lo))
+            }
+        });
         let times = if !ratio.is_finite() || ratio <= 0.0 {
             "no ratio".to_string()
         } else if ratio >= 1.0 {
-            format!("{}× less time", short_number(ratio))
+            format!("{bound}{}× less time{spread}", short_number(ratio))
         } else {
-            format!("{}× more time", short_number(1.0 / ratio))
+            format!("{}× more time{spread}", short_number(1.0 / ratio))
         };
         format!(
             "summary: {} {} — {}: {}; {} µs/{} vs {} {} µs/{} ({times})",
@@ -261,8 +268,7 @@ impl Pipeline {
                 self.name
             ));
         }
-        let lights = (scene.environment.len() + scene.lights.len()).max(1) as u64;
-        let blockers = (scene.spheres.len() + usize::from(scene.heightfield.is_some())).max(1) as u64;
+        let (lights, blockers) = terms(scene);
         let work = samples.saturating_mul(lights).saturating_mul(blockers);
         if work > MAX_WORK {
             return Err(format!(
@@ -275,6 +281,57 @@ impl Pipeline {
         Ok(())
     }
 }
+
+/// (light terms, blockers) of a scene, each at least 1: the SGs and sphere lights (an
+/// SH environment counts 1), and the spheres, the meshes' sphere sets and the height
+/// field: what a pixel's shading and a sample's visibility scale with.
+fn terms(scene: &scene::Scene) -> (u64, u64) {
+    let lights = scene.environment.len() + scene.lights.len() + usize::from(scene.sh_environment.is_some());
+    let blockers = scene.proxies.len().max(scene.spheres.len()) + usize::from(scene.heightfield.is_some());
+    (lights.max(1) as u64, blockers.max(1) as u64)
+}
+
+impl Pipeline {
+    /// [`Pipeline::check_work`], and the method's own work over `frames` frames: an error
+    /// naming the limit when pixels × frames × light terms × blockers (an upper bound on
+    /// the light–blocker products the analytic shading forms) passes [`MAX_SHADE_WORK`].
+    /// Called before a render or an animation spends any time.
+    pub fn check_frames(&self, scene: &scene::Scene, opts: &RenderOptions, frames: usize) -> Result<(), String> {
+        self.check_work(scene, opts)?;
+        let (w, h) = (opts.width.max(4) as u64, (opts.width * 3 / 4).max(3) as u64);
+        let (lights, blockers) = terms(scene);
+        let work = (w * h)
+            .saturating_mul(frames as u64)
+            .saturating_mul(lights)
+            .saturating_mul(blockers);
+        if work > MAX_SHADE_WORK {
+            return Err(format!(
+                "render {}: scene {}: --width {}{}: {w}×{h} pixels × {frames} frame{} × {lights} light terms × \
+                 {blockers} blockers = {:.3e} shading work units, more than the {MAX_SHADE_WORK:.0e} a render may \
+                 take (MAX_SHADE_WORK); lower --width or --frames, or use fewer SGs, lights or spheres",
+                self.name,
+                scene.name,
+                opts.width,
+                if frames > 1 {
+                    format!(" --frames {frames}")
+                } else {
+                    String::new()
+                },
+                if frames == 1 { "" } else { "s" },
+                work as f64
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Most shading work one render of one scene may take: pixels × frames × light terms
+/// × blockers ([`Pipeline::check_frames`]), an upper bound on the products the analytic
+/// pipelines form (their culling makes the real count smaller). A default `render isg
+/// --scene fig12` (160 × 120, 9 SGs, 50 spheres) is 8.6e6 of them, the falling spheres
+/// at `--frames 24 --width 640` 3.3e9; `render isg --scene all --frames 240 --width
+/// 2048` (3.4e11 on the falling spheres: about a day of one core) is refused.
+pub const MAX_SHADE_WORK: u64 = 20_000_000_000;
 
 /// Most Monte Carlo samples one render of one scene may take over all its references
 /// (the image's, the SH-ideal render's, the error breakdown's precise ones): 16 ×
@@ -354,6 +411,8 @@ mod tests {
             unit: "px".into(),
             baseline: "plain Monte Carlo at that error".into(),
             baseline_us: 2843.0,
+            spread: None,
+            at_least: false,
         };
         assert_eq!(
             h.line(),
@@ -367,6 +426,13 @@ mod tests {
             "{}",
             h.line()
         );
+        // A measured spread, in either direction, and a lower bound.
+        h.spread = Some((0.25, 0.5));
+        assert!(h.line().ends_with("(2.72× more time [2.00–4.00])"), "{}", h.line());
+        (h.cost_us, h.baseline_us, h.spread) = (39.4, 547.0, Some((11.2, 19.8)));
+        assert!(h.line().ends_with("(13.9× less time [11.2–19.8])"), "{}", h.line());
+        (h.spread, h.at_least) = (None, true);
+        assert!(h.line().ends_with("(> 13.9× less time)"), "{}", h.line());
         h.baseline_us = f64::NAN;
         assert!(h.line().ends_with("(no ratio)"), "{}", h.line());
         assert_eq!(short_number(0.012345), "0.0123");
@@ -417,5 +483,33 @@ mod tests {
             "{e}"
         );
         isg.check_work(&big, &opts(16, 16, 4)).unwrap();
+    }
+
+    /// The method's own work is bounded too, over the frames: the built-in animations
+    /// at 24 frames and 640 px pass (3.3e9 work units for the falling spheres, 9 SGs
+    /// × 50 spheres), the 240-frame, 2048-px render of them is refused by name (3.4e11),
+    /// and so is a still of the largest scene the file allows at 2048 px.
+    #[test]
+    fn shading_work_is_bounded_over_the_frames() {
+        let isg = isg::PIPELINE;
+        let falling = isg.scene("falling").unwrap();
+        isg.check_frames(&falling, &opts(640, 2, 4), 24).unwrap();
+        let e = isg.check_frames(&falling, &opts(2048, 2, 64), 240).unwrap_err();
+        assert!(
+            e.contains("MAX_SHADE_WORK") && e.contains("2048×1536 pixels × 240 frames × 9 light terms × 50 blockers"),
+            "{e}"
+        );
+        for p in registry() {
+            for name in p.animations {
+                let scene = p.scene(name).unwrap();
+                p.check_frames(&scene, &opts(640, 2, 4), 24).unwrap();
+            }
+        }
+        let mut v: serde_json::Value = serde_json::from_str(scene::BUILTIN[2].1).unwrap();
+        let g = v["environment"]["sgs"][0].clone();
+        v["environment"]["sgs"] = (0..scene::MAX_SGS).map(|_| g.clone()).collect();
+        let big = scene::parse("big", &v.to_string()).unwrap();
+        let e = isg.check_frames(&big, &opts(2048, 2, 64), 1).unwrap_err();
+        assert!(e.contains("MAX_SHADE_WORK"), "{e}");
     }
 }

@@ -688,6 +688,12 @@ impl Mesh {
         Ok(())
     }
 
+    /// The point of triangle `k` nearest to `p`.
+    pub fn closest_on(&self, k: usize, p: DVec3) -> DVec3 {
+        let [a, b, c] = self.corners(k);
+        closest_on_triangle(p, a, b, c)
+    }
+
     /// Total area.
     pub fn area(&self) -> f64 {
         (0..self.triangles.len())

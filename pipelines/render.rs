@@ -16,7 +16,7 @@ use crate::estimate::Estimate;
 use crate::image::{mean_over, write_comparison};
 use crate::scene::{Hit, Scene};
 use crate::timing::EqualError;
-use crate::{Headline, Pipeline, RenderOptions, Summary, BASELINE_PLAIN};
+use crate::{Headline, Pipeline, RenderOptions, Summary};
 
 /// One scene's render: its size, its primary hits and where its files go.
 pub struct Frame<'a> {
@@ -61,7 +61,7 @@ impl<'a> Frame<'a> {
             .unwrap_or(&scene.name)
             .to_string();
         let (w, h) = (opts.width.max(4), (opts.width * 3 / 4).max(3));
-        pipeline.check_work(scene, opts)?;
+        pipeline.check_frames(scene, opts, 1)?;
         let prepared = setup()?;
         let (hits, lit) = scene.primary_hits(w, h)?;
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
@@ -129,8 +129,11 @@ impl<'a> Frame<'a> {
     }
 
     /// Completes `sum`: the method's relative RMSE, the reference's relative standard
-    /// error, the [`Headline`] (the method's cost per pixel against plain Monte Carlo
-    /// at its error, from `eq`) and the `<stem>-summary.txt` file.
+    /// error, the [`Headline`] and the `<stem>-summary.txt` file. The headline states
+    /// the method's time against the strongest Monte Carlo's (`strongest`) at the
+    /// method's error, both measured here on a sample of the frame's pixels
+    /// ([`crate::baselines::at_method_error`]); the plain estimator's extrapolation
+    /// ([`Reference::equal_error`]) stays in the body's lines.
     pub fn finish(
         &self,
         mut sum: Summary,
@@ -138,26 +141,84 @@ impl<'a> Frame<'a> {
         rel_rmse: f64,
         method: String,
         error: String,
-        eq: &EqualError,
+        strongest: &Strongest<'_>,
     ) -> Result<Summary, String> {
         sum.rel_rmse = rel_rmse;
         sum.ref_rel_se = reference.rel_se;
+        let m = crate::baselines::at_method_error(
+            &self.hits,
+            self.w,
+            strongest.name,
+            strongest.estimate,
+            strongest.method,
+        )?;
+        let (n_last, e_last, t_last) = m.last;
+        sum.lines.push(format!(
+            "{}: the strongest Monte Carlo at the method's error, measured on {} pixels (a reference of 2 × {} samples \
+             of {}, its own error {:.1e}; medians of {} runs, [fastest–slowest]): the method {:.4} at {:.2} µs/px \
+             [{:.2}–{:.2}]; {} {}",
+            self.tag,
+            m.pixels,
+            crate::baselines::HEADLINE_REF_SPP,
+            m.estimator,
+            m.reference_error,
+            crate::baselines::HEADLINE_RUNS,
+            m.method_error,
+            m.method_us.median,
+            m.method_us.min,
+            m.method_us.max,
+            m.estimator,
+            match m.at {
+                Some((n, t)) => format!(
+                    "needs {n:.0} spp there, {:.2} µs/px [{:.2}–{:.2}]",
+                    t.median, t.min, t.max
+                ),
+                None => format!(
+                    "at its last point, {n_last} spp, still has error {e_last:.4}, {:.2} µs/px: beyond the {} spp \
+                     measured",
+                    t_last.median,
+                    crate::baselines::HEADLINE_MAX_SPP
+                ),
+            }
+        ));
+        let (baseline_us, spread, at_least, spp) = match (m.at, m.ratio()) {
+            (Some((n, t)), Some((_, lo, hi))) => (t.median, Some((lo, hi)), false, format!("{n:.0} spp")),
+            _ => (t_last.median, None, true, format!("more than {n_last} spp")),
+        };
         sum.headline.push(
             Headline {
                 render: format!("{} {}", self.pipeline.name, self.tag),
                 scope: format!("{}×{}", self.w, self.h),
                 method,
                 error,
-                cost_us: 1e6 * eq.pipeline_per_pixel,
+                cost_us: m.method_us.median,
                 unit: "px".into(),
-                baseline: BASELINE_PLAIN.into(),
-                baseline_us: 1e6 * eq.reference_per_pixel,
+                baseline: format!(
+                    "the strongest Monte Carlo, {}, at the method's error on {} of its pixels ({:.4}: {spp}, \
+                     measured)",
+                    m.estimator, m.pixels, m.method_error
+                ),
+                baseline_us,
+                spread,
+                at_least,
             }
             .line(),
         );
         sum.write(self.dir, &self.stem())?;
         Ok(sum)
     }
+}
+
+/// What a render's headline measures against ([`Frame::finish`]): the strongest Monte
+/// Carlo estimator on the pipeline's scenes (the baselines study's: qmc-cv-mis under
+/// SGs, qmc on Meunier's lights) and the method's shading of a hit array.
+pub struct Strongest<'s> {
+    /// The estimator's name.
+    pub name: &'static str,
+    /// The estimator: (hit, samples, seed) → estimate.
+    pub estimate: crate::baselines::Estimator<'s>,
+    /// The method's image of the given hits (0 where none).
+    pub method: &'s (dyn Fn(&[Option<Hit>]) -> Result<Vec<f64>, String> + Sync),
 }
 
 /// The Monte Carlo reference over a [`Frame`]: its per-pixel estimates and what every

@@ -67,7 +67,8 @@ pub const MAX_LIGHTS: usize = 64;
 pub const MAX_PLANES: usize = 64;
 /// Most keys one object's track (or bend) may hold.
 pub const MAX_KEYS: usize = 1024;
-/// Largest |angle| of a bend's key (rad): two turns.
+/// Largest |angle| of a bend's key or of a rotation (rad): two turns (a larger
+/// angle's sine and cosine keep few of its digits).
 pub const MAX_BEND_ANGLE: f64 = 4.0 * PI;
 
 /// What a pipeline shades, checked right after a scene file is parsed and before
@@ -1552,12 +1553,25 @@ impl Checker<'_> {
         if !(0.0..=1.0).contains(&albedo) {
             return Err(self.err(format!("{what}: albedo {albedo} must lie in [0, 1]")));
         }
-        for l in lobes {
+        // Energy: a lobe's directional albedo is at most k_s · max|c_i|^n (the lobe is
+        // |c ⊙ v|^n max(ω·d, 0)^n with ρ_s = k_s (n+2)/(2π), and ∫ max(ω·d,0)^n cos θ dω
+        // ≤ 2π/(n+2), equality when d is the normal); with the diffuse albedo the sum must
+        // not pass 1, or the surface reflects more light than it receives.
+        let mut reflected = albedo;
+        for (i, l) in lobes.iter().enumerate() {
             self.vec3(&format!("{what}: lobe c"), l.c)?;
             if !(l.exponent.is_finite() && l.exponent >= 0.0 && l.specular.is_finite() && l.specular >= 0.0) {
                 return Err(self.err(format!(
                     "{what}: lobe exponent {} and specular {} must be finite and ≥ 0",
                     l.exponent, l.specular
+                )));
+            }
+            let cmax = l.c.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+            reflected += l.specular * cmax.powf(l.exponent);
+            if !(reflected <= 1.0 + 1e-12) {
+                return Err(self.err(format!(
+                    "{what}: lobes[{i}] makes the material reflect up to {reflected:.4e} of the light it receives \
+                     (albedo + Σ specular · max|c|^exponent must be ≤ 1: energy conservation)"
                 )));
             }
         }
@@ -1626,9 +1640,10 @@ impl Checker<'_> {
     /// A rotation `what`: a non-zero axis (normalised) and a finite angle (rad).
     fn rotation(&self, what: &str, r: &FileRotation) -> Result<DQuat, String> {
         let axis = self.vec3(&format!("{what}.axis"), r.axis)?;
-        if axis.length() == 0.0 || !r.angle.is_finite() {
+        if axis.length() == 0.0 || !(r.angle.is_finite() && r.angle.abs() <= MAX_BEND_ANGLE) {
             return Err(self.err(format!(
-                "{what}: axis {:?} must not be zero and angle {} finite",
+                "{what}: axis {:?} must not be zero and angle {} finite with |angle| ≤ {MAX_BEND_ANGLE} rad \
+                 (MAX_BEND_ANGLE: two turns)",
                 r.axis, r.angle
             )));
         }

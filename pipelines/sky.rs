@@ -379,16 +379,38 @@ pub const EXACT_REL_SE: f64 = 1e-3;
 /// Most samples `eval --exact` takes.
 pub const EXACT_MAX_SAMPLES: usize = 1 << 24;
 
-/// How far below a height field's surface a point may lie and still count as on it,
-/// in units of the field's extent (rounding of a height computed from the surface is
-/// ≈ 1e-16 of it).
-pub const TERRAIN_TOLERANCE: f64 = 1e-9;
+/// How close to a surface (a sphere, a mesh, the height field) a row's point must lie,
+/// on either side, to be a point of that surface, relative to the surface's scale
+/// ([`surface_tolerance`]). A renderer's positions are f32: a G-buffer point, or a
+/// vertex written with 6 decimals, lies off its surface by a few f32 ulps of the
+/// scene's coordinates (6e-8 relative each), and one rebuilt from depth by more; 1e-5
+/// is 80 ulps of the largest coordinate, where moving the point changes its shading
+/// by far less than the pipelines' own error (1e-3 of the radiance at best). Such a
+/// point is moved onto the surface (its nearest point there) and shaded as the
+/// surface's own: exactly what the surface point would get, on both sides, so no
+/// value jumps within the band. Beyond it a point outside every surface is a point
+/// in space (inside a mesh's covering sphere: buried, in its full shadow, with a
+/// warning from `eval`), and one inside a sphere, a mesh or below the terrain is out of
+/// the domain.
+pub const SURFACE_TOLERANCE: f64 = 1e-5;
 
-/// A row of [`POINT_INPUTS`] as a hit among `spheres` and above `terrain`: the sphere
-/// the point lies on (within 1e-9 of its radius, relative) is the hit's own and does
-/// not occlude it; a point inside another sphere, or below the height field by more
-/// than [`TERRAIN_TOLERANCE`] × its extent, is out of the domain. Errors name the
-/// column, the sphere or the height field.
+/// [`SURFACE_TOLERANCE`] in scene units for a surface within the box `lo`..`hi`: its
+/// diagonal or its largest |coordinate| (what an f32 coordinate's rounding scales
+/// with), the larger, times the tolerance.
+pub fn surface_tolerance(lo: DVec3, hi: DVec3) -> f64 {
+    let scale = (hi - lo)
+        .length()
+        .max(lo.abs().max_element())
+        .max(hi.abs().max_element());
+    SURFACE_TOLERANCE * scale
+}
+
+/// A row of [`POINT_INPUTS`] as a hit among `spheres` and above `terrain`: a point
+/// within [`surface_tolerance`] of a sphere's surface is moved onto it and the sphere is
+/// the hit's own (it does not occlude it); a point within it of the height field (above
+/// or below) is moved onto the field; a point inside another sphere, or farther below
+/// the field, is out of the domain. Errors name the column, the sphere or the height
+/// field.
 pub fn hit_of_row(x: &[f64], spheres: &[Sphere], terrain: Option<&HeightField>) -> Result<Hit, LookupError> {
     if x.len() != POINT_INPUTS.len() {
         return Err(LookupError::Arity {
@@ -415,10 +437,18 @@ pub fn hit_of_row(x: &[f64], spheres: &[Sphere], terrain: Option<&HeightField>) 
             })
         }
     };
-    let (p, n, wo) = (v3(0), unit("n", v3(3))?, unit("v", v3(6))?);
+    let (mut p, n, wo) = (v3(0), unit("n", v3(3))?, unit("v", v3(6))?);
+    let sphere_tol = |s: &Sphere| surface_tolerance(s.centre - s.radius, s.centre + s.radius);
     let own = spheres
         .iter()
-        .position(|s| ((p - s.centre).length() - s.radius).abs() <= 1e-9 * s.radius.max(1.0));
+        .position(|s| ((p - s.centre).length() - s.radius).abs() <= sphere_tol(s));
+    if let Some(k) = own {
+        let s = &spheres[k];
+        let d = p - s.centre;
+        if d.length() > 0.0 {
+            p = s.centre + d * (s.radius / d.length());
+        }
+    }
     if let Some((k, s)) = spheres
         .iter()
         .enumerate()
@@ -433,7 +463,7 @@ pub fn hit_of_row(x: &[f64], spheres: &[Sphere], terrain: Option<&HeightField>) 
     }
     if let Some(hf) = terrain {
         if let Some(z) = hf.height(p.x, p.y) {
-            let tol = TERRAIN_TOLERANCE * hf.extent();
+            let tol = SURFACE_TOLERANCE * hf.extent().max(p.x.abs()).max(p.y.abs()).max(z.abs());
             if p.z < z - tol {
                 return Err(LookupError::OutOfDomain {
                     name: format!("pz, below the height field (its height {z} at px, py)"),
@@ -441,6 +471,9 @@ pub fn hit_of_row(x: &[f64], spheres: &[Sphere], terrain: Option<&HeightField>) 
                     lo: z - tol,
                     hi: f64::INFINITY,
                 });
+            }
+            if own.is_none() && p.z <= z + tol {
+                p.z = z;
             }
         }
     }
@@ -455,14 +488,21 @@ pub fn hit_of_row(x: &[f64], spheres: &[Sphere], terrain: Option<&HeightField>) 
     })
 }
 
-/// How close to a mesh's surface a row's point must lie to be on it, relative to the
-/// mesh's bounding-box diagonal (a row copied from a render's hit at 17 digits is
-/// within 1e-15).
-const ON_MESH: f64 = 1e-9;
+/// `eval`'s warning for rows buried in a mesh's sphere set ([`Scene::buried`]).
+pub const BURIED: &str = "the point lies in space (beyond the surface tolerance of every surface) inside a mesh's \
+covering sphere: the sphere set is a solid, so the pipeline's answer there is 0 (its full shadow)";
 
-/// [`hit_of_row`] on a scene with meshes: the point on a sphere, on a mesh (its
-/// nearest triangle, the mesh's material), or neither; a point inside a sphere or a
-/// mesh, or below the height field, is out of the domain.
+/// `eval`'s caveat for a row of a scene view: [`BURIED`] where the row's point is
+/// buried in a mesh's sphere set.
+pub fn buried_caveat(x: &[f64], scene: &Scene, terrain: Option<&HeightField>) -> Option<&'static str> {
+    let h = hit_on_scene(x, scene, terrain).ok()?;
+    scene.buried(&h).then_some(BURIED)
+}
+
+/// [`hit_of_row`] on a scene with meshes: the point on a sphere, on a mesh (within
+/// [`surface_tolerance`] of the mesh's bounds of its nearest triangle, on either side:
+/// moved onto it, the mesh's material), or neither; a point inside a sphere or a mesh
+/// (farther than the tolerance), or below the height field, is out of the domain.
 pub fn hit_on_scene(x: &[f64], scene: &Scene, terrain: Option<&HeightField>) -> Result<Hit, LookupError> {
     let mut h = hit_of_row(x, &scene.spheres, terrain)?;
     for (mi, m) in scene.meshes.iter().enumerate() {
@@ -470,7 +510,8 @@ pub fn hit_on_scene(x: &[f64], scene: &Scene, terrain: Option<&HeightField>) -> 
         let Some((d, k)) = m.mesh.nearest_triangle(h.x) else {
             continue;
         };
-        if d <= ON_MESH * (hi - lo).length() && h.sphere.is_none() {
+        if d <= surface_tolerance(lo, hi) && h.sphere.is_none() && h.mesh.is_none() {
+            h.x = m.mesh.closest_on(k, h.x);
             h.mesh = Some((mi, k));
             h.material = m.material;
         } else if m.mesh.inside(h.x) {
@@ -488,18 +529,32 @@ pub fn hit_on_scene(x: &[f64], scene: &Scene, terrain: Option<&HeightField>) -> 
 /// `eval --exact`'s Monte Carlo run: `run(n)` from 16 384 samples, ×4 until its standard
 /// error is at most [`EXACT_REL_SE`] of its estimate (or both are 0), at most
 /// [`EXACT_MAX_SAMPLES`], else an error with the last estimate.
-pub fn exact_estimate(mut run: impl FnMut(usize) -> Estimate) -> Result<f64, String> {
+pub fn exact_estimate(run: impl FnMut(usize) -> Estimate) -> Result<f64, String> {
+    match exact_estimate_noted(run)? {
+        (m, None) => Ok(m),
+        (_, Some(note)) => Err(note),
+    }
+}
+
+/// [`exact_estimate`] that answers a run which stops at [`EXACT_MAX_SAMPLES`] short of
+/// its target with its estimate and a note giving its standard error (what `eval
+/// --exact` prints as a warning naming the row: one hard row, deep in a penumbra, does
+/// not stop a batch).
+pub fn exact_estimate_noted(mut run: impl FnMut(usize) -> Estimate) -> Result<(f64, Option<String>), String> {
     let mut n = 1 << 14;
     loop {
         let e = run(n).finite(|| "the reference".into())?;
         if e.std_error <= EXACT_REL_SE * e.mean.abs() || (e.mean == 0.0 && e.std_error == 0.0) {
-            return Ok(e.mean);
+            return Ok((e.mean, None));
         }
         if n >= EXACT_MAX_SAMPLES {
-            return Err(format!(
-                "the Monte Carlo reference did not reach a standard error of {EXACT_REL_SE:e} of its estimate \
-                 within {EXACT_MAX_SAMPLES} samples ({:.4e} ± {:.1e})",
-                e.mean, e.std_error
+            return Ok((
+                e.mean,
+                Some(format!(
+                    "the Monte Carlo reference stopped at {EXACT_MAX_SAMPLES} samples with {:.6e} ± {:.1e} \
+                     (one standard error; the target is {EXACT_REL_SE:e} of the estimate)",
+                    e.mean, e.std_error
+                )),
             ));
         }
         n *= 4;

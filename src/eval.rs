@@ -106,6 +106,7 @@ pub fn eval_csv(
     writeln!(spool, "{}", head.join(",")).map_err(EvalError::Output)?;
     let mut count = 0;
     let mut caveats: Vec<Caveat> = Vec::new();
+    let mut notes: Vec<(u64, String)> = Vec::new();
     let mut x = vec![0.0; family.inputs().len()];
     while let Some((line, l)) = lines.next_nonblank()? {
         let row = fields(&l, line)?;
@@ -123,7 +124,10 @@ pub fn eval_csv(
         }
         let y = match lookup {
             Some(l) => l.lookup(&x).map_err(|e| e.to_string()),
-            None => family.exact(&x),
+            None => family.exact_noted(&x).map(|(y, note)| {
+                notes.extend(note.map(|n| (line, n)));
+                y
+            }),
         }
         .map_err(|message| EvalError::Row { line, message })?;
         write_row(&mut spool, &row, &y).map_err(EvalError::Output)?;
@@ -146,7 +150,11 @@ pub fn eval_csv(
     spool.rewind().map_err(EvalError::Output)?;
     std::io::copy(&mut spool, &mut output).map_err(EvalError::Output)?;
     output.flush().map_err(EvalError::Output)?;
-    Ok(Evaluated { rows: count, caveats })
+    Ok(Evaluated {
+        rows: count,
+        caveats,
+        notes,
+    })
 }
 
 /// What [`eval_csv`] did: rows written, and the caveats of rows where the family's
@@ -157,6 +165,8 @@ pub struct Evaluated {
     pub rows: usize,
     /// One entry per distinct caveat.
     pub caveats: Vec<Caveat>,
+    /// `--exact`'s notes on single rows ([`View::exact_noted`]): (line, note).
+    pub notes: Vec<(u64, String)>,
 }
 
 /// Rows sharing one caveat.

@@ -11,7 +11,7 @@ use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 use super::render::blockers_of;
 use super::shade::{radiance, Model, Patches, Phong, Settings, Tables};
 use crate::scene::Scene;
-use crate::sky::{exact_estimate, hit_on_scene, POINT_INPUTS};
+use crate::sky::{exact_estimate_noted, hit_on_scene, POINT_INPUTS};
 use lobefit_core::family::{EvalError, EvalFlag, EvalFlags, Lookup, View};
 
 /// The flags `eval isg-shade` takes.
@@ -44,8 +44,10 @@ isg-shade  (a pipeline: Iwasaki et al.'s shading of points, docs/isg-render.md)
                        (k_d/π + k_s (n+2)/(2π) max(r·ω,0)^n) and the clamped cosine, visible where no sphere
                        blocks (a mesh: its sphere set; 0 inside another blocker's sphere); --exact: Monte Carlo
                        with exact visibility (spheres, a mesh's triangles), run until its standard error is at
-                       most 1e-3 of the estimate (at most 2^24 samples, else an error). A point on a mesh (within
-                       1e-9 of its diagonal) sees past its own sphere set; a point inside a mesh is refused
+                       most 1e-3 of the estimate (at most 2^24 samples; a row stopped short keeps its estimate,
+                       with a warning naming it). A point within 1e-5 of a surface's scale (either side: f32
+                       positions) is moved onto it; on a mesh it sees past its own sphere set; a point inside a
+                       mesh is refused; one in space inside a mesh's covering sphere is 0, with a warning
 ";
 
 /// The `eval isg-shade` view.
@@ -146,13 +148,23 @@ impl View for IsgShadeView {
             tables,
         }))
     }
+    fn caveat(&self, x: &[f64]) -> Option<&'static str> {
+        crate::sky::buried_caveat(x, &self.scene, None)
+    }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        match self.exact_noted(x)? {
+            (y, None) => Ok(y),
+            (_, Some(note)) => Err(note),
+        }
+    }
+    fn exact_noted(&self, x: &[f64]) -> Result<(Vec<f64>, Option<String>), String> {
         let scene = &*self.scene;
         let h = hit_on_scene(x, scene, None).map_err(|e| e.to_string())?;
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_15c0_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         let occluded = |v: DVec3| scene.occluded(&h, v);
-        exact_estimate(|n| super::reference(&scene.environment, &self.brdf, occluded, &h, n, seed)).map(|m| vec![m])
+        exact_estimate_noted(|n| super::reference(&scene.environment, &self.brdf, occluded, &h, n, seed))
+            .map(|(m, note)| (vec![m], note))
     }
 }
 

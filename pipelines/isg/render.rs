@@ -15,7 +15,7 @@ use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Specular
 use super::{reference, PIPELINE};
 use crate::estimate::per_pixel;
 use crate::image::{breakdown, compare, noise_free_rel_rmse};
-use crate::render::{column, shade_image, Frame, Reference, Subset};
+use crate::render::{column, shade_image, Frame, Reference, Strongest, Subset};
 use crate::scene::{Hit, Scene};
 use crate::timing::timed;
 use crate::{RenderOptions, Summary};
@@ -230,7 +230,14 @@ fn render_scene(
         opts.spp * PRECISE_FACTOR,
         picks.len()
     );
-    f.finish(sum, &r, rmse_best, "ISG (best model)".into(), error, &eq)
+    let estimate = |h: &Hit, n: usize, seed: u64| crate::sky::qmc_cv_mis(scene, h, n, seed);
+    let method = |hits: &[Option<Hit>]| image(&tables, &default, scene, hits);
+    let strongest = Strongest {
+        name: "qmc-cv-mis",
+        estimate: &estimate,
+        method: &method,
+    };
+    f.finish(sum, &r, rmse_best, "ISG (best model)".into(), error, &strongest)
 }
 
 /// The image's Monte Carlo reference ([`MC_SEED`]-seeded per pixel), timed.

@@ -39,8 +39,10 @@ direct-light  [--depth N] (1..5, default 5)  [--mask aggressive|conservative]
        top-level brdf, as `render meunier` shades a pixel
   in   `px`,`py`,`pz`  the point; `nx`,`ny`,`nz` its unit normal; `vx`,`vy`,`vz` the unit direction to the viewer
   out  `radiance`    Σ over the lights of ∫ L f_r V max(n·ω, 0) dω through the lobe pipeline (0 inside a
-                  mesh's covering sphere); --exact: Monte Carlo over each light's cap with exact visibility (the
-                  spheres and the meshes' true triangles) to a standard error of 1e-3 of the estimate
+                  mesh's covering sphere, with a warning); --exact: Monte Carlo over each light's cap with exact
+                  visibility (the spheres and the meshes' true triangles) to a standard error of 1e-3 of the
+                  estimate (a row stopped short at 2^24 samples keeps its estimate, with a warning naming it).
+                  A point within 1e-5 of a surface's scale (either side: f32 positions) is moved onto it
 ";
 
 /// Relative tolerance of the reference's nested Gauss–Kronrod.

@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use super::light_fit;
 use crate::estimate::{estimate, estimate_with, Estimate, Sampling};
 use crate::image::{compare, masked, panel};
-use crate::render::{shade_image, Frame, Reference};
+use crate::render::{shade_image, Frame, Reference, Strongest};
 use crate::scene::{brdf_value, visible, Hit, Scene};
 use crate::timing::timed;
 use crate::{RenderOptions, Summary};
@@ -476,7 +476,15 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
         opts.spp, f.pixels
     );
     let method = format!("lobes (light {}, depth 5, fitted weights)", default.light.name());
-    f.finish(sum, &r, rmse_default, method, error, &eq)
+    let scene = f.scene;
+    let estimate = |h: &Hit, n: usize, seed: u64| Ok(reference_sampled(Sampling::Qmc, scene, &light, h, n, seed, true));
+    let shade = |hits: &[Option<Hit>]| lobe_image(&m, scene, &light, hits, &default);
+    let strongest = Strongest {
+        name: "qmc",
+        estimate: &estimate,
+        method: &shade,
+    };
+    f.finish(sum, &r, rmse_default, method, error, &strongest)
 }
 
 /// The image's reference (row by row for the progress bar), timed.

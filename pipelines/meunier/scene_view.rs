@@ -14,7 +14,7 @@ use super::direct_light::DirectLightView;
 use super::render::reference_sampled;
 use crate::estimate::{Estimate, Sampling};
 use crate::scene::{Hit, Scene};
-use crate::sky::{exact_estimate, hit_on_scene, POINT_INPUTS};
+use crate::sky::{exact_estimate_noted, hit_on_scene, POINT_INPUTS};
 use lobefit_core::family::{EvalFlags, Lookup, View};
 use lobefit_fits::mask_weights::MaskWeightsFamily;
 
@@ -110,15 +110,41 @@ impl View for SceneView {
             weights: MaskWeights::from_table(table)?,
         }))
     }
+    fn caveat(&self, x: &[f64]) -> Option<&'static str> {
+        crate::sky::buried_caveat(x, &self.scene, None)
+    }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        match self.exact_noted(x)? {
+            (y, None) => Ok(y),
+            (_, Some(note)) => Err(note),
+        }
+    }
+    fn exact_noted(&self, x: &[f64]) -> Result<(Vec<f64>, Option<String>), String> {
         let h = Hit {
             material: self.material,
             ..hit_on_scene(x, &self.scene, None).map_err(|e| e.to_string())?
         };
         let scene = &*self.scene;
+        // A point inside a light is refused, as the pipeline refuses it (its answer
+        // there is undefined: the light surrounds it).
+        if let Some((k, l)) = scene
+            .lights
+            .iter()
+            .enumerate()
+            .find(|(_, l)| (h.x - l.sphere.centre).length() <= l.sphere.radius)
+        {
+            return Err(
+                super::direct_light::to_lookup(lobefit_tables::MeunierError::PointInsideLight {
+                    index: k,
+                    distance: (h.x - l.sphere.centre).length(),
+                    radius: l.sphere.radius,
+                })
+                .to_string(),
+            );
+        }
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_d11e_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
-        exact_estimate(|n| {
+        exact_estimate_noted(|n| {
             // Each light's cap sampled with n samples; the sum of independent means.
             let parts: Vec<Estimate> = scene
                 .lights
@@ -132,6 +158,6 @@ impl View for SceneView {
                 samples: n,
             }
         })
-        .map(|m| vec![m])
+        .map(|(m, note)| (vec![m], note))
     }
 }

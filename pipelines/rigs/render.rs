@@ -261,6 +261,8 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
                 unit: "px".into(),
                 baseline: "every light per point (per-point SH)".into(),
                 baseline_us: per_px(sh),
+                spread: None,
+                at_least: false,
             }
             .line(),
         );
@@ -546,6 +548,8 @@ pub fn drive(dir: &Path, frames: usize, progress: &(dyn Fn() + Sync)) -> Result<
                 unit: "point".into(),
                 baseline: "every light per point (SH)".into(),
                 baseline_us: per_point(sh),
+                spread: None,
+                at_least: false,
             }
             .line(),
         );

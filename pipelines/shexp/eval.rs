@@ -7,7 +7,7 @@ use lobefit_tables::{LoadError, LookupError, ShExp, Table};
 
 use super::shade::{radiance, Settings, Tables};
 use crate::scene::Scene;
-use crate::sky::{exact_estimate, hit_on_scene, Phong, POINT_INPUTS};
+use crate::sky::{exact_estimate_noted, hit_on_scene, Phong, POINT_INPUTS};
 use lobefit_core::family::{EvalError, EvalFlag, EvalFlags, Lookup, View};
 
 /// The flags `eval shexp-shade` takes.
@@ -35,7 +35,8 @@ shexp-shade  (a pipeline: Ren / Giraud's SH-exponentiation shading of points, do
                        max(r·ω,0)^n) and the clamped cosine, visible where no sphere and no terrain blocks;
                        --exact: Monte Carlo with exact visibility (ray-sphere, and the bilinear height field
                        exactly per cell), run until its standard error is at most 1e-3 of the estimate (at
-                       most 2^24 samples, else an error)
+                       most 2^24 samples; a row stopped short keeps its estimate, with a warning naming it).
+                       A point within 1e-5 of a surface's scale (either side: f32 positions) is moved onto it
 ";
 
 /// The `eval shexp-shade` view.
@@ -128,13 +129,22 @@ impl View for ShExpShadeView {
             tables,
         }))
     }
+    fn caveat(&self, x: &[f64]) -> Option<&'static str> {
+        crate::sky::buried_caveat(x, &self.scene, terrain(&self.scene))
+    }
     fn reference(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        match self.exact_noted(x)? {
+            (y, None) => Ok(y),
+            (_, Some(note)) => Err(note),
+        }
+    }
+    fn exact_noted(&self, x: &[f64]) -> Result<(Vec<f64>, Option<String>), String> {
         let h = hit_on_scene(x, &self.scene, terrain(&self.scene)).map_err(|e| e.to_string())?;
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_5e40_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         let scene = &self.scene;
-        exact_estimate(|n| super::reference(scene, |w| super::light(scene, w), &self.brdf, &h, n, seed))
-            .map(|m| vec![m])
+        exact_estimate_noted(|n| super::reference(scene, |w| super::light(scene, w), &self.brdf, &h, n, seed))
+            .map(|(m, note)| (vec![m], note))
     }
 }
 

@@ -18,7 +18,7 @@ use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, ExactCaps, Exp, Hor
 use super::{light, light_sh, reference, PIPELINE};
 use crate::estimate::{per_pixel, Estimate};
 use crate::image::{breakdown, compare, noise_free_rel_rmse};
-use crate::render::{column, shade_image, Frame, Reference, Subset};
+use crate::render::{column, shade_image, Frame, Reference, Strongest, Subset};
 use crate::scene::{Hit, Scene};
 use crate::sky::Phong;
 use crate::timing::timed;
@@ -105,8 +105,6 @@ pub fn animate(
     progress: &(dyn Fn() + Sync),
 ) -> Result<Summary, String> {
     use crate::animate::Methods;
-    use crate::estimate::Sampling;
-    use crate::sky::reference_sampled;
     let scene = scene(name)?;
     let tables = Tables::embedded()?;
     let settings = Settings::default();
@@ -115,30 +113,43 @@ pub fn animate(
         eprintln!("{w}");
     }
     let shade = |s: &Scene, hits: &[Option<Hit>]| image(&tables, &settings, &light_n, s, hits);
-    let sgs = scene.sh_environment.is_none();
-    let estimate = |s: &Scene, h: &Hit, n: usize, seed: u64| {
-        if sgs {
-            return crate::sky::qmc_cv_mis(s, h, n, seed);
-        }
-        let brdf = Phong::of(s.brdf(h))?;
-        Ok(reference_sampled(
-            Sampling::Qmc,
-            &s.environment,
-            |w| light(s, w),
-            &brdf,
-            |v| s.occluded(h, v),
-            h,
-            n,
-            seed,
-        ))
-    };
     let methods = Methods {
         method: "SH exponentiation (default settings)",
         shade: &shade,
-        strongest: if sgs { "qmc-cv-mis" } else { "qmc" },
-        estimate: &estimate,
+        strongest: strongest_name(&scene),
+        estimate: &strongest_estimate,
     };
     crate::animate::animate(&PIPELINE, &scene, opts, frames, dir, progress, &methods)
+}
+
+/// The strongest Monte Carlo estimator on an SH-exponentiation scene (the baselines
+/// study's): [`strongest_estimate`]'s name.
+fn strongest_name(scene: &Scene) -> &'static str {
+    if scene.sh_environment.is_none() {
+        "qmc-cv-mis"
+    } else {
+        "qmc"
+    }
+}
+
+/// qmc-cv-mis under SGs; under an SH sky (no closed form for a control variate) QMC.
+fn strongest_estimate(s: &Scene, h: &Hit, n: usize, seed: u64) -> Result<Estimate, String> {
+    use crate::estimate::Sampling;
+    use crate::sky::reference_sampled;
+    if s.sh_environment.is_none() {
+        return crate::sky::qmc_cv_mis(s, h, n, seed);
+    }
+    let brdf = Phong::of(s.brdf(h))?;
+    Ok(reference_sampled(
+        Sampling::Qmc,
+        &s.environment,
+        |w| light(s, w),
+        &brdf,
+        |v| s.occluded(h, v),
+        h,
+        n,
+        seed,
+    ))
 }
 
 /// Renders one scene into `dir`.
@@ -257,7 +268,14 @@ fn render_scene(
         opts.spp * PRECISE_FACTOR,
         picks.len()
     );
-    f.finish(sum, &r, rmse_pipe, method, error, &eq)
+    let estimate = |h: &Hit, n: usize, seed: u64| strongest_estimate(scene, h, n, seed);
+    let shade = |hits: &[Option<Hit>]| image(&tables, &default, &light_n, scene, hits);
+    let strongest = Strongest {
+        name: strongest_name(scene),
+        estimate: &estimate,
+        method: &shade,
+    };
+    f.finish(sum, &r, rmse_pipe, method, error, &strongest)
 }
 
 /// The errors relative to each pixel's unoccluded radiance (the same estimator with
