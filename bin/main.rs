@@ -783,6 +783,12 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
                     lobefit::pipelines::MAX_SAMPLES
                 )));
             }
+            // The work of each scene (read, not built), before any render starts.
+            for scene in &scenes {
+                if let Some(e) = pipeline.work_error(scene, &opts, animate.map_or(1, |(n, _)| n)) {
+                    return Err(Failure::Usage(e));
+                }
+            }
             let total = pipeline.samples(&opts);
             if total > lobefit::pipelines::MAX_RENDER_SAMPLES {
                 return Err(Failure::Usage(format!(

@@ -209,7 +209,12 @@ pub fn animate(
         shot.mc = mc?.iter().map(|e| e.mean).collect();
         shot.mc_s = mc_s;
     }
-    report(pipeline, &tag, &stem, (w, h), spp, &shots, dir, m)
+    // The headline's comparison at the method's error, on frame 0 (as a still's).
+    let still = scene.at(shots[0].time)?;
+    let estimate = |h: &Hit, n: usize, seed: u64| (m.estimate)(&still, h, n, seed);
+    let shade = |hits: &[Option<Hit>]| (m.shade)(&still, hits);
+    let at = crate::baselines::at_method_error(&all_hits[0], w, m.strongest, &estimate, &shade)?;
+    report(pipeline, &tag, &stem, (w, h), spp, &shots, dir, m, &at)
 }
 
 /// The equal-time estimator's samples per pixel: its time per lit pixel is modelled as
@@ -277,6 +282,7 @@ fn report(
     shots: &[Rendered],
     dir: &Path,
     m: &Methods<'_>,
+    at: &crate::baselines::AtMethodError,
 ) -> Result<Summary, String> {
     let mut sum = Summary::default();
     let exposure = exposure_for(mean_over(&shots[0].reference, &shots[0].lit));
@@ -355,6 +361,7 @@ fn report(
         t_mc / t_m
     ));
     sum.rel_rmse = e_m;
+    sum.lines.push(crate::render::at_error_line(tag, at));
     sum.headline.push(
         Headline {
             render: format!("{} {tag}", pipeline.name),
@@ -364,12 +371,7 @@ fn report(
                 "relative RMSE {e_m:.4}, temporal {t_m:.4} (at equal time {}: {e_mc:.4}, temporal {t_mc:.4})",
                 m.strongest
             ),
-            cost_us: us_m,
-            unit: "px".into(),
-            baseline: format!("{} at {spp} spp", m.strongest),
-            baseline_us: us_mc,
-            spread: None,
-            at_least: false,
+            ..crate::render::at_error_headline(at, "of frame 0")
         }
         .line(),
     );

@@ -64,6 +64,9 @@ pub struct Bench {
     runs: usize,
 }
 
+/// An analytic method's image of given primary hits (0 where none).
+pub type MethodImage<'a> = dyn Fn(&[Option<Hit>]) -> Result<Vec<f64>, String> + Sync + 'a;
+
 /// Per-pixel shading: `(hit, samples, seed)` → estimate.
 pub type Estimator<'a> = &'a (dyn Fn(&Hit, usize, u64) -> Result<Estimate, String> + Sync);
 
@@ -131,10 +134,7 @@ impl Bench {
 
     /// The analytic method's image `render(hits)` (0 where no hit): its errors and its
     /// time per shaded pixel, timed as the estimators are.
-    pub fn analytic_image(
-        &self,
-        render: &(dyn Fn(&[Option<Hit>]) -> Result<Vec<f64>, String> + Sync),
-    ) -> Result<(Errors, Timing), String> {
+    pub fn analytic_image(&self, render: &MethodImage) -> Result<(Errors, Timing), String> {
         let (img, us) = self.timed_image(&|| {
             Ok(render(&self.hits)?
                 .into_iter()
@@ -391,7 +391,7 @@ pub fn time_at(curve: &[Point], error: f64) -> Option<Timing> {
 #[derive(Debug, Clone)]
 pub struct AtMethodError {
     /// The estimator's name (`qmc-cv-mis`, `qmc`).
-    pub estimator: &'static str,
+    pub estimator: String,
     /// Pixels measured.
     pub pixels: usize,
     /// The method's relative RMSE on them, the reference's noise removed.
@@ -437,15 +437,15 @@ pub const HEADLINE_RUNS: usize = 3;
 pub fn at_method_error(
     hits: &[Option<Hit>],
     w: usize,
-    name: &'static str,
+    name: &str,
     estimator: Estimator,
-    method: &(dyn Fn(&[Option<Hit>]) -> Result<Vec<f64>, String> + Sync),
+    method: &MethodImage,
 ) -> Result<AtMethodError, String> {
     let lit: Vec<usize> = (0..hits.len()).filter(|&p| hits[p].is_some()).collect();
     let step = lit.len().div_ceil(HEADLINE_PIXELS).max(1);
     let mut sub = vec![None; hits.len()];
     for &p in lit.iter().step_by(step) {
-        sub[p] = hits[p].clone();
+        sub[p] = hits[p];
     }
     let b = Bench::on_hits(sub, w, HEADLINE_REF_SPP, HEADLINE_RUNS, estimator)?;
     let ((method_error, _), method_us) = b.analytic_image(method)?;
@@ -464,7 +464,7 @@ pub fn at_method_error(
         _ => None,
     };
     Ok(AtMethodError {
-        estimator: name,
+        estimator: name.to_string(),
         pixels: b.pixels(),
         method_error,
         method_us,

@@ -252,9 +252,24 @@ impl Pipeline {
 
     /// An error naming the limit when a render of `scene` with `opts` would take more
     /// than [`MAX_RENDER_SAMPLES`] Monte Carlo samples, or more than [`MAX_WORK`]
-    /// samples × light terms (SGs + sphere lights, at least 1) × blockers (spheres, plus
-    /// 1 for a height field, at least 1).
+    /// samples × light terms (SGs + sphere lights, at least 1) × blockers (spheres and
+    /// the meshes' sphere sets, plus 1 for a height field, at least 1).
     pub fn check_work(&self, scene: &scene::Scene, opts: &RenderOptions) -> Result<(), String> {
+        let (lights, blockers) = terms(scene);
+        self.limits(&scene.name, lights, blockers, opts, None)
+    }
+
+    /// The limits of [`Pipeline::check_work`] and, with `frames`, of
+    /// [`Pipeline::check_frames`], for a scene of `lights` light terms and `blockers`
+    /// blockers.
+    fn limits(
+        &self,
+        scene: &str,
+        lights: u64,
+        blockers: u64,
+        opts: &RenderOptions,
+        frames: Option<usize>,
+    ) -> Result<(), String> {
         let samples = self.samples(opts);
         let flags = format!(
             "--width {} --spp {} --breakdown-stride {}",
@@ -268,49 +283,29 @@ impl Pipeline {
                 self.name
             ));
         }
-        let (lights, blockers) = terms(scene);
         let work = samples.saturating_mul(lights).saturating_mul(blockers);
         if work > MAX_WORK {
             return Err(format!(
-                "render {}: scene {}: {flags}: {samples} samples × {lights} light terms × {blockers} blockers = \
+                "render {}: scene {scene}: {flags}: {samples} samples × {lights} light terms × {blockers} blockers = \
                  {:.3e} work units, more than the {MAX_WORK:.0e} a render may take (MAX_WORK); lower --width or \
                  --spp, raise --breakdown-stride, or use fewer SGs, lights or spheres",
-                self.name, scene.name, work as f64
+                self.name, work as f64
             ));
         }
-        Ok(())
-    }
-}
-
-/// (light terms, blockers) of a scene, each at least 1: the SGs and sphere lights (an
-/// SH environment counts 1), and the spheres, the meshes' sphere sets and the height
-/// field: what a pixel's shading and a sample's visibility scale with.
-fn terms(scene: &scene::Scene) -> (u64, u64) {
-    let lights = scene.environment.len() + scene.lights.len() + usize::from(scene.sh_environment.is_some());
-    let blockers = scene.proxies.len().max(scene.spheres.len()) + usize::from(scene.heightfield.is_some());
-    (lights.max(1) as u64, blockers.max(1) as u64)
-}
-
-impl Pipeline {
-    /// [`Pipeline::check_work`], and the method's own work over `frames` frames: an error
-    /// naming the limit when pixels × frames × light terms × blockers (an upper bound on
-    /// the light–blocker products the analytic shading forms) passes [`MAX_SHADE_WORK`].
-    /// Called before a render or an animation spends any time.
-    pub fn check_frames(&self, scene: &scene::Scene, opts: &RenderOptions, frames: usize) -> Result<(), String> {
-        self.check_work(scene, opts)?;
+        let Some(frames) = frames else {
+            return Ok(());
+        };
         let (w, h) = (opts.width.max(4) as u64, (opts.width * 3 / 4).max(3) as u64);
-        let (lights, blockers) = terms(scene);
         let work = (w * h)
             .saturating_mul(frames as u64)
             .saturating_mul(lights)
             .saturating_mul(blockers);
         if work > MAX_SHADE_WORK {
             return Err(format!(
-                "render {}: scene {}: --width {}{}: {w}×{h} pixels × {frames} frame{} × {lights} light terms × \
+                "render {}: scene {scene}: --width {}{}: {w}×{h} pixels × {frames} frame{} × {lights} light terms × \
                  {blockers} blockers = {:.3e} shading work units, more than the {MAX_SHADE_WORK:.0e} a render may \
                  take (MAX_SHADE_WORK); lower --width or --frames, or use fewer SGs, lights or spheres",
                 self.name,
-                scene.name,
                 opts.width,
                 if frames > 1 {
                     format!(" --frames {frames}")
@@ -323,6 +318,41 @@ impl Pipeline {
         }
         Ok(())
     }
+
+    /// [`Pipeline::check_work`], and the method's own work over `frames` frames: an error
+    /// naming the limit when pixels × frames × light terms × blockers (an upper bound on
+    /// the light–blocker products the analytic shading forms) passes [`MAX_SHADE_WORK`].
+    /// Called before a render or an animation spends any time.
+    pub fn check_frames(&self, scene: &scene::Scene, opts: &RenderOptions, frames: usize) -> Result<(), String> {
+        let (lights, blockers) = terms(scene);
+        self.limits(&scene.name, lights, blockers, opts, Some(frames))
+    }
+
+    /// The limits of [`Pipeline::check_frames`] for the scene `name` (a built-in of
+    /// this pipeline or a scene file) read without building it: the command line's
+    /// check before any render starts (its refusal is a usage error). `None` where the
+    /// scene is within them, or cannot be read here (the render reports that).
+    pub fn work_error(&self, name: &str, opts: &RenderOptions, frames: usize) -> Option<String> {
+        let builtin = format!("{}-{name}", self.name);
+        let (lights, blockers) = scene::terms_of(&builtin)
+            .or_else(|| scene::terms_of(name))
+            .map(|(l, b)| (l.max(1), b.max(1)))?;
+        let shown = if scene::BUILTIN.iter().any(|(n, _)| *n == builtin) {
+            builtin
+        } else {
+            name.to_string()
+        };
+        self.limits(&shown, lights, blockers, opts, Some(frames)).err()
+    }
+}
+
+/// (light terms, blockers) of a scene, each at least 1: the SGs and sphere lights (an
+/// SH environment counts 1), and the spheres, the meshes' sphere sets and the height
+/// field: what a pixel's shading and a sample's visibility scale with.
+fn terms(scene: &scene::Scene) -> (u64, u64) {
+    let lights = scene.environment.len() + scene.lights.len() + usize::from(scene.sh_environment.is_some());
+    let blockers = scene.proxies.len().max(scene.spheres.len()) + usize::from(scene.heightfield.is_some());
+    (lights.max(1) as u64, blockers.max(1) as u64)
 }
 
 /// Most shading work one render of one scene may take: pixels × frames × light terms

@@ -651,11 +651,20 @@ impl Mesh {
             .sum()
     }
 
-    /// (edges that bound an odd number of triangles, all edges): a closed mesh has no
-    /// odd edge; a hole's rim bounds one triangle, a non-manifold fin three.
+    /// (edges that bound an odd number of triangles, all edges), with vertices at the
+    /// same position taken as one (files split vertices at seams and hard edges): a
+    /// closed mesh has no odd edge; a hole's rim bounds one triangle, a fin three.
     pub fn open_edges(&self) -> (usize, usize) {
+        let mut at = std::collections::HashMap::<[u64; 3], u32>::with_capacity(self.vertices.len());
+        let weld: Vec<u32> = self
+            .vertices
+            .iter()
+            .enumerate()
+            .map(|(i, p)| *at.entry(p.to_array().map(|c| (c + 0.0).to_bits())).or_insert(i as u32))
+            .collect();
         let mut uses = std::collections::HashMap::<(u32, u32), u32>::with_capacity(3 * self.triangles.len() / 2);
         for t in &self.triangles {
+            let t = t.map(|i| weld[i as usize]);
             for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
                 *uses.entry((a.min(b), a.max(b))).or_default() += 1;
             }
@@ -1066,6 +1075,19 @@ pub(crate) mod tests {
             assert!(r.is_err(), "{:?} loaded", String::from_utf8_lossy(bad));
             assert!(r.unwrap_err().contains(want));
         }
+        // A face of fewer than 3 vertices names its line (tobj dropped it silently).
+        let e = Mesh::from_obj_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2\n").unwrap_err();
+        assert!(e.contains("line 6: a face of 2 vertices"), "{e}");
+        // The pre-count counts a polygon's triangles, not its lines: one line of a
+        // polygon of MAX_MESH_TRIANGLES + 3 vertices (before: 1 line passed and tobj
+        // triangulated it, 1.05 GB for 56 MB of text).
+        let mut long = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf".to_vec();
+        for _ in 0..MAX_MESH_TRIANGLES + 3 {
+            long.extend(b" 1");
+        }
+        long.push(b'\n');
+        let e = Mesh::from_obj_bytes(&long).unwrap_err();
+        assert!(e.contains("(MAX_MESH_TRIANGLES), by line 4"), "{e}");
         let bunny = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/bunny.obj")).unwrap();
         for cut in [10, 1000, 100_000, 400_000, bunny.len() - 7] {
             // A cut file either loads its complete lines or is an error: no panic.

@@ -152,60 +152,82 @@ impl<'a> Frame<'a> {
             strongest.estimate,
             strongest.method,
         )?;
-        let (n_last, e_last, t_last) = m.last;
-        sum.lines.push(format!(
-            "{}: the strongest Monte Carlo at the method's error, measured on {} pixels (a reference of 2 × {} samples \
-             of {}, its own error {:.1e}; medians of {} runs, [fastest–slowest]): the method {:.4} at {:.2} µs/px \
-             [{:.2}–{:.2}]; {} {}",
-            self.tag,
-            m.pixels,
-            crate::baselines::HEADLINE_REF_SPP,
-            m.estimator,
-            m.reference_error,
-            crate::baselines::HEADLINE_RUNS,
-            m.method_error,
-            m.method_us.median,
-            m.method_us.min,
-            m.method_us.max,
-            m.estimator,
-            match m.at {
-                Some((n, t)) => format!(
-                    "needs {n:.0} spp there, {:.2} µs/px [{:.2}–{:.2}]",
-                    t.median, t.min, t.max
-                ),
-                None => format!(
-                    "at its last point, {n_last} spp, still has error {e_last:.4}, {:.2} µs/px: beyond the {} spp \
-                     measured",
-                    t_last.median,
-                    crate::baselines::HEADLINE_MAX_SPP
-                ),
-            }
-        ));
-        let (baseline_us, spread, at_least, spp) = match (m.at, m.ratio()) {
-            (Some((n, t)), Some((_, lo, hi))) => (t.median, Some((lo, hi)), false, format!("{n:.0} spp")),
-            _ => (t_last.median, None, true, format!("more than {n_last} spp")),
-        };
+        sum.lines.push(at_error_line(&self.tag, &m));
         sum.headline.push(
             Headline {
                 render: format!("{} {}", self.pipeline.name, self.tag),
                 scope: format!("{}×{}", self.w, self.h),
                 method,
                 error,
-                cost_us: m.method_us.median,
-                unit: "px".into(),
-                baseline: format!(
-                    "the strongest Monte Carlo, {}, at the method's error on {} of its pixels ({:.4}: {spp}, \
-                     measured)",
-                    m.estimator, m.pixels, m.method_error
-                ),
-                baseline_us,
-                spread,
-                at_least,
+                ..at_error_headline(&m, "")
             }
             .line(),
         );
         sum.write(self.dir, &self.stem())?;
         Ok(sum)
+    }
+}
+
+/// The body's line of a headline measurement: the pixels, the reference, the method's
+/// error and time, the estimator's samples and time there (with the runs' spread).
+pub fn at_error_line(tag: &str, m: &crate::baselines::AtMethodError) -> String {
+    let (n_last, e_last, t_last) = m.last;
+    format!(
+        "{tag}: the strongest Monte Carlo at the method's error, measured on {} pixels (a reference of 2 × {} samples \
+         of {}, its own error {:.1e}; medians of {} runs, [fastest–slowest]): the method {:.4} at {:.2} µs/px \
+         [{:.2}–{:.2}]; {} {}",
+        m.pixels,
+        crate::baselines::HEADLINE_REF_SPP,
+        m.estimator,
+        m.reference_error,
+        crate::baselines::HEADLINE_RUNS,
+        m.method_error,
+        m.method_us.median,
+        m.method_us.min,
+        m.method_us.max,
+        m.estimator,
+        match m.at {
+            Some((n, t)) => format!(
+                "needs {n:.0} spp there, {:.2} µs/px [{:.2}–{:.2}]",
+                t.median, t.min, t.max
+            ),
+            None => format!(
+                "at its last point, {n_last} spp, still has error {e_last:.4}, {:.2} µs/px: beyond the {} spp measured",
+                t_last.median,
+                crate::baselines::HEADLINE_MAX_SPP
+            ),
+        }
+    )
+}
+
+/// A [`Headline`]'s cost, baseline and ratio from a headline measurement (`render`,
+/// `scope`, `method` and `error` left empty for the caller); `where_` qualifies the
+/// pixels (`of frame 0`).
+pub fn at_error_headline(m: &crate::baselines::AtMethodError, where_: &str) -> Headline {
+    let (n_last, _, t_last) = m.last;
+    let (baseline_us, spread, at_least, spp) = match (m.at, m.ratio()) {
+        (Some((n, t)), Some((_, lo, hi))) => (t.median, Some((lo, hi)), false, format!("{n:.0} spp")),
+        _ => (t_last.median, None, true, format!("more than {n_last} spp")),
+    };
+    let where_ = if where_.is_empty() {
+        String::new()
+    } else {
+        format!(" {where_}")
+    };
+    Headline {
+        render: String::new(),
+        scope: String::new(),
+        method: String::new(),
+        error: String::new(),
+        cost_us: m.method_us.median,
+        unit: "px".into(),
+        baseline: format!(
+            "the strongest Monte Carlo, {}, at the method's error on {} of its pixels{where_} ({:.4}: {spp}, measured)",
+            m.estimator, m.pixels, m.method_error
+        ),
+        baseline_us,
+        spread,
+        at_least,
     }
 }
 
@@ -218,7 +240,7 @@ pub struct Strongest<'s> {
     /// The estimator: (hit, samples, seed) → estimate.
     pub estimate: crate::baselines::Estimator<'s>,
     /// The method's image of the given hits (0 where none).
-    pub method: &'s (dyn Fn(&[Option<Hit>]) -> Result<Vec<f64>, String> + Sync),
+    pub method: &'s crate::baselines::MethodImage<'s>,
 }
 
 /// The Monte Carlo reference over a [`Frame`]: its per-pixel estimates and what every

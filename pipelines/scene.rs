@@ -1023,6 +1023,30 @@ pub fn load_for_eval(name_or_path: &str, accepts: &Accepts) -> Result<Scene, lob
         .expect("built"))
 }
 
+/// (light terms, blockers) of the scene `name_or_path`, read without building it
+/// (the meshes' sphere sets counted from their specifications and files): the SGs,
+/// sphere lights and an SH environment (1); the spheres, the sets' spheres and a
+/// height field (1). `None` when it cannot be read or parsed.
+pub fn terms_of(name_or_path: &str) -> Option<(u64, u64)> {
+    let (name, text, dir) = read(name_or_path).ok()?;
+    let f = read_file(&name, &text, &Accepts::ALL).ok()?;
+    let lights =
+        f.environment.as_ref().map_or(0, |e| e.sgs.len()) + f.lights.len() + usize::from(f.sh_environment.is_some());
+    let mut blockers = f.spheres.len() + usize::from(f.heightfield.is_some());
+    for m in &f.meshes {
+        blockers += match &m.spheres {
+            serde_json::Value::String(file) => dir
+                .as_deref()
+                .and_then(|d| inside_folder(d, file).ok())
+                .and_then(|p| lobefit_core::io::read_text(&p, MAX_SCENE_LEN).ok())
+                .and_then(|t| lobefit_core::json::from_str::<SphereSetFile>(&t).ok())
+                .map_or(0, |set| set.spheres.len()),
+            v => v["count"].as_u64().unwrap_or(0) as usize,
+        };
+    }
+    Some((lights as u64, blockers as u64))
+}
+
 /// Whether [`load`] would succeed, without building anything expensive (the height
 /// field): the same error, or Ok.
 pub fn check_file(name_or_path: &str) -> Result<(), String> {
@@ -1568,7 +1592,7 @@ impl Checker<'_> {
             }
             let cmax = l.c.iter().fold(0.0f64, |m, c| m.max(c.abs()));
             reflected += l.specular * cmax.powf(l.exponent);
-            if !(reflected <= 1.0 + 1e-12) {
+            if reflected.is_nan() || reflected > 1.0 + 1e-12 {
                 return Err(self.err(format!(
                     "{what}: lobes[{i}] makes the material reflect up to {reflected:.4e} of the light it receives \
                      (albedo + Σ specular · max|c|^exponent must be ≤ 1: energy conservation)"
@@ -2293,7 +2317,7 @@ mod tests {
         // A directory (or a FIFO) is refused before reading.
         let dir = tempfile::tempdir().unwrap();
         let e = load(dir.path().to_str().unwrap()).unwrap_err();
-        assert!(e.contains("is not a regular file"), "{e}");
+        assert!(e.contains("is a directory, not a regular file"), "{e}");
     }
 }
 
@@ -2543,7 +2567,7 @@ mod mesh_tests {
         assert!(at(text.replace("lumpy.obj", "/etc/passwd")).contains("not absolute"));
         assert!(at(text.replace("lumpy.obj", "missing.obj")).contains("missing.obj"));
         assert!(at(text.replace("\"version\": 2", "\"version\": 1")).contains("version\": 2"));
-        assert!(at(text.replace("\"count\": 8", "\"count\": 0")).contains("count 0"));
+        assert!(at(text.replace("\"count\": 8", "\"count\": 0")).contains("count is 0: expected an integer from 1"));
         assert!(at(text.replace("\"tree\"", "\"octopus\"")).contains("octopus"));
         assert!(at(text.replace("\"scale\": 1.2", "\"scale\": -1")).contains("scale"));
         let outside = tempfile::tempdir().unwrap();

@@ -799,7 +799,13 @@ mod tests {
         for pz in [z, z + 1e-3, z - 1e-12, z + 10.0] {
             assert!(hit_of_row(&row(pz), &[], Some(&hf)).is_ok(), "pz {pz} (surface {z})");
         }
-        for pz in [z - 1e-6, z - 1.0] {
+        // The surface tolerance, both sides: within it the point is moved onto the
+        // field; below by twice it, refused.
+        let tol = SURFACE_TOLERANCE * hf.extent().max(x.abs()).max(y.abs()).max(z.abs());
+        for pz in [z - 0.5 * tol, z + 0.5 * tol] {
+            assert_eq!(hit_of_row(&row(pz), &[], Some(&hf)).unwrap().x.z, z, "pz {pz}");
+        }
+        for pz in [z - 2.0 * tol, z - 1.0] {
             let e = hit_of_row(&row(pz), &[], Some(&hf)).unwrap_err().to_string();
             assert!(e.contains("below the height field"), "{e}");
         }
@@ -817,5 +823,54 @@ mod tests {
         assert!(e.contains("not finite") && e.contains("standard error inf"), "{e}");
         let fine = |n: usize| crate::estimate::estimate(n, 3, |_| 2.0);
         assert_eq!(exact_estimate(fine), Ok(2.0));
+    }
+
+    /// A run that never reaches its target (here: its standard error is held at 1 %)
+    /// stops at [`EXACT_MAX_SAMPLES`]: `exact_estimate` refuses it, the noted form
+    /// answers its estimate with a note giving it and its standard error.
+    #[test]
+    fn a_run_short_of_its_target_is_answered_with_a_note() {
+        let mut calls = Vec::new();
+        let stuck = |n: usize| {
+            calls.push(n);
+            Estimate {
+                mean: 0.25,
+                std_error: 0.0025,
+                samples: n,
+            }
+        };
+        let (m, note) = exact_estimate_noted(stuck).unwrap();
+        assert_eq!(m, 0.25);
+        let note = note.unwrap();
+        assert!(
+            note.contains("stopped at 16777216 samples with 2.500000e-1 ± 2.5e-3"),
+            "{note}"
+        );
+        assert_eq!(calls.last(), Some(&EXACT_MAX_SAMPLES));
+        assert!(exact_estimate(|n| Estimate {
+            mean: 0.25,
+            std_error: 0.0025,
+            samples: n
+        })
+        .is_err());
+    }
+
+    /// A point within the surface tolerance of a sphere (inside or outside) is moved
+    /// onto it and the sphere is its own; at twice the tolerance inside it is refused.
+    #[test]
+    fn points_within_the_tolerance_of_a_sphere_lie_on_it() {
+        let s = Sphere {
+            centre: DVec3::new(1.0, 2.0, 3.0),
+            radius: 0.5,
+        };
+        let tol = surface_tolerance(s.centre - s.radius, s.centre + s.radius);
+        let row = |d: f64| [1.0, 2.0, 3.5 + d, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+        for d in [0.0, 0.5 * tol, -0.5 * tol, 0.99 * tol] {
+            let h = hit_of_row(&row(d), &[s], None).unwrap();
+            assert_eq!((h.sphere, h.x.z), (Some(0), 3.5), "d {d}");
+        }
+        let h = hit_of_row(&row(2.0 * tol), &[s], None).unwrap();
+        assert_eq!(h.sphere, None);
+        assert!(hit_of_row(&row(-2.0 * tol), &[s], None).is_err());
     }
 }

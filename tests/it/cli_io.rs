@@ -5,7 +5,7 @@
 use crate::common;
 use std::process::{Output, Stdio};
 
-use crate::common::{bin, mkfifo, run_bounded, run_with_stdout, text};
+use crate::common::{mkfifo, run_bounded, run_with_stdout, text};
 
 const TABLE: &str = "tables/data/lobe-product.lobefit";
 

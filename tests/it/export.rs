@@ -335,9 +335,18 @@ fn a_refused_export_writes_nothing() {
     assert!(names(root.path()).is_empty(), "{:?}", names(root.path()));
     let existing = root.path().join("existing");
     std::fs::create_dir(&existing).unwrap();
+    // A file no export writes: refused up front (an export directory holds one export
+    // and nothing else), the file kept.
     std::fs::write(existing.join("mine.txt"), b"x").unwrap();
-    export(&refused, &existing).unwrap_err();
+    let e = export(&opts(&["cap-exponent"], Format::Ktx2, Storage::F16), &existing).unwrap_err();
+    assert!(
+        e.contains("\"mine.txt\"") && e.contains("no lobefit export writes"),
+        "{e}"
+    );
     assert_eq!(names(&existing), ["mine.txt"]);
+    std::fs::remove_file(existing.join("mine.txt")).unwrap();
+    export(&refused, &existing).unwrap_err();
+    assert!(names(&existing).is_empty(), "{:?}", names(&existing));
     let m = export(&opts(&["cap-exponent"], Format::Ktx2, Storage::F16), &existing).unwrap();
     assert_eq!(
         names(&existing),
@@ -351,8 +360,7 @@ fn a_refused_export_writes_nothing() {
             "lobefit_uniforms.h",
             "lobefit_uniforms.wgsl",
             MANIFEST,
-            "manifest.schema.json",
-            "mine.txt"
+            "manifest.schema.json"
         ]
     );
     assert_eq!(names(root.path()), ["existing"]);

@@ -25,6 +25,7 @@ mod lobe_product;
 mod log_zh;
 mod meshes;
 mod meunier;
+mod reliability;
 mod render_isg;
 mod render_meunier;
 mod render_rigs;

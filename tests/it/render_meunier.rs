@@ -291,13 +291,19 @@ fn bounds_and_outputs_are_checked_first() {
             ],
             "",
         );
-        assert_eq!(code, Some(0), "{err}");
+        // A planted link where an output goes is neither followed nor replaced: the
+        // write refuses it by name (lobefit replaces only regular files).
+        assert_eq!(code, Some(1), "{err}");
+        assert!(
+            err.contains("meunier-fig13-summary.txt is a symbolic link, not a regular file"),
+            "{err}"
+        );
         assert_eq!(
             std::fs::read(&victim).unwrap(),
             b"keep",
             "the symlink's target is untouched"
         );
-        assert!(!std::fs::symlink_metadata(&target).unwrap().file_type().is_symlink());
+        assert!(std::fs::symlink_metadata(&target).unwrap().file_type().is_symlink());
     }
 }
 
