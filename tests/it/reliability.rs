@@ -592,9 +592,12 @@ fn base64(bytes: &[u8]) -> String {
 /// naming the lobe or the rotation.
 #[test]
 fn materials_conserve_energy_and_rotations_are_bounded() {
+    // Meunier's pipeline shades Lafortune lobes: before, it rendered these.
     let base = r#"{"version": 1, "camera": {"eye": [0, -5, 1], "target": [0, 0, 0], "fov": 0.8},
-        "environment": {"sgs": [{"axis": [0, 0, 1], "sharpness": 2, "amplitude": 1}]},
-        "spheres": [{"centre": [0, 0, 1], "radius": 1, "material": MATERIAL}]}"#;
+        "lights": [{"sphere": {"centre": [0, 0, 6], "radius": 1, "radiance": 1}}],
+        "spheres": [{"centre": [0, 0, 1], "radius": 1, "material": MATERIAL}],
+        "planes": [{"normal": [0, 0, 1], "offset": 0, "tangent": [1, 0, 0], "half_extent": 5,
+                    "material": {"lambert": {"albedo": 0.5}}}]}"#;
     let d = tempfile::tempdir().unwrap();
     for (material, want) in [
         (
@@ -614,7 +617,7 @@ fn materials_conserve_energy_and_rotations_are_bounded() {
         std::fs::write(&p, base.replace("MATERIAL", material)).unwrap();
         let (code, _, err) = run_bounded(&[
             "render",
-            "isg",
+            "meunier",
             "--scene",
             s(&p),
             "--width",
