@@ -84,22 +84,9 @@ impl Bench {
         reference: Estimator,
     ) -> Result<Bench, String> {
         let (w, h) = (width, width * 3 / 4);
-        let (hits, lit) = scene.primary_hits(w, h)?;
-        let [a, b] = REF_SEEDS.map(|s| per_pixel(&hits, w, |hit, p| reference(hit, ref_spp, seed(s, p)), &|| ()));
-        let (a, b) = (a?, b?);
-        let refs: Vec<f64> = a.iter().zip(&b).map(|(a, b)| 0.5 * (a.mean + b.mean)).collect();
-        let idx: Vec<usize> = (0..hits.len()).filter(|&p| lit[p]).collect();
-        let mean_sq = idx.iter().map(|&p| refs[p].powi(2)).sum::<f64>() / idx.len() as f64;
-        let ref_var = idx.iter().map(|&p| 0.25 * (a[p].mean - b[p].mean).powi(2)).sum::<f64>() / idx.len() as f64;
-        Ok(Bench {
-            w,
-            hits,
-            refs,
-            idx,
-            mean_sq,
-            ref_var,
-            runs: runs.max(1),
-        })
+        // The lit pixels are those with a hit.
+        let (hits, _) = scene.primary_hits(w, h)?;
+        Bench::on_hits(hits, w, ref_spp, runs, reference)
     }
 
     /// A bench on given primary hits (`hits`, row-major at width `w`; the pixels

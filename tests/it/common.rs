@@ -130,3 +130,12 @@ pub fn mkfifo(path: &std::path::Path) -> bool {
         .status()
         .is_ok_and(|s| s.success())
 }
+
+/// The last column of `eval`'s CSV output, one number a data row (the header skipped).
+pub fn last_column(stdout: &str) -> Vec<f64> {
+    stdout
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect()
+}

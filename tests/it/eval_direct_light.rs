@@ -5,13 +5,7 @@ use crate::common;
 
 const HEAD: &str = "px,py,pz,nx,ny,nz,lx,ly,lz,lr,bx,by,bz,br\n";
 
-fn values(stdout: &str) -> Vec<f64> {
-    stdout
-        .lines()
-        .skip(1)
-        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
-        .collect()
-}
+use crate::common::last_column as values;
 
 #[test]
 fn pipeline_and_exact_agree_on_simple_scenes() {

@@ -228,11 +228,7 @@ fn eval_isg_shade_sees_meshes_through_their_sphere_sets() {
         let args = ["eval", "isg-shade", "--scene", path];
         let (code, stdout, stderr) = run_text(&[&args[..], if exact { &["--exact"] } else { &[] }].concat(), &input);
         assert_eq!(code, Some(0), "{stderr}");
-        stdout
-            .lines()
-            .skip(1)
-            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
-            .collect()
+        crate::common::last_column(&stdout)
     };
     let (isg, exact) = (eval(false), eval(true));
     println!("top, shadow, far: isg {isg:?}, exact {exact:?}");
@@ -310,11 +306,7 @@ fn eval_direct_light_sees_meshes_through_their_sphere_sets() {
         let (code, stdout, stderr) = run_text(&[&args[..], if exact { &["--exact"] } else { &[] }].concat(), &input);
         assert_eq!(code, Some(0), "{stderr}");
         assert!(stdout.starts_with("px,"), "{stdout}");
-        stdout
-            .lines()
-            .skip(1)
-            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
-            .collect()
+        crate::common::last_column(&stdout)
     };
     let (lobes, exact) = (eval(false), eval(true));
     println!("top, shadow, far: lobes {lobes:?}, exact {exact:?}");
@@ -376,11 +368,7 @@ fn eval_direct_light_never_answers_negative_radiance() {
     }
     let (code, stdout, stderr) = run_text(&["eval", "direct-light", "--scene", path.to_str().unwrap()], &input);
     assert_eq!(code, Some(0), "{stderr}");
-    let v: Vec<f64> = stdout
-        .lines()
-        .skip(1)
-        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
-        .collect();
+    let v = crate::common::last_column(&stdout);
     assert_eq!(v.len(), 61);
     assert!(v.iter().all(|&r| r >= 0.0), "{v:?}");
     assert_eq!(v[0], 0.0, "the overshooting point clamps to 0");

@@ -313,13 +313,7 @@ fn shade_top(scene: &Path, zs: &[f64], exact: bool) -> (Option<i32>, String, Str
     run_text(&args, &rows)
 }
 
-fn radiances(stdout: &str) -> Vec<f64> {
-    stdout
-        .lines()
-        .skip(1)
-        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
-        .collect()
-}
+use crate::common::last_column as radiances;
 
 /// The black cliff: a point 1e-7 or 1e-5 off a mesh face answered 0 (it lay inside the
 /// mesh's own covering sphere, "on the mesh" meaning within 1e-9 of its diagonal), and

@@ -90,12 +90,7 @@ fn eval_isg_shade_against_its_exact_reference() {
                 -1.8,-1.1,0,0,0,1,0,-0.6,0.8\n\
                 0.3,0.9,0,0,0,1,0.6,0,0.8\n\
                 1.7,1.6,0,0,0,1,0,0,1\n";
-    let col = |out: &str| -> Vec<f64> {
-        out.lines()
-            .skip(1)
-            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
-            .collect()
-    };
+    let col = common::last_column;
     let (c1, fast, e1) = common::run_text(&["eval", "isg-shade", "--scene", &scene], rows);
     let (c2, exact, e2) = common::run_text(&["eval", "isg-shade", "--scene", &scene, "--exact"], rows);
     assert_eq!((c1, c2), (Some(0), Some(0)), "{e1}{e2}");

@@ -190,12 +190,7 @@ fn eval_shexp_shade_against_its_exact_reference() {
         let (z, n) = (hf.height(x, y).unwrap(), hf.normal(x, y).unwrap());
         rows += &format!("{x},{y},{z},{},{},{},0,-0.6,0.8\n", n.x, n.y, n.z);
     }
-    let col = |out: &str| -> Vec<f64> {
-        out.lines()
-            .skip(1)
-            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
-            .collect()
-    };
+    let col = common::last_column;
     let (c1, fast, e1) = common::run_text(&["eval", "shexp-shade", "--scene", &scene], &rows);
     let (c2, exact, e2) = common::run_text(&["eval", "shexp-shade", "--scene", &scene, "--exact"], &rows);
     assert_eq!((c1, c2), (Some(0), Some(0)), "{e1}{e2}");
