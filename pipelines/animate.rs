@@ -213,7 +213,7 @@ pub fn animate(
     let still = scene.at(shots[0].time)?;
     let estimate = |h: &Hit, n: usize, seed: u64| (m.estimate)(&still, h, n, seed);
     let shade = |hits: &[Option<Hit>]| (m.shade)(&still, hits);
-    let at = crate::baselines::at_method_error(&all_hits[0], w, m.strongest, &estimate, &shade)?;
+    let at = crate::measure::at_method_error(&all_hits[0], w, m.strongest, &estimate, &shade)?;
     report(pipeline, &tag, &stem, (w, h), spp, &shots, dir, m, &at)
 }
 
@@ -282,7 +282,7 @@ fn report(
     shots: &[Rendered],
     dir: &Path,
     m: &Methods<'_>,
-    at: &crate::baselines::AtMethodError,
+    at: &crate::measure::AtMethodError,
 ) -> Result<Summary, String> {
     let mut sum = Summary::default();
     let exposure = exposure_for(mean_over(&shots[0].reference, &shots[0].lit));

@@ -21,6 +21,7 @@ pub mod estimate;
 pub mod heightfield;
 pub mod image;
 pub mod isg;
+pub mod measure;
 pub mod mesh;
 pub mod meunier;
 pub mod render;

@@ -132,7 +132,7 @@ impl<'a> Frame<'a> {
     /// error, the [`Headline`] and the `<stem>-summary.txt` file. The headline states
     /// the method's time against the strongest Monte Carlo's (`strongest`) at the
     /// method's error, both measured here on a sample of the frame's pixels
-    /// ([`crate::baselines::at_method_error`]); the plain estimator's extrapolation
+    /// ([`crate::measure::at_method_error`]); the plain estimator's extrapolation
     /// ([`Reference::equal_error`]) stays in the body's lines.
     pub fn finish(
         &self,
@@ -145,13 +145,8 @@ impl<'a> Frame<'a> {
     ) -> Result<Summary, String> {
         sum.rel_rmse = rel_rmse;
         sum.ref_rel_se = reference.rel_se;
-        let m = crate::baselines::at_method_error(
-            &self.hits,
-            self.w,
-            strongest.name,
-            strongest.estimate,
-            strongest.method,
-        )?;
+        let m =
+            crate::measure::at_method_error(&self.hits, self.w, strongest.name, strongest.estimate, strongest.method)?;
         sum.lines.push(at_error_line(&self.tag, &m));
         sum.headline.push(
             Headline {
@@ -170,17 +165,17 @@ impl<'a> Frame<'a> {
 
 /// The body's line of a headline measurement: the pixels, the reference, the method's
 /// error and time, the estimator's samples and time there (with the runs' spread).
-pub fn at_error_line(tag: &str, m: &crate::baselines::AtMethodError) -> String {
+pub fn at_error_line(tag: &str, m: &crate::measure::AtMethodError) -> String {
     let (n_last, e_last, t_last) = m.last;
     format!(
         "{tag}: the strongest Monte Carlo at the method's error, measured on {} pixels (a reference of 2 × {} samples \
          of {}, its own error {:.1e}; medians of {} runs, [fastest–slowest]): the method {:.4} at {:.2} µs/px \
          [{:.2}–{:.2}]; {} {}",
         m.pixels,
-        crate::baselines::HEADLINE_REF_SPP,
+        crate::measure::HEADLINE_REF_SPP,
         m.estimator,
         m.reference_error,
-        crate::baselines::HEADLINE_RUNS,
+        crate::measure::HEADLINE_RUNS,
         m.method_error,
         m.method_us.median,
         m.method_us.min,
@@ -194,7 +189,7 @@ pub fn at_error_line(tag: &str, m: &crate::baselines::AtMethodError) -> String {
             None => format!(
                 "at its last point, {n_last} spp, still has error {e_last:.4}, {:.2} µs/px: beyond the {} spp measured",
                 t_last.median,
-                crate::baselines::HEADLINE_MAX_SPP
+                crate::measure::HEADLINE_MAX_SPP
             ),
         }
     )
@@ -203,7 +198,7 @@ pub fn at_error_line(tag: &str, m: &crate::baselines::AtMethodError) -> String {
 /// A [`Headline`]'s cost, baseline and ratio from a headline measurement (`render`,
 /// `scope`, `method` and `error` left empty for the caller); `where_` qualifies the
 /// pixels (`of frame 0`).
-pub fn at_error_headline(m: &crate::baselines::AtMethodError, where_: &str) -> Headline {
+pub fn at_error_headline(m: &crate::measure::AtMethodError, where_: &str) -> Headline {
     let (n_last, _, t_last) = m.last;
     let (baseline_us, spread, at_least, spp) = match (m.at, m.ratio()) {
         (Some((n, t)), Some((_, lo, hi))) => (t.median, Some((lo, hi)), false, format!("{n:.0} spp")),
@@ -238,9 +233,9 @@ pub struct Strongest<'s> {
     /// The estimator's name.
     pub name: &'static str,
     /// The estimator: (hit, samples, seed) → estimate.
-    pub estimate: crate::baselines::Estimator<'s>,
+    pub estimate: crate::measure::Estimator<'s>,
     /// The method's image of the given hits (0 where none).
-    pub method: &'s crate::baselines::MethodImage<'s>,
+    pub method: &'s crate::measure::MethodImage<'s>,
 }
 
 /// The Monte Carlo reference over a [`Frame`]: its per-pixel estimates and what every
