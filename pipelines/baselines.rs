@@ -50,7 +50,7 @@ fn environment(
     let sh = match kind {
         Kind::HybridSh => {
             let s = crate::shexp::shade::Settings::default();
-            let light = crate::shexp::light_sh(scene, s.order)?;
+            let light = crate::shexp::lighting::light_sh(scene, s.order)?;
             Some((
                 crate::shexp::shade::Tables::embedded().map_err(|e| e.to_string())?,
                 s,
@@ -62,7 +62,7 @@ fn environment(
     Ok(move |hit: &Hit, n: usize, seed: u64| {
         let brdf = Phong::of(scene.brdf(hit))?;
         let occluded = |v| scene.occluded(hit, v);
-        let light = |v| crate::shexp::light(scene, v);
+        let light = |v| crate::shexp::lighting::light(scene, v);
         Ok(match kind {
             Kind::Plain => reference_sampled(
                 Sampling::Plain,
@@ -647,7 +647,7 @@ fn shexp_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
     // Each configuration's light projected at its own order.
     let lights = configs
         .iter()
-        .map(|(_, s)| crate::shexp::light_sh(scene, s.order))
+        .map(|(_, s)| crate::shexp::lighting::light_sh(scene, s.order))
         .collect::<Result<Vec<_>, String>>()?;
     let configs: Vec<(String, (Settings, Vec<f64>))> = configs
         .into_iter()

@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::mesh::Mesh;
-use crate::scene::Sphere;
+use lobefit_tables::geom::Sphere;
 
 /// Most spheres a fit may ask for.
 pub const MAX_FIT_SPHERES: usize = 4096;

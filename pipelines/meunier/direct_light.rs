@@ -642,12 +642,3 @@ pub fn plot(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     )?;
     Ok(vec![txt, png])
 }
-
-/// The pipeline's entry for `lobefit eval` ([`crate::Pipeline::eval`]): the view its
-/// flags configure.
-pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, lobefit_core::family::EvalError> {
-    if let Some(path) = flags.text("scene") {
-        return Ok(Box::new(super::scene_view::SceneView::from_flags(flags, &path)?));
-    }
-    Ok(Box::new(DirectLightView::from_flags(flags)?))
-}

@@ -22,7 +22,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         name: "direct-light",
         help: direct_light::EVAL_HELP,
         flags: direct_light::FLAGS,
-        view: direct_light::view,
+        view: scene_view::view,
     }],
     plots: &[("meunier", direct_light::plot), ("meunier-scaling", scaling::plot)],
     accepts: super::scene::Accepts {

@@ -161,3 +161,13 @@ impl View for SceneView {
         .map(|(m, note)| (vec![m], note))
     }
 }
+
+/// The pipeline's entry for `lobefit eval direct-light` ([`crate::Pipeline::eval`]):
+/// with `--scene`, a scene's points ([`SceneView`]); without, the rows' own light and
+/// blocker ([`DirectLightView`]).
+pub fn view(flags: &EvalFlags) -> Result<Box<dyn View>, lobefit_core::family::EvalError> {
+    if let Some(path) = flags.text("scene") {
+        return Ok(Box::new(SceneView::from_flags(flags, &path)?));
+    }
+    Ok(Box::new(DirectLightView::from_flags(flags)?))
+}

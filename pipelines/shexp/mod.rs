@@ -5,14 +5,12 @@
 //! (`pipelines::sky`); `render` makes the images.
 
 pub mod eval;
+pub mod lighting;
 pub mod render;
 pub mod shade;
 
-use lobefit_tables::glam::DVec3;
+pub use lighting::{light, light_sh, reference, truncation_warning};
 
-use super::estimate::Estimate;
-use super::scene::{Hit, Scene};
-use super::sky::{environment, reference_with, Phong};
 use super::Pipeline;
 
 /// `lobefit render shexp`.
@@ -46,48 +44,6 @@ pub const PIPELINE: Pipeline = Pipeline {
     pareto: Some(crate::baselines::SHEXP),
 };
 
-/// The scene's distant light: its SGs, or its SH function.
-pub fn light(scene: &Scene, w: DVec3) -> f64 {
-    match &scene.sh_environment {
-        Some(c) => shade::sh_value(c, w),
-        None => environment(&scene.environment, w),
-    }
-}
-
-/// The light's SH vector at `order`: the SGs projected exactly, or the file's
-/// coefficients truncated (or padded with zeros) to that order.
-pub fn light_sh(scene: &Scene, order: usize) -> Result<Vec<f64>, String> {
-    match &scene.sh_environment {
-        Some(c) => {
-            let mut out = vec![0.0; order * order];
-            let k = out.len().min(c.len());
-            out[..k].copy_from_slice(&c[..k]);
-            Ok(out)
-        }
-        None => shade::project_sgs(&scene.environment, order),
-    }
-}
-
-/// The warning when the pipeline at `order` drops bands of the scene's
-/// `sh_environment` (naming both orders); `None` when it keeps them all.
-pub fn truncation_warning(scene: &Scene, order: usize) -> Option<String> {
-    let given = (scene.sh_environment.as_ref()?.len() as f64).sqrt().round() as usize;
-    (given > order).then(|| {
-        format!(
-            "warning: scene {}: sh_environment of order {given} truncated to the pipeline's order {order} (bands {order}..={} \
-             dropped; the reference keeps them)",
-            scene.name,
-            given - 1
-        )
-    })
-}
-
-/// The Monte Carlo reference at `h` under `light(ω)` with exact visibility (spheres
-/// and height field); the scene's SGs, if any, are sampled.
-pub fn reference(scene: &Scene, light: impl Fn(DVec3) -> f64, brdf: &Phong, h: &Hit, n: usize, seed: u64) -> Estimate {
-    reference_with(&scene.environment, light, brdf, |v| scene.occluded(h, v), h, n, seed)
-}
-
 #[cfg(test)]
 mod tests {
     use std::f64::consts::PI;
@@ -98,7 +54,8 @@ mod tests {
 
     use super::shade::{radiance, sh_value, Settings, Tables};
     use super::*;
-    use crate::scene::parse;
+    use crate::scene::{parse, Hit, Scene};
+    use crate::sky::Phong;
 
     /// A scene with the whale's sky, `spheres` and `heightfield` (JSON), diffuse.
     fn scene_with(spheres: &str, heightfield: Option<&str>) -> Scene {
