@@ -25,6 +25,25 @@ pub struct Timing {
     pub max: f64,
 }
 
+impl Timing {
+    /// The median, fastest and slowest of `runs` (not empty; NaN-free).
+    pub fn of(runs: &[f64]) -> Timing {
+        let mut s = runs.to_vec();
+        s.sort_by(f64::total_cmp);
+        let n = s.len();
+        let median = if n % 2 == 1 {
+            s[n / 2]
+        } else {
+            0.5 * (s[n / 2 - 1] + s[n / 2])
+        };
+        Timing {
+            median,
+            min: s[0],
+            max: s[n - 1],
+        }
+    }
+}
+
 /// One estimator's measured error and time at `spp` samples per pixel.
 #[derive(Debug, Clone, Copy)]
 pub struct Point {
@@ -197,27 +216,14 @@ impl Bench {
         render: &(dyn Fn() -> Result<Vec<Estimate>, String> + Sync),
     ) -> Result<(Vec<Estimate>, Timing), String> {
         let img = render()?;
-        let mut us = (0..self.runs)
+        let us = (0..self.runs)
             .map(|_| {
                 let t = Instant::now();
                 render()?;
                 Ok(1e6 * t.elapsed().as_secs_f64() / self.pixels() as f64)
             })
             .collect::<Result<Vec<f64>, String>>()?;
-        us.sort_by(f64::total_cmp);
-        let median = if us.len() % 2 == 1 {
-            us[us.len() / 2]
-        } else {
-            0.5 * (us[us.len() / 2 - 1] + us[us.len() / 2])
-        };
-        Ok((
-            img,
-            Timing {
-                median,
-                min: us[0],
-                max: us[us.len() - 1],
-            },
-        ))
+        Ok((img, Timing::of(&us)))
     }
 
     /// `estimator`'s error and time at each of `spps`.

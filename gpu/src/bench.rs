@@ -126,15 +126,8 @@ fn only(
 
 /// Median, min and max of `v` (not empty).
 pub(crate) fn spread(v: &[f64]) -> (f64, f64, f64) {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    let median = if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    };
-    (median, s[0], s[n - 1])
+    let t = lobefit::pipelines::measure::Timing::of(v);
+    (t.median, t.min, t.max)
 }
 
 /// A kernel's frames timed (ms), its pixel count, its RMS against the CPU's image

@@ -27,7 +27,7 @@ use crate::budget;
 use crate::device::Gpu;
 use crate::kernel::{kernel_with, lf_tex, split};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
-use crate::renders::{parse, Render};
+use crate::render::{parse, Render};
 
 /// `lobefit-gpu render isg`'s options.
 #[derive(clap::Parser)]

@@ -123,11 +123,7 @@ impl ControlVariate {
     }
 }
 
-/// The SH-exponentiation pipeline's integrand at a pixel (`shade::Integrand`, default
-/// settings, order 4): its unclamped value (the pipeline's radiance), then the 16 SH
-/// coefficients of Σ_t w_t g_t, so that a(ω) = L(ω) Σ_k c_k y_k(ω) integrates to the
-/// value over the sphere.
-pub type ShIntegrand = [f32; 17];
+pub use crate::shexp::ShIntegrand;
 
 impl Estimator {
     fn cv(self) -> bool {
@@ -1185,7 +1181,10 @@ impl McBench {
                 let lerp = |x: f64, y: f64| (x.ln() + t * (y.ln() - x.ln())).exp();
                 (
                     lerp(a.spp as f64, b.spp as f64),
-                    lerp(crate::bench::spread(&a.ms).0, crate::bench::spread(&b.ms).0),
+                    lerp(
+                        lobefit::pipelines::measure::Timing::of(&a.ms).median,
+                        lobefit::pipelines::measure::Timing::of(&b.ms).median,
+                    ),
                 )
             })
         })

@@ -38,7 +38,7 @@ use crate::budget;
 use crate::device::Gpu;
 use crate::kernel::{kernel_textures, lf_tex, split};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
-use crate::renders::{parse, Render};
+use crate::render::{parse, Render};
 
 /// `lobefit-gpu render meunier`'s options.
 #[derive(clap::Parser)]

@@ -39,7 +39,6 @@ pub const FAMILIES: (&[&str], &str) = (
 /// The families `render library --scene` reads, and how to export them.
 pub const SCENE_FAMILIES: (&[&str], &str) = (&[lobefit_tables::disk_light::KIND], "disk-light");
 use crate::kernel::{kernel, kernel_with, lf_tex};
-use crate::renders::{parse, Render, LIBRARY};
 
 /// `lobefit-gpu render library`'s options.
 #[derive(clap::Parser)]
@@ -677,4 +676,32 @@ pub(crate) fn write_grey_png(out: &Path, w: usize, h: usize, pixels: &[u8]) -> R
         .and_then(|mut wr| wr.write_image_data(pixels))
         .map_err(|e| format!("{}: {e}", out.display()))?;
     lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))
+}
+
+/// One device render.
+#[derive(Debug)]
+pub struct Render {
+    /// `render NAME`'s name: a pipeline's registry name, or [`LIBRARY`].
+    pub name: &'static str,
+    /// One line for `lobefit-gpu render --help` and its own `--help`.
+    pub about: &'static str,
+    /// Its options, as a clap command (`<Args as clap::CommandFactory>::command`).
+    pub options: fn() -> clap::Command,
+    /// Runs it on its parsed options (read back with [`parse`]).
+    pub run: fn(&clap::ArgMatches) -> Result<ExitCode, String>,
+}
+
+impl Render {
+    /// `render NAME` as a clap subcommand.
+    pub fn command(&self) -> clap::Command {
+        (self.options)().name(self.name).about(self.about)
+    }
+}
+
+/// The shader library's test image: the one render that is no pipeline of the registry.
+pub const LIBRARY: &str = "library";
+
+/// A render's options `A` from its `matches`.
+pub fn parse<A: clap::FromArgMatches>(matches: &clap::ArgMatches) -> Result<A, String> {
+    A::from_arg_matches(matches).map_err(|e| e.to_string())
 }

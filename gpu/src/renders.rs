@@ -9,30 +9,7 @@
 
 use std::process::ExitCode;
 
-use clap::FromArgMatches;
-
-/// One device render.
-#[derive(Debug)]
-pub struct Render {
-    /// `render NAME`'s name: a pipeline's registry name, or [`LIBRARY`].
-    pub name: &'static str,
-    /// One line for `lobefit-gpu render --help` and its own `--help`.
-    pub about: &'static str,
-    /// Its options, as a clap command (`<Args as clap::CommandFactory>::command`).
-    pub options: fn() -> clap::Command,
-    /// Runs it on its parsed options (read back with [`parse`]).
-    pub run: fn(&clap::ArgMatches) -> Result<ExitCode, String>,
-}
-
-impl Render {
-    /// `render NAME` as a clap subcommand.
-    pub fn command(&self) -> clap::Command {
-        (self.options)().name(self.name).about(self.about)
-    }
-}
-
-/// The shader library's test image: the one render that is no pipeline of the registry.
-pub const LIBRARY: &str = "library";
+pub use crate::render::{Render, LIBRARY};
 
 /// Every device render, in the registry's order, then [`LIBRARY`].
 pub const RENDERS: [Render; 5] = [
@@ -75,11 +52,6 @@ pub fn with_renders(cli: clap::Command) -> clap::Command {
 pub fn run(name: &str, matches: &clap::ArgMatches) -> Result<ExitCode, String> {
     let r = find(name)?;
     (r.run)(matches)
-}
-
-/// A render's options `A` from its `matches`.
-pub fn parse<A: FromArgMatches>(matches: &clap::ArgMatches) -> Result<A, String> {
-    A::from_arg_matches(matches).map_err(|e| e.to_string())
 }
 
 #[cfg(test)]

@@ -25,7 +25,7 @@ use crate::conformance::dummy_texture;
 use crate::device::Gpu;
 use crate::kernel::{kernel, LF_TEX_SIZE};
 use crate::render::{grey, write_grey_png, RMS_LIMIT};
-use crate::renders::{parse, Render};
+use crate::render::{parse, Render};
 
 /// `lobefit-gpu render rigs`'s options.
 #[derive(clap::Parser)]

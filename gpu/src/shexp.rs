@@ -38,7 +38,7 @@ use crate::budget;
 use crate::device::Gpu;
 use crate::kernel::{kernel_textures, lf_tex, split};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
-use crate::renders::{parse, Render};
+use crate::render::{parse, Render};
 
 /// `lobefit-gpu render shexp`'s options.
 #[derive(clap::Parser)]
@@ -352,16 +352,17 @@ fn dispatch(
     Ok(Dispatched { got, at_hits, brdfs })
 }
 
+/// The SH-exponentiation pipeline's integrand at a pixel (`shade::Integrand`, default
+/// settings, order 4): its unclamped value (the pipeline's radiance), then the 16 SH
+/// coefficients of Σ_t w_t g_t, so that a(ω) = L(ω) Σ_k c_k y_k(ω) integrates to the
+/// value over the sphere.
+pub type ShIntegrand = [f32; 17];
+
 /// The SH-exponentiation pipeline's integrand at each of `hits` (of `sc`, default
 /// settings), computed by the device's kernel: per pixel its unclamped value and the
 /// 16 SH coefficients of Σ_t w_t g_t (`shade::Integrand`), what the device's `hybrid`
-/// Monte Carlo takes as its control variate (`crate::mc::ShIntegrand`).
-pub fn integrands(
-    gpu: &Gpu,
-    export: &VerifiedExport,
-    sc: &Scene,
-    hits: &[&Hit],
-) -> Result<Vec<crate::mc::ShIntegrand>, String> {
+/// Monte Carlo takes as its control variate ([`ShIntegrand`]).
+pub fn integrands(gpu: &Gpu, export: &VerifiedExport, sc: &Scene, hits: &[&Hit]) -> Result<Vec<ShIntegrand>, String> {
     let got = dispatch(gpu, export, sc, hits, &Settings::default(), true)?.got;
     Ok(got
         .chunks(outputs(true))
