@@ -855,6 +855,12 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
 /// (through links), else its nearest existing ancestor is one, and a file can be
 /// created there (a missing `--out` is made only by a command that succeeds).
 fn out_dir(out: &Path) -> Result<(), String> {
+    out_dir_of("--out", out, out)
+}
+
+/// [`out_dir`] of `dir`, the directory of the `flag`'s value `given` (itself or its
+/// parent), errors naming what was given.
+fn out_dir_of(flag: &str, given: &Path, out: &Path) -> Result<(), String> {
     if let Ok(m) = std::fs::metadata(out) {
         if !m.is_dir() {
             let what = if m.is_file() {
@@ -862,7 +868,15 @@ fn out_dir(out: &Path) -> Result<(), String> {
             } else {
                 lobefit::tables::table::file_type_name(m.file_type())
             };
-            return Err(format!("--out {}: it is {what}, not a directory", out.display()));
+            return Err(format!(
+                "{flag} {}: {} is {what}, not a directory",
+                given.display(),
+                if given == out {
+                    "it".to_string()
+                } else {
+                    out.display().to_string()
+                }
+            ));
         }
     }
     let existing = out.ancestors().find(|a| a.exists()).unwrap_or(Path::new("."));
@@ -873,12 +887,12 @@ fn out_dir(out: &Path) -> Result<(), String> {
     };
     if !probe.is_dir() {
         return Err(format!(
-            "--out {}: {} is not a directory",
-            out.display(),
+            "{flag} {}: {} is not a directory",
+            given.display(),
             probe.display()
         ));
     }
-    tempfile::tempfile_in(probe).map_err(|e| format!("--out {}: cannot write there: {e}", out.display()))?;
+    tempfile::tempfile_in(probe).map_err(|e| format!("{flag} {}: cannot write there: {e}", given.display()))?;
     Ok(())
 }
 

@@ -124,21 +124,27 @@ fn remove_stale(dir: &Path, prefix: &str) {
 /// Reads a small text file (a scene, a manifest): refuses what is not a regular file
 /// (a FIFO would block) or is longer than `limit` bytes, before reading it.
 pub fn read_text(path: &Path, limit: u64) -> Result<String, String> {
-    let bytes = read_bytes(path, limit)?;
+    let bytes = read_bytes(path, limit, "")?;
     String::from_utf8(bytes).map_err(|e| format!("cannot read {}: {e}", path.display()))
 }
 
 /// Reads a file of at most `limit` bytes: refuses what is not a regular file (a FIFO
 /// would block the open, a device never end) before opening it, and stops reading at
 /// `limit + 1` bytes whatever the file's size said (a file growing meanwhile).
-/// Errors name the path.
-pub fn read_bytes(path: &Path, limit: u64) -> Result<Vec<u8>, String> {
+/// Errors name the path, and `limit_name` (the constant that sets the limit, if any)
+/// when the file is too long.
+pub fn read_bytes(path: &Path, limit: u64, limit_name: &str) -> Result<Vec<u8>, String> {
     use std::io::Read;
     let cannot = |e: std::io::Error| format!("cannot read {}: {e}", path.display());
     let meta = std::fs::metadata(path).map_err(cannot)?;
+    let named = if limit_name.is_empty() {
+        String::new()
+    } else {
+        format!(" ({limit_name})")
+    };
     let too_long = |n: u64| {
         format!(
-            "{} is {n} bytes, more than the {limit} this file may have",
+            "{} is {n} bytes, more than the {limit} this file may have{named}",
             path.display()
         )
     };

@@ -113,19 +113,36 @@ pub struct Headline {
     pub baseline_us: f64,
     /// The ratio's spread over the timed runs, (low, high), where measured.
     pub spread: Option<(f64, f64)>,
-    /// The baseline's time is a lower bound (it had not reached the method's error at
-    /// its last measured point): the ratio is one too.
-    pub at_least: bool,
+    /// Whether the baseline's time is measured at the method's error or only bounds
+    /// it (the ratio is then a bound too, said so by `>` or `<`).
+    pub bound: Bound,
+}
+
+/// How a [`Headline`]'s baseline time stands to the time at the method's error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Bound {
+    /// Measured there (interpolated between measured points around it).
+    Measured,
+    /// A lower bound: its last measured point had not reached the method's error.
+    AtLeast,
+    /// An upper bound: its first measured point was already below the method's error.
+    AtMost,
 }
 
 impl Headline {
     /// The line: `summary: <render> <scope> — <method>: <error>; <cost> µs/<unit> vs
     /// <baseline> <cost> µs/<unit> (<ratio>× less time [lo–hi] | <1/ratio>× more time
-    /// [lo–hi])`; times to 3–4 significant figures, `> ` before a ratio that is a lower
-    /// bound.
+    /// [lo–hi])`; times to 3–4 significant figures, `> ` or `< ` before a ratio that is
+    /// a bound ([`Bound`]).
     pub fn line(&self) -> String {
         let ratio = self.baseline_us / self.cost_us;
-        let bound = if self.at_least { "> " } else { "" };
+        // The ratio baseline/method bounded from below (AtLeast) or above (AtMost): "less
+        // time" reads it as is, "more time" as its inverse, so the sign turns there.
+        let (less, more) = match self.bound {
+            Bound::Measured => ("", ""),
+            Bound::AtLeast => ("> ", "< "),
+            Bound::AtMost => ("< ", "> "),
+        };
         let spread = self.spread.map_or(String::new(), |(lo, hi)| {
             if ratio >= 1.0 {
                 format!(" [{}–{}]", short_number(lo), short_number(hi))
@@ -136,9 +153,9 @@ impl Headline {
         let times = if !ratio.is_finite() || ratio <= 0.0 {
             "no ratio".to_string()
         } else if ratio >= 1.0 {
-            format!("{bound}{}× less time{spread}", short_number(ratio))
+            format!("{less}{}× less time{spread}", short_number(ratio))
         } else {
-            format!("{}× more time{spread}", short_number(1.0 / ratio))
+            format!("{more}{}× more time{spread}", short_number(1.0 / ratio))
         };
         format!(
             "summary: {} {} — {}: {}; {} µs/{} vs {} {} µs/{} ({times})",
@@ -248,7 +265,11 @@ impl Pipeline {
         let picks = w.div_ceil(stride) * h.div_ceil(stride);
         let spp = opts.spp as u64;
         let (image, breakdown) = self.references;
-        (w * h * spp * image).saturating_add(picks * spp * self.precise_factor * breakdown)
+        // The headline's measurement too, where the pipeline has a Monte Carlo reference.
+        let headline = if image > 0 { measure::HEADLINE_SAMPLES } else { 0 };
+        (w * h * spp * image)
+            .saturating_add(picks * spp * self.precise_factor * breakdown)
+            .saturating_add(headline)
     }
 
     /// An error naming the limit when a render of `scene` with `opts` would take more
@@ -443,7 +464,7 @@ mod tests {
             baseline: "plain Monte Carlo at that error".into(),
             baseline_us: 2843.0,
             spread: None,
-            at_least: false,
+            bound: Bound::Measured,
         };
         assert_eq!(
             h.line(),
@@ -462,8 +483,16 @@ mod tests {
         assert!(h.line().ends_with("(2.72× more time [2.00–4.00])"), "{}", h.line());
         (h.cost_us, h.baseline_us, h.spread) = (39.4, 547.0, Some((11.2, 19.8)));
         assert!(h.line().ends_with("(13.9× less time [11.2–19.8])"), "{}", h.line());
-        (h.spread, h.at_least) = (None, true);
+        (h.spread, h.bound) = (None, Bound::AtLeast);
         assert!(h.line().ends_with("(> 13.9× less time)"), "{}", h.line());
+        h.bound = Bound::AtMost;
+        assert!(h.line().ends_with("(< 13.9× less time)"), "{}", h.line());
+        // A bound on a ratio below 1 turns in "more time": at most 0.5× the time is at
+        // least 2× more.
+        h.baseline_us = 19.7;
+        assert!(h.line().ends_with("(> 2.00× more time)"), "{}", h.line());
+        h.bound = Bound::AtLeast;
+        assert!(h.line().ends_with("(< 2.00× more time)"), "{}", h.line());
         h.baseline_us = f64::NAN;
         assert!(h.line().ends_with("(no ratio)"), "{}", h.line());
         assert_eq!(short_number(0.012345), "0.0123");
@@ -497,7 +526,10 @@ mod tests {
             }
         }
         let isg = isg::PIPELINE;
-        assert_eq!(isg.samples(&defaults), 160 * 120 * 1024 + 40 * 30 * 1024 * 64);
+        assert_eq!(
+            isg.samples(&defaults),
+            160 * 120 * 1024 + 40 * 30 * 1024 * 64 + measure::HEADLINE_SAMPLES
+        );
         let fig12 = isg.scene("fig12").unwrap();
         let e = isg.check_work(&fig12, &opts(1024, 256, 1)).unwrap_err();
         assert!(e.contains("MAX_RENDER_SAMPLES"), "{e}");

@@ -393,6 +393,9 @@ pub struct AtMethodError {
     pub at: Option<(f64, Timing)>,
     /// The last point measured: (spp, error, time).
     pub last: (usize, f64, Timing),
+    /// The first point measured (1 spp) already had the method's error or less: `last`
+    /// is that point, and bounds the estimator's need from above.
+    pub first_meets: bool,
     /// The reference's own relative error on these pixels.
     pub reference_error: f64,
 }
@@ -412,15 +415,21 @@ impl AtMethodError {
 pub const HEADLINE_PIXELS: usize = 48;
 /// Samples per pixel of each of the two runs of the measurement's reference.
 pub const HEADLINE_REF_SPP: usize = 4096;
-/// Most samples per pixel the estimator's curve runs to (×4 from 4).
+/// Most samples per pixel the estimator's curve runs to (×4 from 1).
 pub const HEADLINE_MAX_SPP: usize = 4096;
 /// Timed runs of each measured point (after a warm-up), their median taken.
 pub const HEADLINE_RUNS: usize = 3;
 
+/// Most Monte Carlo samples [`at_method_error`] takes: its reference's two runs and
+/// the curve's points (1, 4, …, [`HEADLINE_MAX_SPP`]), each run [`HEADLINE_RUNS`] + 1
+/// times, on [`HEADLINE_PIXELS`] pixels. Counted in a render's sample limit.
+pub const HEADLINE_SAMPLES: u64 =
+    HEADLINE_PIXELS as u64 * (2 * HEADLINE_REF_SPP as u64 + (HEADLINE_RUNS as u64 + 1) * 5461);
+
 /// A render's headline measurement: on at most [`HEADLINE_PIXELS`] of its lit pixels
 /// (`hits`, row-major at width `w`, taken evenly), the method (`method`, shading a hit
 /// array) against a reference of two [`HEADLINE_REF_SPP`]-sample runs of `estimator`,
-/// and `estimator` at 4, 16, 64, … samples per pixel until its error passes the
+/// and `estimator` at 1, 4, 16, … samples per pixel until its error passes the
 /// method's, each point timed as the median of [`HEADLINE_RUNS`] runs in this process
 /// (the study's method, at a small size: docs/pipelines.md, "Stronger baselines").
 pub fn at_method_error(
@@ -439,7 +448,7 @@ pub fn at_method_error(
     let b = Bench::on_hits(sub, w, HEADLINE_REF_SPP, HEADLINE_RUNS, estimator)?;
     let ((method_error, _), method_us) = b.analytic_image(method)?;
     let mut curve: Vec<Point> = Vec::new();
-    let mut n = 4;
+    let mut n = 1;
     while n <= HEADLINE_MAX_SPP {
         curve.extend(b.curve(&[n], estimator)?);
         if curve.last().is_some_and(|p| p.rel_rmse <= method_error) {
@@ -459,6 +468,7 @@ pub fn at_method_error(
         method_us,
         at,
         last: (last.spp, last.rel_rmse, last.us),
+        first_meets: curve.len() == 1 && last.rel_rmse <= method_error,
         reference_error: b.reference_error(),
     })
 }

@@ -149,7 +149,7 @@ fn hits_box(lo: DVec3, hi: DVec3, x: DVec3, inv: DVec3, t_max: f64) -> bool {
 /// A mesh file's bytes: a regular file (a FIFO or a device would block or never end)
 /// of at most [`MAX_MESH_BYTES`]; errors name the file.
 fn read_mesh_file(path: &Path) -> Result<Vec<u8>, String> {
-    lobefit_core::io::read_bytes(path, MAX_MESH_BYTES).map_err(|m| format!("mesh: {m}"))
+    lobefit_core::io::read_bytes(path, MAX_MESH_BYTES, "MAX_MESH_BYTES").map_err(|m| format!("mesh: {m}"))
 }
 
 /// The buffers of a glTF document: the binary chunk, or decoded `data:` URIs.
@@ -418,6 +418,15 @@ fn gltf_mesh(bytes: &[u8]) -> Result<Mesh, String> {
                 .ok_or_else(|| format!("mesh {}: a primitive without positions", mesh.index()))?;
             vertices.extend(positions.map(|q| world.transform_point3(DVec3::from(q.map(f64::from)))));
             let n = vertices.len() as u32 - base;
+            // The index count bounded before the indices are read.
+            let n_idx = p.indices().map_or(n as usize, |i| i.count());
+            if triangles.len() + n_idx / 3 > MAX_MESH_TRIANGLES {
+                return Err(format!(
+                    "mesh {}: {n_idx} indices, more than the {MAX_MESH_TRIANGLES} triangles a mesh may hold in all \
+                     (MAX_MESH_TRIANGLES)",
+                    mesh.index()
+                ));
+            }
             let idx: Vec<u32> = match reader.read_indices() {
                 Some(i) => i.into_u32().collect(),
                 None => (0..n).collect(),
@@ -522,21 +531,24 @@ impl Mesh {
     /// Parses OBJ text (see [`Mesh::load_obj`]); every object of the file in one mesh.
     pub fn from_obj_bytes(bytes: &[u8]) -> Result<Mesh, String> {
         // Counted before tobj allocates per element: vertices by their lines, triangles
-        // by each face's vertex count (one line `f 1 2 3 4 …` may hold millions).
+        // by each face's vertex count (one line `f 1 2 3 4 …` may hold millions), with
+        // tobj's own tokens (Unicode whitespace; `l` lines of 3 or more vertices are faces
+        // to it too).
         let (mut nv, mut nt) = (0usize, 0usize);
         for (k, line) in bytes.split(|&b| b == b'\n').enumerate() {
-            let mut tokens = line.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty());
+            let line = String::from_utf8_lossy(line);
+            let mut tokens = line.split_whitespace();
             match tokens.next() {
-                Some(b"v") => nv += 1,
-                Some(b"f") => {
+                Some("v") => nv += 1,
+                Some(tag @ ("f" | "l")) => {
                     let corners = tokens.count();
-                    if corners < 3 {
+                    if tag == "f" && corners < 3 {
                         return Err(format!(
                             "line {}: a face of {corners} vertices (a face has at least 3)",
                             k + 1
                         ));
                     }
-                    nt += corners - 2;
+                    nt += corners.saturating_sub(2);
                 }
                 _ => {}
             }
@@ -1088,6 +1100,12 @@ pub(crate) mod tests {
         long.push(b'\n');
         let e = Mesh::from_obj_bytes(&long).unwrap_err();
         assert!(e.contains("(MAX_MESH_TRIANGLES), by line 4"), "{e}");
+        // The same polygon as an `l` line (tobj triangulates 3+ vertices there too), or
+        // with vertical tabs between its indices (whitespace to tobj).
+        let l = [&long[..24], b"l", &long[25..]].concat();
+        assert!(Mesh::from_obj_bytes(&l).unwrap_err().contains("by line 4"));
+        let vt: Vec<u8> = long.iter().map(|&b| if b == b' ' { 0x0b } else { b }).collect();
+        assert!(Mesh::from_obj_bytes(&vt).unwrap_err().contains("by line 4"));
         let bunny = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/bunny.obj")).unwrap();
         for cut in [10, 1000, 100_000, 400_000, bunny.len() - 7] {
             // A cut file either loads its complete lines or is an error: no panic.

@@ -16,7 +16,7 @@ use crate::estimate::Estimate;
 use crate::image::{mean_over, write_comparison};
 use crate::scene::{Hit, Scene};
 use crate::timing::EqualError;
-use crate::{Headline, Pipeline, RenderOptions, Summary};
+use crate::{Bound, Headline, Pipeline, RenderOptions, Summary};
 
 /// One scene's render: its size, its primary hits and where its files go.
 pub struct Frame<'a> {
@@ -186,6 +186,10 @@ pub fn at_error_line(tag: &str, m: &crate::measure::AtMethodError) -> String {
                 "needs {n:.0} spp there, {:.2} µs/px [{:.2}–{:.2}]",
                 t.median, t.min, t.max
             ),
+            None if m.first_meets => format!(
+                "at its first point, {n_last} spp, already has error {e_last:.4}, {:.2} µs/px: it needs at most that",
+                t_last.median
+            ),
             None => format!(
                 "at its last point, {n_last} spp, still has error {e_last:.4}, {:.2} µs/px: beyond the {} spp measured",
                 t_last.median,
@@ -200,9 +204,10 @@ pub fn at_error_line(tag: &str, m: &crate::measure::AtMethodError) -> String {
 /// pixels (`of frame 0`).
 pub fn at_error_headline(m: &crate::measure::AtMethodError, where_: &str) -> Headline {
     let (n_last, _, t_last) = m.last;
-    let (baseline_us, spread, at_least, spp) = match (m.at, m.ratio()) {
-        (Some((n, t)), Some((_, lo, hi))) => (t.median, Some((lo, hi)), false, format!("{n:.0} spp")),
-        _ => (t_last.median, None, true, format!("more than {n_last} spp")),
+    let (baseline_us, spread, bound, spp) = match (m.at, m.ratio()) {
+        (Some((n, t)), Some((_, lo, hi))) => (t.median, Some((lo, hi)), Bound::Measured, format!("{n:.0} spp")),
+        _ if m.first_meets => (t_last.median, None, Bound::AtMost, format!("at most {n_last} spp")),
+        _ => (t_last.median, None, Bound::AtLeast, format!("more than {n_last} spp")),
     };
     let where_ = if where_.is_empty() {
         String::new()
@@ -222,7 +227,7 @@ pub fn at_error_headline(m: &crate::measure::AtMethodError, where_: &str) -> Hea
         ),
         baseline_us,
         spread,
-        at_least,
+        bound,
     }
 }
 

@@ -438,10 +438,16 @@ pub fn hit_of_row(x: &[f64], spheres: &[Sphere], terrain: Option<&HeightField>) 
         }
     };
     let (mut p, n, wo) = (v3(0), unit("n", v3(3))?, unit("v", v3(6))?);
-    let sphere_tol = |s: &Sphere| surface_tolerance(s.centre - s.radius, s.centre + s.radius);
+    // The nearest sphere surface within its tolerance (at most half its radius: a tiny
+    // sphere far from the origin does not take its own centre for a surface point).
+    let sphere_tol = |s: &Sphere| surface_tolerance(s.centre - s.radius, s.centre + s.radius).min(0.5 * s.radius);
     let own = spheres
         .iter()
-        .position(|s| ((p - s.centre).length() - s.radius).abs() <= sphere_tol(s));
+        .enumerate()
+        .map(|(i, s)| (i, ((p - s.centre).length() - s.radius).abs(), sphere_tol(s)))
+        .filter(|&(_, d, tol)| d <= tol)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _, _)| i);
     if let Some(k) = own {
         let s = &spheres[k];
         let d = p - s.centre;
@@ -505,19 +511,32 @@ pub fn buried_caveat(x: &[f64], scene: &Scene, terrain: Option<&HeightField>) ->
 /// (farther than the tolerance), or below the height field, is out of the domain.
 pub fn hit_on_scene(x: &[f64], scene: &Scene, terrain: Option<&HeightField>) -> Result<Hit, LookupError> {
     let mut h = hit_of_row(x, &scene.spheres, terrain)?;
-    for (mi, m) in scene.meshes.iter().enumerate() {
-        let (lo, hi) = m.mesh.bounds();
-        let Some((d, k)) = m.mesh.nearest_triangle(h.x) else {
-            continue;
-        };
-        if d <= surface_tolerance(lo, hi) && h.sphere.is_none() && h.mesh.is_none() {
-            h.x = m.mesh.closest_on(k, h.x);
-            h.mesh = Some((mi, k));
-            h.material = m.material;
-        } else if m.mesh.inside(h.x) {
+    // Each mesh's nearest triangle; the nearest surface within its tolerance takes the
+    // point (not on a sphere already).
+    let near: Vec<Option<(f64, usize)>> = scene.meshes.iter().map(|m| m.mesh.nearest_triangle(h.x)).collect();
+    let own = scene
+        .meshes
+        .iter()
+        .zip(&near)
+        .enumerate()
+        .filter_map(|(mi, (m, n))| {
+            let (d, k) = (*n)?;
+            let (lo, hi) = m.mesh.bounds();
+            (d <= surface_tolerance(lo, hi)).then_some((mi, d, k))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .filter(|_| h.sphere.is_none());
+    if let Some((mi, _, k)) = own {
+        let m = &scene.meshes[mi];
+        h.x = m.mesh.closest_on(k, h.x);
+        h.mesh = Some((mi, k));
+        h.material = m.material;
+    }
+    for (mi, (m, n)) in scene.meshes.iter().zip(&near).enumerate() {
+        if Some(mi) != own.map(|o| o.0) && m.mesh.inside(h.x) {
             return Err(LookupError::OutOfDomain {
                 name: format!("the point's distance to mesh {mi}'s surface, inside it"),
-                value: -d,
+                value: -n.map_or(0.0, |(d, _)| d),
                 lo: 0.0,
                 hi: f64::INFINITY,
             });

@@ -262,7 +262,7 @@ pub fn render(name: &str, opts: &RenderOptions, dir: &Path, progress: &(dyn Fn()
                 baseline: "every light per point (per-point SH)".into(),
                 baseline_us: per_px(sh),
                 spread: None,
-                at_least: false,
+                bound: crate::Bound::Measured,
             }
             .line(),
         );
@@ -549,7 +549,7 @@ pub fn drive(dir: &Path, frames: usize, progress: &(dyn Fn() + Sync)) -> Result<
                 baseline: "every light per point (SH)".into(),
                 baseline_us: per_point(sh),
                 spread: None,
-                at_least: false,
+                bound: crate::Bound::Measured,
             }
             .line(),
         );

@@ -314,28 +314,32 @@ fn known_names() -> Vec<&'static str> {
     v
 }
 
-/// The texture files (and raw sidecars) the manifest in `dir` lists, read strictly;
-/// empty when there is none or it cannot be read (its files then count as foreign).
-fn listed_textures(dir: &Path) -> Vec<String> {
-    let path = dir.join(MANIFEST);
-    let Ok(text) = crate::io::read_text(&path, MAX_MANIFEST_BYTES) else {
-        return Vec::new();
-    };
-    let Ok(v) = crate::json::value(&text) else {
-        return Vec::new();
-    };
+/// The texture files (and raw sidecars) of the lobefit export in `dir`: those its
+/// manifest lists, when `manifest.json` is a lobefit export manifest of this version
+/// (read strictly, its structure whole); `None` when there is none, or it is another
+/// program's or unreadable (its files then count as foreign, the manifest too).
+fn listed_textures(dir: &Path) -> Option<Vec<String>> {
+    let text = crate::io::read_text(&dir.join(MANIFEST), MAX_MANIFEST_BYTES).ok()?;
+    let v = crate::json::value(&text).ok()?;
+    if v.get("version").and_then(|v| v.as_u64()) != Some(u64::from(MANIFEST_VERSION)) {
+        return None;
+    }
+    let m: Manifest = serde_json::from_value(v).ok()?;
     let mut out = Vec::new();
-    for f in v["families"].as_array().into_iter().flatten() {
-        for t in f["textures"].as_array().into_iter().flatten() {
-            if let Some(name) = t["file"].as_str() {
-                out.push(name.to_string());
-                if name.ends_with(".raw") {
-                    out.push(Path::new(name).with_extension("json").to_string_lossy().into_owned());
-                }
-            }
+    for t in m.families.iter().flat_map(|f| &f.textures) {
+        out.push(t.file.clone());
+        if t.file.ends_with(".raw") {
+            out.push(Path::new(&t.file).with_extension("json").to_string_lossy().into_owned());
         }
     }
-    out
+    Some(out)
+}
+
+/// Whether `name` in an export directory is a staging folder of an export (hidden,
+/// `.lobefit-export.<random>`), left by one under way or killed: never part of the
+/// export, and neither the export nor its check counts it.
+fn is_stage(name: &str) -> bool {
+    name.starts_with(".lobefit-export.") && name != LOCK_FILE
 }
 
 /// Refuses an export into `dir` unless it is missing, empty, or holds only what a
@@ -343,23 +347,35 @@ fn listed_textures(dir: &Path) -> Vec<String> {
 /// replaces whole: its textures that the new one does not write are removed). A file of
 /// anything else would stay beside the export, and `check --export` refuses a
 /// directory holding one; so does an existing `dir` that is not a directory. Staging
-/// folders of a concurrent or killed export (hidden, `.lobefit-export.*`) are left.
+/// folders of a concurrent or killed export (hidden, `.lobefit-export.*`) are left,
+/// and neither this nor `check --export` counts them.
 pub fn check_dir(dir: &Path) -> Result<(), String> {
     let entries = match std::fs::read_dir(dir) {
         Ok(e) => e,
         Err(_) if !dir.exists() => return Ok(()),
         Err(e) => return Err(format!("--out {}: cannot read it as a directory: {e}", dir.display())),
     };
-    let (known, listed) = (known_names(), listed_textures(dir));
+    // With a lobefit manifest: its textures and every companion are ours; without one,
+    // only the shader library (`export --shaders` alone) and the lock.
+    let listed = listed_textures(dir);
+    let known: Vec<&str> = match &listed {
+        Some(_) => known_names(),
+        None => {
+            let mut k = super::shaders::LIBRARY_FILES.to_vec();
+            k.push(LOCK_FILE);
+            k
+        }
+    };
+    let listed = listed.unwrap_or_default();
     let mut foreign = Vec::new();
     for e in entries {
         let e = e.map_err(|e| format!("cannot read {}: {e}", dir.display()))?;
         let name = e.file_name().to_string_lossy().into_owned();
-        let ours = known.contains(&name.as_str()) || listed.contains(&name);
-        let file = e.file_type().is_ok_and(|t| t.is_file());
-        if name.starts_with(".lobefit-export.") && name != LOCK_FILE {
+        if is_stage(&name) {
             continue;
         }
+        let ours = known.contains(&name.as_str()) || listed.contains(&name);
+        let file = e.file_type().is_ok_and(|t| t.is_file());
         if !(ours && file) {
             foreign.push(name);
         }
@@ -585,7 +601,7 @@ fn move_in(stage: &Path, dir: &Path) -> Result<(), String> {
     lock.lock()
         .map_err(|e| format!("cannot lock {}: {e}", lock_path.display()))?;
     // The earlier export's textures, under the lock: those this one does not write go.
-    let earlier = listed_textures(dir);
+    let earlier = listed_textures(dir).unwrap_or_default();
     let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(stage)
         .map_err(|e| format!("cannot read {}: {e}", stage.display()))?
         .map(|d| d.map(|d| d.file_name()))
@@ -870,7 +886,7 @@ pub fn check_export(dir: &Path) -> Result<Vec<ExportCheck>, String> {
             .file_name()
             .to_string_lossy()
             .into_owned();
-        if name != MANIFEST && name != LOCK_FILE && !files.iter().any(|(n, _)| *n == name) {
+        if name != MANIFEST && name != LOCK_FILE && !is_stage(&name) && !files.iter().any(|(n, _)| *n == name) {
             extra.push(name);
         }
     }

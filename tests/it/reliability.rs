@@ -244,6 +244,24 @@ fn export_leaves_a_checkable_directory_or_refuses() {
         "{err}"
     );
     assert!(!ex.join("cap-exponent.dds").exists());
+    // Another program's manifest.json (a web app's) is not an earlier export: it is
+    // refused, not overwritten, and the files it lists are not removed.
+    let web = d.path().join("web");
+    std::fs::create_dir(&web).unwrap();
+    let theirs = r#"{"name": "app", "families": [{"textures": [{"file": "index.html"}]}]}"#;
+    std::fs::write(web.join("manifest.json"), theirs).unwrap();
+    std::fs::write(web.join("index.html"), "<html>").unwrap();
+    let (code, _, err) = run_text(
+        &["export", "--format", "ktx2", "--only", "cap-exponent", "--out", s(&web)],
+        "",
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("\"index.html\"") && err.contains("\"manifest.json\""),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(web.join("manifest.json")).unwrap(), theirs);
+    assert!(web.join("index.html").exists());
 }
 
 /// `check --export` took a manifest whose keys repeat (last wins; a first-wins reader
@@ -645,6 +663,17 @@ fn materials_conserve_energy_and_rotations_are_bounded() {
         "{e}"
     );
     lobefit::pipelines::scene::parse_in("r", &mesh("12.5"), d.path()).unwrap();
+    // A key's rotation goes through the same bound.
+    let keyed = mesh("0").replace(
+        r#""spheres": {"count": 1},"#,
+        r#""spheres": {"count": 1}, "keys": [{"time": 0, "translation": [0, 0, 0],
+            "rotation": {"axis": [0, 0, 1], "angle": -1e300}}],"#,
+    );
+    let e = lobefit::pipelines::scene::parse_in("r", &keyed, d.path()).unwrap_err();
+    assert!(
+        e.contains("meshes[0].keys[0].rotation") && e.contains("MAX_BEND_ANGLE"),
+        "{e}"
+    );
 }
 
 /// One exit code for one kind of error: a scene's translation over the coordinate
