@@ -372,17 +372,17 @@ impl Bvh {
 
     /// Whether some sphere other than `skip` meets x + t·v for t < `t_max`.
     pub fn occluded(&self, spheres: &[Sphere], x: DVec3, v: DVec3, t_max: f64, skip: Option<usize>) -> bool {
-        self.occluded_skipping(spheres, x, v, t_max, skip.map_or(0..0, |i| i..i + 1))
+        self.occluded_skipping(spheres, x, v, t_max, |i| Some(i) == skip)
     }
 
-    /// Whether some sphere outside the indices `skip` meets x + t·v for t < `t_max`.
+    /// Whether some sphere whose index `skip` refuses meets x + t·v for t < `t_max`.
     pub fn occluded_skipping(
         &self,
         spheres: &[Sphere],
         x: DVec3,
         v: DVec3,
         t_max: f64,
-        skip: std::ops::Range<usize>,
+        skip: impl Fn(usize) -> bool,
     ) -> bool {
         let inv = v.recip();
         let mut stack = Stack::new();
@@ -398,7 +398,7 @@ impl Bvh {
             }
             let hit = self.order[n.first..n.first + n.count]
                 .iter()
-                .any(|&i| !skip.contains(&i) && ray_sphere(x, v, &spheres[i]).is_some_and(|t| t < t_max));
+                .any(|&i| !skip(i) && ray_sphere(x, v, &spheres[i]).is_some_and(|t| t < t_max));
             if hit {
                 return true;
             }
@@ -470,6 +470,54 @@ pub struct Hit {
     pub mesh: Option<(usize, usize)>,
     /// Index into [`Scene::materials`].
     pub material: usize,
+}
+
+/// How far outside one of its mesh's spheres a mesh point may lie, relative to the
+/// sphere's radius, and still count it as its own ([`Own`]).
+pub const OWN_MARGIN: f64 = 0.05;
+
+/// The proxies a hit is part of, which therefore do not block it — the rule by which a
+/// mesh shadows itself through its sphere set:
+///
+/// - a point on a sphere: that sphere (it hides exactly the lower hemisphere of its own
+///   surface points, which the cosine already removes);
+/// - a point on a mesh: the spheres of the mesh's set that contain it, or whose surface
+///   passes within [`OWN_MARGIN`] × their radius of it. Those stand for the surface
+///   around the point: a sphere the point lies in would hide its whole sky, and one
+///   whose boundary passes beside it covers about a half-space there, hiding what the
+///   surface itself hides. Every other sphere of the set is a blocker, so one part of
+///   the mesh shadows another (the knot's strands, the bunny's ear over its back).
+///   Before, a mesh point skipped its whole set and the mesh never shadowed itself
+///   (docs/meshes.md, "Self-shadowing through the set").
+/// - anything else: none.
+#[derive(Debug, Clone)]
+pub struct Own<'a> {
+    range: std::ops::Range<usize>,
+    spheres: &'a [Sphere],
+    x: DVec3,
+}
+
+impl Own<'_> {
+    /// No own proxies (a point on a plane, the ground or in space).
+    pub const NONE: Own<'static> = Own {
+        range: 0..0,
+        spheres: &[],
+        x: DVec3::ZERO,
+    };
+
+    /// Whether proxy `i` is the hit's own (not a blocker).
+    pub fn contains(&self, i: &usize) -> bool {
+        self.range.contains(i) && {
+            let s = &self.spheres[*i];
+            (self.x - s.centre).length() <= s.radius * (1.0 + OWN_MARGIN)
+        }
+    }
+
+    /// The proxies' index range the own ones are drawn from: the hit's sphere, or its
+    /// mesh's set (the GPU kernels apply [`Own::contains`]'s test themselves).
+    pub fn range(&self) -> std::ops::Range<usize> {
+        self.range.clone()
+    }
 }
 
 /// The BRDF's value f_r(v, wo) (sr⁻¹) at a hit from its definition (independent of
@@ -874,10 +922,8 @@ impl Scene {
     }
 
     /// Blockers seen from a hit, as the analytic pipelines take them: every sphere of
-    /// [`Scene::proxies`] (the spheres, then the meshes' sphere sets) but those the hit
-    /// lies on or in ([`Scene::own_proxies`]: a sphere hides exactly the lower
-    /// hemisphere of its own surface points, which the cosine already removes; a mesh
-    /// point lies inside its own set).
+    /// [`Scene::proxies`] (the spheres, then the meshes' sphere sets) but the hit's own
+    /// ([`Scene::own_proxies`]): so a mesh shadows itself through the rest of its set.
     pub fn blockers(&self, h: &Hit) -> Vec<Sphere> {
         let own = self.own_proxies(h);
         self.proxies
@@ -898,14 +944,18 @@ impl Scene {
         &self.proxy_bvh
     }
 
-    /// The indices of [`Scene::proxies`] a hit lies on or in: its sphere, or its
-    /// mesh's whole sphere set (a mesh point lies inside its own proxy, which would
-    /// otherwise hide all its sky; its self-shadowing is what the proxy then misses).
-    pub fn own_proxies(&self, h: &Hit) -> std::ops::Range<usize> {
-        match (h.sphere, h.mesh) {
+    /// The proxies a hit is part of ([`Own`]): its sphere, or the spheres of its mesh's
+    /// set that stand for the surface where it lies.
+    pub fn own_proxies(&self, h: &Hit) -> Own<'_> {
+        let range = match (h.sphere, h.mesh) {
             (Some(i), _) => i..i + 1,
             (None, Some((m, _))) => self.meshes[m].proxy.clone(),
             (None, None) => 0..0,
+        };
+        Own {
+            range,
+            spheres: &self.proxies,
+            x: h.x,
         }
     }
 
@@ -926,8 +976,9 @@ impl Scene {
     /// from `h` in direction `v` (unit): exact visibility of the analytic pipelines'
     /// blockers, the meshes' sphere sets in place of their triangles.
     pub fn proxies_occlude(&self, h: &Hit, v: DVec3) -> bool {
+        let own = self.own_proxies(h);
         self.proxy_bvh
-            .occluded_skipping(&self.proxies, h.x, v, f64::INFINITY, self.own_proxies(h))
+            .occluded_skipping(&self.proxies, h.x, v, f64::INFINITY, |i| own.contains(&i))
             || self.terrain_occludes(h, v, f64::INFINITY)
     }
 
@@ -2413,7 +2464,8 @@ mod mesh_tests {
     /// The analytic pipelines' view of a mesh: `blockers` are the proxies but the hit's
     /// own, `proxies_occlude` (the proxy BVH) equals a scan over `blockers`, and
     /// `buried` says whether one of them contains the point; a point on the mesh sees
-    /// past its own set, a plane point under the set is blocked by it.
+    /// past the spheres of its set that hold it (and only those), a plane point under
+    /// the set is blocked by it.
     #[test]
     fn proxies_are_the_blockers_the_analytic_pipelines_see() {
         let (_d, p) = write_scene();
@@ -2427,7 +2479,16 @@ mod mesh_tests {
             };
             let blockers = s.blockers(&hit);
             if hit.mesh.is_some() {
-                assert!(blockers.is_empty(), "pixel {px}: a mesh point ignores its own set");
+                // Its own: the set's spheres containing it or passing within OWN_MARGIN of
+                // it, at least one (a covering set); the rest of the set blocks it.
+                let own: Vec<&Sphere> = s
+                    .proxies
+                    .iter()
+                    .filter(|b| (hit.x - b.centre).length() <= b.radius * (1.0 + OWN_MARGIN))
+                    .collect();
+                assert!(!own.is_empty(), "pixel {px}: no sphere of the set holds its point");
+                assert_eq!(blockers.len() + own.len(), s.proxies.len(), "pixel {px}");
+                assert!(blockers.iter().all(|b| !own.contains(&b)));
                 on_mesh += 1;
             } else {
                 assert_eq!(blockers.len(), s.proxies.len());

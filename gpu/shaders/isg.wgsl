@@ -32,7 +32,7 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
         let s = sph(b);
         let w = s.xyz - x;
         let d = length(w);
-        if (i32(b) < own.x || i32(b) >= own.y) && d > s.w {
+        if !own_proxy(b, own, d, s.w) && d > s.w {
             if lf_angle_between(w / d, z) <= cone + lf_asin(s.w / d) {
                 mask[b / 32u] |= 1u << (b % 32u);
             }
@@ -77,14 +77,14 @@ BLOCKED_TESTS            var wgt = 0.0;
     let p = vec3<f32>(x0, x1, x2);
     let n = vec3<f32>(x3, x4, x5);
     let wo = vec3<f32>(x6, x7, x8);
-    // The blockers the point lies on or in: [x12, x13).
+    // The point's own proxies are drawn from [x12, x13) (own_proxy: the CPU's scene::Own).
     let own = vec2<i32>(i32(x12), i32(x13));
     // A point inside a blocker (a mesh's covering sphere) is in its full shadow (the
     // CPU's Scene::buried): radiance 0.
     var buried = false;
     for (var b = 0u; b < NS; b++) {
         let s = sph(b);
-        if (i32(b) < own.x || i32(b) >= own.y) && length(s.xyz - p) <= s.w {
+        if !own_proxy(b, own, length(s.xyz - p), s.w) && length(s.xyz - p) <= s.w {
             buried = true;
         }
     }

@@ -147,7 +147,7 @@ fn mn_shade_leaf(pc: array<MnLobe, MAXL>, npc: u32, v: MnLobe) -> f32 {
 // ---- main: the kernel's body (the statements inside its entry point, kernel.rs)
     let p = vec3<f32>(x0, x1, x2);
     let n = vec3<f32>(x3, x4, x5);
-    // The blockers the point lies on or in (`Scene::own_proxies`: first, end).
+    // The point's own proxies are drawn from [x13, x14) (own_proxy: the CPU's scene::Own).
     let own = vec2<i32>(i32(x13), i32(x14));
     let ns = mn_blockers();
     let nl = mn_lights();
@@ -160,7 +160,7 @@ fn mn_shade_leaf(pc: array<MnLobe, MAXL>, npc: u32, v: MnLobe) -> f32 {
     for (var b = 0u; b < ns; b++) {
         iters += 1u;
         let s = mn_sphere(b);
-        if (i32(b) < own.x || i32(b) >= own.y) && length(s.xyz - p) <= s.w {
+        if !own_proxy(b, own, length(s.xyz - p), s.w) && length(s.xyz - p) <= s.w {
             buried = true;
         }
     }
@@ -204,12 +204,12 @@ fn mn_shade_leaf(pc: array<MnLobe, MAXL>, npc: u32, v: MnLobe) -> f32 {
         var hidden = false;
         for (var b = 0u; b < ns; b++) {
             iters += 1u;
-            if i32(b) >= own.x && i32(b) < own.y {
-                continue;
-            }
             let s = mn_sphere(b);
             let w = s.xyz - p;
             let d = length(w);
+            if own_proxy(b, own, d, s.w) {
+                continue;
+            }
             if d - s.w >= ld {
                 continue;
             }

@@ -50,7 +50,7 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
     let p = vec3<f32>(x0, x1, x2);
     let n = vec3<f32>(x3, x4, x5);
     let wo = vec3<f32>(x6, x7, x8);
-    // The blockers the point lies on or in (`Scene::own_proxies`: first, end).
+    // The point's own proxies are drawn from [x12, x13) (own_proxy: the CPU's scene::Own).
     let own = vec2<i32>(i32(x12), i32(x13));
     let ns = shexp_spheres();
     // A point inside another blocker (a mesh's covering sphere below the ground) is
@@ -58,7 +58,7 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
     var buried = false;
     for (var b = 0u; b < ns; b++) {
         let s = sph(b);
-        if (i32(b) < own.x || i32(b) >= own.y) && length(s.xyz - p) <= s.w {
+        if !own_proxy(b, own, length(s.xyz - p), s.w) && length(s.xyz - p) <= s.w {
             buried = true;
         }
     }
@@ -91,7 +91,7 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
         let dir = w / d;
         // sin theta_b; a cap wholly below the tangent plane cannot shadow the point.
         let sb = s.w / d;
-        if (i32(b) >= own.x && i32(b) < own.y) || dot(n, dir) < -sb {
+        if own_proxy(b, own, d, s.w) || dot(n, dir) < -sb {
             continue;
         }
         let theta = lf_asin(sb);

@@ -229,8 +229,9 @@ fn source(scene: &lobefit::pipelines::scene::Scene, unrolled: bool) -> Result<(S
         "const NS = {ns}u;\nconst NW = {}u;\nconst NE = {ne}u;\n\
          var<private> isg_flag = 0.0;\n\
          fn sph(b: u32) -> vec4<f32> {{\n    let k = {INPUTS}u * N.x + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
-         fn env(e: u32) -> LfSg {{\n    let k = {INPUTS}u * N.x + 4u * NS + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n",
+         fn env(e: u32) -> LfSg {{\n    let k = {INPUTS}u * N.x + 4u * NS + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n{}",
         ns.div_ceil(32),
+        crate::render::own_proxy_wgsl(),
     );
     let (functions, body) = split(SHADER);
     let body = body.to_string() + budget::SENTINEL + "    Y[o + 1u] = budget_flag;";
@@ -289,8 +290,7 @@ pub fn render_isg(
             .map(|v| v as f32),
         );
         inputs.extend([b.diffuse as f32, b.specular as f32, b.exponent as f32]);
-        let own = sc.own_proxies(hit);
-        inputs.extend([own.start as f32, own.end as f32]);
+        inputs.extend(crate::render::own_range(sc, hit));
         brdfs.push(b);
     }
     for s in &sc.proxies {

@@ -193,7 +193,7 @@ fn source(settings: &MaskSettings) -> String {
     format!(
         "const N_IN = {N_IN}u;\nconst MAT_SIZE = {}u;\nconst MAXB = {MAX_BLOCKERS}u;\nconst MAXL = {}u;\n\
          const DEPTH = {}u;\nconst MODE = {mode}u;\nconst WSET = {set}u;\nconst THRESH = {};\nconst CAP_LIGHT = {};\n\
-         const BUDGET = {ITERATION_BUDGET}u;\nconst LIGHT_HALF_ANGLE_MIN = {};\nconst SHARP = {};\n{}",
+         const BUDGET = {ITERATION_BUDGET}u;\nconst LIGHT_HALF_ANGLE_MIN = {};\nconst SHARP = {};\n{}{}",
         2 + 5 * MAX_LOBES,
         MAX_LOBES + 1,
         settings.depth,
@@ -201,6 +201,7 @@ fn source(settings: &MaskSettings) -> String {
         settings.light == LightModel::Cap,
         lit(LIGHT_HALF_ANGLE_MIN),
         settings.sharp_leaves,
+        crate::render::own_proxy_wgsl(),
         split(SHADER).0,
     )
 }
@@ -294,8 +295,8 @@ pub fn render_meunier(
             ]
             .map(|v| v as f32),
         );
-        let own = sc.own_proxies(hit);
-        inputs.extend([hit.material as f32, own.start as f32, own.end as f32]);
+        inputs.extend([hit.material as f32]);
+        inputs.extend(crate::render::own_range(sc, hit));
     }
     // The blockers: the spheres and the meshes' sphere sets (`Scene::proxies`).
     // The scene (the kernel's `mn_scene`): the blocker and light counts, then the

@@ -678,6 +678,26 @@ pub(crate) fn write_grey_png(out: &Path, w: usize, h: usize, pixels: &[u8]) -> R
     lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))
 }
 
+/// The WGSL of the own-proxy rule ([`lobefit::pipelines::scene::Own`]) the kernels
+/// share: `own_proxy(b, own, d, r)` says whether blocker `b` (radius `r`, its centre `d`
+/// from the point) is one of the point's own — in its range `[own.x, own.y)` (its
+/// sphere, or its mesh's set) and containing the point or passing within
+/// `OWN_MARGIN` × its radius of it — and so no blocker.
+pub fn own_proxy_wgsl() -> String {
+    format!(
+        "const OWN_SCALE: f32 = {:e};\n\
+         fn own_proxy(b: u32, own: vec2<i32>, d: f32, r: f32) -> bool {{\n    \
+         return i32(b) >= own.x && i32(b) < own.y && d <= r * OWN_SCALE;\n}}\n",
+        (1.0 + lobefit::pipelines::scene::OWN_MARGIN) as f32
+    )
+}
+
+/// The range of the point's own proxies, as a kernel's two f32 inputs (first, end).
+pub fn own_range(sc: &lobefit::pipelines::scene::Scene, hit: &lobefit::pipelines::scene::Hit) -> [f32; 2] {
+    let r = sc.own_proxies(hit).range();
+    [r.start as f32, r.end as f32]
+}
+
 /// One device render.
 #[derive(Debug)]
 pub struct Render {

@@ -198,13 +198,14 @@ fn source(s: &Settings, coeffs: bool) -> String {
     let consts = format!(
         "const N_IN = {n_in}u;\nconst NW = {w}u;\nconst W_INDEX = {}u;\n\
          const TERRAIN_ABOVE_TANGENT = {};\nconst ATTENUATION = {};\nconst EPS_VIS: f32 = {};\n\
-         const EPS_TERRAIN: f32 = {};\nconst EPS_BRDF: f32 = {};\nconst COEFFS = {coeffs};\n",
+         const EPS_TERRAIN: f32 = {};\nconst EPS_BRDF: f32 = {};\nconst COEFFS = {coeffs};\n{}",
         s.wedges.trailing_zeros() - 2,
         s.terrain_above_tangent,
         s.attenuation,
         f(s.eps_vis),
         f(s.eps_terrain),
-        f(s.eps_brdf)
+        f(s.eps_brdf),
+        crate::render::own_proxy_wgsl()
     );
     let (functions, body) = split(SHADER);
     let body = body
@@ -328,8 +329,7 @@ fn dispatch(
             ]
             .map(|v| v as f32),
         );
-        let own = sc.own_proxies(hit);
-        inputs.extend([own.start as f32, own.end as f32]);
+        inputs.extend(crate::render::own_range(sc, hit));
         inputs.extend(horizons(sc, s, &at).into_iter().map(|v| v as f32));
         at_hits.push(at);
         brdfs.push(b);

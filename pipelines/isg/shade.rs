@@ -145,7 +145,7 @@ impl Tables {
 }
 
 /// The spheres that may occlude a point: all of `spheres` but `own` (the one the
-/// point lies on, or its mesh's sphere set), culled against each product's cone through `bvh` (§4.2) when given,
+/// point lies on, or those of its mesh's set that stand for its surface), culled against each product's cone through `bvh` (§4.2) when given,
 /// else by a scan.
 #[derive(Clone)]
 pub struct Blockers<'a> {
@@ -153,9 +153,8 @@ pub struct Blockers<'a> {
     pub spheres: &'a [Sphere],
     /// A hierarchy over `spheres`.
     pub bvh: Option<&'a Bvh>,
-    /// The spheres the point lies on or in (not blockers): its sphere, or its mesh's
-    /// sphere set ([`crate::scene::Scene::own_proxies`]); empty for none.
-    pub own: std::ops::Range<usize>,
+    /// The spheres the point is part of (not blockers: [`crate::scene::Own`]).
+    pub own: crate::scene::Own<'a>,
 }
 
 impl<'a> Blockers<'a> {
@@ -164,7 +163,7 @@ impl<'a> Blockers<'a> {
         Blockers {
             spheres,
             bvh: None,
-            own: 0..0,
+            own: crate::scene::Own::NONE,
         }
     }
 
