@@ -46,6 +46,8 @@ enum SphereMethodArg {
     Kmeans,
     KmeansMoment,
     Tree,
+    Cover,
+    Optimize,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -237,17 +239,24 @@ enum Command {
         /// Number of spheres.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
         count: u32,
-        /// kmeans: Lloyd iterations on interior samples, covering spheres;
-        /// kmeans-moment: the same clusters, second-moment radii; tree: a
-        /// bounding-sphere tree's leaves, split best first.
-        #[arg(long, value_enum, default_value = "kmeans")]
+        /// optimize (the default: the best measured, docs/meshes.md): cover's balls
+        /// refined by direct minimisation of the symmetric difference, with a
+        /// Hausdorff guard; cover: inner balls chosen greedily for covered inside
+        /// minus outside volume; kmeans: Lloyd iterations on interior samples,
+        /// covering spheres; kmeans-moment: the same clusters, second-moment radii;
+        /// tree: a bounding-sphere tree's leaves, split best first.
+        #[arg(long, value_enum, default_value = "optimize")]
         method: SphereMethodArg,
-        /// Seed of the interior samples (and of k-means++'s start).
+        /// Seed of the samples (and of k-means++'s start).
         #[arg(long, default_value_t = 0)]
         seed: u64,
         /// Points drawn to measure the fit's quality.
         #[arg(long, default_value_t = 200_000, value_parser = clap::value_parser!(u32).range(1000..=100_000_000))]
         samples: u32,
+        /// With --method optimize: bound the balls' overlap, Σ ball volumes ≤ R × the
+        /// union's volume (SH exponentiation sums the balls' logs, so it wants little).
+        #[arg(long, value_name = "R", value_parser = overlap_arg)]
+        max_overlap: Option<f64>,
         /// The sphere-set file to write (JSON, in the mesh's coordinates).
         #[arg(long)]
         out: PathBuf,
@@ -334,6 +343,14 @@ fn threads_arg(s: &str) -> Result<usize, String> {
         _ => Err(format!(
             "expected a thread count from 1 to {max} (4 per available core, {cores} cores)"
         )),
+    }
+}
+
+/// Parses `--max-overlap`: a finite number ≥ 1.
+fn overlap_arg(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(r) if r.is_finite() && r >= 1.0 => Ok(r),
+        _ => Err("expected a finite number ≥ 1 (Σ ball volumes / union volume)".into()),
     }
 }
 
@@ -836,8 +853,14 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             method,
             seed,
             samples,
+            max_overlap,
             out,
-        } => spheres(&mesh, count as usize, method, seed, samples as usize, &out)?,
+        } => {
+            if max_overlap.is_some() && !matches!(method, SphereMethodArg::Optimize) {
+                return Err(Failure::Usage("--max-overlap needs --method optimize".into()));
+            }
+            spheres(&mesh, count as usize, method, seed, samples as usize, max_overlap, &out)?
+        }
         Command::Plot { name, out } => {
             let (_, plot) = lobefit::catalog::plots()
                 .into_iter()
@@ -908,26 +931,31 @@ fn out_file(flag: &str, out: &Path) -> Result<(), String> {
 }
 
 /// `lobefit spheres`: fit, measure, write, report.
+#[allow(clippy::too_many_arguments)]
 fn spheres(
     mesh_path: &Path,
     count: usize,
     method: SphereMethodArg,
     seed: u64,
     samples: usize,
+    max_overlap: Option<f64>,
     out: &Path,
 ) -> Result<(), String> {
-    use lobefit::pipelines::spheres::{fit, quality, FileSphere, Method, SphereSetFile};
+    use lobefit::pipelines::spheres::{fit_with, quality, FileSphere, Method, SphereSetFile};
     let method = match method {
         SphereMethodArg::Kmeans => Method::Kmeans,
         SphereMethodArg::Tree => Method::Tree,
         SphereMethodArg::KmeansMoment => Method::KmeansMoment,
+        SphereMethodArg::Cover => Method::Cover,
+        SphereMethodArg::Optimize => Method::Optimize,
     };
     out_file("--out", out)?;
     let pb = progress(3, "spheres");
     let t0 = Instant::now();
     let mesh = lobefit::pipelines::mesh::Mesh::load(mesh_path)?;
     pb.inc(1);
-    let set = fit(&mesh, count, method, seed).map_err(|e| format!("mesh {}: {e}", mesh_path.display()))?;
+    let set =
+        fit_with(&mesh, count, method, seed, max_overlap).map_err(|e| format!("mesh {}: {e}", mesh_path.display()))?;
     let t_fit = t0.elapsed().as_secs_f64();
     pb.inc(1);
     let q = quality(&mesh, &set, samples, seed);
@@ -956,7 +984,7 @@ fn spheres(
     lobefit::io::write_atomic(out, json.as_bytes()).map_err(|e| format!("{}: {e}", out.display()))?;
     emit(&format!(
         "{}: {} triangles, volume {:.6e}; {count} spheres ({}, seed {seed}) in {t_fit:.2} s\n\
-         volume error {:.4} (excess {:.4}, missed {:.4}) of the mesh's volume; Hausdorff mesh → spheres {:.4e} ({:.4} of the diagonal), spheres → mesh {:.4e} ({:.4}); {samples} samples\n\
+         volume error {:.4} (excess {:.4}, missed {:.4}) of the mesh's volume; Hausdorff mesh → spheres {:.4e} ({:.4} of the diagonal), spheres → mesh {:.4e} ({:.4}); overlap {:.3}; {samples} samples\n\
          wrote {}\n",
         mesh_path.display(),
         mesh.triangles.len(),
@@ -969,6 +997,7 @@ fn spheres(
         q.hausdorff_mesh_to_spheres / q.diagonal,
         q.hausdorff_spheres_to_mesh,
         q.hausdorff_spheres_to_mesh / q.diagonal,
+        q.overlap,
         out.display()
     ))
 }

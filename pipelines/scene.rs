@@ -1124,7 +1124,8 @@ fn read(name_or_path: &str) -> Result<(String, String, Option<std::path::PathBuf
 /// A mesh's sphere set, before it is read or fitted.
 enum SetSpec {
     File(std::path::PathBuf),
-    Fit(usize, Method, u64),
+    /// count, method, seed, the overlap bound (`optimize` only).
+    Fit(usize, Method, u64, Option<f64>),
 }
 
 /// The file's structure (docs/pipelines.md).
@@ -1863,9 +1864,12 @@ impl Checker<'_> {
                 )))
             }
         };
-        if let Some(k) = map.keys().find(|k| !["count", "method", "seed"].contains(&k.as_str())) {
+        if let Some(k) = map
+            .keys()
+            .find(|k| !["count", "method", "seed", "max_overlap"].contains(&k.as_str()))
+        {
             return Err(self.err(format!(
-                "{what}.spheres.{k}: unknown field (a fitted set takes count, method and seed)"
+                "{what}.spheres.{k}: unknown field (a fitted set takes count, method, seed and max_overlap)"
             )));
         }
         let count = match map.get("count") {
@@ -1880,12 +1884,12 @@ impl Checker<'_> {
                 })? as usize,
         };
         let method = match map.get("method") {
-            None => Method::Kmeans,
+            None => Method::Optimize,
             Some(Value::String(m)) => Method::parse(m).map_err(|e| self.err(format!("{what}.spheres.method: {e}")))?,
             Some(m) => {
                 return Err(self.err(format!(
-                    "{what}.spheres.method is {m}: expected a method's name (kmeans, kmeans-moment, tree)"
-                )))
+                "{what}.spheres.method is {m}: expected a method's name (optimize, cover, kmeans, kmeans-moment, tree)"
+            )))
             }
         };
         let seed = match map.get("seed") {
@@ -1897,7 +1901,18 @@ impl Checker<'_> {
                 ))
             })?,
         };
-        Ok(SetSpec::Fit(count, method, seed))
+        let max_overlap = match map.get("max_overlap") {
+            None => None,
+            Some(v) => match v.as_f64() {
+                Some(r) if r.is_finite() && r >= 1.0 && method == Method::Optimize => Some(r),
+                _ => {
+                    return Err(self.err(format!(
+                        "{what}.spheres.max_overlap is {v}: expected a number ≥ 1, with the method optimize"
+                    )))
+                }
+            },
+        };
+        Ok(SetSpec::Fit(count, method, seed, max_overlap))
     }
 
     /// The mesh `what`'s transform: scale in (0, [`MAX_COORD`]], a rotation about a
@@ -2043,7 +2058,7 @@ impl Checker<'_> {
         // files' sets read (small), the fitted ones counted.
         enum Set {
             Read(Vec<Sphere>),
-            Fit(usize, Method, u64),
+            Fit(usize, Method, u64, Option<f64>),
         }
         let mut total = spheres.len();
         let mut sets = Vec::new();
@@ -2058,9 +2073,9 @@ impl Checker<'_> {
                     total += set.len();
                     Set::Read(set)
                 }
-                SetSpec::Fit(count, method, seed) => {
+                SetSpec::Fit(count, method, seed, overlap) => {
                     total += count;
-                    Set::Fit(count, method, seed)
+                    Set::Fit(count, method, seed, overlap)
                 }
             };
             sets.push((what, path, t, set, material, bend));
@@ -2076,8 +2091,9 @@ impl Checker<'_> {
             let local = Mesh::load(&path).map_err(|e| err(format!("{what}: {e}")))?;
             let local_spheres = match set {
                 Set::Read(set) => set,
-                Set::Fit(count, method, seed) => {
-                    crate::spheres::fit(&local, count, method, seed).map_err(|e| err(format!("{what}.spheres: {e}")))?
+                Set::Fit(count, method, seed, overlap) => {
+                    crate::spheres::fit_with(&local, count, method, seed, overlap)
+                        .map_err(|e| err(format!("{what}.spheres: {e}")))?
                 }
             };
             let mesh = local.transformed(&t).map_err(|e| err(format!("{what}: {e}")))?;

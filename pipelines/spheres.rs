@@ -25,6 +25,8 @@ use serde::{Deserialize, Serialize};
 use crate::mesh::Mesh;
 use lobefit_tables::geom::Sphere;
 
+pub mod optimize;
+
 /// Most spheres a fit may ask for.
 pub const MAX_FIT_SPHERES: usize = 4096;
 /// Interior samples per sphere (at least [`MIN_SAMPLES`]).
@@ -46,11 +48,22 @@ pub enum Method {
     /// distance of the cluster's samples to its centre (exact for a ball), not covering.
     #[serde(rename = "kmeans-moment")]
     KmeansMoment,
+    /// A greedy coverage selection of inner balls ([`optimize::cover`]).
+    Cover,
+    /// `cover`'s balls refined by direct minimisation of the symmetric difference,
+    /// with a Hausdorff guard ([`optimize::optimize`]).
+    Optimize,
 }
 
 impl Method {
     /// Both, in the order tables list them.
-    pub const ALL: [Method; 3] = [Method::Kmeans, Method::KmeansMoment, Method::Tree];
+    pub const ALL: [Method; 5] = [
+        Method::Kmeans,
+        Method::KmeansMoment,
+        Method::Tree,
+        Method::Cover,
+        Method::Optimize,
+    ];
 
     /// Its name on the command line and in files.
     pub fn name(self) -> &'static str {
@@ -58,6 +71,8 @@ impl Method {
             Method::Kmeans => "kmeans",
             Method::Tree => "tree",
             Method::KmeansMoment => "kmeans-moment",
+            Method::Cover => "cover",
+            Method::Optimize => "optimize",
         }
     }
 
@@ -67,7 +82,11 @@ impl Method {
             "kmeans" => Ok(Method::Kmeans),
             "tree" => Ok(Method::Tree),
             "kmeans-moment" => Ok(Method::KmeansMoment),
-            _ => Err(format!("unknown sphere-fit method {s:?} (kmeans, kmeans-moment, tree)")),
+            "cover" => Ok(Method::Cover),
+            "optimize" => Ok(Method::Optimize),
+            _ => Err(format!(
+                "unknown sphere-fit method {s:?} (kmeans, kmeans-moment, tree, cover, optimize)"
+            )),
         }
     }
 }
@@ -109,16 +128,45 @@ fn cover(pts: &[DVec3]) -> Sphere {
 
 /// Fits `count` spheres to the closed mesh with `method`, seeded by `seed`.
 pub fn fit(mesh: &Mesh, count: usize, method: Method, seed: u64) -> Result<Vec<Sphere>, String> {
+    fit_with(mesh, count, method, seed, None)
+}
+
+/// [`fit`] with a bound on the balls' overlap (Σ ball volumes ≤ `max_overlap` × the
+/// union's volume), which `optimize` alone takes; an error for another method.
+pub fn fit_with(
+    mesh: &Mesh,
+    count: usize,
+    method: Method,
+    seed: u64,
+    max_overlap: Option<f64>,
+) -> Result<Vec<Sphere>, String> {
     if !(1..=MAX_FIT_SPHERES).contains(&count) {
         return Err(format!("sphere count {count} must lie in 1..={MAX_FIT_SPHERES}"));
     }
+    if let Some(r) = max_overlap {
+        if method != Method::Optimize {
+            return Err(format!("a bound on the overlap ({r}) needs the method optimize"));
+        }
+        if !(r.is_finite() && r >= 1.0) {
+            return Err(format!("the overlap bound {r} must be finite and ≥ 1"));
+        }
+    }
     mesh.check_solid()?;
-    let n = (SAMPLES_PER_SPHERE * count).max(MIN_SAMPLES);
-    let pts = interior_samples(mesh, n, seed)?;
+    let interior = || interior_samples(mesh, (SAMPLES_PER_SPHERE * count).max(MIN_SAMPLES), seed);
     Ok(match method {
-        Method::Kmeans => kmeans(&pts, count, seed, cover),
-        Method::KmeansMoment => kmeans(&pts, count, seed, moment),
-        Method::Tree => tree(&pts, count),
+        Method::Kmeans => kmeans(&interior()?, count, seed, cover),
+        Method::KmeansMoment => kmeans(&interior()?, count, seed, moment),
+        Method::Tree => tree(&interior()?, count),
+        Method::Cover => optimize::cover(mesh, count, &optimize::Samples::new(mesh, seed)?, 0.0),
+        Method::Optimize => {
+            let s = optimize::Samples::new(mesh, seed)?;
+            let cost = if max_overlap.is_some() {
+                optimize::OVERLAP_COST
+            } else {
+                0.0
+            };
+            optimize::optimize(&optimize::cover(mesh, count, &s, cost), &s, max_overlap)
+        }
     })
 }
 
@@ -275,6 +323,10 @@ pub struct Quality {
     /// One-sided Hausdorff distance from the union's boundary to the mesh solid
     /// (scene units; 0 where a boundary point lies inside the mesh).
     pub hausdorff_spheres_to_mesh: f64,
+    /// The balls' summed volume over their union's (1: no overlap), by the same
+    /// samples; 0 in files written before it was measured.
+    #[serde(default)]
+    pub overlap: f64,
     /// The mesh's bounding-box diagonal (what the distances are relative to).
     pub diagonal: f64,
     /// Points drawn for the volume (those for each distance: a quarter of it).
@@ -291,6 +343,7 @@ impl Quality {
             self.missed,
             self.hausdorff_mesh_to_spheres,
             self.hausdorff_spheres_to_mesh,
+            self.overlap,
             self.diagonal,
         ]
         .iter()
@@ -316,15 +369,23 @@ pub fn quality(mesh: &Mesh, spheres: &[Sphere], samples: usize, seed: u64) -> Qu
     let pts: Vec<DVec3> = (0..samples)
         .map(|_| lo + (hi - lo) * DVec3::new(rng.uniform(), rng.uniform(), rng.uniform()))
         .collect();
-    let (excess, missed) = pts
+    let (excess, missed, union) = pts
         .par_iter()
-        .map(|&p| match (mesh.inside(p), in_union(p, spheres)) {
-            (false, true) => (1usize, 0usize),
-            (true, false) => (0, 1),
-            _ => (0, 0),
+        .map(|&p| {
+            let u = in_union(p, spheres);
+            match (mesh.inside(p), u) {
+                (false, true) => (1usize, 0usize, 1usize),
+                (true, false) => (0, 1, 0),
+                _ => (0, 0, usize::from(u)),
+            }
         })
-        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
     let box_vol = (hi - lo).x * (hi - lo).y * (hi - lo).z;
+    let balls: f64 = spheres
+        .iter()
+        .map(|s| 4.0 / 3.0 * std::f64::consts::PI * s.radius.powi(3))
+        .sum();
+    let overlap = balls / (union.max(1) as f64 / samples as f64 * box_vol);
     let vol = mesh.volume().abs();
     let frac = |k: usize| k as f64 / samples as f64 * box_vol / vol;
     let surf = mesh.sample_surface(&mut rng, samples / 4);
@@ -378,6 +439,7 @@ pub fn quality(mesh: &Mesh, spheres: &[Sphere], samples: usize, seed: u64) -> Qu
         missed: frac(missed),
         hausdorff_mesh_to_spheres: h1,
         hausdorff_spheres_to_mesh: h2,
+        overlap,
         diagonal,
         samples,
     }
@@ -455,19 +517,22 @@ mod tests {
 
     /// A ball's own mesh fitted with one sphere: the covering sphere is the ball
     /// (closed form: centre, radius 1 within the faceting and sampling), and its
-    /// measured volume error and distances are small; both methods are deterministic.
+    /// measured volume error and distances are small; every method is deterministic.
     #[test]
     fn one_sphere_fits_a_ball() {
         let c = DVec3::new(0.5, -1.0, 2.0);
         let m = ball(c, 1.0, 3);
         for method in Method::ALL {
+            // cover's balls are centred on samples (3 000 in a unit ball: 0.1 apart)
+            // with radii the distance to the surface: within that spacing only.
+            let tol = if method == Method::Cover { 0.1 } else { 0.02 };
             let s = fit(&m, 1, method, 3).unwrap();
-            assert!((s[0].centre - c).length() < 0.02, "{method:?} {s:?}");
-            assert!((s[0].radius - 1.0).abs() < 0.03, "{method:?} {s:?}");
+            assert!((s[0].centre - c).length() < tol, "{method:?} {s:?}");
+            assert!((s[0].radius - 1.0).abs() < 1.5 * tol, "{method:?} {s:?}");
             let q = quality(&m, &s, 20_000, 1);
-            assert!(q.volume_error < 0.08, "{q:?}");
+            assert!(q.volume_error < 4.0 * tol, "{q:?}");
             assert!(
-                q.hausdorff_mesh_to_spheres < 0.03 && q.hausdorff_spheres_to_mesh < 0.04,
+                q.hausdorff_mesh_to_spheres < 1.5 * tol && q.hausdorff_spheres_to_mesh < 2.0 * tol,
                 "{q:?}"
             );
             let again = fit(&m, 1, method, 3).unwrap();
@@ -491,18 +556,19 @@ mod tests {
         t.extend(b.triangles.iter().map(|x| x.map(|i| i + off)));
         let m = Mesh::new(v, t).unwrap();
         for method in Method::ALL {
+            let tol = if method == Method::Cover { 0.12 } else { 0.03 };
             let mut s = fit(&m, 2, method, 5).unwrap();
             s.sort_by(|p, q| p.centre.x.total_cmp(&q.centre.x));
             assert!(
-                (s[0].centre - DVec3::new(-2.0, 0.0, 0.0)).length() < 0.03,
+                (s[0].centre - DVec3::new(-2.0, 0.0, 0.0)).length() < tol,
                 "{method:?} {s:?}"
             );
             assert!(
-                (s[1].centre - DVec3::new(2.0, 0.0, 0.5)).length() < 0.03,
+                (s[1].centre - DVec3::new(2.0, 0.0, 0.5)).length() < tol,
                 "{method:?} {s:?}"
             );
             assert!(
-                (s[0].radius - 1.0).abs() < 0.03 && (s[1].radius - 0.7).abs() < 0.03,
+                (s[0].radius - 1.0).abs() < tol && (s[1].radius - 0.7).abs() < tol,
                 "{s:?}"
             );
         }
@@ -522,6 +588,31 @@ mod tests {
         assert!((q.excess - (1.1f64.powi(3) - 1.0)).abs() < 0.05, "{q:?}");
         assert!(q.missed < 0.01, "{q:?}");
         assert!((q.hausdorff_spheres_to_mesh - 0.1).abs() < 0.02, "{q:?}");
+    }
+
+    /// `optimize` gives the same bytes on one thread and on two (its gradients are
+    /// summed over fixed chunks in order).
+    #[test]
+    fn optimize_does_not_depend_on_the_thread_count() {
+        let m = ball(DVec3::new(0.2, 0.1, -0.3), 1.0, 3);
+        let on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| fit(&m, 6, Method::Optimize, 9).unwrap())
+        };
+        let (a, b) = (on(1), on(2));
+        let bits = |s: &[Sphere]| -> Vec<u64> {
+            s.iter()
+                .flat_map(|x| [x.centre.x, x.centre.y, x.centre.z, x.radius].map(f64::to_bits))
+                .collect()
+        };
+        assert_eq!(bits(&a), bits(&b));
+        // A bound on the overlap takes optimize alone, and ≥ 1.
+        assert!(fit_with(&m, 6, Method::Kmeans, 9, Some(1.2))
+            .unwrap_err()
+            .contains("optimize"));
+        assert!(fit_with(&m, 6, Method::Optimize, 9, Some(0.5))
+            .unwrap_err()
+            .contains("≥ 1"));
     }
 
     #[test]

@@ -373,3 +373,166 @@ fn eval_direct_light_never_answers_negative_radiance() {
     assert!(v.iter().all(|&r| r >= 0.0), "{v:?}");
     assert_eq!(v[0], 0.0, "the overshooting point clamps to 0");
 }
+
+/// `lobefit spheres --method optimize` (the default) on the bunny at 64 spheres meets
+/// the fit's targets against the sampled quality (its own, independent samples):
+/// volume error ≤ 0.10 with the mesh → spheres Hausdorff distance ≤ 0.05 of the
+/// diagonal; with `--max-overlap 1.2` the overlap stays within 1.2 (to the sampling's
+/// 1 %) at a volume error ≤ 0.15. Measured: 0.084 / 0.027; 0.136 at overlap 1.19
+/// (kmeans: 0.41).
+#[test]
+fn optimize_fits_the_bunny_at_the_targets() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("s.json");
+    let o = out.to_str().unwrap();
+    for (extra, max_error, max_overlap) in [
+        (&[][..], 0.10, f64::INFINITY),
+        (&["--max-overlap", "1.2"][..], 0.15, 1.21),
+    ] {
+        let mut args = vec![
+            "spheres",
+            "--mesh",
+            "assets/meshes/bunny.obj",
+            "--count",
+            "64",
+            "--out",
+            o,
+        ];
+        args.extend_from_slice(extra);
+        let (code, stdout, stderr) = run_text(&args, "");
+        assert_eq!(code, Some(0), "{stderr}");
+        assert!(stdout.contains("(optimize, seed 0)"), "{stdout}");
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+        let q = &v["quality"];
+        let f = |k: &str| q[k].as_f64().unwrap();
+        assert!(f("volume_error") <= max_error, "{extra:?}: {q}");
+        assert!(f("hausdorff_mesh_to_spheres") <= 0.05 * f("diagonal"), "{extra:?}: {q}");
+        assert!(f("overlap") <= max_overlap, "{extra:?}: {q}");
+    }
+    let (code, _, err) = run_text(
+        &[
+            "spheres",
+            "--mesh",
+            "assets/meshes/bunny.obj",
+            "--count",
+            "8",
+            "--method",
+            "kmeans",
+            "--max-overlap",
+            "1.2",
+            "--out",
+            o,
+        ],
+        "",
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--max-overlap needs --method optimize"), "{err}");
+}
+
+/// A mesh shadows itself through its sphere set: points on the torus knot's tube
+/// (assets/meshes/knot.obj, 64 optimized spheres) under a sky of broad SGs, the ISG
+/// pipeline against `--exact` on the true triangles. Before, a mesh point skipped its
+/// whole set: every point came out unshadowed (26 % median error on the knot under
+/// fig12's sky). Now every point is within 15 % of its unoccluded radiance and the
+/// median within 3 % (the targets), with several points well in shadow.
+#[test]
+#[ignore = "heavy: --exact on the triangles at 16 points (30 s); .ci/run's heavy tests run it"]
+fn a_mesh_shadows_itself_through_its_set() {
+    use lobefit::pipelines::mesh::Mesh;
+    let d = tempfile::tempdir().unwrap();
+    std::fs::copy("assets/meshes/knot.obj", d.path().join("knot.obj")).unwrap();
+    let sky = serde_json::json!({"sgs": [
+        {"axis": [0.3, 0.2, 0.93], "sharpness": 6, "amplitude": 2},
+        {"axis": [-0.6, 0.3, 0.74], "sharpness": 3, "amplitude": 1},
+        {"axis": [0, 0, 1], "sharpness": 1, "amplitude": 0.5}]});
+    let scene = |meshes: serde_json::Value| serde_json::json!({"version": 2, "environment": sky, "brdf": {"lambert": {"albedo": 0.8}}, "meshes": meshes});
+    let with = d.path().join("knot.json");
+    let knot =
+        serde_json::json!([{"file": "knot.obj", "material": {"lambert": {"albedo": 0.8}}, "spheres": {"count": 64}}]);
+    std::fs::write(&with, scene(knot).to_string()).unwrap();
+    let open = d.path().join("open.json");
+    let mut o = scene(serde_json::json!([]));
+    o["version"] = 1.into();
+    o.as_object_mut().unwrap().remove("meshes");
+    std::fs::write(&open, o.to_string()).unwrap();
+    // 16 triangles' centroids, evenly through the file, facing up a little at least.
+    let mesh = Mesh::load(std::path::Path::new("assets/meshes/knot.obj")).unwrap();
+    let mut rows = String::from("px,py,pz,nx,ny,nz,vx,vy,vz\n");
+    let mut k = 0;
+    let mut taken = 0;
+    while taken < 16 {
+        let [a, b, c] = mesh.corners(k);
+        let n = mesh.normal(k);
+        k += 467;
+        k %= mesh.triangles.len();
+        if n.z < 0.2 {
+            continue;
+        }
+        let p = (a + b + c) / 3.0;
+        rows.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{}\n",
+            p.x, p.y, p.z, n.x, n.y, n.z, n.x, n.y, n.z
+        ));
+        taken += 1;
+    }
+    let eval = |scene: &std::path::Path, exact: bool| {
+        let mut args = vec!["eval", "isg-shade", "--scene", scene.to_str().unwrap()];
+        if exact {
+            args.push("--exact");
+        }
+        let (code, stdout, stderr) = run_text(&args, &rows);
+        assert_eq!(code, Some(0), "{stderr}");
+        crate::common::last_column(&stdout)
+    };
+    let (isg, exact, unoccluded) = (eval(&with, false), eval(&with, true), eval(&open, false));
+    let mut err: Vec<f64> = isg
+        .iter()
+        .zip(&exact)
+        .zip(&unoccluded)
+        .map(|((a, b), u)| (a - b).abs() / u)
+        .collect();
+    let shadowed = exact.iter().zip(&unoccluded).filter(|(e, u)| **e < 0.8 * **u).count();
+    println!("isg {isg:?}\nexact {exact:?}\nunoccluded {unoccluded:?}");
+    err.sort_by(f64::total_cmp);
+    assert!(shadowed >= 4, "{shadowed} points in shadow");
+    assert!(
+        err[err.len() - 1] <= 0.15 && err[err.len() / 2] <= 0.03,
+        "errors / unoccluded {err:?}"
+    );
+}
+
+/// SH exponentiation refused the bunny's 256-sphere k-means set (the overlaps push its
+/// mean visibility past 1.25); the overlap-limited optimize set (`max_overlap` 1.2)
+/// renders.
+#[test]
+#[ignore = "heavy: a 256-sphere fit and a render (10 s); .ci/run's heavy tests run it"]
+fn shexp_renders_the_overlap_limited_bunny() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::copy("assets/meshes/bunny.obj", d.path().join("bunny.obj")).unwrap();
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string("assets/meshes/shexp-bunny.json").unwrap()).unwrap();
+    scene["meshes"][0]["spheres"] = serde_json::json!({"count": 256, "method": "optimize", "max_overlap": 1.2});
+    let p = d.path().join("bunny256.json");
+    std::fs::write(&p, scene.to_string()).unwrap();
+    let out = d.path().join("out");
+    let args = [
+        "render",
+        "shexp",
+        "--scene",
+        p.to_str().unwrap(),
+        "--width",
+        "16",
+        "--spp",
+        "16",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let (code, stdout, stderr) = run_text(&args, "");
+    assert_eq!(code, Some(0), "{stderr}");
+    crate::common::assert_summary_last(&stdout, "shexp bunny256 16×12");
+    scene["meshes"][0]["spheres"] = serde_json::json!({"count": 256, "method": "kmeans", "seed": 1});
+    std::fs::write(&p, scene.to_string()).unwrap();
+    let (code, _, stderr) = run_text(&args, "");
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("too many overlapping"), "{stderr}");
+}
