@@ -506,6 +506,25 @@ pub fn breakdown(tag: &str, from: &str, names: &[&str], parts: &[Vec<f64>], mean
     lines
 }
 
+/// A breakdown stage (`name`, stage `k` of `parts`: `parts[i][k] − parts[i][k + 1]`)
+/// on the pixels that see a mesh (`on[i]`) and on those that do not, each its RMS
+/// relative to the same `mean` as the whole breakdown: the sphere proxy's error on a
+/// mesh (its self-shadowing) and off it (its shadow on the rest) apart.
+pub fn split_stage(tag: &str, name: &str, parts: &[Vec<f64>], k: usize, on: &[bool], mean: f64) -> String {
+    let rms = |want: bool| {
+        let d: Vec<f64> = parts
+            .iter()
+            .zip(on)
+            .filter(|(_, &o)| o == want)
+            .map(|(p, _)| p[k] - p[k + 1])
+            .collect();
+        let r = (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt() / mean;
+        (r, d.len())
+    };
+    let ((a, na), (b, nb)) = (rms(true), rms(false));
+    format!("{tag}:     {name}, split: on the meshes RMS {a:.4} ({na} pixels), off them {b:.4} ({nb} pixels)")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -32,8 +32,13 @@ pub struct ProxyRow {
     /// proxy's error; same samples, so nearly noise-free).
     pub proxy: f64,
     /// [`ProxyRow::proxy`] over the pixels that see no mesh (the mesh's shadow on the
-    /// plane; its self-shadowing, which its own sphere set cannot give, left out).
+    /// plane).
     pub proxy_off_mesh: f64,
+    /// [`ProxyRow::proxy`] over the pixels that see the mesh (its self-shadowing
+    /// through its own set against the true triangles'), relative to their mean.
+    pub proxy_on_mesh: f64,
+    /// [`ProxyRow::pipeline`] over the pixels that see the mesh.
+    pub pipeline_on_mesh: f64,
     /// Off-mesh pixels whose point lies inside a sphere of the set (a sphere reaching
     /// through the plane the mesh stands on).
     pub buried: usize,
@@ -166,6 +171,7 @@ pub fn proxy_study(
             let d2: Vec<f64> = sref.iter().zip(&mref).map(|(a, b)| (a - b) * (a - b)).collect();
             let m = &scene.meshes[0];
             let off_mesh: Vec<bool> = hits.iter().map(|h| h.is_some_and(|h| h.mesh.is_none())).collect();
+            let on_mesh: Vec<bool> = hits.iter().map(|h| h.is_some_and(|h| h.mesh.is_some())).collect();
             let mean_off = mean_over(&mref, &off_mesh);
             let inside = |h: &crate::scene::Hit| {
                 scene
@@ -184,6 +190,8 @@ pub fn proxy_study(
                 quality: quality(&m.mesh, &scene.proxies[m.proxy.clone()], quality_samples, 1),
                 proxy: mean_over(&d2, &lit).sqrt() / mean_ref,
                 proxy_off_mesh: mean_over(&d2, &off_mesh).sqrt() / mean_off,
+                proxy_on_mesh: mean_over(&d2, &on_mesh).sqrt() / mean_over(&mref, &on_mesh),
+                pipeline_on_mesh: noise_free_rel_rmse(&img, &sref, &sse, &on_mesh),
                 buried,
                 proxy_clear: mean_over(&d2, &clear).sqrt() / mean_over(&mref, &clear),
                 pipeline: noise_free_rel_rmse(&img, &sref, &sse, &lit),
@@ -207,22 +215,24 @@ impl ProxyStudy {
     pub fn table(&self) -> String {
         let mut s = format!(
             "{}×{} pixels ({} see geometry, {} of them the mesh), {} samples/pixel (mesh reference's standard error {:.4} of its mean)\n\n\
-             | method | spheres | volume error | Hausdorff mesh→spheres / diag | spheres→mesh / diag | proxy error (spheres ref. vs mesh ref.) | proxy error off the mesh | off-mesh pixels inside a sphere | proxy error off the mesh, outside every sphere | pipeline's own error (ISG vs spheres ref.) | ISG vs mesh ref. | ISG µs/pixel |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+             | method | spheres | volume error | Hausdorff mesh→spheres / diag | spheres→mesh / diag | proxy error (spheres ref. vs mesh ref.) | on the mesh | off the mesh | off-mesh pixels inside a sphere | off the mesh, outside every sphere | pipeline's own error (ISG vs spheres ref.) | on the mesh | ISG vs mesh ref. | ISG µs/pixel |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
             self.size.0, self.size.1, self.pixels.0, self.pixels.1, self.spp, self.ref_rel_se
         );
         for r in &self.rows {
             s += &format!(
-                "| {} | {} | {:.3} | {:.4} | {:.4} | {:.4} | {:.4} | {} | {:.4} | {:.4} | {:.4} | {:.1} |\n",
+                "| {} | {} | {:.3} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} |\n",
                 r.method.name(),
                 r.count,
                 r.quality.volume_error,
                 r.quality.hausdorff_mesh_to_spheres / r.quality.diagonal,
                 r.quality.hausdorff_spheres_to_mesh / r.quality.diagonal,
                 r.proxy,
+                r.proxy_on_mesh,
                 r.proxy_off_mesh,
                 r.buried,
                 r.proxy_clear,
                 r.pipeline,
+                r.pipeline_on_mesh,
                 r.total,
                 r.us_per_pixel
             );
@@ -252,8 +262,13 @@ mod tests {
                 .ok()
                 .and_then(|v| v.parse().ok())
                 .unwrap_or(4096),
-            &Method::ALL,
-            &[8, 16, 32, 64, 128, 256],
+            // LF_METHODS (comma-separated names), LF_COUNTS: the rows (default: all).
+            &std::env::var("LF_METHODS").map_or(Method::ALL.to_vec(), |v| {
+                v.split(',').map(|m| Method::parse(m).unwrap()).collect()
+            }),
+            &std::env::var("LF_COUNTS").map_or(vec![8, 16, 32, 64, 128, 256], |v| {
+                v.split(',').map(|n| n.parse().unwrap()).collect()
+            }),
             100_000,
         )
         .unwrap();

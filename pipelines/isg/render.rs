@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Specular, Tables};
 use super::{reference, PIPELINE};
 use crate::estimate::per_pixel;
-use crate::image::{breakdown, compare, noise_free_rel_rmse};
+use crate::image::{breakdown, compare, noise_free_rel_rmse, split_stage};
 use crate::render::{column, shade_image, Frame, Reference, Strongest, Subset};
 use crate::scene::{Hit, Scene};
 use crate::timing::timed;
@@ -209,6 +209,20 @@ fn render_scene(
         sub.mean,
         f.stride(),
     ));
+    if !scene.meshes.is_empty() {
+        let on: Vec<bool> = picks
+            .iter()
+            .map(|&p| f.hits[p].is_some_and(|h| h.mesh.is_some()))
+            .collect();
+        sum.lines.push(split_stage(
+            &f.tag,
+            "sphere sets → true meshes",
+            &parts,
+            names.len() - 1,
+            &on,
+            sub.mean,
+        ));
+    }
 
     let eq = r.equal_error(&f, t_best, rmse_best);
     sum.lines.push(format!(

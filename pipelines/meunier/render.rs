@@ -828,6 +828,21 @@ fn light_breakdown(
         let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 / mean_ref;
         lines.push(format!("{tag}:   {name}: RMS {:.4}, mean {bias:+.4}", rms_of(&d)));
     }
+    if stages == 6 {
+        let on: Vec<bool> = picks
+            .iter()
+            .map(|&p| hits[p].is_some_and(|h| h.mesh.is_some()))
+            .collect();
+        let parts: Vec<Vec<f64>> = chain.iter().map(|c| c.to_vec()).collect();
+        lines.push(crate::image::split_stage(
+            tag,
+            "sphere sets → true meshes",
+            &parts,
+            5,
+            &on,
+            mean_ref,
+        ));
+    }
     if light_model == LightModel::Lobe {
         // The studied fitted coaxial lobes in place of the paper's, by the same rule.
         for k in 0..light_fit::MAX_LOBES {

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use super::shade::{radiance, sh_value, BlockerLog, BrdfMode, ExactCaps, Exp, Horizon, Overlap, Settings, Tables};
 use super::{light, light_sh, reference, PIPELINE};
 use crate::estimate::{per_pixel, Estimate};
-use crate::image::{breakdown, compare, noise_free_rel_rmse};
+use crate::image::{breakdown, compare, noise_free_rel_rmse, split_stage};
 use crate::render::{column, shade_image, Frame, Reference, Strongest, Subset};
 use crate::scene::{Hit, Scene};
 use crate::sky::Phong;
@@ -238,6 +238,20 @@ fn render_scene(
     };
     sum.lines
         .extend(breakdown(&f.tag, "the defaults", &names, &chain, mean_sub, f.stride()));
+    if !scene.meshes.is_empty() {
+        let on: Vec<bool> = picks
+            .iter()
+            .map(|&p| f.hits[p].is_some_and(|h| h.mesh.is_some()))
+            .collect();
+        sum.lines.push(split_stage(
+            &f.tag,
+            "sphere sets → true meshes",
+            &chain,
+            5,
+            &on,
+            mean_sub,
+        ));
+    }
 
     let eq = r.equal_error(&f, t_pipe, rmse_pipe);
     sum.lines.push(format!(

@@ -126,9 +126,15 @@ fn proxy_rows(pipeline: &str, scene: &str, width: &str, stride: &str) -> (String
         "",
     );
     assert_eq!(code, Some(0), "{stdout}{stderr}");
+    // Each proxy row is followed by its split on and off the meshes.
+    let splits = stdout
+        .lines()
+        .filter(|l| l.contains("sphere sets → true meshes, split: on the meshes RMS "))
+        .count();
+    assert!(splits >= 1, "{stdout}");
     let rms = stdout
         .lines()
-        .filter(|l| l.contains("sphere sets → true meshes"))
+        .filter(|l| l.contains("sphere sets → true meshes") && !l.contains(", split:"))
         .map(|row| {
             let v = row.split("RMS ").nth(1).and_then(|r| r.split(',').next());
             v.and_then(|v| v.parse().ok())
