@@ -261,6 +261,21 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Fit an HDR environment map (equirectangular OpenEXR or Radiance .hdr; z up, row
+    /// 0 the zenith, docs/environment.md) with K RGB spherical Gaussians, and measure
+    /// them against the map and against SH of orders 3 and 5.
+    FitEnv {
+        /// The map (.exr or .hdr).
+        #[arg(long)]
+        map: PathBuf,
+        /// Number of SGs (a sun, if the map has one, is the first).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
+        sgs: u32,
+        /// The SG list to write (JSON: `{"sgs": [...], ...}`, pastes into a scene's
+        /// `environment`).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Write a family's figures (PNG) into a directory.
     Plot {
         /// Figure set.
@@ -861,6 +876,7 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             }
             spheres(&mesh, count as usize, method, seed, samples as usize, max_overlap, &out)?
         }
+        Command::FitEnv { map, sgs, out } => fit_env(&map, sgs as usize, &out)?,
         Command::Plot { name, out } => {
             let (_, plot) = lobefit::catalog::plots()
                 .into_iter()
@@ -1000,6 +1016,69 @@ fn spheres(
         q.overlap,
         out.display()
     ))
+}
+
+/// `lobefit fit-env`: read, fit, measure, write, report.
+fn fit_env(map_path: &Path, k: usize, out: &Path) -> Result<(), String> {
+    use lobefit::pipelines::envmap::{evaluate, fit, EnvMap, GLOSSY};
+    out_file("--out", out)?;
+    let map = EnvMap::load(map_path)?;
+    let t0 = Instant::now();
+    let f = fit(&map, k).map_err(|e| format!("map {}: {e}", map_path.display()))?;
+    let t_fit = t0.elapsed().as_secs_f64();
+    let r = evaluate(&map, &f.sgs);
+    let json = serde_json::json!({
+        "sgs": f.sgs,
+        "source": {
+            "map": map_path.display().to_string(),
+            "width": map.width,
+            "height": map.height,
+            "sun": f.sun,
+            "iterations": f.iterations,
+            "seconds": t_fit,
+        },
+        "report": r,
+    });
+    let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
+    lobefit::io::write_atomic(out, text.as_bytes()).map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{}: {} × {} texels{}; {k} SGs{} in {t_fit:.2} s ({} LM iterations)",
+        map_path.display(),
+        map.width,
+        map.height,
+        if map.negative > 0.0 {
+            format!(
+                " (negative texels set to 0: {:.2e} of the absolute energy)",
+                map.negative
+            )
+        } else {
+            String::new()
+        },
+        if f.sun {
+            format!(" (the first a sun, sharpness {:.0})", f.sgs[0].sharpness)
+        } else {
+            String::new()
+        },
+        f.iterations
+    );
+    let _ = writeln!(
+        s,
+        "{:<28} {:>10} {:>10} {:>10}",
+        "luminance, relative", "SGs", "SH 3", "SH 5"
+    );
+    let row = |s: &mut String, what: &str, v: [String; 3]| {
+        let _ = writeln!(s, "{what:<28} {:>10} {:>10} {:>10}", v[0], v[1], v[2]);
+    };
+    row(&mut s, "radiance L2", r.radiance.map(|x| format!("{x:.4}")));
+    row(&mut s, "irradiance median", r.irradiance.map(|x| format!("{:.4}", x.0)));
+    row(&mut s, "irradiance max", r.irradiance.map(|x| format!("{:.4}", x.1)));
+    for (n, g) in GLOSSY.iter().zip(&r.glossy) {
+        row(&mut s, &format!("Phong {n} median"), g.map(|x| format!("{:.4}", x.0)));
+    }
+    let _ = writeln!(s, "wrote {}", out.display());
+    emit(&s)
 }
 
 /// Writes `text` to stdout and flushes it. A closed pipe or a full disk becomes an

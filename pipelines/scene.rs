@@ -1290,7 +1290,9 @@ struct FileEnvironment {
 struct FileSg {
     axis: [f64; 3],
     sharpness: f64,
-    amplitude: f64,
+    /// A radiance, or linear RGB `[r, g, b]` (`lobefit fit-env`'s lobes): the
+    /// pipelines shade its Rec. 709 luminance.
+    amplitude: serde_json::Value,
 }
 
 #[derive(Deserialize)]
@@ -2009,9 +2011,27 @@ impl Checker<'_> {
                 return Err(self.err(format!("{what}.axis is the zero vector")));
             }
             let sharpness = self.positive(&format!("{what}.sharpness"), g.sharpness)?;
-            self.radiance(&format!("{what}.amplitude"), g.amplitude)?;
+            let at = format!("{what}.amplitude");
+            let amplitude = match &g.amplitude {
+                serde_json::Value::Array(c) if c.len() == 3 => {
+                    let mut rgb = [0.0; 3];
+                    for (q, v) in c.iter().enumerate() {
+                        let x = v.as_f64().ok_or_else(|| {
+                            self.err(format!("{at}[{q}] is {v}: expected a number (linear RGB radiance)"))
+                        })?;
+                        rgb[q] = self.radiance(&format!("{at}[{q}]"), x)?;
+                    }
+                    crate::envmap::luminance(rgb)
+                }
+                v => {
+                    let x = v.as_f64().ok_or_else(|| {
+                        self.err(format!("{at} is {v}: expected a radiance or [r, g, b] (linear RGB)"))
+                    })?;
+                    self.radiance(&at, x)?
+                }
+            };
             environment
-                .push(Sg::new(axis.normalize(), sharpness, g.amplitude).map_err(|e| self.err(format!("{what}: {e}")))?);
+                .push(Sg::new(axis.normalize(), sharpness, amplitude).map_err(|e| self.err(format!("{what}: {e}")))?);
         }
         Ok(environment)
     }

@@ -9,6 +9,7 @@ mod cli_io;
 mod committed_tables;
 mod common;
 mod disk_light;
+mod envmap;
 mod eps_study;
 mod eval_direct_light;
 mod eval_memory;
