@@ -310,7 +310,7 @@ fn cube_scene(dir: &Path, count: usize) -> std::path::PathBuf {
                 {{"axis": [0.6, 0, 0.8], "sharpness": 40, "amplitude": 3}}]}},
                 "brdf": {{"lambert": {{"albedo": 0.8}}}},
                 "meshes": [{{"file": "cube.obj", "material": {{"lambert": {{"albedo": 0.5}}}},
-                             "spheres": {{"count": {count}}}}}]}}"#
+                             "spheres": {{"count": {count}, "method": "kmeans"}}}}]}}"#
         ),
     )
     .unwrap();
@@ -688,8 +688,8 @@ fn scene_errors_exit_1_whenever_they_are_found() {
         format!(
             r#"{{"version": 2, "environment": {{"sgs": [{{"axis": [0, 0, 1], "sharpness": 2, "amplitude": 1}}]}},
                 "brdf": {{"lambert": {{"albedo": 0.5}}}},
-                "meshes": [{{"file": "cube.obj", "material": {{"lambert": {{"albedo": 0.5}}}}, "spheres": {{"count": 1}},
-                  "transform": {transform}}}]}}"#
+                "meshes": [{{"file": "cube.obj", "material": {{"lambert": {{"albedo": 0.5}}}},
+                  "spheres": {{"count": 1, "method": "kmeans"}}, "transform": {transform}}}]}}"#
         )
     };
     for (transform, want) in [
