@@ -1,20 +1,33 @@
 // lobefit-gpu render isg: the kernel's own functions (prefixed isg_), then its body.
-// The kernel's constants and accessors (NS, NW, NE, sph, env: the data after the
-// N.x pixels' inputs) and its
-// per-patch blocker tests (the placeholder line below, unrolled over the spheres) from
-// gpu/src/isg.rs; the formulas shared with renderers are the shader library's
+// The kernel's constants and accessors (NS, NE, sph, env: the data after the N.x
+// pixels' inputs) and its per-row cap intervals (the placeholder line below, unrolled
+// over the 20 rows a grid may have) from gpu/src/isg.rs; the formulas shared with renderers are the shader library's
 // (lf_isg_best, lf_lobe_to_sg, lf_sg_product, lf_sg_clamped_cosine, lf_isg_cone, ...).
 // Not exported: only lobefit-gpu runs it.
 
-// Whether the cap of sphere s (centre, radius) seen from x covers the direction d.
-fn isg_covers(s: vec4<f32>, x: vec3<f32>, d: vec3<f32>) -> bool {
-    let w = s.xyz - x;
-    return dot(w, d) >= sqrt(max(dot(w, w) - s.w * s.w, 0.0));
+// The columns j < k of a row whose centres lo + (j + 1/2) step lie in [a0, a1], as bits.
+fn isg_columns(a0: f32, a1: f32, lo: f32, step: f32, k: u32) -> u32 {
+    let j0 = i32(clamp(ceil((a0 - lo) / step - 0.5), 0.0, 32.0));
+    let j1 = i32(clamp(floor((a1 - lo) / step - 0.5), -1.0, f32(k) - 1.0));
+    if j0 > j1 {
+        return 0u;
+    }
+    return ((2u << u32(j1)) - 1u) & ~((1u << u32(j0)) - 1u);
 }
 
 // The visible integral of g: `total` minus g over the occluded patches of its cone;
 // with `cosine`, each occluded patch weighted by max(n.d, 0) / cs(d) and patches below
 // the horizon not counted (the CPU's visible_with).
+//
+// Laid out for the hardware (and for llvmpipe's budget of 65 535 loop iterations an
+// invocation): the blockers whose cap meets the cone are gathered once, and each one's
+// cap written into per-row bit masks of the k x k patch grid in closed form (the
+// placeholder line below, the rows unrolled from gpu/src/isg.rs: a cap covers the
+// centres of row i where a cos(phi) + b sin(phi) >= cos(beta) - c, one interval of
+// phi); the patch loop then
+// reads a bit per patch, no loop over blockers inside it. The best model's separable
+// factors are taken once per grid edge (2 (k + 1) lookups, not 8 per occluded patch):
+// the CPU's per-edge factor cache.
 fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec3<f32>, own: vec2<i32>) -> f32 {
     if g.amplitude == 0.0 {
         return 0.0;
@@ -24,49 +37,82 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
     let z = g.axis;
     let y = lf_any_orthonormal(z);
     let xa = cross(y, z);
-    // The blockers whose cap meets the cone, as a bit mask. (llvmpipe ends any loop
-    // after 65 535 iterations of an invocation: a loop over these blockers inside the
-    // patch loop went past that at busy pixels, so the test per patch is unrolled.)
-    var mask = array<u32, NW>();
+    let k = u32(clamp(ceil(2.0 * cone * sqrt(gamma) * 3.0), 10.0, 20.0));
+    let lo = 0.5 * LF_PI - cone;
+    let step = 2.0 * cone / f32(k);
+    // The rows' (sin, cos) of their centres' polar angle, taken once for every cap.
+    var trig = array<vec2<f32>, 20>();
+    for (var i = 0u; i < k; i++) {
+        let th = lo + (f32(i) + 0.5) * step;
+        trig[i] = vec2<f32>(sin(th), cos(th));
+    }
+    // Bit j of rows[i]: a blocker's cap covers the centre of patch (i, j).
+    var rows = array<u32, 20>();
+    var any = 0u;
     for (var b = 0u; b < NS; b++) {
         let s = sph(b);
         let w = s.xyz - x;
         let d = length(w);
-        if !own_proxy(b, own, d, s.w) && d > s.w {
-            if lf_angle_between(w / d, z) <= cone + lf_asin(s.w / d) {
-                mask[b / 32u] |= 1u << (b % 32u);
-            }
+        if own_proxy(b, own, d, s.w) || d <= s.w {
+            continue;
         }
+        let u = w / d;
+        if lf_angle_between(u, z) > cone + lf_asin(s.w / d) {
+            continue;
+        }
+        // The patch centre d(th, ph) = xa sin th cos ph + y cos th + z sin th sin ph is
+        // covered where dot(u, d) >= cos(beta), cos(beta) = sqrt(1 - (r/d)^2).
+        let cb = sqrt(max(1.0 - (s.w / d) * (s.w / d), 0.0));
+        let ux = dot(u, xa);
+        let uy = dot(u, y);
+        let uz = dot(u, z);
+    //#ISG_ROWS
     }
-    let k = u32(clamp(ceil(2.0 * cone * sqrt(gamma) * 3.0), 10.0, 20.0));
-    let lo = 0.5 * LF_PI - cone;
-    let step = 2.0 * cone / f32(k);
+    // Whether the tangent plane may hide a patch centre (the CPU's `horizon`): not with
+    // the cosine (a direction below it weighs 0 there), nor where the grid lies wholly
+    // above it (within acos(cos^2 cone) of the axis). Else only covered patches count.
+    let cc = cos(cone);
+    let horizon = !cosine && lf_angle_between(n, z) + acos(clamp(cc * cc, -1.0, 1.0)) >= 0.5 * LF_PI - 1e-6;
+    // The separable factors at the grid's edges, once each.
+    var ft = array<vec2<f32>, 21>();
+    var fp = array<vec2<f32>, 21>();
+    if any != 0u || horizon {
+        let e_gamma = lf_one_minus_exp_neg(gamma);
+        for (var e = 0u; e <= k; e++) {
+            let a = clamp(lo + f32(e) * step, 0.0, LF_PI);
+            ft[e] = lf_isg_best_factor(T, S, P, 0u, a, gamma, e_gamma);
+            fp[e] = lf_isg_best_factor(T, S, P, 1u, a, gamma, e_gamma);
+        }
+    } else {
+        return total;
+    }
     let norm = lf_isg_normaliser(gamma);
     var hidden = 0.0;
     for (var i = 0u; i < k; i++) {
-        let th = lo + (f32(i) + 0.5) * step;
-        let st = sin(th);
-        let ct = cos(th);
+        let st = trig[i].x;
+        let ct = trig[i].y;
+        let row = rows[i];
+        if row == 0u && !horizon {
+            continue;
+        }
         for (var j = 0u; j < k; j++) {
-            let ph = lo + (f32(j) + 0.5) * step;
-            let d = xa * (st * cos(ph)) + y * ct + z * (st * sin(ph));
+            let blocked = ((row >> j) & 1u) != 0u;
+            if !horizon && !blocked {
+                continue;
+            }
+            // Columns share the rows' centres: (sin, cos) of phi_j is trig[j].
+            let d = xa * (st * trig[j].y) + y * ct + z * (st * trig[j].x);
             let c = dot(n, d);
-            var blocked = false;
-BLOCKED_TESTS            var wgt = 0.0;
+            var wgt = 0.0;
             if cosine {
-                if c > 0.0 && blocked {
+                if c > 0.0 {
                     wgt = c / lf_sg_eval(cs, d);
                 }
             } else if c <= 0.0 || blocked {
                 wgt = 1.0;
             }
             if wgt != 0.0 {
-                let t1 = clamp(lo + f32(i) * step, 0.0, LF_PI);
-                let t2 = clamp(lo + f32(i + 1u) * step, 0.0, LF_PI);
-                let p1 = clamp(lo + f32(j) * step, 0.0, LF_PI);
-                let p2 = clamp(lo + f32(j + 1u) * step, 0.0, LF_PI);
-                let sh = lf_isg_best(T, S, P, t2, p2, gamma) - lf_isg_best(T, S, P, t1, p2, gamma)
-                    - lf_isg_best(T, S, P, t2, p1, gamma) + lf_isg_best(T, S, P, t1, p1, gamma);
+                let sh = dot(ft[i + 1u], fp[j + 1u]) - dot(ft[i], fp[j + 1u]) - dot(ft[i + 1u], fp[j]) + dot(ft[i], fp[j]);
                 hidden += wgt * sh * norm;
             }
         }

@@ -242,7 +242,7 @@ fn bench_one(
         "isg" => {
             let sc = lobefit::pipelines::isg::render::scene(scene)?;
             crate::isg::check_sharpness(&sc)?;
-            crate::isg::check_scene(gpu.loop_budget, &sc, "bench isg", false)?;
+            crate::isg::check_scene(gpu.loop_budget, &sc, "bench isg")?;
             let method = format!(
                 "ISG best, adaptive patches ({} SGs, {} spheres)",
                 sc.environment.len(),
@@ -251,7 +251,7 @@ fn bench_one(
             (
                 method,
                 timed(gpu, "isg", || {
-                    Ok(crate::isg::render_isg(gpu, &ex.isg, &sc, width, false, png)?.rms)
+                    Ok(crate::isg::render_isg(gpu, &ex.isg, &sc, width, png)?.rms)
                 })?,
             )
         }
@@ -468,7 +468,7 @@ fn monte_carlo(
         let (sc, values) = match *pipeline {
             "isg" => {
                 let sc = lobefit::pipelines::isg::render::scene(scene)?;
-                let v = crate::isg::render_isg(gpu, &ex.isg, &sc, width, false, &png)?.values;
+                let v = crate::isg::render_isg(gpu, &ex.isg, &sc, width, &png)?.values;
                 hybrid = Some("isg");
                 (sc, v)
             }

@@ -21,8 +21,7 @@ pub struct Gpu {
     /// bench then times kernels on the device's clock, else by wall clock.
     pub timestamps: bool,
     /// llvmpipe's loop budget ([`crate::budget::LOOP_LIMIT`]) on a CPU adapter
-    /// (lavapipe), `None` on a GPU: the renders refuse scenes over it, and the ISG
-    /// kernel unrolls its per-patch blocker test only where it applies.
+    /// (lavapipe), `None` on a GPU: the renders refuse scenes over it.
     pub loop_budget: Option<u64>,
     /// Bench mode ([`Gpu::bench_frames`]): frames to time per dispatch, and what was
     /// timed.

@@ -7,13 +7,13 @@
 //! the exact clamped cosine) in f32: the library's `lf_isg_best`, `lf_lobe_to_sg`,
 //! `lf_sg_product`, `lf_sg_clamped_cosine`, `lf_isg_cone`, `lf_any_orthonormal`, and
 //! the patch loop. The scene's blockers (its spheres, then its meshes' sphere sets:
-//! `Scene::proxies`) and SGs follow the pixels in the input buffer; the per-patch
-//! blocker test is unrolled over the blockers (their values as literals):
-//! llvmpipe ends an invocation's loops after 65 535 iterations in all, which a loop
-//! over the blockers inside the patch loop exceeded at busy pixels. So the scene's
-//! spheres are capped ([`MAX_SPHERES`]: the unrolled test's compilation grows as
-//! their square), and the loops left are bounded before dispatch and checked after
-//! it (`crate::budget`).
+//! `Scene::proxies`) and SGs follow the pixels in the input buffer. Per SG product the
+//! blockers meeting its cone are gathered once and each cap written into per-row bit
+//! masks of the patch grid in closed form (the rows as statements: llvmpipe ends an
+//! invocation's loops after 65 535 iterations in all), so the patch loop reads a bit
+//! per patch with no loop over blockers inside; the best model's separable factors are
+//! taken once per grid edge. The loops left are bounded before dispatch and checked
+//! after it (`crate::budget`).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -48,12 +48,6 @@ pub struct Args {
     /// pipeline; the frames go to OUT's stem with `-frame-KKK.png`.
     #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
     frames: Option<u32>,
-    /// The per-patch blocker test as a GPU runs it (a loop over the set bits of the
-    /// cone's blocker mask) on any adapter. On llvmpipe, whose loop budget that loop
-    /// spends, small scenes only (refused before dispatch otherwise): CI checks the
-    /// GPU's form so.
-    #[arg(long)]
-    looped: bool,
 }
 
 /// `render isg`.
@@ -69,21 +63,14 @@ fn run(a: Args) -> Result<ExitCode, String> {
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::isg::render::scene(&a.scene)?;
     check_sharpness(&sc)?;
-    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| {
-        check_scene(budget, &sc, "render isg", a.looped)
-    })?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| check_scene(budget, &sc, "render isg"))?;
     if let Some(n) = a.frames {
         return crate::render::animate("render isg", &sc, n as usize, &gpu, &a.out, |still, path| {
-            render_isg(&gpu, &ex, still, a.width as usize, a.looped, path)
+            render_isg(&gpu, &ex, still, a.width as usize, path)
         });
     }
-    let r = render_isg(&gpu, &ex, &sc, a.width as usize, a.looped, &a.out)?;
-    let what = if a.looped {
-        format!("{} (the looped blocker test)", a.scene)
-    } else {
-        a.scene.clone()
-    };
-    crate::render::report("render isg", &what, &r, &gpu, &a.out)
+    let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out)?;
+    crate::render::report("render isg", &a.scene, &r, &gpu, &a.out)
 }
 
 /// Default image width (height 3/4 of it).
@@ -92,36 +79,13 @@ pub const WIDTH: u32 = 64;
 /// f32 inputs per pixel.
 const INPUTS: usize = 14;
 
-/// Spheres the kernel takes: its per-patch blocker test is unrolled over them (each
-/// one a line of WGSL with its values), whose compilation grows about as their
-/// square (measured on llvmpipe: 128 spheres 2.4 s, 256 spheres 4.5 s and 273 MB for
-/// a 4 × 3 image; 1000 spheres 46 s, 4000 spheres 471 s and 2.86 GB).
-pub const MAX_SPHERES: usize = 256;
-
 /// Refuses a scene a device with loop budget `budget` ([`Gpu::loop_budget`]: llvmpipe's,
-/// or none on a GPU) cannot render: under a budget more than [`MAX_SPHERES`] blocker
-/// spheres (its spheres and its meshes' sphere sets; the meshes' triangles are only
-/// seen, traced on the CPU), or pixels that may need more loop iterations than it
-/// (with the `looped` blocker test, its loops counted too).
-pub fn check_scene(
-    budget: Option<u64>,
-    scene: &lobefit::pipelines::scene::Scene,
-    command: &str,
-    looped: bool,
-) -> Result<(), String> {
-    if budget.is_some() && scene.proxies.len() > MAX_SPHERES {
-        return Err(format!(
-            "{command}: scene {} has {} blocker spheres (spheres and the meshes' sphere sets); on a CPU adapter \
-             the kernel takes at most {MAX_SPHERES} (its per-patch blocker test is unrolled over them, and \
-             compiling it grows as their square)",
-            scene.name,
-            scene.proxies.len()
-        ));
-    }
+/// or none on a GPU) cannot render: pixels that may need more loop iterations than it.
+pub fn check_scene(budget: Option<u64>, scene: &lobefit::pipelines::scene::Scene, command: &str) -> Result<(), String> {
     budget::refuse_over(
         budget,
         command,
-        iterations(scene.proxies.len(), scene.environment.len(), looped),
+        iterations(scene.proxies.len(), scene.environment.len()),
         &format!(
             "{} SGs, {} blocker spheres",
             scene.environment.len(),
@@ -176,15 +140,13 @@ pub const FAMILIES: (&[&str], &str) = (
 );
 
 /// An upper bound on the loop iterations of one pixel's kernel (`crate::budget`): the
-/// SG loop; per SG the clamped cosine and, per BRDF term (diffuse, specular), the
-/// blocker gather over every sphere and the patch loops (k ≤ 20 per side), with the
-/// `looped` blocker test per patch its loop over the mask's words and their set bits
-/// (≤ 2 per word + 1 per sphere); the sentinel.
-pub fn iterations(spheres: usize, sgs: usize, looped: bool) -> u64 {
+/// buried test over the blockers; the SG loop; per SG the clamped cosine and, per BRDF
+/// term (diffuse, specular), the rows' trigonometry (k ≤ 20), the gather over every
+/// blocker (its grid rows are statements), the edge factors (k + 1 ≤ 21) and the patch
+/// loops (k ≤ 20 per side); the sentinel.
+pub fn iterations(spheres: usize, sgs: usize) -> u64 {
     let (ns, ne) = (spheres as u64, sgs as u64);
-    let per_patch = if looped { 2 * (ns.div_ceil(32) + 1) + ns } else { 0 };
-    let term = (ns + 1) + (MAX_PATCHES + 1) + MAX_PATCHES * (MAX_PATCHES + 1) + MAX_PATCHES * MAX_PATCHES * per_patch;
-    // The buried test's loop over the blockers, then the SGs'.
+    let term = (MAX_PATCHES + 1) + (ns + 1) + (MAX_PATCHES + 2) + (MAX_PATCHES + 1) + MAX_PATCHES * (MAX_PATCHES + 1);
     (ns + 1) + (ne + 1) + ne * (CLAMPED_COSINE_ITERATIONS + 2 * term) + 2
 }
 
@@ -197,22 +159,46 @@ fn texture<'a>(export: &'a VerifiedExport, kind: &str) -> Result<(&'a TextureEnt
 /// The kernel's functions and body (gpu/shaders/isg.wgsl).
 const SHADER: &str = include_str!("../shaders/isg.wgsl");
 
-/// The per-patch blocker test on a GPU: the blockers of the cone's mask, a set bit at
-/// a time, read from the input buffer.
-const LOOPED_TEST: &str = "            for (var w = 0u; w < NW && !blocked; w++) {
-                var bits = mask[w];
-                while bits != 0u && !blocked {
-                    let t = firstTrailingBit(bits);
-                    bits &= bits - 1u;
-                    blocked = isg_covers(sph(32u * w + t), x, d);
-                }
-            }
-";
+/// The line of gpu/shaders/isg.wgsl that [`row_test`]'s rows replace.
+const ROWS_PLACEHOLDER: &str = "    //#ISG_ROWS\n";
 
-/// The kernel's per-product visible integral (the CPU's `visible_with`) and its body;
-/// the per-patch blocker test `unrolled` (llvmpipe's loop budget) or a loop over the
-/// set bits of the cone's blocker mask (a GPU).
-fn source(scene: &lobefit::pipelines::scene::Scene, unrolled: bool) -> Result<(String, String), String> {
+/// One row of the patch grid's cap masks ([`ROWS_PLACEHOLDER`] in gpu/shaders/isg.wgsl, written
+/// out for each of the grid's at most [`MAX_PATCHES`] rows: llvmpipe counts the
+/// iterations of every loop, so the rows are statements, not a loop): the patch centres
+/// of row `i` covered by the current cap, one interval of φ (and its turns by ±2π),
+/// ORed into `rows[i]`.
+fn row_test(i: u64) -> String {
+    format!(
+        "        if {i}u < k {{
+            let st = trig[{i}].x;
+            let ct = trig[{i}].y;
+            let a = ux * st;
+            let bb = uz * st;
+            let r = sqrt(a * a + bb * bb);
+            let q = cb - uy * ct;
+            if r > q {{
+                var m = 0xffffffffu;
+                if -r < q {{
+                    let ph0 = atan2(bb, a);
+                    // acos(q / r) as an atan2: acos of an f32 ratio near ±1 loses the
+                    // half-width (fig12-diffuse: RMS 9.8e-5 of the peak against the CPU
+                    // with acos on llvmpipe, 4.0e-6 with this).
+                    let al = atan2(sqrt(max(r * r - q * q, 0.0)), q);
+                    m = isg_columns(ph0 - al, ph0 + al, lo, step, k)
+                        | isg_columns(ph0 - al + 2.0 * LF_PI, ph0 + al + 2.0 * LF_PI, lo, step, k)
+                        | isg_columns(ph0 - al - 2.0 * LF_PI, ph0 + al - 2.0 * LF_PI, lo, step, k);
+                }}
+                m &= (1u << k) - 1u;
+                rows[{i}] |= m;
+                any |= m;
+            }}
+        }}
+"
+    )
+}
+
+/// The kernel's per-product visible integral (the CPU's `visible_with`) and its body.
+fn source(scene: &lobefit::pipelines::scene::Scene) -> Result<(String, String), String> {
     if scene.proxies.is_empty() {
         return Err(format!(
             "scene {}: render isg needs at least one sphere or mesh",
@@ -221,53 +207,32 @@ fn source(scene: &lobefit::pipelines::scene::Scene, unrolled: bool) -> Result<(S
     }
     // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
     // pixels' inputs in the input buffer X (N.x pixels): storage, not constant arrays,
-    // which a kernel would index dynamically. With the looped blocker test the source
-    // depends on the counts of spheres and SGs alone, so the frames of an animation
-    // share one compiled kernel; the unrolled test bakes the spheres in.
+    // which a kernel would index dynamically. The source depends on the counts of
+    // spheres and SGs alone, so the frames of an animation share one compiled kernel.
     let (ns, ne) = (scene.proxies.len(), scene.environment.len());
     let consts = format!(
-        "const NS = {ns}u;\nconst NW = {}u;\nconst NE = {ne}u;\n\
+        "const NS = {ns}u;\nconst NE = {ne}u;\n\
          var<private> isg_flag = 0.0;\n\
          fn sph(b: u32) -> vec4<f32> {{\n    let k = {INPUTS}u * N.x + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
          fn env(e: u32) -> LfSg {{\n    let k = {INPUTS}u * N.x + 4u * NS + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n{}",
-        ns.div_ceil(32),
         crate::render::own_proxy_wgsl(),
     );
     let (functions, body) = split(SHADER);
     let body = body.to_string() + budget::SENTINEL + "    Y[o + 1u] = budget_flag;";
-    let f = |v: f64| format!("{:e}", v as f32);
-    let tests: String = if !unrolled {
-        LOOPED_TEST.to_string()
-    } else {
-        scene
-        .proxies
-        .iter()
-        .enumerate()
-        .map(|(b, sp)| {
-            format!(
-                "            blocked = blocked || ((mask[{}u] & {}u) != 0u && isg_covers(vec4<f32>({}, {}, {}, {}), x, d));\n",
-                b / 32,
-                1u32 << (b % 32),
-                f(sp.centre.x),
-                f(sp.centre.y),
-                f(sp.centre.z),
-                f(sp.radius)
-            )
-        })
-        .collect()
-    };
-    Ok((consts + &functions.replace("BLOCKED_TESTS", &tests), body))
+    let rows: String = (0..MAX_PATCHES).map(row_test).collect();
+    if functions.matches(ROWS_PLACEHOLDER).count() != 1 {
+        return Err(format!("gpu/shaders/isg.wgsl must hold {ROWS_PLACEHOLDER} once"));
+    }
+    Ok((consts + &functions.replace(ROWS_PLACEHOLDER, &rows), body))
 }
 
 /// Renders `scene` (a built-in ISG scene or file) at `width` on the GPU and the CPU;
-/// writes `out` (PNG, radiance / peak, gamma 1/2.2). The per-patch blocker test is
-/// unrolled under a loop budget (llvmpipe) unless `looped`, a loop otherwise.
+/// writes `out` (PNG, radiance / peak, gamma 1/2.2).
 pub fn render_isg(
     gpu: &Gpu,
     export: &VerifiedExport,
     sc: &lobefit::pipelines::scene::Scene,
     width: usize,
-    looped: bool,
     out: &Path,
 ) -> Result<SceneRender, String> {
     let m = &export.manifest;
@@ -299,7 +264,7 @@ pub fn render_isg(
     for g in &sc.environment {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
-    let (extra, body) = source(sc, gpu.loop_budget.is_some() && !looped)?;
+    let (extra, body) = source(sc)?;
     let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
     let got = gpu.run_with(
         &src,
@@ -348,23 +313,23 @@ pub fn render_isg(
 mod tests {
     use super::*;
 
-    /// Both forms of the per-patch blocker test (unrolled for llvmpipe, a loop over
-    /// the mask's set bits for a GPU) parse and validate (naga), and the loop's form
-    /// has no literal sphere in it, so its size does not grow with the scene.
+    /// The kernel parses and validates (naga) with no sphere in its text: the same
+    /// source for any scene of the same counts (an animation's frames share it), its
+    /// size independent of the spheres (306 here).
     #[test]
-    fn both_blocker_tests_validate() {
+    fn the_kernel_validates_and_holds_no_scene_data() {
         let sc = lobefit::pipelines::isg::render::scene("sweep-306").unwrap();
         assert_eq!(sc.proxies.len(), 306);
-        for unrolled in [true, false] {
-            let (extra, body) = source(&sc, unrolled).unwrap();
-            let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
-            if let Err(e) = lobefit::export::shaders::module_of(&src) {
-                panic!("unrolled {unrolled}: {e}");
-            }
-            assert_eq!(
-                extra.matches("isg_covers(vec4<f32>(").count(),
-                if unrolled { 306 } else { 0 }
-            );
+        let (extra, body) = source(&sc).unwrap();
+        let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
+        if let Err(e) = lobefit::export::shaders::module_of(&src) {
+            panic!("{e}");
         }
+        assert!(!extra.contains("vec4<f32>(") || !extra.contains(&format!("{:e}", sc.proxies[0].centre.x as f32)));
+        let mut moved = sc.clone();
+        for s in &mut moved.proxies {
+            s.centre.x += 0.25;
+        }
+        assert_eq!(source(&moved).unwrap(), (extra, body));
     }
 }
