@@ -5,10 +5,11 @@
 // (lf_isg_best, lf_lobe_to_sg, lf_sg_product, lf_sg_clamped_cosine, lf_isg_cone, ...).
 // Not exported: only lobefit-gpu runs it.
 
-// The columns j < k of a row whose centres lo + (j + 1/2) step lie in [a0, a1], as bits.
-fn isg_columns(a0: f32, a1: f32, lo: f32, step: f32, k: u32) -> u32 {
-    let j0 = i32(clamp(ceil((a0 - lo) / step - 0.5), 0.0, 32.0));
-    let j1 = i32(clamp(floor((a1 - lo) / step - 0.5), -1.0, f32(k) - 1.0));
+// The columns j < k of a row whose centres lo + (j + 1/2) / inv lie in [a0, a1], as
+// bits.
+fn isg_columns(a0: f32, a1: f32, lo: f32, inv: f32, k: u32) -> u32 {
+    let j0 = i32(clamp(ceil((a0 - lo) * inv - 0.5), 0.0, 32.0));
+    let j1 = i32(clamp(floor((a1 - lo) * inv - 0.5), -1.0, f32(k) - 1.0));
     if j0 > j1 {
         return 0u;
     }
@@ -40,6 +41,7 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
     let k = u32(clamp(ceil(2.0 * cone * sqrt(gamma) * 3.0), 10.0, 20.0));
     let lo = 0.5 * LF_PI - cone;
     let step = 2.0 * cone / f32(k);
+    let inv = f32(k) / (2.0 * cone);
     // The rows' (sin, cos) of their centres' polar angle, taken once for every cap.
     var trig = array<vec2<f32>, 20>();
     for (var i = 0u; i < k; i++) {
@@ -63,9 +65,13 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
         // The patch centre d(th, ph) = xa sin th cos ph + y cos th + z sin th sin ph is
         // covered where dot(u, d) >= cos(beta), cos(beta) = sqrt(1 - (r/d)^2).
         let cb = sqrt(max(1.0 - (s.w / d) * (s.w / d), 0.0));
+        // Row i's condition a cos(ph) + b sin(ph) >= q: (a, b) = sin(th_i) (ux, uz), of
+        // length r = su sin(th_i) and azimuth ph0 (sin(th_i) > 0 on the grid).
         let ux = dot(u, xa);
         let uy = dot(u, y);
         let uz = dot(u, z);
+        let su = sqrt(ux * ux + uz * uz);
+        let ph0 = atan2(uz, ux);
     //#ISG_ROWS
     }
     // Whether the tangent plane may hide a patch centre (the CPU's `horizon`): not with

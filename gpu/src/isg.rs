@@ -165,28 +165,23 @@ const ROWS_PLACEHOLDER: &str = "    //#ISG_ROWS\n";
 /// One row of the patch grid's cap masks ([`ROWS_PLACEHOLDER`] in gpu/shaders/isg.wgsl, written
 /// out for each of the grid's at most [`MAX_PATCHES`] rows: llvmpipe counts the
 /// iterations of every loop, so the rows are statements, not a loop): the patch centres
-/// of row `i` covered by the current cap, one interval of φ (and its turns by ±2π),
-/// ORed into `rows[i]`.
+/// of row `i` covered by the current cap, one interval of φ about the cap's azimuth
+/// `ph0` (and its turn by 2π: the grid's φ lie in [0, π], the interval's centre in
+/// (−π, π]), ORed into `rows[i]`.
 fn row_test(i: u64) -> String {
     format!(
         "        if {i}u < k {{
-            let st = trig[{i}].x;
-            let ct = trig[{i}].y;
-            let a = ux * st;
-            let bb = uz * st;
-            let r = sqrt(a * a + bb * bb);
-            let q = cb - uy * ct;
+            let r = su * trig[{i}].x;
+            let q = cb - uy * trig[{i}].y;
             if r > q {{
                 var m = 0xffffffffu;
                 if -r < q {{
-                    let ph0 = atan2(bb, a);
                     // acos(q / r) as an atan2: acos of an f32 ratio near ±1 loses the
                     // half-width (fig12-diffuse: RMS 9.8e-5 of the peak against the CPU
                     // with acos on llvmpipe, 4.0e-6 with this).
                     let al = atan2(sqrt(max(r * r - q * q, 0.0)), q);
-                    m = isg_columns(ph0 - al, ph0 + al, lo, step, k)
-                        | isg_columns(ph0 - al + 2.0 * LF_PI, ph0 + al + 2.0 * LF_PI, lo, step, k)
-                        | isg_columns(ph0 - al - 2.0 * LF_PI, ph0 + al - 2.0 * LF_PI, lo, step, k);
+                    m = isg_columns(ph0 - al, ph0 + al, lo, inv, k)
+                        | isg_columns(ph0 - al + 2.0 * LF_PI, ph0 + al + 2.0 * LF_PI, lo, inv, k);
                 }}
                 m &= (1u << k) - 1u;
                 rows[{i}] |= m;
