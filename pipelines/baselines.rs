@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use crate::measure::{spp_at, time_at, Bench, Estimator, Point, Timing};
 use crate::scene::{Hit, Scene};
-use crate::sky::{reference_cv, reference_hybrid, reference_sampled, Phong, Select};
+use crate::sky::{reference_cv, reference_cv_map, reference_hybrid, reference_map, reference_sampled, Phong, Select};
 
 /// `println!` that ignores a closed stdout: the study's progress lines are for a person
 /// watching; the files are its result.
@@ -63,8 +63,23 @@ fn environment(
         let brdf = Phong::of(scene.brdf(hit))?;
         let occluded = |v| scene.occluded(hit, v);
         let light = |v| crate::shexp::lighting::light(scene, v);
-        Ok(match kind {
-            Kind::Plain => reference_sampled(
+        // Under a map the light's strategy is the map's texels, and the control variate
+        // the lobes fitted to it (the hybrids keep the lobes as strategies: unbiased
+        // for any light).
+        let map = scene.environment_map.as_deref();
+        Ok(match (kind, map) {
+            (Kind::Plain | Kind::Qmc, Some(m)) => {
+                let sampling = if kind == Kind::Plain {
+                    Sampling::Plain
+                } else {
+                    Sampling::Qmc
+                };
+                reference_map(sampling, m, light, &brdf, occluded, hit, n, seed)
+            }
+            (Kind::QmcCv(_), Some(m)) => {
+                reference_cv_map(Sampling::Qmc, &scene.environment, m, &brdf, occluded, hit, n, seed)
+            }
+            (Kind::Plain, None) => reference_sampled(
                 Sampling::Plain,
                 &scene.environment,
                 light,
@@ -74,11 +89,13 @@ fn environment(
                 n,
                 seed,
             ),
-            Kind::Qmc => reference_sampled(Sampling::Qmc, &scene.environment, light, &brdf, occluded, hit, n, seed),
-            Kind::QmcCv(select) => {
+            (Kind::Qmc, None) => {
+                reference_sampled(Sampling::Qmc, &scene.environment, light, &brdf, occluded, hit, n, seed)
+            }
+            (Kind::QmcCv(select), None) => {
                 reference_cv(Sampling::Qmc, select, &scene.environment, &brdf, occluded, hit, n, seed)
             }
-            Kind::HybridIsg => {
+            (Kind::HybridIsg, _) => {
                 let t = isg.as_ref().ok_or("the ISG tables")?;
                 let blockers = crate::isg::render::blockers_of(scene, hit);
                 let s = crate::isg::shade::Settings::default();
@@ -96,7 +113,7 @@ fn environment(
                     |w| a.eval(w),
                 )
             }
-            Kind::HybridSh => {
+            (Kind::HybridSh, _) => {
                 let (t, s, l) = sh.as_ref().ok_or("the SH tables")?;
                 let a = crate::shexp::shade::integrand(t, s, l, &brdf, scene, hit)?;
                 reference_hybrid(
@@ -537,8 +554,10 @@ fn study_sky(cfg: &Study, name: &str, isg: bool) -> Result<Vec<std::path::PathBu
     } else {
         crate::shexp::render::scene(name)?
     };
-    // The reference: QMC with the control variate (an SG light), two runs.
-    let kind = if scene.sh_environment.is_none() {
+    // The reference: QMC with the control variate (an SG light), two runs; under a map
+    // or SH, QMC (under a map its texels sampled: the strongest there).
+    let map = scene.environment_map.is_some();
+    let kind = if scene.sh_environment.is_none() && !map {
         Kind::QmcCv(Select::Contribution)
     } else {
         Kind::Qmc
@@ -556,9 +575,15 @@ fn study_sky(cfg: &Study, name: &str, isg: bool) -> Result<Vec<std::path::PathBu
         |kind: Kind, max: usize, adaptive: bool| curve_until(&b, target, max, &environment(&scene, kind)?, adaptive);
     let mut curves = vec![
         ("plain", measure(Kind::Plain, cfg.plain_max, false)?),
-        ("qmc", measure(Kind::Qmc, cfg.qmc_max, false)?),
+        (
+            if map { "qmc-mis-map" } else { "qmc" },
+            measure(Kind::Qmc, cfg.qmc_max, false)?,
+        ),
     ];
-    if scene.sh_environment.is_none() {
+    if map {
+        // The lobes fitted to the map as the control variate (`reference_cv_map`).
+        curves.push(("qmc-cv", measure(Kind::QmcCv(Select::Integral), cfg.qmc_max, false)?));
+    } else if scene.sh_environment.is_none() {
         curves.push(("qmc-cv", measure(Kind::QmcCv(Select::Integral), cfg.qmc_max, false)?));
         curves.push((
             "qmc-cv-mis",

@@ -569,6 +569,9 @@ pub struct Scene {
     /// Distant lighting L(ω) = Σ a_k exp(λ_k (μ_k·ω − 1)) (radiance; not seen by
     /// primary rays): the file's `environment.sgs`, empty if it has none.
     pub environment: Vec<Sg>,
+    /// The map the `environment` lobes were fitted to (`"environment": {"map": FILE,
+    /// "sgs": K}`), the light the references integrate; `None` for a list of lobes.
+    pub environment_map: Option<std::sync::Arc<crate::envmap::LightMap>>,
     /// Distant lighting as an SH function L(ω) = Σ c_i y_i(ω) (radiance; the file's
     /// `sh_environment.coefficients`, n² of them for its order n), if given.
     pub sh_environment: Option<Vec<f64>>,
@@ -715,6 +718,16 @@ pub struct Pose {
 }
 
 impl Scene {
+    /// The distant light's radiance towards `w` (unit): the map's luminance where the
+    /// environment is a map (what the references integrate), else the SGs' sum, else
+    /// 0 (an SH environment is its pipeline's: `shexp::lighting`).
+    pub fn light(&self, w: DVec3) -> f64 {
+        match &self.environment_map {
+            Some(m) => m.luminance(w),
+            None => crate::sky::environment(&self.environment, w),
+        }
+    }
+
     /// The still at `time` of the animation (a parsed scene is the still at time 0): every tracked object moved by its track's translation
     /// at `time` less its translation at 0, the hierarchies rebuilt, no tracks. Errors
     /// only where a moved mesh cannot be rebuilt.
@@ -1082,7 +1095,7 @@ pub fn terms_of(name_or_path: &str) -> Option<(u64, u64)> {
     let (name, text, dir) = read(name_or_path).ok()?;
     let f = read_file(&name, &text, &Accepts::ALL).ok()?;
     let lights =
-        f.environment.as_ref().map_or(0, |e| e.sgs.len()) + f.lights.len() + usize::from(f.sh_environment.is_some());
+        f.environment.as_ref().map_or(0, |e| e.count()) + f.lights.len() + usize::from(f.sh_environment.is_some());
     let mut blockers = f.spheres.len() + usize::from(f.heightfield.is_some());
     for m in &f.meshes {
         blockers += match &m.spheres {
@@ -1119,6 +1132,54 @@ fn read(name_or_path: &str) -> Result<(String, String, Option<std::path::PathBuf
         .parent()
         .map(|d| if d.as_os_str().is_empty() { Path::new(".") } else { d });
     Ok((stem, text, dir.map(Path::to_path_buf)))
+}
+
+/// The light of the map at `path` (named `file` in the scene) with `k` lobes fitted
+/// to it: the map is read and checked always, fitted only when `build` (`None`
+/// otherwise). A fit is deterministic and takes about a second (docs/environment.md);
+/// the process keeps each (map bytes, k) it fitted, so a scene loaded twice (a check,
+/// then a render; every frame of an animation shares the first's) fits once. No file
+/// is written.
+fn map_light(
+    path: &Path,
+    file: &str,
+    k: usize,
+    build: bool,
+) -> Result<Option<std::sync::Arc<crate::envmap::LightMap>>, String> {
+    use std::hash::{Hash, Hasher};
+    type Cache = Vec<((u64, usize, usize), std::sync::Arc<crate::envmap::LightMap>)>;
+    static FITTED: std::sync::Mutex<Cache> = std::sync::Mutex::new(Vec::new());
+    let bytes = lobefit_core::io::read_bytes(path, crate::envmap::MAX_MAP_BYTES, "MAX_MAP_BYTES")?;
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    bytes.hash(&mut hasher);
+    let key = (hasher.finish(), bytes.len(), k);
+    if let Some((_, light)) = FITTED
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .iter()
+        .find(|(kk, _)| *kk == key)
+    {
+        return Ok(build.then(|| light.clone()));
+    }
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let map = match ext.as_deref() {
+        Some("exr") => crate::envmap::EnvMap::from_exr_bytes(&bytes),
+        Some("hdr") => crate::envmap::EnvMap::from_hdr_bytes(&bytes),
+        _ => Err("not a map: .exr or .hdr".into()),
+    }
+    .map_err(|e| format!("{file}: {e}"))?;
+    if !build {
+        return Ok(None);
+    }
+    let fitted = crate::envmap::fit(&map, k).map_err(|e| format!("{file}: {e}"))?;
+    let light = std::sync::Arc::new(crate::envmap::LightMap::new(file.into(), map, fitted.sgs)?);
+    let mut cache = FITTED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    // A handful of maps per process; the oldest goes first past eight.
+    if cache.len() >= 8 {
+        cache.remove(0);
+    }
+    cache.push((key, light.clone()));
+    Ok(Some(light))
 }
 
 /// A mesh's sphere set, before it is read or fitted.
@@ -1282,7 +1343,20 @@ struct FileTerrain {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FileEnvironment {
-    sgs: Vec<FileSg>,
+    /// A list of lobes; with `map`, the count of lobes to fit to it.
+    sgs: serde_json::Value,
+    /// An equirectangular HDR map (inside the scene's folder; docs/environment.md).
+    map: Option<String>,
+}
+
+impl FileEnvironment {
+    /// How many lobes the scene's pipelines will shade: the list's length, or the count.
+    fn count(&self) -> usize {
+        match &self.sgs {
+            serde_json::Value::Array(a) => a.len(),
+            v => v.as_u64().map_or(0, |k| usize::try_from(k).unwrap_or(usize::MAX)),
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -1394,7 +1468,10 @@ fn parse_inner(
     let (spheres, sphere_materials) = c.spheres(f.spheres)?;
     let (planes, plane_materials) = c.planes(f.planes)?;
     let mesh_specs = c.mesh_specs(f.meshes, folder)?;
-    if f.lights.is_empty() && f.environment.as_ref().is_none_or(|e| e.sgs.is_empty()) && f.sh_environment.is_none() {
+    if f.lights.is_empty()
+        && f.environment.as_ref().is_none_or(|e| e.map.is_none() && e.count() == 0)
+        && f.sh_environment.is_none()
+    {
         return Err(c.err("no lights and no environment".into()));
     }
     if f.environment.is_some() && f.sh_environment.is_some() {
@@ -1404,7 +1481,10 @@ fn parse_inner(
     // The height field's parameters are checked here; it is built (O(n²) time and
     // memory) only once every other check has passed.
     let heightfield = f.heightfield.map(|h| c.heightfield(h)).transpose()?;
-    let environment = c.environment(f.environment.map(|e| e.sgs).unwrap_or_default())?;
+    let (environment, environment_map) = match f.environment {
+        None => (Vec::new(), None),
+        Some(e) => c.environment(e, folder, build)?,
+    };
     let lights = c.lights(f.lights)?;
     let materials = brdfs(std::mem::take(&mut c.materials));
     let brdf = brdf.map(|i| materials[i].clone());
@@ -1439,6 +1519,7 @@ fn parse_inner(
         materials,
         lights,
         environment,
+        environment_map,
         sh_environment,
         heightfield,
         brdf,
@@ -1485,7 +1566,7 @@ fn read_file(name: &str, text: &str, accepts: &Accepts) -> Result<File, String> 
     };
     // From the text, not the value: serde_json's errors then give a line and column.
     let f: File = serde_json::from_str(text).map_err(|e| err(e.to_string()))?;
-    let sgs = f.environment.as_ref().map_or(0, |e| e.sgs.len());
+    let sgs = f.environment.as_ref().map_or(0, FileEnvironment::count);
     for (what, count, max, limit) in [
         ("spheres", f.spheres.len(), MAX_SPHERES, "MAX_SPHERES"),
         ("environment.sgs", sgs, MAX_SGS, "MAX_SGS"),
@@ -2001,8 +2082,58 @@ impl Checker<'_> {
         Ok((h.size, h.extent, h.heights, h.procedural, m))
     }
 
+    /// The environment: its SGs (axes normalised), and the map they were fitted to
+    /// when it names one (read, and fitted only when `build`: [`map_light`]).
+    fn environment(
+        &self,
+        e: FileEnvironment,
+        folder: Option<&Path>,
+        build: bool,
+    ) -> Result<(Vec<Sg>, Option<std::sync::Arc<crate::envmap::LightMap>>), String> {
+        let Some(file) = e.map else {
+            let sgs: Vec<FileSg> = serde_json::from_value(e.sgs).map_err(|err| {
+                self.err(format!(
+                    "environment.sgs: {err} (a list of lobes, or a count with `map`)"
+                ))
+            })?;
+            return Ok((self.environment_sgs(sgs)?, None));
+        };
+        let k = e
+            .sgs
+            .as_u64()
+            .and_then(|k| usize::try_from(k).ok())
+            .filter(|k| (1..=crate::envmap::MAX_FIT_SGS).contains(k))
+            .ok_or_else(|| {
+                self.err(format!(
+                    "environment.sgs is {}: with `map` it is the count of lobes to fit, an integer in 1..={} (MAX_FIT_SGS)",
+                    e.sgs,
+                    crate::envmap::MAX_FIT_SGS
+                ))
+            })?;
+        let dir = folder.ok_or_else(|| {
+            self.err(format!(
+                "environment.map: a scene given as text has no folder to read {file:?} from"
+            ))
+        })?;
+        let path = inside_folder(dir, &file).map_err(|err| self.err(format!("environment.map: {err}")))?;
+        let light = map_light(&path, &file, k, build).map_err(|err| self.err(format!("environment.map: {err}")))?;
+        let Some(light) = light else {
+            return Ok((Vec::new(), None));
+        };
+        let sgs = light
+            .lobes
+            .iter()
+            .map(|l| FileSg {
+                axis: l.axis,
+                sharpness: l.sharpness,
+                amplitude: serde_json::json!(l.amplitude),
+            })
+            .collect();
+        Ok((self.environment_sgs(sgs)?, Some(light)))
+    }
+
     /// The environment's SGs (axes normalised).
-    fn environment(&self, sgs: Vec<FileSg>) -> Result<Vec<Sg>, String> {
+    fn environment_sgs(&self, sgs: Vec<FileSg>) -> Result<Vec<Sg>, String> {
         let mut environment = Vec::new();
         for (k, g) in sgs.into_iter().enumerate() {
             let what = format!("environment.sgs[{k}]");

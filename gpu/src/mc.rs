@@ -497,6 +497,10 @@ pub fn supported(sc: &Scene) -> Result<(), String> {
         Some("more than one spherical light")
     } else if sc.environment.is_empty() && sc.sh_environment.is_none() && !light_scene(sc) {
         Some("neither a distant light nor a spherical light")
+    } else if sc.environment_map.is_some() {
+        // The kernel's light is the SG list; a map's reference integrates the map's
+        // texels (the CPU's qmc-mis-map), which the device does not hold yet.
+        Some("an environment map (the device samples SGs, not a map's texels)")
     } else {
         None
     };

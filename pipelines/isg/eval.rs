@@ -163,7 +163,7 @@ impl View for IsgShadeView {
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_15c0_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         let occluded = |v: DVec3| scene.occluded(&h, v);
-        exact_estimate_noted(|n| super::reference(&scene.environment, &self.brdf, occluded, &h, n, seed))
+        exact_estimate_noted(|n| crate::sky::scene_reference(scene, &self.brdf, occluded, &h, n, seed))
             .map(|(m, note)| (vec![m], note))
     }
 }

@@ -119,14 +119,8 @@ pub fn proxy_study(
             None => Ok((0.0, 0.0)),
             Some(hit) => {
                 let brdf = Phong::of(base.brdf(hit))?;
-                let e = super::reference(
-                    &base.environment,
-                    &brdf,
-                    |v| base.occluded(hit, v),
-                    hit,
-                    spp,
-                    MC_SEED ^ p as u64,
-                );
+                let e =
+                    crate::sky::scene_reference(&base, &brdf, |v| base.occluded(hit, v), hit, spp, MC_SEED ^ p as u64);
                 Ok((e.mean, e.std_error))
             }
         })
@@ -152,7 +146,7 @@ pub fn proxy_study(
                                 .enumerate()
                                 .any(|(i, s)| !own.contains(&i) && ray_sphere(hit.x, v, s).is_some())
                         };
-                        let e = super::reference(&scene.environment, &brdf, occluded, hit, spp, MC_SEED ^ p as u64);
+                        let e = crate::sky::scene_reference(&scene, &brdf, occluded, hit, spp, MC_SEED ^ p as u64);
                         Ok((e.mean, e.std_error))
                     }
                 })

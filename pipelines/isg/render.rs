@@ -147,7 +147,7 @@ pub fn animate(
     let methods = Methods {
         method: "ISG (best model)",
         shade: &shade,
-        strongest: "qmc-cv-mis",
+        strongest: crate::sky::strongest_name(&scene),
         estimate: &estimate,
     };
     crate::animate::animate(&PIPELINE, &scene, opts, frames, dir, progress, &methods)
@@ -247,7 +247,7 @@ fn render_scene(
     let estimate = |h: &Hit, n: usize, seed: u64| crate::sky::qmc_cv_mis(scene, h, n, seed);
     let method = |hits: &[Option<Hit>]| image(&tables, &default, scene, hits);
     let strongest = Strongest {
-        name: "qmc-cv-mis",
+        name: crate::sky::strongest_name(scene),
         estimate: &estimate,
         method: &method,
     };
@@ -263,8 +263,8 @@ fn image_reference(f: &Frame<'_>, progress: &(dyn Fn() + Sync)) -> Result<Refere
             f.w,
             |hit, p| {
                 let brdf = Phong::of(scene.brdf(hit))?;
-                Ok(reference(
-                    &scene.environment,
+                Ok(crate::sky::scene_reference(
+                    scene,
                     &brdf,
                     |v| scene.occluded(hit, v),
                     hit,
@@ -389,6 +389,8 @@ fn breakdown_parts(
     ];
     // With meshes, a last stage: the sphere sets → the true triangles.
     let meshes = !scene.meshes.is_empty();
+    // With a map, a last stage: the fitted lobes → the map itself.
+    let map = scene.environment_map.is_some();
     let parts: Vec<Vec<f64>> = picks
         .par_iter()
         .map(|&p| {
@@ -400,8 +402,8 @@ fn breakdown_parts(
                 .collect::<Result<Vec<f64>, String>>()?;
             // A reference with PRECISE_FACTOR × the samples: the subset's errors are
             // measured against it (its noise far below the pipeline's error).
-            let precise = reference(
-                &scene.environment,
+            let precise = crate::sky::scene_reference(
+                scene,
                 &brdf,
                 |v| scene.occluded(&hit, v),
                 &hit,
@@ -432,6 +434,26 @@ fn breakdown_parts(
                 .finite(|| format!("the breakdown's sphere-set reference at pixel ({}, {})", p % w, p / w))?;
                 v.push(on_spheres.mean);
             }
+            if map {
+                // Under the lobes fitted to the map, exact visibility: what the SG fit
+                // alone leaves out is the rest.
+                let lobes = reference(
+                    &scene.environment,
+                    &brdf,
+                    |v| scene.occluded(&hit, v),
+                    &hit,
+                    spp * PRECISE_FACTOR,
+                    MC_SEED ^ 0x9e37 ^ p as u64,
+                )
+                .finite(|| {
+                    format!(
+                        "the breakdown's reference under the lobes at pixel ({}, {})",
+                        p % w,
+                        p / w
+                    )
+                })?;
+                v.push(lobes.mean);
+            }
             v.extend([precise.mean, precise.std_error]);
             Ok(v)
         })
@@ -446,6 +468,15 @@ fn breakdown_parts(
         names[3] =
             "Phong as one SG, the limiting cone, patch resolution (→ the precise reference on the meshes' sphere sets)";
         names.push("sphere sets → true meshes (→ the precise reference with the triangles, same samples)");
+    }
+    if map {
+        let last = names.len() - 1;
+        names[last] = if meshes {
+            "sphere sets → true meshes (→ the precise reference with the triangles, same samples, under the fitted lobes)"
+        } else {
+            "Phong as one SG, the limiting cone, patch resolution (→ the precise reference under the fitted lobes)"
+        };
+        names.push("the fitted lobes → the map itself (→ the precise reference under the map's texels)");
     }
     Ok((parts, names))
 }

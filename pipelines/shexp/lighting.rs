@@ -6,14 +6,16 @@ use lobefit_tables::glam::DVec3;
 
 use super::shade;
 use crate::estimate::Estimate;
+use crate::estimate::Sampling;
 use crate::scene::{Hit, Scene};
-use crate::sky::{environment, reference_with, Phong};
+use crate::sky::{reference_map, reference_with, Phong};
 
-/// The scene's distant light: its SGs, or its SH function.
+/// The scene's distant light: its SGs, the map they were fitted to
+/// ([`Scene::light`]), or its SH function.
 pub fn light(scene: &Scene, w: DVec3) -> f64 {
     match &scene.sh_environment {
         Some(c) => shade::sh_value(c, w),
-        None => environment(&scene.environment, w),
+        None => scene.light(w),
     }
 }
 
@@ -46,7 +48,12 @@ pub fn truncation_warning(scene: &Scene, order: usize) -> Option<String> {
 }
 
 /// The Monte Carlo reference at `h` under `light(ω)` with exact visibility (spheres
-/// and height field); the scene's SGs, if any, are sampled.
+/// and height field); the scene's map, if it has one, else its SGs, if any, are
+/// sampled.
 pub fn reference(scene: &Scene, light: impl Fn(DVec3) -> f64, brdf: &Phong, h: &Hit, n: usize, seed: u64) -> Estimate {
-    reference_with(&scene.environment, light, brdf, |v| scene.occluded(h, v), h, n, seed)
+    let occluded = |v| scene.occluded(h, v);
+    match &scene.environment_map {
+        Some(m) => reference_map(Sampling::Plain, m, light, brdf, occluded, h, n, seed),
+        None => reference_with(&scene.environment, light, brdf, occluded, h, n, seed),
+    }
 }

@@ -126,13 +126,14 @@ pub fn animate(
 /// study's): [`strongest_estimate`]'s name.
 fn strongest_name(scene: &Scene) -> &'static str {
     if scene.sh_environment.is_none() {
-        "qmc-cv-mis"
+        crate::sky::strongest_name(scene)
     } else {
         "qmc"
     }
 }
 
-/// qmc-cv-mis under SGs; under an SH sky (no closed form for a control variate) QMC.
+/// qmc-cv-mis under SGs, qmc-mis-map under a map; under an SH sky (no closed form for
+/// a control variate) QMC.
 fn strongest_estimate(s: &Scene, h: &Hit, n: usize, seed: u64) -> Result<Estimate, String> {
     use crate::estimate::Sampling;
     use crate::sky::reference_sampled;
