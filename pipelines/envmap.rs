@@ -301,6 +301,24 @@ impl LightMap {
         self.lum[v * self.map.width + u]
     }
 
+    /// The map's channel `c` (0 red, 1 green, 2 blue) towards `d` (unit).
+    pub fn channel(&self, d: DVec3, c: usize) -> f64 {
+        self.map.radiance(d)[c]
+    }
+
+    /// The fitted lobes with channel `c`'s amplitudes (what the pipelines shade for
+    /// that channel; the scene's `environment` holds their luminance).
+    pub fn channel_sgs(&self, c: usize) -> Vec<Sg> {
+        self.lobes
+            .iter()
+            .map(|l| Sg {
+                axis: DVec3::from(l.axis).normalize(),
+                sharpness: l.sharpness,
+                amplitude: l.amplitude[c],
+            })
+            .collect()
+    }
+
     /// ∫ luminance dω over the sphere.
     pub fn total(&self) -> f64 {
         *self.cdf.last().expect("a map has texels")

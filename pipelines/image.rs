@@ -267,10 +267,23 @@ pub struct Beauty {
 /// smallest whole factor that makes the whole at least [`BEAUTY_MIN_WIDTH`] wide
 /// (nearest neighbour: every rendered pixel stays a visible square).
 pub fn beauty(w: usize, h: usize, images: &[&[f64]], mask: &[bool], exposure: f64) -> Result<Beauty, String> {
+    let rgb: Vec<[&[f64]; 3]> = images.iter().map(|&i| [i, i, i]).collect();
+    beauty_rgb(w, h, &rgb, mask, exposure)
+}
+
+/// [`beauty`] of linear RGB images, each given as its three channels (each channel
+/// [`tone_map_8bit`] at the one `exposure`: a channel's clipping does not move the
+/// others).
+pub fn beauty_rgb(w: usize, h: usize, images: &[[&[f64]; 3]], mask: &[bool], exposure: f64) -> Result<Beauty, String> {
     if w == 0 || h == 0 || images.is_empty() {
         return Err(format!("a beauty image of {} images of {w}×{h}", images.len()));
     }
-    if let Some(bad) = images.iter().map(|i| i.len()).chain([mask.len()]).find(|&n| n != w * h) {
+    if let Some(bad) = images
+        .iter()
+        .flat_map(|i| i.map(<[f64]>::len))
+        .chain([mask.len()])
+        .find(|&n| n != w * h)
+    {
         return Err(format!("{bad} values for a {w}×{h} image"));
     }
     let n = images.len();
@@ -289,11 +302,13 @@ pub fn beauty(w: usize, h: usize, images: &[&[f64]], mask: &[bool], exposure: f6
             for i in 0..w {
                 let p = j * w + i;
                 let v = if mask[p] {
-                    tone_map_8bit(img[p], exposure)
+                    img.map(|c| tone_map_8bit(c[p], exposure))
                 } else {
-                    BEAUTY_BACKGROUND
+                    [BEAUTY_BACKGROUND; 3]
                 };
-                row.extend(std::iter::repeat_n(v, 3 * scale));
+                for _ in 0..scale {
+                    row.extend_from_slice(&v);
+                }
             }
         }
         for _ in 0..scale {
@@ -367,8 +382,20 @@ pub fn write_beauty(
     mask: &[bool],
     exposure: f64,
 ) -> Result<PathBuf, String> {
+    let rgb: Vec<[&[f64]; 3]> = images.iter().map(|&i| [i, i, i]).collect();
+    write_beauty_rgb(path, (w, h), &rgb, mask, exposure)
+}
+
+/// [`write_beauty`] of linear RGB images ([`beauty_rgb`]).
+pub fn write_beauty_rgb(
+    path: &Path,
+    (w, h): (usize, usize),
+    images: &[[&[f64]; 3]],
+    mask: &[bool],
+    exposure: f64,
+) -> Result<PathBuf, String> {
     let at = |e: String| format!("{}: {e}", path.display());
-    let bytes = encode_png(&beauty(w, h, images, mask, exposure).map_err(at)?).map_err(at)?;
+    let bytes = encode_png(&beauty_rgb(w, h, images, mask, exposure).map_err(at)?).map_err(at)?;
     lobefit_core::io::write_atomic(path, &bytes).map_err(|e| at(e.to_string()))?;
     Ok(path.to_path_buf())
 }

@@ -10,6 +10,7 @@ use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 
 use super::render::blockers_of;
 use super::shade::{radiance, Model, Patches, Phong, Settings, Tables};
+use crate::estimate::Sampling;
 use crate::scene::Scene;
 use crate::sky::{exact_estimate_noted, hit_on_scene, POINT_INPUTS};
 use lobefit_core::family::{EvalError, EvalFlag, EvalFlags, Lookup, View};
@@ -40,7 +41,9 @@ isg-shade  (a pipeline: Iwasaki et al.'s shading of points, docs/isg-render.md)
            (default best), --patches N (N × N patches per product SG, 1..=64; default adaptive, 10 to 20)
   in   `px`,`py`,`pz`  the point (scene units); `nx`,`ny`,`nz` its unit normal; `vx`,`vy`,`vz` the unit
                        direction towards the viewer
-  out  `radiance`      outgoing radiance (the environment's units): the environment's SGs times the BRDF
+  out  `radiance`      outgoing radiance (the environment's units; under a map its Rec. 709 luminance, and
+                       `radiance_r`, `radiance_g`, `radiance_b` its linear RGB, each channel's lobes shaded; --exact
+                       each channel of the map at the luminance's sample count): the environment's SGs times the BRDF
                        (k_d/π + k_s (n+2)/(2π) max(r·ω,0)^n) and the clamped cosine, visible where no sphere
                        blocks (a mesh: its sphere set; 0 inside another blocker's sphere); --exact: Monte Carlo
                        with exact visibility (spheres, a mesh's triangles), run until its standard error is at
@@ -56,7 +59,13 @@ pub struct IsgShadeView {
     settings: Settings,
     brdf: Phong,
     scene: Arc<Scene>,
+    /// Under a map: each channel's lobes (the `radiance_r/g/b` columns).
+    channels: Option<Arc<[Vec<lobefit_tables::Sg>; 3]>>,
 }
+
+/// The columns under SGs, and under a map (luminance, then linear R, G, B).
+const OUT: [&str; 1] = ["radiance"];
+const OUT_RGB: [&str; 4] = ["radiance", "radiance_r", "radiance_g", "radiance_b"];
 
 impl IsgShadeView {
     /// From `eval`'s flags (`--scene` required, `--model`, `--patches`).
@@ -78,6 +87,10 @@ impl IsgShadeView {
             Some(n) if (1..=64).contains(&n) => Patches::Grid(n),
             Some(n) => return Err(format!("--patches {n} is outside 1..=64").into()),
         };
+        let channels = scene
+            .environment_map
+            .as_ref()
+            .map(|m| Arc::new([0, 1, 2].map(|c| m.channel_sgs(c))));
         Ok(IsgShadeView {
             settings: Settings {
                 model,
@@ -86,6 +99,7 @@ impl IsgShadeView {
             },
             brdf,
             scene: Arc::new(scene),
+            channels,
         })
     }
 }
@@ -99,22 +113,26 @@ impl Lookup for ShadeLookup {
     fn lookup(&self, x: &[f64]) -> Result<Vec<f64>, LookupError> {
         let scene = &*self.view.scene;
         let h = hit_on_scene(x, scene, None)?;
+        let columns = self.view.outputs().len();
         if scene.buried(&h) {
             // Inside a mesh's covering sphere: the proxy is a solid (`Scene::buried`).
-            return Ok(vec![0.0]);
+            return Ok(vec![0.0; columns]);
         }
-        radiance(
-            &self.tables,
-            &self.view.settings,
-            &scene.environment,
-            &self.view.brdf,
-            &blockers_of(scene, &h),
-            &h,
-        )
-        .map(|r| vec![r])
-        .map_err(|e| LookupError::Refused {
-            reason: format!("radiance: {e}"),
-        })
+        let blockers = blockers_of(scene, &h);
+        let shade = |env: &[lobefit_tables::Sg]| {
+            radiance(&self.tables, &self.view.settings, env, &self.view.brdf, &blockers, &h).map_err(|e| {
+                LookupError::Refused {
+                    reason: format!("radiance: {e}"),
+                }
+            })
+        };
+        let mut out = vec![shade(&scene.environment)?];
+        if let Some(ch) = &self.view.channels {
+            for env in ch.iter() {
+                out.push(shade(env)?);
+            }
+        }
+        Ok(out)
     }
 }
 
@@ -129,7 +147,11 @@ impl View for IsgShadeView {
         &POINT_INPUTS
     }
     fn outputs(&self) -> &'static [&'static str] {
-        &["radiance"]
+        if self.channels.is_some() {
+            &OUT_RGB
+        } else {
+            &OUT
+        }
     }
     fn embedded(&self) -> &'static [u8] {
         match self.settings.model {
@@ -163,8 +185,22 @@ impl View for IsgShadeView {
         // Seeded by the row, so the same row gives the same answer.
         let seed = x.iter().fold(0x5eed_15c0_u64, |s, v| s.rotate_left(7) ^ v.to_bits());
         let occluded = |v: DVec3| scene.occluded(&h, v);
-        exact_estimate_noted(|n| crate::sky::scene_reference(scene, &self.brdf, occluded, &h, n, seed))
-            .map(|(m, note)| (vec![m], note))
+        let mut samples = 0;
+        let (m, note) = exact_estimate_noted(|n| {
+            samples = n;
+            crate::sky::scene_reference(scene, &self.brdf, occluded, &h, n, seed)
+        })?;
+        let mut out = vec![m];
+        if let Some(map) = &scene.environment_map {
+            // Each channel at the luminance's sample count, with its directions (the
+            // same seed): the luminance decides when to stop.
+            for c in 0..3 {
+                let light = |w| map.channel(w, c);
+                let e = crate::sky::reference_map(Sampling::Plain, map, light, &self.brdf, occluded, &h, samples, seed);
+                out.push(e.finite(|| format!("the reference's channel {c}"))?.mean);
+            }
+        }
+        Ok((out, note))
     }
 }
 

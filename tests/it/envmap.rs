@@ -74,7 +74,9 @@ fn fit_env_writes_lobes_a_scene_takes() {
 /// standard error; measured 0.04 %), and the ISG within 2 % (the fit's irradiance
 /// error: 1.9 % at most on this map; measured 0.2 %). In the big sphere's
 /// shadow on the ground (the sun's direction) both are dark next to the open ground.
-/// Bad `map` forms are refused by name.
+/// The colour columns: the channels' luminance is the luminance column, each channel
+/// of the ISG within 5 % of the map's at the open points. Bad `map` forms are refused
+/// by name.
 #[test]
 fn a_map_lights_a_scene_and_the_reference_integrates_the_map() {
     use lobefit::pipelines::envmap::{luminance, EnvMap};
@@ -119,14 +121,45 @@ fn a_map_lights_a_scene_and_the_reference_integrates_the_map() {
         row(shadow),
         row(DVec3::new(3.5, -3.5, 0.0))
     );
-    let eval = |exact: bool| -> Vec<f64> {
+    // Each row: radiance (luminance), then linear R, G, B.
+    let eval = |exact: bool| -> Vec<[f64; 4]> {
         let args = ["eval", "isg-shade", "--scene", path];
         let (code, stdout, stderr) = run_text(&[&args[..], if exact { &["--exact"] } else { &[] }].concat(), &input);
         assert_eq!(code, Some(0), "{stderr}");
-        crate::common::last_column(&stdout)
+        let mut lines = stdout.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(
+            header[header.len() - 4..],
+            ["radiance", "radiance_r", "radiance_g", "radiance_b"]
+        );
+        lines
+            .map(|l| {
+                let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+                [v[v.len() - 4], v[v.len() - 3], v[v.len() - 2], v[v.len() - 1]]
+            })
+            .collect()
     };
-    let (isg, exact) = (eval(false), eval(true));
-    println!("top, shadow, open: isg {isg:?}, exact {exact:?}, closed form {want}");
+    let (isg_rgb, exact_rgb) = (eval(false), eval(true));
+    println!("top, shadow, open: isg {isg_rgb:?}, exact {exact_rgb:?}, closed form {want}");
+    // The channels' Rec. 709 luminance is the luminance column (both sides are linear
+    // in the light), and each channel of the ISG is within 5 % of the map's at the
+    // open points; the channels differ (the map is coloured).
+    for (a, b) in isg_rgb.iter().zip(&exact_rgb) {
+        for r in [a, b] {
+            assert!((luminance([r[1], r[2], r[3]]) - r[0]).abs() <= 1e-9 * r[0], "{r:?}");
+        }
+    }
+    for k in [0, 2] {
+        for c in 1..4 {
+            assert!(
+                (isg_rgb[k][c] / exact_rgb[k][c] - 1.0).abs() < 0.05,
+                "{isg_rgb:?} {exact_rgb:?}"
+            );
+        }
+    }
+    assert!((exact_rgb[2][3] / exact_rgb[2][1] - 1.0).abs() > 0.05, "{exact_rgb:?}");
+    let isg: Vec<f64> = isg_rgb.iter().map(|r| r[0]).collect();
+    let exact: Vec<f64> = exact_rgb.iter().map(|r| r[0]).collect();
     assert!((exact[0] / want - 1.0).abs() < 0.005, "{exact:?} vs {want}");
     assert!((isg[0] / want - 1.0).abs() < 0.02, "{isg:?} vs {want}");
     assert!(exact[1] < 0.6 * exact[2] && isg[1] < 0.6 * isg[2], "{isg:?} {exact:?}");
