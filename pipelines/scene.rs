@@ -191,6 +191,56 @@ pub struct BvhNode {
     pub count: usize,
 }
 
+/// Whether a ball lies wholly outside a cone of unit `axis` and half-angle `cone` (rad)
+/// from `x`: its centre's direction is off the axis by more than cone + asin(ρ/d). A
+/// ball holding `x` is never outside. (Shared by the BVH and the sphere hierarchy.)
+#[derive(Debug, Clone, Copy)]
+pub struct ConeTest {
+    x: DVec3,
+    axis: DVec3,
+    cone: f64,
+    sin_cone: f64,
+    cos_cone: f64,
+    by_cosines: bool,
+}
+
+impl ConeTest {
+    /// The test for the cone of unit `axis`, half-angle `cone`, from `x`.
+    pub fn new(x: DVec3, axis: DVec3, cone: f64) -> ConeTest {
+        let (sin_cone, cos_cone) = cone.sin_cos();
+        ConeTest {
+            x,
+            axis,
+            cone,
+            sin_cone,
+            cos_cone,
+            by_cosines: (0.0..=FRAC_PI_2).contains(&cone),
+        }
+    }
+
+    /// Whether the ball (`c`, `rho`) lies wholly outside the cone.
+    pub fn outside(&self, c: DVec3, rho: f64) -> bool {
+        // The test off > cone + asin(ρ/d), decided first by cosines where cone + asin(ρ/d)
+        // ≤ π: cos(off) against cos(cone + δ) = cos cone cos δ − sin cone sin δ. Outside
+        // a band of 1e-9 about it, far wider than either side's rounding, both agree;
+        // inside it, and for a wider cone, the angles decide: the same nodes, without
+        // an acos and an asin per node (the ISG pipeline calls this once per product SG).
+        let w = c - self.x;
+        let d = w.length();
+        if d <= rho {
+            return false;
+        }
+        let dot = (w / d).dot(self.axis);
+        let sin_delta = rho / d;
+        let bound = self.cos_cone * (1.0 - sin_delta * sin_delta).sqrt() - self.sin_cone * sin_delta;
+        if self.by_cosines && (dot - bound).abs() > 1e-9 {
+            dot < bound
+        } else {
+            dot.clamp(-1.0, 1.0).acos() > self.cone + sin_delta.asin()
+        }
+    }
+}
+
 impl Bvh {
     /// Spheres per leaf at most.
     pub const LEAF: usize = 4;
@@ -333,31 +383,12 @@ impl Bvh {
     /// seen from `x`, lies wholly outside the cone (so every sphere in it does too).
     /// A superset of the spheres whose caps meet the cone; the caller tests each.
     pub fn in_cone(&self, x: DVec3, axis: DVec3, cone: f64, mut visit: impl FnMut(usize)) {
-        // The test off > cone + asin(ρ/d), decided first by cosines where cone + asin(ρ/d)
-        // ≤ π: cos(off) against cos(cone + δ) = cos cone cos δ − sin cone sin δ. Outside
-        // a band of 1e-9 about it, far wider than either side's rounding, both agree;
-        // inside it, and for a wider cone, the angles decide: the same nodes, without
-        // an acos and an asin per node (the ISG pipeline calls this once per product SG).
-        let (sin_cone, cos_cone) = cone.sin_cos();
-        let by_cosines = (0.0..=FRAC_PI_2).contains(&cone);
+        let test = ConeTest::new(x, axis, cone);
         let mut stack = Stack::new();
         while let Some(k) = stack.pop() {
             let Some(n) = self.nodes.get(k) else { continue };
-            let (c, rho) = (0.5 * (n.lo + n.hi), 0.5 * (n.hi - n.lo).length());
-            let w = c - x;
-            let d = w.length();
-            if d > rho {
-                let dot = (w / d).dot(axis);
-                let sin_delta = rho / d;
-                let bound = cos_cone * (1.0 - sin_delta * sin_delta).sqrt() - sin_cone * sin_delta;
-                let outside = if by_cosines && (dot - bound).abs() > 1e-9 {
-                    dot < bound
-                } else {
-                    dot.clamp(-1.0, 1.0).acos() > cone + sin_delta.asin()
-                };
-                if outside {
-                    continue;
-                }
+            if test.outside(0.5 * (n.lo + n.hi), 0.5 * (n.hi - n.lo).length()) {
+                continue;
             }
             if n.count == 0 {
                 stack.push(n.first);

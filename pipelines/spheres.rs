@@ -26,6 +26,7 @@ use crate::mesh::Mesh;
 use lobefit_tables::geom::Sphere;
 
 pub mod optimize;
+pub mod tree;
 
 /// Most spheres a fit may ask for.
 pub const MAX_FIT_SPHERES: usize = 4096;

@@ -62,3 +62,7 @@ run python3 scripts/pareto_front.py "$base"
 # of 8–256 spheres per method against the reference with its true triangles, next to
 # the pipeline's own error (docs/meshes.md; ~15 min on 2 cores at 4096 samples/pixel).
 run cargo test -q -p lobefit-pipelines --lib isg::proxy::tests::proxy_error_study -- --ignored --nocapture
+# The sphere hierarchy's level of detail: the ISG with the flat set against the
+# hierarchy's cut at 1-20 degrees, on the 306-sphere sweep and the bunny with 256
+# optimize spheres (docs/meshes.md, "A sphere hierarchy"; ~1 min on 2 cores).
+run cargo test -q --release -p lobefit-pipelines --lib isg::lod::tests::lod_study_full -- --ignored --nocapture

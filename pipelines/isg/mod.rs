@@ -5,6 +5,7 @@
 //! visibility, `render` the images.
 
 pub mod eval;
+pub mod lod;
 pub mod proxy;
 pub mod render;
 pub mod shade;
@@ -93,7 +94,7 @@ mod unoccluded {
 
 #[cfg(test)]
 mod bvh_cull {
-    use crate::isg::shade::{radiance, Blockers, Phong, Settings, Tables};
+    use crate::isg::shade::{radiance, Blockers, Cull, Phong, Settings, Tables};
 
     /// Culling the blockers against each product's cone through the BVH (§4.2) gives
     /// the very radiance the scan over every sphere gives, at every pixel of a small
@@ -110,7 +111,7 @@ mod bvh_cull {
             };
             let brdf = Phong::of(scene.brdf(&hit)).unwrap();
             let scan = Blockers {
-                bvh: None,
+                cull: Cull::Scan,
                 ..crate::isg::render::blockers_of(&scene, &hit)
             };
             let a = radiance(&t, &Settings::default(), &scene.environment, &brdf, &scan, &hit).unwrap();

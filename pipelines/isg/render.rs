@@ -53,7 +53,7 @@ pub fn scene(name: &str) -> Result<Scene, String> {
 pub fn blockers_of<'a>(scene: &'a Scene, h: &Hit) -> Blockers<'a> {
     Blockers {
         spheres: &scene.proxies,
-        bvh: Some(scene.proxy_bvh()),
+        cull: super::shade::Cull::Bvh(scene.proxy_bvh()),
         own: scene.own_proxies(h),
     }
 }

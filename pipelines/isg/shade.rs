@@ -16,8 +16,9 @@ use lobefit_tables::glam::DVec3;
 use lobefit_tables::isg::{BestAtGamma, BestIsg, PaperIsg, RefitIsg, SeparableIsg, Sg, GAMMA_MAX, GAMMA_MIN};
 use lobefit_tables::SgFit;
 
-use crate::scene::{Bvh, Hit};
+use crate::scene::{Bvh, Hit, OWN_MARGIN};
 pub use crate::sky::Phong;
+use crate::spheres::tree::SphereTree;
 
 /// Which ISG model integrates the patches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -145,16 +146,29 @@ impl Tables {
 }
 
 /// The spheres that may occlude a point: all of `spheres` but `own` (the one the
-/// point lies on, or those of its mesh's set that stand for its surface), culled against each product's cone through `bvh` (§4.2) when given,
-/// else by a scan.
+/// point lies on, or those of its mesh's set that stand for its surface), found for
+/// each product's cone as `cull` says.
 #[derive(Clone)]
 pub struct Blockers<'a> {
-    /// The spheres.
+    /// The spheres (under [`Cull::Cut`]: the tree's [`SphereTree::given`]).
     pub spheres: &'a [Sphere],
-    /// A hierarchy over `spheres`.
-    pub bvh: Option<&'a Bvh>,
-    /// The spheres the point is part of (not blockers: [`crate::scene::Own`]).
+    /// How the candidates for a cone are found.
+    pub cull: Cull<'a>,
+    /// The spheres the point is part of (not blockers: [`crate::scene::Own`]; indices
+    /// into the set, under [`Cull::Cut`] too).
     pub own: crate::scene::Own<'a>,
+}
+
+/// How [`Blockers`] finds the spheres a cone may meet.
+#[derive(Clone, Copy)]
+pub enum Cull<'a> {
+    /// Every sphere, scanned.
+    Scan,
+    /// A BVH over the spheres, culled against each product's cone (§4.2).
+    Bvh(&'a Bvh),
+    /// The sphere hierarchy's cut at the angle whose sine is given
+    /// ([`SphereTree::cut_in_cone`]): distant clusters as one stand-in each.
+    Cut(&'a SphereTree, f64),
 }
 
 impl<'a> Blockers<'a> {
@@ -162,8 +176,17 @@ impl<'a> Blockers<'a> {
     pub fn all(spheres: &'a [Sphere]) -> Blockers<'a> {
         Blockers {
             spheres,
-            bvh: None,
+            cull: Cull::Scan,
             own: crate::scene::Own::NONE,
+        }
+    }
+
+    /// The cut of `tree` from each shaded point at angle `theta` (rad), but `own`.
+    pub fn cut(tree: &'a SphereTree, theta: f64, own: crate::scene::Own<'a>) -> Blockers<'a> {
+        Blockers {
+            spheres: tree.given(),
+            cull: Cull::Cut(tree, theta.clamp(0.0, std::f64::consts::FRAC_PI_2).sin()),
+            own,
         }
     }
 
@@ -175,9 +198,14 @@ impl<'a> Blockers<'a> {
                 visit(i);
             }
         };
-        match self.bvh {
-            Some(b) => b.in_cone(x, axis, cone, keep),
-            None => (0..self.spheres.len()).for_each(&mut keep),
+        match self.cull {
+            Cull::Bvh(b) => b.in_cone(x, axis, cone, keep),
+            Cull::Scan => (0..self.spheres.len()).for_each(&mut keep),
+            Cull::Cut(tree, sin_theta) => {
+                let test = crate::scene::ConeTest::new(x, axis, cone);
+                // Own spheres are leaves of the set; the tree skips them by set index.
+                tree.cut_in_cone(&test, x, sin_theta, OWN_MARGIN, |i| self.own.contains(&i), visit)
+            }
         }
     }
 }
