@@ -66,3 +66,6 @@ run cargo test -q -p lobefit-pipelines --lib isg::proxy::tests::proxy_error_stud
 # hierarchy's cut at 1-20 degrees, on the 306-sphere sweep and the bunny with 256
 # optimize spheres (docs/meshes.md, "A sphere hierarchy"; ~1 min on 2 cores).
 run cargo test -q --release -p lobefit-pipelines --lib isg::lod::tests::lod_study_full -- --ignored --nocapture
+# Per-vertex shading against per-pixel: the bunny (64 optimize spheres) at 96 to 640
+# pixels wide (docs/meshes.md, "Per-vertex shading"; ~1 min on 2 cores).
+run cargo test -q --release -p lobefit-pipelines --lib isg::vertex::tests::vertex_study_full -- --ignored --nocapture

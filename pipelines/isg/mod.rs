@@ -9,6 +9,7 @@ pub mod lod;
 pub mod proxy;
 pub mod render;
 pub mod shade;
+pub mod vertex;
 
 pub use super::sky::{environment, reference};
 use super::Pipeline;
