@@ -276,6 +276,20 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Prefilter an HDR environment map with spherical Gaussians of sharpness 1 to
+    /// 8192 (Γ_L, docs/environment.md) into a lobefit table, and check it against
+    /// quadrature at random (direction, sharpness).
+    Prefilter {
+        /// The map (.exr or .hdr).
+        #[arg(long)]
+        map: PathBuf,
+        /// The table to write (`.lobefit`).
+        #[arg(long)]
+        out: PathBuf,
+        /// Points of the check against quadrature (0: none).
+        #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+        check: u32,
+    },
     /// Write a family's figures (PNG) into a directory.
     Plot {
         /// Figure set.
@@ -877,6 +891,7 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             spheres(&mesh, count as usize, method, seed, samples as usize, max_overlap, &out)?
         }
         Command::FitEnv { map, sgs, out } => fit_env(&map, sgs as usize, &out)?,
+        Command::Prefilter { map, out, check } => prefilter(&map, &out, check as usize)?,
         Command::Plot { name, out } => {
             let (_, plot) = lobefit::catalog::plots()
                 .into_iter()
@@ -1016,6 +1031,68 @@ fn spheres(
         q.overlap,
         out.display()
     ))
+}
+
+/// `lobefit prefilter`: read, build, write, check, report.
+fn prefilter(map_path: &Path, out: &Path, count: usize) -> Result<(), String> {
+    use lobefit::pipelines::envmap::EnvMap;
+    use lobefit::pipelines::prefilter::{build, check, check_nodes, grid, summary, LAMBDA_MAX, LEVELS, PER_OCTAVE};
+    out_file("--out", out)?;
+    let map = EnvMap::load(map_path)?;
+    let name = map_path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let t0 = Instant::now();
+    let (table, times) = build(&map, &name).map_err(|e| format!("map {}: {e}", map_path.display()))?;
+    let t_build = t0.elapsed().as_secs_f64();
+    let bytes = lobefit_tables::format::encode(table.meta(), table.values())?;
+    lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("{}: {e}", out.display()))?;
+    let (r, c) = grid(&map);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{}: {} × {} texels → {} levels (λ = 1 … {}, {} per doubling) × {} × {} nodes, {:.1} MB, in {t_build:.1} s (per level: {})",
+        map_path.display(),
+        map.width,
+        map.height,
+        LEVELS,
+        LAMBDA_MAX,
+        PER_OCTAVE,
+        r + 1,
+        c + 1,
+        bytes.len() as f64 / 1e6,
+        times.iter().map(|t| format!("{t:.2}")).collect::<Vec<_>>().join(" ")
+    );
+    if count > 0 {
+        let t0 = Instant::now();
+        let points = check(&map, &table, count, 0x5eed_9f17)?;
+        let _ = writeln!(
+            s,
+            "check: {count} random (direction, λ), half drawn by the map's luminance, against Gauss–Legendre quadrature of every texel ({:.1} s); relative error of the luminance:",
+            t0.elapsed().as_secs_f64()
+        );
+        let mut nodes: Vec<f64> = check_nodes(&map, &table, count, 0x5eed_90de)?
+            .into_iter()
+            .map(|p| p.1)
+            .collect();
+        nodes.sort_by(f64::total_cmp);
+        let _ = writeln!(
+            s,
+            "  at {count} random nodes (the build alone): worst channel's relative error median {:.2e}, max {:.2e}",
+            nodes[nodes.len() / 2],
+            nodes[nodes.len() - 1]
+        );
+        let _ = writeln!(s, "  between nodes (the lookup):");
+        for b in summary(&points) {
+            let _ = writeln!(
+                s,
+                "  {:<14} {:>5} points: cubic in λ: median {:.2e}, max {:.2e} (worst channel {:.2e}); linear in ln λ: median {:.2e}, max {:.2e}",
+                b.band, b.points, b.cubic.0, b.cubic.1, b.worst_channel, b.linear.0, b.linear.1
+            );
+        }
+    }
+    let _ = writeln!(s, "{}", out.display());
+    emit(&s)
 }
 
 /// `lobefit fit-env`: read, fit, measure, write, report.

@@ -25,6 +25,7 @@ pub mod isg;
 pub mod measure;
 pub mod mesh;
 pub mod meunier;
+pub mod prefilter;
 pub mod render;
 pub mod rigs;
 pub mod scene;

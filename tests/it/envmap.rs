@@ -187,3 +187,47 @@ fn a_map_lights_a_scene_and_the_reference_integrates_the_map() {
     let err = parse("text", &scene.to_string()).unwrap_err().to_string();
     assert!(err.contains("no folder"), "{err}");
 }
+
+/// `lobefit prefilter` on a hand-written 16 × 8 Radiance map of one colour (1, 0.5,
+/// 0.25): the table it writes loads as kind `env-prefilter`, and its lookup gives the
+/// colour back at any direction and λ on the ladder (a constant map is its own
+/// prefilter; to 2e-3), and refuses λ off the ladder. Bad input: a missing map, and
+/// `--out` onto a directory, exit 1 and write nothing.
+#[test]
+fn prefilter_writes_a_table_that_gives_a_constant_map_back() {
+    let d = tempfile::tempdir().unwrap();
+    let mut f = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n".to_vec();
+    for _ in 0..16 * 8 {
+        f.extend([128u8, 64, 32, 129]);
+    }
+    let map = d.path().join("flat.hdr");
+    std::fs::write(&map, &f).unwrap();
+    let out = d.path().join("flat.lobefit");
+    let (m, o) = (map.to_str().unwrap(), out.to_str().unwrap());
+    let (code, stdout, stderr) = run_text(&["prefilter", "--map", m, "--out", o, "--check", "16"], "");
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(
+        stdout.contains("27 levels") && stdout.contains("cubic in λ"),
+        "{stdout}"
+    );
+    let table = lobefit_tables::Table::from_path(&out).unwrap();
+    use lobefit::pipelines::prefilter::lookup;
+    use lobefit_tables::glam::DVec3;
+    for (a, lambda) in [
+        (DVec3::Z, 1.0),
+        (DVec3::new(0.6, 0.0, -0.8), 3.3),
+        (DVec3::new(-0.3, 0.9, 0.3).normalize(), 700.0),
+        (-DVec3::Z, 8192.0),
+    ] {
+        let g = lookup(&table, a, lambda).unwrap();
+        for (c, want) in [1.0, 0.5, 0.25].iter().enumerate() {
+            assert!((g[c] / want - 1.0).abs() < 2e-3, "λ {lambda} at {a}: {g:?}");
+        }
+    }
+    assert!(lookup(&table, DVec3::Z, 0.9).is_err());
+    assert!(lookup(&table, DVec3::Z, f64::NAN).is_err());
+    let (code, _, err) = run_text(&["prefilter", "--map", "/nonexistent.hdr", "--out", o], "");
+    assert_eq!(code, Some(1), "{err}");
+    let (code, _, err) = run_text(&["prefilter", "--map", m, "--out", d.path().to_str().unwrap()], "");
+    assert_eq!(code, Some(1), "{err}");
+}
