@@ -69,3 +69,7 @@ run cargo test -q --release -p lobefit-pipelines --lib isg::lod::tests::lod_stud
 # Per-vertex shading against per-pixel: the bunny (64 optimize spheres) at 96 to 640
 # pixels wide (docs/meshes.md, "Per-vertex shading"; ~1 min on 2 cores).
 run cargo test -q --release -p lobefit-pipelines --lib isg::vertex::tests::vertex_study_full -- --ignored --nocapture
+# The ISG's specular term under a map: eq. 9 with Γ_L against the lobes' forms, on the
+# apartment and sky scenes with glossy spheres (docs/environment.md, "Eq. 9 with Γ_L";
+# builds each map's Γ_L first; ~5 min on 2 cores).
+run cargo test -q --release -p lobefit-pipelines --lib isg::eq9::tests::eq9_study_full -- --ignored --nocapture

@@ -4,6 +4,7 @@
 //! [`reference`] (shared, `pipelines::sky`) its Monte Carlo reference with exact
 //! visibility, `render` the images.
 
+pub mod eq9;
 pub mod eval;
 pub mod lod;
 pub mod proxy;

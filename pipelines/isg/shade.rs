@@ -84,6 +84,10 @@ pub enum Specular {
     Eq9,
     /// The visible integral of every product L_k G_b.
     Product,
+    /// Eq. 9 with ∫ L G_b read from the map's prefiltered table Γ_L
+    /// ([`Tables::prefiltered`], `crate::prefilter`): the map itself, not its lobes,
+    /// times the visible fraction of G_b.
+    Eq9Prefiltered,
 }
 
 /// The pipeline's switches.
@@ -132,6 +136,9 @@ pub struct Tables {
     pub best: BestIsg,
     /// sg-fit (the cosine and the Phong lobe as SGs).
     pub sg_fit: SgFit,
+    /// The map's Γ_L table, for [`Specular::Eq9Prefiltered`] (none: that form is
+    /// refused).
+    pub prefiltered: Option<std::sync::Arc<lobefit_tables::Table>>,
 }
 
 impl Tables {
@@ -141,6 +148,7 @@ impl Tables {
             refit: RefitIsg::embedded().map_err(|e| e.to_string())?.clone(),
             best: BestIsg::embedded().map_err(|e| e.to_string())?.clone(),
             sg_fit: SgFit::embedded().map_err(|e| e.to_string())?.clone(),
+            prefiltered: None,
         })
     }
 }
@@ -442,12 +450,21 @@ fn shade(
         let scale = brdf.specular * (brdf.exponent + 2.0) / std::f64::consts::TAU;
         let lobe = t.sg_fit.lobe_to_sg(r, brdf.exponent, scale).map_err(e)?;
         let spec = match s.specular {
-            Specular::Eq9 => {
-                let pre: f64 = env
-                    .iter()
-                    .map(|l| l.product(&lobe).map(|p| p.integral()))
-                    .sum::<Result<f64, _>>()
-                    .map_err(e)?;
+            Specular::Eq9 | Specular::Eq9Prefiltered => {
+                let pre: f64 = if s.specular == Specular::Eq9 {
+                    env.iter()
+                        .map(|l| l.product(&lobe).map(|p| p.integral()))
+                        .sum::<Result<f64, _>>()
+                        .map_err(e)?
+                } else {
+                    let table = t
+                        .prefiltered
+                        .as_deref()
+                        .ok_or("eq. 9 with Γ_L needs the map's prefiltered table")?;
+                    let g = crate::prefilter::lookup(table, lobe.axis, lobe.sharpness)?;
+                    let y = 0.2126 * g[0] + 0.7152 * g[1] + 0.0722 * g[2];
+                    lobe.amplitude * y * crate::prefilter::sg_integral(lobe.sharpness)
+                };
                 let total_b = lobe.integral();
                 if total_b > 0.0 {
                     let f = cos_r * pre / total_b;
