@@ -101,14 +101,8 @@ mod tests {
     #[test]
     #[ignore = "study: minutes; docs/environment.md"]
     fn eq9_study_full() {
-        let width = std::env::var("LF_WIDTH")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(48);
-        let spp = std::env::var("LF_SPP")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(16384);
+        let width = crate::env_or("LF_WIDTH", 48usize);
+        let spp = crate::env_or("LF_SPP", 16384usize);
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/envmaps");
         for name in ["apartment", "sky"] {
             let text = std::fs::read_to_string(dir.join(format!("isg-{name}.json"))).unwrap();

@@ -217,14 +217,8 @@ mod tests {
     #[test]
     #[ignore = "study: minutes; docs/meshes.md"]
     fn lod_study_full() {
-        let width = std::env::var("LF_WIDTH")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(96);
-        let spp = std::env::var("LF_SPP")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(4096);
+        let width = crate::env_or("LF_WIDTH", 96usize);
+        let spp = crate::env_or("LF_SPP", 4096usize);
         let bunny = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/isg-bunny.json");
         for scene in [
             super::super::render::sweep_scene(306).unwrap(),
