@@ -73,3 +73,6 @@ run cargo test -q --release -p lobefit-pipelines --lib isg::vertex::tests::verte
 # apartment and sky scenes with glossy spheres (docs/environment.md, "Eq. 9 with Γ_L";
 # builds each map's Γ_L first; ~5 min on 2 cores).
 run cargo test -q --release -p lobefit-pipelines --lib isg::eq9::tests::eq9_study_full -- --ignored --nocapture
+# Issue 58's image measure under the three maps: |ISG − reference| over each pixel's
+# unoccluded radiance (docs/environment.md, "Scenes lit by a map"; ~15 s).
+run cargo test -q --release -p lobefit-pipelines --lib isg::eq9::target::unoccluded_target_study -- --ignored --nocapture
