@@ -603,6 +603,9 @@ pub struct Scene {
     /// The map the `environment` lobes were fitted to (`"environment": {"map": FILE,
     /// "sgs": K}`), the light the references integrate; `None` for a list of lobes.
     pub environment_map: Option<std::sync::Arc<crate::envmap::LightMap>>,
+    /// That map's Γ_L table (`"environment": {..., "prefiltered": FILE}`, made by
+    /// `lobefit prefilter`): `render isg` adds eq. 9 with it (docs/environment.md).
+    pub prefiltered: Option<std::sync::Arc<lobefit_tables::Table>>,
     /// Distant lighting as an SH function L(ω) = Σ c_i y_i(ω) (radiance; the file's
     /// `sh_environment.coefficients`, n² of them for its order n), if given.
     pub sh_environment: Option<Vec<f64>>,
@@ -1213,6 +1216,55 @@ fn map_light(
     Ok(Some(light))
 }
 
+/// A scene's environment: its lobes, the map they were fitted to, that map's Γ_L.
+type EnvironmentParts = (
+    Vec<Sg>,
+    Option<std::sync::Arc<crate::envmap::LightMap>>,
+    Option<std::sync::Arc<lobefit_tables::Table>>,
+);
+
+/// Reads a Γ_L table (`environment.prefiltered`) and, given the scene's `map`, checks
+/// that it was made from that map: the same texel count (its settings), and its values
+/// at λ = 1 and 16 towards ±x, ±y, ±z (nodes of its grid) within 1 % of quadrature of
+/// the map (a table of another map of the same size is refused there; about 30 ms for
+/// a 512 × 256 map).
+fn prefiltered_table(
+    path: &Path,
+    file: &str,
+    map: Option<&crate::envmap::EnvMap>,
+) -> Result<lobefit_tables::Table, String> {
+    use crate::prefilter::{lookup, reference, KIND, VERSION};
+    let t = lobefit_tables::Table::from_path(path).map_err(|e| format!("{file}: {e}"))?;
+    t.expect_kind(KIND, VERSION).map_err(|e| format!("{file}: {e}"))?;
+    let Some(map) = map else { return Ok(t) };
+    let size = format!("{}x{}", map.width, map.height);
+    let made = t
+        .meta()
+        .fit
+        .settings
+        .iter()
+        .find(|(k, _)| k == "size")
+        .map(|(_, v)| v.as_str());
+    if made != Some(size.as_str()) {
+        return Err(format!(
+            "{file} was made from a map of {} texels, the scene's map has {size}",
+            made.unwrap_or("unknown")
+        ));
+    }
+    use lobefit_tables::glam::DVec3;
+    for lambda in [1.0, 16.0] {
+        for a in [DVec3::Z, -DVec3::Z, DVec3::X, -DVec3::X, DVec3::Y, -DVec3::Y] {
+            let (g, r) = (lookup(&t, a, lambda)?, reference(map, a, lambda));
+            if (0..3).any(|c| (g[c] - r[c]).abs() > 1e-2 * r[c].abs().max(1e-12)) {
+                return Err(format!(
+                    "{file} is not this map's Γ_L: towards {a} at λ = {lambda} it holds {g:?}, the map gives {r:?}"
+                ));
+            }
+        }
+    }
+    Ok(t)
+}
+
 /// A mesh's sphere set, before it is read or fitted.
 enum SetSpec {
     File(std::path::PathBuf),
@@ -1378,6 +1430,9 @@ struct FileEnvironment {
     sgs: serde_json::Value,
     /// An equirectangular HDR map (inside the scene's folder; docs/environment.md).
     map: Option<String>,
+    /// With `map`: its Γ_L table, made by `lobefit prefilter` (inside the folder).
+    #[serde(default)]
+    prefiltered: Option<String>,
 }
 
 impl FileEnvironment {
@@ -1512,8 +1567,8 @@ fn parse_inner(
     // The height field's parameters are checked here; it is built (O(n²) time and
     // memory) only once every other check has passed.
     let heightfield = f.heightfield.map(|h| c.heightfield(h)).transpose()?;
-    let (environment, environment_map) = match f.environment {
-        None => (Vec::new(), None),
+    let (environment, environment_map, prefiltered) = match f.environment {
+        None => (Vec::new(), None, None),
         Some(e) => c.environment(e, folder, build)?,
     };
     let lights = c.lights(f.lights)?;
@@ -1551,6 +1606,7 @@ fn parse_inner(
         lights,
         environment,
         environment_map,
+        prefiltered,
         sh_environment,
         heightfield,
         brdf,
@@ -2115,19 +2171,17 @@ impl Checker<'_> {
 
     /// The environment: its SGs (axes normalised), and the map they were fitted to
     /// when it names one (read, and fitted only when `build`: [`map_light`]).
-    fn environment(
-        &self,
-        e: FileEnvironment,
-        folder: Option<&Path>,
-        build: bool,
-    ) -> Result<(Vec<Sg>, Option<std::sync::Arc<crate::envmap::LightMap>>), String> {
+    fn environment(&self, e: FileEnvironment, folder: Option<&Path>, build: bool) -> Result<EnvironmentParts, String> {
         let Some(file) = e.map else {
+            if e.prefiltered.is_some() {
+                return Err(self.err("environment.prefiltered: a Γ_L table belongs to a map; give `map` too".into()));
+            }
             let sgs: Vec<FileSg> = serde_json::from_value(e.sgs).map_err(|err| {
                 self.err(format!(
                     "environment.sgs: {err} (a list of lobes, or a count with `map`)"
                 ))
             })?;
-            return Ok((self.environment_sgs(sgs)?, None));
+            return Ok((self.environment_sgs(sgs)?, None, None));
         };
         let k = e
             .sgs
@@ -2149,7 +2203,22 @@ impl Checker<'_> {
         let path = inside_folder(dir, &file).map_err(|err| self.err(format!("environment.map: {err}")))?;
         let light = map_light(&path, &file, k, build).map_err(|err| self.err(format!("environment.map: {err}")))?;
         let Some(light) = light else {
-            return Ok((Vec::new(), None));
+            if let Some(pf) = &e.prefiltered {
+                // Checked for its path and its kind without building.
+                let p = inside_folder(dir, pf).map_err(|err| self.err(format!("environment.prefiltered: {err}")))?;
+                prefiltered_table(&p, pf, None).map_err(|err| self.err(format!("environment.prefiltered: {err}")))?;
+            }
+            return Ok((Vec::new(), None, None));
+        };
+        let prefiltered = match &e.prefiltered {
+            None => None,
+            Some(pf) => {
+                let p = inside_folder(dir, pf).map_err(|err| self.err(format!("environment.prefiltered: {err}")))?;
+                Some(std::sync::Arc::new(
+                    prefiltered_table(&p, pf, Some(&light.map))
+                        .map_err(|err| self.err(format!("environment.prefiltered: {err}")))?,
+                ))
+            }
         };
         let sgs = light
             .lobes
@@ -2160,7 +2229,7 @@ impl Checker<'_> {
                 amplitude: serde_json::json!(l.amplitude),
             })
             .collect();
-        Ok((self.environment_sgs(sgs)?, Some(light)))
+        Ok((self.environment_sgs(sgs)?, Some(light), prefiltered))
     }
 
     /// The environment's SGs (axes normalised).

@@ -161,7 +161,8 @@ fn render_scene(
     dir: &Path,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Summary, String> {
-    let (f, tables) = Frame::new(&PIPELINE, scene, opts, dir, Tables::embedded)?;
+    let (f, mut tables) = Frame::new(&PIPELINE, scene, opts, dir, Tables::embedded)?;
+    tables.prefiltered = scene.prefiltered.clone();
     let mut sum = Summary::default();
     let r = image_reference(&f, progress)?;
     sum.lines.push(intro(&f, &r));
@@ -416,6 +417,16 @@ fn models(
             ..default
         },
     ));
+    if tables.prefiltered.is_some() {
+        // The scene names its map's Γ_L: eq. 9 with the map itself (docs/environment.md).
+        variants.push((
+            "model best, eq. 9, Γ_L".into(),
+            Settings {
+                specular: Specular::Eq9Prefiltered,
+                ..default
+            },
+        ));
+    }
     let mut t_best = 0.0;
     let mut model_imgs = Vec::new();
     for (k, (label, s)) in variants.iter().enumerate() {

@@ -231,3 +231,106 @@ fn prefilter_writes_a_table_that_gives_a_constant_map_back() {
     let (code, _, err) = run_text(&["prefilter", "--map", m, "--out", d.path().to_str().unwrap()], "");
     assert_eq!(code, Some(1), "{err}");
 }
+
+/// A scene names its map's Γ_L (`"environment": {"map": ..., "sgs": K, "prefiltered":
+/// FILE}`): `render isg` adds the row "model best, eq. 9, Γ_L". A table made from
+/// another map of the same size is refused at load, naming the file, and so is a
+/// table without a map.
+#[test]
+fn a_scene_takes_its_maps_prefiltered_table() {
+    let d = tempfile::tempdir().unwrap();
+    let texel = |spot: bool| {
+        if spot {
+            [160u8, 120, 80, 133]
+        } else {
+            [128u8, 64, 32, 129]
+        }
+    };
+    for (name, spot_at) in [("spot.hdr", Some(21usize)), ("flat.hdr", None)] {
+        let mut f = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n".to_vec();
+        for k in 0..16 * 8 {
+            f.extend(texel(Some(k) == spot_at));
+        }
+        std::fs::write(d.path().join(name), &f).unwrap();
+        let out = d.path().join(name.replace(".hdr", ".lobefit"));
+        let m = d.path().join(name);
+        let (code, _, err) = run_text(
+            &[
+                "prefilter",
+                "--map",
+                m.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--check",
+                "0",
+            ],
+            "",
+        );
+        assert_eq!(code, Some(0), "{err}");
+    }
+    let scene = |table: &str, map: bool| {
+        let mut env = serde_json::json!({"sgs": 4, "prefiltered": table});
+        if map {
+            env["map"] = "spot.hdr".into();
+        } else {
+            env["sgs"] = serde_json::json!([{"axis": [0, 0, 1], "sharpness": 2.0, "amplitude": 1.0}]);
+        }
+        serde_json::json!({
+            "version": 1,
+            "camera": {"eye": [0.0, -5.0, 3.0], "target": [0.0, 0.0, 0.5], "fov": 0.7},
+            "environment": env,
+            "spheres": [{"centre": [0, 0, 0.8], "radius": 0.8, "material": {"lafortune": {"albedo": 0.5,
+                "lobes": [{"c": [-1.0, -1.0, 1.0], "exponent": 100.0, "specular": 0.4}]}}}],
+            "planes": [{"normal": [0, 0, 1], "offset": 0.0, "tangent": [1, 0, 0], "half_extent": 3.0,
+                "material": {"lambert": {"albedo": 0.7}}}]
+        })
+        .to_string()
+    };
+    let path = d.path().join("glossy.json");
+    std::fs::write(&path, scene("spot.lobefit", true)).unwrap();
+    let out = d.path().join("out");
+    let (code, stdout, err) = run_text(
+        &[
+            "render",
+            "isg",
+            "--scene",
+            path.to_str().unwrap(),
+            "--width",
+            "12",
+            "--spp",
+            "64",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let summary = std::fs::read_to_string(out.join("isg-glossy-summary.txt")).unwrap_or(stdout);
+    assert!(summary.contains("model best, eq. 9, Γ_L"), "{summary}");
+    for (table, map, says) in [
+        ("flat.lobefit", true, "is not this map's Γ_L"),
+        ("spot.lobefit", false, "belongs to a map"),
+    ] {
+        std::fs::write(&path, scene(table, map)).unwrap();
+        let (code, _, err) = run_text(
+            &[
+                "render",
+                "isg",
+                "--scene",
+                path.to_str().unwrap(),
+                "--width",
+                "12",
+                "--spp",
+                "16",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            "",
+        );
+        assert_eq!(code, Some(1), "{table}: {err}");
+        assert!(
+            err.contains(says) && err.contains("environment.prefiltered"),
+            "{table}: {err}"
+        );
+    }
+}
