@@ -13,6 +13,20 @@ use super::render::shade_hit;
 use super::shade::{Phong, Settings, Specular, Tables};
 use crate::scene::Scene;
 
+/// The reference at pixel `p`'s hit: `spp` samples on the scene's light (the map
+/// itself under a map), seeded by the pixel; an error if not finite.
+fn reference_at(
+    scene: &Scene,
+    brdf: &Phong,
+    hit: &crate::scene::Hit,
+    spp: usize,
+    p: usize,
+) -> Result<crate::estimate::Estimate, String> {
+    let seed = 0x005e_ede9 ^ p as u64;
+    crate::sky::scene_reference(scene, brdf, |v| scene.occluded(hit, v), hit, spp, seed)
+        .finite(|| format!("the reference at pixel {p}"))
+}
+
 /// One form's row: (name, relative RMSE, max relative error, µs per pixel).
 pub type Eq9Row = (&'static str, f64, f64, f64);
 
@@ -41,15 +55,7 @@ pub fn eq9_study(
         .map(|&p| {
             let hit = hits[p].expect("lit");
             let brdf = Phong::of(scene.brdf(&hit))?;
-            let e = crate::sky::scene_reference(
-                scene,
-                &brdf,
-                |v| scene.occluded(&hit, v),
-                &hit,
-                spp,
-                0x005e_ede9 ^ p as u64,
-            );
-            let e = e.finite(|| format!("the reference at pixel {p}"))?;
+            let e = reference_at(scene, &brdf, &hit, spp, p)?;
             Ok((e.mean, e.std_error))
         })
         .collect::<Result<_, String>>()?;
@@ -158,15 +164,7 @@ pub fn unoccluded_errors(
                     scene.name
                 ));
             }
-            let e = crate::sky::scene_reference(
-                scene,
-                &brdf,
-                |v| scene.occluded(&hit, v),
-                &hit,
-                spp,
-                0x005e_ede9 ^ p as u64,
-            );
-            let e = e.finite(|| format!("the reference at pixel {p}"))?;
+            let e = reference_at(scene, &brdf, &hit, spp, p)?;
             let isg = shade_hit(&tables, &Settings::default(), scene, &hit)?;
             let open: f64 = texels.iter().map(|(d, y)| y * hit.n.dot(*d).max(0.0)).sum::<f64>() * brdf.diffuse
                 / std::f64::consts::PI;

@@ -289,21 +289,14 @@ fn a_scene_takes_its_maps_prefiltered_table() {
     let path = d.path().join("glossy.json");
     std::fs::write(&path, scene("spot.lobefit", true)).unwrap();
     let out = d.path().join("out");
-    let (code, stdout, err) = run_text(
-        &[
-            "render",
-            "isg",
-            "--scene",
-            path.to_str().unwrap(),
-            "--width",
-            "12",
-            "--spp",
-            "64",
-            "--out",
-            out.to_str().unwrap(),
-        ],
-        "",
-    );
+    let render = |spp: &str| {
+        let (p, o) = (path.to_str().unwrap(), out.to_str().unwrap());
+        run_text(
+            &["render", "isg", "--scene", p, "--width", "12", "--spp", spp, "--out", o],
+            "",
+        )
+    };
+    let (code, stdout, err) = render("64");
     assert_eq!(code, Some(0), "{err}");
     let summary = std::fs::read_to_string(out.join("isg-glossy-summary.txt")).unwrap_or(stdout);
     assert!(summary.contains("model best, eq. 9, Γ_L"), "{summary}");
@@ -312,21 +305,7 @@ fn a_scene_takes_its_maps_prefiltered_table() {
         ("spot.lobefit", false, "belongs to a map"),
     ] {
         std::fs::write(&path, scene(table, map)).unwrap();
-        let (code, _, err) = run_text(
-            &[
-                "render",
-                "isg",
-                "--scene",
-                path.to_str().unwrap(),
-                "--width",
-                "12",
-                "--spp",
-                "16",
-                "--out",
-                out.to_str().unwrap(),
-            ],
-            "",
-        );
+        let (code, _, err) = render("16");
         assert_eq!(code, Some(1), "{table}: {err}");
         assert!(
             err.contains(says) && err.contains("environment.prefiltered"),
