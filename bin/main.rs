@@ -1084,11 +1084,20 @@ fn prefilter(map_path: &Path, out: &Path, count: usize) -> Result<(), String> {
         );
         let _ = writeln!(s, "  between nodes (the lookup):");
         for b in summary(&points) {
-            let _ = writeln!(
-                s,
-                "  {:<14} {:>5} points: cubic in λ: median {:.2e}, max {:.2e} (worst channel {:.2e}); linear in ln λ: median {:.2e}, max {:.2e}",
-                b.band, b.points, b.cubic.0, b.cubic.1, b.worst_channel, b.linear.0, b.linear.1
-            );
+            let black = if b.black > 0 {
+                format!(" ({} where the map is black, left out)", b.black)
+            } else {
+                String::new()
+            };
+            match (b.cubic, b.linear) {
+                (Some(c), Some(l)) => writeln!(
+                    s,
+                    "  {:<14} {:>5} points{black}: cubic in λ: median {:.2e}, max {:.2e} (worst channel {:.2e}); linear in ln λ: median {:.2e}, max {:.2e}",
+                    b.band, b.points, c.0, c.1, b.worst_channel, l.0, l.1
+                ),
+                _ => writeln!(s, "  {:<14} no points{black}", b.band),
+            }
+            .ok();
         }
     }
     let _ = writeln!(s, "{}", out.display());

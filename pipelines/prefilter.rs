@@ -572,12 +572,14 @@ pub fn check_nodes(map: &EnvMap, table: &Table, count: usize, seed: u64) -> Resu
 pub struct Band {
     /// "λ lo–hi".
     pub band: String,
-    /// Points in it.
+    /// Points in it with a positive reference (a relative error is defined).
     pub points: usize,
-    /// Median and max relative error of the luminance by [`lookup`].
-    pub cubic: (f64, f64),
+    /// Points in it where the map is black under the lobe (reference 0), left out.
+    pub black: usize,
+    /// Median and max relative error of the luminance by [`lookup`] (`None`: no point).
+    pub cubic: Option<(f64, f64)>,
     /// The same by [`lookup_linear`].
-    pub linear: (f64, f64),
+    pub linear: Option<(f64, f64)>,
     /// The largest relative error of a channel by [`lookup`].
     pub worst_channel: f64,
 }
@@ -587,19 +589,17 @@ pub fn summary(points: &[CheckPoint]) -> Vec<Band> {
     let bands: [(f64, f64); 4] = [(1.0, 8.0), (8.0, 64.0), (64.0, 512.0), (512.0, 8193.0)];
     let med_max = |mut e: Vec<f64>| {
         e.sort_by(f64::total_cmp);
-        if e.is_empty() {
-            (f64::NAN, f64::NAN)
-        } else {
-            (e[e.len() / 2], e[e.len() - 1])
-        }
+        (!e.is_empty()).then(|| (e[e.len() / 2], e[e.len() - 1]))
     };
     bands
         .iter()
         .map(|&(lo, hi)| {
-            let inside: Vec<&CheckPoint> = points.iter().filter(|p| p.lambda >= lo && p.lambda < hi).collect();
+            let band: Vec<&CheckPoint> = points.iter().filter(|p| p.lambda >= lo && p.lambda < hi).collect();
+            let inside: Vec<&CheckPoint> = band.iter().copied().filter(|p| p.reference > 0.0).collect();
             Band {
                 band: format!("λ {lo:.0}–{:.0}", hi.min(8192.0)),
                 points: inside.len(),
+                black: band.len() - inside.len(),
                 cubic: med_max(inside.iter().map(|p| (p.table / p.reference - 1.0).abs()).collect()),
                 linear: med_max(inside.iter().map(|p| (p.linear / p.reference - 1.0).abs()).collect()),
                 worst_channel: inside.iter().map(|p| p.worst_channel).fold(0.0, f64::max),
@@ -707,5 +707,28 @@ mod tests {
         }
         assert!(lookup(&t, DVec3::Z, 0.5).is_err());
         assert!(lookup(&t, DVec3::Z, 9000.0).is_err());
+    }
+
+    /// Where the map is black under a sharp lobe the reference is 0 and a relative
+    /// error is undefined: the summary leaves those points out and counts them, and
+    /// every figure it gives is finite (a band without points gives none).
+    #[test]
+    fn the_summary_is_finite_where_the_map_is_black() {
+        let (w, h) = (16, 8);
+        let rgb = (0..w * h)
+            .map(|k| if k / w < h / 2 { [0.0; 3] } else { [1.0, 2.0, 0.5] })
+            .collect();
+        let map = EnvMap::new(w, h, rgb).unwrap();
+        let (t, _) = build(&map, "half").unwrap();
+        let points = check(&map, &t, 40, 3).unwrap();
+        let bands = summary(&points);
+        assert_eq!(bands.iter().map(|b| b.points + b.black).sum::<usize>(), 40);
+        assert!(bands.iter().any(|b| b.black > 0), "{bands:?}");
+        for b in &bands {
+            for (m, x) in b.cubic.into_iter().chain(b.linear) {
+                assert!(m.is_finite() && x.is_finite(), "{b:?}");
+            }
+            assert!(b.worst_channel.is_finite(), "{b:?}");
+        }
     }
 }

@@ -234,8 +234,8 @@ fn prefilter_writes_a_table_that_gives_a_constant_map_back() {
 
 /// A scene names its map's Γ_L (`"environment": {"map": ..., "sgs": K, "prefiltered":
 /// FILE}`): `render isg` adds the row "model best, eq. 9, Γ_L". A table made from
-/// another map of the same size is refused at load, naming the file, and so is a
-/// table without a map.
+/// another map of the same size is refused at load, naming the file, and so are a
+/// table without a map, a file that is not a table and a path out of the folder.
 #[test]
 fn a_scene_takes_its_maps_prefiltered_table() {
     let d = tempfile::tempdir().unwrap();
@@ -303,6 +303,8 @@ fn a_scene_takes_its_maps_prefiltered_table() {
     for (table, map, says) in [
         ("flat.lobefit", true, "is not this map's Γ_L"),
         ("spot.lobefit", false, "belongs to a map"),
+        ("spot.hdr", true, "spot.hdr: "),
+        ("../spot.lobefit", true, "../spot.lobefit"),
     ] {
         std::fs::write(&path, scene(table, map)).unwrap();
         let (code, _, err) = render("16");
