@@ -132,7 +132,7 @@ fn pixel_fig12(bencher: divan::Bencher) {
         .bench_local(|| {
             hits.iter()
                 .map(|h| {
-                    let brdf = Phong::of(scene.brdf(h)).unwrap();
+                    let brdf = Phong::of_any(scene.brdf(h)).unwrap();
                     radiance(&t, &s, &scene.environment, &brdf, &blockers_of(&scene, h), h).unwrap()
                 })
                 .sum::<f64>()

@@ -60,7 +60,7 @@ fn environment(
         _ => None,
     };
     Ok(move |hit: &Hit, n: usize, seed: u64| {
-        let brdf = Phong::of(scene.brdf(hit))?;
+        let brdf = Phong::of_any(scene.brdf(hit))?;
         let occluded = |v| scene.occluded(hit, v);
         let light = |v| crate::shexp::lighting::light(scene, v);
         // Under a map the light's strategy is the map's texels, and the control variate
@@ -615,7 +615,7 @@ fn isg_methods(b: &Bench, scene: &Scene) -> Result<Vec<Method>, String> {
         }
     }
     methods(b, &configs, |s, h| {
-        let brdf = Phong::of(scene.brdf(h))?;
+        let brdf = Phong::of_any(scene.brdf(h))?;
         radiance(
             &t,
             s,

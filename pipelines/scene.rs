@@ -23,6 +23,7 @@ use std::path::Path;
 pub use lobefit_tables::geom::{Brdf, LafortuneLobe, Sphere, SphereLight};
 use lobefit_tables::glam::{DQuat, DVec3};
 pub use lobefit_tables::isg::Sg;
+use lobefit_tables::microfacet::CookTorrance;
 
 use crate::mesh::{Mesh, Transform};
 use crate::spheres::{Method, SphereSetFile, MAX_FIT_SPHERES};
@@ -577,6 +578,7 @@ pub fn brdf_value(b: &Brdf, h: &Hit, v: DVec3) -> f64 {
                     })
                     .sum::<f64>()
         }
+        Brdf::CookTorrance { albedo, specular } => albedo / PI + specular.value(h.n, h.wo, v),
     }
 }
 
@@ -1499,8 +1501,22 @@ struct FilePlane {
 #[derive(Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields, rename_all = "lowercase")]
 enum FileMaterial {
-    Lambert { albedo: f64 },
-    Lafortune { albedo: f64, lobes: Vec<FileLobe> },
+    Lambert {
+        albedo: f64,
+    },
+    Lafortune {
+        albedo: f64,
+        lobes: Vec<FileLobe>,
+    },
+    /// Lambert plus a Cook–Torrance term (GGX roughness α, Schlick's f₀), weighted by
+    /// `specular` (lobefit_tables::microfacet).
+    #[serde(rename = "cook_torrance")]
+    CookTorrance {
+        albedo: f64,
+        specular: f64,
+        roughness: f64,
+        f0: f64,
+    },
 }
 
 #[derive(Deserialize, Clone, PartialEq)]
@@ -1795,9 +1811,26 @@ impl Checker<'_> {
         let (albedo, lobes) = match &m {
             FileMaterial::Lambert { albedo } => (*albedo, &[][..]),
             FileMaterial::Lafortune { albedo, lobes } => (*albedo, &lobes[..]),
+            FileMaterial::CookTorrance { albedo, .. } => (*albedo, &[][..]),
         };
         if !(0.0..=1.0).contains(&albedo) {
             return Err(self.err(format!("{what}: albedo {albedo} must lie in [0, 1]")));
+        }
+        if let FileMaterial::CookTorrance {
+            specular,
+            roughness,
+            f0,
+            ..
+        } = m
+        {
+            CookTorrance::new(specular, roughness, f0).map_err(|e| self.err(format!("{what}: cook_torrance: {e}")))?;
+            // The term reflects at most k_s of the light (F ≤ 1, and Smith's G₂ and the
+            // normalised D keep ∫ f_s cos ≤ 1): with the diffuse albedo, at most 1.
+            if albedo + specular > 1.0 + 1e-12 {
+                return Err(self.err(format!(
+                    "{what}: cook_torrance albedo {albedo} + specular {specular} must be ≤ 1 (energy conservation)"
+                )));
+            }
         }
         // Energy: a lobe's directional albedo is at most k_s · max|c_i|^n (the lobe is
         // |c ⊙ v|^n max(ω·d, 0)^n with ρ_s = k_s (n+2)/(2π), and ∫ max(ω·d,0)^n cos θ dω
@@ -2385,6 +2418,15 @@ fn brdfs(materials: Vec<FileMaterial>) -> Vec<Brdf> {
         .into_iter()
         .map(|m| match m {
             FileMaterial::Lambert { albedo } => Brdf::Lambert { albedo },
+            FileMaterial::CookTorrance {
+                albedo,
+                specular,
+                roughness,
+                f0,
+            } => Brdf::CookTorrance {
+                albedo,
+                specular: CookTorrance::new(specular, roughness, f0).expect("checked on load"),
+            },
             FileMaterial::Lafortune { albedo, lobes } => Brdf::Lafortune {
                 albedo,
                 lobes: lobes

@@ -225,6 +225,7 @@ fn material(b: &Brdf) -> Result<Vec<f32>, String> {
     let (albedo, lobes): (f64, &[LafortuneLobe]) = match b {
         Brdf::Lambert { albedo } => (*albedo, &[]),
         Brdf::Lafortune { albedo, lobes } => (*albedo, lobes),
+        Brdf::CookTorrance { .. } => return Err(lobefit_tables::meunier::MeunierError::NotLobes.to_string()),
     };
     if lobes.len() > MAX_LOBES {
         return Err(format!(
@@ -245,6 +246,8 @@ fn material32(b: &Brdf) -> Brdf {
     let r = |v: f64| f64::from(v as f32);
     match b {
         Brdf::Lambert { albedo } => Brdf::Lambert { albedo: r(*albedo) },
+        // Refused by `material` before the kernel runs: kept as it is.
+        Brdf::CookTorrance { .. } => b.clone(),
         Brdf::Lafortune { albedo, lobes } => Brdf::Lafortune {
             albedo: r(*albedo),
             lobes: lobes

@@ -54,7 +54,7 @@ pub fn eq9_study(
         .par_iter()
         .map(|&p| {
             let hit = hits[p].expect("lit");
-            let brdf = Phong::of(scene.brdf(&hit))?;
+            let brdf = Phong::of_any(scene.brdf(&hit))?;
             let e = reference_at(scene, &brdf, &hit, spp, p)?;
             Ok((e.mean, e.std_error))
         })
@@ -157,7 +157,7 @@ pub fn unoccluded_errors(
         .par_iter()
         .map(|&p| {
             let hit = hits[p].expect("lit");
-            let brdf = Phong::of(scene.brdf(&hit))?;
+            let brdf = Phong::of_any(scene.brdf(&hit))?;
             if brdf.specular > 0.0 {
                 return Err(format!(
                     "scene {}: the unoccluded measure is for Lambert scenes",

@@ -80,7 +80,7 @@ impl IsgShadeView {
             .brdf
             .as_ref()
             .ok_or_else(|| format!("scene {}: isg-shade needs the top-level brdf", scene.name))?;
-        let brdf = Phong::of(brdf).map_err(|e| format!("scene {}: brdf: {e}", scene.name))?;
+        let brdf = Phong::of_any(brdf).map_err(|e| format!("scene {}: brdf: {e}", scene.name))?;
         let model = flags.text("model").as_deref().map_or(Ok(Model::Best), Model::parse)?;
         let patches = match flags.count("patches")? {
             None => Patches::Adaptive,

@@ -56,7 +56,7 @@ pub fn shade_cut(
     if scene.buried(h) {
         return Ok(0.0);
     }
-    let brdf = Phong::of(scene.brdf(h))?;
+    let brdf = Phong::of_any(scene.brdf(h))?;
     radiance(
         t,
         s,

@@ -64,6 +64,7 @@ mod unoccluded {
                 diffuse: kd,
                 specular: ks,
                 exponent: 1000.0,
+                microfacet: None,
             };
             for wo in [DVec3::new(0.0, -0.6, 0.8), DVec3::new(-0.5, 0.4, 0.77).normalize()] {
                 let h = Hit {
@@ -111,7 +112,7 @@ mod bvh_cull {
             let Some(hit) = scene.primary(p % w, p / w, w, h) else {
                 continue;
             };
-            let brdf = Phong::of(scene.brdf(&hit)).unwrap();
+            let brdf = Phong::of_any(scene.brdf(&hit)).unwrap();
             let scan = Blockers {
                 cull: Cull::Scan,
                 ..crate::isg::render::blockers_of(&scene, &hit)

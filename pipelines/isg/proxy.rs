@@ -118,7 +118,7 @@ pub fn proxy_study(
         .map(|(p, hit)| match hit {
             None => Ok((0.0, 0.0)),
             Some(hit) => {
-                let brdf = Phong::of(base.brdf(hit))?;
+                let brdf = Phong::of_any(base.brdf(hit))?;
                 let e =
                     crate::sky::scene_reference(&base, &brdf, |v| base.occluded(hit, v), hit, spp, MC_SEED ^ p as u64);
                 Ok((e.mean, e.std_error))
@@ -137,7 +137,7 @@ pub fn proxy_study(
                 .map(|(p, hit)| match hit {
                     None => Ok((0.0, 0.0)),
                     Some(hit) => {
-                        let brdf = Phong::of(scene.brdf(hit))?;
+                        let brdf = Phong::of_any(scene.brdf(hit))?;
                         let own = scene.own_proxies(hit);
                         let occluded = |v| {
                             scene

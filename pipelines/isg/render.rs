@@ -43,7 +43,7 @@ pub fn scene(name: &str) -> Result<Scene, String> {
         ));
     }
     for m in &scene.materials {
-        Phong::of(m).map_err(|e| format!("scene {}: {e}", scene.name))?;
+        Phong::of_any(m).map_err(|e| format!("scene {}: {e}", scene.name))?;
     }
     Ok(scene)
 }
@@ -65,7 +65,7 @@ pub fn shade_hit(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Result<f64
     if scene.buried(h) {
         return Ok(0.0);
     }
-    let brdf = Phong::of(scene.brdf(h))?;
+    let brdf = Phong::of_any(scene.brdf(h))?;
     radiance(t, s, &scene.environment, &brdf, &blockers_of(scene, h), h)
 }
 
@@ -266,7 +266,7 @@ fn image_reference(f: &Frame<'_>, progress: &(dyn Fn() + Sync)) -> Result<Refere
             &f.hits,
             f.w,
             |hit, p| {
-                let brdf = Phong::of(scene.brdf(hit))?;
+                let brdf = Phong::of_any(scene.brdf(hit))?;
                 Ok(crate::sky::scene_reference(
                     scene,
                     &brdf,
@@ -301,7 +301,7 @@ fn colour(
     let picks = f.picks();
     let sub_lit: Vec<bool> = vec![true; picks.len()];
     let reference = |hit: &Hit, c: usize, spp: usize, seed: u64| -> Result<crate::estimate::Estimate, String> {
-        let brdf = Phong::of(scene.brdf(hit))?;
+        let brdf = Phong::of_any(scene.brdf(hit))?;
         Ok(crate::sky::reference_map(
             crate::estimate::Sampling::Plain,
             map,
@@ -490,7 +490,7 @@ fn breakdown_parts(
         .par_iter()
         .map(|&p| {
             let hit = f.hits[p].expect("lit");
-            let brdf = Phong::of(scene.brdf(&hit))?;
+            let brdf = Phong::of_any(scene.brdf(&hit))?;
             let mut v = stages
                 .iter()
                 .map(|s| shade_hit(tables, s, scene, &hit))

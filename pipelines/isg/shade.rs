@@ -445,10 +445,19 @@ fn shade(
         total += f * sum;
     }
     if brdf.specular > 0.0 {
-        let r = (2.0 * n.dot(h.wo) * n - h.wo).normalize();
-        let cos_r = n.dot(r).max(0.0);
-        let scale = brdf.specular * (brdf.exponent + 2.0) / std::f64::consts::TAU;
-        let lobe = t.sg_fit.lobe_to_sg(r, brdf.exponent, scale).map_err(e)?;
+        // The BRDF's SG and the cosine at its axis: the Phong lobe through sg-fit, or a
+        // Cook–Torrance term's warped SG, which holds its cosine already.
+        let (lobe, cos_r) = match &brdf.microfacet {
+            Some(ct) => (ct.lobe(n, h.wo).map_err(e)?, 1.0),
+            None => {
+                let r = (2.0 * n.dot(h.wo) * n - h.wo).normalize();
+                let scale = brdf.specular * (brdf.exponent + 2.0) / std::f64::consts::TAU;
+                (
+                    t.sg_fit.lobe_to_sg(r, brdf.exponent, scale).map_err(e)?,
+                    n.dot(r).max(0.0),
+                )
+            }
+        };
         let spec = match s.specular {
             Specular::Eq9 | Specular::Eq9Prefiltered => {
                 let pre: f64 = if s.specular == Specular::Eq9 {
@@ -1322,6 +1331,7 @@ mod hybrid_tests {
             diffuse: 0.5,
             specular: 0.4,
             exponent: 50.0,
+            microfacet: None,
         };
         (env, b, h, brdf)
     }

@@ -200,6 +200,7 @@ pub fn to_lookup(e: MeunierError) -> LookupError {
             index,
             error: Box::new(to_lookup(*error)),
         },
+        e @ MeunierError::NotLobes => LookupError::Refused { reason: e.to_string() },
         MeunierError::LightInsideBlocker { margin, .. } => LookupError::OutOfDomain {
             name: "the light lies inside the blocker: (distance between centres + light radius) − blocker radius"
                 .into(),

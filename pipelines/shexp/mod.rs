@@ -369,6 +369,7 @@ mod tests {
             diffuse: 0.5,
             specular: 0.4,
             exponent: 20.0,
+            microfacet: None,
         };
         let h = Hit {
             wo: DVec3::new(-0.4, 0.3, 0.866).normalize(),

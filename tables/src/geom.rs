@@ -90,4 +90,13 @@ pub enum Brdf {
         /// The lobes.
         lobes: Vec<LafortuneLobe>,
     },
+    /// Cook–Torrance: a Lambertian term plus a GGX microfacet specular term
+    /// ([`crate::microfacet::CookTorrance`]). Not a sum of cosine lobes: Meunier's
+    /// shading refuses it; the ISG pipeline shades it as one warped SG.
+    CookTorrance {
+        /// Albedo of the Lambertian term.
+        albedo: f64,
+        /// The specular term.
+        specular: crate::microfacet::CookTorrance,
+    },
 }

@@ -166,6 +166,7 @@ pub mod log_zh;
 pub mod mask_weights;
 mod meta_error;
 pub mod meunier;
+pub mod microfacet;
 pub mod rigs;
 pub mod sg_fit;
 pub mod sh;

@@ -47,6 +47,7 @@ impl Brdf {
         let wo = unit("outgoing direction", wo)?;
         let albedo = match self {
             Brdf::Lambert { albedo } | Brdf::Lafortune { albedo, .. } => *albedo,
+            Brdf::CookTorrance { .. } => return Err(MeunierError::NotLobes),
         };
         nonneg("albedo", albedo)?;
         let mut out = vec![Lobe {
@@ -261,6 +262,12 @@ pub enum MeunierError {
         /// how far inside (≤ 0).
         margin: f64,
     },
+    /// The BRDF is not a sum of cosine lobes ([`Brdf::CookTorrance`]).
+    #[error(
+        "Meunier's shading takes BRDFs made of cosine lobes (Lambert, Lafortune); a Cook–Torrance \
+         material is shaded by the ISG pipeline"
+    )]
+    NotLobes,
     /// A value the query refuses as a table lookup would: not finite
     /// ([`LookupError::NotFinite`]), negative where it must be ≥ 0
     /// ([`LookupError::OutOfDomain`] with bounds 0 and ∞); or a table lookup that
