@@ -7,7 +7,7 @@ use std::f64::consts::{PI, TAU};
 use lobefit_tables::geom::{Brdf, Sphere};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::isg::Sg;
-use lobefit_tables::microfacet::CookTorrance;
+use lobefit_tables::microfacet::{AlbedoCurve, CookTorrance};
 use lobefit_tables::LookupError;
 
 use super::envmap::LightMap;
@@ -91,6 +91,20 @@ impl Phong {
             None => self.specular * (self.exponent + 2.0) / TAU * r.dot(w).max(0.0).powf(self.exponent),
         }
     }
+}
+
+/// The directional-albedo curve of the Cook–Torrance term `ct`, built on first use
+/// and kept for the process (a scene holds a few terms; a curve is 1 KiB and takes
+/// ~10 ms to build): what the ISG pipeline's energy-matched lobe reads per point.
+pub fn albedo_curve(ct: &CookTorrance) -> &'static AlbedoCurve {
+    static CURVES: std::sync::Mutex<Vec<(CookTorrance, &'static AlbedoCurve)>> = std::sync::Mutex::new(Vec::new());
+    let mut curves = CURVES.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, c)) = curves.iter().find(|(t, _)| t == ct) {
+        return c;
+    }
+    let c: &'static AlbedoCurve = Box::leak(Box::new(AlbedoCurve::new(ct)));
+    curves.push((*ct, c));
+    c
 }
 
 /// L(ω) of the environment (radiance).
@@ -910,13 +924,21 @@ mod tests {
             // One SG of the sky as the light's strategy (any resembles a constant).
             let sample = [Sg::new(DVec3::Z, 1e-3, 1.0).unwrap()];
             let e = reference_with(&sample, |_| 1.0, &brdf, |_| false, &h, 200_000, 5);
-            assert!((e.mean - want).abs() < 4.0 * e.std_error, "α {roughness}: {} ± {} vs {want}", e.mean, e.std_error);
+            assert!(
+                (e.mean - want).abs() < 4.0 * e.std_error,
+                "α {roughness}: {} ± {} vs {want}",
+                e.mean,
+                e.std_error
+            );
             let runs: Vec<f64> = (0..64)
                 .map(|k| reference_sampled(Sampling::Qmc, &sample, |_| 1.0, &brdf, |_| false, &h, 1024, 300 + k).mean)
                 .collect();
             let mean = runs.iter().sum::<f64>() / 64.0;
             let se = (runs.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / 63.0 / 64.0).sqrt();
-            assert!((mean - want).abs() < 4.0 * se, "α {roughness} qmc {mean} ± {se} vs {want}");
+            assert!(
+                (mean - want).abs() < 4.0 * se,
+                "α {roughness} qmc {mean} ± {se} vs {want}"
+            );
         }
     }
 

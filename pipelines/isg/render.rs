@@ -11,7 +11,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::shade::{radiance, Blockers, Model, Patches, Phong, Settings, Specular, Tables};
+use super::shade::{radiance, Blockers, MicrofacetLobe, Model, Patches, Phong, Settings, Specular, Tables};
 use super::{reference, PIPELINE};
 use crate::estimate::per_pixel;
 use crate::image::{breakdown, compare, noise_free_rel_rmse, split_stage};
@@ -417,6 +417,20 @@ fn models(
             ..default
         },
     ));
+    if f.scene
+        .materials
+        .iter()
+        .any(|m| matches!(m, crate::scene::Brdf::CookTorrance { .. }))
+    {
+        // Wang et al.'s lobe as they give it, against the default's energy-matched one.
+        variants.push((
+            "model best, Cook–Torrance lobe at its axis".into(),
+            Settings {
+                microfacet: MicrofacetLobe::Axis,
+                ..default
+            },
+        ));
+    }
     if tables.prefiltered.is_some() {
         // The scene names its map's Γ_L: eq. 9 with the map itself (docs/environment.md).
         variants.push((

@@ -90,6 +90,17 @@ pub enum Specular {
     Eq9Prefiltered,
 }
 
+/// The SG of a Cook–Torrance term (`lobefit_tables::microfacet`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MicrofacetLobe {
+    /// Wang et al. 2009 as they give it: the NDF's SG warped to the mirror direction,
+    /// Fresnel, masking and the cosine at the lobe's axis.
+    Axis,
+    /// The same lobe rescaled so that it reflects the term's directional albedo over
+    /// the upper hemisphere (the axis values over-reflect rough terms: +19 % at α 0.3).
+    Matched,
+}
+
 /// The pipeline's switches.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
@@ -110,6 +121,8 @@ pub struct Settings {
     /// cosine over its SG at the patch) or, as the paper, the cosine's SG alone with
     /// the patches below the horizon counted as occluded.
     pub exact_cosine: bool,
+    /// A Cook–Torrance term's SG.
+    pub microfacet: MicrofacetLobe,
 }
 
 impl Default for Settings {
@@ -124,6 +137,7 @@ impl Default for Settings {
             binary: true,
             specular: Specular::Product,
             exact_cosine: true,
+            microfacet: MicrofacetLobe::Matched,
         }
     }
 }
@@ -448,7 +462,13 @@ fn shade(
         // The BRDF's SG and the cosine at its axis: the Phong lobe through sg-fit, or a
         // Cook–Torrance term's warped SG, which holds its cosine already.
         let (lobe, cos_r) = match &brdf.microfacet {
-            Some(ct) => (ct.lobe(n, h.wo).map_err(e)?, 1.0),
+            Some(ct) => match s.microfacet {
+                MicrofacetLobe::Axis => (ct.lobe(n, h.wo).map_err(e)?, 1.0),
+                MicrofacetLobe::Matched => {
+                    let albedo = crate::sky::albedo_curve(ct).eval(n.dot(h.wo));
+                    (ct.lobe_scaled(n, h.wo, albedo).map_err(e)?, 1.0)
+                }
+            },
             None => {
                 let r = (2.0 * n.dot(h.wo) * n - h.wo).normalize();
                 let scale = brdf.specular * (brdf.exponent + 2.0) / std::f64::consts::TAU;
