@@ -7,7 +7,7 @@ use std::f64::consts::{PI, TAU};
 use lobefit_tables::geom::{Brdf, Sphere};
 use lobefit_tables::glam::DVec3;
 use lobefit_tables::isg::Sg;
-use lobefit_tables::microfacet::{AlbedoCurve, CookTorrance};
+use lobefit_tables::microfacet::{AlbedoCurve, CookTorrance, NdfSgs};
 use lobefit_tables::LookupError;
 
 use super::envmap::LightMap;
@@ -93,18 +93,36 @@ impl Phong {
     }
 }
 
-/// The directional-albedo curve of the Cook–Torrance term `ct`, built on first use
-/// and kept for the process (a scene holds a few terms; a curve is 1 KiB and takes
-/// ~10 ms to build): what the ISG pipeline's energy-matched lobe reads per point.
-pub fn albedo_curve(ct: &CookTorrance) -> &'static AlbedoCurve {
-    static CURVES: std::sync::Mutex<Vec<(CookTorrance, &'static AlbedoCurve)>> = std::sync::Mutex::new(Vec::new());
-    let mut curves = CURVES.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some((_, c)) = curves.iter().find(|(t, _)| t == ct) {
-        return c;
+/// What the ISG pipeline reads per point of a Cook–Torrance term: its directional
+/// albedo's curve and D as 1, 2 and 3 SGs.
+#[derive(Debug)]
+pub struct MicrofacetForm {
+    /// The directional albedo.
+    pub albedo: AlbedoCurve,
+    /// D as `k + 1` SGs at index k.
+    pub ndf: [NdfSgs; 3],
+}
+
+/// The [`MicrofacetForm`] of the term `ct`, built on first use and kept for the
+/// process (a scene holds a few terms; a form is about 1 KiB and takes ~10 ms).
+pub fn microfacet_form(ct: &CookTorrance) -> Result<&'static MicrofacetForm, String> {
+    static FORMS: std::sync::Mutex<Vec<(CookTorrance, &'static MicrofacetForm)>> = std::sync::Mutex::new(Vec::new());
+    let mut forms = FORMS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, f)) = forms.iter().find(|(t, _)| t == ct) {
+        return Ok(f);
     }
-    let c: &'static AlbedoCurve = Box::leak(Box::new(AlbedoCurve::new(ct)));
-    curves.push((*ct, c));
-    c
+    let e = |e: LookupError| format!("cook_torrance {ct:?}: {e}");
+    let form = MicrofacetForm {
+        albedo: AlbedoCurve::new(ct),
+        ndf: [
+            ct.ndf_sgs(1).map_err(e)?,
+            ct.ndf_sgs(2).map_err(e)?,
+            ct.ndf_sgs(3).map_err(e)?,
+        ],
+    };
+    let f: &'static MicrofacetForm = Box::leak(Box::new(form));
+    forms.push((*ct, f));
+    Ok(f)
 }
 
 /// L(ω) of the environment (radiance).

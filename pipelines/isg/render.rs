@@ -422,14 +422,19 @@ fn models(
         .iter()
         .any(|m| matches!(m, crate::scene::Brdf::CookTorrance { .. }))
     {
-        // Wang et al.'s lobe as they give it, against the default's energy-matched one.
-        variants.push((
-            "model best, Cook–Torrance lobe at its axis".into(),
-            Settings {
-                microfacet: MicrofacetLobe::Axis,
-                ..default
-            },
-        ));
+        // Wang et al.'s lobe as they give it, and the NDF as 1 to 3 SGs matched to the
+        // term's albedo (one of them the default).
+        let rows = [
+            ("model best, Cook–Torrance: 1 SG at its axis", MicrofacetLobe::Axis),
+            ("model best, Cook–Torrance: 1 SG matched", MicrofacetLobe::Matched(1)),
+            ("model best, Cook–Torrance: 2 SGs matched", MicrofacetLobe::Matched(2)),
+            ("model best, Cook–Torrance: 3 SGs matched", MicrofacetLobe::Matched(3)),
+        ];
+        for (label, microfacet) in rows {
+            if microfacet != default.microfacet {
+                variants.push((label.into(), Settings { microfacet, ..default }));
+            }
+        }
     }
     if tables.prefiltered.is_some() {
         // The scene names its map's Γ_L: eq. 9 with the map itself (docs/environment.md).

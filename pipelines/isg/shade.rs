@@ -90,15 +90,16 @@ pub enum Specular {
     Eq9Prefiltered,
 }
 
-/// The SG of a Cook–Torrance term (`lobefit_tables::microfacet`).
+/// The SGs of a Cook–Torrance term (`lobefit_tables::microfacet`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MicrofacetLobe {
-    /// Wang et al. 2009 as they give it: the NDF's SG warped to the mirror direction,
-    /// Fresnel, masking and the cosine at the lobe's axis.
+    /// Wang et al. 2009 as they give it: the NDF as one SG warped to the mirror
+    /// direction, Fresnel, masking and the cosine at the lobe's axis.
     Axis,
-    /// The same lobe rescaled so that it reflects the term's directional albedo over
-    /// the upper hemisphere (the axis values over-reflect rough terms: +19 % at α 0.3).
-    Matched,
+    /// The NDF as this many SGs (1 to 3), each warped so, all rescaled so that they
+    /// reflect the term's directional albedo over the upper hemisphere (the axis values
+    /// over-reflect rough terms: +19 % at α 0.3).
+    Matched(usize),
 }
 
 /// The pipeline's switches.
@@ -137,7 +138,7 @@ impl Default for Settings {
             binary: true,
             specular: Specular::Product,
             exact_cosine: true,
-            microfacet: MicrofacetLobe::Matched,
+            microfacet: MicrofacetLobe::Matched(2),
         }
     }
 }
@@ -459,72 +460,82 @@ fn shade(
         total += f * sum;
     }
     if brdf.specular > 0.0 {
-        // The BRDF's SG and the cosine at its axis: the Phong lobe through sg-fit, or a
-        // Cook–Torrance term's warped SG, which holds its cosine already.
-        let (lobe, cos_r) = match &brdf.microfacet {
-            Some(ct) => match s.microfacet {
-                MicrofacetLobe::Axis => (ct.lobe(n, h.wo).map_err(e)?, 1.0),
-                MicrofacetLobe::Matched => {
-                    let albedo = crate::sky::albedo_curve(ct).eval(n.dot(h.wo));
-                    (ct.lobe_scaled(n, h.wo, albedo).map_err(e)?, 1.0)
-                }
-            },
+        // The BRDF's SGs and the cosine at their axis: the Phong lobe through sg-fit,
+        // or a Cook–Torrance term's warped SGs, which hold their cosine already.
+        let (lobes, cos_r) = match &brdf.microfacet {
+            Some(ct) => {
+                let form = crate::sky::microfacet_form(ct)?;
+                let lobes = match s.microfacet {
+                    MicrofacetLobe::Axis => vec![ct.lobe(n, h.wo).map_err(e)?],
+                    MicrofacetLobe::Matched(j) => {
+                        let ndf = form
+                            .ndf
+                            .get(j.wrapping_sub(1))
+                            .ok_or("a Cook–Torrance term takes 1 to 3 SGs")?;
+                        ct.lobes(ndf, n, h.wo, Some(form.albedo.eval(n.dot(h.wo)))).map_err(e)?
+                    }
+                };
+                (lobes, 1.0)
+            }
             None => {
                 let r = (2.0 * n.dot(h.wo) * n - h.wo).normalize();
                 let scale = brdf.specular * (brdf.exponent + 2.0) / std::f64::consts::TAU;
                 (
-                    t.sg_fit.lobe_to_sg(r, brdf.exponent, scale).map_err(e)?,
+                    vec![t.sg_fit.lobe_to_sg(r, brdf.exponent, scale).map_err(e)?],
                     n.dot(r).max(0.0),
                 )
             }
         };
-        let spec = match s.specular {
-            Specular::Eq9 | Specular::Eq9Prefiltered => {
-                let pre: f64 = if s.specular == Specular::Eq9 {
-                    env.iter()
-                        .map(|l| l.product(&lobe).map(|p| p.integral()))
-                        .sum::<Result<f64, _>>()
-                        .map_err(e)?
-                } else {
-                    let table = t
-                        .prefiltered
-                        .as_deref()
-                        .ok_or("eq. 9 with Γ_L needs the map's prefiltered table")?;
-                    let g = crate::prefilter::lookup(table, lobe.axis, lobe.sharpness)?;
-                    let y = 0.2126 * g[0] + 0.7152 * g[1] + 0.0722 * g[2];
-                    lobe.amplitude * y * crate::prefilter::sg_integral(lobe.sharpness)
-                };
-                let total_b = lobe.integral();
-                if total_b > 0.0 {
-                    let f = cos_r * pre / total_b;
-                    if keep {
-                        open.push((lobe, f, false));
+        let mut spec = 0.0;
+        for lobe in &lobes {
+            spec += match s.specular {
+                Specular::Eq9 | Specular::Eq9Prefiltered => {
+                    let pre: f64 = if s.specular == Specular::Eq9 {
+                        env.iter()
+                            .map(|l| l.product(lobe).map(|p| p.integral()))
+                            .sum::<Result<f64, _>>()
+                            .map_err(e)?
+                    } else {
+                        let table = t
+                            .prefiltered
+                            .as_deref()
+                            .ok_or("eq. 9 with Γ_L needs the map's prefiltered table")?;
+                        let g = crate::prefilter::lookup(table, lobe.axis, lobe.sharpness)?;
+                        let y = 0.2126 * g[0] + 0.7152 * g[1] + 0.0722 * g[2];
+                        lobe.amplitude * y * crate::prefilter::sg_integral(lobe.sharpness)
+                    };
+                    let total_b = lobe.integral();
+                    if total_b > 0.0 {
+                        let f = cos_r * pre / total_b;
+                        if keep {
+                            open.push((*lobe, f, false));
+                        }
+                        pre * add(
+                            visible_patches(t, s, lobe, total_b, None, n, blockers, h.x, keep)?,
+                            f,
+                            &mut hidden,
+                        ) / total_b
+                    } else {
+                        0.0
                     }
-                    pre * add(
-                        visible_patches(t, s, &lobe, total_b, None, n, blockers, h.x, keep)?,
-                        f,
-                        &mut hidden,
-                    ) / total_b
-                } else {
-                    0.0
                 }
-            }
-            Specular::Product => {
-                let mut sum = 0.0;
-                for l in env {
-                    let g = l.product(&lobe).map_err(e)?;
-                    if keep {
-                        open.push((g, cos_r, false));
+                Specular::Product => {
+                    let mut sum = 0.0;
+                    for l in env {
+                        let g = l.product(lobe).map_err(e)?;
+                        if keep {
+                            open.push((g, cos_r, false));
+                        }
+                        sum += add(
+                            visible_patches(t, s, &g, g.integral(), None, n, blockers, h.x, keep)?,
+                            cos_r,
+                            &mut hidden,
+                        );
                     }
-                    sum += add(
-                        visible_patches(t, s, &g, g.integral(), None, n, blockers, h.x, keep)?,
-                        cos_r,
-                        &mut hidden,
-                    );
+                    sum
                 }
-                sum
-            }
-        };
+            };
+        }
         total += cos_r * spec;
     }
     let integrand = keep.then_some(Integrand {
