@@ -515,7 +515,7 @@ pub fn extract_sun(map: &EnvMap) -> (Option<RgbSg>, EnvMap) {
 
 /// `n` lobes at the residual's brightest texels in turn, each subtracted (its
 /// sharpness from the coarse texel's width, its amplitude the texel's radiance).
-fn greedy(coarse: &EnvMap, n: usize) -> Vec<RgbSg> {
+pub(crate) fn greedy(coarse: &EnvMap, n: usize) -> Vec<RgbSg> {
     let mut residual = coarse.rgb.clone();
     let mut out = Vec::with_capacity(n);
     let lambda = (coarse.width as f64 / 8.0).max(1.0);
@@ -566,7 +566,7 @@ fn lobe(p: &[f64]) -> RgbSg {
 
 /// Levenberg–Marquardt on the lobes against `coarse` (residuals √ΔΩ (Σ lobes − L) per
 /// texel and channel): (lobes, iterations, relative L2 at the end).
-fn levenberg_marquardt(coarse: &EnvMap, start: Vec<RgbSg>) -> (Vec<RgbSg>, usize, f64) {
+pub(crate) fn levenberg_marquardt(coarse: &EnvMap, start: Vec<RgbSg>) -> (Vec<RgbSg>, usize, f64) {
     let n = start.len();
     let np = 6 * n;
     let texels: Vec<(DVec3, f64, [f64; 3])> = coarse.texels().map(|(d, dw, c)| (d, dw.sqrt(), c)).collect();

@@ -17,6 +17,7 @@
 
 pub mod animate;
 pub mod baselines;
+pub mod brdf_fit;
 pub mod envmap;
 pub mod estimate;
 pub mod heightfield;

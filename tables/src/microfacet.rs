@@ -416,6 +416,53 @@ pub struct NdfSgs {
 /// θ_h = atan(α t), uniform in t/(1 + t)).
 const NDF_FIT_NODES: usize = 4000;
 
+/// The Ashikhmin–Shirley (2000) anisotropic specular term (sr⁻¹), in the local frame
+/// (tangent x, bitangent y, normal z), for unit ω_i, ω_o and h = (ω_i + ω_o)/|ω_i + ω_o|:
+///
+/// f_s = √((n_u + 1)(n_v + 1)) / (8π) · (n·h)^{(n_u h_x² + n_v h_y²)/(1 − (n·h)²)}
+///       / ((ω_i·h) max(n·ω_i, n·ω_o)) · F(ω_i·h),  F = R_s + (1 − R_s)(1 − ω_i·h)⁵,
+///
+/// 0 where either direction lies below the surface. Not an SG: lobefit fits it with
+/// SG sums per view (`lobefit_pipelines::brdf_fit`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AshikhminShirley {
+    /// Specular reflectance at normal incidence R_s, in [0, 1].
+    pub specular: f64,
+    /// Exponent along the tangent, in [1, 10 000].
+    pub n_u: f64,
+    /// Exponent along the bitangent, in [1, 10 000].
+    pub n_v: f64,
+}
+
+impl AshikhminShirley {
+    /// A validated term.
+    pub fn new(specular: f64, n_u: f64, n_v: f64) -> Result<AshikhminShirley, LookupError> {
+        Ok(AshikhminShirley {
+            specular: in_range("specular", specular, 0.0, 1.0)?,
+            n_u: in_range("n_u", n_u, 1.0, 1e4)?,
+            n_v: in_range("n_v", n_v, 1.0, 1e4)?,
+        })
+    }
+
+    /// f_s for local unit directions `wo`, `wi`.
+    pub fn value_local(&self, wo: DVec3, wi: DVec3) -> f64 {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let h = (wi + wo).normalize();
+        let s2 = 1.0 - h.z * h.z;
+        // At h = n the exponent's direction is undefined and (n·h)^e = 1 for any e.
+        let d = if s2 > 1e-15 {
+            h.z.powf((self.n_u * h.x * h.x + self.n_v * h.y * h.y) / s2)
+        } else {
+            1.0
+        };
+        let kh = wi.dot(h);
+        let f = self.specular + (1.0 - self.specular) * (1.0 - kh).powi(5);
+        ((self.n_u + 1.0) * (self.n_v + 1.0)).sqrt() / (8.0 * PI) * d / (kh * wi.z.max(wo.z)) * f
+    }
+}
+
 /// The solution of the small symmetric positive system `m` x = `b` (row-major),
 /// Gaussian elimination with partial pivoting (at most 3 unknowns here).
 fn solve(m: &[f64], b: &[f64]) -> Vec<f64> {
