@@ -76,3 +76,6 @@ run cargo test -q --release -p lobefit-pipelines --lib isg::eq9::tests::eq9_stud
 # Issue 58's image measure under the three maps: |ISG − reference| over each pixel's
 # unoccluded radiance (docs/environment.md, "Scenes lit by a map"; ~15 s).
 run cargo test -q --release -p lobefit-pipelines --lib isg::eq9::target::unoccluded_target_study -- --ignored --nocapture
+# Ashikhmin–Shirley as SG sums: 1, 3, 5, 7 SGs per view against quadrature of the term
+# (docs/environment.md, "Ashikhmin–Shirley"; ~4 min on 2 cores).
+run cargo test -q --release -p lobefit-pipelines --lib brdf_fit::tests::ashikhmin_shirley_study -- --ignored --nocapture
