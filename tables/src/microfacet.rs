@@ -39,7 +39,7 @@ pub const NV_MIN: f64 = 1e-3;
 pub const ALBEDO_NODES: usize = 32;
 
 /// Nodes of [`upper_fraction`]'s midpoint rule in the SG's own distribution.
-const FRACTION_NODES: usize = 128;
+pub const FRACTION_NODES: usize = 128;
 
 /// The fraction of the SG `g`'s integral over the sphere that lies above the plane of
 /// unit normal `n`. On the ring of directions at μ = cos θ′ from the axis (density
@@ -481,8 +481,9 @@ fn solve(m: &[f64], b: &[f64]) -> Vec<f64> {
         a.swap(c, p);
         for i in c + 1..n {
             let f = if a[c][c] != 0.0 { a[i][c] / a[c][c] } else { 0.0 };
-            for k in c..=n {
-                a[i][k] -= f * a[c][k];
+            let (top, rest) = a.split_at_mut(i);
+            for (x, y) in rest[0][c..].iter_mut().zip(&top[c][c..]) {
+                *x -= f * y;
             }
         }
     }
