@@ -504,6 +504,22 @@ pub struct Hit {
     pub material: usize,
 }
 
+impl Hit {
+    /// A point `x` of a horizontal surface (normal +z, tangent +x, no sphere or mesh,
+    /// material 0) seen from `wo`: the shading point of tests and studies.
+    pub fn ground(x: DVec3, wo: DVec3) -> Hit {
+        Hit {
+            x,
+            n: DVec3::Z,
+            t: DVec3::X,
+            wo,
+            sphere: None,
+            mesh: None,
+            material: 0,
+        }
+    }
+}
+
 /// How far outside one of its mesh's spheres a mesh point may lie, relative to the
 /// sphere's radius, and still count it as its own ([`Own`]).
 pub const OWN_MARGIN: f64 = 0.05;

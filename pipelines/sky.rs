@@ -850,15 +850,7 @@ mod tests {
         }
         let map = crate::envmap::EnvMap::new(w, hgt, rgb).unwrap();
         let light = LightMap::new("t".into(), map.clone(), Vec::new()).unwrap();
-        let h = Hit {
-            x: DVec3::ZERO,
-            n: DVec3::Z,
-            t: DVec3::X,
-            wo: DVec3::new(0.6, 0.0, 0.8),
-            sphere: None,
-            mesh: None,
-            material: 0,
-        };
+        let h = Hit::ground(DVec3::ZERO, DVec3::new(0.6, 0.0, 0.8));
         let brdf = Phong {
             diffuse: 0.7,
             specular: 0.0,
@@ -919,15 +911,7 @@ mod tests {
         for roughness in [0.05, 0.4] {
             let ct = CookTorrance::new(0.6, roughness, 0.04).unwrap();
             let wo = DVec3::new(0.75f64.sqrt(), 0.0, 0.5);
-            let h = Hit {
-                x: DVec3::ZERO,
-                n: DVec3::Z,
-                t: DVec3::X,
-                wo,
-                sphere: None,
-                mesh: None,
-                material: 0,
-            };
+            let h = Hit::ground(DVec3::ZERO, wo);
             let brdf = Phong::of_any(&Brdf::CookTorrance {
                 albedo: 0.3,
                 specular: ct,
@@ -971,15 +955,7 @@ mod tests {
     fn diffuse_under_sg() -> (Sg, Hit, Phong, f64) {
         let lambda = 30.0;
         let g = Sg::new(DVec3::Z, lambda, 2.0).unwrap();
-        let h = Hit {
-            x: DVec3::ZERO,
-            n: DVec3::Z,
-            t: DVec3::X,
-            wo: DVec3::new(0.6, 0.0, 0.8),
-            sphere: None,
-            mesh: None,
-            material: 0,
-        };
+        let h = Hit::ground(DVec3::ZERO, DVec3::new(0.6, 0.0, 0.8));
         let brdf = Phong {
             diffuse: 0.7,
             specular: 0.0,
@@ -1147,15 +1123,7 @@ mod tests {
         let g = Sg::new(a, l, 1.0).unwrap();
         let want = (e + 2.0) / TAU * DVec3::Z.dot(r) * brute;
         // The view whose mirror direction is r.
-        let h = Hit {
-            x: DVec3::ZERO,
-            n: DVec3::Z,
-            t: DVec3::X,
-            wo: DVec3::new(0.0, -0.6, 0.8),
-            sphere: None,
-            mesh: None,
-            material: 0,
-        };
+        let h = Hit::ground(DVec3::ZERO, DVec3::new(0.0, -0.6, 0.8));
         let got = contribution(&g, &phong, &h, r);
         assert!((got / want - 1.0).abs() < 1e-4, "{got} vs {want}");
 

@@ -67,15 +67,7 @@ mod unoccluded {
                 microfacet: None,
             };
             for wo in [DVec3::new(0.0, -0.6, 0.8), DVec3::new(-0.5, 0.4, 0.77).normalize()] {
-                let h = Hit {
-                    x: DVec3::ZERO,
-                    n: DVec3::Z,
-                    t: DVec3::X,
-                    wo,
-                    sphere: None,
-                    mesh: None,
-                    material: 0,
-                };
+                let h = Hit::ground(DVec3::ZERO, wo);
                 let p = radiance(
                     &t,
                     &Settings::default(),

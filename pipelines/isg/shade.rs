@@ -1349,15 +1349,7 @@ mod hybrid_tests {
             centre: DVec3::new(0.25, 0.05, 1.5),
             radius: 0.3,
         };
-        let h = Hit {
-            x: DVec3::ZERO,
-            n: DVec3::Z,
-            t: DVec3::X,
-            wo: DVec3::new(-0.3, 0.0, 0.95).normalize(),
-            sphere: None,
-            mesh: None,
-            material: 0,
-        };
+        let h = Hit::ground(DVec3::ZERO, DVec3::new(-0.3, 0.0, 0.95).normalize());
         let brdf = Phong {
             diffuse: 0.5,
             specular: 0.4,
