@@ -40,7 +40,8 @@
 //! | disk-light | [`DiskLight`] | SH radiance and irradiance of a disk light |
 //! | mask-weights | [`MaskWeights`] ([`meunier`]: the pipeline) | eq. 39's per-depth weights of visibility-mask leaf lobes; direct lighting with soft shadows from sphere blockers |
 //! | (no table) | [`rigs`], [`sh`], [`gaunt`] | irradiance rigs; SH basis, rotation, products |
-//! | (no table) | [`geom`] | the scene types every pipeline shares: spheres, spherical lights, BRDFs of cosine lobes |
+//! | (no table) | [`geom`] | the scene types every pipeline shares: spheres, spherical lights, BRDFs |
+//! | (no table) | [`microfacet`] | Cook–Torrance (GGX) and Ashikhmin–Shirley terms; Cook–Torrance as warped SGs for SG lighting, its directional albedo |
 //! | every table | [`Table`], [`format`](mod@format) | loading, validation, interpolation, the file format |
 //!
 //! Each family type loads its committed table with `embedded()` (cargo feature
