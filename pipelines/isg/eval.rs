@@ -9,7 +9,7 @@ use lobefit_tables::glam::DVec3;
 use lobefit_tables::{BestIsg, LoadError, LookupError, RefitIsg, Table};
 
 use super::render::blockers_of;
-use super::shade::{radiance, Model, Patches, Phong, Settings, Tables};
+use super::shade::{radiance, Model, Patches, Phong, Settings, Specular, Tables};
 use crate::estimate::Sampling;
 use crate::scene::Scene;
 use crate::sky::{exact_estimate_noted, hit_on_scene, POINT_INPUTS};
@@ -91,10 +91,18 @@ impl IsgShadeView {
             .environment_map
             .as_ref()
             .map(|m| Arc::new([0, 1, 2].map(|c| m.channel_sgs(c))));
+        // A scene that names its map's Γ_L gets eq. 9 from it (docs/environment.md:
+        // 10 × lower error on glossy spheres than the lobes' forms).
+        let specular = if scene.prefiltered.is_some() {
+            Specular::Eq9Prefiltered
+        } else {
+            Settings::default().specular
+        };
         Ok(IsgShadeView {
             settings: Settings {
                 model,
                 patches,
+                specular,
                 ..Settings::default()
             },
             brdf,
@@ -119,17 +127,20 @@ impl Lookup for ShadeLookup {
             return Ok(vec![0.0; columns]);
         }
         let blockers = blockers_of(scene, &h);
-        let shade = |env: &[lobefit_tables::Sg]| {
-            radiance(&self.tables, &self.view.settings, env, &self.view.brdf, &blockers, &h).map_err(|e| {
-                LookupError::Refused {
-                    reason: format!("radiance: {e}"),
-                }
+        // Each channel's lobes, and with Γ_L that channel of it.
+        let shade = |env: &[lobefit_tables::Sg], channel: Option<usize>| {
+            let s = Settings {
+                prefiltered_channel: channel,
+                ..self.view.settings
+            };
+            radiance(&self.tables, &s, env, &self.view.brdf, &blockers, &h).map_err(|e| LookupError::Refused {
+                reason: format!("radiance: {e}"),
             })
         };
-        let mut out = vec![shade(&scene.environment)?];
+        let mut out = vec![shade(&scene.environment, None)?];
         if let Some(ch) = &self.view.channels {
-            for env in ch.iter() {
-                out.push(shade(env)?);
+            for (c, env) in ch.iter().enumerate() {
+                out.push(shade(env, Some(c))?);
             }
         }
         Ok(out)
@@ -161,6 +172,7 @@ impl View for IsgShadeView {
     }
     fn runtime(&self, table: Table) -> Result<Box<dyn Lookup>, LoadError> {
         let mut tables = Tables::embedded().map_err(LoadError::BadMetadata)?;
+        tables.prefiltered = self.scene.prefiltered.clone();
         match self.settings.model {
             Model::Refit => tables.refit = RefitIsg::from_table(table)?,
             _ => tables.best = BestIsg::from_table(table)?,

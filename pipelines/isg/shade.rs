@@ -86,7 +86,9 @@ pub enum Specular {
     Product,
     /// Eq. 9 with ∫ L G_b read from the map's prefiltered table Γ_L
     /// ([`Tables::prefiltered`], `crate::prefilter`): the map itself, not its lobes,
-    /// times the visible fraction of G_b.
+    /// times the visible fraction of G_b. A BRDF SG off Γ_L's ladder (sharpness
+    /// outside 1 to `prefilter::LAMBDA_MAX`: a mirror-like Phong lobe, a rough
+    /// microfacet lobe) takes ∫ L G_b from the lobes, as [`Specular::Eq9`].
     Eq9Prefiltered,
 }
 
@@ -122,8 +124,11 @@ pub struct Settings {
     /// cosine over its SG at the patch) or, as the paper, the cosine's SG alone with
     /// the patches below the horizon counted as occluded.
     pub exact_cosine: bool,
-    /// A Cook–Torrance term's SG.
+    /// A Cook–Torrance term's SGs.
     pub microfacet: MicrofacetLobe,
+    /// Which channel of Γ_L [`Specular::Eq9Prefiltered`] reads (0, 1, 2: R, G, B, for
+    /// a channel's lobes); `None`: its Rec. 709 luminance (the luminance's lobes).
+    pub prefiltered_channel: Option<usize>,
 }
 
 impl Default for Settings {
@@ -139,6 +144,7 @@ impl Default for Settings {
             specular: Specular::Product,
             exact_cosine: true,
             microfacet: MicrofacetLobe::Matched(2),
+            prefiltered_channel: None,
         }
     }
 }
@@ -490,7 +496,8 @@ fn shade(
         for lobe in &lobes {
             spec += match s.specular {
                 Specular::Eq9 | Specular::Eq9Prefiltered => {
-                    let pre: f64 = if s.specular == Specular::Eq9 {
+                    let on_ladder = (1.0..=crate::prefilter::LAMBDA_MAX).contains(&lobe.sharpness);
+                    let pre: f64 = if s.specular == Specular::Eq9 || !on_ladder {
                         env.iter()
                             .map(|l| l.product(lobe).map(|p| p.integral()))
                             .sum::<Result<f64, _>>()
@@ -501,7 +508,10 @@ fn shade(
                             .as_deref()
                             .ok_or("eq. 9 with Γ_L needs the map's prefiltered table")?;
                         let g = crate::prefilter::lookup(table, lobe.axis, lobe.sharpness)?;
-                        let y = 0.2126 * g[0] + 0.7152 * g[1] + 0.0722 * g[2];
+                        let y = match s.prefiltered_channel {
+                            Some(c) => *g.get(c).ok_or("a Γ_L channel is 0, 1 or 2")?,
+                            None => 0.2126 * g[0] + 0.7152 * g[1] + 0.0722 * g[2],
+                        };
                         lobe.amplitude * y * crate::prefilter::sg_integral(lobe.sharpness)
                     };
                     let total_b = lobe.integral();

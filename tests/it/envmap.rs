@@ -238,6 +238,8 @@ fn prefilter_writes_a_table_that_gives_a_constant_map_back() {
 /// table without a map, a file that is not a table and a path out of the folder.
 #[test]
 fn a_scene_takes_its_maps_prefiltered_table() {
+    use lobefit::pipelines::envmap::luminance;
+    use std::f64::consts::{PI, TAU};
     let d = tempfile::tempdir().unwrap();
     let texel = |spot: bool| {
         if spot {
@@ -300,6 +302,44 @@ fn a_scene_takes_its_maps_prefiltered_table() {
     assert_eq!(code, Some(0), "{err}");
     let summary = std::fs::read_to_string(out.join("isg-glossy-summary.txt")).unwrap_or(stdout);
     assert!(summary.contains("model best, eq. 9, Γ_L"), "{summary}");
+    // eval isg-shade reads Γ_L when the scene names it, each colour column from its
+    // channel: a purely specular point whose mirror direction is the spot (colour
+    // (20, 15, 10) on (1, 0.5, 0.25)) comes out red over green over blue, its
+    // luminance the luminance column, and unlike the lobes' form. A Phong lobe sharper
+    // than Γ_L's ladder takes the lobes' form instead of failing.
+    let (th, ph) = (PI * 1.5 / 8.0, TAU * 5.5 / 16.0);
+    let row = format!(
+        "px,py,pz,nx,ny,nz,vx,vy,vz\n0,0,1.6,0,0,1,{},{},{}\n",
+        -th.sin() * ph.cos(),
+        -th.sin() * ph.sin(),
+        th.cos()
+    );
+    let eval = |table: Option<&str>, exponent: f64| -> Vec<f64> {
+        let mut v: serde_json::Value = serde_json::from_str(&scene("spot.lobefit", true)).unwrap();
+        match table {
+            Some(t) => v["environment"]["prefiltered"] = t.into(),
+            None => v["environment"]
+                .as_object_mut()
+                .unwrap()
+                .retain(|k, _| k != "prefiltered"),
+        }
+        v["brdf"] = serde_json::json!({"lafortune": {"albedo": 0.0,
+            "lobes": [{"c": [-1.0, -1.0, 1.0], "exponent": exponent, "specular": 0.4}]}});
+        std::fs::write(&path, v.to_string()).unwrap();
+        let (code, stdout, err) = run_text(&["eval", "isg-shade", "--scene", path.to_str().unwrap()], &row);
+        assert_eq!(code, Some(0), "{err}");
+        let line = stdout.lines().nth(1).unwrap();
+        line.split(',').skip(9).map(|x| x.parse().unwrap()).collect()
+    };
+    let (with, without) = (eval(Some("spot.lobefit"), 100.0), eval(None, 100.0));
+    assert!(with[1] > with[2] && with[2] > with[3], "{with:?}");
+    assert!(
+        (luminance([with[1], with[2], with[3]]) - with[0]).abs() <= 1e-9 * with[0],
+        "{with:?}"
+    );
+    assert!((with[0] / without[0] - 1.0).abs() > 0.01, "{with:?} {without:?}");
+    let sharp = eval(Some("spot.lobefit"), 1e5);
+    assert!(sharp.iter().all(|x| x.is_finite() && *x > 0.0), "{sharp:?}");
     for (table, map, says) in [
         ("flat.lobefit", true, "is not this map's Γ_L"),
         ("spot.lobefit", false, "belongs to a map"),
