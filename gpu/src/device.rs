@@ -485,6 +485,12 @@ impl Gpu {
         Ok((layout, pipeline))
     }
 
+    /// Kernels (compute pipelines) built so far and kept: what an animation reads to
+    /// show that its frames after the first build none.
+    pub fn kernels_built(&self) -> usize {
+        self.pipelines.borrow().len()
+    }
+
     /// A uniform buffer holding `contents`.
     fn uniform(&self, contents: &[u8]) -> wgpu::Buffer {
         self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {

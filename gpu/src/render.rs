@@ -169,14 +169,21 @@ pub fn animate(
         .file_stem()
         .map_or("frame".into(), |s| s.to_string_lossy().into_owned());
     let (mut worst, mut worst_max) = (0.0f64, 0.0f64);
+    // Kernels built by the frames after the first: none, when the scene is data.
+    let mut rebuilt = 0;
     for k in 0..frames {
         let time = k as f64 / (frames - 1) as f64;
         let still = sc.at(time)?;
         let path = out.with_file_name(format!("{stem}-frame-{k:03}.png"));
         let t = std::time::Instant::now();
+        let before = gpu.kernels_built();
         let r = one(&still, &path)?;
+        let built = gpu.kernels_built() - before;
+        if k > 0 {
+            rebuilt += built;
+        }
         out!(
-            "{command} {} frame {k} (t = {time:.3}): {} pixels, GPU against the CPU relative to the peak: max {:.2e}, RMS {:.2e}; {:.0} ms (wall: dispatch, read-back, any kernel build)",
+            "{command} {} frame {k} (t = {time:.3}): {} pixels, GPU against the CPU relative to the peak: max {:.2e}, RMS {:.2e}; {:.0} ms (wall: dispatch, read-back, kernel builds: {built})",
             sc.name,
             r.pixels,
             r.max,
@@ -185,6 +192,12 @@ pub fn animate(
         );
         worst = worst.max(r.rms);
         worst_max = worst_max.max(r.max);
+    }
+    if rebuilt > 0 {
+        return Err(format!(
+            "{command} {}: the frames after the first built {rebuilt} kernels (one compiled kernel should serve every frame)",
+            sc.name
+        ));
     }
     out!(
         "{command} {}: {frames} frames on {}; worst frame RMS {worst:.2e}, max {worst_max:.2e} (limit {RMS_LIMIT:.0e} RMS)",
