@@ -576,11 +576,11 @@ fn breakdown_parts(
         "ISG model best (→ Gauss–Legendre patch integrals)",
         "binary patch occlusion (→ the covered part of each patch, 8 × 8 nodes at exact visibility)",
         "eq. 9 (→ every lighting SG times the BRDF SG)",
-        "Phong as one SG, the limiting cone, patch resolution (→ the precise Monte Carlo reference)",
+        "the BRDF as SGs (Phong: one; Cook–Torrance: warped), the limiting cone, patch resolution (→ the precise Monte Carlo reference)",
     ];
     if meshes {
         names[3] =
-            "Phong as one SG, the limiting cone, patch resolution (→ the precise reference on the meshes' sphere sets)";
+            "the BRDF as SGs (Phong: one; Cook–Torrance: warped), the limiting cone, patch resolution (→ the precise reference on the meshes' sphere sets)";
         names.push("sphere sets → true meshes (→ the precise reference with the triangles, same samples)");
     }
     if map {
@@ -588,7 +588,7 @@ fn breakdown_parts(
         names[last] = if meshes {
             "sphere sets → true meshes (→ the precise reference with the triangles, same samples, under the fitted lobes)"
         } else {
-            "Phong as one SG, the limiting cone, patch resolution (→ the precise reference under the fitted lobes)"
+            "the BRDF as SGs (Phong: one; Cook–Torrance: warped), the limiting cone, patch resolution (→ the precise reference under the fitted lobes)"
         };
         names.push("the fitted lobes → the map itself (→ the precise reference under the map's texels)");
     }
