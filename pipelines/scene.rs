@@ -23,7 +23,7 @@ use std::path::Path;
 pub use lobefit_tables::geom::{Brdf, LafortuneLobe, Sphere, SphereLight};
 use lobefit_tables::glam::{DQuat, DVec3};
 pub use lobefit_tables::isg::Sg;
-use lobefit_tables::microfacet::CookTorrance;
+use lobefit_tables::microfacet::{BlinnPhong, CookTorrance};
 
 use crate::mesh::{Mesh, Transform};
 use crate::spheres::{Method, SphereSetFile, MAX_FIT_SPHERES};
@@ -595,6 +595,7 @@ pub fn brdf_value(b: &Brdf, h: &Hit, v: DVec3) -> f64 {
                     .sum::<f64>()
         }
         Brdf::CookTorrance { albedo, specular } => albedo / PI + specular.value(h.n, h.wo, v),
+        Brdf::BlinnPhong { albedo, specular } => albedo / PI + specular.value(h.n, h.wo, v),
     }
 }
 
@@ -1533,6 +1534,13 @@ enum FileMaterial {
         roughness: f64,
         f0: f64,
     },
+    /// Lambert plus k_s (s + 8)/(8π) (n·h)^s (lobefit_tables::microfacet).
+    #[serde(rename = "blinn_phong")]
+    BlinnPhong {
+        albedo: f64,
+        specular: f64,
+        exponent: f64,
+    },
 }
 
 #[derive(Deserialize, Clone, PartialEq)]
@@ -1827,7 +1835,7 @@ impl Checker<'_> {
         let (albedo, lobes) = match &m {
             FileMaterial::Lambert { albedo } => (*albedo, &[][..]),
             FileMaterial::Lafortune { albedo, lobes } => (*albedo, &lobes[..]),
-            FileMaterial::CookTorrance { albedo, .. } => (*albedo, &[][..]),
+            FileMaterial::CookTorrance { albedo, .. } | FileMaterial::BlinnPhong { albedo, .. } => (*albedo, &[][..]),
         };
         if !(0.0..=1.0).contains(&albedo) {
             return Err(self.err(format!("{what}: albedo {albedo} must lie in [0, 1]")));
@@ -1845,6 +1853,16 @@ impl Checker<'_> {
             if albedo + specular > 1.0 + 1e-12 {
                 return Err(self.err(format!(
                     "{what}: cook_torrance albedo {albedo} + specular {specular} must be ≤ 1 (energy conservation)"
+                )));
+            }
+        }
+        if let FileMaterial::BlinnPhong { specular, exponent, .. } = m {
+            BlinnPhong::new(specular, exponent).map_err(|e| self.err(format!("{what}: blinn_phong: {e}")))?;
+            // The term's reflectance is at most about k_s (its normalisation): with the
+            // diffuse albedo, at most 1.
+            if albedo + specular > 1.0 + 1e-12 {
+                return Err(self.err(format!(
+                    "{what}: blinn_phong albedo {albedo} + specular {specular} must be ≤ 1 (energy conservation)"
                 )));
             }
         }
@@ -2442,6 +2460,14 @@ fn brdfs(materials: Vec<FileMaterial>) -> Vec<Brdf> {
             } => Brdf::CookTorrance {
                 albedo,
                 specular: CookTorrance::new(specular, roughness, f0).expect("checked on load"),
+            },
+            FileMaterial::BlinnPhong {
+                albedo,
+                specular,
+                exponent,
+            } => Brdf::BlinnPhong {
+                albedo,
+                specular: BlinnPhong::new(specular, exponent).expect("checked on load"),
             },
             FileMaterial::Lafortune { albedo, lobes } => Brdf::Lafortune {
                 albedo,

@@ -688,9 +688,12 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&ControlVariate>) -> Result<
 /// Returns them, the inputs per pixel and `nl` (the most lobes of a material seen).
 fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), String> {
     use lobefit::pipelines::scene::Brdf;
-    if hits.iter().any(|h| matches!(sc.brdf(h), Brdf::CookTorrance { .. })) {
+    if hits
+        .iter()
+        .any(|h| matches!(sc.brdf(h), Brdf::CookTorrance { .. } | Brdf::BlinnPhong { .. }))
+    {
         return Err(format!(
-            "mc: {} has a cook_torrance material; the device's Monte Carlo shades Lambert and Lafortune ones",
+            "mc: {} has a cook_torrance or blinn_phong material; the device's Monte Carlo shades Lambert and Lafortune ones",
             sc.name
         ));
     }
@@ -710,7 +713,9 @@ fn light_inputs(sc: &Scene, hits: &[&Hit]) -> Result<(Vec<f32>, usize, usize), S
     for h in hits {
         inputs.extend([h.x.x, h.x.y, h.x.z, h.n.x, h.n.y, h.n.z].map(|v| v as f32));
         let (albedo, ls): (f64, &[lobefit_tables::geom::LafortuneLobe]) = match sc.brdf(h) {
-            Brdf::Lambert { albedo } | Brdf::CookTorrance { albedo, .. } => (*albedo, &[]),
+            Brdf::Lambert { albedo } | Brdf::CookTorrance { albedo, .. } | Brdf::BlinnPhong { albedo, .. } => {
+                (*albedo, &[])
+            }
             Brdf::Lafortune { albedo, lobes } => (*albedo, lobes),
         };
         inputs.push((albedo / std::f64::consts::PI) as f32);

@@ -225,7 +225,9 @@ fn material(b: &Brdf) -> Result<Vec<f32>, String> {
     let (albedo, lobes): (f64, &[LafortuneLobe]) = match b {
         Brdf::Lambert { albedo } => (*albedo, &[]),
         Brdf::Lafortune { albedo, lobes } => (*albedo, lobes),
-        Brdf::CookTorrance { .. } => return Err(lobefit_tables::meunier::MeunierError::NotLobes.to_string()),
+        Brdf::CookTorrance { .. } | Brdf::BlinnPhong { .. } => {
+            return Err(lobefit_tables::meunier::MeunierError::NotLobes.to_string())
+        }
     };
     if lobes.len() > MAX_LOBES {
         return Err(format!(
@@ -247,7 +249,7 @@ fn material32(b: &Brdf) -> Brdf {
     match b {
         Brdf::Lambert { albedo } => Brdf::Lambert { albedo: r(*albedo) },
         // Refused by `material` before the kernel runs: kept as it is.
-        Brdf::CookTorrance { .. } => b.clone(),
+        Brdf::CookTorrance { .. } | Brdf::BlinnPhong { .. } => b.clone(),
         Brdf::Lafortune { albedo, lobes } => Brdf::Lafortune {
             albedo: r(*albedo),
             lobes: lobes

@@ -17,7 +17,7 @@ use lobefit_tables::isg::{BestAtGamma, BestIsg, PaperIsg, RefitIsg, SeparableIsg
 use lobefit_tables::SgFit;
 
 use crate::scene::{Bvh, Hit, OWN_MARGIN};
-pub use crate::sky::Phong;
+pub use crate::sky::{Microfacet, Phong};
 use crate::spheres::tree::SphereTree;
 
 /// Which ISG model integrates the patches.
@@ -467,9 +467,11 @@ fn shade(
     }
     if brdf.specular > 0.0 {
         // The BRDF's SGs and the cosine at their axis: the Phong lobe through sg-fit,
-        // or a Cook–Torrance term's warped SGs, which hold their cosine already.
+        // or a half-vector term's warped SGs, which hold their cosine already
+        // (Blinn-Phong: one, as published).
         let (lobes, cos_r) = match &brdf.microfacet {
-            Some(ct) => {
+            Some(Microfacet::BlinnPhong(bp)) => (vec![bp.lobe(n, h.wo).map_err(e)?], 1.0),
+            Some(Microfacet::CookTorrance(ct)) => {
                 let form = crate::sky::microfacet_form(ct)?;
                 let lobes = match s.microfacet {
                     MicrofacetLobe::Axis => vec![ct.lobe(n, h.wo).map_err(e)?],

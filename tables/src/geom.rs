@@ -99,4 +99,12 @@ pub enum Brdf {
         /// The specular term.
         specular: crate::microfacet::CookTorrance,
     },
+    /// Blinn-Phong: a Lambertian term plus k_s (s + 8)/(8π) (n·h)^s
+    /// ([`crate::microfacet::BlinnPhong`]); shaded by the ISG pipeline as one warped SG.
+    BlinnPhong {
+        /// Albedo of the Lambertian term.
+        albedo: f64,
+        /// The specular term.
+        specular: crate::microfacet::BlinnPhong,
+    },
 }

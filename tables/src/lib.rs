@@ -41,7 +41,7 @@
 //! | mask-weights | [`MaskWeights`] ([`meunier`]: the pipeline) | eq. 39's per-depth weights of visibility-mask leaf lobes; direct lighting with soft shadows from sphere blockers |
 //! | (no table) | [`rigs`], [`sh`], [`gaunt`] | irradiance rigs; SH basis, rotation, products |
 //! | (no table) | [`geom`] | the scene types every pipeline shares: spheres, spherical lights, BRDFs |
-//! | (no table) | [`microfacet`] | Cook–Torrance (GGX) and Ashikhmin–Shirley terms; Cook–Torrance as warped SGs for SG lighting, its directional albedo |
+//! | (no table) | [`microfacet`] | Cook–Torrance (GGX), Blinn-Phong and Ashikhmin–Shirley terms; the first two as warped SGs for SG lighting, Cook–Torrance's directional albedo |
 //! | every table | [`Table`], [`format`](mod@format) | loading, validation, interpolation, the file format |
 //!
 //! Each family type loads its committed table with `embedded()` (cargo feature

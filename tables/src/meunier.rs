@@ -47,7 +47,7 @@ impl Brdf {
         let wo = unit("outgoing direction", wo)?;
         let albedo = match self {
             Brdf::Lambert { albedo } | Brdf::Lafortune { albedo, .. } => *albedo,
-            Brdf::CookTorrance { .. } => return Err(MeunierError::NotLobes),
+            Brdf::CookTorrance { .. } | Brdf::BlinnPhong { .. } => return Err(MeunierError::NotLobes),
         };
         nonneg("albedo", albedo)?;
         let mut out = vec![Lobe {
@@ -262,10 +262,10 @@ pub enum MeunierError {
         /// how far inside (≤ 0).
         margin: f64,
     },
-    /// The BRDF is not a sum of cosine lobes ([`Brdf::CookTorrance`]).
+    /// The BRDF is not a sum of cosine lobes ([`Brdf::CookTorrance`], [`Brdf::BlinnPhong`]).
     #[error(
-        "Meunier's shading takes BRDFs made of cosine lobes (Lambert, Lafortune); a Cook–Torrance \
-         material is shaded by the ISG pipeline"
+        "Meunier's shading takes BRDFs made of cosine lobes (Lambert, Lafortune); a Cook–Torrance or \
+         Blinn-Phong material is shaded by the ISG pipeline"
     )]
     NotLobes,
     /// A value the query refuses as a table lookup would: not finite

@@ -416,6 +416,80 @@ pub struct NdfSgs {
 /// θ_h = atan(α t), uniform in t/(1 + t)).
 const NDF_FIT_NODES: usize = 4000;
 
+/// The Blinn-Phong specular term (sr⁻¹): f_s = k_s (s + 8)/(8π) (n·h)^s for unit ω_i,
+/// ω_o above the surface, h their half vector (the normalisation that keeps its
+/// reflectance near k_s at normal incidence), 0 below. [`BlinnPhong::lobe`] is
+/// f_s·cos as one SG warped as [`CookTorrance::lobe`] warps GGX's: (n·h)^s ≈
+/// e^{s(n·h − 1)} about n, sharpness s/(4 n·ω_o) about the mirror direction, the
+/// cosine at the axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlinnPhong {
+    /// Weight k_s, in [0, 1].
+    pub specular: f64,
+    /// Exponent s, in [1, 10⁵].
+    pub exponent: f64,
+}
+
+impl BlinnPhong {
+    /// A validated term.
+    pub fn new(specular: f64, exponent: f64) -> Result<BlinnPhong, LookupError> {
+        Ok(BlinnPhong {
+            specular: in_range("specular", specular, 0.0, 1.0)?,
+            exponent: in_range("exponent", exponent, 1.0, 1e5)?,
+        })
+    }
+
+    /// f_s(ω_i, ω_o) at unit normal `n`; 0 when either lies on or below the surface.
+    pub fn value(&self, n: DVec3, wo: DVec3, wi: DVec3) -> f64 {
+        if n.dot(wi) <= 0.0 || n.dot(wo) <= 0.0 {
+            return 0.0;
+        }
+        let nh = n.dot((wi + wo).normalize()).max(0.0);
+        self.specular * (self.exponent + 8.0) / (8.0 * PI) * nh.powf(self.exponent)
+    }
+
+    /// f_s(ω, ω_o)·(n·ω) as one warped SG (amplitude 0 for a view at or below the
+    /// surface); errors on a non-unit or non-finite `n` or `wo`.
+    pub fn lobe(&self, n: DVec3, wo: DVec3) -> Result<Sg, LookupError> {
+        let n = crate::isg::unit_axis(n)?;
+        let wo = crate::isg::unit_axis(wo)?;
+        let nv = n.dot(wo);
+        let r = (2.0 * nv * n - wo).normalize();
+        let a = if nv > 0.0 {
+            self.specular * (self.exponent + 8.0) / (8.0 * PI) * nv
+        } else {
+            0.0
+        };
+        Sg::new(r, self.exponent / (4.0 * nv.max(NV_MIN)), a)
+    }
+
+    /// A direction ω_i whose half vector with `wo` is drawn ∝ (n·h)^{s+1}, reflected:
+    /// density [`BlinnPhong::pdf`]. `u1`, `u2` uniform in [0, 1).
+    pub fn sample(&self, n: DVec3, wo: DVec3, u1: f64, u2: f64) -> DVec3 {
+        let c = u1.powf(1.0 / (self.exponent + 2.0));
+        let s = (1.0 - c * c).max(0.0).sqrt();
+        let (t, b) = n.any_orthonormal_pair();
+        let phi = 2.0 * PI * u2;
+        let h = c * n + s * (phi.cos() * t + phi.sin() * b);
+        2.0 * wo.dot(h) * h - wo
+    }
+
+    /// The density (sr⁻¹) of [`BlinnPhong::sample`] at `wi`:
+    /// (s + 2)/(2π) (n·h)^{s+1} / (4 |ω_o·h|).
+    pub fn pdf(&self, n: DVec3, wo: DVec3, wi: DVec3) -> f64 {
+        let sum = wi + wo;
+        if sum.length_squared() == 0.0 {
+            return 0.0;
+        }
+        let h = sum.normalize();
+        let (nh, vh) = (n.dot(h), wo.dot(h).abs());
+        if nh <= 0.0 || vh == 0.0 {
+            return 0.0;
+        }
+        (self.exponent + 2.0) / (2.0 * PI) * nh.powf(self.exponent + 1.0) / (4.0 * vh)
+    }
+}
+
 /// The Ashikhmin–Shirley (2000) anisotropic specular term (sr⁻¹), in the local frame
 /// (tangent x, bitangent y, normal z), for unit ω_i, ω_o and h = (ω_i + ω_o)/|ω_i + ω_o|:
 ///
@@ -750,6 +824,49 @@ mod tests {
         });
         assert!((inside / e - 1.0).abs() < 5e-3, "{inside} vs {e}");
         assert!(ct.ndf_sgs(0).is_err() && ct.ndf_sgs(4).is_err());
+    }
+
+    /// Blinn-Phong: its sampler's histogram against its density (as the visible-normal
+    /// test), and its warped lobe's energy against quadrature of f_s·cos, measured
+    /// (normal and 57° views): s 50 +12.3 % / +1.8 %, s 1 000 +0.6 % / +0.1 %.
+    #[test]
+    fn blinn_phong_samples_its_density_and_its_lobe_keeps_the_energy() {
+        let bp = BlinnPhong::new(1.0, 50.0).unwrap();
+        let wo = DVec3::new(0.6, 0.0, 0.8);
+        let (mut state, draws) = (11u64, 100_000);
+        let mut rng = || {
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // The mass within 0.3 rad of the mirror direction: draws against the density.
+        let r = DVec3::new(-0.6, 0.0, 0.8);
+        let near = |w: DVec3| w.dot(r) > 0.3f64.cos();
+        let hits = (0..draws)
+            .filter(|_| {
+                let (u1, u2) = (rng(), rng());
+                near(bp.sample(DVec3::Z, wo, u1, u2))
+            })
+            .count() as f64;
+        let mass = sphere(2000, 800, |w| if near(w) { bp.pdf(DVec3::Z, wo, w) } else { 0.0 });
+        let e = mass * draws as f64;
+        assert!(
+            (hits - e).abs() < 5.0 * e.sqrt(),
+            "{hits} draws near r, {e:.0} expected"
+        );
+        for (s, lo, hi) in [(50.0, 0.0, 0.15), (1000.0, -0.01, 0.01)] {
+            let bp = BlinnPhong::new(1.0, s).unwrap();
+            for th in [0.0f64, 1.0] {
+                let wo = DVec3::new(th.sin(), 0.0, th.cos());
+                let g = bp.lobe(DVec3::Z, wo).unwrap();
+                let exact = sphere(3000, 1200, |w| bp.value(DVec3::Z, wo, w) * w.z.max(0.0));
+                let approx = sphere(3000, 1200, |w| if w.z > 0.0 { g.eval(w) } else { 0.0 });
+                let d = approx / exact - 1.0;
+                assert!(d > lo && d < hi, "s {s} θ {th}: {approx} vs {exact}");
+            }
+        }
     }
 
     /// Out-of-domain parameters and directions are errors; a view below the surface

@@ -102,8 +102,9 @@ fn eval_isg_shade_against_its_exact_reference() {
 /// Cook–Torrance materials (GGX) through the pipeline's warped SGs (the default: D as
 /// 2 SGs, matched to the term's albedo) against the reference, which samples the
 /// term's visible normals: a rough metal-like and a smooth dielectric-like term on the
-/// ground around the spheres, within 3 % (measured: 0.1 to 1.8 %). The
-/// SH-exponentiation pipeline refuses the material by name.
+/// ground around the spheres (measured: 0.1 to 1.8 %); Blinn-Phong 200 as its one
+/// warped SG (measured 2.8 and 2.9 %); within 4 %. The SH-exponentiation pipeline
+/// refuses the materials by name.
 #[test]
 fn eval_isg_shade_on_cook_torrance_against_its_exact_reference() {
     let dir = tempfile::tempdir().unwrap();
@@ -116,6 +117,10 @@ fn eval_isg_shade_on_cook_torrance_against_its_exact_reference() {
             serde_json::json!({"cook_torrance": {"albedo": 0.3, "specular": 0.7, "roughness": 0.08, "f0": 0.9}}),
             "px,py,pz,nx,ny,nz,vx,vy,vz\n0.3,0.9,0,0,0,1,0.6,0,0.8\n1.7,1.6,0,0,0,1,0,0,1\n",
         ),
+        (
+            serde_json::json!({"blinn_phong": {"albedo": 0.3, "specular": 0.7, "exponent": 200.0}}),
+            "px,py,pz,nx,ny,nz,vx,vy,vz\n0.3,0.9,0,0,0,1,0.6,0,0.8\n1.7,1.6,0,0,0,1,0,0,1\n",
+        ),
     ] {
         let scene = scene_file(dir.path(), |v| v["brdf"] = brdf.clone());
         let col = common::last_column;
@@ -123,11 +128,11 @@ fn eval_isg_shade_on_cook_torrance_against_its_exact_reference() {
         let (c2, exact, e2) = common::run_text(&["eval", "isg-shade", "--scene", &scene, "--exact"], rows);
         assert_eq!((c1, c2), (Some(0), Some(0)), "{e1}{e2}");
         for (p, r) in col(&fast).into_iter().zip(col(&exact)) {
-            assert!((p / r - 1.0).abs() < 0.03, "{brdf}: pipeline {p} vs reference {r}");
+            assert!((p / r - 1.0).abs() < 0.04, "{brdf}: pipeline {p} vs reference {r}");
         }
         let (code, _, err) = common::run_text(&["eval", "shexp-shade", "--scene", &scene], rows);
         assert_eq!(code, Some(2), "{err}");
-        assert!(err.contains("cook_torrance"), "{err}");
+        assert!(err.contains("cook_torrance or blinn_phong"), "{err}");
     }
 }
 
