@@ -611,6 +611,18 @@ impl AlbedoCurve {
 mod tests {
     use super::*;
 
+    /// Uniforms in [0, 1) from SplitMix64 seeded `seed`: a test needs no generator crate.
+    fn uniforms(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// Midpoint quadrature of `f` over the sphere in (θ, φ) about +z.
     fn sphere(nt: usize, np: usize, f: impl Fn(DVec3) -> f64) -> f64 {
         let mut s = 0.0;
@@ -649,15 +661,7 @@ mod tests {
         let ct = CookTorrance::new(1.0, 0.3, 0.04).unwrap();
         let n = DVec3::Z;
         let wo = DVec3::new(0.6, 0.0, 0.8);
-        // SplitMix64: a test needs no generator crate.
-        let mut state = 7u64;
-        let mut rng = || {
-            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = uniforms(7);
         let draws = 200_000;
         let cell = |w: DVec3| -> Option<usize> {
             if w.z <= 0.0 {
@@ -833,14 +837,7 @@ mod tests {
     fn blinn_phong_samples_its_density_and_its_lobe_keeps_the_energy() {
         let bp = BlinnPhong::new(1.0, 50.0).unwrap();
         let wo = DVec3::new(0.6, 0.0, 0.8);
-        let (mut state, draws) = (11u64, 100_000);
-        let mut rng = || {
-            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let (mut rng, draws) = (uniforms(11), 100_000);
         // The mass within 0.3 rad of the mirror direction: draws against the density.
         let r = DVec3::new(-0.6, 0.0, 0.8);
         let near = |w: DVec3| w.dot(r) > 0.3f64.cos();
