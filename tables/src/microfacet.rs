@@ -74,6 +74,11 @@ pub fn upper_fraction(g: &Sg, n: DVec3) -> f64 {
     whole + part
 }
 
+/// The sharpest warped lobe: an [`Sg`]'s largest sharpness. Views within about 0.3°
+/// of grazing would warp the sharpest terms past it (λ/(4 n·ω_o)); they are taken at
+/// it (the lobe's axis then lies on the horizon and its weight is nearly nothing).
+pub const LOBE_SHARPNESS_MAX: f64 = 1e6;
+
 /// A Cook–Torrance specular term (GGX, Smith height-correlated, Schlick).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CookTorrance {
@@ -166,7 +171,11 @@ impl CookTorrance {
         let c = nv.max(NV_MIN);
         // F at ω_o·h = n·ω_o (h = n at ω = r), V at n·ω_i = n·ω_o, times n·r = n·ω_o.
         let a = self.ndf_amplitude() * self.specular * self.fresnel(nv) * self.visibility(nv, nv) * nv;
-        Sg::new(r, self.ndf_sharpness() / (4.0 * c), finite("lobe amplitude", a)?)
+        Sg::new(
+            r,
+            (self.ndf_sharpness() / (4.0 * c)).min(LOBE_SHARPNESS_MAX),
+            finite("lobe amplitude", a)?,
+        )
     }
 
     /// The term's directional albedo E = ∫ f_s(ω, ω_o) (n·ω) dω at n·ω_o = `nv`
@@ -343,7 +352,13 @@ impl CookTorrance {
             .sharpness
             .iter()
             .zip(&ndf.amplitude)
-            .map(|(&l, &a)| Sg::new(r, l / (4.0 * c), finite("lobe amplitude", a * common)?))
+            .map(|(&l, &a)| {
+                Sg::new(
+                    r,
+                    (l / (4.0 * c)).min(LOBE_SHARPNESS_MAX),
+                    finite("lobe amplitude", a * common)?,
+                )
+            })
             .collect::<Result<Vec<Sg>, LookupError>>()?;
         if let (Some(e), true) = (albedo, common > 0.0) {
             let inside: f64 = out.iter().map(|g| g.integral() * upper_fraction(g, n)).sum();
@@ -460,7 +475,7 @@ impl BlinnPhong {
         } else {
             0.0
         };
-        Sg::new(r, self.exponent / (4.0 * nv.max(NV_MIN)), a)
+        Sg::new(r, (self.exponent / (4.0 * nv.max(NV_MIN))).min(LOBE_SHARPNESS_MAX), a)
     }
 
     /// A direction ω_i whose half vector with `wo` is drawn ∝ (n·h)^{s+1}, reflected:

@@ -136,6 +136,35 @@ fn eval_isg_shade_on_cook_torrance_against_its_exact_reference() {
     }
 }
 
+/// Grazing views of glossy terms: the sharpest terms (Blinn-Phong 10⁵, GGX α 0.02) at
+/// 75° and 89.9° from the normal answer finite and ≥ 0 (their warped lobes once passed
+/// an SG's largest sharpness and failed the row), and each such row is warned about by
+/// line (the horizon clips the lobe: measured −15 to −72 % at 75°).
+#[test]
+fn grazing_views_of_glossy_terms_answer_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows = "px,py,pz,nx,ny,nz,vx,vy,vz\n1.7,1.6,0,0,0,1,0,0,1\n\
+                1.7,1.6,0,0,0,1,0.9659258262890683,0,0.25881904510252074\n\
+                1.7,1.6,0,0,0,1,0.9999984769132877,0,0.0017453283658982615\n";
+    for brdf in [
+        serde_json::json!({"blinn_phong": {"albedo": 0.0, "specular": 1.0, "exponent": 1e5}}),
+        serde_json::json!({"cook_torrance": {"albedo": 0.0, "specular": 1.0, "roughness": 0.02, "f0": 1.0}}),
+    ] {
+        let scene = scene_file(dir.path(), |v| v["brdf"] = brdf.clone());
+        let (code, out, err) = common::run_text(&["eval", "isg-shade", "--scene", &scene], rows);
+        assert_eq!(code, Some(0), "{brdf}: {err}");
+        let col = common::last_column(&out);
+        assert!(
+            col.len() == 3 && col.iter().all(|x| x.is_finite() && *x >= 0.0),
+            "{brdf}: {col:?}"
+        );
+        assert!(
+            err.contains("2 rows (the first on line 3)") && err.contains("more than 70°"),
+            "{brdf}: {err}"
+        );
+    }
+}
+
 /// Bad scenes name the key; bad flags and rows are specific errors.
 #[test]
 fn bad_scenes_flags_and_rows_are_specific_errors() {
@@ -178,6 +207,12 @@ fn bad_scenes_flags_and_rows_are_specific_errors() {
                     serde_json::json!({"cook_torrance": {"albedo": 0.6, "specular": 0.5, "roughness": 0.2, "f0": 0.04}})
             }),
             "energy conservation",
+        ),
+        (
+            Box::new(|v| {
+                v["brdf"] = serde_json::json!({"blinn_phong": {"albedo": 0.5, "specular": 0.5, "exponent": 20.0}})
+            }),
+            "blinn_phong exponent 20 is below 100",
         ),
     ];
     for (edit, want) in cases {
