@@ -352,3 +352,105 @@ pub fn shade_image(
 pub fn column(parts: &[Vec<f64>], k: usize) -> Vec<f64> {
     parts.iter().map(|p| p[k]).collect()
 }
+
+/// Under a map, a frame in colour: the pipeline's image with each channel's lobes
+/// ([`crate::envmap::LightMap::channel_sgs`] as the scene's `environment`) against a
+/// reference on that channel of the map itself. What a pipeline gives: its name for
+/// the summary, its breakdown's sample factor and seed, its BRDF at a hit and its image
+/// of a scene (the frame's hits, shaded under that scene's lobes).
+pub struct Colour<'a> {
+    /// The method's name in the summary line.
+    pub method: &'a str,
+    /// The breakdown subset's reference takes this many times the image's samples.
+    pub precise_factor: usize,
+    /// The image reference's seed (the pipeline's own: the same draws as its
+    /// luminance reference).
+    pub seed: u64,
+    /// The BRDF the references sample at a hit.
+    pub brdf: &'a (dyn Fn(&Hit) -> Result<crate::sky::Phong, String> + Sync),
+    /// The pipeline's image of the frame's hits under a scene's `environment`.
+    pub image: &'a dyn Fn(&Scene) -> Result<Vec<f64>, String>,
+}
+
+impl Colour<'_> {
+    /// Each channel's error, measured as the luminance's is: on the breakdown's subset
+    /// ([`Frame::picks`]) against a reference with `precise_factor` × the samples
+    /// (relative RMSE, with and without that reference's noise, and max, over the
+    /// channel's mean), one summary line. `<stem>-colour.png` shows the pipeline and the
+    /// image's reference side by side at the luminance beauty's exposure. Every
+    /// channel's reference draws as the luminance's does (same seeds, the texels
+    /// sampled by luminance: unbiased for each channel).
+    pub fn write(
+        &self,
+        f: &Frame<'_>,
+        map: &crate::envmap::LightMap,
+        r: &Reference,
+        sum: &mut Summary,
+    ) -> Result<(), String> {
+        use rayon::prelude::*;
+        let scene = f.scene;
+        let picks = f.picks();
+        let sub_lit = vec![true; picks.len()];
+        let (brdf, seed, factor) = (self.brdf, self.seed, self.precise_factor);
+        let reference = |hit: &Hit, c: usize, spp: usize, seed: u64| -> Result<Estimate, String> {
+            Ok(crate::sky::reference_map(
+                crate::estimate::Sampling::Plain,
+                map,
+                |w| map.channel(w, c),
+                &brdf(hit)?,
+                |v| scene.occluded(hit, v),
+                hit,
+                spp,
+                seed,
+            ))
+        };
+        let (mut method, mut refs) = (Vec::new(), Vec::new());
+        let mut line = format!(
+            "{}: colour (the map's R, G, B; {} against each channel's {}-sample reference on {} pixels):",
+            f.tag,
+            self.method,
+            f.opts.spp * self.precise_factor,
+            picks.len()
+        );
+        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+            let mut sc = scene.clone();
+            sc.environment = map.channel_sgs(c);
+            let img = (self.image)(&sc)?;
+            let est = crate::estimate::per_pixel(
+                &f.hits,
+                f.w,
+                |hit, p| reference(hit, c, f.opts.spp, seed ^ p as u64),
+                &|| {},
+            )?;
+            refs.push(Reference::new(f, est, 0.0).img);
+            let precise: Vec<Estimate> = picks
+                .par_iter()
+                .map(|&p| {
+                    let hit = f.hits[p].as_ref().expect("picks are lit");
+                    reference(hit, c, f.opts.spp * factor, seed ^ 0x9e37_79b9 ^ p as u64)
+                })
+                .collect::<Result<_, String>>()?;
+            let mean: Vec<f64> = precise.iter().map(|e| e.mean).collect();
+            let se: Vec<f64> = precise.iter().map(|e| e.std_error).collect();
+            let v: Vec<f64> = picks.iter().map(|&p| img[p]).collect();
+            let st = crate::image::compare(&v, &mean, &sub_lit);
+            line += &format!(
+                " {name} relative RMSE {:.4} ({:.4} without the reference's noise), max {:.4};",
+                st.rel_rmse,
+                crate::image::noise_free_rel_rmse(&v, &mean, &se, &sub_lit),
+                st.max
+            );
+            method.push(img);
+        }
+        sum.lines.push(line.trim_end_matches(';').to_string());
+        let path = f.dir.join(format!("{}-colour.png", f.stem()));
+        sum.files.push(crate::image::write_beauty_rgb(
+            &path,
+            (f.w, f.h),
+            &[[&method[0], &method[1], &method[2]], [&refs[0], &refs[1], &refs[2]]],
+            &f.lit,
+            crate::image::exposure_for(r.mean),
+        )?);
+        Ok(())
+    }
+}

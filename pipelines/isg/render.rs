@@ -241,7 +241,15 @@ fn render_scene(
     ];
     f.write_images(&mut sum, titles.map(String::as_str), "isg", &model_imgs[BEST].1, &r)?;
     if let Some(map) = &scene.environment_map {
-        colour(&f, &tables, map, &r, &mut sum)?;
+        let shade = |sc: &Scene| image(&tables, &Settings::default(), sc, &f.hits);
+        let colour = crate::render::Colour {
+            method: "ISG best model",
+            precise_factor: PRECISE_FACTOR,
+            seed: MC_SEED,
+            brdf: &|h: &Hit| Phong::of_any(scene.brdf(h)),
+            image: &shade,
+        };
+        colour.write(&f, map, &r, &mut sum)?;
     }
     let error = format!(
         "relative RMSE {rmse_best:.4} against a {}-sample reference on {} pixels",
@@ -280,87 +288,6 @@ fn image_reference(f: &Frame<'_>, progress: &(dyn Fn() + Sync)) -> Result<Refere
         )
     });
     Ok(Reference::new(f, refs?, t_ref))
-}
-
-/// Under a map, the frame in colour: the ISG (best model) with each channel's lobes
-/// against the reference on each channel of the map. Each channel's error is measured
-/// as the luminance's is: on the breakdown's subset against a reference with
-/// [`PRECISE_FACTOR`] × the samples (relative RMSE, with and without that reference's
-/// noise, and max, over the channel's mean), written to `sum`. `<stem>-colour.png`
-/// shows the ISG and the image's reference side by side at the luminance beauty's
-/// exposure. Every channel's reference draws as the luminance's does (same seeds, the
-/// texels sampled by luminance: unbiased for each channel).
-fn colour(
-    f: &Frame<'_>,
-    tables: &Tables,
-    map: &crate::envmap::LightMap,
-    r: &Reference,
-    sum: &mut Summary,
-) -> Result<(), String> {
-    let scene = f.scene;
-    let picks = f.picks();
-    let sub_lit: Vec<bool> = vec![true; picks.len()];
-    let reference = |hit: &Hit, c: usize, spp: usize, seed: u64| -> Result<crate::estimate::Estimate, String> {
-        let brdf = Phong::of_any(scene.brdf(hit))?;
-        Ok(crate::sky::reference_map(
-            crate::estimate::Sampling::Plain,
-            map,
-            |w| map.channel(w, c),
-            &brdf,
-            |v| scene.occluded(hit, v),
-            hit,
-            spp,
-            seed,
-        ))
-    };
-    let mut isg = Vec::new();
-    let mut refs = Vec::new();
-    let mut line = format!(
-        "{}: colour (the map's R, G, B; ISG best model against each channel's {}-sample reference on {} pixels):",
-        f.tag,
-        f.opts.spp * PRECISE_FACTOR,
-        picks.len()
-    );
-    for (c, name) in ["R", "G", "B"].iter().enumerate() {
-        let mut sc = scene.clone();
-        sc.environment = map.channel_sgs(c);
-        let img = image(tables, &Settings::default(), &sc, &f.hits)?;
-        let est = per_pixel(
-            &f.hits,
-            f.w,
-            |hit, p| reference(hit, c, f.opts.spp, MC_SEED ^ p as u64),
-            &|| {},
-        )?;
-        refs.push(Reference::new(f, est, 0.0).img);
-        let precise: Vec<crate::estimate::Estimate> = picks
-            .par_iter()
-            .map(|&p| {
-                let hit = f.hits[p].as_ref().expect("picks are lit");
-                reference(hit, c, f.opts.spp * PRECISE_FACTOR, MC_SEED ^ 0x9e37_79b9 ^ p as u64)
-            })
-            .collect::<Result<_, String>>()?;
-        let mean: Vec<f64> = precise.iter().map(|e| e.mean).collect();
-        let se: Vec<f64> = precise.iter().map(|e| e.std_error).collect();
-        let v: Vec<f64> = picks.iter().map(|&p| img[p]).collect();
-        let st = compare(&v, &mean, &sub_lit);
-        line += &format!(
-            " {name} relative RMSE {:.4} ({:.4} without the reference's noise), max {:.4};",
-            st.rel_rmse,
-            noise_free_rel_rmse(&v, &mean, &se, &sub_lit),
-            st.max
-        );
-        isg.push(img);
-    }
-    sum.lines.push(line.trim_end_matches(';').to_string());
-    let path = f.dir.join(format!("{}-colour.png", f.stem()));
-    sum.files.push(crate::image::write_beauty_rgb(
-        &path,
-        (f.w, f.h),
-        &[[&isg[0], &isg[1], &isg[2]], [&refs[0], &refs[1], &refs[2]]],
-        &f.lit,
-        crate::image::exposure_for(r.mean),
-    )?);
-    Ok(())
 }
 
 /// The summary's first line: the scene and its reference.

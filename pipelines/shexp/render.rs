@@ -278,6 +278,20 @@ fn render_scene(
         f.h,
         &ideal.img,
     )?);
+    if let Some(map) = &scene.environment_map {
+        // Each channel's lobes projected at the pipeline's order; the visibility is the
+        // same for every channel, so a renderer would share it (here each channel is a
+        // render of its own: the summary's time is the luminance's).
+        let shade = |sc: &Scene| image(&tables, &default, &light_sh(sc, default.order)?, sc, &f.hits);
+        let colour = crate::render::Colour {
+            method: &method,
+            precise_factor: PRECISE_FACTOR,
+            seed: MC_SEED,
+            brdf: &|h: &Hit| Phong::of(scene.brdf(h)),
+            image: &shade,
+        };
+        colour.write(&f, map, &r, &mut sum)?;
+    }
     let error = format!(
         "relative RMSE {rmse_pipe:.4} against a {}-sample reference on {} pixels",
         opts.spp * PRECISE_FACTOR,
