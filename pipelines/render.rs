@@ -368,8 +368,9 @@ pub struct Colour<'a> {
     pub seed: u64,
     /// The BRDF the references sample at a hit.
     pub brdf: &'a (dyn Fn(&Hit) -> Result<crate::sky::Phong, String> + Sync),
-    /// The pipeline's image of the frame's hits under a scene's `environment`.
-    pub image: &'a dyn Fn(&Scene) -> Result<Vec<f64>, String>,
+    /// The pipeline's image of the frame's hits under a scene's `environment` (that
+    /// of channel `c`, the second argument: 0, 1, 2 for R, G, B).
+    pub image: &'a dyn Fn(&Scene, usize) -> Result<Vec<f64>, String>,
 }
 
 impl Colour<'_> {
@@ -415,7 +416,7 @@ impl Colour<'_> {
         for (c, name) in ["R", "G", "B"].iter().enumerate() {
             let mut sc = scene.clone();
             sc.environment = map.channel_sgs(c);
-            let img = (self.image)(&sc)?;
+            let img = (self.image)(&sc, c)?;
             let est = crate::estimate::per_pixel(
                 &f.hits,
                 f.w,

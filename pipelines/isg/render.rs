@@ -168,6 +168,7 @@ fn render_scene(
     sum.lines.push(intro(&f, &r));
     let (model_imgs, t_best) = models(&f, &tables, &r, &mut sum.lines)?;
     let default = Settings::default();
+    let (head, head_settings) = headline(&tables, model_imgs.len());
     for (label, patches) in [("100", Patches::Grid(10)), ("400", Patches::Grid(20))] {
         let s = Settings { patches, ..default };
         let img = image(&tables, &s, scene, &f.hits)?;
@@ -192,7 +193,7 @@ fn render_scene(
         let v: Vec<f64> = picks.iter().map(|&p| img[p]).collect();
         let st = compare(&v, &sub.precise, &sub.mask);
         let nf = noise_free_rel_rmse(&v, &sub.precise, &sub.precise_se, &sub.mask);
-        if k == BEST {
+        if k == head {
             // The raw RMSE: an upper bound of the error (the reference's noise in it),
             // so the equal-error ratio below is a lower bound.
             rmse_best = st.rel_rmse;
@@ -236,14 +237,21 @@ fn render_scene(
         eq.ratio
     ));
     let titles = [
-        &format!("{}: ISG pipeline (best model)", f.tag),
+        &format!("{}: ISG pipeline ({})", f.tag, headline_name(&tables)),
         &format!("{}: Monte Carlo reference ({} spp)", f.tag, opts.spp),
     ];
-    f.write_images(&mut sum, titles.map(String::as_str), "isg", &model_imgs[BEST].1, &r)?;
+    f.write_images(&mut sum, titles.map(String::as_str), "isg", &model_imgs[head].1, &r)?;
     if let Some(map) = &scene.environment_map {
-        let shade = |sc: &Scene| image(&tables, &Settings::default(), sc, &f.hits);
+        // Under Γ_L each channel reads its own channel of the table.
+        let shade = |sc: &Scene, c: usize| {
+            let s = Settings {
+                prefiltered_channel: Some(c),
+                ..head_settings
+            };
+            image(&tables, &s, sc, &f.hits)
+        };
         let colour = crate::render::Colour {
-            method: "ISG best model",
+            method: &format!("ISG {}", headline_name(&tables)),
             precise_factor: PRECISE_FACTOR,
             seed: MC_SEED,
             brdf: &|h: &Hit| Phong::of_any(scene.brdf(h)),
@@ -257,13 +265,13 @@ fn render_scene(
         picks.len()
     );
     let estimate = |h: &Hit, n: usize, seed: u64| crate::sky::qmc_cv_mis(scene, h, n, seed);
-    let method = |hits: &[Option<Hit>]| image(&tables, &default, scene, hits);
+    let method = |hits: &[Option<Hit>]| image(&tables, &head_settings, scene, hits);
     let strongest = Strongest {
         name: crate::sky::strongest_name(scene),
         estimate: &estimate,
         method: &method,
     };
-    f.finish(sum, &r, rmse_best, "ISG (best model)".into(), error, &strongest)
+    f.finish(sum, &r, rmse_best, format!("ISG ({})", headline_name(&tables)), error, &strongest)
 }
 
 /// The image's Monte Carlo reference ([`MC_SEED`]-seeded per pixel), timed.
@@ -319,6 +327,32 @@ fn intro(f: &Frame<'_>, r: &Reference) -> String {
 
 /// Which of [`models`]' images is the best model's (the one timed and written).
 const BEST: usize = 2;
+
+/// The headline's image among [`models`]' (`count` of them) and its settings: the best
+/// model's default form, or, where the scene names its map's Γ_L, the best model with
+/// eq. 9 from Γ_L (the last of [`models`]' rows), which shades the map itself where the
+/// lobes hold only its low frequencies (docs/environment.md). The GPU kernel shares the
+/// default form, and its conformance run compares with that.
+fn headline(tables: &Tables, count: usize) -> (usize, Settings) {
+    match tables.prefiltered {
+        Some(_) => (
+            count - 1,
+            Settings {
+                specular: Specular::Eq9Prefiltered,
+                ..Settings::default()
+            },
+        ),
+        None => (BEST, Settings::default()),
+    }
+}
+
+/// The headline's name ([`headline`]).
+fn headline_name(tables: &Tables) -> &'static str {
+    match tables.prefiltered {
+        Some(_) => "best model, eq. 9 from Γ_L",
+        None => "best model",
+    }
+}
 
 /// A labelled image (row-major radiance).
 type Labelled = (String, Vec<f64>);
@@ -389,7 +423,7 @@ fn models(
             1e6 * t / f.pixels as f64
         ));
         model_imgs.push((label.clone(), img));
-        if k == BEST {
+        if k == headline(tables, variants.len()).0 {
             t_best = t;
         }
     }

@@ -282,7 +282,7 @@ fn render_scene(
         // Each channel's lobes projected at the pipeline's order; the visibility is the
         // same for every channel, so a renderer would share it (here each channel is a
         // render of its own: the summary's time is the luminance's).
-        let shade = |sc: &Scene| image(&tables, &default, &light_sh(sc, default.order)?, sc, &f.hits);
+        let shade = |sc: &Scene, _: usize| image(&tables, &default, &light_sh(sc, default.order)?, sc, &f.hits);
         let colour = crate::render::Colour {
             method: &method,
             precise_factor: PRECISE_FACTOR,

@@ -233,7 +233,8 @@ fn prefilter_writes_a_table_that_gives_a_constant_map_back() {
 }
 
 /// A scene names its map's Γ_L (`"environment": {"map": ..., "sgs": K, "prefiltered":
-/// FILE}`): `render isg` adds the row "model best, eq. 9, Γ_L". A table made from
+/// FILE}`): `render isg` adds the row "model best, eq. 9, Γ_L" and makes it the
+/// headline. A table made from
 /// another map of the same size is refused at load, naming the file, and so are a
 /// table without a map, a file that is not a table and a path out of the folder.
 #[test]
@@ -294,14 +295,44 @@ fn a_scene_takes_its_maps_prefiltered_table() {
     let render = |spp: &str| {
         let (p, o) = (path.to_str().unwrap(), out.to_str().unwrap());
         run_text(
-            &["render", "isg", "--scene", p, "--width", "12", "--spp", spp, "--out", o],
+            &[
+                "render",
+                "isg",
+                "--scene",
+                p,
+                "--width",
+                "12",
+                "--spp",
+                spp,
+                "--breakdown-stride",
+                "1",
+                "--out",
+                o,
+            ],
             "",
         )
     };
     let (code, stdout, err) = render("64");
     assert_eq!(code, Some(0), "{err}");
-    let summary = std::fs::read_to_string(out.join("isg-glossy-summary.txt")).unwrap_or(stdout);
+    let summary = std::fs::read_to_string(out.join("isg-glossy-summary.txt")).unwrap_or_else(|_| stdout.clone());
     assert!(summary.contains("model best, eq. 9, Γ_L"), "{summary}");
+    // The headline is eq. 9 from Γ_L: its error is that row's on the breakdown's
+    // subset, not the default form's (which the glossy sphere under the spot moves).
+    let subset = |row: &str| -> String {
+        let line = summary
+            .lines()
+            .find(|l| l.contains(&format!("   {row}")) && l.contains(": relative RMSE"))
+            .unwrap_or_else(|| panic!("{row}: {summary}"));
+        let at = line.find(": relative RMSE ").unwrap() + ": relative RMSE ".len();
+        line[at..].split_whitespace().next().unwrap().to_string()
+    };
+    let head = stdout
+        .lines()
+        .find(|l| l.starts_with("summary: "))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let want = format!("ISG (best model, eq. 9 from Γ_L): relative RMSE {} against", subset("model best, eq. 9, Γ_L"));
+    assert!(head.contains(&want), "{head}\n{summary}");
+    assert_ne!(subset("model best, eq. 9, Γ_L"), subset("model best   "), "{summary}");
     // eval isg-shade reads Γ_L when the scene names it, each colour column from its
     // channel: a purely specular point whose mirror direction is the spot (colour
     // (20, 15, 10) on (1, 0.5, 0.25)) comes out red over green over blue, its
