@@ -343,6 +343,17 @@ impl LightMap {
         DVec3::new(s * phi.cos(), s * phi.sin(), c)
     }
 
+    /// Each texel's luminance, row-major (what [`LightMap::luminance`] reads).
+    pub fn texel_luminance(&self) -> &[f64] {
+        &self.lum
+    }
+
+    /// Running sums of luminance × solid angle over the row-major texels, the last
+    /// [`LightMap::total`] (what [`LightMap::sample`] searches).
+    pub fn running_sums(&self) -> &[f64] {
+        &self.cdf
+    }
+
     /// The density (1/sr) of [`LightMap::sample`] at `d` (unit): the texel's luminance
     /// over the map's integral.
     pub fn pdf(&self, d: DVec3) -> f64 {

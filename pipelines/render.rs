@@ -353,6 +353,10 @@ pub fn column(parts: &[Vec<f64>], k: usize) -> Vec<f64> {
     parts.iter().map(|p| p[k]).collect()
 }
 
+/// A pipeline's image of a frame's hits under a scene's `environment`, given which
+/// channel (0, 1, 2: R, G, B) that environment is.
+pub type ChannelImage<'a> = dyn Fn(&Scene, usize) -> Result<Vec<f64>, String> + 'a;
+
 /// Under a map, a frame in colour: the pipeline's image with each channel's lobes
 /// ([`crate::envmap::LightMap::channel_sgs`] as the scene's `environment`) against a
 /// reference on that channel of the map itself. What a pipeline gives: its name for
@@ -370,7 +374,7 @@ pub struct Colour<'a> {
     pub brdf: &'a (dyn Fn(&Hit) -> Result<crate::sky::Phong, String> + Sync),
     /// The pipeline's image of the frame's hits under a scene's `environment` (that
     /// of channel `c`, the second argument: 0, 1, 2 for R, G, B).
-    pub image: &'a dyn Fn(&Scene, usize) -> Result<Vec<f64>, String>,
+    pub image: &'a ChannelImage<'a>,
 }
 
 impl Colour<'_> {

@@ -18,7 +18,10 @@
 // their contribution at the point (`Select::Contribution`). HYB = true: the CPU's
 // `reference_hybrid` with the SH-exponentiation pipeline's integrand (its value and 16
 // SH coefficients after the pixel's inputs) as the control variate, a tenth of the
-// samples uniform on the sphere; HYB_ISG = true: the ISG pipeline's (mc_isg_a). Outputs per pixel: the sum and the sum of squares of
+// samples uniform on the sphere; HYB_ISG = true: the ISG pipeline's (mc_isg_a). MAP =
+// true: the light is a map's texels (MAP0: their luminance and running sums; no SGs,
+// NE = 0), one of the mixture's strategies draws them (mc_map_sample, the CPU's
+// `reference_map`). Outputs per pixel: the sum and the sum of squares of
 // the batch's SPP sample values, the closed form (0 without CV or HYB), then the
 // budget flag (gpu/src/budget.rs).
 
@@ -458,6 +461,62 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
     return g.amplitude * (diffuse + specular);
 }
 
+// A map's texel holding the unit direction w (row 0 the zenith; column u from φ =
+// 2πu/W, φ from +x towards +y), as the CPU's EnvMap::texel_of: its row-major index.
+fn mc_map_texel(w: vec3<f32>) -> u32 {
+    let theta = acos(clamp(w.z, -1.0, 1.0));
+    var phi = atan2(w.y, w.x);
+    if phi < 0.0 {
+        phi += 2.0 * LF_PI;
+    }
+    let v = min(u32(theta / LF_PI * f32(MAP_H)), MAP_H - 1u);
+    let u = min(u32(phi / (2.0 * LF_PI) * f32(MAP_W)), MAP_W - 1u);
+    return v * MAP_W + u;
+}
+
+// The solid angle of a texel of row v.
+fn mc_map_solid_angle(v: u32) -> f32 {
+    let c0 = cos(LF_PI * f32(v) / f32(MAP_H));
+    let c1 = cos(LF_PI * f32(v + 1u) / f32(MAP_H));
+    return 2.0 * LF_PI / f32(MAP_W) * (c0 - c1);
+}
+
+// The density (1/sr) of mc_map_sample at w: its texel's probability (the difference
+// of two running sums, exactly what the search draws with) over its solid angle.
+fn mc_map_pdf(w: vec3<f32>) -> f32 {
+    let k = mc_map_texel(w);
+    let n = MAP_W * MAP_H;
+    var below = 0.0;
+    if k > 0u {
+        below = X[MAP0 + n + k - 1u];
+    }
+    return max(X[MAP0 + n + k] - below, 0.0) / mc_map_solid_angle(k / MAP_W);
+}
+
+// A direction from the map: a texel by its luminance × solid angle (the first texel
+// whose running sum exceeds u0), then uniform in its solid angle (cos θ by u1, φ by u2).
+fn mc_map_sample(u0: f32, u1: f32, u2: f32) -> vec3<f32> {
+    let n = MAP_W * MAP_H;
+    var lo = 0u;
+    var hi = n - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if X[MAP0 + n + mid] <= u0 {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    let v = lo / MAP_W;
+    let u = lo % MAP_W;
+    let c0 = cos(LF_PI * f32(v) / f32(MAP_H));
+    let c1 = cos(LF_PI * f32(v + 1u) / f32(MAP_H));
+    let c = clamp(c0 + (c1 - c0) * u1, -1.0, 1.0);
+    let s = sqrt(max(1.0 - c * c, 0.0));
+    let phi = 2.0 * LF_PI * (f32(u) + u2) / f32(MAP_W);
+    return vec3<f32>(s * cos(phi), s * sin(phi), c);
+}
+
 // ---- main: the kernel's body (the statements inside its entry point, kernel.rs)
     var budget_flag = 0.0;
     let x = vec3<f32>(x0, x1, x2);
@@ -496,7 +555,12 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
     if total > 0.0 {
         p_env = 1.0 - p_cos - p_phong - p_uni;
     }
-    p_cos = 1.0 - p_phong - p_env - p_uni;
+    // Under a map (no SGs here) the light's share draws the map's texels.
+    var p_map = 0.0;
+    if MAP {
+        p_map = 1.0 - p_cos - p_phong - p_uni;
+    }
+    p_cos = 1.0 - p_phong - p_env - p_map - p_uni;
     let f_d = kd / LF_PI;
     // The control variate's closed form: the unoccluded diffuse radiance.
     var open = 0.0;
@@ -543,6 +607,8 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
             let s = sqrt(max(1.0 - c * c, 0.0));
             let p = 2.0 * LF_PI * u4.z;
             w = c * r + s * (cos(p) * rt + sin(p) * rb);
+        } else if MAP {
+            w = mc_map_sample(u4.w, u4.y, u4.z);
         } else {
             var u = u4.w * total;
             var k = 0u;
@@ -578,6 +644,10 @@ fn mc_weight(g: LfSg, kd: f32, ks: f32, e: f32, n: vec3<f32>, r: vec3<f32>) -> f
                 for (var k = 0u; k < SHN; k++) {
                     light += X[ENV0 + 5u * NE + k] * y[k];
                 }
+            }
+            if MAP {
+                light = X[MAP0 + mc_map_texel(w)];
+                pdf += p_map * mc_map_pdf(w);
             }
             pdf += p_env * mix;
             if pdf > 0.0 {

@@ -305,12 +305,58 @@ const MESH_T_MIN: f64 = 1e-4;
 fn mesh_consts(sc: &Scene) -> String {
     let nodes: usize = sc.meshes.iter().map(|m| m.mesh.hierarchy().count()).sum();
     let depth = sc.meshes.iter().map(|m| m.mesh.depth()).max().unwrap_or(0);
+    let (w, h) = sc
+        .environment_map
+        .as_ref()
+        .map_or((1, 1), |m| (m.map.width, m.map.height));
     format!(
-        "const HF_LEN = {}u;\nconst NM = {}u;\nconst MNODES = {nodes}u;\nconst MSTACK = {}u;\n",
+        "const HF_LEN = {}u;\nconst NM = {}u;\nconst MNODES = {nodes}u;\nconst MSTACK = {}u;\nconst MESH_LEN = {}u;\n\
+         const MAP = {};\nconst MAP_W = {w}u;\nconst MAP_H = {h}u;\n",
         hf_inputs(sc).len(),
         sc.meshes.len(),
-        depth + 1
+        depth + 1,
+        mesh_inputs(sc).len(),
+        sc.environment_map.is_some()
     )
+}
+
+/// A map's texels as the sky kernel reads them (after the meshes, `MAP0`): each
+/// texel's luminance, then the running sums of luminance × solid angle over the
+/// row-major texels divided by their total, the last exactly 1. The kernel draws a
+/// texel by a binary search of the sums and takes the difference of two neighbours as
+/// its probability, so the density it divides by is the one it samples (f32 sums and
+/// all); the CPU's `LightMap::sample` draws the same way in f64. Empty without a map.
+fn map_inputs(sc: &Scene) -> Vec<f32> {
+    let Some(m) = &sc.environment_map else {
+        return Vec::new();
+    };
+    let sums = m.running_sums();
+    let total = m.total();
+    let mut v: Vec<f32> = m.texel_luminance().iter().map(|&l| l as f32).collect();
+    v.extend(sums.iter().map(|&c| (c / total) as f32));
+    if let Some(last) = v.last_mut() {
+        *last = 1.0;
+    }
+    v
+}
+
+/// Loop iterations of one draw from a map (the binary search of its sums: ⌈log₂ N⌉
+/// passes and its exit), 0 without a map.
+fn map_iterations(sc: &Scene) -> u64 {
+    sc.environment_map.as_ref().map_or(0, |m| {
+        let n = (m.map.width * m.map.height) as u64;
+        u64::from(64 - (n - 1).leading_zeros()) + 1
+    })
+}
+
+/// The SGs the sky kernel shades: the scene's, or none under a map (its light is the
+/// map's texels; the lobes fitted to it are the pipelines').
+fn kernel_sgs(sc: &Scene) -> &[lobefit_tables::Sg] {
+    if sc.environment_map.is_some() {
+        &[]
+    } else {
+        &sc.environment
+    }
 }
 
 /// The meshes as mc_meshes reads them: per mesh its root node and its shadow rays'
@@ -386,7 +432,7 @@ fn hf_iterations(sc: &Scene) -> u64 {
 const OFFSETS: &str = "var<private> BATCH: u32;\nvar<private> SPP: u32;\nvar<private> SPH0: u32;\n\
                        var<private> ENV0: u32;\nvar<private> SOBOL0: u32;\nvar<private> NODE0: u32;\n\
                        var<private> ORDER0: u32;\nvar<private> HF0: u32;\nvar<private> MESH0: u32;\n\
-                       var<private> MNODE0: u32;\nvar<private> MTRI0: u32;\n\
+                       var<private> MNODE0: u32;\nvar<private> MTRI0: u32;\nvar<private> MAP0: u32;\n\
                        fn sph(b: u32) -> vec4<f32> {\n    let k = SPH0 + 4u * b;\n    \
                        return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}\n";
 
@@ -407,6 +453,7 @@ const LAYOUT: &str = "    BATCH = N_IN * N.x;
 const LAYOUT_SKY: &str = "    MESH0 = HF0 + HF_LEN;
     MNODE0 = MESH0 + 2u * NM;
     MTRI0 = MNODE0 + 8u * MNODES;
+    MAP0 = MESH0 + MESH_LEN;
 ";
 
 /// Loop iterations of one pixel before its samples (the SG weights, with the control
@@ -497,17 +544,13 @@ pub fn supported(sc: &Scene) -> Result<(), String> {
         Some("more than one spherical light")
     } else if sc.environment.is_empty() && sc.sh_environment.is_none() && !light_scene(sc) {
         Some("neither a distant light nor a spherical light")
-    } else if sc.environment_map.is_some() {
-        // The kernel's light is the SG list; a map's reference integrates the map's
-        // texels (the CPU's qmc-mis-map), which the device does not hold yet.
-        Some("an environment map (the device samples SGs, not a map's texels)")
     } else {
         None
     };
     match why {
         Some(w) => Err(format!(
             "mc: scene {} has {w}; the device's Monte Carlo traces spheres, a height field and meshes under \
-             an SG sky or one spherical light",
+             an SG sky, an SH sky, a map or one spherical light",
             sc.name
         )),
         None => Ok(()),
@@ -521,7 +564,7 @@ fn source(sc: &Scene, est: Estimator) -> String {
     let hyb = est.hybrid();
     let hyb_isg = est == Estimator::HybridIsg;
     let n_in = sky_inputs_per_pixel(est);
-    let (ns, ne) = (sc.spheres.len(), sc.environment.len());
+    let (ns, ne) = (sc.spheres.len(), kernel_sgs(sc).len());
     let sho = sh_order(sc);
     let consts = format!(
         "const N_IN = {n_in}u;\nconst NS = {ns}u;\nconst NE = {ne}u;\nconst NE_ARR = {}u;\nconst SHO = {sho}u;\nconst SHN = {}u;\n\
@@ -576,9 +619,9 @@ pub fn estimate(
         let per = batch_size_light(sc.spheres.len(), nl, traced, est)?;
         (inputs, n_in * hits.len(), per, source_light(sc, n_in, nl, est.qmc()))
     } else {
-        let traced = hf_iterations(sc) + mesh_iterations(sc) + sh_loops(sh_order(sc));
+        let traced = hf_iterations(sc) + mesh_iterations(sc) + sh_loops(sh_order(sc)) + map_iterations(sc);
         let cv_loops = cv.map_or(0, ControlVariate::loops);
-        let per = batch_size(sc.spheres.len(), sc.environment.len(), traced, est, cv_loops)?;
+        let per = batch_size(sc.spheres.len(), kernel_sgs(sc).len(), traced, est, cv_loops)?;
         (
             sky_inputs(sc, hits, cv)?,
             sky_inputs_per_pixel(est) * hits.len(),
@@ -599,6 +642,13 @@ fn check_estimator(sc: &Scene, est: Estimator, cv: Option<(Estimator, usize)>, p
     if light_scene(sc) && (est.cv() || est.hybrid()) {
         return Err(format!(
             "mc: scene {} has a spherical light: plain or qmc only",
+            sc.name
+        ));
+    }
+    if sc.environment_map.is_some() && (est.cv() || est.hybrid()) {
+        return Err(format!(
+            "mc: scene {} is lit by a map: plain or qmc only (the control variates are the fitted lobes', whose \
+             residual against the map's texels is a spike of both signs: docs/environment.md)",
             sc.name
         ));
     }
@@ -655,7 +705,7 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&ControlVariate>) -> Result<
     for s in &sc.spheres {
         inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
     }
-    for g in &sc.environment {
+    for g in kernel_sgs(sc) {
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
     inputs.extend(sc.sh_environment.iter().flatten().map(|&v| v as f32));
@@ -663,6 +713,7 @@ fn sky_inputs(sc: &Scene, hits: &[&Hit], cv: Option<&ControlVariate>) -> Result<
     inputs.extend(bvh_inputs(sc));
     inputs.extend(hf_inputs(sc));
     inputs.extend(mesh_inputs(sc));
+    inputs.extend(map_inputs(sc));
     // The ISG hybrid's records after everything else, each pixel's start in its
     // inputs (an f32 index: exact below 2^24).
     if let Some(ControlVariate::Isg(c)) = cv {
@@ -869,9 +920,19 @@ pub fn cpu_estimate(sc: &Scene, hits: &[&Hit], spp: usize, est: Estimator, seed:
                         seed,
                     )
                 }
-                Estimator::Plain | Estimator::Qmc => {
-                    reference(&sc.environment, &b, |v| sc.occluded(h, v), h, spp, seed)
-                }
+                Estimator::Plain | Estimator::Qmc => match &sc.environment_map {
+                    Some(m) => lobefit::pipelines::sky::reference_map(
+                        Sampling::Plain,
+                        m,
+                        |v| m.luminance(v),
+                        &b,
+                        |v| sc.occluded(h, v),
+                        h,
+                        spp,
+                        seed,
+                    ),
+                    None => reference(&sc.environment, &b, |v| sc.occluded(h, v), h, spp, seed),
+                },
                 Estimator::CvMis | Estimator::QmcCvMis => reference_cv(
                     Sampling::Plain,
                     Select::Contribution,
@@ -1668,6 +1729,50 @@ mod tests {
             let e = check_estimator(sc, est, cv, 5).unwrap_err();
             assert!(e.contains(what), "{est:?}: {e}");
         }
+    }
+
+    /// A scene lit by a map: its kernel validates with plain and qmc and fits the loop
+    /// budget with the map's search; the control variates are refused by name; the
+    /// map's data are its luminance and running sums, non-decreasing to exactly 1, whose
+    /// differences (the probabilities the kernel draws with) sum to 1 and follow
+    /// luminance × solid angle. The device's agreement with the CPU's `reference_map`
+    /// (z scores, `lobefit-gpu mc`) is checked in .ci/run.
+    #[test]
+    fn a_map_scene_validates_and_its_sums_are_its_sampler() {
+        let sc = lobefit::pipelines::isg::render::scene(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../assets/envmaps/isg-sky.json"
+        ))
+        .unwrap();
+        let m = sc.environment_map.as_ref().unwrap();
+        supported(&sc).unwrap();
+        assert!(kernel_sgs(&sc).is_empty() && !sc.environment.is_empty());
+        let n = m.map.width * m.map.height;
+        assert_eq!(map_iterations(&sc), 18, "{n} texels: 17 halvings and the exit");
+        for est in [Estimator::Plain, Estimator::Qmc] {
+            check_estimator(&sc, est, None, 5).unwrap();
+            let traced = hf_iterations(&sc) + mesh_iterations(&sc) + map_iterations(&sc);
+            batch_size(sc.spheres.len(), 0, traced, est, 0).unwrap();
+            if let Err(e) = lobefit::export::shaders::module_of(&source(&sc, est)) {
+                panic!("map {est:?}: {e}");
+            }
+        }
+        for est in [Estimator::CvMis, Estimator::QmcCvMis, Estimator::HybridIsg] {
+            let e = check_estimator(&sc, est, None, 5).unwrap_err();
+            assert!(e.contains("is lit by a map: plain or qmc only"), "{e}");
+        }
+        let data = map_inputs(&sc);
+        assert_eq!(data.len(), 2 * n);
+        let (lum, sums) = data.split_at(n);
+        assert_eq!(sums[n - 1], 1.0);
+        assert!(sums.windows(2).all(|w| w[0] <= w[1]) && sums[0] >= 0.0);
+        // The brightest texel (the sun): its probability is its share of luminance ×
+        // solid angle, to f32 rounding.
+        let k = (0..n).max_by(|&a, &b| lum[a].total_cmp(&lum[b])).unwrap();
+        let p = f64::from(sums[k] - sums[k - 1]);
+        let want = m.texel_luminance()[k] * m.map.solid_angle(k / m.map.width) / m.total();
+        assert!((p / want - 1.0).abs() < 1e-3, "{p} {want}");
+        assert!(map_inputs(&lobefit::pipelines::isg::render::scene("fig12").unwrap()).is_empty());
     }
 
     /// `mc --estimator hybrid` without `--export` is refused by name before any

@@ -271,7 +271,14 @@ fn render_scene(
         estimate: &estimate,
         method: &method,
     };
-    f.finish(sum, &r, rmse_best, format!("ISG ({})", headline_name(&tables)), error, &strongest)
+    f.finish(
+        sum,
+        &r,
+        rmse_best,
+        format!("ISG ({})", headline_name(&tables)),
+        error,
+        &strongest,
+    )
 }
 
 /// The image's Monte Carlo reference ([`MC_SEED`]-seeded per pixel), timed.

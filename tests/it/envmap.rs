@@ -330,7 +330,10 @@ fn a_scene_takes_its_maps_prefiltered_table() {
         .lines()
         .find(|l| l.starts_with("summary: "))
         .unwrap_or_else(|| panic!("{stdout}"));
-    let want = format!("ISG (best model, eq. 9 from Γ_L): relative RMSE {} against", subset("model best, eq. 9, Γ_L"));
+    let want = format!(
+        "ISG (best model, eq. 9 from Γ_L): relative RMSE {} against",
+        subset("model best, eq. 9, Γ_L")
+    );
     assert!(head.contains(&want), "{head}\n{summary}");
     assert_ne!(subset("model best, eq. 9, Γ_L"), subset("model best   "), "{summary}");
     // eval isg-shade reads Γ_L when the scene names it, each colour column from its
@@ -399,7 +402,11 @@ fn the_isg_and_shexp_renders_under_a_map_are_in_colour() {
     let mut f = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n".to_vec();
     for _ in 0..8 {
         for u in 0..16 {
-            f.extend(if u < 8 { [200u8, 20, 20, 129] } else { [20, 20, 200, 129] });
+            f.extend(if u < 8 {
+                [200u8, 20, 20, 129]
+            } else {
+                [20, 20, 200, 129]
+            });
         }
     }
     std::fs::write(d.path().join("m.hdr"), &f).unwrap();
