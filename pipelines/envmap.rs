@@ -863,7 +863,7 @@ pub fn evaluate(map: &EnvMap, sgs: &[RgbSg]) -> Report {
             let e: f64 = texels.iter().map(|(d, dw, y)| y * dw * n.dot(*d).max(0.0)).sum();
             let fit: f64 = sgs
                 .iter()
-                .map(|g| luminance(g.amplitude) * crate::isg::shade::clamped_cosine_integral(&g.shape(), n))
+                .map(|g| luminance(g.amplitude) * crate::sg::clamped_cosine_integral(&g.shape(), n))
                 .sum();
             let rel = |x: f64| (x - e).abs() / e.max(f64::MIN_POSITIVE);
             [rel(fit), rel(sh_irradiance(&sh3, 3, n)), rel(sh_irradiance(&sh5, 5, n))]

@@ -30,6 +30,7 @@ pub mod prefilter;
 pub mod render;
 pub mod rigs;
 pub mod scene;
+pub mod sg;
 pub mod shexp;
 pub mod sky;
 pub mod spheres;

@@ -782,7 +782,7 @@ impl Scene {
     pub fn light(&self, w: DVec3) -> f64 {
         match &self.environment_map {
             Some(m) => m.luminance(w),
-            None => crate::sky::environment(&self.environment, w),
+            None => crate::sg::environment(&self.environment, w),
         }
     }
 

@@ -14,6 +14,7 @@ use super::envmap::LightMap;
 use super::estimate::{estimate_with, Estimate, Sampling, Uniforms};
 use super::heightfield::HeightField;
 use super::scene::{Hit, Scene};
+use super::sg::environment;
 
 /// The BRDF as the pipelines take it: k_d/π + k_s (n + 2)/(2π) max(r·ω, 0)^n, or (the
 /// ISG pipeline and the references, on the CPU) k_d/π plus a Cook–Torrance term.
@@ -173,11 +174,6 @@ pub fn microfacet_form(ct: &CookTorrance) -> Result<&'static MicrofacetForm, Str
     Ok(f)
 }
 
-/// L(ω) of the environment (radiance).
-pub fn environment(env: &[Sg], w: DVec3) -> f64 {
-    env.iter().map(|g| g.eval(w)).sum()
-}
-
 /// A direction of the SG `g`'s normalised density G/∫G over the sphere, and that
 /// density's value there is [`sg_pdf`].
 fn sample_sg(g: &Sg, rng: &mut dyn Uniforms) -> DVec3 {
@@ -313,7 +309,7 @@ pub fn reference_hybrid(
 /// mixture covers the hemisphere); an unoccluded diffuse point has no variance. The
 /// standard error is the samples' (the constant adds none).
 ///
-/// [`clamped_cosine_integral`]: crate::isg::shade::clamped_cosine_integral
+/// [`clamped_cosine_integral`]: crate::sg::clamped_cosine_integral
 #[allow(clippy::too_many_arguments)]
 pub fn reference_cv(
     sampling: Sampling,
@@ -327,7 +323,7 @@ pub fn reference_cv(
 ) -> Estimate {
     let open: f64 = env
         .iter()
-        .map(|g| g.amplitude * crate::isg::shade::clamped_cosine_integral(g, h.n))
+        .map(|g| g.amplitude * crate::sg::clamped_cosine_integral(g, h.n))
         .sum::<f64>()
         * brdf.diffuse
         / PI;
@@ -413,7 +409,7 @@ pub fn reference_cv_map(
 ) -> Estimate {
     let open: f64 = env
         .iter()
-        .map(|g| g.amplitude * crate::isg::shade::clamped_cosine_integral(g, h.n))
+        .map(|g| g.amplitude * crate::sg::clamped_cosine_integral(g, h.n))
         .sum::<f64>()
         * brdf.diffuse
         / PI;
@@ -522,7 +518,7 @@ pub enum Select {
 /// mirror direction `r`.
 fn contribution(g: &Sg, brdf: &Phong, h: &Hit, r: DVec3) -> f64 {
     let nrm = h.n;
-    let diffuse = brdf.diffuse / PI * crate::isg::shade::clamped_cosine_integral(g, nrm);
+    let diffuse = brdf.diffuse / PI * crate::sg::clamped_cosine_integral(g, nrm);
     let specular = match &brdf.microfacet {
         // The term's warped SG (cosine inside): an estimate only shapes the selection.
         Some(ct) if brdf.specular > 0.0 => ct

@@ -951,7 +951,7 @@ pub fn cpu_estimate(sc: &Scene, hits: &[&Hit], spp: usize, est: Estimator, seed:
                     reference_hybrid(
                         Sampling::Plain,
                         &sc.environment,
-                        |v| lobefit::pipelines::sky::environment(&sc.environment, v),
+                        |v| lobefit::pipelines::sg::environment(&sc.environment, v),
                         &b,
                         |v| sc.occluded(h, v),
                         h,

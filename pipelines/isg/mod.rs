@@ -12,7 +12,8 @@ pub mod render;
 pub mod shade;
 pub mod vertex;
 
-pub use super::sky::{environment, reference};
+pub use super::sg::environment;
+pub use super::sky::reference;
 use super::Pipeline;
 
 /// `lobefit render isg`.
