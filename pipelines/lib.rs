@@ -6,7 +6,8 @@
 //!
 //! - [`scene`]: geometry (spheres, planes; rays; a BVH over spheres), the pinhole
 //!   camera, materials, lights, and the JSON scene file every pipeline reads
-//!   (`pipelines/scenes/*.json`, documented in docs/pipelines.md);
+//!   (documented in docs/pipelines.md; each pipeline's built-ins in
+//!   `pipelines/<p>/scenes/`, compiled into its [`Pipeline::files`]);
 //! - [`estimate`]: the Monte Carlo estimator, which always reports its standard error;
 //! - [`image`]: image statistics against a reference (relative RMSE, p99, max, error
 //!   maps) and image output (PNG panels and a PFM float image generic tools read);
@@ -221,6 +222,10 @@ pub struct Pipeline {
     pub about: &'static str,
     /// Its built-in scenes (`--scene all` renders each).
     pub scenes: &'static [&'static str],
+    /// Its built-in scene files, stills and animations: (name, JSON text), the files
+    /// of `pipelines/<p>/scenes/` compiled in; each is also `<pipeline>-<name>`
+    /// everywhere a scene is named ([`scene_text`]).
+    pub files: &'static [(&'static str, &'static str)],
     /// The renderer.
     pub render: RenderFn,
     /// Its `lobefit eval` views (the pipeline without images).
@@ -248,15 +253,20 @@ impl Pipeline {
     /// The scene `name`: the built-in `<pipeline>-<name>`, else a scene file (its load
     /// error then also lists the built-ins). The pipeline's own checks are the caller's.
     pub fn scene(&self, name: &str) -> Result<scene::Scene, String> {
-        match scene::builtin_for(&format!("{}-{name}", self.name), &self.accepts) {
-            Some(s) => s,
-            None => scene::load_for(name, &self.accepts).map_err(|e| {
-                format!(
-                    "{e} (not a built-in scene of {} either: {})",
-                    self.name,
-                    self.scenes.join(", ")
-                )
-            }),
+        match self.file(name) {
+            Some(text) => scene::load_text_for(
+                &scene::SceneText::builtin(&format!("{}-{name}", self.name), text),
+                &self.accepts,
+            ),
+            None => scene_text(name)
+                .and_then(|t| scene::load_text_for(&t, &self.accepts))
+                .map_err(|e| {
+                    format!(
+                        "{e} (not a built-in scene of {} either: {})",
+                        self.name,
+                        self.scenes.join(", ")
+                    )
+                }),
         }
     }
 
@@ -359,17 +369,42 @@ impl Pipeline {
     /// check before any render starts (its refusal is a usage error). `None` where the
     /// scene is within them, or cannot be read here (the render reports that).
     pub fn work_error(&self, name: &str, opts: &RenderOptions, frames: usize) -> Option<String> {
-        let builtin = format!("{}-{name}", self.name);
-        let (lights, blockers) = scene::terms_of(&builtin)
-            .or_else(|| scene::terms_of(name))
-            .map(|(l, b)| (l.max(1), b.max(1)))?;
-        let shown = if scene::BUILTIN.iter().any(|(n, _)| *n == builtin) {
-            builtin
+        let t = match self.file(name) {
+            Some(text) => scene::SceneText::builtin(&format!("{}-{name}", self.name), text),
+            None => scene_text(name).ok()?,
+        };
+        let (lights, blockers) = scene::terms_of(&t).map(|(l, b)| (l.max(1), b.max(1)))?;
+        let shown = if t.dir.is_none() {
+            t.name.clone()
         } else {
             name.to_string()
         };
         self.limits(&shown, lights, blockers, opts, Some(frames)).err()
     }
+
+    /// The text of its built-in scene file `name` (without the pipeline's prefix).
+    pub fn file(&self, name: &str) -> Option<&'static str> {
+        self.files.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+    }
+}
+
+/// A scene's text by name: a built-in `<pipeline>-<scene>` of any pipeline in the
+/// [`registry`], else the scene file at that path.
+pub fn scene_text(name_or_path: &str) -> Result<scene::SceneText, String> {
+    for p in registry() {
+        let Some(rest) = name_or_path.strip_prefix(p.name).and_then(|r| r.strip_prefix('-')) else {
+            continue;
+        };
+        if let Some(text) = p.file(rest) {
+            return Ok(scene::SceneText::builtin(name_or_path, text));
+        }
+    }
+    scene::SceneText::file(name_or_path)
+}
+
+/// The scene `name_or_path` ([`scene_text`]), every kind accepted.
+pub fn load_scene(name_or_path: &str) -> Result<scene::Scene, String> {
+    scene::load_text_for(&scene_text(name_or_path)?, &scene::Accepts::ALL)
 }
 
 /// (light terms, blockers) of a scene, each at least 1: the SGs and sphere lights (an
@@ -538,7 +573,7 @@ mod tests {
         let e = isg.check_work(&fig12, &opts(1024, 256, 1)).unwrap_err();
         assert!(e.contains("MAX_RENDER_SAMPLES"), "{e}");
         // The largest scene the file allows, at a modest render.
-        let mut v: serde_json::Value = serde_json::from_str(scene::BUILTIN[2].1).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(isg::PIPELINE.file("fig12").unwrap()).unwrap();
         let g = v["environment"]["sgs"][0].clone();
         let s = v["spheres"][0].clone();
         v["environment"]["sgs"] = (0..scene::MAX_SGS).map(|_| g.clone()).collect();
@@ -550,6 +585,26 @@ mod tests {
             "{e}"
         );
         isg.check_work(&big, &opts(16, 16, 4)).unwrap();
+    }
+
+    /// Every pipeline's built-in files parse, light something and hold spheres; each
+    /// is found by its full name; a name of no built-in reads a file.
+    #[test]
+    fn builtin_scenes_parse() {
+        let mut count = 0;
+        for p in registry() {
+            for (name, _) in p.files {
+                let s = p.scene(name).unwrap();
+                let lit = !s.lights.is_empty() || !s.environment.is_empty();
+                assert!(lit && !s.spheres.is_empty(), "{} {name}", p.name);
+                let full = format!("{}-{name}", p.name);
+                assert_eq!(load_scene(&full).unwrap().name, full);
+                count += 1;
+            }
+        }
+        assert_eq!(count, 10);
+        let e = scene_text("isg-nothing").unwrap_err();
+        assert!(e.contains("scene isg-nothing"), "{e}");
     }
 
     /// The method's own work is bounded too, over the frames: the built-in animations
@@ -572,7 +627,7 @@ mod tests {
                 p.check_frames(&scene, &opts(640, 2, 4), 24).unwrap();
             }
         }
-        let mut v: serde_json::Value = serde_json::from_str(scene::BUILTIN[2].1).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(isg::PIPELINE.file("fig12").unwrap()).unwrap();
         let g = v["environment"]["sgs"][0].clone();
         v["environment"]["sgs"] = (0..scene::MAX_SGS).map(|_| g.clone()).collect();
         let big = scene::parse("big", &v.to_string()).unwrap();

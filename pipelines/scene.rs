@@ -9,7 +9,8 @@
 //!
 //! The scene file (JSON, `"version": 2`, version 1 still read; every field required
 //! unless noted, unknown fields are errors) is documented in docs/pipelines.md; the
-//! built-in scenes live in `pipelines/scenes/` and are compiled in ([`builtin`]).
+//! built-in scenes belong to their pipelines (`pipelines/<p>/scenes/`, compiled into
+//! each registry entry) and reach the loaders as a [`SceneText`].
 //! Version 2 adds `meshes` (docs/meshes.md): triangle meshes seen by primary rays and
 //! blocking light with their true triangles in every exact visibility test, each with
 //! the sphere set the analytic pipelines take as its blockers ([`Scene::proxies`]).
@@ -1091,56 +1092,75 @@ impl Scene {
     }
 }
 
-/// The built-in scenes: (name, JSON text).
-pub const BUILTIN: [(&str, &str); 10] = [
-    ("meunier-fig13", include_str!("scenes/meunier-fig13.json")),
-    ("meunier-glossy", include_str!("scenes/meunier-glossy.json")),
-    ("isg-fig12", include_str!("scenes/isg-fig12.json")),
-    ("isg-fig12-diffuse", include_str!("scenes/isg-fig12-diffuse.json")),
-    ("shexp-whale", include_str!("scenes/shexp-whale.json")),
-    ("shexp-whale-diffuse", include_str!("scenes/shexp-whale-diffuse.json")),
-    ("shexp-wrecking", include_str!("scenes/shexp-wrecking.json")),
-    // The animations (docs/meshes.md, Motion), last: tests index the stills above.
-    ("isg-falling", include_str!("scenes/isg-falling.json")),
-    ("meunier-orbit", include_str!("scenes/meunier-orbit.json")),
-    ("shexp-swim", include_str!("scenes/shexp-swim.json")),
-];
-
-/// The built-in scene `name`, parsed.
-pub fn builtin(name: &str) -> Option<Result<Scene, String>> {
-    builtin_for(name, &Accepts::ALL)
+/// A scene's JSON as the loaders read it: its name (a built-in's full name
+/// `<pipeline>-<scene>`, else the file's stem), its text and the folder its files
+/// resolve in (none for a built-in: it names no file). Built-ins belong to their
+/// pipelines (each registry entry's `files`, from `pipelines/<p>/scenes/`); the crate
+/// root's `scene_text` finds one by name, else reads a file.
+#[derive(Debug, Clone)]
+pub struct SceneText {
+    /// The scene's name.
+    pub name: String,
+    /// The JSON text.
+    pub text: String,
+    /// The folder a file's relative paths (maps, meshes, sphere sets) resolve in.
+    pub dir: Option<std::path::PathBuf>,
 }
 
-/// [`builtin`] with the pipeline's kinds checked as [`load_for`] does.
-pub fn builtin_for(name: &str, accepts: &Accepts) -> Option<Result<Scene, String>> {
-    BUILTIN
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|(n, text)| parse_inner(n, text, None, accepts, true).map(|s| s.expect("built")))
+impl SceneText {
+    /// A built-in scene: its full name and text.
+    pub fn builtin(name: &str, text: &str) -> Self {
+        SceneText {
+            name: name.into(),
+            text: text.into(),
+            dir: None,
+        }
+    }
+
+    /// The scene file at `path` (at most [`MAX_SCENE_LEN`] bytes).
+    pub fn file(path: &str) -> Result<Self, String> {
+        let p = Path::new(path);
+        let text = lobefit_core::io::read_text(p, MAX_SCENE_LEN).map_err(|e| format!("scene {path}: {e}"))?;
+        let name = p
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let dir = p
+            .parent()
+            .map(|d| if d.as_os_str().is_empty() { Path::new(".") } else { d });
+        Ok(SceneText {
+            name,
+            text,
+            dir: dir.map(Path::to_path_buf),
+        })
+    }
 }
 
-/// A scene by built-in name, else by path to a scene file.
-pub fn load(name_or_path: &str) -> Result<Scene, String> {
-    load_for(name_or_path, &Accepts::ALL)
+/// The scene file at `path`.
+pub fn load(path: &str) -> Result<Scene, String> {
+    load_for(path, &Accepts::ALL)
 }
 
 /// [`load`], refusing (by name, before building the height field) a scene holding a
 /// kind `accepts` does not.
-pub fn load_for(name_or_path: &str, accepts: &Accepts) -> Result<Scene, String> {
-    let (name, text, dir) = read(name_or_path)?;
-    Ok(parse_inner(&name, &text, dir.as_deref(), accepts, true)?.expect("built"))
+pub fn load_for(path: &str, accepts: &Accepts) -> Result<Scene, String> {
+    load_text_for(&SceneText::file(path)?, accepts)
+}
+
+/// [`load_for`] of a scene's text (a built-in's or a file's).
+pub fn load_text_for(t: &SceneText, accepts: &Accepts) -> Result<Scene, String> {
+    Ok(parse_inner(&t.name, &t.text, t.dir.as_deref(), accepts, true)?.expect("built"))
 }
 
 /// [`load_for`] for `lobefit eval`, its errors sorted as the command line reports
 /// them: the file's own (cannot be read, parsed, or built: a mesh, a fit, the height
 /// field) are [`EvalError::Input`]; a valid scene of a kind `accepts` refuses is the
 /// query's usage ([`EvalError::Usage`]).
-pub fn load_for_eval(name_or_path: &str, accepts: &Accepts) -> Result<Scene, lobefit_core::family::EvalError> {
+pub fn load_for_eval(t: &SceneText, accepts: &Accepts) -> Result<Scene, lobefit_core::family::EvalError> {
     use lobefit_core::family::EvalError;
-    let (name, text, dir) = read(name_or_path).map_err(EvalError::Input)?;
-    parse_inner(&name, &text, dir.as_deref(), &Accepts::ALL, false).map_err(EvalError::Input)?;
-    parse_inner(&name, &text, dir.as_deref(), accepts, false).map_err(EvalError::Usage)?;
-    Ok(parse_inner(&name, &text, dir.as_deref(), accepts, true)
+    let (name, text, dir) = (&t.name, &t.text, t.dir.as_deref());
+    parse_inner(name, text, dir, &Accepts::ALL, false).map_err(EvalError::Input)?;
+    parse_inner(name, text, dir, accepts, false).map_err(EvalError::Usage)?;
+    Ok(parse_inner(name, text, dir, accepts, true)
         .map_err(EvalError::Input)?
         .expect("built"))
 }
@@ -1149,9 +1169,9 @@ pub fn load_for_eval(name_or_path: &str, accepts: &Accepts) -> Result<Scene, lob
 /// (the meshes' sphere sets counted from their specifications and files): the SGs,
 /// sphere lights and an SH environment (1); the spheres, the sets' spheres and a
 /// height field (1). `None` when it cannot be read or parsed.
-pub fn terms_of(name_or_path: &str) -> Option<(u64, u64)> {
-    let (name, text, dir) = read(name_or_path).ok()?;
-    let f = read_file(&name, &text, &Accepts::ALL).ok()?;
+pub fn terms_of(t: &SceneText) -> Option<(u64, u64)> {
+    let (name, text, dir) = (&t.name, &t.text, &t.dir);
+    let f = read_file(name, text, &Accepts::ALL).ok()?;
     let lights =
         f.environment.as_ref().map_or(0, |e| e.count()) + f.lights.len() + usize::from(f.sh_environment.is_some());
     let mut blockers = f.spheres.len() + usize::from(f.heightfield.is_some());
@@ -1171,25 +1191,9 @@ pub fn terms_of(name_or_path: &str) -> Option<(u64, u64)> {
 
 /// Whether [`load`] would succeed, without building anything expensive (the height
 /// field): the same error, or Ok.
-pub fn check_file(name_or_path: &str) -> Result<(), String> {
-    let (name, text, dir) = read(name_or_path)?;
-    parse_inner(&name, &text, dir.as_deref(), &Accepts::ALL, false).map(|_| ())
-}
-
-/// A built-in's (name, text, no folder), else a file's (stem, text, its folder).
-fn read(name_or_path: &str) -> Result<(String, String, Option<std::path::PathBuf>), String> {
-    if let Some((n, text)) = BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
-        return Ok(((*n).into(), (*text).into(), None));
-    }
-    let path = Path::new(name_or_path);
-    let text = lobefit_core::io::read_text(path, MAX_SCENE_LEN).map_err(|e| format!("scene {name_or_path}: {e}"))?;
-    let stem = path
-        .file_stem()
-        .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-    let dir = path
-        .parent()
-        .map(|d| if d.as_os_str().is_empty() { Path::new(".") } else { d });
-    Ok((stem, text, dir.map(Path::to_path_buf)))
+pub fn check_file(path: &str) -> Result<(), String> {
+    let t = SceneText::file(path)?;
+    parse_inner(&t.name, &t.text, t.dir.as_deref(), &Accepts::ALL, false).map(|_| ())
 }
 
 /// The light of the map at `path` (named `file` in the scene) with `k` lobes fitted
@@ -2498,6 +2502,11 @@ fn brdfs(materials: Vec<FileMaterial>) -> Vec<Brdf> {
         .collect()
 }
 
+/// A scene file the tests edit (one spherical light and five blockers over a plane:
+/// Meunier's Figure 13 analogue).
+#[cfg(test)]
+const TEST_SCENE: &str = include_str!("meunier/scenes/fig13.json");
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -2577,7 +2586,7 @@ mod tests {
 
     /// The fig13 scene with its spheres, lights and SGs replaced by `n` of each kind.
     fn with_counts(spheres: usize, lights: usize, sgs: usize) -> String {
-        let mut v: serde_json::Value = serde_json::from_str(BUILTIN[0].1).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(TEST_SCENE).unwrap();
         let s = v["spheres"][0].clone();
         let l = v["lights"][0].clone();
         v["spheres"] = (0..spheres).map(|_| s.clone()).collect();
@@ -2640,7 +2649,7 @@ mod tests {
             sphere_lights: false,
             ..no_terrain
         };
-        let e = parse_inner("t", BUILTIN[0].1, None, &lights, true).unwrap_err();
+        let e = parse_inner("t", TEST_SCENE, None, &lights, true).unwrap_err();
         assert!(e.contains("cannot shade sphere lights (`lights`)"), "{e}");
     }
 
@@ -2648,10 +2657,8 @@ mod tests {
     /// (primary_hits) naming it; before, the inside of the sphere was shaded as lit.
     #[test]
     fn a_camera_inside_a_sphere_or_below_the_terrain_is_refused() {
-        let inside = BUILTIN[0]
-            .1
-            .replace("\"eye\": [0.0, -6.5, 4.5]", "\"eye\": [-1.2, 0.1, 0.9]");
-        assert_ne!(inside, BUILTIN[0].1);
+        let inside = TEST_SCENE.replace("\"eye\": [0.0, -6.5, 4.5]", "\"eye\": [-1.2, 0.1, 0.9]");
+        assert_ne!(inside, TEST_SCENE);
         let e = parse("t", &inside).unwrap().primary_hits(8, 6).unwrap_err();
         assert!(e.contains("camera.eye [-1.2, 0.1, 0.9] lies inside spheres[0]"), "{e}");
         let text = r#"{"version":1,"environment":{"sgs":[{"axis":[0,0,1],"sharpness":5,"amplitude":1}]},
@@ -2666,22 +2673,13 @@ mod tests {
             .unwrap()
             .primary_hits(8, 6)
             .is_ok());
-        assert!(parse("t", BUILTIN[0].1).unwrap().primary_hits(8, 6).is_ok());
-    }
-
-    #[test]
-    fn builtin_scenes_parse() {
-        for (name, _) in BUILTIN {
-            let s = builtin(name).unwrap().unwrap();
-            let lit = !s.lights.is_empty() || !s.environment.is_empty();
-            assert!(lit && !s.spheres.is_empty(), "{name}");
-        }
+        assert!(parse("t", TEST_SCENE).unwrap().primary_hits(8, 6).is_ok());
     }
 
     /// Bad scene files are specific errors naming the field.
     #[test]
     fn bad_scene_files_are_specific_errors() {
-        let good = BUILTIN[0].1;
+        let good = TEST_SCENE;
         let cases = [
             (good.replace("\"version\": 1", "\"version\": 3"), "version 3"),
             (
@@ -3150,7 +3148,7 @@ mod motion_tests {
             let e = parse_in("t", &v.to_string(), d.path()).unwrap_err();
             assert!(e.contains(want), "{e} (want {want})");
         }
-        let mut v: serde_json::Value = serde_json::from_str(BUILTIN[0].1).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(TEST_SCENE).unwrap();
         v["version"] = 1.into();
         v["spheres"][0]["keys"] = serde_json::json!([{"time": 0, "translation": [0, 0, 1]}]);
         let e = parse("t", &v.to_string()).unwrap_err();
@@ -3290,7 +3288,7 @@ mod motion_tests {
         let (sn, cs) = std::f64::consts::FRAC_PI_4.sin_cos();
         let want = c + DVec3::new(a.x * cs - a.y * sn, a.x * sn + a.y * cs, a.z) + 0.5 * DVec3::X;
         assert!((h.meshes[0].mesh.vertices[5] - want).length() < 1e-12);
-        let mut v: serde_json::Value = serde_json::from_str(BUILTIN[0].1).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(TEST_SCENE).unwrap();
         v["version"] = 2.into();
         v["spheres"][0]["keys"] =
             serde_json::json!([{"time": 0, "translation": [0, 0, 1], "rotation": {"axis": [0, 0, 1], "angle": 1}}]);

@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
 """Writes the animated scenes (docs/meshes.md, Motion) from the still ones, so that
-their keys are reproducible: pipelines/scenes/isg-falling.json (Figure 12's spheres,
+their keys are reproducible: pipelines/isg/scenes/falling.json (Figure 12's spheres,
 every third dropped from above and bouncing once onto where it rests) and
 assets/meshes/isg-bunny-walk.json (the bunny hopping across the plane through the
 sun's shadow), assets/meshes/isg-bunny-nod.json (the bunny nodding: a deforming mesh,
-two bones), pipelines/scenes/meunier-orbit.json (Figure 13's blockers turning)
+two bones), pipelines/meunier/scenes/orbit.json (Figure 13's blockers turning)
 and the stills assets/meshes/meunier-bunny.json (the bunny under Figure 13's light)
 and assets/meshes/shexp-bunny.json (the bunny under the whale's sky), and
-pipelines/scenes/shexp-swim.json (the whale's spheres swimming over the terrain). Run from the repository root: python3 scripts/animations.py"""
+pipelines/shexp/scenes/swim.json (the whale's spheres swimming over the terrain). Run from the repository root: python3 scripts/animations.py"""
 import json
 import math
 import random
@@ -35,13 +35,13 @@ def fall_keys(height, start):
     return [{"time": t, "translation": [0.0, 0.0, z]} for t, z in out]
 
 def falling():
-    scene = json.load(open("pipelines/scenes/isg-fig12.json"))
+    scene = json.load(open("pipelines/isg/scenes/fig12.json"))
     scene["version"] = 2
     rng = random.Random(12)
     for k, s in enumerate(scene["spheres"]):
         if k % 3 == 0:
             s["keys"] = fall_keys(rng.uniform(1.5, 3.0), rng.uniform(0.0, 0.45))
-    with open("pipelines/scenes/isg-falling.json", "w") as f:
+    with open("pipelines/isg/scenes/falling.json", "w") as f:
         json.dump(scene, f, indent=1)
         f.write("\n")
 
@@ -65,7 +65,7 @@ def bunny_walk():
 def orbit():
     """Meunier's Figure 13 with its five blockers turning half a turn about the
     vertical axis (alternate ones the other way), their shadows sweeping the plane."""
-    scene = json.load(open("pipelines/scenes/meunier-fig13.json"))
+    scene = json.load(open("pipelines/meunier/scenes/fig13.json"))
     scene["version"] = 2
     for k, s in enumerate(scene["spheres"]):
         x, y, _ = s["centre"]
@@ -77,14 +77,14 @@ def orbit():
             rx, ry = x * math.cos(a) - y * math.sin(a), x * math.sin(a) + y * math.cos(a)
             keys.append({"time": round(t, 6), "translation": [round(rx - x, 6), round(ry - y, 6), 0.0]})
         s["keys"] = keys
-    with open("pipelines/scenes/meunier-orbit.json", "w") as f:
+    with open("pipelines/meunier/scenes/orbit.json", "w") as f:
         json.dump(scene, f, indent=1)
         f.write("\n")
 
 def meunier_bunny():
     """A still: the bunny of isg-bunny.json over Figure 13's plane under its sphere
     light (the Meunier pipeline's proxy-error scene)."""
-    scene = json.load(open("pipelines/scenes/meunier-fig13.json"))
+    scene = json.load(open("pipelines/meunier/scenes/fig13.json"))
     bunny = json.load(open("assets/meshes/isg-bunny.json"))["meshes"][0]
     scene["version"] = 2
     scene["spheres"] = []
@@ -96,7 +96,7 @@ def meunier_bunny():
 def shexp_bunny():
     """A still: the bunny of isg-bunny.json on flat ground (a 2 × 2 height field at
     z = 0: the SH pipeline shades no planes) under the whale's sky."""
-    scene = json.load(open("pipelines/scenes/shexp-whale.json"))
+    scene = json.load(open("pipelines/shexp/scenes/whale.json"))
     bunny = json.load(open("assets/meshes/isg-bunny.json"))["meshes"][0]
     scene["version"] = 2
     scene["spheres"] = []
@@ -111,7 +111,7 @@ def swim():
     """The whale of shexp-whale.json swimming over its terrain: every sphere moves
     together 2 units along +x and 0.5 along +y, rising and sinking 0.25 twice (Giraud's
     animated whale kind; the terrain's shadows and the whale's sweep each other)."""
-    scene = json.load(open("pipelines/scenes/shexp-whale.json"))
+    scene = json.load(open("pipelines/shexp/scenes/whale.json"))
     scene["version"] = 2
     keys = []
     for i in range(17):
@@ -121,7 +121,7 @@ def swim():
                                      round(0.25 * math.sin(2 * math.pi * t) ** 2, 6)]})
     for s in scene["spheres"]:
         s["keys"] = keys
-    with open("pipelines/scenes/shexp-swim.json", "w") as f:
+    with open("pipelines/shexp/scenes/swim.json", "w") as f:
         json.dump(scene, f, indent=1)
         f.write("\n")
 

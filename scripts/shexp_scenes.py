@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 root = Path(__file__).resolve().parent.parent
-whale = json.loads((root / "pipelines/scenes/shexp-whale.json").read_text())
+whale = json.loads((root / "pipelines/shexp/scenes/whale.json").read_text())
 out = root / "assets/scenes"
 out.mkdir(parents=True, exist_ok=True)
 

@@ -80,7 +80,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
         );
         return verdict("render library", rms <= RMS_LIMIT, &a.out);
     };
-    let sc = lobefit::pipelines::scene::load(&scene)?;
+    let sc = lobefit::pipelines::load_scene(&scene)?;
     let (ex, gpu) = open(&a.export, SCENE_FAMILIES, |_| Ok(()))?;
     let r = render_scene(&gpu, &ex, &sc, &a.out)?;
     out!(

@@ -120,7 +120,8 @@ fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
     let tmp = std::env::temp_dir().join(format!("lobefit-gpu-budget-{}", std::process::id()));
     std::fs::create_dir_all(&tmp).unwrap();
     let read = |name: &str| -> serde_json::Value {
-        let path = format!("{}/../pipelines/scenes/{name}.json", env!("CARGO_MANIFEST_DIR"));
+        let (p, scene) = name.split_once('-').unwrap();
+        let path = format!("{}/../pipelines/{p}/scenes/{scene}.json", env!("CARGO_MANIFEST_DIR"));
         serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
     };
     let mut isg = read("isg-fig12");

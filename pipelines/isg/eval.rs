@@ -72,7 +72,10 @@ impl IsgShadeView {
     pub fn from_flags(flags: &EvalFlags) -> Result<Self, EvalError> {
         flags.only("isg-shade", FLAGS)?;
         let path = flags.text("scene").ok_or("isg-shade needs --scene FILE")?;
-        let scene = crate::scene::load_for_eval(&path, &super::PIPELINE.accepts)?;
+        let scene = crate::scene::load_for_eval(
+            &crate::scene_text(&path).map_err(lobefit_core::family::EvalError::Input)?,
+            &super::PIPELINE.accepts,
+        )?;
         if scene.environment.is_empty() {
             return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name).into());
         }

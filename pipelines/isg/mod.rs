@@ -21,6 +21,11 @@ pub const PIPELINE: Pipeline = Pipeline {
     name: "isg",
     about: "Iwasaki et al. 2012: spheres under an SG environment, ISG shadows (docs/isg-render.md)",
     scenes: &["fig12", "fig12-diffuse", "sweep"],
+    files: &[
+        ("fig12", include_str!("scenes/fig12.json")),
+        ("fig12-diffuse", include_str!("scenes/fig12-diffuse.json")),
+        ("falling", include_str!("scenes/falling.json")),
+    ],
     render: render::render,
     eval: &[super::EvalView {
         name: "isg-shade",
@@ -58,7 +63,7 @@ mod unoccluded {
     /// 4 standard errors plus 0.5 %.
     #[test]
     fn pipeline_against_the_reference_without_blockers() {
-        let scene = crate::scene::builtin("isg-fig12").unwrap().unwrap();
+        let scene = PIPELINE.scene("fig12").unwrap();
         let t = Tables::embedded().unwrap();
         for (kd, ks) in [(1.0, 0.0), (0.0, 0.4)] {
             let brdf = Phong {

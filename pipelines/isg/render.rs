@@ -80,11 +80,7 @@ pub const SWEEP: [usize; 4] = [46, 102, 204, 306];
 /// The Figure 12 analogue with `count` spheres: seeded, non-overlapping, radius 0.12
 /// to 0.35, over the same plane (named `sweep-<count>`).
 pub fn sweep_scene(count: usize) -> Result<Scene, String> {
-    let text = crate::scene::BUILTIN
-        .iter()
-        .find(|(n, _)| *n == "isg-fig12")
-        .map(|(_, t)| *t)
-        .ok_or("isg-fig12 is not built in")?;
+    let text = super::PIPELINE.file("fig12").ok_or("isg-fig12 is not built in")?;
     let mut v: serde_json::Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
     let material = v["spheres"][0]["material"].clone();
     let mut rng = lobefit_core::rng::Rng::new(0x5eed_0306 ^ count as u64);

@@ -17,6 +17,11 @@ pub const PIPELINE: Pipeline = Pipeline {
     name: "meunier",
     about: "Meunier et al. 2009: spheres over a plane under a spherical light (docs/meunier.md)",
     scenes: &["fig13", "glossy"],
+    files: &[
+        ("fig13", include_str!("scenes/fig13.json")),
+        ("glossy", include_str!("scenes/glossy.json")),
+        ("orbit", include_str!("scenes/orbit.json")),
+    ],
     render: render::render,
     eval: &[super::EvalView {
         name: "direct-light",

@@ -33,7 +33,10 @@ impl SceneView {
     /// From `eval`'s flags: `--scene FILE` and [`DirectLightView::from_flags`]'s.
     pub fn from_flags(flags: &EvalFlags, path: &str) -> Result<Self, lobefit_core::family::EvalError> {
         let view = DirectLightView::from_flags(flags)?;
-        let mut scene = crate::scene::load_for_eval(path, &super::PIPELINE.accepts)?;
+        let mut scene = crate::scene::load_for_eval(
+            &crate::scene_text(path).map_err(lobefit_core::family::EvalError::Input)?,
+            &super::PIPELINE.accepts,
+        )?;
         if scene.lights.is_empty() {
             return Err(format!("scene {}: direct-light needs a spherical light", scene.name).into());
         }

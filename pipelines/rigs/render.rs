@@ -29,6 +29,8 @@ pub const PIPELINE: Pipeline = Pipeline {
     name: "rigs",
     about: "Yuan et al. 2012, Figure 1: irradiance rigs on a car-sized box against exact irradiance (docs/rigs.md)",
     scenes: &["fig1", "drive"],
+    // Its scenes are built in code (the truth is analytic): no scene file.
+    files: &[],
     render,
     eval: &[],
     plots: &[("rigs", super::plot)],

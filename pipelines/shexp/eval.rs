@@ -60,7 +60,10 @@ impl ShExpShadeView {
             planes: true,
             ..super::PIPELINE.accepts
         };
-        let scene = crate::scene::load_for_eval(&path, &accepts)?;
+        let scene = crate::scene::load_for_eval(
+            &crate::scene_text(&path).map_err(lobefit_core::family::EvalError::Input)?,
+            &accepts,
+        )?;
         if scene.environment.is_empty() && scene.sh_environment.is_none() {
             return Err(format!(
                 "scene {}: shexp-shade needs a distant light (environment or sh_environment)",

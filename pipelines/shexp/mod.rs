@@ -18,6 +18,12 @@ pub const PIPELINE: Pipeline = Pipeline {
     name: "shexp",
     about: "Ren et al. 2006 / Giraud 2015: height field and spheres under an SH sky, SH-exponentiation shadows (docs/shexp-render.md)",
     scenes: &["whale", "whale-diffuse", "wrecking"],
+    files: &[
+        ("whale", include_str!("scenes/whale.json")),
+        ("whale-diffuse", include_str!("scenes/whale-diffuse.json")),
+        ("wrecking", include_str!("scenes/wrecking.json")),
+        ("swim", include_str!("scenes/swim.json")),
+    ],
     render: render::render,
     eval: &[super::EvalView {
         name: "shexp-shade",
@@ -59,14 +65,7 @@ mod tests {
 
     /// A scene with the whale's sky, `spheres` and `heightfield` (JSON), diffuse.
     fn scene_with(spheres: &str, heightfield: Option<&str>) -> Scene {
-        let whale: serde_json::Value = serde_json::from_str(
-            crate::scene::BUILTIN
-                .iter()
-                .find(|(n, _)| *n == "shexp-whale")
-                .unwrap()
-                .1,
-        )
-        .unwrap();
+        let whale: serde_json::Value = serde_json::from_str(PIPELINE.file("whale").unwrap()).unwrap();
         let hf = heightfield.map_or(String::new(), |h| format!(",\"heightfield\":{h}"));
         let text = format!(
             "{{\"version\":1,\"environment\":{},\"spheres\":{spheres},\"brdf\":{{\"lambert\":{{\"albedo\":1.0}}}}{hf}}}",

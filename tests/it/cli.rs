@@ -633,14 +633,8 @@ fn eval_help_lists_every_column() {
     // isg-shade needs a scene file with a brdf.
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("isg.json");
-    let mut v: serde_json::Value = serde_json::from_str(
-        lobefit::pipelines::scene::BUILTIN
-            .iter()
-            .find(|(n, _)| *n == "isg-fig12")
-            .unwrap()
-            .1,
-    )
-    .unwrap();
+    let mut v: serde_json::Value =
+        serde_json::from_str(lobefit::pipelines::isg::PIPELINE.file("fig12").unwrap()).unwrap();
     v["brdf"] = serde_json::json!({"lambert": {"albedo": 0.5}});
     std::fs::write(&scene, v.to_string()).unwrap();
     let with_scene = EvalFlags::default().with("scene", scene.to_str().unwrap());

@@ -66,11 +66,7 @@ fn tiny_render_writes_figures_and_is_thread_independent() {
 }
 
 fn scene_file(dir: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) -> String {
-    let text = lobefit::pipelines::scene::BUILTIN
-        .iter()
-        .find(|(n, _)| *n == "isg-fig12")
-        .unwrap()
-        .1;
+    let text = lobefit::pipelines::isg::PIPELINE.file("fig12").unwrap();
     let mut v: serde_json::Value = serde_json::from_str(text).unwrap();
     v["brdf"] = serde_json::json!({"lambert": {"albedo": 0.8}});
     edit(&mut v);

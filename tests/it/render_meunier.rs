@@ -174,7 +174,7 @@ fn pareto_writes_the_chart_and_its_summary() {
 fn scene_files_render_and_bad_ones_are_specific_errors() {
     let d = tempfile::tempdir().unwrap();
     let file = d.path().join("mine.json");
-    std::fs::write(&file, lobefit::pipelines::scene::BUILTIN[0].1).unwrap();
+    std::fs::write(&file, lobefit::pipelines::meunier::PIPELINE.file("fig13").unwrap()).unwrap();
     let args = |scene: &str, out: &std::path::Path| -> Vec<String> {
         [
             "render",
@@ -206,8 +206,9 @@ fn scene_files_render_and_bad_ones_are_specific_errors() {
     assert!(d.path().join("a/meunier-mine-summary.txt").exists());
 
     // A camera that sees nothing: an error, not NaN statistics.
-    let away = lobefit::pipelines::scene::BUILTIN[0]
-        .1
+    let away = lobefit::pipelines::meunier::PIPELINE
+        .file("fig13")
+        .unwrap()
         .replace("\"target\": [0.0, 0.0, 0.3]", "\"target\": [0.0, -13.0, 8.7]");
     let blind = d.path().join("blind.json");
     std::fs::write(&blind, away).unwrap();

@@ -161,11 +161,7 @@ fn animation_renders_the_swimming_whale() {
 
 /// The whale scene with a small terrain (33², for debug speed) and `edit` applied.
 fn scene_file(dir: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) -> String {
-    let text = lobefit::pipelines::scene::BUILTIN
-        .iter()
-        .find(|(n, _)| *n == "shexp-whale")
-        .unwrap()
-        .1;
+    let text = lobefit::pipelines::shexp::PIPELINE.file("whale").unwrap();
     let mut v: serde_json::Value = serde_json::from_str(text).unwrap();
     v["heightfield"]["size"] = 33.into();
     edit(&mut v);
