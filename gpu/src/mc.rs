@@ -1305,8 +1305,10 @@ pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: u
         ));
     }
     // The reference: the CPU's strongest random estimator (its standard errors true):
-    // cv-mis under a sky, plain (uniform in the cap) for a light.
-    let (mut estimators, strongest) = if light_scene(sc) || sc.sh_environment.is_some() {
+    // cv-mis under an SG sky; plain (uniform in the cap) for a light; plain under an SH
+    // sky or a map (its texels sampled), which take no control variate.
+    let plain_only = light_scene(sc) || sc.sh_environment.is_some() || sc.environment_map.is_some();
+    let (mut estimators, strongest) = if plain_only {
         (vec![Estimator::Plain, Estimator::Qmc], Estimator::Plain)
     } else {
         (
@@ -1315,7 +1317,7 @@ pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: u
         )
     };
     let cv = match analytic.integrands {
-        Some(f) if !light_scene(sc) && sc.sh_environment.is_none() => {
+        Some(f) if !plain_only => {
             let cv = f(&refs)?;
             estimators.push(cv.estimator());
             Some(cv)
