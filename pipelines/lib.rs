@@ -198,6 +198,9 @@ pub(crate) fn short_number(x: f64) -> String {
     }
 }
 
+/// A pipeline's scene loader ([`Pipeline::load`]): the scene by name, with its checks.
+pub type LoadFn = fn(&str) -> Result<scene::Scene, String>;
+
 /// Renders one scene (a [`Pipeline::scenes`] name or a scene file's path) into a
 /// directory; `progress` is called once per finished image row of the reference.
 pub type RenderFn = fn(&str, &RenderOptions, &Path, &(dyn Fn() + Sync)) -> Result<Summary, String>;
@@ -228,6 +231,10 @@ pub struct Pipeline {
     pub files: &'static [(&'static str, &'static str)],
     /// The renderer.
     pub render: RenderFn,
+    /// Its scene by name with its own checks (what its render and its device kernels
+    /// load: a built-in or a file it can shade); `None` where its scenes are built in
+    /// code (rigs).
+    pub load: Option<LoadFn>,
     /// Its `lobefit eval` views (the pipeline without images).
     pub eval: &'static [EvalView],
     /// Its `lobefit plot` figure sets.
@@ -400,6 +407,20 @@ pub fn scene_text(name_or_path: &str) -> Result<scene::SceneText, String> {
         }
     }
     scene::SceneText::file(name_or_path)
+}
+
+/// The scene `name` as the first pipeline of the [`registry`] that shades it loads it
+/// ([`Pipeline::load`]); the error lists each pipeline's refusal.
+pub fn load_for_any(name: &str) -> Result<scene::Scene, String> {
+    let mut refusals = Vec::new();
+    for p in registry() {
+        match p.load.map(|load| load(name)) {
+            Some(Ok(s)) => return Ok(s),
+            Some(Err(e)) => refusals.push(format!("{}: {e}", p.name)),
+            None => {}
+        }
+    }
+    Err(refusals.join("; "))
 }
 
 /// The scene `name_or_path` ([`scene_text`]), every kind accepted.
@@ -605,6 +626,24 @@ mod tests {
         assert_eq!(count, 10);
         let e = scene_text("isg-nothing").unwrap_err();
         assert!(e.contains("scene isg-nothing"), "{e}");
+    }
+
+    /// A scene by name through the pipelines that load scenes: each built-in reaches its
+    /// own pipeline's checks; a name no pipeline shades lists each one's refusal.
+    #[test]
+    fn a_scene_loads_through_the_pipeline_that_shades_it() {
+        for (name, full) in [
+            ("fig12", "isg-fig12"),
+            ("whale", "shexp-whale"),
+            ("glossy", "meunier-glossy"),
+        ] {
+            assert_eq!(load_for_any(name).unwrap().name, full);
+        }
+        let e = load_for_any("no-such-scene").unwrap_err();
+        assert!(
+            ["meunier: ", "isg: ", "shexp: "].iter().all(|p| e.contains(p)) && !e.contains("rigs: "),
+            "{e}"
+        );
     }
 
     /// The method's own work is bounded too, over the frames: the built-in animations

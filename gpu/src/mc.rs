@@ -1120,11 +1120,9 @@ const FAR_MAX: f64 = 0.01;
 /// samples per pixel, independent random numbers); exit 1 when they disagree beyond
 /// their standard errors.
 pub fn run(a: Args) -> Result<ExitCode, String> {
-    // An ISG scene, else an SH-exponentiation one (a height field), else a Meunier one
-    // (its light-scene kernel).
-    let sc = lobefit::pipelines::isg::render::scene(&a.scene)
-        .or_else(|e| lobefit::pipelines::shexp::render::scene(&a.scene).map_err(|e2| format!("{e}; {e2}")))
-        .or_else(|e| lobefit::pipelines::meunier::render::scene(&a.scene).map_err(|e2| format!("{e}; {e2}")))?;
+    // The scene as the first pipeline that shades it loads it (a light scene takes the
+    // light kernel, a sky scene the sky kernel: the scene decides, not the pipeline).
+    let sc = lobefit::pipelines::load_for_any(&a.scene)?;
     supported(&sc)?;
     let hits: Vec<Hit> = crate::render::primary_hits(&sc, crate::render::image_size(a.width as usize))?
         .into_iter()

@@ -27,6 +27,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         ("falling", include_str!("scenes/falling.json")),
     ],
     render: render::render,
+    load: Some(render::scene),
     eval: &[super::EvalView {
         name: "isg-shade",
         help: eval::EVAL_HELP,

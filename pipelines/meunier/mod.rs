@@ -23,6 +23,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         ("orbit", include_str!("scenes/orbit.json")),
     ],
     render: render::render,
+    load: Some(render::scene),
     eval: &[super::EvalView {
         name: "direct-light",
         help: direct_light::EVAL_HELP,

@@ -32,6 +32,7 @@ pub const PIPELINE: Pipeline = Pipeline {
     // Its scenes are built in code (the truth is analytic): no scene file.
     files: &[],
     render,
+    load: None,
     eval: &[],
     plots: &[("rigs", super::plot)],
     // Its scenes are built in code (no scene file), its renders exact.

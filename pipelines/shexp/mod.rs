@@ -25,6 +25,7 @@ pub const PIPELINE: Pipeline = Pipeline {
         ("swim", include_str!("scenes/swim.json")),
     ],
     render: render::render,
+    load: Some(render::scene),
     eval: &[super::EvalView {
         name: "shexp-shade",
         help: eval::EVAL_HELP,
