@@ -1775,6 +1775,28 @@ mod tests {
         assert!(map_inputs(&lobefit::pipelines::isg::render::scene("fig12").unwrap()).is_empty());
     }
 
+    /// A map too bright for the kernel's f32 sums (texels of 2^100 ≈ 1.3e30, whose
+    /// samples' squares overflow f32) never reaches the device: its fitted lobes pass
+    /// MAX_RADIANCE, so the scene is refused at load, naming it.
+    #[test]
+    fn a_map_too_bright_for_f32_is_refused_before_the_device() {
+        let d = tempfile::tempdir().unwrap();
+        let mut f = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n".to_vec();
+        for _ in 0..16 * 8 {
+            f.extend([128u8, 128, 128, 229]);
+        }
+        std::fs::write(d.path().join("bright.hdr"), &f).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/envmaps/isg-sky.json")).unwrap(),
+        )
+        .unwrap();
+        v["environment"] = serde_json::json!({"map": "bright.hdr", "sgs": 2});
+        let path = d.path().join("bright.json");
+        std::fs::write(&path, v.to_string()).unwrap();
+        let e = lobefit::pipelines::load_for_any(path.to_str().unwrap()).unwrap_err();
+        assert!(e.contains("isg: ") && e.contains("MAX_RADIANCE"), "{e}");
+    }
+
     /// `mc --estimator hybrid` without `--export` is refused by name before any
     /// device is opened; an SH sky refuses the control variate by name.
     #[test]
