@@ -33,6 +33,7 @@ pub mod rigs;
 pub mod scene;
 pub mod sg;
 pub mod shexp;
+pub mod skin;
 pub mod sky;
 pub mod spheres;
 pub mod timing;

@@ -153,7 +153,7 @@ fn read_mesh_file(path: &Path) -> Result<Vec<u8>, String> {
 }
 
 /// The buffers of a glTF document: the binary chunk, or decoded `data:` URIs.
-fn gltf_buffers(doc: &gltf::Gltf) -> Result<Vec<Vec<u8>>, String> {
+pub(crate) fn gltf_buffers(doc: &gltf::Gltf) -> Result<Vec<Vec<u8>>, String> {
     use base64::Engine as _;
     doc.buffers()
         .map(|b| {
@@ -194,7 +194,7 @@ fn gltf_buffers(doc: &gltf::Gltf) -> Result<Vec<Vec<u8>>, String> {
 /// two parents, a scene's root is no node's child, and no cycle. The walk is an
 /// explicit stack, so a deep chain costs memory in the node count, not a thread's
 /// stack; every node is visited at most once.
-fn gltf_nodes<'a>(
+pub(crate) fn gltf_nodes<'a>(
     doc: &'a gltf::Gltf,
     scene: &gltf::Scene<'a>,
 ) -> Result<Vec<(gltf::Node<'a>, lobefit_tables::glam::DMat4)>, String> {
@@ -260,7 +260,7 @@ fn gltf_nodes<'a>(
 /// accessor's index and value views likewise and every sparse index below its count.
 /// The gltf crate's reader trusts all of these (it reads a u8 position as f32 bytes
 /// and panics on a float index accessor), so they are checked first, naming the field.
-fn check_accessor(
+pub(crate) fn check_accessor(
     a: &gltf::Accessor,
     what: &str,
     types: &[gltf::accessor::DataType],
@@ -312,7 +312,7 @@ fn check_accessor(
         let end = (count as u128 - 1) * stride as u128 + size as u128 + offset as u128;
         if end > len as u128 {
             return Err(format!(
-                "{at}: {field} {count} elements of {size} bytes at byteOffset {offset} end at byte {end},                  beyond bufferViews[{}].byteLength {len}",
+                "{at}: {field} {count} elements of {size} bytes at byteOffset {offset} end at byte {end}, beyond bufferViews[{}].byteLength {len}",
                 v.index()
             ));
         }
@@ -389,6 +389,13 @@ fn gltf_mesh(bytes: &[u8]) -> Result<Mesh, String> {
     let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
     for (node, world) in gltf_nodes(&doc, &scene)? {
         let Some(mesh) = node.mesh() else { continue };
+        // A skinned mesh's vertices are its bind pose as stored: glTF 2.0 §3.7.3 has
+        // its node's transform ignored (crate::skin poses it).
+        let world = if node.skin().is_some() {
+            lobefit_tables::glam::DMat4::IDENTITY
+        } else {
+            world
+        };
         for p in mesh.primitives() {
             if p.mode() != gltf::mesh::Mode::Triangles {
                 return Err(format!(

@@ -768,6 +768,8 @@ pub struct SceneMesh {
 pub struct Pose {
     /// Its two-bone deformation, if it bends.
     pub bend: Option<Bend>,
+    /// Its glTF skin and animation, if it is skinned (posed before any bend).
+    pub skin: Option<std::sync::Arc<crate::skin::Skinned>>,
     /// The mesh as the file places it (unbent, unturned, untranslated).
     pub rest: crate::mesh::Mesh,
     /// Its sphere set at rest.
@@ -842,13 +844,17 @@ impl Scene {
                 let bent = pose.bend.as_ref().map_or(p, |b| b.skin(p, angle));
                 pose.pivot + turn * (bent - pose.pivot) + shift
             };
-            sm.mesh = crate::mesh::Mesh::new(
-                pose.rest.vertices.iter().map(|&p| place(p)).collect(),
-                pose.rest.triangles.clone(),
-            )
-            .map_err(|e| format!("scene {}: meshes[{m}]: {e}", self.name))?;
-            for (p, r) in sm.proxy.clone().zip(&pose.rest_set) {
-                s.proxies[p].centre = place(r.centre);
+            let (vertices, centres) = match &pose.skin {
+                Some(skinned) => skinned.at(time),
+                None => (
+                    pose.rest.vertices.clone(),
+                    pose.rest_set.iter().map(|r| r.centre).collect(),
+                ),
+            };
+            sm.mesh = crate::mesh::Mesh::new(vertices.into_iter().map(place).collect(), pose.rest.triangles.clone())
+                .map_err(|e| format!("scene {}: meshes[{m}]: {e}", self.name))?;
+            for (p, c) in sm.proxy.clone().zip(centres) {
+                s.proxies[p].centre = place(c);
             }
         }
         s.bvh = Bvh::new(&s.spheres);
@@ -1351,6 +1357,17 @@ struct FileMesh {
     /// A two-bone deformation (optional).
     #[serde(default)]
     bend: Option<FileBend>,
+    /// Pose the glTF file's skin by its animation (optional).
+    #[serde(default)]
+    skin: Option<FileSkin>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileSkin {
+    /// The animation's name (default: the file's first).
+    #[serde(default)]
+    animation: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -1636,6 +1653,7 @@ fn parse_inner(
                 let (lo, hi) = sm.mesh.bounds();
                 sm.pose = Some(Pose {
                     bend: None,
+                    skin: None,
                     rest: sm.mesh.clone(),
                     rest_set: proxies[sm.proxy.clone()].to_vec(),
                     pivot: 0.5 * (lo + hi),
@@ -1755,7 +1773,17 @@ type HeightFieldSpec = (usize, f64, Option<Vec<f64>>, Option<FileTerrain>, usize
 
 /// A mesh's checked specification: (its field's name, OBJ path, transform, sphere set,
 /// material index); read by [`Checker::build_meshes`].
-type MeshSpec = (String, std::path::PathBuf, Transform, SetSpec, usize, Option<Bend>);
+/// A mesh entry read but not yet built: what, path, transform, sphere set, material,
+/// bend, skin (its animation's name, if given).
+type MeshSpec = (
+    String,
+    std::path::PathBuf,
+    Transform,
+    SetSpec,
+    usize,
+    Option<Bend>,
+    Option<Option<String>>,
+);
 
 /// The scene file's checks, each naming the scene (`scene <name>: …`) and the field,
 /// and the materials met so far (equal ones share an index: the material list is the
@@ -2095,7 +2123,8 @@ impl Checker<'_> {
             let set = self.sphere_set(&what, m.spheres, dir)?;
             let material = self.material(&what, m.material)?;
             let bend = m.bend.map(|b| self.bend(&what, b)).transpose()?;
-            mesh_specs.push((what, path, transform, set, material, bend));
+            let skin = m.skin.map(|s| s.animation);
+            mesh_specs.push((what, path, transform, set, material, bend, skin));
         }
         Ok(mesh_specs)
     }
@@ -2398,7 +2427,7 @@ impl Checker<'_> {
         }
         let mut total = spheres.len();
         let mut sets = Vec::new();
-        for (what, path, t, set, material, bend) in specs {
+        for (what, path, t, set, material, bend, skin) in specs {
             let set = match set {
                 SetSpec::File(p) => {
                     let text = lobefit_core::io::read_text(&p, MAX_SCENE_LEN)
@@ -2414,7 +2443,7 @@ impl Checker<'_> {
                     Set::Fit(count, method, seed, overlap)
                 }
             };
-            sets.push((what, path, t, set, material, bend));
+            sets.push((what, path, t, set, material, bend, skin));
         }
         if total > MAX_SPHERES {
             return Err(err(format!(
@@ -2423,8 +2452,15 @@ impl Checker<'_> {
         }
         let mut meshes = Vec::new();
         let mut proxies = spheres.to_vec();
-        for (what, path, t, set, material, bend) in sets {
-            let local = Mesh::load(&path).map_err(|e| err(format!("{what}: {e}")))?;
+        for (what, path, t, set, material, bend, skin) in sets {
+            let (local, skin) = match skin {
+                None => (Mesh::load(&path).map_err(|e| err(format!("{what}: {e}")))?, None),
+                Some(animation) => {
+                    let (m, s) = crate::skin::Skin::load(&path, animation.as_deref())
+                        .map_err(|e| err(format!("{what}.skin: {e}")))?;
+                    (m, Some(s))
+                }
+            };
             let local_spheres = match set {
                 Set::Read(set) => set,
                 Set::Fit(count, method, seed, overlap) => {
@@ -2445,8 +2481,13 @@ impl Checker<'_> {
                 )));
             }
             let (lo, hi) = mesh.bounds();
-            let pose = bend.map(|b| Pose {
-                bend: Some(b),
+            let skin = skin.map(|s| {
+                let centres = local_spheres.iter().map(|s| s.centre).collect();
+                std::sync::Arc::new(crate::skin::Skinned::new(s, local.vertices.clone(), t, centres))
+            });
+            let pose = (bend.is_some() || skin.is_some()).then(|| Pose {
+                bend,
+                skin,
                 rest: mesh.clone(),
                 rest_set: proxies[start..].to_vec(),
                 pivot: 0.5 * (lo + hi),
