@@ -689,4 +689,31 @@ mod tests {
             }
         }
     }
+
+    /// The walking mannequin (assets/meshes/walker.gltf) carries its 64-sphere set
+    /// with it: in every pose of the walk, the carried centres lie inside the posed
+    /// mesh as they did in the bind pose (the inside test on the posed triangles,
+    /// independent of the carrying rule), and no vertex leaves the walk's reach.
+    #[test]
+    fn the_walker_carries_its_sphere_set_inside_it() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/walker.gltf");
+        let (mesh, skin) = Skin::load(&path, Some("walk")).unwrap();
+        let set = crate::spheres::fit_with(&mesh, 64, crate::spheres::Method::Optimize, 1, None).unwrap();
+        let centres: Vec<DVec3> = set.iter().map(|s| s.centre).collect();
+        let inside_at_bind = centres.iter().filter(|&&c| mesh.inside(c)).count();
+        let skinned = Skinned::new(skin, mesh.vertices.clone(), Transform::IDENTITY, centres);
+        for tau in [0.0, 0.25, 0.5, 0.75] {
+            let (v, c) = skinned.at(tau);
+            let posed = Mesh::new(v, mesh.triangles.clone()).unwrap();
+            let inside = c.iter().filter(|&&c| posed.inside(c)).count();
+            assert_eq!(
+                inside,
+                inside_at_bind,
+                "τ = {tau}: {inside} of {} centres inside",
+                c.len()
+            );
+            let (lo, hi) = posed.bounds();
+            assert!(lo.y > 0.0 && hi.y < 1.9 && hi.z - lo.z < 1.0, "τ = {tau}: {lo} – {hi}");
+        }
+    }
 }

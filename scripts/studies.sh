@@ -26,6 +26,13 @@ run $bin render meunier --scene orbit --frames 24 --width 160 --spp 1024 --out "
 run $bin render isg --scene assets/meshes/isg-bunny-walk.json --frames 24 --width 160 --spp 256 --out "$out/anim"
 run $bin render isg --scene assets/meshes/isg-bunny-nod.json --frames 24 --width 160 --spp 256 --out "$out/anim"
 run $bin render shexp --scene swim --frames 24 --width 160 --spp 1024 --out "$out/anim"
+# The skinned, walking mannequin (docs/meshes.md, "Skinned characters"): 24 frames in
+# each shadow pipeline, and the still's proxy rows (sets against the triangles, on the
+# mesh and off it).
+for p in isg meunier shexp; do
+  run $bin render $p --scene assets/meshes/$p-walker.json --frames 24 --width 160 --spp 256 --out "$out/anim"
+  run $bin render $p --scene assets/meshes/$p-walker.json --width 160 --spp 1024 --out "$out/walker"
+done
 # SH exponentiation on the shipped scenes and on independent ones (spheres under the
 # whale's sky over flat ground, written by scripts/shexp_scenes.py): its variants and the
 # median error over the unoccluded radiance against SH-ideal's (docs/shexp-render.md,
