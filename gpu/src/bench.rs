@@ -15,7 +15,7 @@ use serde_json::json;
 
 use crate::cost::{kernel_counts, KernelCounts};
 use crate::device::Gpu;
-use crate::render::VerifiedExport;
+use crate::render::{Bench, VerifiedExport};
 
 /// `lobefit-gpu bench`'s options.
 #[derive(clap::Args)]
@@ -58,13 +58,34 @@ pub struct Args {
     pub out: PathBuf,
 }
 
-/// The pipelines benched, in order, with their default scenes.
-const PIPELINES: [(&str, &str); 4] = [
-    ("isg", "fig12"),
-    ("shexp", "whale"),
-    ("meunier", "fig13"),
-    ("rigs", "fig1"),
-];
+/// The device renders the bench runs, by their [`Bench::rank`] (the report's order).
+fn benched() -> Vec<(&'static str, &'static Bench)> {
+    let mut v: Vec<(&'static str, &'static Bench)> = crate::renders::RENDERS
+        .iter()
+        .filter_map(|r| r.bench.as_ref().map(|b| (r.name, b)))
+        .collect();
+    v.sort_by_key(|(_, b)| b.rank);
+    v
+}
+
+/// The bench's entry of pipeline `p`.
+fn bench_of(p: &str) -> &'static Bench {
+    benched()
+        .into_iter()
+        .find(|(q, _)| *q == p)
+        .expect("a benched pipeline")
+        .1
+}
+
+/// The benched pipelines' names, for messages.
+fn names(f: impl Fn(&Bench) -> bool) -> String {
+    benched()
+        .into_iter()
+        .filter(|(_, b)| f(b))
+        .map(|(p, _)| p)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
 
 /// One kernel's row.
 struct Row {
@@ -83,20 +104,20 @@ struct Row {
 /// The scene of each pipeline from `--scene` values (PIPELINE=SCENE); an unknown
 /// pipeline, a repeated one, rigs, or a value without `=` is an error.
 fn scenes(values: &[String]) -> Result<Vec<(&'static str, String)>, String> {
-    let mut out: Vec<(&'static str, String)> = PIPELINES.iter().map(|(p, s)| (*p, s.to_string())).collect();
+    let mut out: Vec<(&'static str, String)> = benched().iter().map(|(p, b)| (*p, b.scene.to_string())).collect();
     let mut seen = Vec::new();
     for v in values {
         let (p, s) = v
             .split_once('=')
             .filter(|(p, s)| !p.is_empty() && !s.is_empty())
             .ok_or_else(|| format!("--scene {v}: expected PIPELINE=SCENE (e.g. isg=fig12-diffuse)"))?;
-        if p == "rigs" {
-            return Err(format!("--scene {v}: the rigs render has one scene (Figure 1's car)"));
-        }
-        let slot = out
-            .iter_mut()
-            .find(|(q, _)| *q == p)
-            .ok_or_else(|| format!("--scene {v}: no pipeline {p} (isg, shexp, meunier)"))?;
+        let slot = match out.iter_mut().find(|(q, _)| *q == p) {
+            Some((q, s)) if !bench_of(q).any_scene => {
+                return Err(format!("--scene {v}: the {q} render has one scene ({s})"))
+            }
+            Some(slot) => slot,
+            None => return Err(format!("--scene {v}: no pipeline {p} ({})", names(|b| b.any_scene))),
+        };
         if seen.contains(&p) {
             return Err(format!("--scene {v}: pipeline {p} named twice"));
         }
@@ -113,8 +134,8 @@ fn only(
     values: &[String],
     only: &[String],
 ) -> Result<Vec<(&'static str, String)>, String> {
-    if let Some(p) = only.iter().find(|p| !PIPELINES.iter().any(|(q, _)| q == p)) {
-        return Err(format!("--only {p}: no such pipeline (isg, shexp, meunier, rigs)"));
+    if let Some(p) = only.iter().find(|p| !benched().iter().any(|(q, _)| q == p)) {
+        return Err(format!("--only {p}: no such pipeline ({})", names(|_| true)));
     }
     let kept = |p: &str| only.is_empty() || only.iter().any(|q| q == p);
     if let Some(v) = values.iter().find(|v| v.split_once('=').is_some_and(|(p, _)| !kept(p))) {
@@ -132,11 +153,11 @@ pub(crate) fn spread(v: &[f64]) -> (f64, f64, f64) {
 
 /// A kernel's frames timed (ms), its pixel count, its RMS against the CPU's image
 /// (of the peak) and its static SPIR-V counts.
-type Timed = (Vec<f64>, usize, f64, KernelCounts);
+pub(crate) type Timed = (Vec<f64>, usize, f64, KernelCounts);
 
 /// Runs `render` with `gpu` in bench mode; its timed kernel (exactly one) becomes the
 /// row's times and counts.
-fn timed(gpu: &Gpu, what: &str, render: impl FnOnce() -> Result<f64, String>) -> Result<Timed, String> {
+pub(crate) fn timed(gpu: &Gpu, what: &str, render: impl FnOnce() -> Result<f64, String>) -> Result<Timed, String> {
     gpu.take_dispatches();
     let rel_rmse = render()?;
     let d = gpu.take_dispatches();
@@ -154,19 +175,23 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     }
     // The export first: a missing or wrong one is an error before anything runs.
     let all = |e: String| {
+        let families: Vec<&str> = benched().iter().filter_map(|(_, b)| b.families.map(|f| f.1)).collect();
         format!(
-            "bench: {e}; bench reads the textures of {}, {} and {} (an export of every family has them: \
+            "bench: {e}; bench reads the textures of {} (an export of every family has them: \
              lobefit export --format ktx2 --out DIR)",
-            crate::isg::FAMILIES.1,
-            crate::shexp::FAMILIES.1,
-            crate::meunier::FAMILIES.1
+            match families.split_last() {
+                Some((last, [])) => last.to_string(),
+                Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+                None => String::new(),
+            }
         )
     };
-    let exports = Exports {
-        isg: VerifiedExport::open(&a.export, crate::isg::FAMILIES).map_err(all)?,
-        shexp: VerifiedExport::open(&a.export, crate::shexp::FAMILIES).map_err(all)?,
-        meunier: VerifiedExport::open(&a.export, crate::meunier::FAMILIES).map_err(all)?,
-    };
+    let mut exports = Exports::new();
+    for (p, b) in benched() {
+        if let Some(f) = b.families {
+            exports.push((p, VerifiedExport::open(&a.export, f).map_err(all)?));
+        }
+    }
     std::fs::create_dir_all(&a.out).map_err(|e| format!("--out {}: {e}", a.out.display()))?;
     let mut gpu = Gpu::with_timestamps()?;
     if a.wall_clock {
@@ -221,11 +246,12 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The three exports the analytic kernels read (each verified for its families).
-struct Exports {
-    isg: VerifiedExport,
-    shexp: VerifiedExport,
-    meunier: VerifiedExport,
+/// The exports the benched kernels read, each verified for its families, by pipeline.
+type Exports = Vec<(&'static str, VerifiedExport)>;
+
+/// Pipeline `p`'s export, if its kernel reads one.
+fn export_of<'a>(ex: &'a Exports, p: &str) -> Option<&'a VerifiedExport> {
+    ex.iter().find(|(q, _)| *q == p).map(|(_, e)| e)
 }
 
 /// One kernel's bench: its method in words, and its frames timed (ms), pixels, RMS
@@ -238,69 +264,7 @@ fn bench_one(
     width: usize,
     png: &Path,
 ) -> Result<(String, Timed), String> {
-    Ok(match pipeline {
-        "isg" => {
-            let sc = lobefit::pipelines::isg::render::scene(scene)?;
-            crate::isg::check_sharpness(&sc)?;
-            crate::isg::check_scene(gpu.loop_budget, &sc, "bench isg")?;
-            let method = format!(
-                "ISG best, adaptive patches ({} SGs, {} spheres)",
-                sc.environment.len(),
-                sc.spheres.len()
-            );
-            (
-                method,
-                timed(gpu, "isg", || {
-                    Ok(crate::isg::render_isg(gpu, &ex.isg, &sc, width, png)?.rms)
-                })?,
-            )
-        }
-        "shexp" => {
-            let sc = lobefit::pipelines::shexp::render::scene(scene)?;
-            crate::shexp::check_budget(gpu.loop_budget, &sc, "bench shexp")?;
-            let s = lobefit::pipelines::shexp::shade::Settings::default();
-            let method = format!(
-                "HYB order {}, {} wedges, {:?} blocker log ({} spheres)",
-                s.order,
-                s.wedges,
-                s.blocker_log,
-                sc.spheres.len()
-            );
-            (
-                method,
-                timed(gpu, "shexp", || {
-                    Ok(crate::shexp::render_shexp(gpu, &ex.shexp, &sc, width, &s, png)?.rms)
-                })?,
-            )
-        }
-        "meunier" => {
-            let sc = lobefit::pipelines::meunier::render::scene(scene)?;
-            let s = crate::meunier::default_settings()?;
-            let method = format!(
-                "mask depth {} {}, fitted weights, exact cap ({} spheres)",
-                s.depth,
-                s.mode.name(),
-                sc.spheres.len()
-            );
-            (
-                method,
-                timed(gpu, "meunier", || {
-                    Ok(crate::meunier::render_meunier(gpu, &ex.meunier, &sc, width, &s, png)?.rms)
-                })?,
-            )
-        }
-        _ => {
-            let wraps = [0.0, f64::from(lobefit::pipelines::rigs::render::WRAP_A as f32)];
-            let mut nrigs = 0;
-            let t = timed(gpu, "rigs", || {
-                let (_, r) = crate::rigs::render_rigs(gpu, width, &wraps, png)?;
-                nrigs = r.len() / wraps.len();
-                // The worst of its images (a rig at a wrap each).
-                Ok(r.iter().map(|r| r.rms).fold(0.0, f64::max))
-            })?;
-            (format!("Figure 1's {nrigs} rigs × {} wraps per pixel", wraps.len()), t)
-        }
-    })
+    (bench_of(pipeline).kernel)(gpu, export_of(ex, pipeline), scene, width, png)
 }
 
 /// How the bench timed, and why so when by wall clock.
@@ -464,51 +428,28 @@ fn monte_carlo(
             continue;
         };
         let png = out.join(format!("{pipeline}.png"));
-        let mut hybrid = None;
-        let (sc, values) = match *pipeline {
-            "isg" => {
-                let sc = lobefit::pipelines::isg::render::scene(scene)?;
-                let v = crate::isg::render_isg(gpu, &ex.isg, &sc, width, &png)?.values;
-                hybrid = Some("isg");
-                (sc, v)
-            }
-            "shexp" => {
-                let sc = lobefit::pipelines::shexp::render::scene(scene)?;
-                // A scene the device's Monte Carlo does not trace is skipped.
-                if crate::mc::supported(&sc).is_err() {
-                    continue;
-                }
-                let s = lobefit::pipelines::shexp::shade::Settings::default();
-                let v = crate::shexp::render_shexp(gpu, &ex.shexp, &sc, width, &s, &png)?.values;
-                hybrid = Some("shexp");
-                (sc, v)
-            }
-            "meunier" => {
-                let sc = lobefit::pipelines::meunier::render::scene(scene)?;
-                let s = crate::meunier::default_settings()?;
-                let v = crate::meunier::render_meunier(gpu, &ex.meunier, &sc, width, &s, &png)?.values;
-                (sc, v)
-            }
-            _ => continue,
+        let (Some(analytic), Some(export)) = (bench_of(pipeline).analytic, export_of(ex, pipeline)) else {
+            continue;
+        };
+        let Some(img) = analytic(gpu, export, scene, width, &png)? else {
+            continue;
         };
         gpu.take_dispatches();
-        // The hybrid's control variate: the SH-exponentiation kernel's integrands, or
-        // the CPU ISG pipeline's (the ISG kernel does not write them).
+        let sc = &img.scene;
+        // The hybrid's control variate: the kernel's integrands, as its render gives
+        // them (from the device, or from the CPU pipeline where the kernel writes none).
         let integrands = |hits: &[&lobefit::pipelines::scene::Hit]| {
-            let v = match hybrid {
-                Some("shexp") => crate::shexp::integrands(gpu, &ex.shexp, &sc, hits).map(crate::mc::ControlVariate::Sh),
-                _ => crate::mc::ControlVariate::isg(&sc, hits),
-            };
+            let v = (img.integrands.expect("checked"))(gpu, export, sc, hits);
             gpu.take_dispatches();
             v
         };
         let analytic = crate::mc::Analytic {
             pipeline,
-            values: &values,
+            values: &img.values,
             ms: spread(&row.ms).0,
-            integrands: hybrid.is_some().then_some(&integrands as crate::mc::Integrands),
+            integrands: img.integrands.is_some().then_some(&integrands as crate::mc::Integrands),
         };
-        benches.push(crate::mc::bench(gpu, &sc, width, analytic, max_spp)?);
+        benches.push(crate::mc::bench(gpu, sc, width, analytic, max_spp)?);
     }
     Ok(benches)
 }

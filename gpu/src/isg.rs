@@ -57,6 +57,14 @@ pub const RENDER: Render = Render {
             against the CPU pipeline's image (docs/isg-render.md)",
     options: <Args as clap::CommandFactory>::command,
     run: |m| run(parse(m)?),
+    bench: Some(crate::render::Bench {
+        rank: 0,
+        scene: "fig12",
+        any_scene: true,
+        families: Some(FAMILIES),
+        kernel: bench_kernel,
+        analytic: Some(bench_analytic),
+    }),
 };
 
 fn run(a: Args) -> Result<ExitCode, String> {
@@ -302,6 +310,45 @@ pub fn render_isg(
     }
     let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
     compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
+}
+
+/// `bench`'s kernel: the ISG on `scene`.
+fn bench_kernel(
+    gpu: &Gpu,
+    ex: Option<&VerifiedExport>,
+    scene: &str,
+    width: usize,
+    png: &Path,
+) -> Result<(String, crate::bench::Timed), String> {
+    let ex = ex.ok_or("bench isg: no export")?;
+    let sc = lobefit::pipelines::isg::render::scene(scene)?;
+    check_sharpness(&sc)?;
+    check_scene(gpu.loop_budget, &sc, "bench isg")?;
+    let method = format!(
+        "ISG best, adaptive patches ({} SGs, {} spheres)",
+        sc.environment.len(),
+        sc.spheres.len()
+    );
+    let t = crate::bench::timed(gpu, "isg", || Ok(render_isg(gpu, ex, &sc, width, png)?.rms))?;
+    Ok((method, t))
+}
+
+/// `bench`'s Monte Carlo beside the ISG kernel: its image, and the ISG hybrid's
+/// integrands (the CPU pipeline's: the kernel does not write them).
+fn bench_analytic(
+    gpu: &Gpu,
+    ex: &VerifiedExport,
+    scene: &str,
+    width: usize,
+    png: &Path,
+) -> Result<Option<crate::render::AnalyticImage>, String> {
+    let sc = lobefit::pipelines::isg::render::scene(scene)?;
+    let values = render_isg(gpu, ex, &sc, width, png)?.values;
+    Ok(Some(crate::render::AnalyticImage {
+        scene: sc,
+        values,
+        integrands: Some(|_, _, sc, hits| crate::mc::ControlVariate::isg(sc, hits)),
+    }))
 }
 
 #[cfg(test)]

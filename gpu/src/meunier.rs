@@ -84,6 +84,14 @@ pub const RENDER: Render = Render {
             (docs/meunier.md)",
     options: <Args as clap::CommandFactory>::command,
     run: |m| run(parse(m)?),
+    bench: Some(crate::render::Bench {
+        rank: 2,
+        scene: "fig13",
+        any_scene: true,
+        families: Some(FAMILIES),
+        kernel: bench_kernel,
+        analytic: Some(bench_analytic),
+    }),
 };
 
 /// `a`'s settings as the CPU parses them (`eval direct-light`'s flags), the threshold
@@ -383,6 +391,45 @@ pub fn render_meunier(
     }
     let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
     compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
+}
+
+/// `bench`'s kernel: Meunier's lobes at the default settings on `scene`.
+fn bench_kernel(
+    gpu: &Gpu,
+    ex: Option<&VerifiedExport>,
+    scene: &str,
+    width: usize,
+    png: &Path,
+) -> Result<(String, crate::bench::Timed), String> {
+    let ex = ex.ok_or("bench meunier: no export")?;
+    let sc = lobefit::pipelines::meunier::render::scene(scene)?;
+    let s = default_settings()?;
+    let method = format!(
+        "mask depth {} {}, fitted weights, exact cap ({} spheres)",
+        s.depth,
+        s.mode.name(),
+        sc.spheres.len()
+    );
+    let t = crate::bench::timed(gpu, "meunier", || Ok(render_meunier(gpu, ex, &sc, width, &s, png)?.rms))?;
+    Ok((method, t))
+}
+
+/// `bench`'s Monte Carlo beside Meunier's kernel: its image (no hybrid).
+fn bench_analytic(
+    gpu: &Gpu,
+    ex: &VerifiedExport,
+    scene: &str,
+    width: usize,
+    png: &Path,
+) -> Result<Option<crate::render::AnalyticImage>, String> {
+    let sc = lobefit::pipelines::meunier::render::scene(scene)?;
+    let s = default_settings()?;
+    let values = render_meunier(gpu, ex, &sc, width, &s, png)?.values;
+    Ok(Some(crate::render::AnalyticImage {
+        scene: sc,
+        values,
+        integrands: None,
+    }))
 }
 
 #[cfg(test)]

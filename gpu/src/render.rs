@@ -64,6 +64,7 @@ pub const RENDER: Render = Render {
             cosine-lobe lights through the lobe product), or a scene's lights through the disk-light texture",
     options: <Args as clap::CommandFactory>::command,
     run: |m| run(parse(m)?),
+    bench: None,
 };
 
 fn run(a: Args) -> Result<ExitCode, String> {
@@ -722,7 +723,58 @@ pub struct Render {
     pub options: fn() -> clap::Command,
     /// Runs it on its parsed options (read back with [`parse`]).
     pub run: fn(&clap::ArgMatches) -> Result<ExitCode, String>,
+    /// What `lobefit-gpu bench` runs of it (`None`: not benched).
+    pub bench: Option<Bench>,
 }
+
+/// A device render's part in `lobefit-gpu bench` (`crate::bench`): its kernel timed
+/// on a scene, and its image beside the device's Monte Carlo.
+#[derive(Debug)]
+pub struct Bench {
+    /// Its place in the bench's report: rows and Monte Carlo sections by rank.
+    pub rank: u8,
+    /// The scene benched when `--scene` names none for it.
+    pub scene: &'static str,
+    /// Whether `--scene` may name another scene (the rigs render has one).
+    pub any_scene: bool,
+    /// The export families its kernel reads, and how to export them (as
+    /// [`open`] takes them; `None`: no texture).
+    pub families: Option<(&'static [&'static str], &'static str)>,
+    /// One kernel benched on `scene` at `width` (the export verified for
+    /// [`Bench::families`], the image into `png`): its method in words and its
+    /// frames timed ([`crate::bench::timed`]).
+    pub kernel: BenchKernel,
+    /// Its image's values for the device's Monte Carlo beside it (untimed): `None`
+    /// where the bench runs no Monte Carlo beside it.
+    pub analytic: Option<BenchAnalytic>,
+}
+
+/// [`Bench::kernel`]: gpu, export, scene, width, png.
+pub type BenchKernel =
+    fn(&Gpu, Option<&VerifiedExport>, &str, usize, &Path) -> Result<(String, crate::bench::Timed), String>;
+
+/// [`Bench::analytic`]: gpu, export, scene, width, png; `Ok(None)` for a scene the
+/// device's Monte Carlo does not trace (skipped).
+pub type BenchAnalytic = fn(&Gpu, &VerifiedExport, &str, usize, &Path) -> Result<Option<AnalyticImage>, String>;
+
+/// A kernel's image of a scene, for the device's Monte Carlo beside it.
+pub struct AnalyticImage {
+    /// The scene.
+    pub scene: lobefit::pipelines::scene::Scene,
+    /// The image over the pixels that see geometry.
+    pub values: Vec<f64>,
+    /// Its integrands at hits, where the kernel serves as the hybrid's control
+    /// variate (gpu, export, scene, hits).
+    pub integrands: Option<BenchIntegrands>,
+}
+
+/// [`AnalyticImage::integrands`].
+pub type BenchIntegrands = fn(
+    &Gpu,
+    &VerifiedExport,
+    &lobefit::pipelines::scene::Scene,
+    &[&lobefit::pipelines::scene::Hit],
+) -> Result<crate::mc::ControlVariate, String>;
 
 impl Render {
     /// `render NAME` as a clap subcommand.

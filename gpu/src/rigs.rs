@@ -50,6 +50,14 @@ pub const RENDER: Render = Render {
             shade_wrapped (docs/rigs.md); no export: the rigs need no texture",
     options: <Args as clap::CommandFactory>::command,
     run: |m| run(parse(m)?),
+    bench: Some(crate::render::Bench {
+        rank: 3,
+        scene: "fig1",
+        any_scene: false,
+        families: None,
+        kernel: bench_kernel,
+        analytic: None,
+    }),
 };
 
 fn run(a: Args) -> Result<ExitCode, String> {
@@ -268,6 +276,25 @@ pub fn render_rigs(gpu: &Gpu, width: usize, wraps: &[f64], out: &Path) -> Result
     }
     write_grey_png(out, stride, h * wraps.len(), &image)?;
     Ok((visible.len(), rows))
+}
+
+/// `bench`'s kernel: Figure 1's rigs at two wraps (the scene is fixed).
+fn bench_kernel(
+    gpu: &Gpu,
+    _: Option<&crate::render::VerifiedExport>,
+    _: &str,
+    width: usize,
+    png: &Path,
+) -> Result<(String, crate::bench::Timed), String> {
+    let wraps = [0.0, f64::from(lobefit::pipelines::rigs::render::WRAP_A as f32)];
+    let mut nrigs = 0;
+    let t = crate::bench::timed(gpu, "rigs", || {
+        let (_, r) = render_rigs(gpu, width, &wraps, png)?;
+        nrigs = r.len() / wraps.len();
+        // The worst of its images (a rig at a wrap each).
+        Ok(r.iter().map(|r| r.rms).fold(0.0, f64::max))
+    })?;
+    Ok((format!("Figure 1's {nrigs} rigs × {} wraps per pixel", wraps.len()), t))
 }
 
 #[cfg(test)]

@@ -73,6 +73,14 @@ pub const RENDER: Render = Render {
             (docs/shexp-render.md)",
     options: <Args as clap::CommandFactory>::command,
     run: |m| run(parse(m)?),
+    bench: Some(crate::render::Bench {
+        rank: 1,
+        scene: "whale",
+        any_scene: true,
+        families: Some(FAMILIES),
+        kernel: bench_kernel,
+        analytic: Some(bench_analytic),
+    }),
 };
 
 fn run(a: Args) -> Result<ExitCode, String> {
@@ -368,6 +376,52 @@ pub fn integrands(gpu: &Gpu, export: &VerifiedExport, sc: &Scene, hits: &[&Hit])
         .chunks(outputs(true))
         .map(|c| std::array::from_fn(|k| c[2 + k]))
         .collect())
+}
+
+/// `bench`'s kernel: SH exponentiation at its default settings on `scene`.
+fn bench_kernel(
+    gpu: &Gpu,
+    ex: Option<&VerifiedExport>,
+    scene: &str,
+    width: usize,
+    png: &Path,
+) -> Result<(String, crate::bench::Timed), String> {
+    let ex = ex.ok_or("bench shexp: no export")?;
+    let sc = lobefit::pipelines::shexp::render::scene(scene)?;
+    check_budget(gpu.loop_budget, &sc, "bench shexp")?;
+    let s = lobefit::pipelines::shexp::shade::Settings::default();
+    let method = format!(
+        "HYB order {}, {} wedges, {:?} blocker log ({} spheres)",
+        s.order,
+        s.wedges,
+        s.blocker_log,
+        sc.spheres.len()
+    );
+    let t = crate::bench::timed(gpu, "shexp", || Ok(render_shexp(gpu, ex, &sc, width, &s, png)?.rms))?;
+    Ok((method, t))
+}
+
+/// `bench`'s Monte Carlo beside the SH-exponentiation kernel: its image (a scene the
+/// device's Monte Carlo does not trace is skipped), and the hybrid's integrands from
+/// the kernel.
+fn bench_analytic(
+    gpu: &Gpu,
+    ex: &VerifiedExport,
+    scene: &str,
+    width: usize,
+    png: &Path,
+) -> Result<Option<crate::render::AnalyticImage>, String> {
+    let sc = lobefit::pipelines::shexp::render::scene(scene)?;
+    if crate::mc::supported(&sc).is_err() {
+        return Ok(None);
+    }
+    let s = lobefit::pipelines::shexp::shade::Settings::default();
+    let values = render_shexp(gpu, ex, &sc, width, &s, png)?.values;
+    Ok(Some(crate::render::AnalyticImage {
+        scene: sc,
+        values,
+        integrands: Some(|gpu, ex, sc, hits| integrands(gpu, ex, sc, hits).map(crate::mc::ControlVariate::Sh)),
+    }))
 }
 
 #[cfg(test)]
