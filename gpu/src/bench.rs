@@ -99,6 +99,8 @@ struct Row {
     ms: Vec<f64>,
     rel_rmse: f64,
     counts: KernelCounts,
+    /// Its image for the device's Monte Carlo beside it.
+    image: Option<crate::render::AnalyticImage>,
 }
 
 /// The scene of each pipeline from `--scene` values (PIPELINE=SCENE); an unknown
@@ -203,20 +205,22 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
     let mut rows = Vec::new();
     for (pipeline, scene) in &scenes {
         let png = a.out.join(format!("{pipeline}.png"));
-        let (method, (ms, pixels, rel_rmse, counts)) = bench_one(&gpu, &exports, pipeline, scene, width, &png)?;
+        let b = bench_one(&gpu, &exports, pipeline, scene, width, &png)?;
+        let (ms, pixels, rel_rmse, counts) = b.timed;
         rows.push(Row {
             pipeline,
             scene: scene.clone(),
-            method,
+            method: b.method,
             width: w,
             height: h,
             pixels,
             ms,
             rel_rmse,
             counts,
+            image: b.image,
         });
     }
-    let mc = monte_carlo(&gpu, &exports, &scenes, &rows, width, a.mc_spp_max as usize, &a.out)?;
+    let mc = monte_carlo(&gpu, &exports, &rows, width, a.mc_spp_max as usize)?;
     let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
     write_reports(&a.out, &gpu, software, a.frames, &rows, &mc)?;
     out!(
@@ -263,7 +267,7 @@ fn bench_one(
     scene: &str,
     width: usize,
     png: &Path,
-) -> Result<(String, Timed), String> {
+) -> Result<crate::render::Benched, String> {
     (bench_of(pipeline).kernel)(gpu, export_of(ex, pipeline), scene, width, png)
 }
 
@@ -403,35 +407,25 @@ fn write_reports(
         .map_err(|e| format!("cannot write {}: {e}", out.join("bench.md").display()))
 }
 
-/// The device's Monte Carlo beside the ISG, SH-exponentiation (a scene with an SG
-/// sky) and Meunier kernels, for each the bench runs: the analytic image rendered once
-/// more for its values (untimed), then every estimator at `mc::bench_spp(max_spp)`
-/// against the CPU reference; beside the SH-exponentiation kernel also the hybrid,
-/// its control variate the kernel's integrands, and beside the ISG kernel the ISG
-/// hybrid, its integrands the CPU pipeline's (its time per frame the ISG kernel's plus
-/// its own dispatches: a lower bound, since the kernel does not build them).
+/// The device's Monte Carlo beside each benched kernel that gives its image (in
+/// [`Row::image`], from its timed frames): every estimator at
+/// `mc::bench_spp(max_spp)` against the CPU reference; where the kernel gives its
+/// integrands, also the hybrid, its control variate those integrands (its time per
+/// frame the kernel's plus its own dispatches: a lower bound where the integrands come
+/// from the CPU).
 fn monte_carlo(
     gpu: &Gpu,
     ex: &Exports,
-    scenes: &[(&'static str, String)],
     rows: &[Row],
     width: usize,
     max_spp: usize,
-    out: &Path,
 ) -> Result<Vec<crate::mc::McBench>, String> {
     let mut benches = Vec::new();
     if max_spp == 0 {
         return Ok(benches);
     }
-    for (pipeline, scene) in scenes {
-        let Some(row) = rows.iter().find(|r| r.pipeline == *pipeline) else {
-            continue;
-        };
-        let png = out.join(format!("{pipeline}.png"));
-        let (Some(analytic), Some(export)) = (bench_of(pipeline).analytic, export_of(ex, pipeline)) else {
-            continue;
-        };
-        let Some(img) = analytic(gpu, export, scene, width, &png)? else {
+    for row in rows {
+        let (Some(img), Some(export)) = (&row.image, export_of(ex, row.pipeline)) else {
             continue;
         };
         gpu.take_dispatches();
@@ -444,7 +438,7 @@ fn monte_carlo(
             v
         };
         let analytic = crate::mc::Analytic {
-            pipeline,
+            pipeline: row.pipeline,
             values: &img.values,
             ms: spread(&row.ms).0,
             integrands: img.integrands.is_some().then_some(&integrands as crate::mc::Integrands),

@@ -63,7 +63,6 @@ pub const RENDER: Render = Render {
         any_scene: true,
         families: Some(FAMILIES),
         kernel: bench_kernel,
-        analytic: Some(bench_analytic),
     }),
 };
 
@@ -312,14 +311,15 @@ pub fn render_isg(
     compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
 }
 
-/// `bench`'s kernel: the ISG on `scene`.
+/// `bench`'s kernel: the ISG on `scene`, its image beside the device's Monte Carlo
+/// with the ISG hybrid's integrands (the CPU pipeline's: the kernel writes none).
 fn bench_kernel(
     gpu: &Gpu,
     ex: Option<&VerifiedExport>,
     scene: &str,
     width: usize,
     png: &Path,
-) -> Result<(String, crate::bench::Timed), String> {
+) -> Result<crate::render::Benched, String> {
     let ex = ex.ok_or("bench isg: no export")?;
     let sc = lobefit::pipelines::isg::render::scene(scene)?;
     check_sharpness(&sc)?;
@@ -329,26 +329,22 @@ fn bench_kernel(
         sc.environment.len(),
         sc.spheres.len()
     );
-    let t = crate::bench::timed(gpu, "isg", || Ok(render_isg(gpu, ex, &sc, width, png)?.rms))?;
-    Ok((method, t))
-}
-
-/// `bench`'s Monte Carlo beside the ISG kernel: its image, and the ISG hybrid's
-/// integrands (the CPU pipeline's: the kernel does not write them).
-fn bench_analytic(
-    gpu: &Gpu,
-    ex: &VerifiedExport,
-    scene: &str,
-    width: usize,
-    png: &Path,
-) -> Result<Option<crate::render::AnalyticImage>, String> {
-    let sc = lobefit::pipelines::isg::render::scene(scene)?;
-    let values = render_isg(gpu, ex, &sc, width, png)?.values;
-    Ok(Some(crate::render::AnalyticImage {
+    let mut values = Vec::new();
+    let timed = crate::bench::timed(gpu, "isg", || {
+        let r = render_isg(gpu, ex, &sc, width, png)?;
+        values = r.values;
+        Ok(r.rms)
+    })?;
+    let image = crate::render::AnalyticImage {
         scene: sc,
         values,
         integrands: Some(|_, _, sc, hits| crate::mc::ControlVariate::isg(sc, hits)),
-    }))
+    };
+    Ok(crate::render::Benched {
+        method,
+        timed,
+        image: Some(image),
+    })
 }
 
 #[cfg(test)]

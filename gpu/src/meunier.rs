@@ -90,7 +90,6 @@ pub const RENDER: Render = Render {
         any_scene: true,
         families: Some(FAMILIES),
         kernel: bench_kernel,
-        analytic: Some(bench_analytic),
     }),
 };
 
@@ -393,14 +392,15 @@ pub fn render_meunier(
     compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
 }
 
-/// `bench`'s kernel: Meunier's lobes at the default settings on `scene`.
+/// `bench`'s kernel: Meunier's lobes at the default settings on `scene`, its image
+/// beside the device's Monte Carlo (no hybrid).
 fn bench_kernel(
     gpu: &Gpu,
     ex: Option<&VerifiedExport>,
     scene: &str,
     width: usize,
     png: &Path,
-) -> Result<(String, crate::bench::Timed), String> {
+) -> Result<crate::render::Benched, String> {
     let ex = ex.ok_or("bench meunier: no export")?;
     let sc = lobefit::pipelines::meunier::render::scene(scene)?;
     let s = default_settings()?;
@@ -410,26 +410,22 @@ fn bench_kernel(
         s.mode.name(),
         sc.spheres.len()
     );
-    let t = crate::bench::timed(gpu, "meunier", || Ok(render_meunier(gpu, ex, &sc, width, &s, png)?.rms))?;
-    Ok((method, t))
-}
-
-/// `bench`'s Monte Carlo beside Meunier's kernel: its image (no hybrid).
-fn bench_analytic(
-    gpu: &Gpu,
-    ex: &VerifiedExport,
-    scene: &str,
-    width: usize,
-    png: &Path,
-) -> Result<Option<crate::render::AnalyticImage>, String> {
-    let sc = lobefit::pipelines::meunier::render::scene(scene)?;
-    let s = default_settings()?;
-    let values = render_meunier(gpu, ex, &sc, width, &s, png)?.values;
-    Ok(Some(crate::render::AnalyticImage {
+    let mut values = Vec::new();
+    let timed = crate::bench::timed(gpu, "meunier", || {
+        let r = render_meunier(gpu, ex, &sc, width, &s, png)?;
+        values = r.values;
+        Ok(r.rms)
+    })?;
+    let image = crate::render::AnalyticImage {
         scene: sc,
         values,
         integrands: None,
-    }))
+    };
+    Ok(crate::render::Benched {
+        method,
+        timed,
+        image: Some(image),
+    })
 }
 
 #[cfg(test)]

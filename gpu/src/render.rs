@@ -741,21 +741,23 @@ pub struct Bench {
     /// [`open`] takes them; `None`: no texture).
     pub families: Option<(&'static [&'static str], &'static str)>,
     /// One kernel benched on `scene` at `width` (the export verified for
-    /// [`Bench::families`], the image into `png`): its method in words and its
-    /// frames timed ([`crate::bench::timed`]).
+    /// [`Bench::families`], the image into `png`).
     pub kernel: BenchKernel,
-    /// Its image's values for the device's Monte Carlo beside it (untimed): `None`
-    /// where the bench runs no Monte Carlo beside it.
-    pub analytic: Option<BenchAnalytic>,
 }
 
 /// [`Bench::kernel`]: gpu, export, scene, width, png.
-pub type BenchKernel =
-    fn(&Gpu, Option<&VerifiedExport>, &str, usize, &Path) -> Result<(String, crate::bench::Timed), String>;
+pub type BenchKernel = fn(&Gpu, Option<&VerifiedExport>, &str, usize, &Path) -> Result<Benched, String>;
 
-/// [`Bench::analytic`]: gpu, export, scene, width, png; `Ok(None)` for a scene the
-/// device's Monte Carlo does not trace (skipped).
-pub type BenchAnalytic = fn(&Gpu, &VerifiedExport, &str, usize, &Path) -> Result<Option<AnalyticImage>, String>;
+/// One kernel benched.
+pub struct Benched {
+    /// Its method in words.
+    pub method: String,
+    /// Its frames timed ([`crate::bench::timed`]).
+    pub timed: crate::bench::Timed,
+    /// Its image for the device's Monte Carlo beside it: `None` where the bench runs
+    /// none beside it (or the scene is one the device's Monte Carlo does not trace).
+    pub image: Option<AnalyticImage>,
+}
 
 /// A kernel's image of a scene, for the device's Monte Carlo beside it.
 pub struct AnalyticImage {

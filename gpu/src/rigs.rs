@@ -56,7 +56,6 @@ pub const RENDER: Render = Render {
         any_scene: false,
         families: None,
         kernel: bench_kernel,
-        analytic: None,
     }),
 };
 
@@ -285,7 +284,7 @@ fn bench_kernel(
     _: &str,
     width: usize,
     png: &Path,
-) -> Result<(String, crate::bench::Timed), String> {
+) -> Result<crate::render::Benched, String> {
     let wraps = [0.0, f64::from(lobefit::pipelines::rigs::render::WRAP_A as f32)];
     let mut nrigs = 0;
     let t = crate::bench::timed(gpu, "rigs", || {
@@ -294,7 +293,11 @@ fn bench_kernel(
         // The worst of its images (a rig at a wrap each).
         Ok(r.iter().map(|r| r.rms).fold(0.0, f64::max))
     })?;
-    Ok((format!("Figure 1's {nrigs} rigs × {} wraps per pixel", wraps.len()), t))
+    Ok(crate::render::Benched {
+        method: format!("Figure 1's {nrigs} rigs × {} wraps per pixel", wraps.len()),
+        timed: t,
+        image: None,
+    })
 }
 
 #[cfg(test)]

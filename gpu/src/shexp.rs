@@ -79,7 +79,6 @@ pub const RENDER: Render = Render {
         any_scene: true,
         families: Some(FAMILIES),
         kernel: bench_kernel,
-        analytic: Some(bench_analytic),
     }),
 };
 
@@ -378,14 +377,16 @@ pub fn integrands(gpu: &Gpu, export: &VerifiedExport, sc: &Scene, hits: &[&Hit])
         .collect())
 }
 
-/// `bench`'s kernel: SH exponentiation at its default settings on `scene`.
+/// `bench`'s kernel: SH exponentiation at its default settings on `scene`, its image
+/// beside the device's Monte Carlo (where that traces the scene) with the hybrid's
+/// integrands from the kernel.
 fn bench_kernel(
     gpu: &Gpu,
     ex: Option<&VerifiedExport>,
     scene: &str,
     width: usize,
     png: &Path,
-) -> Result<(String, crate::bench::Timed), String> {
+) -> Result<crate::render::Benched, String> {
     let ex = ex.ok_or("bench shexp: no export")?;
     let sc = lobefit::pipelines::shexp::render::scene(scene)?;
     check_budget(gpu.loop_budget, &sc, "bench shexp")?;
@@ -397,31 +398,20 @@ fn bench_kernel(
         s.blocker_log,
         sc.spheres.len()
     );
-    let t = crate::bench::timed(gpu, "shexp", || Ok(render_shexp(gpu, ex, &sc, width, &s, png)?.rms))?;
-    Ok((method, t))
-}
-
-/// `bench`'s Monte Carlo beside the SH-exponentiation kernel: its image (a scene the
-/// device's Monte Carlo does not trace is skipped), and the hybrid's integrands from
-/// the kernel.
-fn bench_analytic(
-    gpu: &Gpu,
-    ex: &VerifiedExport,
-    scene: &str,
-    width: usize,
-    png: &Path,
-) -> Result<Option<crate::render::AnalyticImage>, String> {
-    let sc = lobefit::pipelines::shexp::render::scene(scene)?;
-    if crate::mc::supported(&sc).is_err() {
-        return Ok(None);
-    }
-    let s = lobefit::pipelines::shexp::shade::Settings::default();
-    let values = render_shexp(gpu, ex, &sc, width, &s, png)?.values;
-    Ok(Some(crate::render::AnalyticImage {
-        scene: sc,
-        values,
-        integrands: Some(|gpu, ex, sc, hits| integrands(gpu, ex, sc, hits).map(crate::mc::ControlVariate::Sh)),
-    }))
+    let mut values = Vec::new();
+    let timed = crate::bench::timed(gpu, "shexp", || {
+        let r = render_shexp(gpu, ex, &sc, width, &s, png)?;
+        values = r.values;
+        Ok(r.rms)
+    })?;
+    let image = crate::mc::supported(&sc)
+        .is_ok()
+        .then_some(crate::render::AnalyticImage {
+            scene: sc,
+            values,
+            integrands: Some(|gpu, ex, sc, hits| integrands(gpu, ex, sc, hits).map(crate::mc::ControlVariate::Sh)),
+        });
+    Ok(crate::render::Benched { method, timed, image })
 }
 
 #[cfg(test)]
