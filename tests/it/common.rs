@@ -139,3 +139,14 @@ pub fn last_column(stdout: &str) -> Vec<f64> {
         .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
         .collect()
 }
+
+/// An animation's `*-frames.csv`: its text, and its rows after the header as numbers.
+pub fn frames_csv(path: &std::path::Path) -> (String, Vec<Vec<f64>>) {
+    let csv = std::fs::read_to_string(path).unwrap();
+    let rows = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    (csv, rows)
+}

@@ -570,12 +570,7 @@ fn render_isg_animates_the_skinned_walker() {
         stdout.contains("shaded with 64 proxy spheres") || stdout.contains("walker: frame 1"),
         "{stdout}"
     );
-    let csv = std::fs::read_to_string(d.path().join("isg-walker-frames.csv")).unwrap();
-    let rows: Vec<Vec<f64>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
-        .collect();
+    let (csv, rows) = crate::common::frames_csv(&d.path().join("isg-walker-frames.csv"));
     assert_eq!(rows.len(), 2, "{csv}");
     assert!(rows.iter().all(|r| r[2].is_finite() && r[2] < 0.1), "{csv}");
     let frame = |k: usize| std::fs::read(d.path().join(format!("isg-walker-frame-{k:03}.png"))).unwrap();

@@ -142,12 +142,7 @@ fn animation_renders_the_swimming_whale() {
     let apng = std::fs::read(d.path().join("shexp-swim-animation.png")).unwrap();
     let at = apng.windows(4).position(|w| w == b"acTL").expect("an acTL chunk");
     assert_eq!(apng[at + 4..at + 8], 2u32.to_be_bytes());
-    let csv = std::fs::read_to_string(d.path().join("shexp-swim-frames.csv")).unwrap();
-    let rows: Vec<Vec<f64>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
-        .collect();
+    let (csv, rows) = crate::common::frames_csv(&d.path().join("shexp-swim-frames.csv"));
     assert_eq!(rows.len(), 2, "{csv}");
     for (k, r) in rows.iter().enumerate() {
         assert_eq!(r[4].is_nan(), k == 0, "{csv}");
