@@ -199,7 +199,7 @@ pub(crate) fn short_number(x: f64) -> String {
     }
 }
 
-/// A pipeline's scene loader ([`Pipeline::load`]): the scene by name, with its checks.
+/// A pipeline's scene loader ([`MonteCarlo::load`]): the scene by name, with its checks.
 pub type LoadFn = fn(&str) -> Result<scene::Scene, String>;
 
 /// Renders one scene (a [`Pipeline::scenes`] name or a scene file's path) into a
@@ -213,6 +213,34 @@ pub struct ParetoStudy {
     pub takes: fn(&str) -> Result<(), String>,
     /// The study of one scene at a width (pixels) into a directory: the files written.
     pub run: fn(&str, usize, &Path) -> Result<Vec<PathBuf>, String>,
+}
+
+/// What a pipeline's renders are checked against.
+#[derive(Debug, Clone, Copy)]
+pub enum Truth {
+    /// Monte Carlo on the scenes it reads (built-ins and files).
+    MonteCarlo(MonteCarlo),
+    /// A closed form on scenes built in code (the rigs: exact irradiance), so no scene
+    /// file, no sample budget and no breakdown reference.
+    Analytic,
+}
+
+/// A pipeline checked against Monte Carlo: the scenes it reads and what its
+/// references cost.
+#[derive(Debug, Clone, Copy)]
+pub struct MonteCarlo {
+    /// The scene kinds it shades: one rule for its renders and its `eval` views,
+    /// checked before anything expensive is built.
+    pub accepts: scene::Accepts,
+    /// Its scene by name with its own checks (what its render and its device kernels
+    /// load: a built-in or a file it can shade).
+    pub load: LoadFn,
+    /// Monte Carlo references per pixel of the image (an upper bound on its samples:
+    /// pixels × spp × this), and per pixel of the error breakdown's subset (each of
+    /// `spp` × [`MonteCarlo::precise_factor`] samples).
+    pub references: (u64, u64),
+    /// The breakdown's references take this many times `spp`.
+    pub precise_factor: u64,
 }
 
 /// One pipeline: everything the CLI knows of it (`lobefit render NAME`, its `eval`
@@ -232,23 +260,12 @@ pub struct Pipeline {
     pub files: &'static [(&'static str, &'static str)],
     /// The renderer.
     pub render: RenderFn,
-    /// Its scene by name with its own checks (what its render and its device kernels
-    /// load: a built-in or a file it can shade); `None` where its scenes are built in
-    /// code (rigs).
-    pub load: Option<LoadFn>,
+    /// What its renders are checked against, and what that decides.
+    pub truth: Truth,
     /// Its `lobefit eval` views (the pipeline without images).
     pub eval: &'static [EvalView],
     /// Its `lobefit plot` figure sets.
     pub plots: &'static [(&'static str, PlotFn)],
-    /// The scene kinds it shades: one rule for its renders and its `eval` views, checked
-    /// before anything expensive is built.
-    pub accepts: scene::Accepts,
-    /// Monte Carlo references per pixel of the image (an upper bound on its samples:
-    /// pixels × spp × this), and per pixel of the error breakdown's subset (each of
-    /// `spp` × [`Pipeline::precise_factor`] samples).
-    pub references: (u64, u64),
-    /// The breakdown's references take this many times `spp`.
-    pub precise_factor: u64,
     /// Its animation renderer (`lobefit render NAME --frames N`), if it has one.
     pub animate: Option<animate::AnimateFn>,
     /// Its built-in animated scenes (`--frames N --scene all` renders each).
@@ -258,16 +275,35 @@ pub struct Pipeline {
 }
 
 impl Pipeline {
+    /// Its Monte Carlo contract, where its truth is Monte Carlo.
+    pub fn monte_carlo(&self) -> Option<&MonteCarlo> {
+        match &self.truth {
+            Truth::MonteCarlo(m) => Some(m),
+            Truth::Analytic => None,
+        }
+    }
+
     /// The scene `name`: the built-in `<pipeline>-<name>`, else a scene file (its load
-    /// error then also lists the built-ins). The pipeline's own checks are the caller's.
+    /// error then also lists the built-ins). The pipeline's own checks are the caller's;
+    /// a pipeline whose scenes are built in code reads none.
     pub fn scene(&self, name: &str) -> Result<scene::Scene, String> {
+        let accepts = &self
+            .monte_carlo()
+            .ok_or_else(|| {
+                format!(
+                    "the {} pipeline's scenes are built in code: {}",
+                    self.name,
+                    self.scenes.join(", ")
+                )
+            })?
+            .accepts;
         match self.file(name) {
             Some(text) => scene::load_text_for(
                 &scene::SceneText::builtin(&format!("{}-{name}", self.name), text),
-                &self.accepts,
+                accepts,
             ),
             None => scene_text(name)
-                .and_then(|t| scene::load_text_for(&t, &self.accepts))
+                .and_then(|t| scene::load_text_for(&t, accepts))
                 .map_err(|e| {
                     format!(
                         "{e} (not a built-in scene of {} either: {})",
@@ -286,11 +322,13 @@ impl Pipeline {
         let stride = opts.breakdown_stride.max(1) as u64;
         let picks = w.div_ceil(stride) * h.div_ceil(stride);
         let spp = opts.spp as u64;
-        let (image, breakdown) = self.references;
+        let (image, breakdown, factor) = self
+            .monte_carlo()
+            .map_or((0, 0, 0), |m| (m.references.0, m.references.1, m.precise_factor));
         // The headline's measurement too, where the pipeline has a Monte Carlo reference.
         let headline = if image > 0 { measure::HEADLINE_SAMPLES } else { 0 };
         (w * h * spp * image)
-            .saturating_add(picks * spp * self.precise_factor * breakdown)
+            .saturating_add(picks * spp * factor * breakdown)
             .saturating_add(headline)
     }
 
@@ -411,11 +449,11 @@ pub fn scene_text(name_or_path: &str) -> Result<scene::SceneText, String> {
 }
 
 /// The scene `name` as the first pipeline of the [`registry`] that shades it loads it
-/// ([`Pipeline::load`]); the error lists each pipeline's refusal.
+/// ([`MonteCarlo::load`]); the error lists each pipeline's refusal.
 pub fn load_for_any(name: &str) -> Result<scene::Scene, String> {
     let mut refusals = Vec::new();
     for p in registry() {
-        match p.load.map(|load| load(name)) {
+        match p.monte_carlo().map(|m| (m.load)(name)) {
             Some(Ok(s)) => return Ok(s),
             Some(Err(e)) => refusals.push(format!("{}: {e}", p.name)),
             None => {}

@@ -325,7 +325,7 @@ impl Subset {
             frame.tag,
             self.precise.len(),
             frame.stride(),
-            frame.opts.spp * frame.pipeline.precise_factor as usize,
+            frame.opts.spp * frame.pipeline.monte_carlo().map_or(0, |m| m.precise_factor) as usize,
             mean_over(&self.precise_se, &self.mask) / self.mean
         )
     }

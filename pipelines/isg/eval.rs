@@ -74,7 +74,7 @@ impl IsgShadeView {
         let path = flags.text("scene").ok_or("isg-shade needs --scene FILE")?;
         let scene = crate::scene::load_for_eval(
             &crate::scene_text(&path).map_err(lobefit_core::family::EvalError::Input)?,
-            &super::PIPELINE.accepts,
+            &super::ACCEPTS,
         )?;
         if scene.environment.is_empty() {
             return Err(format!("scene {}: isg-shade needs an environment (SGs)", scene.name).into());

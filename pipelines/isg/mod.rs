@@ -16,6 +16,17 @@ pub use super::sg::environment;
 pub use super::sky::reference;
 use super::Pipeline;
 
+/// The scene kinds the pipeline shades (its renders and its `eval` views).
+pub const ACCEPTS: super::scene::Accepts = super::scene::Accepts {
+    pipeline: "the ISG pipeline",
+    heightfield: false,
+    sphere_lights: false,
+    sg_environment: true,
+    sh_environment: false,
+    planes: true,
+    meshes: true,
+};
+
 /// `lobefit render isg`.
 pub const PIPELINE: Pipeline = Pipeline {
     name: "isg",
@@ -27,7 +38,6 @@ pub const PIPELINE: Pipeline = Pipeline {
         ("falling", include_str!("scenes/falling.json")),
     ],
     render: render::render,
-    load: Some(render::scene),
     eval: &[super::EvalView {
         name: "isg-shade",
         help: eval::EVAL_HELP,
@@ -35,17 +45,12 @@ pub const PIPELINE: Pipeline = Pipeline {
         view: eval::view,
     }],
     plots: &[],
-    accepts: super::scene::Accepts {
-        pipeline: "the ISG pipeline",
-        heightfield: false,
-        sphere_lights: false,
-        sg_environment: true,
-        sh_environment: false,
-        planes: true,
-        meshes: true,
-    },
-    references: (1, 1),
-    precise_factor: render::PRECISE_FACTOR as u64,
+    truth: super::Truth::MonteCarlo(super::MonteCarlo {
+        accepts: ACCEPTS,
+        load: render::scene,
+        references: (1, 1),
+        precise_factor: render::PRECISE_FACTOR as u64,
+    }),
     animate: Some(render::animate),
     animations: &["falling"],
     pareto: Some(crate::baselines::ISG),

@@ -12,6 +12,17 @@ pub mod scene_view;
 
 use super::Pipeline;
 
+/// The scene kinds the pipeline shades (its renders and its `eval` views).
+pub const ACCEPTS: super::scene::Accepts = super::scene::Accepts {
+    pipeline: "the Meunier pipeline",
+    heightfield: false,
+    sphere_lights: true,
+    sg_environment: false,
+    sh_environment: false,
+    planes: true,
+    meshes: true,
+};
+
 /// `lobefit render meunier`.
 pub const PIPELINE: Pipeline = Pipeline {
     name: "meunier",
@@ -23,7 +34,6 @@ pub const PIPELINE: Pipeline = Pipeline {
         ("orbit", include_str!("scenes/orbit.json")),
     ],
     render: render::render,
-    load: Some(render::scene),
     eval: &[super::EvalView {
         name: "direct-light",
         help: direct_light::EVAL_HELP,
@@ -31,18 +41,13 @@ pub const PIPELINE: Pipeline = Pipeline {
         view: scene_view::view,
     }],
     plots: &[("meunier", direct_light::plot), ("meunier-scaling", scaling::plot)],
-    accepts: super::scene::Accepts {
-        pipeline: "the Meunier pipeline",
-        heightfield: false,
-        sphere_lights: true,
-        sg_environment: false,
-        sh_environment: false,
-        planes: true,
-        meshes: true,
-    },
-    // The image's reference; the breakdown is quadrature.
-    references: (1, 0),
-    precise_factor: 0,
+    truth: super::Truth::MonteCarlo(super::MonteCarlo {
+        accepts: ACCEPTS,
+        load: render::scene,
+        // The image's reference; the breakdown is quadrature.
+        references: (1, 0),
+        precise_factor: 0,
+    }),
     animate: Some(render::animate),
     animations: &["orbit"],
     pareto: Some(crate::baselines::MEUNIER),

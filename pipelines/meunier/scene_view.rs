@@ -35,7 +35,7 @@ impl SceneView {
         let view = DirectLightView::from_flags(flags)?;
         let mut scene = crate::scene::load_for_eval(
             &crate::scene_text(path).map_err(lobefit_core::family::EvalError::Input)?,
-            &super::PIPELINE.accepts,
+            &super::ACCEPTS,
         )?;
         if scene.lights.is_empty() {
             return Err(format!("scene {}: direct-light needs a spherical light", scene.name).into());

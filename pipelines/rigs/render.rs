@@ -32,21 +32,10 @@ pub const PIPELINE: Pipeline = Pipeline {
     // Its scenes are built in code (the truth is analytic): no scene file.
     files: &[],
     render,
-    load: None,
     eval: &[],
     plots: &[("rigs", super::plot)],
-    // Its scenes are built in code (no scene file), its renders exact.
-    accepts: crate::scene::Accepts {
-        pipeline: "the rigs pipeline",
-        heightfield: false,
-        sphere_lights: false,
-        sg_environment: false,
-        sh_environment: false,
-        planes: false,
-        meshes: false,
-    },
-    references: (0, 0),
-    precise_factor: 0,
+    // Its scenes are built in code, its renders checked against exact irradiance.
+    truth: crate::Truth::Analytic,
     animate: None,
     animations: &[],
     pareto: None,

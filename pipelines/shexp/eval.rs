@@ -58,7 +58,7 @@ impl ShExpShadeView {
         // their sphere sets, as in the render.
         let accepts = crate::scene::Accepts {
             planes: true,
-            ..super::PIPELINE.accepts
+            ..super::ACCEPTS
         };
         let scene = crate::scene::load_for_eval(
             &crate::scene_text(&path).map_err(lobefit_core::family::EvalError::Input)?,

@@ -13,6 +13,17 @@ pub use lighting::{light, light_sh, reference, truncation_warning};
 
 use super::Pipeline;
 
+/// The scene kinds the pipeline shades (its renders and its `eval` views).
+pub const ACCEPTS: super::scene::Accepts = super::scene::Accepts {
+    pipeline: "the SH-exponentiation pipeline",
+    heightfield: true,
+    sphere_lights: false,
+    sg_environment: true,
+    sh_environment: true,
+    planes: false,
+    meshes: true,
+};
+
 /// `lobefit render shexp`.
 pub const PIPELINE: Pipeline = Pipeline {
     name: "shexp",
@@ -25,7 +36,6 @@ pub const PIPELINE: Pipeline = Pipeline {
         ("swim", include_str!("scenes/swim.json")),
     ],
     render: render::render,
-    load: Some(render::scene),
     eval: &[super::EvalView {
         name: "shexp-shade",
         help: eval::EVAL_HELP,
@@ -33,19 +43,14 @@ pub const PIPELINE: Pipeline = Pipeline {
         view: eval::view,
     }],
     plots: &[],
-    accepts: super::scene::Accepts {
-        pipeline: "the SH-exponentiation pipeline",
-        heightfield: true,
-        sphere_lights: false,
-        sg_environment: true,
-        sh_environment: true,
-        planes: false,
-        meshes: true,
-    },
-    // The reference and the SH-ideal render; in the breakdown those two and SH-ideal at
-    // each higher order.
-    references: (2, 2 + render::HIGHER_ORDERS.len() as u64),
-    precise_factor: render::PRECISE_FACTOR as u64,
+    truth: super::Truth::MonteCarlo(super::MonteCarlo {
+        accepts: ACCEPTS,
+        load: render::scene,
+        // The reference and the SH-ideal render; in the breakdown those two and SH-ideal at
+        // each higher order.
+        references: (2, 2 + render::HIGHER_ORDERS.len() as u64),
+        precise_factor: render::PRECISE_FACTOR as u64,
+    }),
     animate: Some(render::animate),
     animations: &["swim"],
     pareto: Some(crate::baselines::SHEXP),
