@@ -34,6 +34,9 @@ pub const MAX_JOINTS: usize = 1024;
 pub const MAX_CHANNELS: usize = 4096;
 /// Most keys a sampler may have.
 pub const MAX_SAMPLER_KEYS: usize = 1 << 16;
+/// Most keys an animation's channels may hold together (channels may share one
+/// sampler's accessor, so the file's size alone does not bound them).
+pub const MAX_ANIMATION_KEYS: usize = 1 << 20;
 /// How many nearest bind-pose vertices give a sphere its weights.
 pub const SPHERE_INFLUENCE_VERTICES: usize = 8;
 /// How far a vertex's weights may sum from 1 (glTF's exporters write f32 weights).
@@ -172,9 +175,10 @@ impl Skin {
     /// The weights of each of `centres` (bind pose, the mesh's units): the mean of the
     /// weights of the [`SPHERE_INFLUENCE_VERTICES`] vertices of `bind` nearest it.
     pub fn sphere_influences(&self, bind: &[DVec3], centres: &[DVec3]) -> Vec<Vec<(u16, f64)>> {
+        use rayon::prelude::*;
         let k = SPHERE_INFLUENCE_VERTICES.min(bind.len());
         centres
-            .iter()
+            .par_iter()
             .map(|&c| {
                 let mut near: Vec<(f64, usize)> = bind
                     .iter()
@@ -422,6 +426,7 @@ fn skinned(bytes: &[u8], animation: Option<&str>) -> Result<(Mesh, Skin), String
         return Err(at(format!("more than {MAX_CHANNELS} channels (MAX_CHANNELS)")));
     }
     let mut channels = Vec::new();
+    let mut keys = 0usize;
     for (c, ch) in anim.channels().enumerate() {
         let target = ch.target();
         let node = target.node().index();
@@ -462,6 +467,12 @@ fn skinned(bytes: &[u8], animation: Option<&str>) -> Result<(Mesh, Skin), String
                 "channels[{c}]: {} input and {} output keys (equal, at most {MAX_SAMPLER_KEYS}: MAX_SAMPLER_KEYS)",
                 input.count(),
                 output.count()
+            )));
+        }
+        keys += input.count();
+        if keys > MAX_ANIMATION_KEYS {
+            return Err(at(format!(
+                "channels[..={c}] hold more than {MAX_ANIMATION_KEYS} keys together (MAX_ANIMATION_KEYS)"
             )));
         }
         let reader = ch.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
