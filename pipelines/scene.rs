@@ -696,7 +696,7 @@ impl Track {
 
 /// The value of (time, value) keys at `time`: `lerp(a, b, u)` between the keys around
 /// it, the first key's value before them, the last's after.
-fn keyed<T: Copy>(keys: &[(f64, T)], time: f64, lerp: impl Fn(T, T, f64) -> T) -> T {
+pub(crate) fn keyed<T: Copy>(keys: &[(f64, T)], time: f64, lerp: impl Fn(T, T, f64) -> T) -> T {
     match keys.iter().position(|(t, _)| *t > time) {
         Some(0) => keys[0].1,
         None => keys[keys.len() - 1].1,

@@ -56,30 +56,20 @@ struct Channel {
     node: usize,
     path: Target,
     step: bool,
-    times: Vec<f64>,
-    /// xyz (translation, scale) or xyzw (rotation, normalised) per key.
-    values: Vec<[f64; 4]>,
+    /// (time, value) keys: xyz (translation, scale) or xyzw (rotation, normalised).
+    keys: Vec<(f64, [f64; 4])>,
 }
 
 impl Channel {
+    /// The value at `t`: the scene tracks' keying (`scene::keyed`: held before the
+    /// first key and after the last), held between keys for `STEP`, slerped for
+    /// rotations.
     fn at(&self, t: f64) -> [f64; 4] {
-        let i = self.times.partition_point(|&k| k <= t);
-        if i == 0 {
-            return self.values[0];
-        }
-        if i == self.times.len() || self.step {
-            return self.values[i - 1];
-        }
-        let (t0, t1) = (self.times[i - 1], self.times[i]);
-        let u = (t - t0) / (t1 - t0);
-        let (a, b) = (self.values[i - 1], self.values[i]);
-        match self.path {
-            Target::Rotation => {
-                let q = DQuat::from_array(a).slerp(DQuat::from_array(b), u);
-                q.to_array()
-            }
-            _ => std::array::from_fn(|k| a[k] + (b[k] - a[k]) * u),
-        }
+        crate::scene::keyed(&self.keys, t, |a, b, u| match (self.step, self.path) {
+            (true, _) => a,
+            (false, Target::Rotation) => DQuat::from_array(a).slerp(DQuat::from_array(b), u).to_array(),
+            (false, _) => std::array::from_fn(|k| a[k] + (b[k] - a[k]) * u),
+        })
     }
 }
 
@@ -165,10 +155,15 @@ impl Skin {
 
     /// The bind-pose vertices `bind` (in the order read) skinned at `tau`.
     pub fn vertices(&self, bind: &[DVec3], tau: f64) -> Vec<DVec3> {
-        let m = self.joint_matrices(tau);
-        bind.iter()
-            .zip(&self.influences)
-            .map(|(&v, inf)| Skin::blend(&m, inf, v))
+        Skin::blend_all(&self.joint_matrices(tau), bind, &self.influences)
+    }
+
+    /// `points` with their `influences`, skinned by `matrices`.
+    fn blend_all(matrices: &[DMat4], points: &[DVec3], influences: &[Vec<(u16, f64)>]) -> Vec<DVec3> {
+        points
+            .iter()
+            .zip(influences)
+            .map(|(&p, inf)| Skin::blend(matrices, inf, p))
             .collect()
     }
 
@@ -203,12 +198,7 @@ impl Skin {
 
     /// Centres (bind pose) with their `influences` skinned at `tau`.
     pub fn centres(&self, centres: &[DVec3], influences: &[Vec<(u16, f64)>], tau: f64) -> Vec<DVec3> {
-        let m = self.joint_matrices(tau);
-        centres
-            .iter()
-            .zip(influences)
-            .map(|(&c, inf)| Skin::blend(&m, inf, c))
-            .collect()
+        Skin::blend_all(&self.joint_matrices(tau), centres, influences)
     }
 }
 
@@ -245,10 +235,12 @@ impl Skinned {
     /// The mesh's vertices and its sphere centres at the scene's time `tau`, in the
     /// scene's coordinates.
     pub fn at(&self, tau: f64) -> (Vec<DVec3>, Vec<DVec3>) {
+        // One evaluation of the joints for the mesh and its set.
+        let m = self.skin.joint_matrices(tau);
         let place = |v: Vec<DVec3>| v.into_iter().map(|p| self.transform.point(p)).collect();
         (
-            place(self.skin.vertices(&self.bind, tau)),
-            place(self.skin.centres(&self.set_centres, &self.set_influences, tau)),
+            place(Skin::blend_all(&m, &self.bind, &self.skin.influences)),
+            place(Skin::blend_all(&m, &self.set_centres, &self.set_influences)),
         )
     }
 }
@@ -500,14 +492,13 @@ fn skinned(bytes: &[u8], animation: Option<&str>) -> Result<(Mesh, Skin), String
             node,
             path,
             step,
-            times,
-            values,
+            keys: times.into_iter().zip(values).collect(),
         });
     }
-    let lo = channels.iter().map(|c| c.times[0]).fold(f64::INFINITY, f64::min);
+    let lo = channels.iter().map(|c| c.keys[0].0).fold(f64::INFINITY, f64::min);
     let hi = channels
         .iter()
-        .map(|c| c.times[c.times.len() - 1])
+        .map(|c| c.keys[c.keys.len() - 1].0)
         .fold(f64::NEG_INFINITY, f64::max);
     let span = if channels.is_empty() { (0.0, 0.0) } else { (lo, hi) };
     Ok((
