@@ -151,14 +151,20 @@ pub fn reference_log_zh(kind: Kind, eps: f64, param: f64, order: usize) -> Resul
         z[0] = (4.0 * PI).sqrt() * eps.ln();
         return Ok(z);
     }
-    let (g, breaks) = zonal(kind, eps, param);
-    let (z, ok) = lobefit_core::sh::zh_project_gk(order, g, &breaks, REFERENCE_TOL);
-    if !ok {
-        return Err(format!(
-            "reference quadrature did not converge at eps={eps}, param={param}"
-        ));
-    }
-    Ok(z)
+    // A process checking several copies of a table (the corruption sweep) asks the
+    // same nodes again: the quadrature is memoised by its inputs' bits.
+    static MEMO: lobefit_core::memo::Memo<4, Vec<f64>> = lobefit_core::memo::Memo::new();
+    let key = [kind as u8 as f64, eps, param, order as f64];
+    MEMO.get(key, || {
+        let (g, breaks) = zonal(kind, eps, param);
+        let (z, ok) = lobefit_core::sh::zh_project_gk(order, g, &breaks, REFERENCE_TOL);
+        if !ok {
+            return Err(format!(
+                "reference quadrature did not converge at eps={eps}, param={param}"
+            ));
+        }
+        Ok(z)
+    })
 }
 
 /// Gauss–Legendre points per piece of the fit's cross-check.

@@ -137,6 +137,12 @@ pub fn reference_fit(e: f64) -> Result<(f64, f64), String> {
     if !(0.0..=E_MAX).contains(&e) {
         return Err(format!("e = {e} is outside [0, {E_MAX}]", e = short(e)));
     }
+    // Memoised by e's bits: the corruption sweep checks several copies of the table.
+    static MEMO: lobefit_core::memo::Memo<1, (f64, f64)> = lobefit_core::memo::Memo::new();
+    MEMO.get([e], || reference_fit_uncached(e))
+}
+
+fn reference_fit_uncached(e: f64) -> Result<(f64, f64), String> {
     let mut ok = true;
     let root = illinois(
         |r| {

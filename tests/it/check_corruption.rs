@@ -1,14 +1,13 @@
 //! The checker catches any single corrupted node: for every committed table and every
 //! stored channel, seeded random nodes are changed by a few times the family's
 //! promised accuracy (CRCs recomputed, so the loader accepts the file), and the check
-//! must fail on a max-type threshold, naming the family and the quantity.
+//! must fail on a max-type threshold at the nodes, naming the family and the quantity.
 //!
 //! The corrupted copies are checked with `CheckOptions::QUICK`'s node pass alone (every
 //! node is verified in `--quick`; no random off-grid points, no whole-scene sections),
-//! so each corruption is caught at the nodes, and a failure here fails `--quick` too
-//! (dropping the 200 off-grid points cut the sweep from 116 to 92 s of test time,
-//! 2026-12-07, every corruption still caught). A control run on the unchanged table,
-//! with the first 200 of `--quick`'s off-grid points too, must pass.
+//! so each corruption is caught at the nodes, and a failure here fails `--quick` too.
+//! The control, the unchanged table checked the same way, shows no failure at its
+//! nodes. (`check --quick` in .ci/run passes every committed table in full.)
 
 use std::f64::consts::TAU;
 use std::path::Path;
@@ -128,13 +127,14 @@ fn corrupted(table: &Table, index: usize, d: f64) -> Vec<u8> {
     format::encode(table.meta(), &values).expect("re-encode")
 }
 
-/// Max-type thresholds that failed: at the nodes, in per-node or per-interval
-/// sections, or at random points (the 200 here are the first 200 of `--quick`'s 2000:
-/// same seed, same sequence).
+/// Max-type thresholds that failed at the nodes or in per-node or per-interval
+/// sections. Off-grid metrics are left out: [`NODE_OPTS`] draws no random points, so
+/// their samples are empty and their maxima NaN, which fails every such threshold,
+/// corrupted or not (counting them made this sweep pass on any table).
 fn node_failures(r: &FamilyReport) -> Vec<String> {
     r.thresholds
         .iter()
-        .filter(|t| !t.pass && t.metric.contains("max"))
+        .filter(|t| !t.pass && t.metric.contains("max") && !t.metric.starts_with("offgrid"))
         .map(|t| format!("{}.{} = {:.3e} (limit {:.1e})", t.output, t.metric, t.value, t.limit))
         .collect()
 }
@@ -190,11 +190,14 @@ fn corrupted_node_sweep(half: usize) {
         let bytes = std::fs::read(format!("tables/data/{kind}.lobefit")).unwrap();
         let table = Table::from_bytes(&bytes).unwrap();
         if checked {
-            let control = check_bytes(family.as_ref(), dir.path(), &bytes, OPTS);
+            // The control: the unchanged table, checked as its corrupted copies are,
+            // shows no failure at its nodes.
+            let control = check_bytes(family.as_ref(), dir.path(), &bytes, NODE_OPTS);
             assert!(
-                control.pass,
-                "{kind}: the unchanged table fails: {:?}",
-                control.problems
+                control.problems.is_empty() && node_failures(&control).is_empty(),
+                "{kind}: the unchanged table fails at its nodes: {:?} {:?}",
+                control.problems,
+                node_failures(&control)
             );
         }
         let nc = table.meta().channels.len();
