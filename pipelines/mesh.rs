@@ -153,7 +153,7 @@ fn read_mesh_file(path: &Path) -> Result<Vec<u8>, String> {
 }
 
 /// The buffers of a glTF document: the binary chunk, or decoded `data:` URIs.
-pub(crate) fn gltf_buffers(doc: &gltf::Gltf) -> Result<Vec<Vec<u8>>, String> {
+fn gltf_buffers(doc: &gltf::Gltf) -> Result<Vec<Vec<u8>>, String> {
     use base64::Engine as _;
     doc.buffers()
         .map(|b| {
@@ -369,7 +369,13 @@ pub(crate) fn check_accessor(
 
 /// [`Mesh::from_gltf_bytes`] (may panic on hostile input: called under catch_unwind).
 fn gltf_mesh(bytes: &[u8]) -> Result<Mesh, String> {
-    use gltf::accessor::{DataType, Dimensions};
+    let (doc, buffers) = gltf_document(bytes)?;
+    gltf_mesh_of(&doc, &buffers)
+}
+
+/// A glTF 2.x file's document and its buffers' bytes, read once for the mesh and (a
+/// skinned mesh) its skin.
+pub(crate) fn gltf_document(bytes: &[u8]) -> Result<(gltf::Gltf, Vec<Vec<u8>>), String> {
     let doc = gltf::Gltf::from_slice(bytes).map_err(|e| format!("not a readable glTF file: {e}"))?;
     // glTF 2.x: a major version beyond 2 may change what every field means.
     let asset = &doc.as_json().asset;
@@ -385,6 +391,13 @@ fn gltf_mesh(bytes: &[u8]) -> Result<Mesh, String> {
         ));
     }
     let buffers = gltf_buffers(&doc)?;
+    Ok((doc, buffers))
+}
+
+/// The mesh of a read glTF document: every triangle primitive of the default scene's
+/// nodes, placed by their world transforms (a skinned node's in its bind pose).
+pub(crate) fn gltf_mesh_of(doc: &gltf::Gltf, buffers: &[Vec<u8>]) -> Result<Mesh, String> {
+    use gltf::accessor::{DataType, Dimensions};
     let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or("no scene")?;
     let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
     for (node, world) in gltf_nodes(&doc, &scene)? {

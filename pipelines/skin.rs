@@ -26,7 +26,7 @@ use std::path::Path;
 
 use lobefit_tables::glam::{DMat4, DQuat, DVec3};
 
-use crate::mesh::{check_accessor, gltf_buffers, gltf_nodes, Mesh, Transform};
+use crate::mesh::{check_accessor, gltf_document, gltf_mesh_of, gltf_nodes, Mesh, Transform};
 
 /// Most joints a skin may have.
 pub const MAX_JOINTS: usize = 1024;
@@ -248,9 +248,8 @@ impl Skinned {
 /// [`Skin::from_gltf_bytes`] (may panic on hostile input: called under catch_unwind).
 fn skinned(bytes: &[u8], animation: Option<&str>) -> Result<(Mesh, Skin), String> {
     use gltf::accessor::{DataType, Dimensions};
-    let mesh = Mesh::from_gltf_bytes(bytes)?;
-    let doc = gltf::Gltf::from_slice(bytes).map_err(|e| format!("not a readable glTF file: {e}"))?;
-    let buffers = gltf_buffers(&doc)?;
+    let (doc, buffers) = gltf_document(bytes)?;
+    let mesh = gltf_mesh_of(&doc, &buffers)?;
     let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or("no scene")?;
     let walked = gltf_nodes(&doc, &scene)?;
     let n = doc.nodes().len();
@@ -677,6 +676,72 @@ mod tests {
             let e = Skin::from_gltf_bytes(text.as_bytes(), None).unwrap_err();
             assert!(e.contains(want), "{want}: {e}");
         }
+        // A zero rest rotation (no rotation at all) on a joint.
+        let e = Skin::from_gltf_bytes(
+            bytes(&|s| {
+                s.replace(
+                    "{\"translation\": [0, 1, 0]}",
+                    "{\"translation\": [0, 1, 0], \"rotation\": [0, 0, 0, 0]}",
+                )
+            })
+            .as_bytes(),
+            None,
+        )
+        .unwrap_err();
+        assert!(e.contains("nodes[1]: a transform that is not finite"), "{e}");
+        // Keys bounded across channels: 16 more channels share one sampler of
+        // MAX_SAMPLER_KEYS keys (times 0, 1, 2, …; the translations alias the times),
+        // 2 + 2 + 16 · 2¹⁶ keys in all, one channel past MAX_ANIMATION_KEYS.
+        let mut doc: serde_json::Value =
+            serde_json::from_slice(&two_bone(1.0, [0.0; 3], "LINEAR", [0.25, 0.75])).unwrap();
+        let keys = MAX_SAMPLER_KEYS;
+        let mut data: Vec<u8> = (0..keys).flat_map(|k| (k as f32).to_le_bytes()).collect();
+        data.resize(12 * keys, 0);
+        let push = |doc: &mut serde_json::Value, list: &str, v: serde_json::Value| {
+            doc.pointer_mut(list).unwrap().as_array_mut().unwrap().push(v)
+        };
+        use base64::Engine as _;
+        let uri = base64::engine::general_purpose::STANDARD.encode(&data);
+        push(
+            &mut doc,
+            "/buffers",
+            serde_json::json!({"byteLength": data.len(),
+            "uri": format!("data:application/octet-stream;base64,{uri}")}),
+        );
+        push(
+            &mut doc,
+            "/bufferViews",
+            serde_json::json!({"buffer": 1, "byteLength": data.len()}),
+        );
+        push(
+            &mut doc,
+            "/accessors",
+            serde_json::json!({"bufferView": 5, "componentType": 5126,
+            "count": keys, "type": "SCALAR", "min": [0], "max": [keys - 1]}),
+        );
+        push(
+            &mut doc,
+            "/accessors",
+            serde_json::json!({"bufferView": 5, "componentType": 5126,
+            "count": keys, "type": "VEC3"}),
+        );
+        push(
+            &mut doc,
+            "/animations/0/samplers",
+            serde_json::json!({"input": 8, "output": 9}),
+        );
+        for _ in 0..16 {
+            push(
+                &mut doc,
+                "/animations/0/channels",
+                serde_json::json!({"sampler": 2, "target": {"node": 0, "path": "translation"}}),
+            );
+        }
+        let e = Skin::from_gltf_bytes(doc.to_string().as_bytes(), None).unwrap_err();
+        assert!(
+            e.contains("channels[..=17] hold more than 1048576 keys together (MAX_ANIMATION_KEYS)"),
+            "{e}"
+        );
         let e = Skin::from_gltf_bytes(&two_bone(1.0, [0.0; 3], "LINEAR", [0.5, 0.75]), None).unwrap_err();
         assert!(e.contains("sum to 1"), "{e}");
         let e = Skin::from_gltf_bytes(&two_bone(1.0, [0.0; 3], "LINEAR", [0.25, 0.75]), Some("walk")).unwrap_err();

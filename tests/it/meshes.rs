@@ -547,8 +547,8 @@ fn shexp_renders_the_overlap_limited_bunny() {
 /// mesh posed by its glTF skin, its sphere set carried), the method's error against
 /// the reference on the true triangles is finite and below 0.1 in both (0.005–0.008
 /// measured at 64 px: docs/meshes.md), and the frames differ (the walk moves it). A
-/// skin asked of an OBJ file, or an animation the file does not have, is an error
-/// naming the field.
+/// skin asked of an OBJ file, an animation the file does not have, or a key the skin
+/// does not take is an error naming the field.
 #[test]
 fn render_isg_animates_the_skinned_walker() {
     let d = tempfile::tempdir().unwrap();
@@ -582,6 +582,11 @@ fn render_isg_animates_the_skinned_walker() {
             "\"animation\": \"walk\"",
             "\"animation\": \"run\"",
             "no animation named \"run\"",
+        ),
+        (
+            "\"animation\": \"walk\"",
+            "\"animation\": \"walk\", \"speed\": 2",
+            "unknown field `speed`",
         ),
     ] {
         let bad = d.path().join("bad.json");
