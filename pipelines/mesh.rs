@@ -400,7 +400,7 @@ pub(crate) fn gltf_mesh_of(doc: &gltf::Gltf, buffers: &[Vec<u8>]) -> Result<Mesh
     use gltf::accessor::{DataType, Dimensions};
     let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or("no scene")?;
     let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
-    for (node, world) in gltf_nodes(&doc, &scene)? {
+    for (node, world) in gltf_nodes(doc, &scene)? {
         let Some(mesh) = node.mesh() else { continue };
         // A skinned mesh's vertices are its bind pose as stored: glTF 2.0 §3.7.3 has
         // its node's transform ignored (crate::skin poses it).
@@ -420,10 +420,10 @@ pub(crate) fn gltf_mesh_of(doc: &gltf::Gltf, buffers: &[Vec<u8>]) -> Result<Mesh
             let pos = p
                 .get(&gltf::Semantic::Positions)
                 .ok_or_else(|| format!("mesh {}: a primitive without positions", mesh.index()))?;
-            check_accessor(&pos, "POSITION", &[DataType::F32], Dimensions::Vec3, &buffers)?;
+            check_accessor(&pos, "POSITION", &[DataType::F32], Dimensions::Vec3, buffers)?;
             if let Some(i) = p.indices() {
                 let types = [DataType::U8, DataType::U16, DataType::U32];
-                check_accessor(&i, "indices", &types, Dimensions::Scalar, &buffers)?;
+                check_accessor(&i, "indices", &types, Dimensions::Scalar, buffers)?;
             }
             let count = pos.count();
             if vertices.len() + count > MAX_MESH_VERTICES {
