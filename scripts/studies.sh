@@ -70,8 +70,9 @@ run python3 scripts/pareto_front.py "$base"
 # the pipeline's own error (docs/meshes.md; ~15 min on 2 cores at 4096 samples/pixel).
 run cargo test -q -p lobefit-pipelines --lib isg::proxy::tests::proxy_error_study -- --ignored --nocapture
 # The sphere hierarchy's level of detail: the ISG with the flat set against the
-# hierarchy's cut at 1-20 degrees, on the 306-sphere sweep and the bunny with 256
-# optimize spheres (docs/meshes.md, "A sphere hierarchy"; ~1 min on 2 cores).
+# hierarchy's cut at 1-20 degrees, on the 306-sphere sweep and the bunny with 256 and
+# 1 024 optimize spheres (docs/meshes.md, "A sphere hierarchy"; ~1 min on 2 cores;
+# LF_LOD=bunny-1024 runs one).
 run cargo test -q --release -p lobefit-pipelines --lib isg::lod::tests::lod_study_full -- --ignored --nocapture
 # Per-vertex shading against per-pixel: the bunny (64 optimize spheres) at 96 to 640
 # pixels wide (docs/meshes.md, "Per-vertex shading"; ~1 min on 2 cores).

@@ -213,17 +213,29 @@ mod tests {
     }
 
     /// The study at full size (docs/meshes.md): the sweep's 306 spheres and the bunny
-    /// with 256; prints the tables. `LF_WIDTH` (default 96), `LF_SPP` (default 4096).
+    /// with 256 and 1 024 `optimize` spheres; prints the tables. `LF_WIDTH` (default
+    /// 96), `LF_SPP` (default 4096), `LF_LOD` (a comma list of sweep-306, bunny-256,
+    /// bunny-1024; default all).
     #[test]
     #[ignore = "study: minutes; docs/meshes.md"]
     fn lod_study_full() {
         let width = crate::env_or("LF_WIDTH", 96usize);
         let spp = crate::env_or("LF_SPP", 4096usize);
+        let only = crate::env_or("LF_LOD", "sweep-306,bunny-256,bunny-1024".to_string());
         let bunny = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/isg-bunny.json");
-        for scene in [
-            super::super::render::sweep_scene(306).unwrap(),
-            super::super::proxy::scene_with_fit(&bunny, 256, crate::spheres::Method::Optimize, 1).unwrap(),
-        ] {
+        for name in only.split(',') {
+            let t0 = std::time::Instant::now();
+            let scene = match name {
+                "sweep-306" => super::super::render::sweep_scene(306).unwrap(),
+                "bunny-256" => {
+                    super::super::proxy::scene_with_fit(&bunny, 256, crate::spheres::Method::Optimize, 1).unwrap()
+                }
+                "bunny-1024" => {
+                    super::super::proxy::scene_with_fit(&bunny, 1024, crate::spheres::Method::Optimize, 1).unwrap()
+                }
+                other => panic!("LF_LOD: no scene {other}"),
+            };
+            println!("{name}: scene and fit {:.1} s", t0.elapsed().as_secs_f64());
             let s = lod_study(&scene, width, &[1.0, 2.0, 5.0, 10.0, 20.0], 3, spp, 4).unwrap();
             println!("{}", s.table());
         }
