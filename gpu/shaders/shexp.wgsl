@@ -26,10 +26,96 @@ fn sph(b: u32) -> vec4<f32> {
     return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);
 }
 
+// sqrt(4 pi / (2l + 1)) zh_l y_lm(d) at order 4 (the shader library's lf_zh_to_sh(4u,
+// zh, d)) by the bands' polynomials: 16 values, no recurrence, no 64-entry array (on
+// lavapipe the general form cost more than the rest of a blocker's work).
+fn shexp_zh16(zh: array<f32, 8>, d: vec3<f32>) -> array<f32, 16> {
+    let x = d.x;
+    let y = d.y;
+    let z = d.z;
+    let a = 1.7320508 * zh[2];
+    let b = 0.7905694 * zh[3];
+    let c = 0.6123724 * zh[3] * (5.0 * z * z - 1.0);
+    return array<f32, 16>(
+        zh[0],
+        -zh[1] * y, zh[1] * z, -zh[1] * x,
+        a * x * y, -a * y * z, 0.5 * zh[2] * (3.0 * z * z - 1.0), -a * x * z, 0.8660254 * zh[2] * (x * x - y * y),
+        -b * y * (3.0 * x * x - y * y), 3.8729833 * zh[3] * x * y * z, -c * y, 0.5 * zh[3] * z * (5.0 * z * z - 3.0),
+        -c * x, 1.9364917 * zh[3] * z * (x * x - y * y), -b * x * (x * x - 3.0 * y * y),
+    );
+}
+
+// The terrain's slice k at order 4 (lf_wedge_slice; with TERRAIN_ABOVE_TANGENT the
+// part above the tangent plane, as lf_wedge_compose_between takes it).
+fn shexp_slice(sigma: f32, n: vec3<f32>, k: u32) -> array<f32, 8> {
+    if !TERRAIN_ABOVE_TANGENT {
+        return lf_wedge_slice(sigma, EPS_TERRAIN, 4u);
+    }
+    // The tangent plane's elevation in azimuth phi_k (n.d = 0).
+    let phi = 2.0 * LF_PI * f32(k) / f32(NW);
+    let lower = clamp(atan2(-(n.x * cos(phi) + n.y * sin(phi)), n.z), -0.5 * LF_PI, 0.5 * LF_PI);
+    var v = lf_wedge_slice(max(sigma, lower), EPS_TERRAIN, 4u);
+    let low = lf_wedge_slice(lower, EPS_TERRAIN, 4u);
+    for (var j = 0u; j < 4u; j++) {
+        v[j] -= low[j];
+    }
+    return v;
+}
+
+// The terrain's log-SH visibility at order 4 from the pixel's NW horizon elevations
+// (inputs from `at` on): lf_wedge_compose(_between) of the shader library, with the
+// wedge operator's 16 x 8 entries fetched once per pixel instead of once per wedge,
+// and 16-entry vectors (on lavapipe the texel fetches were most of the terrain's cost).
+fn shexp_terrain(n: vec3<f32>, at: u32) -> array<f32, 16> {
+    var m: array<f32, 128>;
+    for (var r = 0u; r < 16u; r++) {
+        for (var j = 0u; j < 4u; j++) {
+            m[8u * r + j] = lf_wedge_entry(T, P, W_INDEX, r, j);
+            m[8u * r + 4u + j] = lf_wedge_entry(T, P, W_INDEX, r, 8u + j);
+        }
+    }
+    var out: array<f32, 16>;
+    var v_a = shexp_slice(X[at], n, 0u);
+    for (var k = 0u; k < NW; k++) {
+        let next = (k + 1u) % NW;
+        let v_b = shexp_slice(X[at + next], n, next);
+        var w: array<f32, 16>;
+        for (var r = 0u; r < 16u; r++) {
+            var sum = 0.0;
+            for (var j = 0u; j < 4u; j++) {
+                sum += m[8u * r + j] * v_a[j] + m[8u * r + 4u + j] * v_b[j];
+            }
+            w[r] = sum;
+        }
+        // Turned by phi_k about z (lf_sh_rotate_z): band l mixes (l, m) and (l, -m).
+        let alpha = 2.0 * LF_PI * f32(k) / f32(NW);
+        let c1 = lf_cos(alpha);
+        let s1 = lf_sin(alpha);
+        let c2 = c1 * c1 - s1 * s1;
+        let s2 = 2.0 * s1 * c1;
+        let c3 = c2 * c1 - s2 * s1;
+        let s3 = s2 * c1 + c2 * s1;
+        let cs = array<f32, 4>(1.0, c1, c2, c3);
+        let sn = array<f32, 4>(0.0, s1, s2, s3);
+        for (var l = 0u; l < 4u; l++) {
+            let base = l * (l + 1u);
+            out[base] += w[base];
+            for (var q = 1u; q <= l; q++) {
+                let a = w[base + q];
+                let b = w[base - q];
+                out[base + q] += a * cs[q] - b * sn[q];
+                out[base - q] += a * sn[q] + b * cs[q];
+            }
+        }
+        v_a = v_b;
+    }
+    return out;
+}
+
 // One BRDF term: exp* (HYB) of the log visibility f plus the term's log-ZH lobe z
 // about `axis`: the term's band-limited visibility × BRDF × cosine.
 fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> array<f32, 16> {
-    let t = lf_zh_to_sh(4u, z, axis);
+    let t = shexp_zh16(z, axis);
     var g: array<f32, 16>;
     for (var i = 0u; i < 16u; i++) {
         g[i] = f[i] + t[i];
@@ -55,43 +141,27 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
     let ns = shexp_spheres();
     // A point inside another blocker (a mesh's covering sphere below the ground) is
     // in its full shadow, as on the CPU (`Scene::buried`): radiance 0.
+    // (Found in the blockers' loop below.)
     var buried = false;
-    for (var b = 0u; b < ns; b++) {
-        let s = sph(b);
-        if !own_proxy(b, own, length(s.xyz - p), s.w) && length(s.xyz - p) <= s.w {
-            buried = true;
-        }
-    }
     var f: array<f32, 16>;
     if X[shexp_scene() + 1u] != 0.0 {
-        var sigma: array<f32, 64>;
-        for (var k = 0u; k < NW; k++) {
-            sigma[k] = X[i * N_IN + HIT_INPUTS_u + k];
-        }
-        var v: array<f32, 64>;
-        if TERRAIN_ABOVE_TANGENT {
-            // The tangent plane's elevation per azimuth (n.d = 0).
-            var lower: array<f32, 64>;
-            for (var k = 0u; k < NW; k++) {
-                let phi = 2.0 * LF_PI * f32(k) / f32(NW);
-                lower[k] = clamp(atan2(-(n.x * cos(phi) + n.y * sin(phi)), n.z), -0.5 * LF_PI, 0.5 * LF_PI);
-            }
-            v = lf_wedge_compose_between(T, P, W_INDEX, 4u, EPS_TERRAIN, lower, sigma);
-        } else {
-            v = lf_wedge_compose(T, P, W_INDEX, 4u, EPS_TERRAIN, sigma);
-        }
-        for (var k = 0u; k < 16u; k++) {
-            f[k] = v[k];
-        }
+        f = shexp_terrain(n, i * N_IN + HIT_INPUTS_u);
     }
     for (var b = 0u; b < ns; b++) {
         let s = sph(b);
         let w = s.xyz - p;
         let d = length(w);
         let dir = w / d;
+        if own_proxy(b, own, d, s.w) {
+            continue;
+        }
+        if d <= s.w {
+            buried = true;
+            continue;
+        }
         // sin theta_b; a cap wholly below the tangent plane cannot shadow the point.
         let sb = s.w / d;
-        if own_proxy(b, own, d, s.w) || dot(n, dir) < -sb {
+        if dot(n, dir) < -sb {
             continue;
         }
         let theta = lf_asin(sb);
@@ -101,7 +171,7 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
                 zh[l] *= sb;
             }
         }
-        let t = lf_zh_to_sh(4u, zh, dir);
+        let t = shexp_zh16(zh, dir);
         for (var k = 0u; k < 16u; k++) {
             f[k] += t[k];
         }
