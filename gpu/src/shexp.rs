@@ -119,16 +119,20 @@ pub const FAMILIES: (&[&str], &str) = (
 );
 
 /// Loop iterations per sphere blocker, at most: the sphere loop's own and its body's
-/// loops (`lf_asin`'s series, the blocker's log-ZH, the attenuation, `lf_zh_to_sh`
-/// with its SH evaluation, the sum). Measured on llvmpipe (Mesa 22.3): a scene of
-/// 600 spheres ran within the budget, one of 650 spent it (so ≤ 109 per sphere).
+/// loops (`lf_asin`'s series, the blocker's log-ZH, the attenuation, the sum).
+/// Measured on llvmpipe (Mesa 22.3) when the body also evaluated `lf_zh_to_sh`'s
+/// recurrence (now the kernel's 16 polynomials, no loop): a scene of 600 spheres ran
+/// within the budget, one of 650 spent it (so ≤ 109 per sphere then; an upper bound
+/// now).
 const PER_SPHERE: u64 = 112;
 
-/// Loop iterations per pixel besides the spheres', at most: the horizon angles and
-/// the wedges' composition (W ≤ 64 azimuths of order-4 operators), and per BRDF term
-/// its log-ZH lobe, `lf_zh_to_sh`, HYB (≤ 64 halvings and squarings) and the sums;
+/// Loop iterations per pixel besides the spheres', at most: the wedge operator's
+/// 16 × 4 × 2 entries read (80), then per wedge (W ≤ 64, and the loop's exit) its
+/// slice's two Legendre recurrences and difference, the operator's 16 × 4
+/// products, the rotation's bands (101 with every loop counted as if not unrolled);
+/// per BRDF term its log-ZH lobe, HYB (≤ 64 halvings and squarings) and the sums;
 /// with the integrand written, its sums and stores.
-const PER_PIXEL: u64 = 2 * 65 + 65 * 17 + 5 + 2 * (150 + 25 + 17 + 3 * 16 + 2 * 65 + 17) + 3 * 17;
+const PER_PIXEL: u64 = 80 + 65 * 101 + 5 + 2 * (150 + 25 + 17 + 3 * 16 + 2 * 65 + 17) + 3 * 17;
 
 /// Refuses a scene whose pixels may need more loop iterations than `budget` (a
 /// device's [`Gpu::loop_budget`]: llvmpipe's; a GPU has none).
@@ -142,7 +146,8 @@ pub fn check_budget(budget: Option<u64>, scene: &Scene, command: &str) -> Result
 }
 
 /// An upper bound on the loop iterations of one pixel's kernel (`crate::budget`):
-/// the buried test's loop over the blockers, then theirs.
+/// the loop over the blockers (the buried test is in it; counted as a loop of its own
+/// as it once was).
 pub fn iterations(spheres: usize) -> u64 {
     PER_PIXEL + (spheres as u64 + 1) + PER_SPHERE * (spheres as u64 + 1) + 2
 }
