@@ -101,11 +101,18 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
         if row == 0u && !horizon {
             continue;
         }
-        for (var j = 0u; j < k; j++) {
-            let blocked = ((row >> j) & 1u) != 0u;
-            if !horizon && !blocked {
-                continue;
+        // Without the horizon only the covered patches count: their bits, lowest first.
+        var left = row;
+        if horizon {
+            left = (2u << (k - 1u)) - 1u;
+        }
+        loop {
+            if left == 0u {
+                break;
             }
+            let j = firstTrailingBit(left);
+            left &= left - 1u;
+            let blocked = ((row >> j) & 1u) != 0u;
             // Columns share the rows' centres: (sin, cos) of phi_j is trig[j].
             let d = xa * (st * trig[j].y) + y * ct + z * (st * trig[j].x);
             let c = dot(n, d);
