@@ -6,7 +6,8 @@
 // gpu/src/shexp.rs also puts in the body the count of per-pixel inputs before
 // the horizon angles (HIT_INPUTS_) and the sphere blockers' log (BLOCKER_LOG_: the
 // library's lf_log_zh_blocker or Ren's lf_shexp); the formulas shared with renderers are
-// the shader library's. Outputs per pixel: the radiance (clamped at 0), the budget
+// the shader library's, but for two order-4 forms of its general ones laid out for the
+// hardware (shexp_zh16, shexp_terrain: docs/gpu.md, "Kernel speed"). Outputs per pixel: the radiance (clamped at 0), the budget
 // flag; with COEFFS also the unclamped radiance and the integrand's 16 SH coefficients.
 // Not exported: only lobefit-gpu runs it.
 
