@@ -6,8 +6,8 @@
 // gpu/src/shexp.rs also puts in the body the count of per-pixel inputs before
 // the horizon angles (HIT_INPUTS_) and the sphere blockers' log (BLOCKER_LOG_: the
 // library's lf_log_zh_blocker or Ren's lf_shexp); the formulas shared with renderers are
-// the shader library's, but for two order-4 forms of its general ones laid out for the
-// hardware (shexp_zh16, shexp_terrain: docs/gpu.md, "Kernel speed"). Outputs per pixel: the radiance (clamped at 0), the budget
+// the shader library's (its order-4 lf_zh_to_sh16 among them), but for the terrain's
+// composition laid out for the hardware (shexp_terrain: docs/gpu.md, "Kernel speed"). Outputs per pixel: the radiance (clamped at 0), the budget
 // flag; with COEFFS also the unclamped radiance and the integrand's 16 SH coefficients.
 // Not exported: only lobefit-gpu runs it.
 
@@ -25,25 +25,6 @@ fn shexp_spheres() -> u32 {
 fn sph(b: u32) -> vec4<f32> {
     let k = shexp_scene() + 2u + 4u * b;
     return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);
-}
-
-// sqrt(4 pi / (2l + 1)) zh_l y_lm(d) at order 4 (the shader library's lf_zh_to_sh(4u,
-// zh, d)) by the bands' polynomials: 16 values, no recurrence, no 64-entry array (on
-// lavapipe the general form cost more than the rest of a blocker's work).
-fn shexp_zh16(zh: array<f32, 8>, d: vec3<f32>) -> array<f32, 16> {
-    let x = d.x;
-    let y = d.y;
-    let z = d.z;
-    let a = 1.7320508 * zh[2];
-    let b = 0.7905694 * zh[3];
-    let c = 0.6123724 * zh[3] * (5.0 * z * z - 1.0);
-    return array<f32, 16>(
-        zh[0],
-        -zh[1] * y, zh[1] * z, -zh[1] * x,
-        a * x * y, -a * y * z, 0.5 * zh[2] * (3.0 * z * z - 1.0), -a * x * z, 0.8660254 * zh[2] * (x * x - y * y),
-        -b * y * (3.0 * x * x - y * y), 3.8729833 * zh[3] * x * y * z, -c * y, 0.5 * zh[3] * z * (5.0 * z * z - 3.0),
-        -c * x, 1.9364917 * zh[3] * z * (x * x - y * y), -b * x * (x * x - 3.0 * y * y),
-    );
 }
 
 // The terrain's slice k at order 4 (lf_wedge_slice; with TERRAIN_ABOVE_TANGENT the
@@ -116,7 +97,7 @@ fn shexp_terrain(n: vec3<f32>, at: u32) -> array<f32, 16> {
 // One BRDF term: exp* (HYB) of the log visibility f plus the term's log-ZH lobe z
 // about `axis`: the term's band-limited visibility × BRDF × cosine.
 fn shexp_term(f: array<f32, 16>, z: array<f32, 8>, axis: vec3<f32>) -> array<f32, 16> {
-    let t = shexp_zh16(z, axis);
+    let t = lf_zh_to_sh16(z, axis);
     var g: array<f32, 16>;
     for (var i = 0u; i < 16u; i++) {
         g[i] = f[i] + t[i];
@@ -172,7 +153,7 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
                 zh[l] *= sb;
             }
         }
-        let t = shexp_zh16(zh, dir);
+        let t = lf_zh_to_sh16(zh, dir);
         for (var k = 0u; k < 16u; k++) {
             f[k] += t[k];
         }
