@@ -125,10 +125,8 @@ fn check_sh_basis(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) 
         .map_err(map)?;
     rows.push(row("zh to sh n8", samples, vector_diff(&got, &want), Vec::new()));
     // ZH → SH at order 4 by the polynomials (the same inputs' first four zh).
-    let body = format!(
-        "    var zh: array<f32, 8>;\n    zh[0] = x3; zh[1] = x4; zh[2] = x5; zh[3] = x6;\n    let z = lf_zh_to_sh16(zh, vec3<f32>(x0, x1, x2));\n    for (var k = 0u; k < 16u; k++) {{\n        Y[o + k] = z[k];\n    }}"
-    );
-    let got = run_rows(gpu, dummy, &NONE, t2, &inputs, 16, &body)?;
+    let body = "    var zh: array<f32, 8>;\n    zh[0] = x3; zh[1] = x4; zh[2] = x5; zh[3] = x6;\n    let z = lf_zh_to_sh16(zh, vec3<f32>(x0, x1, x2));\n    for (var k = 0u; k < 16u; k++) {\n        Y[o + k] = z[k];\n    }";
+    let got = run_rows(gpu, dummy, &NONE, t2, &inputs, 16, body)?;
     let want: Vec<Vec<f64>> = inputs
         .iter()
         .map(|x| {
