@@ -102,7 +102,7 @@ fn check_sh_basis(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) 
     let want9: Vec<Vec<f64>> = want.iter().map(|w| w[..9].to_vec()).collect();
     rows.push(row("sh9 basis", samples, vector_diff(&got, &want9), Vec::new()));
 
-    // ZH → SH at order 8.
+    // ZH → SH: each direction with 8 zh coefficients.
     let inputs: Vec<Vec<f64>> = dirs
         .iter()
         .map(|d| {
@@ -111,36 +111,32 @@ fn check_sh_basis(gpu: &Gpu, dummy: &GpuTexture, samples: usize, rng: &mut Rng) 
             x
         })
         .collect();
-    let body = format!(
-        "    var zh: array<f32, 8>;\n    zh[0] = x3; zh[1] = x4; zh[2] = x5; zh[3] = x6; zh[4] = x7; zh[5] = x8; zh[6] = x9; zh[7] = x10;\n    let z = lf_zh_to_sh(8u, zh, vec3<f32>(x0, x1, x2));\n{WRITE64}"
-    );
-    let got = run_rows(gpu, dummy, &NONE, t2, &inputs, 64, &body)?;
-    let want: Vec<Vec<f64>> = inputs
-        .iter()
-        .map(|x| {
-            let mut o = vec![0.0; 64];
-            sh::zh_to_sh(&x[3..11], DVec3::from_slice(&x[..3]), &mut o).map(|_| o)
-        })
-        .collect::<Result<_, _>>()
-        .map_err(map)?;
-    rows.push(row("zh to sh n8", samples, vector_diff(&got, &want), Vec::new()));
-    // ZH → SH at order 4 by the polynomials (the same inputs' first four zh).
-    let body = "    var zh: array<f32, 8>;\n    zh[0] = x3; zh[1] = x4; zh[2] = x5; zh[3] = x6;\n    let z = lf_zh_to_sh16(zh, vec3<f32>(x0, x1, x2));\n    for (var k = 0u; k < 16u; k++) {\n        Y[o + k] = z[k];\n    }";
-    let got = run_rows(gpu, dummy, &NONE, t2, &inputs, 16, body)?;
-    let want: Vec<Vec<f64>> = inputs
-        .iter()
-        .map(|x| {
-            let mut o = vec![0.0; 16];
-            sh::zh_to_sh(&x[3..7], DVec3::from_slice(&x[..3]), &mut o).map(|_| o)
-        })
-        .collect::<Result<_, _>>()
-        .map_err(map)?;
-    rows.push(row(
-        "zh to sh n4 (polynomials)",
-        samples,
-        vector_diff(&got, &want),
-        Vec::new(),
-    ));
+    // ZH → SH at order 8 by the recurrence, and at order 4 by the polynomials (the same
+    // inputs' first four zh).
+    let zh_in = "    var zh: array<f32, 8>;\n    zh[0] = x3; zh[1] = x4; zh[2] = x5; zh[3] = x6; zh[4] = x7; zh[5] = x8; zh[6] = x9; zh[7] = x10;\n";
+    for (name, order, call) in [
+        ("zh to sh n8", 8, "lf_zh_to_sh(8u, zh, vec3<f32>(x0, x1, x2))"),
+        (
+            "zh to sh n4 (polynomials)",
+            4,
+            "lf_zh_to_sh16(zh, vec3<f32>(x0, x1, x2))",
+        ),
+    ] {
+        let n = order * order;
+        let body = format!(
+            "{zh_in}    let z = {call};\n    for (var k = 0u; k < {n}u; k++) {{\n        Y[o + k] = z[k];\n    }}"
+        );
+        let got = run_rows(gpu, dummy, &NONE, t2, &inputs, n, &body)?;
+        let want: Vec<Vec<f64>> = inputs
+            .iter()
+            .map(|x| {
+                let mut o = vec![0.0; n];
+                sh::zh_to_sh(&x[3..3 + order], DVec3::from_slice(&x[..3]), &mut o).map(|_| o)
+            })
+            .collect::<Result<_, _>>()
+            .map_err(map)?;
+        rows.push(row(name, samples, vector_diff(&got, &want), Vec::new()));
+    }
 
     // Order-3 rotation: R by axis and angle, passed as columns.
     let mut inputs = Vec::new();
