@@ -1,14 +1,15 @@
-// lobefit-gpu render shexp: the kernel's own functions (shexp_term, shexp_lit), then
-// its body. The kernel's constants (N_IN, NW, W_INDEX, TERRAIN_ABOVE_TANGENT,
-// ATTENUATION, EPS_*: the settings'; COEFFS: whether it also writes the integrand)
-// come from gpu/src/shexp.rs; the scene follows the pixels' inputs in X
-// (shexp_scene), so one compiled kernel serves every scene, frame and image size.
-// gpu/src/shexp.rs also puts in the body the count of per-pixel inputs before
-// the horizon angles (HIT_INPUTS_) and the sphere blockers' log (BLOCKER_LOG_: the
-// library's lf_log_zh_blocker or Ren's lf_shexp); the formulas shared with renderers are
-// the shader library's (its order-4 lf_zh_to_sh16 among them), but for the terrain's
-// composition laid out for the hardware (shexp_terrain: docs/gpu.md, "Kernel speed"). Outputs per pixel: the radiance (clamped at 0), the budget
-// flag; with COEFFS also the unclamped radiance and the integrand's 16 SH coefficients.
+// lobefit-gpu render shexp: the kernel's own functions (shexp_slice, shexp_terrain,
+// shexp_term, shexp_lit), then its body. The kernel's constants (N_IN, NW, W_INDEX,
+// TERRAIN_ABOVE_TANGENT, ATTENUATION, EPS_*: the settings'; COEFFS: whether it also
+// writes the integrand) come from gpu/src/shexp.rs; the scene follows the pixels'
+// inputs in X (shexp_scene), so one compiled kernel serves every scene, frame and
+// image size. gpu/src/shexp.rs also puts in the body the count of per-pixel inputs
+// before the horizon angles (HIT_INPUTS_) and the sphere blockers' log (BLOCKER_LOG_:
+// the library's lf_log_zh_blocker or Ren's lf_shexp). The formulas shared with
+// renderers are the shader library's (its order-4 lf_zh_to_sh16 among them), but for
+// the terrain's composition, laid out for the hardware in shexp_terrain (docs/gpu.md,
+// "Kernel speed"). Outputs per pixel: the radiance (clamped at 0), the budget flag;
+// with COEFFS also the unclamped radiance and the integrand's 16 SH coefficients.
 // Not exported: only lobefit-gpu runs it.
 
 // Where the scene starts in X: after the N.x pixels' inputs. There: the sphere
@@ -122,8 +123,8 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
     let own = vec2<i32>(i32(x12), i32(x13));
     let ns = shexp_spheres();
     // A point inside another blocker (a mesh's covering sphere below the ground) is
-    // in its full shadow, as on the CPU (`Scene::buried`): radiance 0.
-    // (Found in the blockers' loop below.)
+    // in its full shadow, as on the CPU (`Scene::buried`): radiance 0. Set in the
+    // blockers' loop below.
     var buried = false;
     var f: array<f32, 16>;
     if X[shexp_scene() + 1u] != 0.0 {

@@ -121,7 +121,7 @@ pub const FAMILIES: (&[&str], &str) = (
 /// Loop iterations per sphere blocker, at most: the sphere loop's own and its body's
 /// loops (`lf_asin`'s series, the blocker's log-ZH, the attenuation, the sum).
 /// Measured on llvmpipe (Mesa 22.3) when the body also evaluated `lf_zh_to_sh`'s
-/// recurrence (now the kernel's 16 polynomials, no loop): a scene of 600 spheres ran
+/// recurrence (now the library's `lf_zh_to_sh16`, no loop): a scene of 600 spheres ran
 /// within the budget, one of 650 spent it (so ≤ 109 per sphere then; an upper bound
 /// now).
 const PER_SPHERE: u64 = 112;
