@@ -183,12 +183,18 @@ fn row_test(i: u64) -> String {
             if r > q {{
                 var m = 0xffffffffu;
                 if -r < q {{
-                    // acos(q / r) as an atan2: acos of an f32 ratio near ±1 loses the
-                    // half-width (fig12-diffuse: RMS 9.8e-5 of the peak against the CPU
-                    // with acos on llvmpipe, 4.0e-6 with this).
-                    let al = atan2(sqrt(max(r * r - q * q, 0.0)), q);
-                    m = isg_columns(ph0 - al, ph0 + al, lo, inv, k)
-                        | isg_columns(ph0 - al + 2.0 * LF_PI, ph0 + al + 2.0 * LF_PI, lo, inv, k);
+                    // The covered azimuths lie within al of ph0. With ph0 in [0, π] they
+                    // meet the grid's [0, π] in one interval; with ph0 < 0, in [0, π]
+                    // minus the gap (ph0 + al, ph0 + 2π − al): one rounding pair either
+                    // way.
+                    let al = isg_acos_ratio(q, r);
+                    let behind = ph0 < 0.0;
+                    let c = isg_columns(
+                        select(ph0 - al, ph0 + al, behind),
+                        select(ph0 + al, ph0 + 2.0 * LF_PI - al, behind),
+                        lo, inv, k,
+                    );
+                    m = select(c, ~c, behind);
                 }}
                 m &= (1u << k) - 1u;
                 rows[{i}] |= m;
