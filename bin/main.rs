@@ -289,6 +289,13 @@ enum Command {
         /// Points of the check against quadrature (0: none).
         #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(0..=100_000))]
         check: u32,
+        /// Also write the table as a KTX2 2D array texture for the shader library's
+        /// `lf_prefiltered` (docs/environment.md, "Γ_L on the GPU").
+        #[arg(long)]
+        texture: Option<PathBuf>,
+        /// The texture's texel precision.
+        #[arg(long, value_parser = ["f32", "f16"], default_value = "f32", requires = "texture")]
+        texture_storage: String,
     },
     /// Write a family's figures (PNG) into a directory.
     Plot {
@@ -891,7 +898,20 @@ fn run(cli: Cli) -> Result<ExitCode, Failure> {
             spheres(&mesh, count as usize, method, seed, samples as usize, max_overlap, &out)?
         }
         Command::FitEnv { map, sgs, out } => fit_env(&map, sgs as usize, &out)?,
-        Command::Prefilter { map, out, check } => prefilter(&map, &out, check as usize)?,
+        Command::Prefilter {
+            map,
+            out,
+            check,
+            texture,
+            texture_storage,
+        } => {
+            let storage = if texture_storage == "f16" {
+                Storage::F16
+            } else {
+                Storage::F32
+            };
+            prefilter(&map, &out, check as usize, texture.as_deref().map(|t| (t, storage)))?
+        }
         Command::Plot { name, out } => {
             let (_, plot) = lobefit::catalog::plots()
                 .into_iter()
@@ -1033,11 +1053,18 @@ fn spheres(
     ))
 }
 
-/// `lobefit prefilter`: read, build, write, check, report.
-fn prefilter(map_path: &Path, out: &Path, count: usize) -> Result<(), String> {
+/// `lobefit prefilter`: read, build, write (the table, and the texture if asked), check,
+/// report.
+fn prefilter(map_path: &Path, out: &Path, count: usize, texture: Option<(&Path, Storage)>) -> Result<(), String> {
     use lobefit::pipelines::envmap::EnvMap;
     use lobefit::pipelines::prefilter::{build, check, check_nodes, grid, summary, LAMBDA_MAX, LEVELS, PER_OCTAVE};
     out_file("--out", out)?;
+    if let Some((t, _)) = texture {
+        out_file("--texture", t)?;
+        if t == out {
+            return Err("--texture and --out name the same file".into());
+        }
+    }
     let map = EnvMap::load(map_path)?;
     let name = map_path
         .file_name()
@@ -1047,6 +1074,14 @@ fn prefilter(map_path: &Path, out: &Path, count: usize) -> Result<(), String> {
     let t_build = t0.elapsed().as_secs_f64();
     let bytes = lobefit_tables::format::encode(table.meta(), table.values())?;
     lobefit::io::write_atomic(out, &bytes).map_err(|e| format!("{}: {e}", out.display()))?;
+    if let Some((path, storage)) = texture {
+        let stem = path
+            .file_stem()
+            .map_or_else(|| "prefiltered".into(), |n| n.to_string_lossy().into_owned());
+        let tex = lobefit::pipelines::prefilter::texture(&table, &stem)?;
+        let ktx = lobefit::export::formats::encode(&tex, lobefit::export::Format::Ktx2, storage)?;
+        lobefit::io::write_atomic(path, &ktx).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
     let (r, c) = grid(&map);
     let mut s = String::new();
     let _ = writeln!(
@@ -1101,6 +1136,9 @@ fn prefilter(map_path: &Path, out: &Path, count: usize) -> Result<(), String> {
         }
     }
     let _ = writeln!(s, "{}", out.display());
+    if let Some((t, _)) = texture {
+        let _ = writeln!(s, "{}", t.display());
+    }
     emit(&s)
 }
 

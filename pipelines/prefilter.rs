@@ -394,6 +394,39 @@ pub fn lookup(table: &Table, a: DVec3, lambda: f64) -> Result<[f64; 3], String> 
     Ok(out.map(|x| x.max(0.0)))
 }
 
+/// The table as a GPU texture for the shader library's `lf_prefiltered`
+/// (tables/shaders/prefilter.wgsl; docs/environment.md, "Γ_L on the GPU"): a 2D array
+/// texture, one layer per level of the ladder (λ_k = 2^(k / [`PER_OCTAVE`])), x the φ
+/// nodes (the last repeating the first, so clamp-to-edge filtering needs no wrap), y
+/// the θ nodes, RGBA: the table's R, G, B and their luminance (Rec. 709) in A, the
+/// channel the ISG's eq. 9 reads for scalar radiance. Texel (i, j) of a layer is the
+/// node itself: the texture's values are the table's, rounded to the storage.
+pub fn texture(table: &Table, name: &str) -> Result<lobefit_core::export::Texture, String> {
+    table.expect_kind(KIND, VERSION).map_err(|e| e.to_string())?;
+    let axes = &table.meta().axes;
+    let (levels, nt, np) = (axes[0].count, axes[1].count, axes[2].count);
+    if levels != LEVELS {
+        return Err(format!("a prefiltered table has {LEVELS} levels; this one {levels}"));
+    }
+    let data = table
+        .values()
+        .chunks_exact(3)
+        .flat_map(|c| [c[0], c[1], c[2], 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]])
+        .collect();
+    let tex = lobefit_core::export::Texture {
+        name: name.into(),
+        dimension: 2,
+        width: np,
+        height: nt,
+        depth: 1,
+        layers: levels,
+        channels: 4,
+        data,
+    };
+    tex.validate()?;
+    Ok(tex)
+}
+
 /// [`lookup`] with linear interpolation in ln λ between the two neighbouring levels
 /// (what trilinear filtering of the levels as a mip chain gives).
 pub fn lookup_linear(table: &Table, a: DVec3, lambda: f64) -> Result<[f64; 3], String> {

@@ -1,6 +1,7 @@
 //! Shader functions of the runtime beyond any table: SH basis, ZH → SH, order-3
 //! rotation, rotation about z, the truncated SH product, the wedge slice vector, SG
-//! algebra, the paper's ISG model, rig reconstruction and wrap shading. Each runs on
+//! algebra, the paper's ISG model, rig reconstruction and wrap shading; and Γ_L, the
+//! lookup of a map's prefiltered texture (a small map built here, not an export's). Each runs on
 //! the GPU at seeded random inputs against the runtime's f64 functions. (The families' world-space functions,
 //! ISG patches, disk lights, the wedge mat-vec, are checked by their own
 //! `fits/<family>/gpu.rs`.)
@@ -61,6 +62,162 @@ pub fn check_closed_world(gpu: &Gpu, dummy: &GpuTexture, samples: usize, seed: u
     rows.extend(check_sh_algebra(gpu, dummy, samples, &mut rng)?);
     rows.push(check_rigs(gpu, dummy, samples, &mut rng)?);
     rows.extend(check_meunier(gpu, dummy, samples, &mut rng)?);
+    rows.extend(check_prefiltered(gpu, samples, &mut rng)?);
+    Ok(rows)
+}
+
+/// A 64 × 32 map for Γ_L's rows: a sky gradient, a band of ripples and a bright 2 × 1
+/// texel spot (a sun's share of the values' range).
+fn prefilter_map() -> Result<lobefit::pipelines::envmap::EnvMap, String> {
+    let (w, h) = (64usize, 32usize);
+    let mut rgb = Vec::with_capacity(w * h);
+    for v in 0..h {
+        for u in 0..w {
+            let base = 0.2 + 0.8 * (1.0 - v as f64 / h as f64);
+            let ripple = 0.3 * (1.0 + (0.7 * u as f64).sin() * (0.9 * v as f64).cos());
+            let spot = if (u == 13 || u == 14) && v == 9 { 60.0 } else { 0.0 };
+            rgb.push([base + ripple + spot, 0.9 * base + 0.5 * spot, 1.1 * base + 0.5 * ripple]);
+        }
+    }
+    lobefit::pipelines::envmap::EnvMap::new(w, h, rgb)
+}
+
+/// `lf_prefiltered` in f64 on the texture's own texels (`data`, already rounded to the
+/// storage), the bilinear weights of each layer rounded down (`Some(false)`) or up
+/// (`Some(true)`) to a step of `1/256` per axis, or exact (`None`), per axis in `(x, y)`: the
+/// CPU side of the f16 and hardware rows. RGBA, before the clamp at 0.
+fn prefiltered_twin(tex: &lobefit::export::Texture, a: DVec3, lambda: f64, round: [Option<bool>; 2]) -> [f64; 4] {
+    let (w, h) = (tex.width as usize, tex.height as usize);
+    let (theta, phi) = lobefit::pipelines::prefilter::angles(a);
+    let sx = phi / std::f64::consts::TAU * (w - 1) as f64;
+    let sy = theta / std::f64::consts::PI * (h - 1) as f64;
+    let split = |s: f64, n: usize, r: Option<bool>| {
+        let c = s.clamp(0.0, (n - 1) as f64);
+        let i = c.floor().min((n - 2) as f64);
+        let f = c - i;
+        let f = match r {
+            None => f,
+            // 0.01 of a step of slack: the hardware forms the weight from its own
+            // f32 coordinate, which may fall on the other side of a step.
+            Some(false) => ((f * 256.0 - 0.01).floor() / 256.0).max(0.0),
+            Some(true) => ((f * 256.0 + 0.01).ceil() / 256.0).min(1.0),
+        };
+        (i as usize, f)
+    };
+    let (i, fx) = split(sx, w, round[0]);
+    let (j, fy) = split(sy, h, round[1]);
+    let top = (tex.layers - 1) as f64;
+    let t = (lambda.log2() * lobefit::pipelines::prefilter::PER_OCTAVE as f64).clamp(0.0, top);
+    let j0 = (t.floor() - 1.0).clamp(0.0, top - 3.0);
+    let u = t - j0;
+    let lw = [
+        -(u - 1.0) * (u - 2.0) * (u - 3.0) / 6.0,
+        u * (u - 2.0) * (u - 3.0) / 2.0,
+        -u * (u - 1.0) * (u - 3.0) / 2.0,
+        u * (u - 1.0) * (u - 2.0) / 6.0,
+    ];
+    let at = |l: usize, x: usize, y: usize, c: usize| tex.data[((l * h + y) * w + x) * 4 + c] as f64;
+    let mut out = [0.0; 4];
+    for (k, wk) in lw.iter().enumerate() {
+        let l = j0 as usize + k;
+        for (c, o) in out.iter_mut().enumerate() {
+            let lo = at(l, i, j, c) + fx * (at(l, i + 1, j, c) - at(l, i, j, c));
+            let hi = at(l, i, j + 1, c) + fx * (at(l, i + 1, j + 1, c) - at(l, i, j + 1, c));
+            *o += wk * (lo + fy * (hi - lo));
+        }
+    }
+    out
+}
+
+/// Γ_L (`lf_prefiltered`, `lf_prefiltered_hw`) on a small map's table at random axes and
+/// λ log-uniform over the ladder: f32 by textureLoad against the CPU's lookup
+/// (`prefilter::lookup`, the table's own interpolation), f16 by textureLoad against its
+/// texels in f64, and f16 by the hardware's filter against the envelope of its weights
+/// rounded to 1/256 (a GPU's 8-bit sub-texel weights, or exact ones, lie inside).
+fn check_prefiltered(gpu: &Gpu, samples: usize, rng: &mut Rng) -> Result<Vec<Row>, String> {
+    use lobefit::export::Storage;
+    use lobefit::pipelines::prefilter;
+    let (table, _) = prefilter::build(&prefilter_map()?, "gpu-check")?;
+    let tex = prefilter::texture(&table, "gamma-l")?;
+    let top = prefilter::LAMBDA_MAX.ln();
+    let inputs: Vec<Vec<f64>> = (0..samples)
+        .map(|_| {
+            let mut x = unit(rng).to_array().map(r32).to_vec();
+            x.push(r32(rng.range(0.0, top).exp()));
+            x
+        })
+        .collect();
+    let arr = "texture_2d_array<f32>";
+    let write4 = "    Y[o] = v.x;\n    Y[o + 1u] = v.y;\n    Y[o + 2u] = v.z;\n    Y[o + 3u] = v.w;";
+    let manual = format!("    let v = lf_prefiltered(T, vec3<f32>(x0, x1, x2), x3);\n{write4}");
+    let hardware = format!("    let v = lf_prefiltered_hw(T, S, vec3<f32>(x0, x1, x2), x3);\n{write4}");
+    let lum = |c: [f64; 3]| vec![c[0], c[1], c[2], 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]];
+    let mut rows = Vec::new();
+
+    // f32, textureLoad: against the table's interpolation on the CPU.
+    let up = gpu.upload(&tex, Storage::F32)?;
+    let got = run_rows(gpu, &up, &NONE, arr, &inputs, 4, &manual)?;
+    let want: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| prefilter::lookup(&table, DVec3::from_slice(&x[..3]), x[3]).map(lum))
+        .collect::<Result<_, _>>()?;
+    let mut r = row("prefiltered", samples, scaled_diff(&got, &want).0, Vec::new());
+    r.storage = "f32".into();
+    r.filter = "manual".into();
+    r.cpu_what = "the table's lookup";
+    rows.push(r);
+
+    // f16, textureLoad: against the f16 texels in f64; the storage's cost beside.
+    let mut half = tex.clone();
+    for v in &mut half.data {
+        *v = half::f16::from_f32(*v).to_f32();
+    }
+    let up = gpu.upload(&tex, Storage::F16)?;
+    let got = run_rows(gpu, &up, &NONE, arr, &inputs, 4, &manual)?;
+    let twin: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| {
+            prefiltered_twin(&half, DVec3::from_slice(&x[..3]), x[3], [None, None])
+                .map(|v| v.max(0.0))
+                .to_vec()
+        })
+        .collect();
+    let mut r = row("prefiltered", samples, scaled_diff(&got, &twin).0, Vec::new());
+    r.storage = "f16".into();
+    r.filter = "manual".into();
+    r.cpu_what = "f16 texels, f64";
+    r.info
+        .push(("rgb+lum rel vs f32 lookup".into(), scaled_diff(&got, &want).0, 0.0));
+    rows.push(r);
+
+    // f16, the hardware's filter: outside the envelope of the weights' roundings, relative.
+    let got = run_rows(gpu, &up, &NONE, arr, &inputs, 4, &hardware)?;
+    let mut outside = Vec::with_capacity(samples);
+    let mut mid = Vec::with_capacity(samples);
+    for (g, x) in got.iter().zip(&inputs) {
+        let a = DVec3::from_slice(&x[..3]);
+        let ends: Vec<[f64; 4]> = [[false, false], [false, true], [true, false], [true, true]]
+            .iter()
+            .map(|&[rx, ry]| prefiltered_twin(&half, a, x[3], [Some(rx), Some(ry)]))
+            .collect();
+        let m = prefiltered_twin(&half, a, x[3], [None, None]);
+        let mut o = vec![0.0; 4];
+        for c in 0..4 {
+            let lo = ends.iter().map(|e| e[c]).fold(f64::INFINITY, f64::min).max(0.0);
+            let hi = ends.iter().map(|e| e[c]).fold(f64::NEG_INFINITY, f64::max).max(0.0);
+            // Inside the envelope: the twin's own value; outside: the nearer end plus the excess.
+            o[c] = m[c].max(0.0) + (g[c] - g[c].clamp(lo, hi));
+        }
+        outside.push(o);
+        mid.push(m.map(|v| v.max(0.0)).to_vec());
+    }
+    let mut r = row("prefiltered", samples, scaled_diff(&outside, &mid).0, Vec::new());
+    r.storage = "f16".into();
+    r.filter = "hardware".into();
+    r.cpu_what = "8-bit envelope";
+    r.info
+        .push(("rgb+lum rel vs f32 lookup".into(), scaled_diff(&got, &want).0, 0.0));
+    rows.push(r);
     Ok(rows)
 }
 

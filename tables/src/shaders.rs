@@ -45,9 +45,13 @@ pub const RIGS: &str = include_str!("../shaders/rigs.wgsl");
 /// (texture), a sphere light's irradiance across the horizon, a lobe's share of a cap,
 /// the cap exponent below the table's 1 mrad; needs [`LOBE`], [`LOBE_PRODUCT`].
 pub const MEUNIER: &str = include_str!("../shaders/meunier.wgsl");
+/// Γ_L, an environment map prefiltered by SGs (the texture `lobefit prefilter
+/// --texture` writes, one per map): the mean radiance under an SG of any axis and
+/// sharpness 1 to 8192, by manual or hardware filtering; ∫ G dω over the sphere.
+pub const PREFILTER: &str = include_str!("../shaders/prefilter.wgsl");
 
 /// Every file of the library as (file name, source), in dependency order.
-pub const FILES: [(&str, &str); 14] = [
+pub const FILES: [(&str, &str); 15] = [
     ("common.wgsl", COMMON),
     ("gaunt.wgsl", GAUNT),
     ("sh.wgsl", SH),
@@ -62,6 +66,7 @@ pub const FILES: [(&str, &str); 14] = [
     ("isg_shade.wgsl", ISG_SHADE),
     ("rigs.wgsl", RIGS),
     ("meunier.wgsl", MEUNIER),
+    ("prefilter.wgsl", PREFILTER),
 ];
 
 /// The whole library as one WGSL source (the files of [`FILES`] concatenated).

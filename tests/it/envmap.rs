@@ -191,10 +191,12 @@ fn a_map_lights_a_scene_and_the_reference_integrates_the_map() {
 /// `lobefit prefilter` on a hand-written 16 × 8 Radiance map of one colour (1, 0.5,
 /// 0.25): the table it writes loads as kind `env-prefilter`, and its lookup gives the
 /// colour back at any direction and λ on the ladder (a constant map is its own
-/// prefilter; to 2e-3), and refuses λ off the ladder. Bad input: a missing map, and
-/// `--out` onto a directory, exit 1 and write nothing.
+/// prefilter; to 2e-3), and refuses λ off the ladder; `--texture` writes its nodes as a
+/// KTX2 array texture. Bad input: a missing map, `--out` onto a directory and
+/// `--texture` onto `--out` exit 1 and write nothing; `--texture-storage` alone is a
+/// usage error.
 #[test]
-fn prefilter_writes_a_table_that_gives_a_constant_map_back() {
+fn prefilter_writes_a_table_and_texture_that_give_a_constant_map_back() {
     let d = tempfile::tempdir().unwrap();
     let mut f = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n".to_vec();
     for _ in 0..16 * 8 {
@@ -204,13 +206,45 @@ fn prefilter_writes_a_table_that_gives_a_constant_map_back() {
     std::fs::write(&map, &f).unwrap();
     let out = d.path().join("flat.lobefit");
     let (m, o) = (map.to_str().unwrap(), out.to_str().unwrap());
-    let (code, stdout, stderr) = run_text(&["prefilter", "--map", m, "--out", o, "--check", "16"], "");
+    let tex_path = d.path().join("flat.ktx2");
+    let t = tex_path.to_str().unwrap();
+    let args = [
+        "prefilter",
+        "--map",
+        m,
+        "--out",
+        o,
+        "--check",
+        "16",
+        "--texture",
+        t,
+        "--texture-storage",
+        "f16",
+    ];
+    let (code, stdout, stderr) = run_text(&args, "");
     assert_eq!(code, Some(0), "{stderr}");
     assert!(
-        stdout.contains("27 levels") && stdout.contains("cubic in λ"),
+        stdout.contains("27 levels") && stdout.contains("cubic in λ") && stdout.contains("flat.ktx2"),
         "{stdout}"
     );
     let table = lobefit_tables::Table::from_path(&out).unwrap();
+    // The texture, read back by the ktx2 crate: the table's nodes (φ across, θ down, a
+    // layer per level), f16, and their luminance in A.
+    let (tex, storage) = lobefit::export::formats::read(&tex_path, lobefit::export::Format::Ktx2).unwrap();
+    assert_eq!(storage, lobefit::export::Storage::F16);
+    assert_eq!((tex.width, tex.height, tex.layers, tex.channels), (17, 9, 27, 4));
+    for (texel, node) in tex.data.chunks_exact(4).zip(table.values().chunks_exact(3)) {
+        for c in 0..3 {
+            assert_eq!(texel[c], half::f16::from_f32(node[c]).to_f32());
+        }
+        let y = 0.2126 * node[0] + 0.7152 * node[1] + 0.0722 * node[2];
+        assert_eq!(texel[3], half::f16::from_f32(y).to_f32());
+    }
+    let (code, _, err) = run_text(&["prefilter", "--map", m, "--out", o, "--texture", o], "");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("the same file"), "{err}");
+    let (code, _, err) = run_text(&["prefilter", "--map", m, "--out", o, "--texture-storage", "f16"], "");
+    assert_eq!(code, Some(2), "{err}");
     use lobefit::pipelines::prefilter::lookup;
     use lobefit_tables::glam::DVec3;
     for (a, lambda) in [
