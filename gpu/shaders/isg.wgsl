@@ -171,11 +171,16 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
             let t = l.amplitude * lf_sg_clamped_cosine(l, n);
             diffuse += isg_visible(lf_sg_product(l, cs), t, cs, true, n, p, own);
         }
-        if x10 > 0.0 {
+        if x10 > 0.0 && !EQ9 {
             let g = lf_sg_product(l, lobe);
             specular += isg_visible(g, lf_sg_integral(g), lobe, false, n, p, own);
         }
     }
+    // With the scene's Γ_L (EQ9), the specular term is Iwasaki et al.'s eq. 9: the
+    // integral of L times the BRDF's SG, from Γ_L (T3) where its sharpness is on the
+    // ladder, else from the lobes, times the SG's visible fraction (the CPU's
+    // Specular::Eq9Prefiltered). The placeholder line below is that block, or nothing.
+    //#ISG_EQ9
     // Radiance is never negative (the CPU pipeline clamps its sum too).
     Y[o] = max(x9 / LF_PI * diffuse + max(dot(n, r), 0.0) * specular, 0.0);
     var budget_flag = 0.0;

@@ -15,17 +15,19 @@
 //! taken once per grid edge. The loops left are bounded before dispatch and checked
 //! after it (`crate::budget`).
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use lobefit::export::layout::Filter;
+use lobefit::export::Storage;
 use lobefit::export::{manifest::TextureEntry, Texture};
-use lobefit::pipelines::isg::shade::{radiance, Phong, Settings, Tables};
+use lobefit::pipelines::isg::shade::{radiance, Phong, Settings, Specular, Tables};
 use lobefit::pipelines::scene::Hit;
 
 use crate::budget;
 use crate::device::Gpu;
-use crate::kernel::{kernel_with, lf_tex, split};
+use crate::kernel::{kernel_textures, lf_tex, split};
 use crate::render::{compare_and_write, family_textures, SceneRender, VerifiedExport};
 use crate::render::{parse, Render};
 
@@ -77,6 +79,12 @@ fn run(a: Args) -> Result<ExitCode, String> {
         });
     }
     let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out)?;
+    if sc.prefiltered.is_some() {
+        out!(
+            "render isg {}: the specular term by eq. 9 from the scene's Γ_L (textureLoad, f32)",
+            a.scene
+        );
+    }
     crate::render::report("render isg", &a.scene, &r, &gpu, &a.out)
 }
 
@@ -92,7 +100,11 @@ pub fn check_scene(budget: Option<u64>, scene: &lobefit::pipelines::scene::Scene
     budget::refuse_over(
         budget,
         command,
-        iterations(scene.proxies.len(), scene.environment.len()),
+        iterations(
+            scene.proxies.len(),
+            scene.environment.len(),
+            scene.prefiltered.is_some(),
+        ),
         &format!(
             "{} SGs, {} blocker spheres",
             scene.environment.len(),
@@ -150,11 +162,13 @@ pub const FAMILIES: (&[&str], &str) = (
 /// buried test over the blockers; the SG loop; per SG the clamped cosine and, per BRDF
 /// term (diffuse, specular), the rows' trigonometry (k ≤ 20), the gather over every
 /// blocker (its grid rows are statements), the edge factors (k + 1 ≤ 21) and the patch
-/// loops (k ≤ 20 per side); the sentinel.
-pub fn iterations(spheres: usize, sgs: usize) -> u64 {
+/// loops (k ≤ 20 per side); eq. 9's term where the scene names its Γ_L (one more
+/// specular term, and its sum over the SGs off Γ_L's ladder); the sentinel.
+pub fn iterations(spheres: usize, sgs: usize, eq9: bool) -> u64 {
     let (ns, ne) = (spheres as u64, sgs as u64);
     let term = (MAX_PATCHES + 1) + (ns + 1) + (MAX_PATCHES + 2) + (MAX_PATCHES + 1) + MAX_PATCHES * (MAX_PATCHES + 1);
-    (ns + 1) + (ne + 1) + ne * (CLAMPED_COSINE_ITERATIONS + 2 * term) + 2
+    let eq9 = if eq9 { term + (ne + 1) } else { 0 };
+    (ns + 1) + (ne + 1) + ne * (CLAMPED_COSINE_ITERATIONS + 2 * term) + eq9 + 2
 }
 
 /// The export's first texture of family `kind`.
@@ -205,7 +219,30 @@ fn row_test(i: u64) -> String {
     )
 }
 
-/// The kernel's per-product visible integral (the CPU's `visible_with`) and its body.
+/// The line of the kernel's body that [`EQ9_BLOCK`] replaces where the scene names its
+/// map's Γ_L (and nothing replaces elsewhere).
+const EQ9_PLACEHOLDER: &str = "    //#ISG_EQ9\n";
+
+/// Eq. 9's specular term, reading Γ_L from `T3` (`lf_prefiltered`: the luminance in w).
+const EQ9_BLOCK: &str = "    if x10 > 0.0 && !buried {
+        let total_b = lf_sg_integral(lobe);
+        if total_b > 0.0 {
+            var pre = 0.0;
+            if lobe.sharpness >= 1.0 && lobe.sharpness <= 8192.0 {
+                pre = lobe.amplitude * lf_prefiltered(T3, lobe.axis, lobe.sharpness).w
+                    * lf_sg_sphere_integral(lobe.sharpness);
+            } else {
+                for (var e = 0u; e < NE; e++) {
+                    pre += lf_sg_integral(lf_sg_product(env(e), lobe));
+                }
+            }
+            specular = pre * isg_visible(lobe, total_b, lobe, false, n, p, own) / total_b;
+        }
+    }
+";
+
+/// The kernel's per-product visible integral (the CPU's `visible_with`) and its body;
+/// with `eq9`, the specular term by eq. 9 from Γ_L bound as `T3`.
 fn source(scene: &lobefit::pipelines::scene::Scene) -> Result<(String, String), String> {
     if scene.proxies.is_empty() {
         return Err(format!(
@@ -216,17 +253,24 @@ fn source(scene: &lobefit::pipelines::scene::Scene) -> Result<(String, String), 
     // The spheres (centre, radius) and the SGs (axis, sharpness, amplitude) follow the
     // pixels' inputs in the input buffer X (N.x pixels): storage, not constant arrays,
     // which a kernel would index dynamically. The source depends on the counts of
-    // spheres and SGs alone, so the frames of an animation share one compiled kernel.
+    // spheres and SGs (and whether the scene names a Γ_L) alone, so the frames of an
+    // animation share one compiled kernel.
     let (ns, ne) = (scene.proxies.len(), scene.environment.len());
+    let eq9 = scene.prefiltered.is_some();
     let consts = format!(
-        "const NS = {ns}u;\nconst NE = {ne}u;\n\
+        "const NS = {ns}u;\nconst NE = {ne}u;\nconst EQ9 = {eq9};\n\
          var<private> isg_flag = 0.0;\n\
          fn sph(b: u32) -> vec4<f32> {{\n    let k = {INPUTS}u * N.x + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
          fn env(e: u32) -> LfSg {{\n    let k = {INPUTS}u * N.x + 4u * NS + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n{}",
         crate::render::own_proxy_wgsl(),
     );
     let (functions, body) = split(SHADER);
-    let body = body.to_string() + budget::SENTINEL + "    Y[o + 1u] = budget_flag;";
+    if body.matches(EQ9_PLACEHOLDER).count() != 1 {
+        return Err(format!("gpu/shaders/isg.wgsl must hold {EQ9_PLACEHOLDER} once"));
+    }
+    let body = body.replace(EQ9_PLACEHOLDER, if eq9 { EQ9_BLOCK } else { "" })
+        + budget::SENTINEL
+        + "    Y[o + 1u] = budget_flag;";
     let rows: String = (0..MAX_PATCHES).map(row_test).collect();
     if functions.matches(ROWS_PLACEHOLDER).count() != 1 {
         return Err(format!("gpu/shaders/isg.wgsl must hold {ROWS_PLACEHOLDER} once"));
@@ -273,22 +317,34 @@ pub fn render_isg(
         inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
     }
     let (extra, body) = source(sc)?;
-    let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
-    let got = gpu.run_with(
-        &src,
-        &lf_tex(best_e, Filter::Manual)?,
-        &best_up,
-        Some((&lf_tex(fit_e, Filter::Manual)?, &fit_up)),
-        &inputs,
-        visible.len(),
-        2,
-    )?;
+    let (best_p, fit_p) = (lf_tex(best_e, Filter::Manual)?, lf_tex(fit_e, Filter::Manual)?);
+    let mut types = vec!["texture_2d<f32>", "texture_2d<f32>"];
+    let mut textures = vec![(&best_p[..], &best_up), (&fit_p[..], &fit_up)];
+    // The scene's Γ_L, in f32 (read by textureLoad, as the CPU's lookup interpolates).
+    let gamma = match &sc.prefiltered {
+        Some(t) => Some(gpu.upload(&lobefit::pipelines::prefilter::texture(t, "gamma-l")?, Storage::F32)?),
+        None => None,
+    };
+    let none = [0u8; crate::kernel::LF_TEX_SIZE];
+    if let Some(g) = &gamma {
+        types.push("texture_2d_array<f32>");
+        textures.push((&none[..], g));
+    }
+    let src = kernel_textures(&types, INPUTS, 2, &body) + &extra;
+    let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
     budget::flags("render isg", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
         format!("unknown flag {f}")
     })?;
     // The CPU pipeline (f64, the committed tables) at the same f32 inputs.
-    let tables = Tables::embedded()?;
-    let settings = Settings::default();
+    let mut tables = Tables::embedded()?;
+    tables.prefiltered = sc.prefiltered.clone();
+    let settings = match sc.prefiltered {
+        Some(_) => Settings {
+            specular: Specular::Eq9Prefiltered,
+            ..Settings::default()
+        },
+        None => Settings::default(),
+    };
     let mut cpu = Vec::with_capacity(visible.len());
     for (k, (hit, b)) in visible.iter().zip(&brdfs).enumerate() {
         let v = |i: usize| f64::from(inputs[INPUTS * k + i]);
@@ -359,13 +415,13 @@ mod tests {
 
     /// The kernel parses and validates (naga) with no sphere in its text: the same
     /// source for any scene of the same counts (an animation's frames share it), its
-    /// size independent of the spheres (306 here).
+    /// size independent of the spheres (306 here); and with a Γ_L, its eq. 9 block.
     #[test]
     fn the_kernel_validates_and_holds_no_scene_data() {
         let sc = lobefit::pipelines::isg::render::scene("sweep-306").unwrap();
         assert_eq!(sc.proxies.len(), 306);
         let (extra, body) = source(&sc).unwrap();
-        let src = kernel_with("texture_2d<f32>", Some("texture_2d<f32>"), INPUTS, 2, &body) + &extra;
+        let src = kernel_textures(&["texture_2d<f32>", "texture_2d<f32>"], INPUTS, 2, &body) + &extra;
         if let Err(e) = lobefit::export::shaders::module_of(&src) {
             panic!("{e}");
         }
@@ -374,6 +430,18 @@ mod tests {
         for s in &mut moved.proxies {
             s.centre.x += 0.25;
         }
-        assert_eq!(source(&moved).unwrap(), (extra, body));
+        assert_eq!(source(&moved).unwrap(), (extra, body.clone()));
+        assert!(!body.contains("T3"), "no Γ_L, no third texture");
+        // With a Γ_L (a constant map's): the eq. 9 block reads T3, and validates.
+        let map = lobefit::pipelines::envmap::EnvMap::new(8, 4, vec![[1.0, 0.5, 0.25]; 32]).unwrap();
+        let (table, _) = lobefit::pipelines::prefilter::build(&map, "flat").unwrap();
+        moved.prefiltered = Some(std::sync::Arc::new(table));
+        let (extra, body) = source(&moved).unwrap();
+        assert!(body.contains("lf_prefiltered(T3"), "{body}");
+        let types = ["texture_2d<f32>", "texture_2d<f32>", "texture_2d_array<f32>"];
+        let src = kernel_textures(&types, INPUTS, 2, &body) + &extra;
+        if let Err(e) = lobefit::export::shaders::module_of(&src) {
+            panic!("{e}");
+        }
     }
 }
