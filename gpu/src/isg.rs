@@ -431,7 +431,7 @@ mod tests {
             s.centre.x += 0.25;
         }
         assert_eq!(source(&moved).unwrap(), (extra, body.clone()));
-        assert!(!body.contains("T3"), "no Γ_L, no third texture");
+        assert!(!body.contains("lf_prefiltered(T3"), "no Γ_L, no third texture");
         // With a Γ_L (a constant map's): the eq. 9 block reads T3, and validates.
         let map = lobefit::pipelines::envmap::EnvMap::new(8, 4, vec![[1.0, 0.5, 0.25]; 32]).unwrap();
         let (table, _) = lobefit::pipelines::prefilter::build(&map, "flat").unwrap();
