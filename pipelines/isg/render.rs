@@ -334,8 +334,9 @@ const BEST: usize = 2;
 /// The headline's image among [`models`]' (`count` of them) and its settings: the best
 /// model's default form, or, where the scene names its map's Γ_L, the best model with
 /// eq. 9 from Γ_L (the last of [`models`]' rows), which shades the map itself where the
-/// lobes hold only its low frequencies (docs/environment.md). The GPU kernel shares the
-/// default form, and its conformance run compares with that.
+/// lobes hold only its low frequencies (docs/environment.md). The GPU kernel shades the
+/// same form (eq. 9 from Γ_L's texture where the scene names it), and its conformance
+/// run compares with that.
 fn headline(tables: &Tables, count: usize) -> (usize, Settings) {
     match tables.prefiltered {
         Some(_) => (
