@@ -15,6 +15,10 @@
 #   giraud       960 × 720 (Giraud: 960 × 540): SH exponentiation on whale (50 spheres)
 #   giraud-402   960 × 720, the 402-sphere wrecking ball
 #   meunier      148 × 111 = 16 428 pixels (Meunier Fig. 17: 16 384 points), fig13
+#   full-640     640 × 480: the three kernels against the device's Monte Carlo at
+#                1 … 4 096 spp, the reference the device's own (16 384 spp a pixel,
+#                checked against the CPU's on 256 pixels: --reference device)
+#   full-1920    1920 × 1440, the same at 1 … 1 024 spp (3 frames)
 # The CPU renders the same images for the comparison: minutes at these sizes. On a CPU
 # adapter (lavapipe) iwasaki-306 is refused (llvmpipe's loop budget; the script goes
 # on and says so) and the rest takes long: the numbers are indicative only there.
@@ -35,7 +39,7 @@ bench() {
   local name=$1
   shift
   printf '\n== %s\n' "$name"
-  if ! "$bin/lobefit-gpu" bench --export "$out/export" --frames "$frames" --out "$out/$name" "$@"; then
+  if ! "$bin/lobefit-gpu" bench --export "$out/export" --frames "${FRAMES:-$frames}" --out "$out/$name" "$@"; then
     refused+=("$name")
   fi
 }
@@ -45,6 +49,8 @@ bench giraud --width 960 --only shexp --mc-spp-max 0
 bench meunier --width 148 --only meunier --mc-spp-max 0
 bench iwasaki-306 --width 640 --only isg --scene isg=sweep-306 --mc-spp-max 0
 bench giraud-402 --width 960 --only shexp --scene shexp=wrecking --mc-spp-max 0
+bench full-640 --width 640 --only isg,shexp,meunier --mc-spp-max 4096 --reference device
+FRAMES=3 bench full-1920 --width 1920 --only isg,shexp,meunier --mc-spp-max 1024 --reference device
 cat "$out"/*/bench.md
 if [ ${#refused[@]} -gt 0 ]; then
   echo "not benched (see their errors above): ${refused[*]}"

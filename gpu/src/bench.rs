@@ -34,7 +34,7 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub only: Vec<String>,
     /// Image width (height 3/4 of it).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(4..=2048))]
     pub width: u32,
     /// Timed frames per kernel, after one warm-up frame (the median needs ≥ 10 to
     /// mean much; CI runs 3).
@@ -52,6 +52,11 @@ pub struct Args {
     /// past a few thousand pixels).
     #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(0..=1 << 20))]
     pub mc_spp_max: u32,
+    /// Where the Monte Carlo's reference (16 384 spp a pixel) is computed: `cpu`, or
+    /// `device` (the device's strongest estimator at every pixel, checked against the
+    /// CPU's on 256 of them: what makes --width 640 and 1920 possible).
+    #[arg(long, value_enum, default_value_t = crate::mc::ReferenceOn::Cpu)]
+    pub reference: crate::mc::ReferenceOn,
     /// Output directory (created if missing): bench.json, bench.md and each
     /// kernel's image.
     #[arg(long, value_name = "DIR")]
@@ -220,7 +225,7 @@ pub fn run(a: Args) -> Result<ExitCode, String> {
             image: b.image,
         });
     }
-    let mc = monte_carlo(&gpu, &exports, &rows, width, a.mc_spp_max as usize)?;
+    let mc = monte_carlo(&gpu, &exports, &rows, width, a.mc_spp_max as usize, a.reference)?;
     let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
     write_reports(&a.out, &gpu, software, a.frames, &rows, &mc)?;
     out!(
@@ -419,6 +424,7 @@ fn monte_carlo(
     rows: &[Row],
     width: usize,
     max_spp: usize,
+    on: crate::mc::ReferenceOn,
 ) -> Result<Vec<crate::mc::McBench>, String> {
     let mut benches = Vec::new();
     if max_spp == 0 {
@@ -443,7 +449,7 @@ fn monte_carlo(
             ms: spread(&row.ms).0,
             integrands: img.integrands.is_some().then_some(&integrands as crate::mc::Integrands),
         };
-        benches.push(crate::mc::bench(gpu, sc, width, analytic, max_spp)?);
+        benches.push(crate::mc::bench(gpu, sc, width, analytic, max_spp, on)?);
     }
     Ok(benches)
 }
@@ -454,8 +460,9 @@ fn mc_json(m: &crate::mc::McBench) -> serde_json::Value {
         "pipeline": m.pipeline,
         "scene": m.scene,
         "pixels": m.pixels,
-        "reference": {"estimator": format!("CPU {}", m.reference.0.name()), "spp": m.reference.1,
-                      "mean_rel_se": m.reference.2},
+        "reference": {"estimator": format!("{} {}", if m.reference_check.is_some() { "device" } else { "CPU" },
+                                           m.reference.0.name()),
+                      "spp": m.reference.1, "mean_rel_se": m.reference.2, "check": m.reference_check},
         "error": "relative RMSE against the reference, its noise removed",
         "analytic": {"method": "device kernel", "rel_rmse": m.analytic.0, "ms_per_frame": m.analytic.1},
         "rows": m.rows.iter().map(|r| {
@@ -469,16 +476,22 @@ fn mc_json(m: &crate::mc::McBench) -> serde_json::Value {
 /// The Monte Carlo section of bench.md.
 fn mc_markdown(m: &crate::mc::McBench) -> String {
     let mut md = format!(
-        "\n## {} against Monte Carlo on this device ({}, {} pixels)\n\nError: relative RMSE against the CPU's \
-         {} estimator at {} spp (mean relative standard error {:.1e}), its noise removed. \
+        "\n## {} against Monte Carlo on this device ({}, {} pixels)\n\nError: relative RMSE against the {} \
+         {} estimator at {} spp (mean relative standard error {:.1e}), its noise removed{}. \
          The {} kernel: {:.4} at {:.3} ms/frame.\n\n| estimator | spp | ms/frame | min–max | rel. RMSE |\n\
          |---|---:|---:|---|---:|\n",
         m.pipeline,
         m.scene,
         m.pixels,
+        if m.reference_check.is_some() {
+            "device's"
+        } else {
+            "CPU's"
+        },
         m.reference.0.name(),
         m.reference.1,
         m.reference.2,
+        m.reference_check.as_ref().map_or(String::new(), |c| format!(" ({c})")),
         m.pipeline,
         m.analytic.0,
         m.analytic.1
@@ -528,12 +541,16 @@ fn mc_summary(m: &crate::mc::McBench) -> String {
         })
         .collect();
     format!(
-        "  Monte Carlo at the {} kernel's error ({:.4} against a {}-spp CPU reference): {}",
+        "  Monte Carlo at the {} kernel's error ({:.4} against a {}-spp {} reference): {}",
         m.pipeline,
         m.analytic.0,
         m.reference.1,
+        if m.reference_check.is_some() { "device" } else { "CPU" },
         parts.join("; ")
-    )
+    ) + &m
+        .reference_check
+        .as_ref()
+        .map_or(String::new(), |c| format!("\n  reference: {c}"))
 }
 
 #[cfg(test)]

@@ -1198,6 +1198,50 @@ pub fn bench_spp(max: usize) -> Vec<usize> {
 /// Samples per pixel of the bench's reference (the CPU's control-variate estimator).
 const REF_SPP: usize = 1 << 14;
 
+/// Where the bench's reference is computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReferenceOn {
+    /// The CPU's estimator at every pixel (minutes past a few thousand pixels).
+    Cpu,
+    /// The device's own estimator at every pixel, checked against the CPU's on
+    /// [`CHECK_PIXELS`] of them (the full-resolution comparison).
+    Device,
+}
+
+/// Pixels (every k-th) on which a device reference is checked against the CPU: the
+/// agreement's mean z then has a standard deviation of 1/16, its limit 0.25 four of them.
+const CHECK_PIXELS: usize = 256;
+
+/// The device's estimate `est` at [`REF_SPP`] over `refs`, and a line saying how it
+/// agrees with the CPU's estimate on [`CHECK_PIXELS`] of them (independent seeds; the
+/// agreement `mc` holds: mean z, mean z², the share of |z| > 4). An error where it
+/// disagrees: the reference is then no reference.
+fn device_reference(gpu: &Gpu, sc: &Scene, refs: &[&Hit], est: Estimator) -> Result<(Vec<Estimate>, String), String> {
+    let (dev, spp) = estimate(gpu, sc, refs, REF_SPP, est, None)?;
+    gpu.take_dispatches();
+    let step = refs.len().div_ceil(CHECK_PIXELS).max(1);
+    let idx: Vec<usize> = (0..refs.len()).step_by(step).collect();
+    let sub: Vec<&Hit> = idx.iter().map(|&k| refs[k]).collect();
+    let cpu = cpu_estimate(sc, &sub, spp, est, 0x7266)?;
+    let on_dev: Vec<Estimate> = idx.iter().map(|&k| dev[k]).collect();
+    let (mz, mz2, far) = agreement(&on_dev, &cpu, f32_floor(sc));
+    let ok = mz.abs() <= MEAN_Z_MAX && (MEAN_Z2.0..=MEAN_Z2.1).contains(&mz2) && far <= FAR_MAX;
+    let note = format!(
+        "the device's {} at {spp} spp, checked against the CPU's on {} pixels: z mean {mz:+.3} (limit ±{MEAN_Z_MAX}), \
+         mean z² {mz2:.3} (limit {}–{}), |z| > 4 {:.2} % (limit {} %)",
+        est.name(),
+        idx.len(),
+        MEAN_Z2.0,
+        MEAN_Z2.1,
+        100.0 * far,
+        100.0 * FAR_MAX
+    );
+    if !ok {
+        return Err(format!("bench: the device's reference disagrees with the CPU: {note}"));
+    }
+    Ok((dev, note))
+}
+
 /// One Monte Carlo row of the bench.
 pub struct McRow {
     /// The estimator.
@@ -1220,9 +1264,11 @@ pub struct McBench {
     pub scene: String,
     /// Pixels that see geometry.
     pub pixels: usize,
-    /// The reference's estimator (the CPU's), samples per pixel and mean relative
-    /// standard error.
+    /// The reference's estimator, samples per pixel and mean relative standard error.
     pub reference: (Estimator, usize, f64),
+    /// `None`: the reference is the CPU's; else the device's, and how it agrees with the
+    /// CPU's on a subset ([`ReferenceOn::Device`]).
+    pub reference_check: Option<String>,
     /// The analytic kernel's relative RMSE against the reference and its ms/frame.
     pub analytic: (f64, f64),
     /// The Monte Carlo rows.
@@ -1294,12 +1340,20 @@ pub struct Analytic<'a> {
 
 /// The bench's Monte Carlo comparison on `sc` at `width`: the analytic kernel's image
 /// and time (`analytic`) and every estimator the scene takes at
-/// [`bench_spp`]`(max_spp)` against the CPU's strongest of them at [`REF_SPP`]. A frame of more samples than a
+/// [`bench_spp`]`(max_spp)` against the strongest of them at [`REF_SPP`], on the CPU or
+/// on the device (`on`; checked against the CPU on a subset). A frame of more samples than a
 /// dispatch takes is several dispatches: its time per frame is the sum of their
 /// times, each frame timed as the bench times a kernel. Where the analytic kernel has
 /// integrands, the hybrid estimator too; its frame is the analytic kernel's (which the
 /// control variate needs) plus its dispatches.
-pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: usize) -> Result<McBench, String> {
+pub fn bench(
+    gpu: &Gpu,
+    sc: &Scene,
+    width: usize,
+    analytic: Analytic,
+    max_spp: usize,
+    on: ReferenceOn,
+) -> Result<McBench, String> {
     use lobefit::pipelines::image::noise_free_rel_rmse;
     supported(sc)?;
     let hits: Vec<Hit> = crate::render::primary_hits(sc, crate::render::image_size(width))?
@@ -1334,7 +1388,13 @@ pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: u
         }
         _ => None,
     };
-    let reference = cpu_estimate(sc, &refs, REF_SPP, strongest, 0x7265)?;
+    let (reference, reference_check) = match on {
+        ReferenceOn::Cpu => (cpu_estimate(sc, &refs, REF_SPP, strongest, 0x7265)?, None),
+        ReferenceOn::Device => {
+            let (r, note) = device_reference(gpu, sc, &refs, strongest)?;
+            (r, Some(note))
+        }
+    };
     let mean: Vec<f64> = reference.iter().map(|e| e.mean).collect();
     let se: Vec<f64> = reference.iter().map(|e| e.std_error).collect();
     let mask = vec![true; refs.len()];
@@ -1371,6 +1431,7 @@ pub fn bench(gpu: &Gpu, sc: &Scene, width: usize, analytic: Analytic, max_spp: u
         scene: sc.name.clone(),
         pixels: refs.len(),
         reference: (strongest, REF_SPP, ref_rel_se),
+        reference_check,
         analytic: (noise_free_rel_rmse(analytic.values, &mean, &se, &mask), analytic.ms),
         rows,
     })
@@ -1420,6 +1481,33 @@ mod tests {
     /// The rays' helpers (mc_inverse, mc_meets_box, mc_sphere_blocks).
     fn ray_helpers() -> String {
         section("// ---- rays:", "// Whether the ray x + t v meets a sphere other")
+    }
+
+    /// The bench's device reference: fig12 at width 12 (the device's cv-mis at 16 384
+    /// spp), checked against the CPU's on every pixel (fewer than 256), agrees; the
+    /// note says what was checked, and the reference is the device's own estimate.
+    #[test]
+    fn a_device_reference_is_checked_against_the_cpu() {
+        let sc = lobefit::pipelines::load_for_any("fig12").unwrap();
+        let hits: Vec<Hit> = crate::render::primary_hits(&sc, crate::render::image_size(12))
+            .unwrap()
+            .into_iter()
+            .flatten()
+            .collect();
+        let refs: Vec<&Hit> = hits.iter().collect();
+        let gpu = Gpu::new().unwrap();
+        let (r, note) = device_reference(&gpu, &sc, &refs, Estimator::CvMis).unwrap();
+        assert_eq!(r.len(), refs.len());
+        assert!(r
+            .iter()
+            .all(|e| e.samples == REF_SPP && e.mean.is_finite() && e.std_error > 0.0));
+        let n = refs.len();
+        assert!(
+            note.contains(&format!(
+                "cv-mis at {REF_SPP} spp, checked against the CPU's on {n} pixels"
+            )),
+            "{note}"
+        );
     }
 
     /// On the device: the kernels' traversal of the sphere hierarchy (mc_blocked)
