@@ -23,6 +23,7 @@ use lobefit::export::layout::Filter;
 use lobefit::export::Storage;
 use lobefit::export::{manifest::TextureEntry, Texture};
 use lobefit::pipelines::isg::shade::{radiance, Phong, Settings, Specular, Tables};
+use lobefit::pipelines::isg::vertex;
 use lobefit::pipelines::scene::Hit;
 
 use crate::budget;
@@ -50,6 +51,12 @@ pub struct Args {
     /// pipeline; the frames go to OUT's stem with `-frame-KKK.png`.
     #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
     frames: Option<u32>,
+    /// Shade the meshes per vertex (Iwasaki et al.'s default): every used vertex of
+    /// the scene's meshes by the kernel, each mesh pixel the barycentric blend of its
+    /// triangle's three values; pixels on no mesh per pixel. Against the CPU pipeline
+    /// at the same vertices.
+    #[arg(long)]
+    per_vertex: bool,
 }
 
 /// `render isg`.
@@ -72,13 +79,16 @@ fn run(a: Args) -> Result<ExitCode, String> {
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::isg::render::scene(&a.scene)?;
     check_sharpness(&sc)?;
+    if a.per_vertex && sc.meshes.is_empty() {
+        return Err(format!("render isg --per-vertex: scene {} has no mesh", a.scene));
+    }
     let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| check_scene(budget, &sc, "render isg"))?;
     if let Some(n) = a.frames {
         return crate::render::animate("render isg", &sc, n as usize, &gpu, &a.out, |still, path| {
-            render_isg(&gpu, &ex, still, a.width as usize, path)
+            render_isg(&gpu, &ex, still, a.width as usize, path, a.per_vertex)
         });
     }
-    let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out)?;
+    let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out, a.per_vertex)?;
     if sc.prefiltered.is_some() {
         out!(
             "render isg {}: the specular term by eq. 9 from the scene's Γ_L (textureLoad, f32)",
@@ -286,6 +296,7 @@ pub fn render_isg(
     sc: &lobefit::pipelines::scene::Scene,
     width: usize,
     out: &Path,
+    per_vertex: bool,
 ) -> Result<SceneRender, String> {
     let m = &export.manifest;
     let (best_e, best_t) = texture(export, lobefit_tables::isg::KIND_BEST)?;
@@ -294,28 +305,25 @@ pub fn render_isg(
     let (w, h) = crate::render::image_size(width);
     let hits = crate::render::primary_hits(sc, (w, h))?;
     let visible: Vec<&Hit> = hits.iter().flatten().collect();
-    // Inputs: point, normal, view, k_d, k_s, Phong n, the blockers it lies on or in
-    // (`Scene::own_proxies`: first, end), as f32.
-    let mut inputs = Vec::with_capacity(visible.len() * INPUTS);
-    let mut brdfs = Vec::with_capacity(visible.len());
-    for hit in &visible {
-        let b = Phong::of(sc.brdf(hit))?;
-        inputs.extend(
-            [
-                hit.x.x, hit.x.y, hit.x.z, hit.n.x, hit.n.y, hit.n.z, hit.wo.x, hit.wo.y, hit.wo.z,
-            ]
-            .map(|v| v as f32),
-        );
-        inputs.extend([b.diffuse as f32, b.specular as f32, b.exponent as f32]);
-        inputs.extend(crate::render::own_range(sc, hit));
-        brdfs.push(b);
-    }
-    for s in &sc.proxies {
-        inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
-    }
-    for g in &sc.environment {
-        inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
-    }
+    // The shaded points: every pixel that sees geometry; per vertex, the pixels on no
+    // mesh and every used vertex of the meshes (`isg::vertex`: the area-weighted
+    // normal, towards the eye), whose values the mesh pixels then blend.
+    let normals: Vec<Vec<lobefit_tables::glam::DVec3>> = if per_vertex {
+        sc.meshes.iter().map(|m| vertex::vertex_normals(&m.mesh)).collect()
+    } else {
+        Vec::new()
+    };
+    let vertex_hits: Vec<Vec<Option<Hit>>> = (0..normals.len())
+        .map(|mi| vertex::vertex_hits(sc, mi, &normals[mi]))
+        .collect();
+    let points: Vec<&Hit> = visible
+        .iter()
+        .copied()
+        .filter(|h| !per_vertex || h.mesh.is_none())
+        .chain(vertex_hits.iter().flatten().flatten())
+        .collect();
+    let visible = points;
+    let (inputs, brdfs) = inputs_of(sc, &visible)?;
     let (extra, body) = source(sc)?;
     let (best_p, fit_p) = (lf_tex(best_e, Filter::Manual)?, lf_tex(fit_e, Filter::Manual)?);
     let mut types = vec!["texture_2d<f32>", "texture_2d<f32>"];
@@ -331,7 +339,22 @@ pub fn render_isg(
         textures.push((&none[..], g));
     }
     let src = kernel_textures(&types, INPUTS, 2, &body) + &extra;
+    let t0 = std::time::Instant::now();
     let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
+    let mut dispatch_ms = 1e3 * t0.elapsed().as_secs_f64();
+    // Per vertex, the same frame per pixel beside, for the time (the kernel built by
+    // now: each dispatch timed warm, the per-vertex one again after it).
+    let mut per_pixel_ms = f64::NAN;
+    if per_vertex {
+        let all: Vec<&Hit> = hits.iter().flatten().collect();
+        let (pixel_inputs, _) = inputs_of(sc, &all)?;
+        let t0 = std::time::Instant::now();
+        gpu.run_textures(&src, &textures, &pixel_inputs, all.len(), 2)?;
+        per_pixel_ms = 1e3 * t0.elapsed().as_secs_f64();
+        let t0 = std::time::Instant::now();
+        gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
+        dispatch_ms = 1e3 * t0.elapsed().as_secs_f64();
+    }
     budget::flags("render isg", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
         format!("unknown flag {f}")
     })?;
@@ -370,7 +393,82 @@ pub fn render_isg(
         });
     }
     let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
-    compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
+    if !per_vertex {
+        return compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out);
+    }
+    // Per vertex: the pixels off meshes in order, then each mesh's used vertices; the
+    // mesh pixels blend their triangle's three (the device's and the CPU's values alike).
+    let off_mesh = hits.iter().flatten().filter(|h| h.mesh.is_none()).count();
+    out!(
+        "render isg {}: per vertex, {} points shaded ({} vertices, {off_mesh} pixels on no mesh) in \
+         {dispatch_ms:.1} ms; per pixel {} in {per_pixel_ms:.1} ms (dispatch and read-back, wall clock, the kernel \
+         built before either)",
+        sc.name,
+        visible.len(),
+        visible.len() - off_mesh,
+        hits.iter().flatten().count()
+    );
+    let spread = |v: &[f64]| -> Vec<Vec<f64>> {
+        let mut k = off_mesh;
+        vertex_hits
+            .iter()
+            .map(|mesh| {
+                mesh.iter()
+                    .map(|h| {
+                        h.map_or(0.0, |_| {
+                            k += 1;
+                            v[k - 1]
+                        })
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let image = |v: &[f64]| -> Vec<f64> {
+        let at_vertices = spread(v);
+        let mut k = 0;
+        hits.iter()
+            .flatten()
+            .map(|h| {
+                vertex::blend(sc, &at_vertices, h).unwrap_or_else(|| {
+                    k += 1;
+                    v[k - 1]
+                })
+            })
+            .collect()
+    };
+    let device: Vec<f32> = image(&values.iter().map(|&v| f64::from(v)).collect::<Vec<_>>())
+        .into_iter()
+        .map(|v| v as f32)
+        .collect();
+    compare_and_write(&device, &image(&cpu), hits.iter().map(Option::is_some), (w, h), out)
+}
+
+/// The kernel's inputs at `points` (point, normal, view, k_d, k_s, Phong n, the
+/// blockers it lies on or in: `Scene::own_proxies`' first and end, as f32), then the
+/// blockers and the SGs; and each point's BRDF.
+fn inputs_of(sc: &lobefit::pipelines::scene::Scene, points: &[&Hit]) -> Result<(Vec<f32>, Vec<Phong>), String> {
+    let mut inputs = Vec::with_capacity(points.len() * INPUTS);
+    let mut brdfs = Vec::with_capacity(points.len());
+    for hit in points {
+        let b = Phong::of(sc.brdf(hit))?;
+        inputs.extend(
+            [
+                hit.x.x, hit.x.y, hit.x.z, hit.n.x, hit.n.y, hit.n.z, hit.wo.x, hit.wo.y, hit.wo.z,
+            ]
+            .map(|v| v as f32),
+        );
+        inputs.extend([b.diffuse as f32, b.specular as f32, b.exponent as f32]);
+        inputs.extend(crate::render::own_range(sc, hit));
+        brdfs.push(b);
+    }
+    for s in &sc.proxies {
+        inputs.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|v| v as f32));
+    }
+    for g in &sc.environment {
+        inputs.extend([g.axis.x, g.axis.y, g.axis.z, g.sharpness, g.amplitude].map(|v| v as f32));
+    }
+    Ok((inputs, brdfs))
 }
 
 /// `bench`'s kernel: the ISG on `scene`, its image beside the device's Monte Carlo
@@ -393,7 +491,7 @@ fn bench_kernel(
     );
     let mut values = Vec::new();
     let timed = crate::bench::timed(gpu, "isg", || {
-        let r = render_isg(gpu, ex, &sc, width, png)?;
+        let r = render_isg(gpu, ex, &sc, width, png, false)?;
         values = r.values;
         Ok(r.rms)
     })?;

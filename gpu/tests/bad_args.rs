@@ -178,3 +178,26 @@ fn scenes_over_the_loop_budget_are_refused_before_dispatch() {
     }
     let _ = std::fs::remove_dir_all(&tmp);
 }
+
+/// `render isg --per-vertex` on a scene with no mesh is refused by name before the
+/// export is read (there is no vertex to shade).
+#[test]
+fn per_vertex_needs_a_mesh() {
+    let out = std::env::temp_dir().join(format!("lobefit-gpu-pv-{}.png", std::process::id()));
+    let args = [
+        "render",
+        "isg",
+        "--export",
+        "/nonexistent-lobefit-export",
+        "--scene",
+        "fig12",
+        "--per-vertex",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let (code, err) = run(&args);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--per-vertex") && err.contains("has no mesh"), "{err}");
+    assert!(!err.contains("nonexistent-lobefit-export"), "{err}");
+    assert!(!out.exists());
+}

@@ -42,15 +42,10 @@ pub fn barycentric(x: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
     [u, v, 1.0 - u - v]
 }
 
-/// One mesh's shading per vertex: the hit at each vertex (its normal from
-/// [`vertex_normals`], the direction to the eye, one incident triangle for the
-/// self-shadowing rule), shaded by `shade`. A vertex no triangle uses gets 0.
-pub fn shade_vertices(
-    scene: &Scene,
-    mesh: usize,
-    normals: &[DVec3],
-    shade: impl Fn(&Hit) -> Result<f64, String> + Sync,
-) -> Result<Vec<f64>, String> {
+/// One mesh's vertices as hits: each at its position with its normal from
+/// [`vertex_normals`], the direction to the eye, and one incident triangle (for the
+/// self-shadowing rule); `None` for a vertex no triangle uses.
+pub fn vertex_hits(scene: &Scene, mesh: usize, normals: &[DVec3]) -> Vec<Option<Hit>> {
     let m = &scene.meshes[mesh];
     let mut tri = vec![usize::MAX; m.mesh.vertices.len()];
     for (k, t) in m.mesh.triangles.iter().enumerate() {
@@ -61,24 +56,46 @@ pub fn shade_vertices(
         }
     }
     (0..m.mesh.vertices.len())
-        .into_par_iter()
         .map(|i| {
-            if tri[i] == usize::MAX {
-                return Ok(0.0);
-            }
-            let x = m.mesh.vertices[i];
-            let n = normals[i];
-            let h = Hit {
-                x,
-                n,
-                t: n.any_orthonormal_vector(),
-                wo: (scene.camera.eye - x).try_normalize().unwrap_or(n),
-                sphere: None,
-                mesh: Some((mesh, tri[i])),
-                material: m.material,
-            };
-            shade(&h)
+            (tri[i] != usize::MAX).then(|| {
+                let x = m.mesh.vertices[i];
+                let n = normals[i];
+                Hit {
+                    x,
+                    n,
+                    t: n.any_orthonormal_vector(),
+                    wo: (scene.camera.eye - x).try_normalize().unwrap_or(n),
+                    sphere: None,
+                    mesh: Some((mesh, tri[i])),
+                    material: m.material,
+                }
+            })
         })
+        .collect()
+}
+
+/// The Gouraud value of a mesh hit: the barycentric blend of its triangle's vertex
+/// values (`values[mesh][vertex]`); `None` for a hit on no mesh.
+pub fn blend(scene: &Scene, values: &[Vec<f64>], h: &Hit) -> Option<f64> {
+    let (mi, k) = h.mesh?;
+    let mesh = &scene.meshes[mi].mesh;
+    let t = mesh.triangles[k];
+    let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+    let w = barycentric(h.x, a, b, c);
+    Some((0..3).map(|j| w[j] * values[mi][t[j] as usize]).sum())
+}
+
+/// One mesh's shading per vertex: its [`vertex_hits`] shaded by `shade`. A vertex no
+/// triangle uses gets 0.
+pub fn shade_vertices(
+    scene: &Scene,
+    mesh: usize,
+    normals: &[DVec3],
+    shade: impl Fn(&Hit) -> Result<f64, String> + Sync,
+) -> Result<Vec<f64>, String> {
+    vertex_hits(scene, mesh, normals)
+        .into_par_iter()
+        .map(|h| h.map_or(Ok(0.0), |h| shade(&h)))
         .collect()
 }
 
