@@ -51,7 +51,7 @@ pub const MEUNIER: &str = include_str!("../shaders/meunier.wgsl");
 pub const PREFILTER: &str = include_str!("../shaders/prefilter.wgsl");
 
 /// Every file of the library as (file name, source), in dependency order.
-pub const FILES: [(&str, &str); 15] = [
+pub const FILES: &[(&str, &str)] = &[
     ("common.wgsl", COMMON),
     ("gaunt.wgsl", GAUNT),
     ("sh.wgsl", SH),
