@@ -84,7 +84,7 @@ fn prefilter_map() -> Result<lobefit::pipelines::envmap::EnvMap, String> {
 
 /// `lf_prefiltered` in f64 on the texture's own texels (`data`, already rounded to the
 /// storage), the bilinear weights of each layer rounded down (`Some(false)`) or up
-/// (`Some(true)`) to a step of `1/256` per axis, or exact (`None`), per axis in `(x, y)`: the
+/// (`Some(true)`) to a step of `1/256` and one step further per axis, or exact (`None`), per axis in `(x, y)`: the
 /// CPU side of the f16 and hardware rows. RGBA, before the clamp at 0.
 fn prefiltered_twin(tex: &lobefit::export::Texture, a: DVec3, lambda: f64, round: [Option<bool>; 2]) -> [f64; 4] {
     let (w, h) = (tex.width as usize, tex.height as usize);
@@ -97,10 +97,11 @@ fn prefiltered_twin(tex: &lobefit::export::Texture, a: DVec3, lambda: f64, round
         let f = c - i;
         let f = match r {
             None => f,
-            // 0.01 of a step of slack: the hardware forms the weight from its own
-            // f32 coordinate, which may fall on the other side of a step.
-            Some(false) => ((f * 256.0 - 0.01).floor() / 256.0).max(0.0),
-            Some(true) => ((f * 256.0 + 0.01).ceil() / 256.0).min(1.0),
+            // A step past floor and ceil, as the conformance's span allows: a GPU may
+            // quantize its coordinate before weighting (an H200's 1000-texel axis read
+            // weights a step below nearest; Γ_L's axes are 257 and 129 texels).
+            Some(false) => (((f * 256.0).floor() - 1.0) / 256.0).max(0.0),
+            Some(true) => (((f * 256.0).ceil() + 1.0) / 256.0).min(1.0),
         };
         (i as usize, f)
     };
@@ -132,8 +133,9 @@ fn prefiltered_twin(tex: &lobefit::export::Texture, a: DVec3, lambda: f64, round
 /// Γ_L (`lf_prefiltered`, `lf_prefiltered_hw`) on a small map's table at random axes and
 /// λ log-uniform over the ladder: f32 by textureLoad against the CPU's lookup
 /// (`prefilter::lookup`, the table's own interpolation), f16 by textureLoad against its
-/// texels in f64, and f16 by the hardware's filter against the envelope of its weights
-/// rounded to 1/256 (a GPU's 8-bit sub-texel weights, or exact ones, lie inside).
+/// texels in f64, and f16 by the hardware's filter against the span of its weights
+/// rounded to 1/256 and a step beyond, the texels 2 f16 ulps wide (the conformance's
+/// span: a GPU's 8-bit sub-texel weights, or exact ones, lie inside).
 fn check_prefiltered(gpu: &Gpu, samples: usize, rng: &mut Rng) -> Result<Vec<Row>, String> {
     use lobefit::export::Storage;
     use lobefit::pipelines::prefilter;
@@ -202,9 +204,13 @@ fn check_prefiltered(gpu: &Gpu, samples: usize, rng: &mut Rng) -> Result<Vec<Row
             .collect();
         let m = prefiltered_twin(&half, a, x[3], [None, None]);
         let mut o = vec![0.0; 4];
+        // A unit may filter f16 texels at f16 precision: the span's ends moved 2 binary16
+        // ulps outwards (the conformance's rule for f16 textures).
+        let ulps = |v: f64| 2.0 * (v.abs().max(6.1e-5).log2().floor() - 10.0).exp2();
         for c in 0..4 {
-            let lo = ends.iter().map(|e| e[c]).fold(f64::INFINITY, f64::min).max(0.0);
-            let hi = ends.iter().map(|e| e[c]).fold(f64::NEG_INFINITY, f64::max).max(0.0);
+            let lo = ends.iter().map(|e| e[c]).fold(f64::INFINITY, f64::min);
+            let hi = ends.iter().map(|e| e[c]).fold(f64::NEG_INFINITY, f64::max);
+            let (lo, hi) = ((lo - ulps(lo)).max(0.0), (hi + ulps(hi)).max(0.0));
             // Inside the envelope: the twin's own value; outside: the nearer end plus the excess.
             o[c] = m[c].max(0.0) + (g[c] - g[c].clamp(lo, hi));
         }
