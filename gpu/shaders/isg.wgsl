@@ -29,6 +29,20 @@ fn isg_acos_ratio(q: f32, r: f32) -> f32 {
     return select(a, LF_PI - a, q < 0.0);
 }
 
+// Whether the ball c (centre, radius) lies wholly outside the cone of axis z and
+// half-angle cone (cos, sin in cs) from x: by cosines, 1e-5 inside the bound (f32's
+// rounding), and never for a cone wider than pi / 2 (the CPU's ConeTest::outside, a
+// little looser: a subtree it keeps is tested sphere by sphere below).
+fn isg_outside(c: vec4<f32>, x: vec3<f32>, z: vec3<f32>, cone: f32, cs: vec2<f32>) -> bool {
+    let w = c.xyz - x;
+    let d = length(w);
+    if d <= c.w || cone > 0.5 * LF_PI {
+        return false;
+    }
+    let sd = c.w / d;
+    return dot(w / d, z) < cs.x * sqrt(max(1.0 - sd * sd, 0.0)) - cs.y * sd - 1e-5;
+}
+
 // The visible integral of g: `total` minus g over the occluded patches of its cone;
 // with `cosine`, each occluded patch weighted by max(n.d, 0) / cs(d) and patches below
 // the horizon not counted (the CPU's visible_with).
@@ -64,8 +78,71 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
     // Bit j of rows[i]: a blocker's cap covers the centre of patch (i, j).
     var rows = array<u32, 20>();
     var any = 0u;
-    for (var b = 0u; b < NS; b++) {
-        let s = sph(b);
+    // The blockers: every sphere (b = 0 .. NS), or with CUT the sphere hierarchy's cut
+    // from x culled against the cone (the CPU's Blockers::cut): the stand-in of a node
+    // whose bound subtends less than the cut angle from outside it, the leaves reached,
+    // subtrees whose reach lies outside the cone skipped.
+    let cone_cs = vec2<f32>(lf_cos(cone), lf_sin(cone));
+    var stack = array<u32, 64>();
+    var sp = 0u;
+    if CUT {
+        stack[0] = NN - 1u;
+        sp = 1u;
+    }
+    var next = 0u;
+    loop {
+        if CUT {
+            isg_walk += 1u;
+        }
+        var s = vec4<f32>(0.0);
+        // The set index of a leaf (the own-sphere test); none for a stand-in.
+        var b = 0xffffffffu;
+        if CUT {
+            var found = false;
+            loop {
+                // Every pass counted against the walk's budget (llvmpipe's loop budget).
+                isg_walk += 1u;
+                if isg_walk > WALK_BUDGET {
+                    isg_flag = 3.0;
+                    break;
+                }
+                if sp == 0u || found {
+                    break;
+                }
+                sp -= 1u;
+                let kn = stack[sp];
+                if isg_outside(node(kn, 0u), x, z, cone, cone_cs) {
+                    continue;
+                }
+                let kids = node(kn, 3u);
+                if kids.x < 0.0 {
+                    s = node(kn, 2u);
+                    b = u32(kids.y);
+                    found = true;
+                } else {
+                    let bd = node(kn, 1u);
+                    let dd = length(x - bd.xyz);
+                    if dd > bd.w * OWN_SCALE && bd.w < SIN_CUT * dd {
+                        s = node(kn, 2u);
+                        found = true;
+                    } else {
+                        stack[sp] = u32(kids.y);
+                        stack[sp + 1u] = u32(kids.x);
+                        sp += 2u;
+                    }
+                }
+            }
+            if !found {
+                break;
+            }
+        } else {
+            if next >= NS {
+                break;
+            }
+            s = sph(next);
+            b = next;
+            next += 1u;
+        }
         let w = s.xyz - x;
         let d = length(w);
         if own_proxy(b, own, d, s.w) || d <= s.w {
@@ -183,4 +260,4 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
     //#ISG_EQ9
     // Radiance is never negative (the CPU pipeline clamps its sum too).
     Y[o] = max(x9 / LF_PI * diffuse + max(dot(n, r), 0.0) * specular, 0.0);
-    var budget_flag = 0.0;
+    var budget_flag = isg_flag;

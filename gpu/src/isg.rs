@@ -22,9 +22,10 @@ use std::process::ExitCode;
 use lobefit::export::layout::Filter;
 use lobefit::export::Storage;
 use lobefit::export::{manifest::TextureEntry, Texture};
-use lobefit::pipelines::isg::shade::{radiance, Phong, Settings, Specular, Tables};
+use lobefit::pipelines::isg::shade::{radiance, Blockers, Phong, Settings, Specular, Tables};
 use lobefit::pipelines::isg::vertex;
 use lobefit::pipelines::scene::Hit;
+use lobefit::pipelines::spheres::tree::SphereTree;
 
 use crate::budget;
 use crate::device::Gpu;
@@ -57,6 +58,28 @@ pub struct Args {
     /// at the same vertices.
     #[arg(long)]
     per_vertex: bool,
+    /// Shade through the sphere hierarchy's cut at this angle (degrees, 0 to 90;
+    /// docs/meshes.md, "A sphere hierarchy"): a node whose bound subtends less than it
+    /// is one stand-in sphere; against the CPU pipeline's cut at the same angle.
+    #[arg(long, value_name = "DEGREES", value_parser = parse_cut)]
+    cut: Option<f64>,
+}
+
+/// `--cut`: finite degrees in [0, 90].
+fn parse_cut(v: &str) -> Result<f64, String> {
+    match v.parse::<f64>() {
+        Ok(d) if (0.0..=90.0).contains(&d) => Ok(d),
+        _ => Err(format!("{v}: the cut angle is degrees in [0, 90]")),
+    }
+}
+
+/// How `render isg` shades beyond its defaults.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Options {
+    /// Meshes per vertex (`--per-vertex`).
+    pub per_vertex: bool,
+    /// The sphere hierarchy's cut at this angle (radians; `--cut`).
+    pub cut: Option<f64>,
 }
 
 /// `render isg`.
@@ -82,13 +105,19 @@ fn run(a: Args) -> Result<ExitCode, String> {
     if a.per_vertex && sc.meshes.is_empty() {
         return Err(format!("render isg --per-vertex: scene {} has no mesh", a.scene));
     }
-    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| check_scene(budget, &sc, "render isg"))?;
+    let opts = Options {
+        per_vertex: a.per_vertex,
+        cut: a.cut.map(f64::to_radians),
+    };
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| {
+        check_scene(budget, &sc, "render isg", opts.cut.is_some())
+    })?;
     if let Some(n) = a.frames {
         return crate::render::animate("render isg", &sc, n as usize, &gpu, &a.out, |still, path| {
-            render_isg(&gpu, &ex, still, a.width as usize, path, a.per_vertex)
+            render_isg(&gpu, &ex, still, a.width as usize, path, opts)
         });
     }
-    let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out, a.per_vertex)?;
+    let r = render_isg(&gpu, &ex, &sc, a.width as usize, &a.out, opts)?;
     if sc.prefiltered.is_some() {
         out!(
             "render isg {}: the specular term by eq. 9 from the scene's Γ_L (textureLoad, f32)",
@@ -106,7 +135,12 @@ const INPUTS: usize = 14;
 
 /// Refuses a scene a device with loop budget `budget` ([`Gpu::loop_budget`]: llvmpipe's,
 /// or none on a GPU) cannot render: pixels that may need more loop iterations than it.
-pub fn check_scene(budget: Option<u64>, scene: &lobefit::pipelines::scene::Scene, command: &str) -> Result<(), String> {
+pub fn check_scene(
+    budget: Option<u64>,
+    scene: &lobefit::pipelines::scene::Scene,
+    command: &str,
+    cut: bool,
+) -> Result<(), String> {
     budget::refuse_over(
         budget,
         command,
@@ -114,6 +148,7 @@ pub fn check_scene(budget: Option<u64>, scene: &lobefit::pipelines::scene::Scene
             scene.proxies.len(),
             scene.environment.len(),
             scene.prefiltered.is_some(),
+            cut,
         ),
         &format!(
             "{} SGs, {} blocker spheres",
@@ -154,6 +189,32 @@ pub fn check_sharpness(scene: &lobefit::pipelines::scene::Scene) -> Result<(), S
     Ok(())
 }
 
+/// The kernel's flag where the hierarchy's walk passed its budget.
+const FLAG_WALK: f32 = 3.0;
+
+/// Passes of the hierarchy's walk a pixel may take on a device with loop budget
+/// `budget` (all of the walks of its products together): what the rest of its loops
+/// leave of llvmpipe's budget, less 64; none on a GPU. The kernel counts every pass of
+/// both of the walk's loops and flags the pixel past it ([`FLAG_WALK`]): an error
+/// naming the limit, never an image.
+fn walk_budget(budget: Option<u64>, scene: &lobefit::pipelines::scene::Scene) -> u64 {
+    match budget {
+        None => u64::from(u32::MAX),
+        Some(b) => b.saturating_sub(
+            iterations(
+                scene.proxies.len(),
+                scene.environment.len(),
+                scene.prefiltered.is_some(),
+                true,
+            ) + 64,
+        ),
+    }
+}
+
+/// Entries of the kernel's stack for the hierarchy's walk (`array<u32, 64>` in
+/// gpu/shaders/isg.wgsl): a tree up to 63 deep.
+const STACK: usize = 64;
+
 /// Patches per side of an SG product's cone, at most (`clamp(.., 10, 20)`).
 const MAX_PATCHES: u64 = 20;
 
@@ -171,12 +232,15 @@ pub const FAMILIES: (&[&str], &str) = (
 /// An upper bound on the loop iterations of one pixel's kernel (`crate::budget`): the
 /// buried test over the blockers; the SG loop; per SG the clamped cosine and, per BRDF
 /// term (diffuse, specular), the rows' trigonometry (k ≤ 20), the gather over every
-/// blocker (its grid rows are statements), the edge factors (k + 1 ≤ 21) and the patch
+/// blocker, or with `cut` the walk of the hierarchy over them (its grid rows are statements), the edge factors (k + 1 ≤ 21) and the patch
 /// loops (k ≤ 20 per side); eq. 9's term where the scene names its Γ_L (one more
 /// specular term, and its sum over the SGs off Γ_L's ladder); the sentinel.
-pub fn iterations(spheres: usize, sgs: usize, eq9: bool) -> u64 {
+pub fn iterations(spheres: usize, sgs: usize, eq9: bool, cut: bool) -> u64 {
     let (ns, ne) = (spheres as u64, sgs as u64);
-    let term = (MAX_PATCHES + 1) + (ns + 1) + (MAX_PATCHES + 2) + (MAX_PATCHES + 1) + MAX_PATCHES * (MAX_PATCHES + 1);
+    // The hierarchy's walk counts its own passes against its budget ([`walk_budget`]),
+    // which takes what the rest leaves.
+    let gather = if cut { 0 } else { ns + 1 };
+    let term = (MAX_PATCHES + 1) + gather + (MAX_PATCHES + 2) + (MAX_PATCHES + 1) + MAX_PATCHES * (MAX_PATCHES + 1);
     let eq9 = if eq9 { term + (ne + 1) } else { 0 };
     (ns + 1) + (ne + 1) + ne * (CLAMPED_COSINE_ITERATIONS + 2 * term) + eq9 + 2
 }
@@ -252,8 +316,13 @@ const EQ9_BLOCK: &str = "    if x10 > 0.0 && !buried {
 ";
 
 /// The kernel's per-product visible integral (the CPU's `visible_with`) and its body;
-/// with `eq9`, the specular term by eq. 9 from Γ_L bound as `T3`.
-fn source(scene: &lobefit::pipelines::scene::Scene) -> Result<(String, String), String> {
+/// with `eq9`, the specular term by eq. 9 from Γ_L bound as `T3`; with `cut` (the
+/// angle, rad, and the tree over the blockers), the blockers found through the tree's
+/// cut ([`node_inputs`] after the SGs).
+fn source(
+    scene: &lobefit::pipelines::scene::Scene,
+    cut: Option<(f64, &SphereTree, u64)>,
+) -> Result<(String, String), String> {
     if scene.proxies.is_empty() {
         return Err(format!(
             "scene {}: render isg needs at least one sphere or mesh",
@@ -267,8 +336,40 @@ fn source(scene: &lobefit::pipelines::scene::Scene) -> Result<(String, String), 
     // animation share one compiled kernel.
     let (ns, ne) = (scene.proxies.len(), scene.environment.len());
     let eq9 = scene.prefiltered.is_some();
+    let (nn, sin_cut, walk) = match cut {
+        Some((theta, t, walk)) => {
+            // The walk's stack holds at most the tree's depth + 1 entries.
+            if t.depth() > STACK - 1 {
+                return Err(format!(
+                    "scene {}: the sphere hierarchy is {} deep; the kernel's walk holds {}",
+                    scene.name,
+                    t.depth(),
+                    STACK - 1
+                ));
+            }
+            if walk < 1000 {
+                return Err(format!(
+                    "scene {}: the rest of the kernel's loops leave the hierarchy's walk {walk} of llvmpipe's {} \
+                     iterations; use fewer SGs or spheres",
+                    scene.name,
+                    budget::LOOP_LIMIT
+                ));
+            }
+            (
+                t.given().len(),
+                theta.clamp(0.0, std::f64::consts::FRAC_PI_2).sin(),
+                walk,
+            )
+        }
+        None => (0, 0.0, 0),
+    };
+    let is_cut = cut.is_some();
+    let sin_cut32 = sin_cut as f32;
     let consts = format!(
-        "const NS = {ns}u;\nconst NE = {ne}u;\nconst EQ9 = {eq9};\n\
+        "const NS = {ns}u;\nconst NE = {ne}u;\nconst EQ9 = {eq9};\nconst CUT = {is_cut};\nconst NN = {nn}u;\n\
+         const SIN_CUT: f32 = {sin_cut32:e};\nconst WALK_BUDGET = {walk}u;\nvar<private> isg_walk = 0u;\n\
+         fn node(k: u32, j: u32) -> vec4<f32> {{\n    let i = {INPUTS}u * N.x + 4u * NS + 5u * NE + 16u * k + 4u * j;\n    \
+         return vec4<f32>(X[i], X[i + 1u], X[i + 2u], X[i + 3u]);\n}}\n\
          var<private> isg_flag = 0.0;\n\
          fn sph(b: u32) -> vec4<f32> {{\n    let k = {INPUTS}u * N.x + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
          fn env(e: u32) -> LfSg {{\n    let k = {INPUTS}u * N.x + 4u * NS + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n{}",
@@ -296,8 +397,11 @@ pub fn render_isg(
     sc: &lobefit::pipelines::scene::Scene,
     width: usize,
     out: &Path,
-    per_vertex: bool,
+    opts: Options,
 ) -> Result<SceneRender, String> {
+    let per_vertex = opts.per_vertex;
+    // The hierarchy over the blockers, for --cut (its nodes follow the SGs in X).
+    let tree = opts.cut.map(|_| SphereTree::new(&sc.proxies));
     let m = &export.manifest;
     let (best_e, best_t) = texture(export, lobefit_tables::isg::KIND_BEST)?;
     let (fit_e, fit_t) = texture(export, lobefit_tables::sg_fit::KIND)?;
@@ -323,8 +427,12 @@ pub fn render_isg(
         .chain(vertex_hits.iter().flatten().flatten())
         .collect();
     let visible = points;
-    let (inputs, brdfs) = inputs_of(sc, &visible)?;
-    let (extra, body) = source(sc)?;
+    let (mut inputs, brdfs) = inputs_of(sc, &visible)?;
+    if let Some(t) = &tree {
+        inputs.extend(node_inputs(t));
+    }
+    let walk = walk_budget(gpu.loop_budget, sc);
+    let (extra, body) = source(sc, opts.cut.zip(tree.as_ref()).map(|(c, t)| (c, t, walk)))?;
     let (best_p, fit_p) = (lf_tex(best_e, Filter::Manual)?, lf_tex(fit_e, Filter::Manual)?);
     let mut types = vec!["texture_2d<f32>", "texture_2d<f32>"];
     let mut textures = vec![(&best_p[..], &best_up), (&fit_p[..], &fit_up)];
@@ -342,12 +450,52 @@ pub fn render_isg(
     let t0 = std::time::Instant::now();
     let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), 2)?;
     let mut dispatch_ms = 1e3 * t0.elapsed().as_secs_f64();
+    // With --cut, the flat kernel on the same points beside, for its time and the
+    // cut's difference (each kernel built before it is timed; medians of 3).
+    if let (Some(theta), Some(t)) = (opts.cut, &tree) {
+        let (fx, fbody) = source(sc, None)?;
+        let flat_src = kernel_textures(&types, INPUTS, 2, &fbody) + &fx;
+        let (flat_inputs, _) = inputs_of(sc, &visible)?;
+        let flat = gpu.run_textures(&flat_src, &textures, &flat_inputs, visible.len(), 2)?;
+        let time = |src: &str, x: &[f32]| -> Result<f64, String> {
+            let mut ms = Vec::new();
+            for _ in 0..3 {
+                let t0 = std::time::Instant::now();
+                gpu.run_textures(src, &textures, x, visible.len(), 2)?;
+                ms.push(1e3 * t0.elapsed().as_secs_f64());
+            }
+            ms.sort_by(f64::total_cmp);
+            Ok(ms[1])
+        };
+        let (cut_ms, flat_ms) = (time(&src, &inputs)?, time(&flat_src, &flat_inputs)?);
+        let mean = flat.chunks(2).map(|c| f64::from(c[0])).sum::<f64>() / visible.len().max(1) as f64;
+        let d: Vec<f64> = got
+            .chunks(2)
+            .zip(flat.chunks(2))
+            .map(|(a, b)| (f64::from(a[0]) - f64::from(b[0])).abs() / mean)
+            .collect();
+        let rms = (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt();
+        out!(
+            "render isg {}: the cut at {:.1}° ({} nodes over {} spheres) {cut_ms:.1} ms, the flat set {flat_ms:.1} ms \
+             ({:.2}×; dispatch and read-back, wall clock, medians of 3); the cut's image against the flat one: RMS {rms:.4}, \
+             max {:.4} of the flat mean",
+            sc.name,
+            theta.to_degrees(),
+            t.given().len(),
+            sc.proxies.len(),
+            cut_ms / flat_ms,
+            d.iter().copied().fold(0.0, f64::max)
+        );
+    }
     // Per vertex, the same frame per pixel beside, for the time (the kernel built by
     // now: each dispatch timed warm, the per-vertex one again after it).
     let mut per_pixel_ms = f64::NAN;
     if per_vertex {
         let all: Vec<&Hit> = hits.iter().flatten().collect();
-        let (pixel_inputs, _) = inputs_of(sc, &all)?;
+        let (mut pixel_inputs, _) = inputs_of(sc, &all)?;
+        if let Some(t) = &tree {
+            pixel_inputs.extend(node_inputs(t));
+        }
         let t0 = std::time::Instant::now();
         gpu.run_textures(&src, &textures, &pixel_inputs, all.len(), 2)?;
         per_pixel_ms = 1e3 * t0.elapsed().as_secs_f64();
@@ -356,7 +504,15 @@ pub fn render_isg(
         dispatch_ms = 1e3 * t0.elapsed().as_secs_f64();
     }
     budget::flags("render isg", got.chunks(2).map(|c| c[1]), visible.len(), |f| {
-        format!("unknown flag {f}")
+        if f == FLAG_WALK {
+            format!(
+                "the sphere hierarchy's walk passed its {walk} passes (what the kernel's other loops leave of \
+                 llvmpipe's {}): its value would be wrong; use a larger --cut, fewer spheres or fewer SGs",
+                budget::LOOP_LIMIT
+            )
+        } else {
+            format!("unknown flag {f}")
+        }
     })?;
     // The CPU pipeline (f64, the committed tables) at the same f32 inputs.
     let mut tables = Tables::embedded()?;
@@ -387,7 +543,10 @@ pub fn render_isg(
                 &settings,
                 &sc.environment,
                 b,
-                &lobefit::pipelines::isg::render::blockers_of(sc, hit),
+                &match (&tree, opts.cut) {
+                    (Some(t), Some(theta)) => Blockers::cut(t, theta, sc.own_proxies(hit)),
+                    _ => lobefit::pipelines::isg::render::blockers_of(sc, hit),
+                },
                 &at,
             )?
         });
@@ -444,6 +603,24 @@ pub fn render_isg(
     compare_and_write(&device, &image(&cpu), hits.iter().map(Option::is_some), (w, h), out)
 }
 
+/// The hierarchy's nodes as the kernel reads them (`node(k, j)`: 16 f32 a node, root
+/// last): its reach, its bound, the sphere the cut gives for it, and (left, right), or
+/// (−1, the leaf's sphere index in the set).
+fn node_inputs(tree: &SphereTree) -> Vec<f32> {
+    let mut v = Vec::new();
+    for (reach, bound, given, kids) in tree.node_data() {
+        for s in [reach, bound, given] {
+            v.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|x| x as f32));
+        }
+        let (a, b) = match kids {
+            Ok((a, b)) => (a as f32, b as f32),
+            Err(leaf) => (-1.0, leaf as f32),
+        };
+        v.extend([a, b, 0.0, 0.0]);
+    }
+    v
+}
+
 /// The kernel's inputs at `points` (point, normal, view, k_d, k_s, Phong n, the
 /// blockers it lies on or in: `Scene::own_proxies`' first and end, as f32), then the
 /// blockers and the SGs; and each point's BRDF.
@@ -483,7 +660,7 @@ fn bench_kernel(
     let ex = ex.ok_or("bench isg: no export")?;
     let sc = lobefit::pipelines::isg::render::scene(scene)?;
     check_sharpness(&sc)?;
-    check_scene(gpu.loop_budget, &sc, "bench isg")?;
+    check_scene(gpu.loop_budget, &sc, "bench isg", false)?;
     let method = format!(
         "ISG best, adaptive patches ({} SGs, {} spheres)",
         sc.environment.len(),
@@ -491,7 +668,7 @@ fn bench_kernel(
     );
     let mut values = Vec::new();
     let timed = crate::bench::timed(gpu, "isg", || {
-        let r = render_isg(gpu, ex, &sc, width, png, false)?;
+        let r = render_isg(gpu, ex, &sc, width, png, Options::default())?;
         values = r.values;
         Ok(r.rms)
     })?;
@@ -513,12 +690,13 @@ mod tests {
 
     /// The kernel parses and validates (naga) with no sphere in its text: the same
     /// source for any scene of the same counts (an animation's frames share it), its
-    /// size independent of the spheres (306 here); and with a Γ_L, its eq. 9 block.
+    /// size independent of the spheres (306 here); with a Γ_L, its eq. 9 block; through
+    /// the sphere hierarchy's cut, its walk.
     #[test]
     fn the_kernel_validates_and_holds_no_scene_data() {
         let sc = lobefit::pipelines::isg::render::scene("sweep-306").unwrap();
         assert_eq!(sc.proxies.len(), 306);
-        let (extra, body) = source(&sc).unwrap();
+        let (extra, body) = source(&sc, None).unwrap();
         let src = kernel_textures(&["texture_2d<f32>", "texture_2d<f32>"], INPUTS, 2, &body) + &extra;
         if let Err(e) = lobefit::export::shaders::module_of(&src) {
             panic!("{e}");
@@ -528,13 +706,25 @@ mod tests {
         for s in &mut moved.proxies {
             s.centre.x += 0.25;
         }
-        assert_eq!(source(&moved).unwrap(), (extra, body.clone()));
+        assert_eq!(source(&moved, None).unwrap(), (extra, body.clone()));
         assert!(!body.contains("lf_prefiltered(T3"), "no Γ_L, no third texture");
         // With a Γ_L (a constant map's): the eq. 9 block reads T3, and validates.
         let map = lobefit::pipelines::envmap::EnvMap::new(8, 4, vec![[1.0, 0.5, 0.25]; 32]).unwrap();
         let (table, _) = lobefit::pipelines::prefilter::build(&map, "flat").unwrap();
         moved.prefiltered = Some(std::sync::Arc::new(table));
-        let (extra, body) = source(&moved).unwrap();
+        // Through the hierarchy's cut: the walk's constants, and it validates.
+        let tree = SphereTree::new(&sc.proxies);
+        let (cx, cbody) = source(&sc, Some((10f64.to_radians(), &tree, 50_000))).unwrap();
+        assert!(cx.contains("const CUT = true;") && cx.contains(&format!("const NN = {}u;", 2 * 306 - 1)));
+        let types2 = ["texture_2d<f32>", "texture_2d<f32>"];
+        if let Err(e) = lobefit::export::shaders::module_of(&(kernel_textures(&types2, INPUTS, 2, &cbody) + &cx)) {
+            panic!("{e}");
+        }
+        // A walk the rest of the loops leave almost nothing of is refused.
+        assert!(source(&sc, Some((0.1, &tree, 10)))
+            .unwrap_err()
+            .contains("hierarchy's walk"));
+        let (extra, body) = source(&moved, None).unwrap();
         assert!(body.contains("lf_prefiltered(T3"), "{body}");
         let types = ["texture_2d<f32>", "texture_2d<f32>", "texture_2d_array<f32>"];
         let src = kernel_textures(&types, INPUTS, 2, &body) + &extra;

@@ -142,6 +142,27 @@ impl SphereTree {
         &self.given
     }
 
+    /// The nodes as data for a GPU walk, root last: per node its reach, its bound, the
+    /// sphere the cut gives for it ([`SphereTree::given`]), and its children's node
+    /// indices, or `None` and its sphere's index in the set for a leaf.
+    pub fn node_data(&self) -> impl Iterator<Item = (Sphere, Sphere, Sphere, Result<(usize, usize), usize>)> + '_ {
+        self.nodes
+            .iter()
+            .zip(&self.given)
+            .map(|(n, g)| (n.reach, n.bound, *g, n.children.ok_or(n.leaf)))
+    }
+
+    /// The tree's depth (a leaf alone: 1; none: 0).
+    pub fn depth(&self) -> usize {
+        fn walk(t: &SphereTree, k: usize) -> usize {
+            match t.nodes[k].children {
+                None => 1,
+                Some((a, b)) => 1 + walk(t, a).max(walk(t, b)),
+            }
+        }
+        self.nodes.len().checked_sub(1).map_or(0, |root| walk(self, root))
+    }
+
     /// The cut from `x` at `theta` (as [`SphereTree::cut`]) restricted to a cone: calls
     /// `visit` with the node index (into [`SphereTree::given`]) of every sphere of the
     /// cut that may meet the cone (`test`), skipping whole subtrees whose reach lies
