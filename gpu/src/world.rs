@@ -163,11 +163,13 @@ fn check_prefiltered(gpu: &Gpu, samples: usize, rng: &mut Rng) -> Result<Vec<Row
         .iter()
         .map(|x| prefilter::lookup(&table, DVec3::from_slice(&x[..3]), x[3]).map(lum))
         .collect::<Result<_, _>>()?;
-    let mut r = row("prefiltered", samples, scaled_diff(&got, &want).0, Vec::new());
-    r.storage = "f32".into();
-    r.filter = "manual".into();
-    r.cpu_what = "the table's lookup";
-    rows.push(r);
+    rows.push(prefiltered_row(
+        samples,
+        scaled_diff(&got, &want).0,
+        ("f32", "manual"),
+        "the table's lookup",
+        None,
+    ));
 
     // f16, textureLoad: against the f16 texels in f64; the storage's cost beside.
     let mut half = tex.clone();
@@ -184,15 +186,16 @@ fn check_prefiltered(gpu: &Gpu, samples: usize, rng: &mut Rng) -> Result<Vec<Row
                 .to_vec()
         })
         .collect();
-    let mut r = row("prefiltered", samples, scaled_diff(&got, &twin).0, Vec::new());
-    r.storage = "f16".into();
-    r.filter = "manual".into();
-    r.cpu_what = "f16 texels, f64";
-    r.info
-        .push(("rgb+lum rel vs f32 lookup".into(), scaled_diff(&got, &want).0, 0.0));
-    rows.push(r);
+    let vs_f32 = Some(scaled_diff(&got, &want).0);
+    rows.push(prefiltered_row(
+        samples,
+        scaled_diff(&got, &twin).0,
+        ("f16", "manual"),
+        "f16 texels, f64",
+        vs_f32,
+    ));
 
-    // f16, the hardware's filter: outside the envelope of the weights' roundings, relative.
+    // f16, the hardware's filter: outside the span of the weights' roundings, relative.
     let got = run_rows(gpu, &up, &NONE, arr, &inputs, 4, &hardware)?;
     let mut outside = Vec::with_capacity(samples);
     let mut mid = Vec::with_capacity(samples);
@@ -211,20 +214,39 @@ fn check_prefiltered(gpu: &Gpu, samples: usize, rng: &mut Rng) -> Result<Vec<Row
             let lo = ends.iter().map(|e| e[c]).fold(f64::INFINITY, f64::min);
             let hi = ends.iter().map(|e| e[c]).fold(f64::NEG_INFINITY, f64::max);
             let (lo, hi) = ((lo - ulps(lo)).max(0.0), (hi + ulps(hi)).max(0.0));
-            // Inside the envelope: the twin's own value; outside: the nearer end plus the excess.
+            // Inside the span: the twin's own value; outside: the nearer end plus the excess.
             o[c] = m[c].max(0.0) + (g[c] - g[c].clamp(lo, hi));
         }
         outside.push(o);
         mid.push(m.map(|v| v.max(0.0)).to_vec());
     }
-    let mut r = row("prefiltered", samples, scaled_diff(&outside, &mid).0, Vec::new());
-    r.storage = "f16".into();
-    r.filter = "hardware".into();
-    r.cpu_what = "8-bit envelope";
-    r.info
-        .push(("rgb+lum rel vs f32 lookup".into(), scaled_diff(&got, &want).0, 0.0));
-    rows.push(r);
+    let vs_f32 = Some(scaled_diff(&got, &want).0);
+    rows.push(prefiltered_row(
+        samples,
+        scaled_diff(&outside, &mid).0,
+        ("f16", "hardware"),
+        "8-bit span",
+        vs_f32,
+    ));
     Ok(rows)
+}
+
+/// A Γ_L row: `vs_cpu` against `cpu_what`, at (storage, filter); beside it, where given,
+/// the row's error against the f32 lookup (what its storage costs).
+fn prefiltered_row(
+    samples: usize,
+    vs_cpu: f64,
+    (storage, filter): (&str, &str),
+    cpu_what: &'static str,
+    vs_f32: Option<f64>,
+) -> Row {
+    let mut r = row("prefiltered", samples, vs_cpu, Vec::new());
+    r.storage = storage.into();
+    r.filter = filter.into();
+    r.cpu_what = cpu_what;
+    r.info
+        .extend(vs_f32.map(|v| ("rgb+lum rel vs f32 lookup".to_string(), v, 0.0)));
+    r
 }
 
 /// The SH basis (order 8 and order 3), ZH → SH at order 8, the order-3 rotation.

@@ -203,6 +203,22 @@ fn lf_sample_2d(tex: texture_2d<f32>, smp: sampler, p: LfTex, y: f32, x: f32) ->
     return lf_unpack(p, 0u, v, 0.0);
 }
 
+// Bilinear manual filtering of layer `layer` of a 2D array texture at node
+// coordinates (sx, sy).
+fn lf_lerp_2d_layer(tex: texture_2d_array<f32>, layer: i32, sx: f32, sy: f32, nx: f32, ny: f32) -> vec4<f32> {
+    let ix = lf_split(sx, nx);
+    let iy = lf_split(sy, ny);
+    let i = i32(ix.x);
+    let j = i32(iy.x);
+    let a = textureLoad(tex, vec2<i32>(i, j), layer, 0);
+    let b = textureLoad(tex, vec2<i32>(i + 1, j), layer, 0);
+    let c = textureLoad(tex, vec2<i32>(i, j + 1), layer, 0);
+    let d = textureLoad(tex, vec2<i32>(i + 1, j + 1), layer, 0);
+    let lo = a + ix.y * (b - a);
+    let hi = c + ix.y * (d - c);
+    return lo + iy.y * (hi - lo);
+}
+
 // Layer `layer` of a 2D array table at axis values (y, x): 4 channels, unpacked.
 fn lf_sample_2d_layer(tex: texture_2d_array<f32>, smp: sampler, p: LfTex, layer: u32, y: f32, x: f32) -> vec4<f32> {
     let ny = p.axis[0].z;
@@ -213,18 +229,7 @@ fn lf_sample_2d_layer(tex: texture_2d_array<f32>, smp: sampler, p: LfTex, layer:
     if p.mode.x == 1u {
         v = textureSampleLevel(tex, smp, vec2<f32>((sx + 0.5) / nx, (sy + 0.5) / ny), i32(layer), 0.0);
     } else {
-        let ix = lf_split(sx, nx);
-        let iy = lf_split(sy, ny);
-        let i = i32(ix.x);
-        let j = i32(iy.x);
-        let l = i32(layer);
-        let a = textureLoad(tex, vec2<i32>(i, j), l, 0);
-        let b = textureLoad(tex, vec2<i32>(i + 1, j), l, 0);
-        let c = textureLoad(tex, vec2<i32>(i, j + 1), l, 0);
-        let d = textureLoad(tex, vec2<i32>(i + 1, j + 1), l, 0);
-        let lo = a + ix.y * (b - a);
-        let hi = c + ix.y * (d - c);
-        v = lo + iy.y * (hi - lo);
+        v = lf_lerp_2d_layer(tex, i32(layer), sx, sy, nx, ny);
     }
     return lf_unpack(p, layer, v, 0.0);
 }

@@ -1,6 +1,6 @@
 // lobefit shader library: Γ_L, an environment map prefiltered by spherical Gaussians
 // (Iwasaki et al.'s eq. 10), from the texture `lobefit prefilter --texture` writes.
-// Needs common.wgsl (lf_split) and lobe_product.wgsl (lf_asin, lf_angle_between).
+// Needs common.wgsl (lf_lerp_2d_layer) and lobe_product.wgsl (lf_asin, lf_angle_between).
 //
 // The texture (a 2D array, one per map, not part of `lobefit export`): layer k is the
 // map's mean radiance under G(w; a, l_k) = exp(l_k (a.w - 1)), l_k = 2^(k / 2)
@@ -59,21 +59,6 @@ fn lf_prefilter_layer(l: f32, layers: f32) -> vec2<f32> {
     return vec2<f32>(clamp(floor(t) - 1.0, 0.0, top - 3.0), t);
 }
 
-// Bilinear manual filtering of layer `layer` at node coordinates (sx, sy).
-fn lf_prefilter_lerp(tex: texture_2d_array<f32>, layer: i32, sx: f32, sy: f32, w: f32, h: f32) -> vec4<f32> {
-    let ix = lf_split(sx, w);
-    let iy = lf_split(sy, h);
-    let i = i32(ix.x);
-    let j = i32(iy.x);
-    let a = textureLoad(tex, vec2<i32>(i, j), layer, 0);
-    let b = textureLoad(tex, vec2<i32>(i + 1, j), layer, 0);
-    let c = textureLoad(tex, vec2<i32>(i, j + 1), layer, 0);
-    let d = textureLoad(tex, vec2<i32>(i + 1, j + 1), layer, 0);
-    let lo = a + ix.y * (b - a);
-    let hi = c + ix.y * (d - c);
-    return lo + iy.y * (hi - lo);
-}
-
 // The map's mean radiance (RGB, luminance) under the SG of unit axis `a` and sharpness
 // `l` in [1, 8192] (clamped to it): bilinear in (theta, phi) on the four layers around
 // l by textureLoad and f32 weights, cubic (Lagrange) in log2 l between them, clamped
@@ -84,10 +69,10 @@ fn lf_prefiltered(tex: texture_2d_array<f32>, a: vec3<f32>, l: f32) -> vec4<f32>
     let jt = lf_prefilter_layer(l, f32(textureNumLayers(tex)));
     let w = lf_prefilter_weights(jt.y - jt.x);
     let j0 = i32(jt.x);
-    let v = w.x * lf_prefilter_lerp(tex, j0, s.x, s.y, dims.x, dims.y)
-        + w.y * lf_prefilter_lerp(tex, j0 + 1, s.x, s.y, dims.x, dims.y)
-        + w.z * lf_prefilter_lerp(tex, j0 + 2, s.x, s.y, dims.x, dims.y)
-        + w.w * lf_prefilter_lerp(tex, j0 + 3, s.x, s.y, dims.x, dims.y);
+    let v = w.x * lf_lerp_2d_layer(tex, j0, s.x, s.y, dims.x, dims.y)
+        + w.y * lf_lerp_2d_layer(tex, j0 + 1, s.x, s.y, dims.x, dims.y)
+        + w.z * lf_lerp_2d_layer(tex, j0 + 2, s.x, s.y, dims.x, dims.y)
+        + w.w * lf_lerp_2d_layer(tex, j0 + 3, s.x, s.y, dims.x, dims.y);
     return max(v, vec4<f32>(0.0));
 }
 
