@@ -650,6 +650,9 @@ pub struct Scene {
     pub tracks: Vec<Track>,
     bvh: Bvh,
     proxy_bvh: Bvh,
+    /// The sphere hierarchy over [`Scene::proxies`], built on first use
+    /// ([`Scene::proxy_tree`]).
+    proxy_tree: std::sync::OnceLock<crate::spheres::tree::SphereTree>,
 }
 
 /// An object a [`Track`] moves: an index into [`Scene::spheres`] or [`Scene::meshes`].
@@ -859,6 +862,7 @@ impl Scene {
         }
         s.bvh = Bvh::new(&s.spheres);
         s.proxy_bvh = Bvh::new(&s.proxies);
+        s.proxy_tree = std::sync::OnceLock::new();
         Ok(s)
     }
 
@@ -1020,6 +1024,13 @@ impl Scene {
     /// The hierarchy over [`Scene::proxies`].
     pub fn proxy_bvh(&self) -> &Bvh {
         &self.proxy_bvh
+    }
+
+    /// The sphere hierarchy over [`Scene::proxies`] (docs/meshes.md, "A sphere
+    /// hierarchy"), built on first use and kept.
+    pub fn proxy_tree(&self) -> &crate::spheres::tree::SphereTree {
+        self.proxy_tree
+            .get_or_init(|| crate::spheres::tree::SphereTree::new(&self.proxies))
     }
 
     /// The proxies a hit is part of ([`Own`]): its sphere, or the spheres of its mesh's
@@ -1683,6 +1694,7 @@ fn parse_inner(
         tracks,
         bvh,
         proxy_bvh,
+        proxy_tree: std::sync::OnceLock::new(),
     };
     // The still at time 0: keys are translations added to the file's places, bends
     // applied to the rest pose.

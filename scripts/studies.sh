@@ -74,6 +74,9 @@ run cargo test -q -p lobefit-pipelines --lib isg::proxy::tests::proxy_error_stud
 # 1 024 optimize spheres (docs/meshes.md, "A sphere hierarchy"; ~1 min on 2 cores;
 # LF_LOD=bunny-1024 runs one).
 run cargo test -q --release -p lobefit-pipelines --lib isg::lod::tests::lod_study_full -- --ignored --nocapture
+# The same hierarchy in SH exponentiation: the bunny over the whale's terrain, 1 024
+# optimize spheres of overlap <= 1.2 (docs/meshes.md, "In SH exponentiation").
+run cargo test -q --release -p lobefit-pipelines --lib shexp::tests::cut_study_full -- --ignored --nocapture
 # Per-vertex shading against per-pixel: the bunny (64 optimize spheres) at 96 to 640
 # pixels wide (docs/meshes.md, "Per-vertex shading"; ~1 min on 2 cores).
 run cargo test -q --release -p lobefit-pipelines --lib isg::vertex::tests::vertex_study_full -- --ignored --nocapture

@@ -32,6 +32,8 @@ pub struct LodRow {
 /// The study's result.
 #[derive(Debug, Clone)]
 pub struct LodStudy {
+    /// The pipeline shaded.
+    pub method: String,
     /// The scene's name and its proxies.
     pub scene: (String, usize),
     /// Image size, lit pixels, the subset's pixels and its reference's samples.
@@ -78,11 +80,36 @@ pub fn lod_study(
     spp: usize,
     stride: usize,
 ) -> Result<LodStudy, String> {
-    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
-    let (hits, lit) = scene.primary_hits(w, h)?;
     let tables = Tables::embedded()?;
     let settings = Settings::default();
-    let tree = SphereTree::new(&scene.proxies);
+    let tree = scene.proxy_tree();
+    let shade = |hit: &Hit, theta: Option<f64>| match theta {
+        None => super::render::shade_hit(&tables, &settings, scene, hit),
+        Some(theta) => shade_cut(&tables, &settings, scene, tree, theta, hit),
+    };
+    lod_study_with(scene, width, degrees, runs, spp, stride, "ISG", &shade)
+}
+
+/// A pixel's shading with the flat set (`None`) or through the cut at an angle (rad).
+pub type CutShade<'a> = dyn Fn(&Hit, Option<f64>) -> Result<f64, String> + Sync + 'a;
+
+/// [`lod_study`] for any pipeline: `shade(hit, None)` shades a pixel with the flat
+/// set, `shade(hit, Some(theta))` through the cut at `theta` (rad); `method` names it
+/// in the table.
+#[allow(clippy::too_many_arguments)]
+pub fn lod_study_with(
+    scene: &Scene,
+    width: usize,
+    degrees: &[f64],
+    runs: usize,
+    spp: usize,
+    stride: usize,
+    method: &str,
+    shade: &CutShade,
+) -> Result<LodStudy, String> {
+    let (w, h) = (width.max(4), (width * 3 / 4).max(3));
+    let (hits, lit) = scene.primary_hits(w, h)?;
+    let tree = scene.proxy_tree();
     let npx = lit.iter().filter(|&&l| l).count();
     let picks: Vec<usize> = (0..hits.len()).filter(|&p| lit[p]).step_by(stride.max(1)).collect();
     let reference: Vec<(f64, f64)> = picks
@@ -105,11 +132,7 @@ pub fn lod_study(
             let t0 = std::time::Instant::now();
             out = hits
                 .par_iter()
-                .map(|hit| match (hit, theta) {
-                    (None, _) => Ok(0.0),
-                    (Some(hit), None) => super::render::shade_hit(&tables, &settings, scene, hit),
-                    (Some(hit), Some(theta)) => shade_cut(&tables, &settings, scene, &tree, theta, hit),
-                })
+                .map(|hit| hit.as_ref().map_or(Ok(0.0), |hit| shade(hit, theta)))
                 .collect::<Result<_, String>>()?;
             times.push(1e6 * t0.elapsed().as_secs_f64() / npx.max(1) as f64);
         }
@@ -164,6 +187,7 @@ pub fn lod_study(
         });
     }
     Ok(LodStudy {
+        method: method.to_string(),
         scene: (scene.name.clone(), scene.proxies.len()),
         size: (w, h, npx, picks.len(), spp),
         ref_rel_se: ref_se / ref_mean,
@@ -177,12 +201,12 @@ impl LodStudy {
         let (w, h, npx, sub, spp) = self.size;
         let mut s = format!(
             "{}: {} proxy spheres, {w}×{h} ({npx} lit pixels); reference {} pixels × {spp} samples of {} (standard error {:.4} of its mean)\n\n\
-             | cut angle | spheres in the cut (per pixel) | ISG µs/pixel (median [min–max]) | vs flat: RMS | vs flat: max | vs reference: RMSE |\n|---|---:|---|---:|---:|---:|\n",
-            self.scene.0, self.scene.1, sub, "qmc-cv-mis", self.ref_rel_se
+             | cut angle | spheres in the cut (per pixel) | {} µs/pixel (median [min–max]) | vs flat: RMS | vs flat: max | vs reference: RMSE |\n|---|---:|---|---:|---:|---:|\n",
+            self.scene.0, self.scene.1, sub, "qmc-cv-mis", self.ref_rel_se, self.method
         );
         for r in &self.rows {
             let angle = if r.degrees == 0.0 {
-                "flat (BVH)".to_string()
+                "flat".to_string()
             } else {
                 format!("{}°", r.degrees)
             };

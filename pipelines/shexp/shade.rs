@@ -152,6 +152,10 @@ pub struct Settings {
     pub exp: Exp,
     /// BRDF.
     pub brdf: BrdfMode,
+    /// The blockers through the sphere hierarchy's cut at this angle (rad;
+    /// [`Scene::proxy_tree`]: a node whose bound subtends less from outside it is one
+    /// stand-in sphere); 0, the flat set (the defaults).
+    pub cut: f64,
 }
 
 impl Default for Settings {
@@ -173,6 +177,7 @@ impl Default for Settings {
             blocker_bands: [1.0; 8],
             exp: Exp::Hyb,
             brdf: BrdfMode::Log,
+            cut: 0.0,
         }
     }
 }
@@ -320,9 +325,17 @@ pub fn log_parts(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Result<Log
     // The blockers: the spheres and the meshes' sphere sets, but those the point lies
     // on or in.
     let own = scene.own_proxies(h);
+    // With a cut: its stand-ins and the leaves it reaches, the own ones skipped there.
+    let mut cut = Vec::new();
+    if s.cut > 0.0 {
+        scene
+            .proxy_tree()
+            .cut(h.x, s.cut, crate::scene::OWN_MARGIN, |i| own.contains(&i), &mut cut);
+    }
+    let blockers = if s.cut > 0.0 { &cut[..] } else { &scene.proxies[..] };
     let mut caps = Vec::new();
-    for (i, b) in scene.proxies.iter().enumerate() {
-        if own.contains(&i) {
+    for (i, b) in blockers.iter().enumerate() {
+        if s.cut <= 0.0 && own.contains(&i) {
             continue;
         }
         let (dir, theta_b) = log_zh::sphere_cap(h.x, b.centre, b.radius).map_err(|e| e.to_string())?;
