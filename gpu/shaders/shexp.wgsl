@@ -28,6 +28,13 @@ fn sph(b: u32) -> vec4<f32> {
     return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);
 }
 
+// Node k's j-th vec4 of the sphere hierarchy (with CUT), after the light's 16
+// coefficients: its reach, bound, the sphere the cut gives, (left, right) or (-1, leaf).
+fn node(k: u32, j: u32) -> vec4<f32> {
+    let i = shexp_scene() + 2u + 4u * shexp_spheres() + 16u + 16u * k + 4u * j;
+    return vec4<f32>(X[i], X[i + 1u], X[i + 2u], X[i + 3u]);
+}
+
 // The terrain's slice k at order 4 (lf_wedge_slice; with TERRAIN_ABOVE_TANGENT the
 // part above the tangent plane, as lf_wedge_compose_between takes it).
 fn shexp_slice(sigma: f32, n: vec3<f32>, k: u32) -> array<f32, 8> {
@@ -130,8 +137,67 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
     if X[shexp_scene() + 1u] != 0.0 {
         f = shexp_terrain(n, i * N_IN + HIT_INPUTS_u);
     }
-    for (var b = 0u; b < ns; b++) {
-        let s = sph(b);
+    // The blockers: every sphere (b = 0 .. ns), or with CUT the sphere hierarchy's cut
+    // from p (the CPU's Settings::cut: the stand-in of a node whose bound subtends
+    // less than the cut angle from outside it, the leaves reached). The walk counts its
+    // passes and each blocker's loops (shexp.rs's PER_SPHERE) against WALK_BUDGET and flags the
+    // pixel past it (3).
+    var stack = array<u32, 64>();
+    var sp = 0u;
+    if CUT {
+        stack[0] = NN - 1u;
+        sp = 1u;
+    }
+    var walk = 0u;
+    var walk_flag = 0.0;
+    var next = 0u;
+    loop {
+        var s = vec4<f32>(0.0);
+        // The set index of a leaf (the own-sphere and buried tests); none for a stand-in.
+        var b = 0xffffffffu;
+        if CUT {
+            var found = false;
+            loop {
+                walk += 1u;
+                if walk > WALK_BUDGET {
+                    walk_flag = 3.0;
+                    break;
+                }
+                if sp == 0u || found {
+                    break;
+                }
+                sp -= 1u;
+                let kn = stack[sp];
+                let kids = node(kn, 3u);
+                if kids.x < 0.0 {
+                    s = node(kn, 2u);
+                    b = u32(kids.y);
+                    found = true;
+                } else {
+                    let bd = node(kn, 1u);
+                    let dd = length(p - bd.xyz);
+                    if dd > bd.w * OWN_SCALE && bd.w < SIN_CUT * dd {
+                        s = node(kn, 2u);
+                        found = true;
+                    } else {
+                        stack[sp] = u32(kids.y);
+                        stack[sp + 1u] = u32(kids.x);
+                        sp += 2u;
+                    }
+                }
+            }
+            if !found {
+                break;
+            }
+            walk += PER_SPHERE_u;
+        } else {
+            if next >= ns {
+                break;
+            }
+            s = sph(next);
+            b = next;
+            next += 1u;
+        }
         let w = s.xyz - p;
         let d = length(w);
         let dir = w / d;
@@ -139,7 +205,9 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
             continue;
         }
         if d <= s.w {
-            buried = true;
+            // A stand-in that reaches past its node's bound may hold p; no leaf of its
+            // subtree does (the node would have been opened), so it is not buried.
+            buried = buried || b != 0xffffffffu;
             continue;
         }
         // sin theta_b; a cap wholly below the tangent plane cannot shadow the point.
@@ -194,4 +262,4 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
             Y[o + 3u + k] = coeffs[k];
         }
     }
-    var budget_flag = 0.0;
+    var budget_flag = walk_flag;

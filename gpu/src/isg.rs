@@ -318,7 +318,7 @@ const EQ9_BLOCK: &str = "    if x10 > 0.0 && !buried {
 /// The kernel's per-product visible integral (the CPU's `visible_with`) and its body;
 /// with `eq9`, the specular term by eq. 9 from Γ_L bound as `T3`; with `cut` (the
 /// angle, rad, and the tree over the blockers), the blockers found through the tree's
-/// cut ([`node_inputs`] after the SGs).
+/// cut (`crate::render::tree_inputs` after the SGs).
 fn source(
     scene: &lobefit::pipelines::scene::Scene,
     cut: Option<(f64, &SphereTree, u64)>,
@@ -429,7 +429,7 @@ pub fn render_isg(
     let visible = points;
     let (mut inputs, brdfs) = inputs_of(sc, &visible)?;
     if let Some(t) = &tree {
-        inputs.extend(node_inputs(t));
+        inputs.extend(crate::render::tree_inputs(t));
     }
     let walk = walk_budget(gpu.loop_budget, sc);
     let (extra, body) = source(sc, opts.cut.zip(tree.as_ref()).map(|(c, t)| (c, t, walk)))?;
@@ -494,7 +494,7 @@ pub fn render_isg(
         let all: Vec<&Hit> = hits.iter().flatten().collect();
         let (mut pixel_inputs, _) = inputs_of(sc, &all)?;
         if let Some(t) = &tree {
-            pixel_inputs.extend(node_inputs(t));
+            pixel_inputs.extend(crate::render::tree_inputs(t));
         }
         let t0 = std::time::Instant::now();
         gpu.run_textures(&src, &textures, &pixel_inputs, all.len(), 2)?;
@@ -601,24 +601,6 @@ pub fn render_isg(
         .map(|v| v as f32)
         .collect();
     compare_and_write(&device, &image(&cpu), hits.iter().map(Option::is_some), (w, h), out)
-}
-
-/// The hierarchy's nodes as the kernel reads them (`node(k, j)`: 16 f32 a node, root
-/// last): its reach, its bound, the sphere the cut gives for it, and (left, right), or
-/// (−1, the leaf's sphere index in the set).
-fn node_inputs(tree: &SphereTree) -> Vec<f32> {
-    let mut v = Vec::new();
-    for (reach, bound, given, kids) in tree.node_data() {
-        for s in [reach, bound, given] {
-            v.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|x| x as f32));
-        }
-        let (a, b) = match kids {
-            Ok((a, b)) => (a as f32, b as f32),
-            Err(leaf) => (-1.0, leaf as f32),
-        };
-        v.extend([a, b, 0.0, 0.0]);
-    }
-    v
 }
 
 /// The kernel's inputs at `points` (point, normal, view, k_d, k_s, Phong n, the

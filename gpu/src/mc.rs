@@ -1084,7 +1084,7 @@ const INTEGRAND_RMS_MAX: f64 = 1e-4;
 /// difference over the peak |value| (all 17 numbers) is at most [`INTEGRAND_RMS_MAX`].
 fn device_integrands(dir: &std::path::Path, sc: &Scene, hits: &[&Hit]) -> Result<(Gpu, ControlVariate), String> {
     let (ex, gpu) = crate::render::open(dir, crate::shexp::FAMILIES, |b| {
-        crate::shexp::check_budget(b, sc, "mc --estimator hybrid")
+        crate::shexp::check_budget(b, sc, "mc --estimator hybrid", false)
     })?;
     let got = crate::shexp::integrands(&gpu, &ex, sc, hits)?;
     let sh = ShPipeline::new(sc)?;

@@ -706,6 +706,24 @@ pub fn own_proxy_wgsl() -> String {
     )
 }
 
+/// A sphere hierarchy's nodes as the ISG and SH kernels read them (`node(k, j)`: 16 f32
+/// a node, root last): its reach, its bound, the sphere the cut gives for it, and (left, right), or
+/// (−1, the leaf's sphere index in the set).
+pub fn tree_inputs(tree: &lobefit::pipelines::spheres::tree::SphereTree) -> Vec<f32> {
+    let mut v = Vec::new();
+    for (reach, bound, given, kids) in tree.node_data() {
+        for s in [reach, bound, given] {
+            v.extend([s.centre.x, s.centre.y, s.centre.z, s.radius].map(|x| x as f32));
+        }
+        let (a, b) = match kids {
+            Ok((a, b)) => (a as f32, b as f32),
+            Err(leaf) => (-1.0, leaf as f32),
+        };
+        v.extend([a, b, 0.0, 0.0]);
+    }
+    v
+}
+
 /// The range of the point's own proxies, as a kernel's two f32 inputs (first, end).
 pub fn own_range(sc: &lobefit::pipelines::scene::Scene, hit: &lobefit::pipelines::scene::Hit) -> [f32; 2] {
     let r = sc.own_proxies(hit).range();

@@ -21,6 +21,7 @@
 //! (`crate::budget`).
 
 use std::f64::consts::TAU;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -63,6 +64,19 @@ pub struct Args {
     /// pipeline; the frames go to OUT's stem with `-frame-KKK.png`.
     #[arg(long, value_parser = clap::value_parser!(u32).range(2..=240))]
     frames: Option<u32>,
+    /// Take the blockers through the sphere hierarchy's cut at this angle (degrees, 0
+    /// to 90; docs/meshes.md, "In SH exponentiation"), the CPU pipeline too
+    /// (`Settings::cut`).
+    #[arg(long, value_name = "DEGREES", value_parser = parse_cut)]
+    cut: Option<f64>,
+}
+
+/// `--cut`: finite degrees in (0, 90].
+fn parse_cut(v: &str) -> Result<f64, String> {
+    match v.parse::<f64>() {
+        Ok(d) if d > 0.0 && d <= 90.0 => Ok(d),
+        _ => Err(format!("{v}: the cut angle is degrees in (0, 90]")),
+    }
 }
 
 /// `render shexp`.
@@ -89,9 +103,14 @@ fn run(a: Args) -> Result<ExitCode, String> {
         Some("ren") => settings.blocker_log = BlockerLog::Ren,
         _ => {}
     }
+    if let Some(d) = a.cut {
+        settings.cut = d.to_radians();
+    }
     crate::render::check_out(&a.out)?;
     let sc = lobefit::pipelines::shexp::render::scene(&a.scene)?;
-    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| check_budget(budget, &sc, "render shexp"))?;
+    let (ex, gpu) = crate::render::open(&a.export, FAMILIES, |budget| {
+        check_budget(budget, &sc, "render shexp", settings.cut > 0.0)
+    })?;
     if let Some(n) = a.frames {
         return crate::render::animate("render shexp", &sc, n as usize, &gpu, &a.out, |still, path| {
             render_shexp(&gpu, &ex, still, a.width as usize, &settings, path)
@@ -136,13 +155,32 @@ const PER_PIXEL: u64 = 80 + 65 * 101 + 5 + 2 * (150 + 25 + 17 + 3 * 16 + 2 * 65 
 
 /// Refuses a scene whose pixels may need more loop iterations than `budget` (a
 /// device's [`Gpu::loop_budget`]: llvmpipe's; a GPU has none).
-pub fn check_budget(budget: Option<u64>, scene: &Scene, command: &str) -> Result<(), String> {
+pub fn check_budget(budget: Option<u64>, scene: &Scene, command: &str, cut: bool) -> Result<(), String> {
+    if cut {
+        // The walk takes what the rest leaves (`walk_budget`), and stops itself.
+        return match walk_budget(budget) {
+            w if w >= PER_SPHERE * 8 => Ok(()),
+            w => Err(format!(
+                "{command}: the pixel's other loops leave the hierarchy's walk {w} iterations"
+            )),
+        };
+    }
     budget::refuse_over(
         budget,
         command,
         iterations(scene.proxies.len()),
         &format!("{} spheres", scene.proxies.len()),
     )
+}
+
+/// The kernel's flag where the hierarchy's walk passed its budget.
+const FLAG_WALK: f32 = 3.0;
+
+/// The iterations the hierarchy's walk may take a pixel on a device with loop budget
+/// `budget` (its passes, and [`PER_SPHERE`] for each blocker it gives): what the
+/// pixel's other loops leave of llvmpipe's budget, less 64; unbounded on a GPU.
+fn walk_budget(budget: Option<u64>) -> u64 {
+    budget.map_or(u64::from(u32::MAX), |b| b.saturating_sub(iterations(0) + 64))
 }
 
 /// An upper bound on the loop iterations of one pixel's kernel (`crate::budget`):
@@ -199,7 +237,7 @@ const SHADER: &str = include_str!("../shaders/shexp.wgsl");
 /// The kernel's constants and functions, and its body, for the settings `s`: the
 /// scene is data (it follows the pixels' inputs), so one kernel serves every scene.
 /// With `coeffs`, each pixel also writes its integrand ([`integrands`]).
-fn source(s: &Settings, coeffs: bool) -> String {
+fn source(s: &Settings, coeffs: bool, cut: Option<(usize, u64)>) -> String {
     let w = s.wedges as usize;
     let n_in = HIT_INPUTS + w;
     let f = |v: f64| format!("{:e}", v as f32);
@@ -210,19 +248,25 @@ fn source(s: &Settings, coeffs: bool) -> String {
     let consts = format!(
         "const N_IN = {n_in}u;\nconst NW = {w}u;\nconst W_INDEX = {}u;\n\
          const TERRAIN_ABOVE_TANGENT = {};\nconst ATTENUATION = {};\nconst EPS_VIS: f32 = {};\n\
-         const EPS_TERRAIN: f32 = {};\nconst EPS_BRDF: f32 = {};\nconst COEFFS = {coeffs};\n{}",
+         const EPS_TERRAIN: f32 = {};\nconst EPS_BRDF: f32 = {};\nconst COEFFS = {coeffs};\n\
+         const CUT = {};\nconst NN = {}u;\nconst SIN_CUT: f32 = {};\nconst WALK_BUDGET = {}u;\n{}",
         s.wedges.trailing_zeros() - 2,
         s.terrain_above_tangent,
         s.attenuation,
         f(s.eps_vis),
         f(s.eps_terrain),
         f(s.eps_brdf),
+        cut.is_some(),
+        cut.map_or(0, |c| c.0),
+        f(s.cut.clamp(0.0, std::f64::consts::FRAC_PI_2).sin()),
+        cut.map_or(0, |c| c.1),
         crate::render::own_proxy_wgsl()
     );
     let (functions, body) = split(SHADER);
     let body = body
         .replacen("HIT_INPUTS_", &HIT_INPUTS.to_string(), 1)
         .replacen("BLOCKER_LOG_", blocker, 1)
+        .replacen("PER_SPHERE_", &PER_SPHERE.to_string(), 1)
         + budget::SENTINEL
         + "    Y[o + 1u] = budget_flag;";
     // T: wedge, T2: shexp-hyb-n4, T3: shexp-n4 (Ren's log only).
@@ -273,7 +317,9 @@ pub fn render_shexp(
     let hits = crate::render::primary_hits(sc, (w, h))?;
     let visible: Vec<&Hit> = hits.iter().flatten().collect();
     let light = light_sh(sc, ORDER)?;
-    let Dispatched { got, at_hits, brdfs } = dispatch(gpu, export, sc, &visible, s, false)?;
+    let Dispatched {
+        got, at_hits, brdfs, ..
+    } = dispatch(gpu, export, sc, &visible, s, false)?;
     // The CPU pipeline (f64, the committed tables) at the same f32-rounded hits.
     let tables = Tables::embedded()?;
     let cpu: Vec<f64> = at_hits
@@ -282,7 +328,66 @@ pub fn render_shexp(
         .map(|(at, b)| radiance(&tables, s, &light, b, sc, at))
         .collect::<Result<_, _>>()?;
     let values: Vec<f32> = got.chunks(2).map(|c| c[0]).collect();
+    if s.cut > 0.0 {
+        cut_against_flat(gpu, export, sc, &visible, s, &values)?;
+    }
     compare_and_write(&values, &cpu, hits.iter().map(Option::is_some), (w, h), out)
+}
+
+/// With `Settings::cut`: the kernel's time through the cut against the flat set's on
+/// the same pixels (each kernel built before it is timed; the dispatch and read-back,
+/// wall clock, medians of 3), and the cut's image against the flat one; where the flat
+/// kernel does not fit the device's loop budget, says so.
+fn cut_against_flat(
+    gpu: &Gpu,
+    export: &VerifiedExport,
+    sc: &Scene,
+    visible: &[&Hit],
+    s: &Settings,
+    values: &[f32],
+) -> Result<(), String> {
+    let median = |s: &Settings| -> Result<(f64, Vec<f32>), String> {
+        let mut ms = Vec::new();
+        let mut got = Vec::new();
+        for _ in 0..3 {
+            let d = dispatch(gpu, export, sc, visible, s, false)?;
+            ms.push(d.ms);
+            got = d.got;
+        }
+        ms.sort_by(f64::total_cmp);
+        Ok((ms[1], got))
+    };
+    let (cut_ms, _) = median(s)?;
+    let flat_s = Settings { cut: 0.0, ..*s };
+    let worst = iterations(sc.proxies.len());
+    let line = if gpu.loop_budget.is_some_and(|b| worst > b) {
+        format!("the flat set does not fit llvmpipe's loop budget ({worst} iterations a pixel)")
+    } else {
+        dispatch(gpu, export, sc, visible, &flat_s, false)?;
+        let (flat_ms, flat) = median(&flat_s)?;
+        let flat: Vec<f64> = flat.chunks(2).map(|c| f64::from(c[0])).collect();
+        let mean = flat.iter().sum::<f64>() / flat.len().max(1) as f64;
+        let d: Vec<f64> = values
+            .iter()
+            .zip(&flat)
+            .map(|(a, b)| (f64::from(*a) - b).abs() / mean)
+            .collect();
+        let rms = (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt();
+        format!(
+            "the flat set {flat_ms:.1} ms ({:.2}×); the cut's image against the flat one: RMS {rms:.5}, max {:.4} of the flat mean",
+            cut_ms / flat_ms,
+            d.iter().copied().fold(0.0, f64::max)
+        )
+    };
+    out!(
+        "render shexp {}: the cut at {:.1}° ({} nodes over {} spheres) {cut_ms:.1} ms (dispatch and read-back, wall \
+         clock, medians of 3); {line}",
+        sc.name,
+        s.cut.to_degrees(),
+        sc.proxy_tree().given().len(),
+        sc.proxies.len()
+    );
+    Ok(())
 }
 
 /// What [`dispatch`] returns.
@@ -293,6 +398,8 @@ struct Dispatched {
     /// the same.
     at_hits: Vec<Hit>,
     brdfs: Vec<Phong>,
+    /// The kernel's dispatch and read-back (ms, wall clock; its build on a first call).
+    ms: f64,
 }
 
 /// The kernel at `visible` (hits of `sc`) with the settings `s` (with `coeffs`, the
@@ -354,14 +461,43 @@ fn dispatch(
         inputs.extend([b.centre.x, b.centre.y, b.centre.z, b.radius].map(|v| v as f32));
     }
     inputs.extend(light.iter().map(|&v| v as f32));
-    let src = source(s, coeffs);
+    // With Settings::cut, the hierarchy over the blockers after the light.
+    let cut = (s.cut > 0.0).then(|| {
+        let t = sc.proxy_tree();
+        inputs.extend(crate::render::tree_inputs(t));
+        (t.given().len(), walk_budget(gpu.loop_budget))
+    });
+    if let Some(t) = (s.cut > 0.0).then(|| sc.proxy_tree()) {
+        if t.depth() > 63 {
+            return Err(format!(
+                "render shexp: the sphere hierarchy is {} deep; the kernel's walk holds 63",
+                t.depth()
+            ));
+        }
+    }
+    let src = source(s, coeffs, cut);
     let textures: Vec<(&[u8], &crate::device::GpuTexture)> = uploads.iter().map(|(p, t)| (p.as_slice(), t)).collect();
     let k = outputs(coeffs);
+    let t0 = std::time::Instant::now();
     let got = gpu.run_textures(&src, &textures, &inputs, visible.len(), k)?;
+    let ms = 1e3 * t0.elapsed().as_secs_f64();
     budget::flags("render shexp", got.chunks(k).map(|c| c[1]), visible.len(), |f| {
-        format!("unknown flag {f}")
+        if f == FLAG_WALK {
+            format!(
+                "the sphere hierarchy's walk passed the {} iterations the kernel's other loops leave of llvmpipe's \
+                 budget: its value would be wrong; use a larger --cut or fewer spheres",
+                walk_budget(gpu.loop_budget)
+            )
+        } else {
+            format!("unknown flag {f}")
+        }
     })?;
-    Ok(Dispatched { got, at_hits, brdfs })
+    Ok(Dispatched {
+        got,
+        at_hits,
+        brdfs,
+        ms,
+    })
 }
 
 /// The SH-exponentiation pipeline's integrand at a pixel (`shade::Integrand`, default
@@ -394,7 +530,7 @@ fn bench_kernel(
 ) -> Result<crate::render::Benched, String> {
     let ex = ex.ok_or("bench shexp: no export")?;
     let sc = lobefit::pipelines::shexp::render::scene(scene)?;
-    check_budget(gpu.loop_budget, &sc, "bench shexp")?;
+    check_budget(gpu.loop_budget, &sc, "bench shexp", false)?;
     let s = lobefit::pipelines::shexp::shade::Settings::default();
     let method = format!(
         "HYB order {}, {} wedges, {:?} blocker log ({} spheres)",
@@ -439,9 +575,16 @@ mod tests {
                 ..Settings::default()
             };
             supported(&s).unwrap();
-            let src = source(&s, blocker_log == BlockerLog::Eps);
+            let src = source(&s, blocker_log == BlockerLog::Eps, None);
             if let Err(e) = lobefit::export::shaders::module_of(&src) {
                 panic!("{blocker_log:?}, {wedges} wedges: {e}");
+            }
+            // Through the sphere hierarchy's cut: its walk.
+            let cut = Settings { cut: 0.1, ..s };
+            let src = source(&cut, false, Some((511, 50_000)));
+            assert!(src.contains("const CUT = true;") && src.contains("const NN = 511u;"));
+            if let Err(e) = lobefit::export::shaders::module_of(&src) {
+                panic!("{blocker_log:?}, {wedges} wedges, cut: {e}");
             }
         }
         let d = Settings::default();
