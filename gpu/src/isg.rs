@@ -401,7 +401,7 @@ pub fn render_isg(
 ) -> Result<SceneRender, String> {
     let per_vertex = opts.per_vertex;
     // The hierarchy over the blockers, for --cut (its nodes follow the SGs in X).
-    let tree = opts.cut.map(|_| SphereTree::new(&sc.proxies));
+    let tree = opts.cut.map(|_| sc.proxy_tree());
     let m = &export.manifest;
     let (best_e, best_t) = texture(export, lobefit_tables::isg::KIND_BEST)?;
     let (fit_e, fit_t) = texture(export, lobefit_tables::sg_fit::KIND)?;
@@ -432,7 +432,7 @@ pub fn render_isg(
         inputs.extend(crate::render::tree_inputs(t));
     }
     let walk = walk_budget(gpu.loop_budget, sc);
-    let (extra, body) = source(sc, opts.cut.zip(tree.as_ref()).map(|(c, t)| (c, t, walk)))?;
+    let (extra, body) = source(sc, opts.cut.zip(tree).map(|(c, t)| (c, t, walk)))?;
     let (best_p, fit_p) = (lf_tex(best_e, Filter::Manual)?, lf_tex(fit_e, Filter::Manual)?);
     let mut types = vec!["texture_2d<f32>", "texture_2d<f32>"];
     let mut textures = vec![(&best_p[..], &best_up), (&fit_p[..], &fit_up)];
