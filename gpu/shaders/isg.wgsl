@@ -29,20 +29,6 @@ fn isg_acos_ratio(q: f32, r: f32) -> f32 {
     return select(a, LF_PI - a, q < 0.0);
 }
 
-// Whether the ball c (centre, radius) lies wholly outside the cone of axis z and
-// half-angle cone (cos, sin in cs) from x: by cosines, 1e-5 inside the bound (f32's
-// rounding), and never for a cone wider than pi / 2 (the CPU's ConeTest::outside, a
-// little looser: a subtree it keeps is tested sphere by sphere below).
-fn isg_outside(c: vec4<f32>, x: vec3<f32>, z: vec3<f32>, cone: f32, cs: vec2<f32>) -> bool {
-    let w = c.xyz - x;
-    let d = length(w);
-    if d <= c.w || cone > 0.5 * LF_PI {
-        return false;
-    }
-    let sd = c.w / d;
-    return dot(w / d, z) < cs.x * sqrt(max(1.0 - sd * sd, 0.0)) - cs.y * sd - 1e-5;
-}
-
 // The visible integral of g: `total` minus g over the occluded patches of its cone;
 // with `cosine`, each occluded patch weighted by max(n.d, 0) / cs(d) and patches below
 // the horizon not counted (the CPU's visible_with).
@@ -90,51 +76,25 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
         sp = 1u;
     }
     var next = 0u;
+    // The pixel's walk passes so far (isg_walk: every product's walk counts).
+    var walk = isg_walk;
     loop {
         if CUT {
-            isg_walk += 1u;
+            walk += 1u;
         }
         var s = vec4<f32>(0.0);
         // The set index of a leaf (the own-sphere test); none for a stand-in.
         var b = 0xffffffffu;
         if CUT {
-            var found = false;
-            loop {
-                // Every pass counted against the walk's budget (llvmpipe's loop budget).
-                isg_walk += 1u;
-                if isg_walk > WALK_BUDGET {
-                    isg_flag = 3.0;
-                    break;
-                }
-                if sp == 0u || found {
-                    break;
-                }
-                sp -= 1u;
-                let kn = stack[sp];
-                if isg_outside(node(kn, 0u), x, z, cone, cone_cs) {
-                    continue;
-                }
-                let kids = node(kn, 3u);
-                if kids.x < 0.0 {
-                    s = node(kn, 2u);
-                    b = u32(kids.y);
-                    found = true;
-                } else {
-                    let bd = node(kn, 1u);
-                    let dd = length(x - bd.xyz);
-                    if dd > bd.w * OWN_SCALE && bd.w < SIN_CUT * dd {
-                        s = node(kn, 2u);
-                        found = true;
-                    } else {
-                        stack[sp] = u32(kids.y);
-                        stack[sp + 1u] = u32(kids.x);
-                        sp += 2u;
-                    }
-                }
+            let c = cut_next(&stack, &sp, &walk, WALK_BUDGET, x, SIN_CUT, z, cone, cone_cs);
+            if c.state == 2u {
+                isg_flag = 3.0;
             }
-            if !found {
+            if c.state != 0u {
                 break;
             }
+            s = c.s;
+            b = c.b;
         } else {
             if next >= NS {
                 break;
@@ -164,6 +124,7 @@ fn isg_visible(g: LfSg, total: f32, cs: LfSg, cosine: bool, n: vec3<f32>, x: vec
         let ph0 = atan2(uz, ux);
     //#ISG_ROWS
     }
+    isg_walk = walk;
     // Whether the tangent plane may hide a patch centre (the CPU's `horizon`): not with
     // the cosine (a direction below it weighs 0 there), nor where the grid lies wholly
     // above it (within acos(cos^2 cone) of the axis). Else only covered patches count.

@@ -156,39 +156,16 @@ fn shexp_lit(e: array<f32, 16>) -> f32 {
         // The set index of a leaf (the own-sphere and buried tests); none for a stand-in.
         var b = 0xffffffffu;
         if CUT {
-            var found = false;
-            loop {
-                walk += 1u;
-                if walk > WALK_BUDGET {
-                    walk_flag = 3.0;
-                    break;
-                }
-                if sp == 0u || found {
-                    break;
-                }
-                sp -= 1u;
-                let kn = stack[sp];
-                let kids = node(kn, 3u);
-                if kids.x < 0.0 {
-                    s = node(kn, 2u);
-                    b = u32(kids.y);
-                    found = true;
-                } else {
-                    let bd = node(kn, 1u);
-                    let dd = length(p - bd.xyz);
-                    if dd > bd.w * OWN_SCALE && bd.w < SIN_CUT * dd {
-                        s = node(kn, 2u);
-                        found = true;
-                    } else {
-                        stack[sp] = u32(kids.y);
-                        stack[sp + 1u] = u32(kids.x);
-                        sp += 2u;
-                    }
-                }
+            // No cone: every cap above the tangent plane counts.
+            let c = cut_next(&stack, &sp, &walk, WALK_BUDGET, p, SIN_CUT, n, 4.0, vec2<f32>(0.0));
+            if c.state == 2u {
+                walk_flag = 3.0;
             }
-            if !found {
+            if c.state != 0u {
                 break;
             }
+            s = c.s;
+            b = c.b;
             walk += PER_SPHERE_u;
         } else {
             if next >= ns {

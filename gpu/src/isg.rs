@@ -373,7 +373,7 @@ fn source(
          var<private> isg_flag = 0.0;\n\
          fn sph(b: u32) -> vec4<f32> {{\n    let k = {INPUTS}u * N.x + 4u * b;\n    return vec4<f32>(X[k], X[k + 1u], X[k + 2u], X[k + 3u]);\n}}\n\
          fn env(e: u32) -> LfSg {{\n    let k = {INPUTS}u * N.x + 4u * NS + 5u * e;\n    return LfSg(vec3<f32>(X[k], X[k + 1u], X[k + 2u]), X[k + 3u], X[k + 4u]);\n}}\n{}",
-        crate::render::own_proxy_wgsl(),
+        crate::render::own_proxy_wgsl() + crate::render::cut_walk_wgsl(),
     );
     let (functions, body) = split(SHADER);
     if body.matches(EQ9_PLACEHOLDER).count() != 1 {

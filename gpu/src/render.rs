@@ -724,6 +724,75 @@ pub fn tree_inputs(tree: &lobefit::pipelines::spheres::tree::SphereTree) -> Vec<
     v
 }
 
+/// The sphere hierarchy's walk the ISG and SH kernels share (`render isg --cut`,
+/// `render shexp --cut`): `cut_next` pops the kernel's stack until the cut gives a
+/// sphere, as the CPU's `SphereTree::cut` (and `cut_in_cone`, given a cone) does. The
+/// kernel defines `node(k, j)` ([`tree_inputs`]' layout) and takes
+/// [`own_proxy_wgsl`]'s `OWN_SCALE`.
+pub fn cut_walk_wgsl() -> &'static str {
+    "// What the walk gives: a sphere (state 0: the leaf's set index in b, 0xffffffff for a
+// stand-in), or nothing more (1), or it passed its budget (2).
+struct CutNext {
+    s: vec4<f32>,
+    b: u32,
+    state: u32,
+}
+
+// Whether the ball c (centre, radius) lies wholly outside the cone of axis z and
+// half-angle cone (cos, sin in cs) from x: by cosines, 1e-5 inside the bound (f32's
+// rounding), and never for a cone wider than pi / 2 (the CPU's ConeTest::outside, a
+// little looser: a subtree it keeps is tested sphere by sphere after).
+fn cut_outside(c: vec4<f32>, x: vec3<f32>, z: vec3<f32>, cone: f32, cs: vec2<f32>) -> bool {
+    let w = c.xyz - x;
+    let d = length(w);
+    if d <= c.w || cone > 0.5 * LF_PI {
+        return false;
+    }
+    let sd = c.w / d;
+    return dot(w / d, z) < cs.x * sqrt(max(1.0 - sd * sd, 0.0)) - cs.y * sd - 1e-5;
+}
+
+// The cut's next sphere from x: a leaf, or the stand-in of a node whose bound subtends
+// less than asin(sin_cut) from outside it (the own-sphere margin); a subtree whose reach
+// lies outside the cone (z, cone, cs; a cone wider than pi / 2 culls nothing) skipped.
+// Each pass adds 1 to *walk; past `budget` the walk stops (llvmpipe's loop budget).
+fn cut_next(stack: ptr<function, array<u32, 64>>, sp: ptr<function, u32>, walk: ptr<function, u32>, budget: u32,
+            x: vec3<f32>, sin_cut: f32, z: vec3<f32>, cone: f32, cs: vec2<f32>) -> CutNext {
+    var out = CutNext(vec4<f32>(0.0), 0xffffffffu, 1u);
+    loop {
+        *walk += 1u;
+        if *walk > budget {
+            out.state = 2u;
+            break;
+        }
+        if *sp == 0u {
+            break;
+        }
+        *sp -= 1u;
+        let kn = (*stack)[*sp];
+        if cut_outside(node(kn, 0u), x, z, cone, cs) {
+            continue;
+        }
+        let kids = node(kn, 3u);
+        if kids.x < 0.0 {
+            out = CutNext(node(kn, 2u), u32(kids.y), 0u);
+            break;
+        }
+        let bd = node(kn, 1u);
+        let dd = length(x - bd.xyz);
+        if dd > bd.w * OWN_SCALE && bd.w < sin_cut * dd {
+            out = CutNext(node(kn, 2u), 0xffffffffu, 0u);
+            break;
+        }
+        (*stack)[*sp] = u32(kids.y);
+        (*stack)[*sp + 1u] = u32(kids.x);
+        *sp += 2u;
+    }
+    return out;
+}
+"
+}
+
 /// The range of the point's own proxies, as a kernel's two f32 inputs (first, end).
 pub fn own_range(sc: &lobefit::pipelines::scene::Scene, hit: &lobefit::pipelines::scene::Hit) -> [f32; 2] {
     let r = sc.own_proxies(hit).range();

@@ -260,7 +260,7 @@ fn source(s: &Settings, coeffs: bool, cut: Option<(usize, u64)>) -> String {
         cut.map_or(0, |c| c.0),
         f(s.cut.clamp(0.0, std::f64::consts::FRAC_PI_2).sin()),
         cut.map_or(0, |c| c.1),
-        crate::render::own_proxy_wgsl()
+        crate::render::own_proxy_wgsl() + crate::render::cut_walk_wgsl()
     );
     let (functions, body) = split(SHADER);
     let body = body
@@ -462,18 +462,17 @@ fn dispatch(
     }
     inputs.extend(light.iter().map(|&v| v as f32));
     // With Settings::cut, the hierarchy over the blockers after the light.
-    let cut = (s.cut > 0.0).then(|| {
+    let mut cut = None;
+    if s.cut > 0.0 {
         let t = sc.proxy_tree();
-        inputs.extend(crate::render::tree_inputs(t));
-        (t.given().len(), walk_budget(gpu.loop_budget))
-    });
-    if let Some(t) = (s.cut > 0.0).then(|| sc.proxy_tree()) {
         if t.depth() > 63 {
             return Err(format!(
                 "render shexp: the sphere hierarchy is {} deep; the kernel's walk holds 63",
                 t.depth()
             ));
         }
+        inputs.extend(crate::render::tree_inputs(t));
+        cut = Some((t.given().len(), walk_budget(gpu.loop_budget)));
     }
     let src = source(s, coeffs, cut);
     let textures: Vec<(&[u8], &crate::device::GpuTexture)> = uploads.iter().map(|(p, t)| (p.as_slice(), t)).collect();
