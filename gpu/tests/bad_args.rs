@@ -201,3 +201,34 @@ fn per_vertex_needs_a_mesh() {
     assert!(!err.contains("nonexistent-lobefit-export"), "{err}");
     assert!(!out.exists());
 }
+
+/// `--cut` outside its degrees is a usage error naming the range, before anything is
+/// read: render isg takes [0, 90], render shexp (0, 90] (0 is its flat set).
+#[test]
+fn cut_angles_outside_their_range_are_refused() {
+    let out = std::env::temp_dir().join(format!("lobefit-gpu-cut-{}.png", std::process::id()));
+    for (name, value, range) in [
+        ("isg", "-1", "[0, 90]"),
+        ("isg", "91", "[0, 90]"),
+        ("isg", "NaN", "[0, 90]"),
+        ("shexp", "0", "(0, 90]"),
+        ("shexp", "inf", "(0, 90]"),
+    ] {
+        let args = [
+            "render",
+            name,
+            "--export",
+            "/nonexistent-lobefit-export",
+            &format!("--cut={value}"),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let (code, err) = run(&args);
+        assert_eq!(code, Some(2), "{name} --cut {value}: {err}");
+        assert!(
+            err.contains("--cut") && err.contains(range),
+            "{name} --cut {value}: {err}"
+        );
+        assert!(!out.exists());
+    }
+}
