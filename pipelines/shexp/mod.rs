@@ -685,7 +685,8 @@ mod tests {
     /// At an angle of 1e-9° the cut is the flat set: every pixel of the whale (50
     /// spheres) equals the flat pipeline's to 1e-12 of the mean (the blockers' order
     /// differs); at 10° it differs, by less than the pipeline's own error against the
-    /// reference.
+    /// reference. At 90°, the documented limit, every pixel shades (a stand-in holding a
+    /// terrain point is skipped there; it was an error) within the reference's range.
     #[test]
     fn the_cut_at_zero_is_the_flat_pipeline() {
         let scene = super::render::scene("whale").unwrap();
@@ -693,10 +694,16 @@ mod tests {
         let light = light_sh(&scene, Settings::default().order).unwrap();
         let shade = cut_shade(&t, &scene, &light);
         let s =
-            crate::isg::lod::lod_study_with(&scene, 16, &[1e-9, 10.0], 1, 256, 8, "SH exponentiation", &shade).unwrap();
+            crate::isg::lod::lod_study_with(&scene, 16, &[1e-9, 10.0, 90.0], 1, 256, 8, "SH exponentiation", &shade)
+                .unwrap();
         assert!(s.rows[1].vs_flat.1 < 1e-12, "{}", s.table());
         assert!(s.rows[2].vs_flat.0 > 0.0, "{}", s.table());
         assert!(s.rows[2].vs_flat.0 < s.rows[0].vs_reference, "{}", s.table());
+        assert!(
+            s.rows[3].vs_flat.1.is_finite() && s.rows[3].vs_reference < 1.0,
+            "{}",
+            s.table()
+        );
     }
 
     /// The study at full size (docs/meshes.md, "In SH exponentiation"): the bunny over

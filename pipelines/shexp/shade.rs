@@ -338,6 +338,12 @@ pub fn log_parts(t: &Tables, s: &Settings, scene: &Scene, h: &Hit) -> Result<Log
         if s.cut <= 0.0 && own.contains(&i) {
             continue;
         }
+        // A stand-in may reach past its node's bound and hold the point, which lies
+        // outside every sphere of that node (else it would have been opened): it
+        // shadows nothing there, as in the ISG pipeline and the GPU kernels.
+        if s.cut > 0.0 && (h.x - b.centre).length() <= b.radius {
+            continue;
+        }
         let (dir, theta_b) = log_zh::sphere_cap(h.x, b.centre, b.radius).map_err(|e| e.to_string())?;
         if h.n.dot(dir) < -theta_b.sin() {
             continue;
